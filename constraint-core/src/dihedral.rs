@@ -1,0 +1,1 @@
+//! Dihedral bending angle (placeholder: being written).

@@ -1,0 +1,40 @@
+//! Typed errors for invalid constraint definitions.
+
+use core::fmt;
+
+/// Why a constraint could not be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ConstraintError {
+    /// A position, rest value or parameter was NaN or infinite.
+    NonFinite,
+    /// The rest length of a distance constraint was zero or negative
+    /// (`C = |x_a − x_b|` is not differentiable at zero length).
+    ZeroRestLength,
+    /// The rest triangle has (numerically) zero area.
+    DegenerateTriangle,
+    /// The rest tetrahedron is flat: its volume is negligible against its edge lengths.
+    FlatTetrahedron,
+    /// The rest tetrahedron has negative signed volume (vertex order is inverted).
+    InvertedTetrahedron,
+    /// A plane normal (or a dihedral hinge edge) had zero length.
+    ZeroNormal,
+    /// Two stencil entries name the same point.
+    RepeatedIndex,
+}
+
+impl fmt::Display for ConstraintError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = match self {
+            Self::NonFinite => "non-finite input (NaN or infinity)",
+            Self::ZeroRestLength => "rest length must be positive and finite",
+            Self::DegenerateTriangle => "rest triangle has zero area",
+            Self::FlatTetrahedron => "rest tetrahedron is flat (zero volume)",
+            Self::InvertedTetrahedron => "rest tetrahedron is inverted (negative volume)",
+            Self::ZeroNormal => "normal or hinge edge has zero length",
+            Self::RepeatedIndex => "a point appears twice in the stencil",
+        };
+        f.write_str(s)
+    }
+}
+
+impl core::error::Error for ConstraintError {}

@@ -1,0 +1,55 @@
+//! # constraint-core
+//!
+//! The `no_std` heart of the workspace: a property to keep is a scalar function that
+//! must vanish, `C(x) = 0` (Otaduy 2010, slide "Concepto de Restricción"). This crate
+//! gives that idea one abstraction, [`PointConstraint`], which supplies for a stencil of
+//! `N` points and `R` rows
+//!
+//! * the value `C(x)`,
+//! * the Jacobian `J = ∂C/∂x` (one [`DVec3`] block per point and row; `∇C = Jᵀ`),
+//! * the curvature `Σ_r w_r ∂²C_r/∂x²` for caller-chosen row weights `w`,
+//!
+//! and the stock constraints of the lecture with analytic derivatives:
+//!
+//! | module | constraint | lecture |
+//! |---|---|---|
+//! | [`spring`] | `C = |x_a − x_b| − L₀` | "Energía de Restricción: longitud de un muelle" |
+//! | [`area`] | `C = A(x) − A₀` | "restricciones que conserven el área de los triángulos" |
+//! | [`volume`] | `C = V(x) − V₀` | "restricciones que conserven el volumen de los tetraedros" |
+//! | [`dihedral`] | `C = θ(x) − θ₀` | bending, Bridson et al. 2003 |
+//! | [`plane`] | `C = nᵀx − d` | "Contacto mediante restricciones" (`d_i = nᵀ(p_i − p)`) |
+//!
+//! Everything else — soft energies `½kC²`, forces `−kC∇C`, force Jacobians, KKT rows —
+//! is derived generically from this trait in the other crates.
+//!
+//! The crate needs neither `std` nor an allocator: build it with
+//! `--no-default-features` for embedded targets such as `thumbv7em-none-eabihf`.
+//!
+//! ## Degenerate input
+//!
+//! Constructors validate the rest shape and return [`ConstraintError`] for non-finite
+//! input, zero rest lengths, zero-area triangles and flat or inverted tetrahedra.
+//! Evaluation at a degenerate *current* shape (coincident points, a collapsed triangle)
+//! never panics and never returns NaN: each module documents the finite value it
+//! returns there (the gradient and curvature are set to zero where the direction is
+//! undefined).
+#![cfg_attr(not(feature = "std"), no_std)]
+#![deny(missing_docs)]
+
+pub mod area;
+pub mod constraint;
+pub mod dihedral;
+pub mod error;
+pub mod math;
+pub mod plane;
+pub mod spring;
+pub mod volume;
+
+pub use area::Area;
+pub use constraint::{Curvature, Jacobian, PointConstraint};
+
+pub use error::ConstraintError;
+pub use glam::{DMat3, DVec3};
+pub use plane::PointOnPlane;
+pub use spring::Distance;
+pub use volume::Volume;

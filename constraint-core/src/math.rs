@@ -1,0 +1,84 @@
+//! Small helpers on top of glam's `f64` types.
+
+use glam::{DMat3, DVec3};
+
+/// Skew-symmetric cross-product matrix: `skew(a) b = a × b`.
+#[inline]
+pub fn skew(a: DVec3) -> DMat3 {
+    DMat3::from_cols(
+        DVec3::new(0.0, a.z, -a.y),
+        DVec3::new(-a.z, 0.0, a.x),
+        DVec3::new(a.y, -a.x, 0.0),
+    )
+}
+
+/// Outer product `a bᵀ`.
+#[inline]
+pub fn outer(a: DVec3, b: DVec3) -> DMat3 {
+    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
+}
+
+/// `true` when every component of every vector is finite.
+#[inline]
+pub fn all_finite(xs: &[DVec3]) -> bool {
+    xs.iter().all(|x| x.is_finite())
+}
+
+/// Returns `Err(RepeatedIndex)` if two entries of `idx` coincide.
+pub(crate) fn distinct<const N: usize>(idx: &[usize; N]) -> Result<(), crate::ConstraintError> {
+    for i in 0..N {
+        for j in 0..i {
+            if idx[i] == idx[j] {
+                return Err(crate::ConstraintError::RepeatedIndex);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Lifts a Hessian written in edge vectors `e_i = x_i − x_0` (`i = 1..N`, stored in
+/// blocks `[1..N][1..N]`, row and column 0 ignored) to point coordinates `x_0..x_{N-1}`:
+/// with `P = ∂e/∂x`, returns `Pᵀ H_e P`.
+pub(crate) fn lift_edge_hessian<const N: usize>(he: &[[DMat3; N]; N]) -> [[DMat3; N]; N] {
+    let mut h = [[DMat3::ZERO; N]; N];
+    let mut corner = DMat3::ZERO;
+    for i in 1..N {
+        let mut row = DMat3::ZERO;
+        for j in 1..N {
+            h[i][j] = he[i][j];
+            row += he[i][j];
+        }
+        // Block (i, 0) = −Σ_j H_e(i, j).
+        h[i][0] = -row;
+        corner += row;
+    }
+    for j in 1..N {
+        let mut col = DMat3::ZERO;
+        for i in 1..N {
+            col += he[i][j];
+        }
+        h[0][j] = -col;
+    }
+    h[0][0] = corner;
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn skew_is_cross_product() {
+        let a = DVec3::new(1.0, -2.0, 3.5);
+        let b = DVec3::new(-0.5, 4.0, 2.0);
+        assert!((skew(a) * b - a.cross(b)).length() < 1e-14);
+    }
+
+    #[test]
+    fn outer_product() {
+        let a = DVec3::new(1.0, 2.0, 3.0);
+        let b = DVec3::new(4.0, 5.0, 6.0);
+        let c = DVec3::new(-1.0, 0.5, 2.0);
+        assert!((outer(a, b) * c - a * b.dot(c)).length() < 1e-14);
+    }
+}
