@@ -47,7 +47,7 @@ pub mod volume;
 
 pub use area::Area;
 pub use constraint::{Curvature, Jacobian, PointConstraint};
-
+pub use dihedral::Dihedral;
 pub use error::ConstraintError;
 pub use glam::{DMat3, DVec3};
 pub use plane::PointOnPlane;

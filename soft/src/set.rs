@@ -1,0 +1,211 @@
+//! Flat arrays of one kind of soft constraint, and the type-erased interface the system
+//! steps through (one virtual call per set and stage, never per constraint).
+
+use crate::bsr::{BlockMatrix, BlockPattern};
+use crate::energy::{self, HessianMode, Softness};
+use crate::error::SoftError;
+use constraint_core::{DVec3, PointConstraint};
+
+/// A set of constraints of one type with per-constraint softness.
+#[derive(Clone, Debug)]
+pub struct ConstraintSet<C, const N: usize, const R: usize> {
+    name: &'static str,
+    constraints: Vec<C>,
+    softness: Vec<Softness>,
+    /// Value slots of each constraint's `N × N` blocks in the bound matrix.
+    slots: Vec<[[u32; N]; N]>,
+}
+
+impl<C: PointConstraint<N, R>, const N: usize, const R: usize> ConstraintSet<C, N, R> {
+    /// A named set with one softness per constraint.
+    ///
+    /// # Errors
+    /// [`SoftError::LengthMismatch`] if the lengths differ, [`SoftError::InvalidSoftness`]
+    /// for negative or NaN values, [`SoftError::InfiniteStiffness`] for `k = ∞`.
+    pub fn new(
+        name: &'static str,
+        constraints: Vec<C>,
+        softness: Vec<Softness>,
+    ) -> Result<Self, SoftError> {
+        if constraints.len() != softness.len() {
+            return Err(SoftError::LengthMismatch);
+        }
+        for s in &softness {
+            let ok = |v: f64| v >= 0.0; // false for NaN
+            if !(ok(s.stiffness) && ok(s.damping)) {
+                return Err(SoftError::InvalidSoftness { set: name });
+            }
+            if s.stiffness.is_infinite() || s.damping.is_infinite() {
+                return Err(SoftError::InfiniteStiffness { set: name });
+            }
+        }
+        Ok(Self {
+            name,
+            constraints,
+            softness,
+            slots: Vec::new(),
+        })
+    }
+
+    /// A named set where every constraint has the same softness.
+    ///
+    /// # Errors
+    /// As [`ConstraintSet::new`].
+    pub fn uniform(
+        name: &'static str,
+        constraints: Vec<C>,
+        softness: Softness,
+    ) -> Result<Self, SoftError> {
+        let n = constraints.len();
+        Self::new(name, constraints, vec![softness; n])
+    }
+
+    /// The constraints.
+    pub fn constraints(&self) -> &[C] {
+        &self.constraints
+    }
+
+    #[inline]
+    fn gather(c: &C, x: &[DVec3]) -> [DVec3; N] {
+        // Indices were validated when the set joined a system.
+        let idx = c.stencil();
+        core::array::from_fn(|i| x[idx[i]])
+    }
+}
+
+/// What a [`SoftSystem`](crate::SoftSystem) needs from a set of soft constraints.
+pub trait ForceSet: Send + Sync {
+    /// The set's name (for errors and reports).
+    fn name(&self) -> &'static str;
+    /// Number of constraints.
+    fn len(&self) -> usize;
+    /// `true` when the set is empty.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Checks every stencil index against the number of particles.
+    fn validate(&self, particles: usize) -> Result<(), SoftError>;
+    /// Calls `f` with each stencil.
+    fn for_each_stencil(&self, f: &mut dyn FnMut(&[usize]));
+    /// Records the value slots of each constraint's blocks in `pattern`.
+    fn bind(&mut self, pattern: &BlockPattern) -> Result<(), SoftError>;
+    /// Energy `Σ ½kC²`.
+    fn energy(&self, x: &[DVec3]) -> f64;
+    /// Largest `|C_r|` over the set.
+    fn max_violation(&self, x: &[DVec3]) -> f64;
+    /// Adds elastic forces, and damping forces when `v` is given, to `f`.
+    fn add_forces(&self, x: &[DVec3], v: Option<&[DVec3]>, f: &mut [DVec3]);
+    /// Adds `−h ∂F/∂v − h² ∂F/∂x` to the bound matrix, skipping blocks that touch a
+    /// pinned point.
+    fn add_implicit(
+        &self,
+        x: &[DVec3],
+        h: f64,
+        mode: HessianMode,
+        pinned: &[bool],
+        a: &mut BlockMatrix,
+    );
+}
+
+impl<C, const N: usize, const R: usize> ForceSet for ConstraintSet<C, N, R>
+where
+    C: PointConstraint<N, R> + Send + Sync,
+{
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn len(&self) -> usize {
+        self.constraints.len()
+    }
+
+    fn validate(&self, particles: usize) -> Result<(), SoftError> {
+        for c in &self.constraints {
+            for i in c.stencil() {
+                if i >= particles {
+                    return Err(SoftError::IndexOutOfBounds {
+                        index: i,
+                        len: particles,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn for_each_stencil(&self, f: &mut dyn FnMut(&[usize])) {
+        for c in &self.constraints {
+            f(&c.stencil());
+        }
+    }
+
+    fn bind(&mut self, pattern: &BlockPattern) -> Result<(), SoftError> {
+        self.slots.clear();
+        self.slots.reserve(self.constraints.len());
+        for c in &self.constraints {
+            let idx = c.stencil();
+            let mut s = [[0u32; N]; N];
+            for (i, row) in s.iter_mut().enumerate() {
+                for (j, slot) in row.iter_mut().enumerate() {
+                    let k = pattern.slot(idx[i], idx[j]).ok_or(SoftError::IndexOutOfBounds {
+                        index: idx[i].max(idx[j]),
+                        len: pattern.len(),
+                    })?;
+                    *slot = k as u32;
+                }
+            }
+            self.slots.push(s);
+        }
+        Ok(())
+    }
+
+    fn energy(&self, x: &[DVec3]) -> f64 {
+        self.constraints
+            .iter()
+            .zip(&self.softness)
+            .map(|(c, s)| energy::energy(c, *s, &Self::gather(c, x)))
+            .sum()
+    }
+
+    fn max_violation(&self, x: &[DVec3]) -> f64 {
+        self.constraints
+            .iter()
+            .flat_map(|c| c.value(&Self::gather(c, x)))
+            .fold(0.0, |m: f64, v| m.max(v.abs()))
+    }
+
+    fn add_forces(&self, x: &[DVec3], v: Option<&[DVec3]>, f: &mut [DVec3]) {
+        for (c, s) in self.constraints.iter().zip(&self.softness) {
+            let xl = Self::gather(c, x);
+            let vl = v.map(|v| Self::gather(c, v));
+            let fl = energy::force(c, *s, &xl, vl.as_ref());
+            for (&i, fi) in c.stencil().iter().zip(fl) {
+                f[i] += fi;
+            }
+        }
+    }
+
+    fn add_implicit(
+        &self,
+        x: &[DVec3],
+        h: f64,
+        mode: HessianMode,
+        pinned: &[bool],
+        a: &mut BlockMatrix,
+    ) {
+        for ((c, s), slots) in self.constraints.iter().zip(&self.softness).zip(&self.slots) {
+            let blocks = energy::implicit_blocks(c, *s, &Self::gather(c, x), h, mode);
+            let idx = c.stencil();
+            for i in 0..N {
+                if pinned[idx[i]] {
+                    continue;
+                }
+                for j in 0..N {
+                    if !pinned[idx[j]] {
+                        a.values[slots[i][j] as usize] += blocks[i][j];
+                    }
+                }
+            }
+        }
+    }
+}
