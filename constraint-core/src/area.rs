@@ -71,7 +71,7 @@ impl Area {
             .length_squared()
             .max(e2.length_squared())
             .max((e2 - e1).length_squared());
-        if !(twice_area > SLIVER_TOL * longest) {
+        if twice_area.is_nan() || twice_area <= SLIVER_TOL * longest {
             return Err(ConstraintError::DegenerateTriangle);
         }
         Self::new(points, 0.5 * twice_area)
@@ -172,10 +172,22 @@ mod tests {
             Err(ConstraintError::DegenerateTriangle)
         );
         let nan = [DVec3::ZERO, DVec3::X, DVec3::NAN];
-        assert_eq!(Area::from_rest([0, 1, 2], &nan), Err(ConstraintError::NonFinite));
-        assert_eq!(Area::from_rest([0, 1, 7], &tri()), Err(ConstraintError::NonFinite));
-        assert_eq!(Area::new([0, 1, 1], 1.0), Err(ConstraintError::RepeatedIndex));
-        assert_eq!(Area::new([0, 1, 2], 0.0), Err(ConstraintError::DegenerateTriangle));
+        assert_eq!(
+            Area::from_rest([0, 1, 2], &nan),
+            Err(ConstraintError::NonFinite)
+        );
+        assert_eq!(
+            Area::from_rest([0, 1, 7], &tri()),
+            Err(ConstraintError::NonFinite)
+        );
+        assert_eq!(
+            Area::new([0, 1, 1], 1.0),
+            Err(ConstraintError::RepeatedIndex)
+        );
+        assert_eq!(
+            Area::new([0, 1, 2], 0.0),
+            Err(ConstraintError::DegenerateTriangle)
+        );
     }
 
     #[test]

@@ -34,9 +34,10 @@
 //! components; three passes (seeding the edge vectors `e`, `d₂`, `d₃` in turn) give the
 //! 9×9 Hessian in edge coordinates, which is symmetrised and lifted to the 12×12 point
 //! Hessian (row and column of `x₀` = minus the sums of the others). The result equals
-//! the analytic Hessian of Tamstorf & Grinspun 2013 to round-off. Cost: about 3 × 7
-//! times the ~100 flops of one gradient evaluation (≈ 2 000 flops), no allocation,
-//! no branches besides the degeneracy test.
+//! the exact Hessian of `θ` (what Tamstorf & Grinspun 2013 give in closed form), up to
+//! round-off. Cost: three dual-number gradient passes (each ~7× the ~100 flops of the
+//! `f64` gradient) plus the lift, ≈ 2 000 flops, no allocation; measured ≈ 0.48 µs
+//! against ≈ 39 ns for [`PointConstraint::jacobian`] (x86_64, release build).
 //!
 //! All evaluations work on the edge vectors divided by `L = max |component|` of
 //! `e, d₂, d₃` (θ is invariant under translation and uniform scaling; derivatives are
@@ -168,7 +169,7 @@ impl Frame {
         if !(l > 0.0 && l.is_finite()) {
             return None;
         }
-        // Divide (not multiply by 1/L): exact in range even for a subnormal L, where
+        // Divide (not multiply by 1/L): stays in range even for a subnormal L, where
         // 1/L overflows; derivatives scaled by an infinite 1/L are caught later.
         Some(Self {
             e: e / l,
@@ -223,7 +224,7 @@ impl Real for f64 {
     }
 }
 
-/// A dual number `re + du · ε` with a three-component tangent (`ε³`-free: `εᵢεⱼ = 0`).
+/// A dual number `re + Σₖ duₖ εₖ` with a three-component tangent (`εᵢ εⱼ = 0`).
 #[derive(Clone, Copy, Debug)]
 struct Dual {
     re: f64,
@@ -390,9 +391,8 @@ fn theta_hessian(f: &Frame) -> Option<[[DMat3; 4]; 4]> {
     }
     // Forward mode gives H and Hᵀ only up to round-off; symmetrise (exactly, as float
     // addition commutes).
-    let he: [[DMat3; 4]; 4] = core::array::from_fn(|i| {
-        core::array::from_fn(|j| (he[i][j] + he[j][i].transpose()) * 0.5)
-    });
+    let he: [[DMat3; 4]; 4] =
+        core::array::from_fn(|i| core::array::from_fn(|j| (he[i][j] + he[j][i].transpose()) * 0.5));
     let s = f.inv_l * f.inv_l;
     let mut h = lift_edge_hessian(&he);
     // x₀'s diagonal block sums the edge blocks in two orders; symmetrise it as well.

@@ -39,24 +39,21 @@ pub(crate) fn distinct<const N: usize>(idx: &[usize; N]) -> Result<(), crate::Co
 /// Lifts a Hessian written in edge vectors `e_i = x_i − x_0` (`i = 1..N`, stored in
 /// blocks `[1..N][1..N]`, row and column 0 ignored) to point coordinates `x_0..x_{N-1}`:
 /// with `P = ∂e/∂x`, returns `Pᵀ H_e P`.
-pub(crate) fn lift_edge_hessian<const N: usize>(he: &[[DMat3; N]; N]) -> [[DMat3; N]; N] {
+pub fn lift_edge_hessian<const N: usize>(he: &[[DMat3; N]; N]) -> [[DMat3; N]; N] {
     let mut h = [[DMat3::ZERO; N]; N];
     let mut corner = DMat3::ZERO;
-    for i in 1..N {
+    for (i, he_row) in he.iter().enumerate().skip(1) {
         let mut row = DMat3::ZERO;
         for j in 1..N {
-            h[i][j] = he[i][j];
-            row += he[i][j];
+            h[i][j] = he_row[j];
+            row += he_row[j];
         }
         // Block (i, 0) = −Σ_j H_e(i, j).
         h[i][0] = -row;
         corner += row;
     }
     for j in 1..N {
-        let mut col = DMat3::ZERO;
-        for i in 1..N {
-            col += he[i][j];
-        }
+        let col: DMat3 = he.iter().skip(1).map(|row| row[j]).sum();
         h[0][j] = -col;
     }
     h[0][0] = corner;

@@ -36,7 +36,7 @@ impl PointOnPlane {
             return Err(ConstraintError::NonFinite);
         }
         let len = normal.length();
-        if !(len > f64::MIN_POSITIVE) || !len.is_finite() {
+        if len.is_nan() || len <= f64::MIN_POSITIVE || !len.is_finite() {
             return Err(ConstraintError::ZeroNormal);
         }
         let n = normal / len;

@@ -136,13 +136,31 @@ mod tests {
 
     #[test]
     fn rejects_bad_rest_lengths() {
-        assert_eq!(Distance::new(0, 1, 0.0), Err(ConstraintError::ZeroRestLength));
-        assert_eq!(Distance::new(0, 1, -1.0), Err(ConstraintError::ZeroRestLength));
-        assert_eq!(Distance::new(0, 1, f64::NAN), Err(ConstraintError::NonFinite));
-        assert_eq!(Distance::new(0, 1, f64::INFINITY), Err(ConstraintError::NonFinite));
-        assert_eq!(Distance::new(3, 3, 1.0), Err(ConstraintError::RepeatedIndex));
+        assert_eq!(
+            Distance::new(0, 1, 0.0),
+            Err(ConstraintError::ZeroRestLength)
+        );
+        assert_eq!(
+            Distance::new(0, 1, -1.0),
+            Err(ConstraintError::ZeroRestLength)
+        );
+        assert_eq!(
+            Distance::new(0, 1, f64::NAN),
+            Err(ConstraintError::NonFinite)
+        );
+        assert_eq!(
+            Distance::new(0, 1, f64::INFINITY),
+            Err(ConstraintError::NonFinite)
+        );
+        assert_eq!(
+            Distance::new(3, 3, 1.0),
+            Err(ConstraintError::RepeatedIndex)
+        );
         let p = [DVec3::ONE, DVec3::ONE];
-        assert_eq!(Distance::from_rest(0, 1, &p), Err(ConstraintError::ZeroRestLength));
+        assert_eq!(
+            Distance::from_rest(0, 1, &p),
+            Err(ConstraintError::ZeroRestLength)
+        );
     }
 
     #[test]

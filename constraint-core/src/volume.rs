@@ -82,7 +82,7 @@ impl Volume {
             }
         }
         let v = signed_volume(&x);
-        if !(v.abs() > FLAT_TOL * longest * longest * longest) {
+        if v.is_nan() || v.abs() <= FLAT_TOL * longest * longest * longest {
             return Err(ConstraintError::FlatTetrahedron);
         }
         Self::new(points, v)
@@ -158,8 +158,14 @@ mod tests {
             Volume::from_rest([0, 2, 1, 3], &unit_tet()),
             Err(ConstraintError::InvertedTetrahedron)
         );
-        assert_eq!(Volume::new([0, 1, 2, 2], 1.0), Err(ConstraintError::RepeatedIndex));
-        assert_eq!(Volume::new([0, 1, 2, 3], f64::NAN), Err(ConstraintError::NonFinite));
+        assert_eq!(
+            Volume::new([0, 1, 2, 2], 1.0),
+            Err(ConstraintError::RepeatedIndex)
+        );
+        assert_eq!(
+            Volume::new([0, 1, 2, 3], f64::NAN),
+            Err(ConstraintError::NonFinite)
+        );
     }
 
     #[test]

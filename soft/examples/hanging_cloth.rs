@@ -7,7 +7,11 @@ use std::time::Instant;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().map(|s| s.parse()).transpose()?.unwrap_or(32);
-    let h: f64 = args.next().map(|s| s.parse()).transpose()?.unwrap_or(1.0 / 60.0);
+    let h: f64 = args
+        .next()
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(1.0 / 60.0);
     let mut sys = Cloth {
         n,
         ..Cloth::default()

@@ -118,7 +118,13 @@ impl SparseLdlt {
         for (i, bi) in b.iter().enumerate() {
             self.rhs[3 * i..3 * i + 3].copy_from_slice(&bi.to_array());
         }
-        let sym = SymbolicSparseColMatRef::new_checked(self.n, self.n, &self.col_ptr, None, &self.row_idx);
+        let sym = SymbolicSparseColMatRef::new_checked(
+            self.n,
+            self.n,
+            &self.col_ptr,
+            None,
+            &self.row_idx,
+        );
         let mat = SparseColMatRef::new(sym, &self.values);
         let stack = MemStack::new(&mut self.buf);
         let ldlt = self

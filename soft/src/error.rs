@@ -80,7 +80,10 @@ impl fmt::Display for SoftError {
                 write!(f, "index {index} out of bounds for {len} particles")
             }
             Self::InvalidSoftness { set } => {
-                write!(f, "set '{set}': stiffness and damping must be ≥ 0 and not NaN")
+                write!(
+                    f,
+                    "set '{set}': stiffness and damping must be ≥ 0 and not NaN"
+                )
             }
             Self::InfiniteStiffness { set } => write!(
                 f,
@@ -94,7 +97,10 @@ impl fmt::Display for SoftError {
             ),
             Self::Factorization => f.write_str("sparse LDLᵀ factorization failed"),
             Self::Diverged { step, particle } => {
-                write!(f, "step {step} diverged at particle {particle} (state unchanged)")
+                write!(
+                    f,
+                    "step {step} diverged at particle {particle} (state unchanged)"
+                )
             }
         }
     }

@@ -33,7 +33,12 @@ fn check_h(h: f64) -> Result<f64, SoftError> {
 }
 
 /// Commits `(x + h v_new, v_new)` if it is finite and bounded.
-fn commit(sys: &mut SoftSystem, h: f64, v_new: &[DVec3], x_new: &mut Vec<DVec3>) -> Result<(), SoftError> {
+fn commit(
+    sys: &mut SoftSystem,
+    h: f64,
+    v_new: &[DVec3],
+    x_new: &mut Vec<DVec3>,
+) -> Result<(), SoftError> {
     x_new.clear();
     x_new.extend(sys.x.iter().zip(v_new).map(|(x, v)| *x + *v * h));
     if let Some(p) = SoftSystem::first_bad(x_new, v_new) {
@@ -90,8 +95,13 @@ impl Integrator for SymplecticEuler {
         sys.forces(true, &mut self.f);
         self.v_new.clear();
         let (h, m, pinned) = (self.h, sys.masses(), sys.pinned());
-        self.v_new
-            .extend((0..n).map(|i| if pinned[i] { DVec3::ZERO } else { sys.v[i] + self.f[i] * (h / m[i]) }));
+        self.v_new.extend((0..n).map(|i| {
+            if pinned[i] {
+                DVec3::ZERO
+            } else {
+                sys.v[i] + self.f[i] * (h / m[i])
+            }
+        }));
         commit(sys, h, &self.v_new, &mut self.x_new)?;
         Ok(SolveStats {
             iterations: 0,
@@ -247,7 +257,9 @@ impl Integrator for ImplicitEuler {
         self.v_new.clear();
         self.v_new.extend_from_slice(&sys.v);
         let stats = match self.solver {
-            LinearSolver::ConjugateGradient(s) => self.cg.solve(&self.a, &self.b, &mut self.v_new, s)?,
+            LinearSolver::ConjugateGradient(s) => {
+                self.cg.solve(&self.a, &self.b, &mut self.v_new, s)?
+            }
             #[cfg(feature = "faer")]
             LinearSolver::SparseLdlt => {
                 if self.ldlt.is_none() {

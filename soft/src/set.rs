@@ -147,10 +147,12 @@ where
             let mut s = [[0u32; N]; N];
             for (i, row) in s.iter_mut().enumerate() {
                 for (j, slot) in row.iter_mut().enumerate() {
-                    let k = pattern.slot(idx[i], idx[j]).ok_or(SoftError::IndexOutOfBounds {
-                        index: idx[i].max(idx[j]),
-                        len: pattern.len(),
-                    })?;
+                    let k = pattern
+                        .slot(idx[i], idx[j])
+                        .ok_or(SoftError::IndexOutOfBounds {
+                            index: idx[i].max(idx[j]),
+                            len: pattern.len(),
+                        })?;
                     *slot = k as u32;
                 }
             }

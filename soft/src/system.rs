@@ -26,7 +26,10 @@ impl core::fmt::Debug for SoftSystem {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("SoftSystem")
             .field("particles", &self.x.len())
-            .field("sets", &self.sets.iter().map(|s| s.name()).collect::<Vec<_>>())
+            .field(
+                "sets",
+                &self.sets.iter().map(|s| s.name()).collect::<Vec<_>>(),
+            )
             .field("steps", &self.steps)
             .finish()
     }

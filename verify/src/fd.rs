@@ -37,7 +37,9 @@
 //! near-degenerate shapes the derivatives vary on the small *feature* length (the
 //! height of a sliver, the gap between two nearly coincident points), and the step
 //! must be taken relative to it; the near-degenerate generators return that length in
-//! [`NearDegenerate::feature`].
+//! [`NearDegenerate::feature`], and [`FdOptions::for_feature`] picks a step that
+//! balances truncation on the feature length against the round-off of the cancelling
+//! value. [`FdReport::resolution`] tells whether a step left the check any power.
 
 use constraint_core::{DMat3, DVec3, PointConstraint};
 
@@ -45,10 +47,10 @@ use constraint_core::{DMat3, DVec3, PointConstraint};
 /// `max(0, |a − b| − atol) / (|a| + |b| + atol)`.
 ///
 /// `atol ≥ 0` is an absolute tolerance (the expected noise in `a` and `b`); the result
-/// is `0` when the two agree to within it, close to the relative error when both are
-/// far above it, and at most `1` (`2` for opposite signs is impossible: the numerator
-/// never exceeds the denominator). Returns `0` when both are zero and `atol = 0`, and
-/// NaN if either input is NaN.
+/// is `0` when the two agree to within it, about half the relative error
+/// `|a − b| / |a|` when both are far above it, and never more than `1` (reached for
+/// opposite signs, or one value zero and `atol = 0`). Returns `0` when both are zero,
+/// and NaN if either input is NaN.
 #[inline]
 pub fn corrected_rel_error(a: f64, b: f64, atol: f64) -> f64 {
     let num = ((a - b).abs() - atol).max(0.0);
@@ -271,12 +273,10 @@ where
 
     let jac = c.jacobian(x);
     let val = c.value(x);
-    for r in 0..R {
-        rep.value_mismatch = rep.value_mismatch.max(corrected_rel_error(
-            jac.value[r],
-            val[r],
-            eps * val[r].abs(),
-        ));
+    for (&a, &b) in jac.value.iter().zip(val.iter()) {
+        rep.value_mismatch = rep
+            .value_mismatch
+            .max(corrected_rel_error(a, b, eps * b.abs()));
     }
     let gw = weighted_gradient(c, x, w);
     let curv = c.curvature(x, w);
@@ -452,7 +452,10 @@ impl Worst {
     /// One line for test output: `label: worst 1.2e-9 (case 17); gate 1e-8`.
     pub fn summary(&self, label: &str, gate: f64) -> String {
         match self.case {
-            Some(c) => format!("{label}: worst {:.3e} (case {c}); gate {gate:.1e}", self.value),
+            Some(c) => format!(
+                "{label}: worst {:.3e} (case {c}); gate {gate:.1e}",
+                self.value
+            ),
             None => format!("{label}: worst 0; gate {gate:.1e}"),
         }
     }
@@ -574,11 +577,7 @@ impl Rng {
 // ---------------------------------------------------------------------------------------
 
 /// `N` points uniform in the box `center ± half_extent`.
-pub fn random_points<const N: usize>(
-    rng: &mut Rng,
-    center: DVec3,
-    half_extent: f64,
-) -> [DVec3; N] {
+pub fn random_points<const N: usize>(rng: &mut Rng, center: DVec3, half_extent: f64) -> [DVec3; N] {
     core::array::from_fn(|_| rng.in_box(center, half_extent))
 }
 
@@ -756,7 +755,11 @@ mod tests {
         assert!((mean - 0.5).abs() < 0.02, "{mean}");
         let r = a.rotation();
         assert!((r.determinant() - 1.0).abs() < 1e-12);
-        assert!((r.transpose() * r - DMat3::IDENTITY).abs().to_cols_array().iter().all(|v| *v < 1e-12));
+        assert!((r.transpose() * r - DMat3::IDENTITY)
+            .abs()
+            .to_cols_array()
+            .iter()
+            .all(|v| *v < 1e-12));
     }
 
     #[test]

@@ -20,6 +20,6 @@
 pub mod fd;
 
 pub use fd::{
-    check_derivatives, corrected_rel_error, exceeds, measure_only, tol_scale, FdOptions,
-    FdReport, NearDegenerate, Rng, Worst,
+    check_derivatives, corrected_rel_error, exceeds, measure_only, tol_scale, FdOptions, FdReport,
+    NearDegenerate, Rng, Worst,
 };

@@ -179,10 +179,10 @@ fn size(rng: &mut Rng) -> f64 {
 #[test]
 fn distance_regular() {
     let gates = Gates {
-        grad: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
-        curv: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
-        grad_norm: 3e-9, // measured 2.1e-10; gate 3e-9
-        curv_norm: 3e-9, // measured 2.1e-10; gate 3e-9
+        grad: 1e-8,        // measured 0 (within the round-off floor); gate 1e-8
+        curv: 1e-8,        // measured 0 (within the round-off floor); gate 1e-8
+        grad_norm: 3e-9,   // measured 2.1e-10; gate 3e-9
+        curv_norm: 3e-9,   // measured 2.1e-10; gate 3e-9
         fwd_central: 9e-6, // measured 8.4e-7; gate 9e-6
         consistency: CONSISTENCY_GATE,
     };
@@ -200,10 +200,10 @@ fn distance_regular() {
 #[test]
 fn distance_near_coincident() {
     let gates = Gates {
-        grad: 1e-6, // measured 0 (within the round-off floor); gate 1e-6
-        curv: 4e-6, // measured 3.4e-7; gate 4e-6
-        grad_norm: 3e-6, // measured 2.1e-7; gate 3e-6
-        curv_norm: 2e-6, // measured 1.8e-7; gate 2e-6
+        grad: 1e-6,        // measured 0 (within the round-off floor); gate 1e-6
+        curv: 4e-6,        // measured 3.4e-7; gate 4e-6
+        grad_norm: 3e-6,   // measured 2.1e-7; gate 3e-6
+        curv_norm: 2e-6,   // measured 1.8e-7; gate 2e-6
         fwd_central: 5e-3, // measured 4.4e-4; gate 5e-3
         consistency: CONSISTENCY_GATE,
     };
@@ -225,10 +225,10 @@ fn distance_near_coincident() {
 #[test]
 fn area_regular() {
     let gates = Gates {
-        grad: 3e-8, // measured 2.2e-9; gate 3e-8
-        curv: 3e-7, // measured 2.4e-8; gate 3e-7
-        grad_norm: 2e-8, // measured 1.4e-9; gate 2e-8
-        curv_norm: 6e-8, // measured 5.6e-9; gate 6e-8
+        grad: 3e-8,        // measured 2.2e-9; gate 3e-8
+        curv: 3e-7,        // measured 2.4e-8; gate 3e-7
+        grad_norm: 2e-8,   // measured 1.4e-9; gate 2e-8
+        curv_norm: 6e-8,   // measured 5.6e-9; gate 6e-8
         fwd_central: 8e-4, // measured 7.1e-5; gate 8e-4
         consistency: CONSISTENCY_GATE,
     };
@@ -246,10 +246,10 @@ fn area_regular() {
 #[test]
 fn area_sliver() {
     let gates = Gates {
-        grad: 1e-6, // measured 0 (within the round-off floor); gate 1e-6
-        curv: 2e-6, // measured 1.0e-7; gate 2e-6
-        grad_norm: 2e-6, // measured 2.0e-7; gate 2e-6
-        curv_norm: 7e-6, // measured 6.9e-7; gate 7e-6
+        grad: 1e-6,        // measured 0 (within the round-off floor); gate 1e-6
+        curv: 2e-6,        // measured 1.0e-7; gate 2e-6
+        grad_norm: 2e-6,   // measured 2.0e-7; gate 2e-6
+        curv_norm: 7e-6,   // measured 6.9e-7; gate 7e-6
         fwd_central: 1e-2, // measured 9.7e-4; gate 1e-2
         consistency: CONSISTENCY_GATE,
     };
@@ -271,10 +271,10 @@ fn area_sliver() {
 #[test]
 fn volume_regular() {
     let gates = Gates {
-        grad: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
-        curv: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
-        grad_norm: 9e-9, // measured 8.5e-10; gate 9e-9
-        curv_norm: 3e-9, // measured 2.0e-10; gate 3e-9
+        grad: 1e-8,        // measured 0 (within the round-off floor); gate 1e-8
+        curv: 1e-8,        // measured 0 (within the round-off floor); gate 1e-8
+        grad_norm: 9e-9,   // measured 8.5e-10; gate 9e-9
+        curv_norm: 3e-9,   // measured 2.0e-10; gate 3e-9
         fwd_central: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
         consistency: CONSISTENCY_GATE,
     };
@@ -292,10 +292,10 @@ fn volume_regular() {
 #[test]
 fn volume_flat() {
     let gates = Gates {
-        grad: 1e-6, // measured 0 (within the round-off floor); gate 1e-6
-        curv: 1e-6, // measured 0 (within the round-off floor); gate 1e-6
-        grad_norm: 3e-6, // measured 2.5e-7; gate 3e-6
-        curv_norm: 4e-6, // measured 3.1e-7; gate 4e-6
+        grad: 1e-6,        // measured 0 (within the round-off floor); gate 1e-6
+        curv: 1e-6,        // measured 0 (within the round-off floor); gate 1e-6
+        grad_norm: 3e-6,   // measured 2.5e-7; gate 3e-6
+        curv_norm: 4e-6,   // measured 3.1e-7; gate 4e-6
         fwd_central: 1e-6, // measured 0 (within the round-off floor); gate 1e-6
         consistency: CONSISTENCY_GATE,
     };
@@ -317,10 +317,10 @@ fn volume_flat() {
 #[test]
 fn point_on_plane_regular() {
     let gates = Gates {
-        grad: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
-        curv: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
-        grad_norm: 3e-9, // measured 2.1e-10; gate 3e-9
-        curv_norm: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
+        grad: 1e-8,        // measured 0 (within the round-off floor); gate 1e-8
+        curv: 1e-8,        // measured 0 (within the round-off floor); gate 1e-8
+        grad_norm: 3e-9,   // measured 2.1e-10; gate 3e-9
+        curv_norm: 1e-8,   // measured 0 (within the round-off floor); gate 1e-8
         fwd_central: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
         consistency: CONSISTENCY_GATE,
     };
@@ -341,10 +341,10 @@ fn point_on_plane_regular() {
 #[test]
 fn point_on_plane_grazing() {
     let gates = Gates {
-        grad: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
-        curv: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
-        grad_norm: 2e-9, // measured 1.5e-10; gate 2e-9
-        curv_norm: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
+        grad: 1e-8,        // measured 0 (within the round-off floor); gate 1e-8
+        curv: 1e-8,        // measured 0 (within the round-off floor); gate 1e-8
+        grad_norm: 2e-9,   // measured 1.5e-10; gate 2e-9
+        curv_norm: 1e-8,   // measured 0 (within the round-off floor); gate 1e-8
         fwd_central: 1e-8, // measured 0 (within the round-off floor); gate 1e-8
         consistency: CONSISTENCY_GATE,
     };
@@ -383,10 +383,10 @@ mod dihedral {
     #[test]
     fn dihedral_regular() {
         let gates = Gates {
-            grad: 3e-8, // measured 2.8e-9; gate 3e-8
-            curv: 2e-6, // measured 1.5e-7; gate 2e-6
-            grad_norm: 5e-8, // measured 4.3e-9; gate 5e-8
-            curv_norm: 2e-7, // measured 1.0e-8; gate 2e-7
+            grad: 3e-8,        // measured 2.8e-9; gate 3e-8
+            curv: 2e-6,        // measured 1.5e-7; gate 2e-6
+            grad_norm: 5e-8,   // measured 4.3e-9; gate 5e-8
+            curv_norm: 2e-7,   // measured 1.0e-8; gate 2e-7
             fwd_central: 2e-3, // measured 1.1e-4; gate 2e-3
             consistency: CONSISTENCY_GATE,
         };
@@ -404,10 +404,10 @@ mod dihedral {
     #[test]
     fn dihedral_flat_hinge() {
         let gates = Gates {
-            grad: 8e-6, // measured 7.6e-7; gate 8e-6
-            curv: 1e-6, // measured 0 (within the round-off floor); gate 1e-6
-            grad_norm: 1e-5, // measured 9.7e-7; gate 1e-5
-            curv_norm: 5e-6, // measured 4.1e-7; gate 5e-6
+            grad: 8e-6,        // measured 7.6e-7; gate 8e-6
+            curv: 1e-6,        // measured 0 (within the round-off floor); gate 1e-6
+            grad_norm: 1e-5,   // measured 9.7e-7; gate 1e-5
+            curv_norm: 5e-6,   // measured 4.1e-7; gate 5e-6
             fwd_central: 1e-5, // measured 9.3e-7; gate 1e-5
             consistency: CONSISTENCY_GATE,
         };
@@ -427,10 +427,10 @@ mod dihedral {
     #[test]
     fn dihedral_thin_wing() {
         let gates = Gates {
-            grad: 1e-6, // measured 0 (within the round-off floor); gate 1e-6
-            curv: 2e-6, // measured 1.3e-7; gate 2e-6
-            grad_norm: 3e-6, // measured 2.5e-7; gate 3e-6
-            curv_norm: 6e-6, // measured 5.2e-7; gate 6e-6
+            grad: 1e-6,        // measured 0 (within the round-off floor); gate 1e-6
+            curv: 2e-6,        // measured 1.3e-7; gate 2e-6
+            grad_norm: 3e-6,   // measured 2.5e-7; gate 3e-6
+            curv_norm: 6e-6,   // measured 5.2e-7; gate 6e-6
             fwd_central: 9e-3, // measured 8.0e-4; gate 9e-3
             consistency: CONSISTENCY_GATE,
         };
@@ -445,4 +445,177 @@ mod dihedral {
             }
         });
     }
+}
+
+// ---------------------------------------------------------------------------------------
+// The gates bite: planted derivative errors are caught
+// ---------------------------------------------------------------------------------------
+
+/// How a [`Planted`] constraint corrupts its inner constraint's derivatives.
+#[derive(Clone, Copy, Debug)]
+enum Plant {
+    /// The gradient block of point 1 scaled by `1 + δ` (breaks translation invariance).
+    Grad(f64),
+    /// The curvature scaled by `1 + δ`.
+    Curv(f64),
+    /// `δ · max|H|` added to one off-diagonal entry only (breaks symmetry).
+    Skew(f64),
+}
+
+/// A stock constraint with a small planted derivative error.
+#[derive(Debug)]
+struct Planted<C> {
+    inner: C,
+    plant: Plant,
+}
+
+impl<C: PointConstraint<N, R>, const N: usize, const R: usize> PointConstraint<N, R>
+    for Planted<C>
+{
+    fn stencil(&self) -> [usize; N] {
+        self.inner.stencil()
+    }
+    fn value(&self, x: &[DVec3; N]) -> [f64; R] {
+        self.inner.value(x)
+    }
+    fn jacobian(&self, x: &[DVec3; N]) -> Jacobian<N, R> {
+        let mut j = self.inner.jacobian(x);
+        if let Plant::Grad(d) = self.plant {
+            for row in &mut j.grad {
+                row[1] *= 1.0 + d;
+            }
+        }
+        j
+    }
+    fn curvature(&self, x: &[DVec3; N], w: &[f64; R]) -> Curvature<N> {
+        let mut h = self.inner.curvature(x, w);
+        match self.plant {
+            Plant::Curv(d) => h = h.scaled(1.0 + d),
+            Plant::Skew(d) => {
+                let m = (0..3 * N)
+                    .flat_map(|a| (0..3 * N).map(move |b| (a, b)))
+                    .fold(0.0_f64, |m, (a, b)| m.max(h.entry(a, b).abs()));
+                h.blocks[0][1].x_axis.y += d * m;
+            }
+            Plant::Grad(_) => {}
+        }
+        h
+    }
+}
+
+/// Runs 100 cases of a planted family and asserts that `pick(report)` exceeds `gate`
+/// in every one of them (skipped in measure mode).
+fn assert_caught<C, const N: usize, const R: usize>(
+    name: &str,
+    gate: f64,
+    pick: impl Fn(&FdReport) -> f64,
+    make: impl Fn(&mut Rng) -> Case<C, N>,
+) where
+    C: PointConstraint<N, R> + Debug,
+{
+    let mut least = f64::INFINITY;
+    for i in 0..100 {
+        let mut rng = Rng::new(0x9000_0000 + i);
+        let case = make(&mut rng);
+        let w = rng.weights::<R>();
+        let rep = check_derivatives(&case.c, &case.x, &w, &case.opts);
+        let m = pick(&rep);
+        least = least.min(m);
+        assert!(
+            fd::measure_only() || exceeds(m, gate),
+            "{name}: planted error not caught in case {i}: {m:e} <= gate {gate:e}\n  {:?}\n  \
+             x = {:?}\n  {rep:?}",
+            case.c,
+            case.x
+        );
+    }
+    println!("{name}: smallest measured {least:.3e} against gate {gate:.1e}");
+}
+
+#[test]
+fn planted_errors_are_caught() {
+    // A 1e-6 relative gradient error on regular springs (gate 1e-8, normwise 3e-9).
+    assert_caught(
+        "distance/regular, grad ×(1+1e-6)",
+        1e-8,
+        |r| r.grad,
+        |rng| {
+            let x = fd::random_config::<2>(rng);
+            Case {
+                c: Planted {
+                    inner: Distance::new(0, 1, 1.0).unwrap(),
+                    plant: Plant::Grad(1e-6),
+                },
+                x,
+                opts: FdOptions::default(),
+            }
+        },
+    );
+    // A 1e-6 relative curvature error on regular triangles (gate 3e-7).
+    assert_caught(
+        "area/regular, curv ×(1+1e-6)",
+        3e-7,
+        |r| r.curv,
+        |rng| {
+            let x = fd::random_config::<3>(rng);
+            Case {
+                c: Planted {
+                    inner: Area::new([0, 1, 2], 1.0).unwrap(),
+                    plant: Plant::Curv(1e-6),
+                },
+                x,
+                opts: FdOptions::default(),
+            }
+        },
+    );
+    // A 1e-4 relative curvature error on slivers (gate 2e-6).
+    assert_caught(
+        "area/sliver, curv ×(1+1e-4)",
+        2e-6,
+        |r| r.curv,
+        |rng| {
+            let (l, r) = (size(rng), ratio(rng));
+            let d = fd::sliver_triangle(rng, l, r);
+            Case {
+                c: Planted {
+                    inner: Area::new([0, 1, 2], l * l).unwrap(),
+                    plant: Plant::Curv(1e-4),
+                },
+                x: d.x,
+                opts: FdOptions::for_feature(d.feature, d.length),
+            }
+        },
+    );
+    // A 1e-9 asymmetry in the tetrahedron's curvature (consistency gate 1e-12).
+    assert_caught(
+        "volume/regular, asymmetry 1e-9",
+        CONSISTENCY_GATE,
+        |r| r.curv_asymmetry,
+        |rng| Case {
+            c: Planted {
+                inner: Volume::new([0, 1, 2, 3], 1.0).unwrap(),
+                plant: Plant::Skew(1e-9),
+            },
+            x: fd::random_config::<4>(rng),
+            opts: FdOptions::default(),
+        },
+    );
+    // A 1e-4 relative gradient error on a thin-winged hinge (gate 1e-6).
+    assert_caught(
+        "dihedral/thin-wing, grad ×(1+1e-4)",
+        1e-6,
+        |r| r.grad,
+        |rng| {
+            let (l, r) = (size(rng), ratio(rng));
+            let d = fd::thin_wing_hinge(rng, l, r);
+            Case {
+                c: Planted {
+                    inner: Dihedral::new([0, 1, 2, 3], 0.3).unwrap(),
+                    plant: Plant::Grad(1e-4),
+                },
+                x: d.x,
+                opts: FdOptions::for_feature(d.feature, d.length),
+            }
+        },
+    );
 }

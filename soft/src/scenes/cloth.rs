@@ -10,7 +10,7 @@ use crate::energy::Softness;
 use crate::error::SoftError;
 use crate::set::ConstraintSet;
 use crate::system::SoftSystem;
-use constraint_core::{Area, Distance, DVec3};
+use constraint_core::{Area, DVec3, Distance};
 
 /// Which particles are held fixed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -105,9 +105,8 @@ impl Cloth {
                 }
             }
         }
-        let wrap = |set: &'static str| {
-            move |(index, error)| SoftError::Constraint { set, index, error }
-        };
+        let wrap =
+            |set: &'static str| move |(index, error)| SoftError::Constraint { set, index, error };
         let springs = unique_edges(edges)
             .into_iter()
             .enumerate()

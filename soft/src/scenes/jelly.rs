@@ -9,7 +9,7 @@ use crate::energy::Softness;
 use crate::error::SoftError;
 use crate::set::ConstraintSet;
 use crate::system::SoftSystem;
-use constraint_core::{volume::signed_volume, Distance, DVec3, Volume};
+use constraint_core::{volume::signed_volume, DVec3, Distance, Volume};
 
 /// Which particles are held fixed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
