@@ -1,0 +1,177 @@
+//! Momentum of free soft bodies under every integrator (no pins, no gravity).
+//!
+//! * Linear momentum: internal forces sum to zero and the implicit matrix's
+//!   translation null space is preserved, so every integrator conserves `Σ m v` up to
+//!   round-off (and, for CG, up to its residual).
+//! * Angular momentum: symplectic Euler conserves `Σ m x × v` exactly in exact
+//!   arithmetic (`L⁺ = L + h Σ x × F(x)` and internal torques vanish), so it is checked
+//!   to round-off. The linearized implicit step does not conserve it; its drift is
+//!   printed and gated only as a regression bound, not as a conservation law — except
+//!   with the Gauss–Newton Hessian, whose rows `k∇C∇Cᵀv` exert no torque, so that
+//!   step conserves angular momentum as well (measured, and gated to round-off).
+//!
+//! `cargo test -p constraint-verify --test momentum -- --nocapture` prints the drifts.
+
+use constraint_core::DVec3;
+use constraint_soft::{
+    CgSettings, Cloth, ClothPins, HessianMode, ImplicitEuler, Integrator, Jelly, JellyPins,
+    LinearSolver, SoftSystem, Softness, SymplecticEuler,
+};
+use constraint_verify::fd::{exceeds, Rng};
+
+fn free_cloth(rng: &mut Rng) -> SoftSystem {
+    let mut sys = Cloth {
+        n: 6,
+        pins: ClothPins::None,
+        spring: Softness {
+            stiffness: 500.0,
+            damping: 0.5,
+        },
+        ..Cloth::default()
+    }
+    .build()
+    .expect("cloth");
+    shake(&mut sys, rng, 0.02);
+    sys
+}
+
+fn free_jelly(rng: &mut Rng) -> SoftSystem {
+    let mut sys = Jelly {
+        cells: [2, 2, 2],
+        pins: JellyPins::None,
+        volume: Softness {
+            stiffness: 1e7,
+            damping: 0.0,
+        },
+        ..Jelly::default()
+    }
+    .build()
+    .expect("jelly");
+    shake(&mut sys, rng, 0.01);
+    sys
+}
+
+/// No gravity, positions jittered (so internal forces act), random velocities with a
+/// net drift and spin.
+fn shake(sys: &mut SoftSystem, rng: &mut Rng, amp: f64) {
+    sys.gravity = DVec3::ZERO;
+    for x in &mut sys.x {
+        *x += rng.in_box(DVec3::ZERO, amp);
+    }
+    let drift = rng.in_box(DVec3::ZERO, 1.0);
+    let spin = rng.in_box(DVec3::ZERO, 2.0);
+    let v: Vec<DVec3> = sys
+        .x
+        .iter()
+        .map(|x| drift + spin.cross(*x) + rng.in_box(DVec3::ZERO, 0.3))
+        .collect();
+    sys.set_velocities(&v).expect("finite velocities");
+}
+
+fn integrators() -> Vec<Box<dyn Integrator>> {
+    let cg = LinearSolver::ConjugateGradient(CgSettings {
+        tolerance: 1e-13,
+        max_iterations: 10_000,
+    });
+    vec![
+        Box::new(SymplecticEuler::new(2e-4).expect("h")),
+        Box::new(
+            ImplicitEuler::new(1e-2, HessianMode::Projected, LinearSolver::SparseLdlt).expect("h"),
+        ),
+        Box::new(
+            ImplicitEuler::new(1e-2, HessianMode::Exact, LinearSolver::SparseLdlt).expect("h"),
+        ),
+        Box::new(ImplicitEuler::new(1e-2, HessianMode::GaussNewton, cg).expect("h")),
+        Box::new(ImplicitEuler::new(1e-2, HessianMode::Projected, cg).expect("h")),
+    ]
+}
+
+/// Runs 0.5 s; returns (linear drift, angular drift), each relative to
+/// `Σ m|v|` and `Σ m|x||v|` at the start.
+fn drift(mut sys: SoftSystem, integ: &mut dyn Integrator) -> (f64, f64) {
+    let p0 = sys.linear_momentum();
+    let l0 = sys.angular_momentum();
+    let m = sys.masses().to_vec();
+    let pscale: f64 = sys.v.iter().zip(&m).map(|(v, m)| m * v.length()).sum();
+    let lscale: f64 = sys
+        .x
+        .iter()
+        .zip(&sys.v)
+        .zip(&m)
+        .map(|((x, v), m)| m * x.length() * v.length())
+        .sum();
+    let steps = (0.5 / integ.time_step()).round() as usize;
+    for _ in 0..steps {
+        integ.step(&mut sys).expect("step");
+    }
+    (
+        (sys.linear_momentum() - p0).length() / pscale,
+        (sys.angular_momentum() - l0).length() / lscale,
+    )
+}
+
+fn run(scene: &str, make: fn(&mut Rng) -> SoftSystem, seed: u64, gates: &[(f64, f64)]) {
+    let mut failed = Vec::new();
+    for (k, mut integ) in integrators().into_iter().enumerate() {
+        let mut rng = Rng::new(seed);
+        let (dp, dl) = drift(make(&mut rng), integ.as_mut());
+        let (gp, gl) = gates[k];
+        let line = format!(
+            "{scene:6} {:42} linear drift {dp:.2e} (gate {gp:.0e})  angular drift {dl:.2e} (gate {gl:.0e})",
+            integ.name()
+        );
+        println!("{line}");
+        if exceeds(dp, gp) || exceeds(dl, gl) {
+            failed.push(line);
+        }
+    }
+    assert!(failed.is_empty(), "gates exceeded:\n{}", failed.join("\n"));
+}
+
+// Gates per integrator, in the order of `integrators()`: (linear, angular). Linear is a
+// conservation law for all; angular only for symplectic Euler (first row), the others
+// are regression bounds on a reported drift.
+#[test]
+fn cloth_momentum() {
+    run(
+        "cloth",
+        free_cloth,
+        11,
+        &[
+            // measured 1.9e-16, 4.2e-16: both conserved
+            (2e-15, 5e-15),
+            // measured 5.2e-14, 3.5e-2 (angular drift reported, not conserved)
+            (5e-13, 0.1),
+            // measured 9.6e-9, 3.4e1: the exact, indefinite Hessian makes this step
+            // unstable on the cloth (see the stiffness table of the report); linear
+            // momentum still holds to the solver's accuracy, angular is not bounded
+            (1e-7, f64::INFINITY),
+            // measured 2.7e-13, 1.7e-13: Gauss–Newton keeps only ∇C∇Cᵀ, whose rows exert
+            // no torque, so this step conserves angular momentum too
+            (3e-12, 2e-12),
+            // measured 3.7e-13, 3.5e-2
+            (4e-12, 0.1),
+        ],
+    );
+}
+
+#[test]
+fn jelly_momentum() {
+    run(
+        "jelly",
+        free_jelly,
+        12,
+        &[
+            // measured 5.2e-16, 2.9e-15
+            (5e-15, 3e-14),
+            // measured 3.5e-15, 4.6e-2
+            (4e-14, 0.1),
+            // measured 3.1e-15, 8.3e-2
+            (4e-14, 0.2),
+            // measured 1.6e-13, 2.9e-13
+            (2e-12, 3e-12),
+            // measured 3.7e-14, 4.6e-2
+            (4e-13, 0.1),
+        ],
+    );
+}
