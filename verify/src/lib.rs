@@ -2,22 +2,30 @@
 //!
 //! Verification tooling for the constraint crates.
 //!
-//! The library part, [`fd`], checks analytic derivatives of any
-//! [`constraint_core::PointConstraint`] against finite differences, scales test gates
-//! through the `VERIFY_TOL_SCALE` environment variable, and generates seeded random and
-//! near-degenerate configurations.
+//! * [`fd`] checks analytic derivatives of any [`constraint_core::PointConstraint`]
+//!   against finite differences, scales test gates through the `VERIFY_TOL_SCALE`
+//!   environment variable, and generates seeded random and near-degenerate
+//!   configurations.
+//! * [`sweeps`] runs the soft crate's integrators over stiffness and time step (the
+//!   stability map) and measures error against run time (the work-precision diagram).
+//! * [`chart`] draws log–log SVG charts for the report.
 //!
-//! The integration tests (`tests/`) apply it to the stock constraints of
-//! `constraint-core`:
+//! The binary `verify-report` (run by `cargo xtask verify`) writes the sweeps to
+//! `target/verify/`. The integration tests (`tests/`) apply the checks:
 //!
 //! * `derivatives.rs` — Jacobian and curvature against finite differences on seeded
 //!   regular and near-degenerate configurations;
 //! * `balance.rs` — property tests: internal constraints produce balanced forces and
 //!   torques, and are invariant (value) or covariant (gradient, curvature) under rigid
-//!   motions.
+//!   motions;
+//! * `soft_forces.rs` — soft forces and force/damping Jacobians against finite
+//!   differences; projected Hessians are PSD;
+//! * `momentum.rs` — linear and angular momentum of free bodies under every integrator.
 #![deny(missing_docs)]
 
+pub mod chart;
 pub mod fd;
+pub mod sweeps;
 
 pub use fd::{
     check_derivatives, corrected_rel_error, exceeds, measure_only, tol_scale, FdOptions, FdReport,

@@ -1,0 +1,214 @@
+//! Dependency-free SVG charts with logarithmic axes (work-precision diagrams).
+//!
+//! Written by hand rather than with a plotting crate: the output must be byte-for-byte
+//! deterministic (the report is diffed between runs) and the crate must not pull font
+//! loading into CI.
+
+use std::fmt::Write as _;
+
+/// One named series of `(x, y)` points, drawn as a polyline with markers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Series {
+    /// Legend entry.
+    pub name: String,
+    /// Points; non-positive or non-finite values are skipped (log axes).
+    pub points: Vec<(f64, f64)>,
+}
+
+/// A log–log chart.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LogLogChart {
+    /// Title above the plot.
+    pub title: String,
+    /// Label of the x axis.
+    pub x_label: String,
+    /// Label of the y axis.
+    pub y_label: String,
+    /// The series.
+    pub series: Vec<Series>,
+    /// A note printed under the plot (e.g. how the reference was computed).
+    pub note: String,
+}
+
+const W: f64 = 760.0;
+const H: f64 = 520.0;
+const L: f64 = 80.0;
+const R: f64 = 230.0;
+const T: f64 = 40.0;
+const B: f64 = 70.0;
+const COLORS: [&str; 8] = [
+    "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf",
+];
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+fn decades(lo: f64, hi: f64) -> (f64, f64) {
+    let a = lo.log10().floor();
+    let mut b = hi.log10().ceil();
+    if b <= a {
+        b = a + 1.0;
+    }
+    (a, b)
+}
+
+impl LogLogChart {
+    /// Renders the chart as a standalone SVG document.
+    pub fn to_svg(&self) -> String {
+        let pts = || {
+            self.series
+                .iter()
+                .flat_map(|s| s.points.iter())
+                .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
+        };
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for &(x, y) in pts() {
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+        if x0 > x1 {
+            (x0, x1, y0, y1) = (1.0, 10.0, 1.0, 10.0);
+        }
+        let (xa, xb) = decades(x0, x1);
+        let (ya, yb) = decades(y0, y1);
+        let pw = W - L - R;
+        let ph = H - T - B;
+        let sx = |x: f64| L + (x.log10() - xa) / (xb - xa) * pw;
+        let sy = |y: f64| T + ph - (y.log10() - ya) / (yb - ya) * ph;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" viewBox="0 0 {W} {H}" font-family="sans-serif" font-size="12">"#
+        );
+        let _ = writeln!(s, r#"<rect width="{W}" height="{H}" fill="white"/>"#);
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="22" text-anchor="middle" font-size="15">{}</text>"#,
+            L + pw / 2.0,
+            esc(&self.title)
+        );
+        // Grid and tick labels at every decade.
+        let mut d = xa;
+        while d <= xb + 0.5 {
+            let x = sx(10f64.powf(d));
+            let _ = writeln!(
+                s,
+                r##"<line x1="{x:.1}" y1="{T}" x2="{x:.1}" y2="{:.1}" stroke="#ddd"/><text x="{x:.1}" y="{:.1}" text-anchor="middle">1e{d}</text>"##,
+                T + ph,
+                T + ph + 16.0
+            );
+            d += 1.0;
+        }
+        let mut d = ya;
+        while d <= yb + 0.5 {
+            let y = sy(10f64.powf(d));
+            let _ = writeln!(
+                s,
+                r##"<line x1="{L}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/><text x="{:.1}" y="{:.1}" text-anchor="end">1e{d}</text>"##,
+                L + pw,
+                L - 6.0,
+                y + 4.0
+            );
+            d += 1.0;
+        }
+        let _ = writeln!(
+            s,
+            r#"<rect x="{L}" y="{T}" width="{pw}" height="{ph}" fill="none" stroke="black"/>"#
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
+            L + pw / 2.0,
+            H - B + 36.0,
+            esc(&self.x_label)
+        );
+        let _ = writeln!(
+            s,
+            r#"<text transform="translate(18 {:.1}) rotate(-90)" text-anchor="middle">{}</text>"#,
+            T + ph / 2.0,
+            esc(&self.y_label)
+        );
+        for (k, ser) in self.series.iter().enumerate() {
+            let c = COLORS[k % COLORS.len()];
+            let p: Vec<(f64, f64)> = ser
+                .points
+                .iter()
+                .copied()
+                .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
+                .collect();
+            if p.len() > 1 {
+                let path: Vec<String> = p
+                    .iter()
+                    .map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y)))
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    r#"<polyline points="{}" fill="none" stroke="{c}" stroke-width="1.5"/>"#,
+                    path.join(" ")
+                );
+            }
+            for &(x, y) in &p {
+                let _ = writeln!(
+                    s,
+                    r#"<circle cx="{:.1}" cy="{:.1}" r="3.5" fill="{c}"/>"#,
+                    sx(x),
+                    sy(y)
+                );
+            }
+            let ly = T + 14.0 + 18.0 * k as f64;
+            let lx = W - R + 14.0;
+            let _ = writeln!(
+                s,
+                r#"<line x1="{lx}" y1="{ly}" x2="{}" y2="{ly}" stroke="{c}" stroke-width="2"/><circle cx="{}" cy="{ly}" r="3.5" fill="{c}"/><text x="{}" y="{}">{}</text>"#,
+                lx + 22.0,
+                lx + 11.0,
+                lx + 28.0,
+                ly + 4.0,
+                esc(&ser.name)
+            );
+        }
+        let _ = writeln!(
+            s,
+            r##"<text x="{L}" y="{:.1}" font-size="11" fill="#444">{}</text>"##,
+            H - 12.0,
+            esc(&self.note)
+        );
+        s.push_str("</svg>\n");
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn svg_has_one_polyline_per_multi_point_series_and_skips_bad_points() {
+        let c = LogLogChart {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            series: vec![
+                Series {
+                    name: "a<b".into(),
+                    points: vec![(1e-3, 1e-2), (1e-2, 1e-4), (0.0, 1.0), (f64::NAN, 1.0)],
+                },
+                Series {
+                    name: "single".into(),
+                    points: vec![(1e-1, 1e-1)],
+                },
+            ],
+            note: "n".into(),
+        };
+        let s = c.to_svg();
+        assert_eq!(s.matches("<polyline").count(), 1);
+        assert_eq!(s.matches("<circle").count(), 3 + 2);
+        assert!(s.contains("a&lt;b"));
+        assert!(s.starts_with("<svg") && s.ends_with("</svg>\n"));
+    }
+}

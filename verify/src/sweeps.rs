@@ -1,0 +1,262 @@
+//! Sweeps over the soft crate's integrators: the stability map (stiffness × time step)
+//! and the work-precision diagram (error against run time) of the cloth scene.
+
+use constraint_core::DVec3;
+use constraint_soft::{
+    CgSettings, Cloth, HessianMode, ImplicitEuler, Integrator, LinearSolver, SoftError, SoftSystem,
+    Softness, SymplecticEuler,
+};
+use std::time::Instant;
+
+/// The integrator configurations compared everywhere.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Symplectic Euler.
+    Symplectic,
+    /// Linearized implicit Euler with the given Hessian treatment and sparse LDLᵀ.
+    ImplicitLdlt(HessianMode),
+    /// Linearized implicit Euler with the projected Hessian and CG (relative tol 1e-8).
+    ImplicitCg(HessianMode),
+}
+
+impl Method {
+    /// Every configuration, in report order.
+    pub const ALL: [Method; 5] = [
+        Method::Symplectic,
+        Method::ImplicitLdlt(HessianMode::Projected),
+        Method::ImplicitLdlt(HessianMode::GaussNewton),
+        Method::ImplicitLdlt(HessianMode::Exact),
+        Method::ImplicitCg(HessianMode::Projected),
+    ];
+
+    /// A short label.
+    pub fn label(self) -> String {
+        match self {
+            Method::Symplectic => "symplectic Euler".into(),
+            Method::ImplicitLdlt(m) => format!("implicit, LDLT, {m:?}"),
+            Method::ImplicitCg(m) => format!("implicit, CG, {m:?}"),
+        }
+    }
+
+    /// The integrator at step `h`.
+    ///
+    /// # Errors
+    /// `InvalidTimeStep`.
+    pub fn build(self, h: f64) -> Result<Box<dyn Integrator>, SoftError> {
+        Ok(match self {
+            Method::Symplectic => Box::new(SymplecticEuler::new(h)?),
+            Method::ImplicitLdlt(m) => {
+                Box::new(ImplicitEuler::new(h, m, LinearSolver::SparseLdlt)?)
+            }
+            Method::ImplicitCg(m) => Box::new(ImplicitEuler::new(
+                h,
+                m,
+                LinearSolver::ConjugateGradient(CgSettings {
+                    tolerance: 1e-8,
+                    max_iterations: 2000,
+                }),
+            )?),
+        })
+    }
+}
+
+/// Outcome of one run in the stability sweep.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Outcome {
+    /// Finite throughout and total energy never rose above `E(0) + 0.1·E_ref`.
+    Stable,
+    /// Finite, but the energy rose above `E(0) + 0.1·E_ref` (an instability in the
+    /// making, or the exact Hessian's spurious energy injection).
+    EnergyGrowth,
+    /// The step returned the typed divergence error (non-finite or beyond 1e12).
+    Diverged,
+    /// The linear solver failed (CG met an indefinite matrix, LDLᵀ a zero pivot).
+    SolverFailed,
+    /// Some CG solve stopped at its iteration limit (the run itself stayed bounded).
+    NotConverged,
+}
+
+impl Outcome {
+    /// One-character cell for tables.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Outcome::Stable => "✓",
+            Outcome::EnergyGrowth => "↑",
+            Outcome::Diverged => "✗",
+            Outcome::SolverFailed => "!",
+            Outcome::NotConverged => "~",
+        }
+    }
+}
+
+/// The cloth used by the sweeps: `n × n`, 1 m, 0.5 kg, hung from its two top corners,
+/// spring stiffness `k` (N/m) and area stiffness `k / dx²` so both act on the same scale.
+pub fn sweep_cloth(n: usize, k: f64) -> Result<SoftSystem, SoftError> {
+    let dx = 1.0 / (n - 1) as f64;
+    Cloth {
+        n,
+        spring: Softness::stiff(k),
+        area: Softness::stiff(k / (dx * dx)),
+        ..Cloth::default()
+    }
+    .build()
+}
+
+/// Energy scale of the cloth: `M g L` (0.5 kg × 9.81 m/s² × 1 m).
+pub const CLOTH_ENERGY_SCALE: f64 = 0.5 * 9.81 * 1.0;
+
+/// Runs `method` for `duration` seconds on `sys`, classifying the run.
+pub fn classify(mut sys: SoftSystem, method: Method, h: f64, duration: f64) -> Outcome {
+    let Ok(mut integ) = method.build(h) else {
+        return Outcome::SolverFailed;
+    };
+    let e0 = sys.kinetic_energy() + sys.potential_energy();
+    let steps = (duration / h).round().max(1.0) as usize;
+    let mut outcome = Outcome::Stable;
+    for k in 0..steps {
+        match integ.step(&mut sys) {
+            Ok(st) if !st.converged => outcome = Outcome::NotConverged,
+            Ok(_) => {}
+            Err(SoftError::Diverged { .. }) => return Outcome::Diverged,
+            Err(_) => return Outcome::SolverFailed,
+        }
+        if k % 16 == 15 || k + 1 == steps {
+            let e = sys.kinetic_energy() + sys.potential_energy();
+            if !(e <= e0 + 0.1 * CLOTH_ENERGY_SCALE) {
+                return Outcome::EnergyGrowth;
+            }
+        }
+    }
+    outcome
+}
+
+/// One row of the stability table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StabilityRow {
+    /// The method.
+    pub method: Method,
+    /// Spring stiffness.
+    pub k: f64,
+    /// Outcome per time step, in the order of the sweep's `hs`.
+    pub outcomes: Vec<Outcome>,
+}
+
+/// Stiffness × time-step sweep of the cloth for every method.
+pub fn stability_sweep(n: usize, ks: &[f64], hs: &[f64], duration: f64) -> Vec<StabilityRow> {
+    let mut rows = Vec::new();
+    for method in Method::ALL {
+        for &k in ks {
+            let outcomes = hs
+                .iter()
+                .map(|&h| match sweep_cloth(n, k) {
+                    Ok(sys) => classify(sys, method, h, duration),
+                    Err(_) => Outcome::SolverFailed,
+                })
+                .collect();
+            rows.push(StabilityRow {
+                method,
+                k,
+                outcomes,
+            });
+        }
+    }
+    rows
+}
+
+/// Positions sampled every `sample` seconds (including `t = 0`) of a run of `duration`.
+/// `h` must divide `sample`.
+pub fn trajectory(
+    mut sys: SoftSystem,
+    method: Method,
+    h: f64,
+    duration: f64,
+    sample: f64,
+) -> Result<(Vec<Vec<DVec3>>, f64), SoftError> {
+    let mut integ = method.build(h)?;
+    let per = (sample / h).round().max(1.0) as usize;
+    let samples = (duration / sample).round() as usize;
+    let mut out = vec![sys.x.clone()];
+    let t0 = Instant::now();
+    for _ in 0..samples {
+        for _ in 0..per {
+            integ.step(&mut sys)?;
+        }
+        out.push(sys.x.clone());
+    }
+    Ok((out, t0.elapsed().as_secs_f64()))
+}
+
+/// Max over samples and particles of `|x − x_ref|`.
+pub fn max_error(a: &[Vec<DVec3>], b: &[Vec<DVec3>]) -> f64 {
+    a.iter()
+        .zip(b)
+        .flat_map(|(sa, sb)| sa.iter().zip(sb).map(|(x, y)| (*x - *y).length()))
+        .fold(0.0, f64::max)
+}
+
+/// One point of the work-precision diagram.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorkPoint {
+    /// The method.
+    pub method: Method,
+    /// Time step.
+    pub h: f64,
+    /// Wall-clock seconds per simulated second (best of the repeats).
+    pub cost: f64,
+    /// Max position error against the reference (m); `None` if the run failed.
+    pub error: Option<f64>,
+    /// Why the run failed, if it did.
+    pub failure: Option<String>,
+}
+
+/// Work-precision sweep of the cloth: every method at every `h`, error against
+/// symplectic Euler at `h_ref` (which must divide every `h` and `sample`).
+pub fn work_precision(
+    n: usize,
+    hs: &[f64],
+    h_ref: f64,
+    duration: f64,
+    sample: f64,
+    repeats: usize,
+) -> Result<Vec<WorkPoint>, SoftError> {
+    let k = Cloth::default().spring.stiffness;
+    let (reference, _) = trajectory(
+        sweep_cloth(n, k)?,
+        Method::Symplectic,
+        h_ref,
+        duration,
+        sample,
+    )?;
+    let mut pts = Vec::new();
+    for method in Method::ALL {
+        for &h in hs {
+            let mut best = f64::INFINITY;
+            let mut res = None;
+            for _ in 0..repeats.max(1) {
+                match trajectory(sweep_cloth(n, k)?, method, h, duration, sample) {
+                    Ok((traj, secs)) => {
+                        best = best.min(secs);
+                        res = Some(Ok(traj));
+                    }
+                    Err(e) => {
+                        res = Some(Err(e));
+                        break;
+                    }
+                }
+            }
+            let (error, failure) = match res {
+                Some(Ok(traj)) => (Some(max_error(&traj, &reference)), None),
+                Some(Err(e)) => (None, Some(e.to_string())),
+                None => (None, Some("not run".into())),
+            };
+            pts.push(WorkPoint {
+                method,
+                h,
+                cost: best / duration,
+                error,
+                failure,
+            });
+        }
+    }
+    Ok(pts)
+}

@@ -1,0 +1,187 @@
+//! `cargo xtask verify [--quick]`: everything CI checks, and the report.
+//!
+//! Stages, each timed and shown as it runs:
+//! 1. `cargo fmt --all -- --check`
+//! 2. `cargo clippy --workspace --all-targets -- -D warnings`
+//! 3. `cargo test --workspace` (full mode: `PROPTEST_CASES=2048`)
+//! 4. the `no_std` build of `constraint-core` (see `no_std.rs`)
+//! 5. the sweeps (`verify-report` binary, release build): cloth stability map and
+//!    work-precision chart
+//!
+//! and writes `target/verify/report.md`. A failing stage does not stop the later ones;
+//! the exit status is non-zero if any failed.
+
+use crate::no_std;
+use crate::run::{cargo, root, status};
+use std::fmt::Write as _;
+use std::process::Command;
+
+struct Stage {
+    name: &'static str,
+    ok: bool,
+    secs: f64,
+    note: String,
+}
+
+fn git_head() -> String {
+    let (ok, out) = crate::run::output(Command::new("git").current_dir(root()).args([
+        "rev-parse",
+        "--short",
+        "HEAD",
+    ]));
+    if ok {
+        out.trim().to_string()
+    } else {
+        "unknown".into()
+    }
+}
+
+pub fn main(args: &[String]) -> Result<(), String> {
+    let quick = args.iter().any(|a| a == "--quick");
+    if let Some(a) = args.iter().find(|a| *a != "--quick") {
+        return Err(format!("unknown argument {a:?} (expected --quick)"));
+    }
+    let out = root().join("target/verify");
+    std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
+    let total = 5;
+    let mut stages: Vec<Stage> = Vec::new();
+    let begin = |k: usize, name: &str| eprintln!("\n[{k}/{total}] {name}");
+
+    begin(1, "format (cargo fmt --check)");
+    let (ok, secs) = status(cargo().args(["fmt", "--all", "--", "--check"]));
+    stages.push(Stage {
+        name: "cargo fmt --check",
+        ok,
+        secs,
+        note: String::new(),
+    });
+
+    begin(2, "lint (cargo clippy -D warnings)");
+    let (ok, secs) = status(cargo().args([
+        "clippy",
+        "--workspace",
+        "--all-targets",
+        "--",
+        "-D",
+        "warnings",
+    ]));
+    stages.push(Stage {
+        name: "cargo clippy --workspace --all-targets -D warnings",
+        ok,
+        secs,
+        note: String::new(),
+    });
+
+    begin(3, "tests (cargo test --workspace)");
+    let mut test = cargo();
+    test.args(["test", "--workspace"]);
+    if !quick {
+        test.env("PROPTEST_CASES", "2048");
+    }
+    let (ok, secs) = status(&mut test);
+    let note = if quick {
+        "proptest: 256 cases".to_string()
+    } else {
+        "proptest: 2048 cases".to_string()
+    };
+    stages.push(Stage {
+        name: "cargo test --workspace",
+        ok,
+        secs,
+        note,
+    });
+
+    begin(4, "no_std build of constraint-core");
+    let t0 = std::time::Instant::now();
+    let (ok, note) = match no_std::main(&[]) {
+        Ok(no_std::Outcome::Embedded) => (true, format!("built for {}", no_std::TARGET)),
+        Ok(no_std::Outcome::HostFallback) => (
+            true,
+            format!(
+                "{} not installable here: host build with --no-default-features",
+                no_std::TARGET
+            ),
+        ),
+        Err(e) => (false, e),
+    };
+    stages.push(Stage {
+        name: "no_std build",
+        ok,
+        secs: t0.elapsed().as_secs_f64(),
+        note,
+    });
+
+    begin(
+        5,
+        "sweeps: stability map and work-precision (release build)",
+    );
+    let mut sweep = cargo();
+    sweep.args([
+        "run",
+        "--release",
+        "-p",
+        "constraint-verify",
+        "--bin",
+        "verify-report",
+        "--",
+    ]);
+    if quick {
+        sweep.arg("--quick");
+    }
+    sweep.arg("--out").arg(&out);
+    let (ok, secs) = status(&mut sweep);
+    stages.push(Stage {
+        name: "sweeps (verify-report)",
+        ok,
+        secs,
+        note: String::new(),
+    });
+
+    let mut md = String::new();
+    let _ = writeln!(md, "# Verification report\n");
+    let _ = writeln!(
+        md,
+        "Commit `{}`, mode `{}`. Reproduce with `cargo xtask verify{}`.\n",
+        git_head(),
+        if quick { "quick" } else { "full" },
+        if quick { " --quick" } else { "" }
+    );
+    let _ = writeln!(
+        md,
+        "## Checks\n\n| stage | result | time (s) | note |\n|---|---|---|---|"
+    );
+    for s in &stages {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.1} | {} |",
+            s.name,
+            if s.ok { "pass" } else { "FAIL" },
+            s.secs,
+            s.note
+        );
+    }
+    md.push('\n');
+    match std::fs::read_to_string(out.join("sweeps.md")) {
+        Ok(s) if stages.last().is_some_and(|s| s.ok) => md.push_str(&s),
+        _ => md.push_str("Sweeps did not complete; see the console output.\n"),
+    }
+    let report = out.join("report.md");
+    std::fs::write(&report, md).map_err(|e| e.to_string())?;
+
+    eprintln!("\nsummary:");
+    for s in &stages {
+        eprintln!(
+            "  {:4}  {:>7.1} s  {}",
+            if s.ok { "ok" } else { "FAIL" },
+            s.secs,
+            s.name
+        );
+    }
+    eprintln!("report: {}", report.display());
+    let failed: Vec<&str> = stages.iter().filter(|s| !s.ok).map(|s| s.name).collect();
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("failed: {}", failed.join(", ")))
+    }
+}
