@@ -260,3 +260,142 @@ pub fn work_precision(
     }
     Ok(pts)
 }
+
+/// Relative drift of linear and angular momentum over `duration`:
+/// `|P(T) − P(0)| / Σ m|v(0)|` and `|L(T) − L(0)| / Σ m|x(0)||v(0)|`.
+///
+/// # Errors
+/// The integrator's error, if a step fails.
+pub fn momentum_drift(
+    mut sys: SoftSystem,
+    integ: &mut dyn Integrator,
+    duration: f64,
+) -> Result<(f64, f64), SoftError> {
+    let p0 = sys.linear_momentum();
+    let l0 = sys.angular_momentum();
+    let m = sys.masses().to_vec();
+    let pscale: f64 = sys.v.iter().zip(&m).map(|(v, m)| m * v.length()).sum();
+    let lscale: f64 = sys
+        .x
+        .iter()
+        .zip(&sys.v)
+        .zip(&m)
+        .map(|((x, v), m)| m * x.length() * v.length())
+        .sum();
+    let steps = (duration / integ.time_step()).round() as usize;
+    for _ in 0..steps {
+        integ.step(&mut sys)?;
+    }
+    Ok((
+        (sys.linear_momentum() - p0).length() / pscale,
+        (sys.angular_momentum() - l0).length() / lscale,
+    ))
+}
+
+/// A free cloth for momentum checks: `n × n`, no pins, no gravity, positions jittered
+/// by `±0.02` m (so internal forces act), velocities = drift + spin + noise, all drawn
+/// from `seed`.
+pub fn free_cloth(n: usize, seed: u64) -> Result<SoftSystem, SoftError> {
+    let mut sys = Cloth {
+        n,
+        pins: constraint_soft::ClothPins::None,
+        spring: Softness {
+            stiffness: 500.0,
+            damping: 0.5,
+        },
+        ..Cloth::default()
+    }
+    .build()?;
+    shake(&mut sys, seed, 0.02)?;
+    Ok(sys)
+}
+
+/// A free jelly for momentum checks: 2×2×2 cells, no pins, no gravity, jittered by
+/// `±0.01` m, random drift + spin + noise from `seed`.
+pub fn free_jelly(seed: u64) -> Result<SoftSystem, SoftError> {
+    let mut sys = constraint_soft::Jelly {
+        cells: [2, 2, 2],
+        pins: constraint_soft::JellyPins::None,
+        volume: Softness::stiff(1e7),
+        ..constraint_soft::Jelly::default()
+    }
+    .build()?;
+    shake(&mut sys, seed, 0.01)?;
+    Ok(sys)
+}
+
+fn shake(sys: &mut SoftSystem, seed: u64, amp: f64) -> Result<(), SoftError> {
+    let mut rng = crate::fd::Rng::new(seed);
+    sys.gravity = DVec3::ZERO;
+    for x in &mut sys.x {
+        *x += rng.in_box(DVec3::ZERO, amp);
+    }
+    let drift = rng.in_box(DVec3::ZERO, 1.0);
+    let spin = rng.in_box(DVec3::ZERO, 2.0);
+    let v: Vec<DVec3> = sys
+        .x
+        .iter()
+        .map(|x| drift + spin.cross(*x) + rng.in_box(DVec3::ZERO, 0.3))
+        .collect();
+    sys.set_velocities(&v)
+}
+
+/// Volume preservation of the hanging jelly with soft volume constraints.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JellyRun {
+    /// Volume stiffness (J/m⁶).
+    pub k_volume: f64,
+    /// Max over time and tetrahedra of `|V − V₀| / V₀`; `None` if the run failed.
+    pub volume_error: Option<f64>,
+    /// Max over time and springs of `|L − L₀| / L₀`.
+    pub strain: Option<f64>,
+    /// Wall-clock seconds per simulated second.
+    pub cost: f64,
+}
+
+/// Hangs the default 3×3×3 jelly (10 cm cells, top layer pinned) for `duration` with
+/// `method` at step `h`, for each volume stiffness.
+pub fn jelly_volume(method: Method, h: f64, ks: &[f64], duration: f64) -> Vec<JellyRun> {
+    ks.iter()
+        .map(|&k| {
+            let jelly = constraint_soft::Jelly {
+                volume: Softness::stiff(k),
+                ..constraint_soft::Jelly::default()
+            };
+            let v0 = jelly.cell.powi(3) / 6.0;
+            let l0 = jelly.cell; // shortest rest edge; strains are relative to it
+            let run = || -> Result<(f64, f64, f64), SoftError> {
+                let mut sys = jelly.build()?;
+                let mut integ = method.build(h)?;
+                let steps = (duration / h).round() as usize;
+                let (mut dv, mut st) = (0.0f64, 0.0f64);
+                let t0 = Instant::now();
+                for _ in 0..steps {
+                    integ.step(&mut sys)?;
+                    for set in sys.sets() {
+                        let c = set.max_violation(&sys.x);
+                        match set.name() {
+                            "volumes" => dv = dv.max(c / v0),
+                            _ => st = st.max(c / l0),
+                        }
+                    }
+                }
+                Ok((dv, st, t0.elapsed().as_secs_f64() / duration))
+            };
+            match run() {
+                Ok((dv, st, cost)) => JellyRun {
+                    k_volume: k,
+                    volume_error: Some(dv),
+                    strain: Some(st),
+                    cost,
+                },
+                Err(_) => JellyRun {
+                    k_volume: k,
+                    volume_error: None,
+                    strain: None,
+                    cost: f64::NAN,
+                },
+            }
+        })
+        .collect()
+}

@@ -12,61 +12,11 @@
 //!
 //! `cargo test -p constraint-verify --test momentum -- --nocapture` prints the drifts.
 
-use constraint_core::DVec3;
 use constraint_soft::{
-    CgSettings, Cloth, ClothPins, HessianMode, ImplicitEuler, Integrator, Jelly, JellyPins,
-    LinearSolver, SoftSystem, Softness, SymplecticEuler,
+    CgSettings, HessianMode, ImplicitEuler, Integrator, LinearSolver, SoftSystem, SymplecticEuler,
 };
-use constraint_verify::fd::{exceeds, Rng};
-
-fn free_cloth(rng: &mut Rng) -> SoftSystem {
-    let mut sys = Cloth {
-        n: 6,
-        pins: ClothPins::None,
-        spring: Softness {
-            stiffness: 500.0,
-            damping: 0.5,
-        },
-        ..Cloth::default()
-    }
-    .build()
-    .expect("cloth");
-    shake(&mut sys, rng, 0.02);
-    sys
-}
-
-fn free_jelly(rng: &mut Rng) -> SoftSystem {
-    let mut sys = Jelly {
-        cells: [2, 2, 2],
-        pins: JellyPins::None,
-        volume: Softness {
-            stiffness: 1e7,
-            damping: 0.0,
-        },
-        ..Jelly::default()
-    }
-    .build()
-    .expect("jelly");
-    shake(&mut sys, rng, 0.01);
-    sys
-}
-
-/// No gravity, positions jittered (so internal forces act), random velocities with a
-/// net drift and spin.
-fn shake(sys: &mut SoftSystem, rng: &mut Rng, amp: f64) {
-    sys.gravity = DVec3::ZERO;
-    for x in &mut sys.x {
-        *x += rng.in_box(DVec3::ZERO, amp);
-    }
-    let drift = rng.in_box(DVec3::ZERO, 1.0);
-    let spin = rng.in_box(DVec3::ZERO, 2.0);
-    let v: Vec<DVec3> = sys
-        .x
-        .iter()
-        .map(|x| drift + spin.cross(*x) + rng.in_box(DVec3::ZERO, 0.3))
-        .collect();
-    sys.set_velocities(&v).expect("finite velocities");
-}
+use constraint_verify::fd::exceeds;
+use constraint_verify::sweeps::{free_cloth, free_jelly, momentum_drift};
 
 fn integrators() -> Vec<Box<dyn Integrator>> {
     let cg = LinearSolver::ConjugateGradient(CgSettings {
@@ -86,35 +36,10 @@ fn integrators() -> Vec<Box<dyn Integrator>> {
     ]
 }
 
-/// Runs 0.5 s; returns (linear drift, angular drift), each relative to
-/// `Σ m|v|` and `Σ m|x||v|` at the start.
-fn drift(mut sys: SoftSystem, integ: &mut dyn Integrator) -> (f64, f64) {
-    let p0 = sys.linear_momentum();
-    let l0 = sys.angular_momentum();
-    let m = sys.masses().to_vec();
-    let pscale: f64 = sys.v.iter().zip(&m).map(|(v, m)| m * v.length()).sum();
-    let lscale: f64 = sys
-        .x
-        .iter()
-        .zip(&sys.v)
-        .zip(&m)
-        .map(|((x, v), m)| m * x.length() * v.length())
-        .sum();
-    let steps = (0.5 / integ.time_step()).round() as usize;
-    for _ in 0..steps {
-        integ.step(&mut sys).expect("step");
-    }
-    (
-        (sys.linear_momentum() - p0).length() / pscale,
-        (sys.angular_momentum() - l0).length() / lscale,
-    )
-}
-
-fn run(scene: &str, make: fn(&mut Rng) -> SoftSystem, seed: u64, gates: &[(f64, f64)]) {
+fn run(scene: &str, make: fn(u64) -> SoftSystem, seed: u64, gates: &[(f64, f64)]) {
     let mut failed = Vec::new();
     for (k, mut integ) in integrators().into_iter().enumerate() {
-        let mut rng = Rng::new(seed);
-        let (dp, dl) = drift(make(&mut rng), integ.as_mut());
+        let (dp, dl) = momentum_drift(make(seed), integ.as_mut(), 0.5).expect("steps");
         let (gp, gl) = gates[k];
         let line = format!(
             "{scene:6} {:42} linear drift {dp:.2e} (gate {gp:.0e})  angular drift {dl:.2e} (gate {gl:.0e})",
@@ -135,7 +60,7 @@ fn run(scene: &str, make: fn(&mut Rng) -> SoftSystem, seed: u64, gates: &[(f64, 
 fn cloth_momentum() {
     run(
         "cloth",
-        free_cloth,
+        |seed| free_cloth(6, seed).expect("cloth"),
         11,
         &[
             // measured 1.9e-16, 4.2e-16: both conserved
@@ -159,7 +84,7 @@ fn cloth_momentum() {
 fn jelly_momentum() {
     run(
         "jelly",
-        free_jelly,
+        |seed| free_jelly(seed).expect("jelly"),
         12,
         &[
             // measured 5.2e-16, 2.9e-15
