@@ -179,6 +179,12 @@ impl ImplicitEuler {
         &self.a
     }
 
+    /// The assembled right-hand side `M v + h F` of the last step (zero rows for pinned
+    /// particles).
+    pub fn rhs(&self) -> &[DVec3] {
+        &self.b
+    }
+
     fn rebuild(&mut self, sys: &mut SoftSystem) -> Result<(), SoftError> {
         let mut stencils: Vec<usize> = Vec::new();
         let mut lens: Vec<usize> = Vec::new();

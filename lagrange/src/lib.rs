@@ -1,0 +1,61 @@
+//! # constraint-lagrange
+//!
+//! Hard constraints with Lagrange multipliers (Otaduy 2010, "Restricciones Fuertes:
+//! Multiplicadores de Lagrange"): the KKT systems
+//!
+//! ```text
+//! [A  Jᵀ] [x]   [b]
+//! [J  −C] [λ] = [c]
+//! ```
+//!
+//! (`C = 0` hard, `C = α/h²` compliant) and the solvers the lecture names for them:
+//! "si A es fácil de invertir, se sustituye la primera ecuación en la segunda" (Schur
+//! complement, dense or sparse), "MINRES ó GMRES si es disperso; SVD si es incompatible
+//! (overconstrained)".
+//!
+//! | module | formulation | lecture |
+//! |---|---|---|
+//! | [`acceleration`] | `[M Jᵀ; J 0][ẍ; λ] = [F; −J̇ẋ − k_x C − k_v Ċ]` | "Opción 1", Baumgarte |
+//! | [`velocity`] | `[A Jᵀ; J −α/h²][v; λ] = [b; −C(x₀)/Δt]` | "Opción 2"; compliant when `α > 0` |
+//! | [`projection`] | Newton on `C(x) = 0` with `(h²JM⁻¹Jᵀ)δλ = C` | Goldenthal et al. 2007 |
+//!
+//! All share [`kkt::solve_kkt`] and its solvers ([`kkt::KktSolver`]).
+//!
+//! Without the default `std` feature the crate needs only `alloc`: the rows, the KKT
+//! problem and its dense Schur, SVD, MINRES and GMRES solvers run on embedded targets;
+//! the formulations, which step a `constraint_soft::SoftSystem`, need `std`.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![deny(missing_docs)]
+
+extern crate alloc;
+
+#[cfg(feature = "std")]
+pub mod acceleration;
+#[cfg(feature = "std")]
+pub mod error;
+pub mod kkt;
+#[cfg(feature = "std")]
+pub mod projection;
+pub mod rows;
+#[cfg(feature = "std")]
+pub mod scenes;
+pub mod set;
+pub mod solve;
+#[cfg(feature = "sparse")]
+pub mod sparse;
+#[cfg(feature = "std")]
+mod step;
+#[cfg(feature = "std")]
+pub mod velocity;
+
+#[cfg(feature = "std")]
+pub use acceleration::{AccelerationLevel, Baumgarte};
+#[cfg(feature = "std")]
+pub use error::LagrangeError;
+pub use kkt::{solve_kkt, KktError, KktProblem, KktSolver, KktStats, KktWorkspace, MassMatrix};
+#[cfg(feature = "std")]
+pub use projection::{FastProjection, ProjectedStep, ProjectionStats};
+pub use rows::ConstraintRows;
+pub use set::{Constraints, HardSet, RestScale, RowSet, SetError};
+#[cfg(feature = "std")]
+pub use velocity::{BaseStep, VelocityLevel};

@@ -1,0 +1,64 @@
+//! Shared plumbing of the constrained steps: checks, row assembly, committing a state.
+
+use crate::error::LagrangeError;
+use crate::rows::ConstraintRows;
+use crate::set::Constraints;
+use constraint_core::DVec3;
+use constraint_soft::SoftSystem;
+
+pub(crate) fn check_h(h: f64) -> Result<f64, LagrangeError> {
+    if h > 0.0 && h.is_finite() {
+        Ok(h)
+    } else {
+        Err(LagrangeError::InvalidTimeStep)
+    }
+}
+
+pub(crate) fn check_indices(sys: &SoftSystem, cons: &Constraints) -> Result<(), LagrangeError> {
+    let needed = cons.max_index();
+    if needed > sys.len() {
+        return Err(LagrangeError::IndexOutOfBounds {
+            needed,
+            len: sys.len(),
+        });
+    }
+    Ok(())
+}
+
+/// Rows at `x` with pinned columns zeroed.
+pub(crate) fn rows_at(pinned: &[bool], cons: &Constraints, x: &[DVec3], rows: &mut ConstraintRows) {
+    cons.assemble(x, rows);
+    rows.zero_columns(pinned);
+}
+
+/// Largest `|C_r| / scale_r`.
+pub(crate) fn max_relative(rows: &ConstraintRows, scales: &[f64]) -> f64 {
+    rows.value
+        .iter()
+        .zip(scales)
+        .map(|(c, s)| (c / s).abs())
+        .fold(0.0, f64::max)
+}
+
+/// Writes `(x_new, v_new)` into `sys` if every value is finite and bounded by 1e12.
+pub(crate) fn commit(
+    sys: &mut SoftSystem,
+    x_new: &[DVec3],
+    v_new: &[DVec3],
+) -> Result<(), LagrangeError> {
+    const LIMIT: f64 = 1e12;
+    if let Some(p) = x_new
+        .iter()
+        .zip(v_new)
+        .position(|(x, v)| !(x.abs().max_element() < LIMIT && v.abs().max_element() < LIMIT))
+    {
+        return Err(LagrangeError::Diverged {
+            step: sys.steps,
+            particle: p,
+        });
+    }
+    sys.x.copy_from_slice(x_new);
+    sys.v.copy_from_slice(v_new);
+    sys.steps += 1;
+    Ok(())
+}
