@@ -1,8 +1,8 @@
 //! Scenes with hard constraints: a particle pendulum / chain and an inextensible cloth.
 
 use crate::set::{Constraints, HardSet};
-use constraint_core::{DVec3, Distance};
-use constraint_soft::{Cloth, SoftError, SoftSystem, Softness};
+use constraint_core::{DVec3, Dihedral, Distance};
+use constraint_soft::{Cloth, ConstraintSet, SoftError, SoftSystem, Softness};
 
 /// A chain of `links` particles hanging from a pinned point at the origin by
 /// inextensible links of length `link` (m), each particle of mass `mass` (kg), started
@@ -37,26 +37,46 @@ pub fn chain(
 }
 
 /// Goldenthal et al.'s inextensible cloth: the `n × n` cloth of
-/// [`constraint_soft::Cloth`] (1 m, 0.5 kg, two top corners pinned, starting flat and
-/// swinging down) whose structural edges (rows and columns) are hard distance
+/// [`constraint_soft::Cloth`] (1 m, 0.5 kg) hung by its whole top edge, starting flat
+/// and swinging down, whose structural edges (rows and columns) are hard distance
 /// constraints, with weak soft springs (`k_shear`, N/m) on all edges for shear and no
 /// area term.
 ///
-/// The edges of the top row are left soft: hard, they would form an inextensible
-/// chain between the two pinned corners whose rest length equals the corners'
-/// distance, a configuration where the chain must be straight and the Jacobian loses
-/// rank (Newton then converges only linearly).
+/// The top row's own edges are left out (both ends pinned: nothing to solve). Hanging
+/// the cloth by two corners instead makes the first hard row an inextensible chain
+/// whose ends are (nearly) as far apart as its length: it must stay straight, the
+/// Jacobian loses rank there and the projection stops converging — the measured reason
+/// this scene pins the edge.
+pub fn inextensible_cloth(n: usize, k_shear: f64) -> Result<(SoftSystem, Constraints), SoftError> {
+    tilted_inextensible_cloth(n, k_shear, core::f64::consts::FRAC_PI_2)
+}
+
+/// [`inextensible_cloth`] rotated about its pinned top edge (the `x` axis) so that it
+/// starts at `tilt` rad from hanging straight down (`π/2`: flat, the cloth falls and
+/// folds; smaller angles: it swings like a pendulum, the gentler test of Goldenthal et
+/// al.'s hanging cloths).
 ///
 /// # Errors
-/// Soft or constraint errors for bad parameters.
-pub fn inextensible_cloth(n: usize, k_shear: f64) -> Result<(SoftSystem, Constraints), SoftError> {
+/// As [`inextensible_cloth`].
+pub fn tilted_inextensible_cloth(
+    n: usize,
+    k_shear: f64,
+    tilt: f64,
+) -> Result<(SoftSystem, Constraints), SoftError> {
     let cloth = Cloth {
         n,
         spring: Softness::stiff(k_shear),
         area: Softness::stiff(0.0),
+        pins: constraint_soft::ClothPins::TopEdge,
         ..Cloth::default()
     };
-    let sys = cloth.build()?;
+    let mut sys = cloth.build()?;
+    // Row r sits at y = −r·dx; rotate about x so it sits at angle `tilt` from −z.
+    let (s, c) = tilt.sin_cos();
+    for x in &mut sys.x {
+        let d = -x.y;
+        *x = DVec3::new(x.x, -d * s, -d * c);
+    }
     let mut d = Vec::with_capacity(2 * n * (n - 1));
     for r in 0..n {
         for c in 0..n {
@@ -82,4 +102,67 @@ pub fn inextensible_cloth(n: usize, k_shear: f64) -> Result<(SoftSystem, Constra
     let mut cons = Constraints::new();
     cons.add(HardSet::hard("structural", d));
     Ok((sys, cons))
+}
+
+/// Dihedral hinges `[a, b, c, d]` (shared edge `a–b`, wings `c`, `d`) of the cloth's
+/// triangulation: every pair of triangles of [`constraint_soft::Cloth`] that share an
+/// edge. Deterministic (sorted, no hash map).
+pub fn cloth_hinges(n: usize) -> Vec<[usize; 4]> {
+    let mut tris = Vec::new();
+    for r in 0..n.saturating_sub(1) {
+        for c in 0..n - 1 {
+            let i = r * n + c;
+            tris.push([i, i + n, i + 1]);
+            tris.push([i + 1, i + n, i + n + 1]);
+        }
+    }
+    // (edge key, triangle, opposite vertex), edges as sorted pairs.
+    let mut edges: Vec<((usize, usize), usize, usize)> = Vec::new();
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b, o) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
+            edges.push(((a.min(b), a.max(b)), t, o));
+        }
+    }
+    edges.sort_unstable();
+    let mut hinges = Vec::new();
+    for w in edges.windows(2) {
+        if w[0].0 == w[1].0 {
+            // Orient the edge as it runs in the first triangle (a → b with wing c).
+            let tri = tris[w[0].1];
+            let (e0, e1) = w[0].0;
+            let k = (0..3).find(|&k| tri[k] == e0 || tri[k] == e1).unwrap_or(0);
+            let (a, b) = if tri[(k + 1) % 3] == e0 || tri[(k + 1) % 3] == e1 {
+                (tri[k], tri[(k + 1) % 3])
+            } else {
+                (tri[(k + 2) % 3], tri[k])
+            };
+            hinges.push([a, b, w[0].2, w[1].2]);
+        }
+    }
+    hinges
+}
+
+/// Adds soft bending (dihedral angle, rest angle from the current flat shape) of
+/// stiffness `k_bend` (N·m/rad²) to a cloth built by [`tilted_inextensible_cloth`].
+///
+/// # Errors
+/// Constraint errors for degenerate hinges, soft errors for bad stiffness.
+pub fn add_bending(sys: &mut SoftSystem, n: usize, k_bend: f64) -> Result<(), SoftError> {
+    let hinges = cloth_hinges(n)
+        .into_iter()
+        .enumerate()
+        .map(|(k, h)| {
+            Dihedral::from_rest(h, &sys.x).map_err(|error| SoftError::Constraint {
+                set: "bending",
+                index: k,
+                error,
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    sys.add_set(ConstraintSet::uniform(
+        "bending",
+        hinges,
+        Softness::stiff(k_bend),
+    )?)
 }

@@ -21,6 +21,7 @@
 
 use crate::error::LagrangeError;
 use crate::kkt::{solve_kkt, KktProblem, KktSolver, KktStats, KktWorkspace, MassMatrix};
+use crate::projection::{FastProjection, ProjectionStats};
 use crate::rows::ConstraintRows;
 use crate::set::Constraints;
 use crate::step::{check_h, check_indices, commit, rows_at};
@@ -44,6 +45,12 @@ pub struct VelocityLevel {
     pub base: BaseStep,
     /// The KKT solver.
     pub solver: KktSolver,
+    /// Optional position projection after the velocity solve ("velocity level +
+    /// projection"): the end-of-step positions are projected onto `C(x) = 0` and the
+    /// velocities recomputed as `(x − x₀)/Δt`. Removes the `O(Δt²)` drift per step.
+    pub projection: Option<FastProjection>,
+    /// Statistics of the last projection, if any.
+    pub last_projection: Option<ProjectionStats>,
     ws: KktWorkspace,
     rows: ConstraintRows,
     compliance: Vec<f64>,
@@ -73,6 +80,8 @@ impl VelocityLevel {
             h,
             base,
             solver,
+            projection: None,
+            last_projection: None,
             ws: KktWorkspace::default(),
             rows: ConstraintRows::new(),
             compliance: Vec::new(),
@@ -182,6 +191,13 @@ impl VelocityLevel {
         self.x_new.clear();
         self.x_new
             .extend(sys.x.iter().zip(&self.v_new).map(|(x, v)| *x + *v * h));
+        if let Some(proj) = &mut self.projection {
+            let st = proj.project(sys.masses(), sys.pinned(), cons, &mut self.x_new)?;
+            self.last_projection = Some(st);
+            for ((v, xn), x0) in self.v_new.iter_mut().zip(&self.x_new).zip(&sys.x) {
+                *v = (*xn - *x0) / h;
+            }
+        }
         commit(sys, &self.x_new, &self.v_new)?;
         Ok(stats)
     }

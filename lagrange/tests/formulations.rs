@@ -279,7 +279,7 @@ fn inextensible_cloth_meets_the_strain_tolerance_every_step() {
         iters as f64 / 60.0
     );
     assert!(worst <= 1e-3);
-    // measured mean 2.85 iterations; gate 5 (Goldenthal et al. report a few)
+    // measured mean 1.28 iterations; gate 5 (Goldenthal et al. report a few)
     assert!((iters as f64 / 60.0) <= 5.0, "{iters}");
 }
 
@@ -302,7 +302,7 @@ fn implicit_soft_base_mixes_with_hard_constraints() {
         cmax = cmax.max(step.rows().max_violation());
     }
     println!("max |C| with implicit soft base + hard rows (MINRES): {cmax:.2e} m");
-    // measured 4.5e-3 m (velocity level: O(h²) drift per step); gate 2e-2 m, links 0.2 m
+    // measured 4.2e-3 m (velocity level: O(h²) drift per step); gate 2e-2 m, links 0.2 m
     assert!(cmax < 2e-2, "{cmax}");
     assert!(matches!(
         VelocityLevel::new(
