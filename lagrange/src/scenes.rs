@@ -77,10 +77,22 @@ pub fn tilted_inextensible_cloth(
         let d = -x.y;
         *x = DVec3::new(x.x, -d * s, -d * c);
     }
+    let d = structural_links(n, &sys.x)?;
+    let mut cons = Constraints::new();
+    cons.add(HardSet::hard("structural", d));
+    Ok((sys, cons))
+}
+
+/// The structural edges (rows below the top one, and columns) of an `n × n` cloth
+/// laid out by [`constraint_soft::Cloth`], as distance constraints at rest in `x`.
+///
+/// # Errors
+/// Constraint errors for coincident rest points.
+pub fn structural_links(n: usize, x: &[DVec3]) -> Result<Vec<Distance>, SoftError> {
     let mut d = Vec::with_capacity(2 * n * (n - 1));
     for r in 0..n {
         for c in 0..n {
-            let i = cloth.index(r, c);
+            let i = r * n + c;
             for j in [
                 (r > 0 && c + 1 < n).then(|| i + 1),
                 (r + 1 < n).then(|| i + n),
@@ -89,19 +101,17 @@ pub fn tilted_inextensible_cloth(
             .flatten()
             {
                 let k = d.len();
-                d.push(Distance::from_rest(i, j, &sys.x).map_err(|error| {
-                    SoftError::Constraint {
+                d.push(
+                    Distance::from_rest(i, j, x).map_err(|error| SoftError::Constraint {
                         set: "structural",
                         index: k,
                         error,
-                    }
-                })?);
+                    })?,
+                );
             }
         }
     }
-    let mut cons = Constraints::new();
-    cons.add(HardSet::hard("structural", d));
-    Ok((sys, cons))
+    Ok(d)
 }
 
 /// Dihedral hinges `[a, b, c, d]` (shared edge `a–b`, wings `c`, `d`) of the cloth's

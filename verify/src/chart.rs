@@ -1,4 +1,5 @@
-//! Dependency-free SVG charts with logarithmic axes (work-precision diagrams).
+//! Dependency-free SVG charts with a logarithmic y axis and a logarithmic or linear x
+//! axis (work-precision diagrams, error histories).
 //!
 //! Written by hand rather than with a plotting crate: the output must be byte-for-byte
 //! deterministic (the report is diffed between runs) and the crate must not pull font
@@ -28,6 +29,8 @@ pub struct LogLogChart {
     pub series: Vec<Series>,
     /// A note printed under the plot (e.g. how the reference was computed).
     pub note: String,
+    /// Logarithmic x axis (`false`: linear, for time series).
+    pub log_x: bool,
 }
 
 const W: f64 = 760.0;
@@ -62,7 +65,9 @@ impl LogLogChart {
             self.series
                 .iter()
                 .flat_map(|s| s.points.iter())
-                .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
+                .filter(move |(x, y)| {
+                    (*x > 0.0 || !self.log_x) && *y > 0.0 && x.is_finite() && y.is_finite()
+                })
         };
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
         for &(x, y) in pts() {
@@ -74,11 +79,17 @@ impl LogLogChart {
         if x0 > x1 {
             (x0, x1, y0, y1) = (1.0, 10.0, 1.0, 10.0);
         }
-        let (xa, xb) = decades(x0, x1);
+        let (xa, xb) = if self.log_x {
+            decades(x0, x1)
+        } else {
+            (0.0f64.min(x0), x1.max(x0 + 1.0))
+        };
+        let log_x = self.log_x;
+        let fx = move |x: f64| if log_x { x.log10() } else { x };
         let (ya, yb) = decades(y0, y1);
         let pw = W - L - R;
         let ph = H - T - B;
-        let sx = |x: f64| L + (x.log10() - xa) / (xb - xa) * pw;
+        let sx = |x: f64| L + (fx(x) - xa) / (xb - xa) * pw;
         let sy = |y: f64| T + ph - (y.log10() - ya) / (yb - ya) * ph;
         let mut s = String::new();
         let _ = writeln!(
@@ -93,16 +104,30 @@ impl LogLogChart {
             esc(&self.title)
         );
         // Grid and tick labels at every decade.
-        let mut d = xa;
-        while d <= xb + 0.5 {
-            let x = sx(10f64.powf(d));
+        let ticks: Vec<(f64, String)> = if log_x {
+            let mut v = Vec::new();
+            let mut d = xa;
+            while d <= xb + 0.5 {
+                v.push((10f64.powf(d), format!("1e{d}")));
+                d += 1.0;
+            }
+            v
+        } else {
+            (0..=5)
+                .map(|k| {
+                    let x = xa + (xb - xa) * k as f64 / 5.0;
+                    (x, format!("{x:.3}"))
+                })
+                .collect()
+        };
+        for (xv, label) in ticks {
+            let x = sx(xv);
             let _ = writeln!(
                 s,
-                r##"<line x1="{x:.1}" y1="{T}" x2="{x:.1}" y2="{:.1}" stroke="#ddd"/><text x="{x:.1}" y="{:.1}" text-anchor="middle">1e{d}</text>"##,
+                r##"<line x1="{x:.1}" y1="{T}" x2="{x:.1}" y2="{:.1}" stroke="#ddd"/><text x="{x:.1}" y="{:.1}" text-anchor="middle">{label}</text>"##,
                 T + ph,
                 T + ph + 16.0
             );
-            d += 1.0;
         }
         let mut d = ya;
         while d <= yb + 0.5 {
@@ -139,7 +164,7 @@ impl LogLogChart {
                 .points
                 .iter()
                 .copied()
-                .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
+                .filter(|(x, y)| (*x > 0.0 || !log_x) && *y > 0.0 && x.is_finite() && y.is_finite())
                 .collect();
             if p.len() > 1 {
                 let path: Vec<String> = p
@@ -204,6 +229,7 @@ mod tests {
                 },
             ],
             note: "n".into(),
+            log_x: true,
         };
         let s = c.to_svg();
         assert_eq!(s.matches("<polyline").count(), 1);

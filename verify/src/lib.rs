@@ -25,6 +25,7 @@
 
 pub mod chart;
 pub mod fd;
+pub mod hard;
 pub mod sweeps;
 
 pub use fd::{

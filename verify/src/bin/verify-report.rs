@@ -162,6 +162,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             })
             .collect(),
         note: note.clone(),
+        log_x: true,
     };
     std::fs::write(out.join("cloth_work_precision.svg"), chart.to_svg())?;
     let _ = writeln!(md, "## Work-precision: cloth\n");
@@ -290,7 +291,126 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
+    hard_sections(&mut md, &out, quick)?;
     std::fs::write(out.join("sweeps.md"), md)?;
     eprintln!("  wrote {}", out.join("sweeps.md").display());
+    Ok(())
+}
+
+/// Drift chart and soft-versus-hard strain chart (lagrange crate).
+fn hard_sections(
+    md: &mut String,
+    out: &std::path::Path,
+    quick: bool,
+) -> Result<(), Box<dyn std::error::Error>> {
+    use constraint_verify::hard::{chain_drift, cloth_strain_vs_time, series_names, DRIFT_METHODS};
+    let secs = if quick { 3.0 } else { 10.0 };
+    let h = 1e-3;
+    eprintln!("  drift: 10-link chain, {secs} s, 4 formulations");
+    let mut series = Vec::new();
+    let _ = writeln!(md, "\n## Drift of hard constraints: particle chain\n");
+    let _ = writeln!(md, "![chain drift](chain_drift.svg)\n");
+    let _ = writeln!(
+        md,
+        "10-link chain (0.1 m links, 0.1 kg beads) released at 1 rad from the vertical, h = {h} s, {secs} s; \
+         max |C| (m) over each 0.05 s window. Dense Schur solves. Reproduce: `cargo xtask verify`.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| formulation | max |C| first second (m) | max |C| whole run (m) |\n|---|---|---|"
+    );
+    for (k, name) in DRIFT_METHODS.iter().enumerate() {
+        match chain_drift(k, h, secs, 0.05) {
+            Ok(pts) => {
+                let first = pts
+                    .iter()
+                    .filter(|p| p.0 <= 1.0)
+                    .map(|p| p.1)
+                    .fold(0.0, f64::max);
+                let all = pts.iter().map(|p| p.1).fold(0.0, f64::max);
+                let _ = writeln!(md, "| {name} | {first:.2e} | {all:.2e} |");
+                series.push(Series {
+                    name: (*name).into(),
+                    points: pts,
+                });
+            }
+            Err(e) => {
+                let _ = writeln!(md, "| {name} | failed: {e} | |");
+            }
+        }
+    }
+    let chart = LogLogChart {
+        title: "Chain: constraint drift per formulation".into(),
+        x_label: "time (s)".into(),
+        y_label: "max |C| (m)".into(),
+        series,
+        note: format!(
+            "10 links of 0.1 m, h = {h} s; acceleration level integrated with symplectic Euler."
+        ),
+        log_x: false,
+    };
+    std::fs::write(out.join("chain_drift.svg"), chart.to_svg())?;
+
+    let n = if quick { 16 } else { 32 };
+    let secs = if quick { 0.5 } else { 1.0 };
+    eprintln!("  soft vs hard: inextensible cloth {n}×{n}, {secs} s");
+    let pts = cloth_strain_vs_time(
+        n,
+        secs,
+        &[1e-1, 1e-2, 1e-3, 1e-4],
+        &[1e2, 1e3, 1e4, 1e5, 1e6],
+        &[1e-2, 1e-3, 1e-4, 1e-5, 0.0],
+    );
+    let _ = writeln!(
+        md,
+        "\n## Soft versus hard: inextensible cloth, strain against run time\n"
+    );
+    let _ = writeln!(md, "![cloth strain vs run time](cloth_strain.svg)\n");
+    let _ = writeln!(
+        md,
+        "Cloth {n}×{n} hung by its top edge, released at 1 rad, h = 1/60 s, {secs} s; structural edges (rows, columns) \
+         are either hard under Goldenthal's fast projection (after an implicit step with weak shear springs), \
+         stiff springs in the implicit step, or compliant rows at velocity level (α = 0: hard). Max strain |L − L₀|/L₀ \
+         over the run against wall-clock time per step. \
+         The linearized steps (implicit soft springs, velocity-level compliant or hard rows) extrapolate each \
+         rotating link along its tangent, stretching it by about (hω)²/2 per step whatever the stiffness: \
+         at h = 1/60 s their strain levels off near 0.15 for k ≥ 1e3 (it is 2.8e-4 at h = 1/240 s for k = 1e5). \
+         Only the position projection reaches a strain tolerance, at about the same cost per step.\n"
+    );
+    let _ = writeln!(md, "| method | parameter | max strain | ms / step | projection iterations / step |\n|---|---|---|---|---|");
+    for p in &pts {
+        let strain = p.strain.map_or("failed".into(), |s| format!("{s:.2e}"));
+        let it = if p.method == "fast projection" {
+            format!("{:.2}", p.iterations)
+        } else {
+            "–".into()
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {:.0e} | {strain} | {:.2} | {it} |",
+            p.method, p.parameter, p.ms_per_step
+        );
+    }
+    let chart = LogLogChart {
+        title: format!("Inextensible cloth {n}×{n}: strain against run time"),
+        x_label: "run time per step (ms)".into(),
+        y_label: "max strain |L − L₀|/L₀".into(),
+        series: series_names(&pts)
+            .into_iter()
+            .map(|name| Series {
+                points: pts
+                    .iter()
+                    .filter(|p| p.method == name)
+                    .filter_map(|p| p.strain.map(|s| (p.ms_per_step, s.max(1e-17))))
+                    .collect(),
+                name,
+            })
+            .collect(),
+        note:
+            "Projection: tolerance 1e-1…1e-4; springs: k = 1e2…1e6 N/m; compliant: α = 1e-2…0 m/N."
+                .into(),
+        log_x: true,
+    };
+    std::fs::write(out.join("cloth_strain.svg"), chart.to_svg())?;
     Ok(())
 }
