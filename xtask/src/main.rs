@@ -3,7 +3,7 @@
 //! | command | what it does |
 //! |---|---|
 //! | `verify [--quick]` | fmt and clippy checks, the whole test suite, the `no_std` build, the stiffness and work-precision sweeps; writes `target/verify/report.md` with charts |
-//! | `no-std` | builds `constraint-core` without `std` for `thumbv7em-none-eabihf` |
+//! | `no-std` | builds `constraint-core` (no allocator) and `constraint-lagrange` (`alloc` only) without `std` for `thumbv7em-none-eabihf` |
 //! | `bench` | runs the criterion benchmarks and prints the time per step and growth exponents |
 //!
 //! One file per command, as in glam's `tools/ci`. Standard library only, so the task
@@ -20,7 +20,7 @@ const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
   verify [--quick]   checks, tests, no_std build and sweeps; writes target/verify/report.md
-  no-std             build constraint-core for thumbv7em-none-eabihf without std
+  no-std             build constraint-core and constraint-lagrange for thumbv7em-none-eabihf without std
   bench              criterion benchmarks (time per implicit cloth step, N = 32, 64, 128)";
 
 fn main() -> ExitCode {

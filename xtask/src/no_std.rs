@@ -1,4 +1,5 @@
-//! `cargo xtask no-std`: build `constraint-core` without `std` for an embedded target.
+//! `cargo xtask no-std`: build `constraint-core` (no `std`, no allocator) and
+//! `constraint-lagrange` (no `std`, `alloc` only) for an embedded target.
 //!
 //! Installs the target with rustup when it is missing; when it cannot be installed
 //! (no rustup, no network), falls back to a host build with `--no-default-features`
@@ -9,6 +10,10 @@ use std::process::Command;
 
 /// The embedded target: Cortex-M4F/M7F, no OS, no allocator.
 pub const TARGET: &str = "thumbv7em-none-eabihf";
+
+/// The crates that must build without `std`: the core (no allocator) and the
+/// lagrange crate's dense path (`alloc` only).
+pub const CRATES: [&str; 2] = ["constraint-core", "constraint-lagrange"];
 
 /// What the check built.
 pub enum Outcome {
@@ -29,27 +34,34 @@ pub fn main(_args: &[String]) -> Result<Outcome, String> {
         eprintln!("  rustup target add {TARGET}");
         let _ = status(Command::new("rustup").args(["target", "add", TARGET]));
     }
-    if target_installed() {
-        let (ok, _) = status(cargo().args([
-            "build",
-            "-p",
-            "constraint-core",
-            "--no-default-features",
-            "--target",
-            TARGET,
-        ]));
-        return if ok {
-            eprintln!("  constraint-core builds without std for {TARGET}");
-            Ok(Outcome::Embedded)
-        } else {
-            Err(format!("constraint-core failed to build for {TARGET}"))
-        };
+    let embedded = target_installed();
+    if !embedded {
+        eprintln!(
+            "  target {TARGET} unavailable: falling back to a host build without std features"
+        );
     }
-    eprintln!("  target {TARGET} unavailable: falling back to a host build without std features");
-    let (ok, _) = status(cargo().args(["build", "-p", "constraint-core", "--no-default-features"]));
-    if ok {
-        Ok(Outcome::HostFallback)
+    for krate in CRATES {
+        let mut cmd = cargo();
+        cmd.args(["build", "-p", krate, "--no-default-features"]);
+        if embedded {
+            cmd.args(["--target", TARGET]);
+        }
+        let (ok, _) = status(&mut cmd);
+        if !ok {
+            return Err(format!("{krate} failed to build without std"));
+        }
+        eprintln!(
+            "  {krate} builds without std{}",
+            if embedded {
+                format!(" for {TARGET}")
+            } else {
+                String::new()
+            }
+        );
+    }
+    Ok(if embedded {
+        Outcome::Embedded
     } else {
-        Err("constraint-core failed to build with --no-default-features".into())
-    }
+        Outcome::HostFallback
+    })
 }
