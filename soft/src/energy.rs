@@ -18,7 +18,7 @@
 //! the "wrong" direction (a compressed spring, an over-stretched triangle). Solvers that
 //! need a positive (semi)definite matrix get one through [`HessianMode`].
 
-use crate::project::project_psd;
+use crate::project::project_psd_at;
 use constraint_core::{math::outer, DMat3, DVec3, PointConstraint};
 
 /// Stiffness `k` and damping `c` of one soft constraint (SI: N/m and N·s/m for a spring).
@@ -133,6 +133,10 @@ where
     for wi in w.iter_mut() {
         *wi *= k;
     }
+    if w.iter().all(|&wi| wi == 0.0) {
+        // No curvature term: the Gram part alone is already PSD.
+        return h;
+    }
     let curv = c.curvature(x, &w);
     for i in 0..N {
         for jj in 0..N {
@@ -140,7 +144,7 @@ where
         }
     }
     if mode == HessianMode::Projected {
-        project_psd(&mut h);
+        project_psd_at(&mut h, x);
     }
     h
 }
@@ -196,6 +200,49 @@ pub fn implicit_blocks<C, const N: usize, const R: usize>(
 where
     C: PointConstraint<N, R>,
 {
+    let mut parts = implicit_parts(c, s, x, h, mode);
+    if parts.project {
+        project_psd_at(&mut parts.stiffness, x);
+    }
+    parts.sum()
+}
+
+/// [`implicit_blocks`] before the projection: the stiffness part `h²k(∇C∇Cᵀ + C∂²C)`
+/// (with the damping folded in for Gauss–Newton), whether it still needs projecting,
+/// and the damping part `h c ∇C∇Cᵀ`, added after the projection.
+pub(crate) struct ImplicitParts<const N: usize> {
+    pub(crate) stiffness: [[DMat3; N]; N],
+    pub(crate) project: bool,
+    pub(crate) damping: Option<[[DMat3; N]; N]>,
+}
+
+impl<const N: usize> ImplicitParts<N> {
+    /// `stiffness + damping`.
+    #[inline]
+    pub(crate) fn sum(mut self) -> [[DMat3; N]; N] {
+        if let Some(d) = &self.damping {
+            for i in 0..N {
+                for j in 0..N {
+                    self.stiffness[i][j] += d[i][j];
+                }
+            }
+        }
+        self.stiffness
+    }
+}
+
+/// The parts of [`implicit_blocks`] (see [`ImplicitParts`]).
+#[inline]
+pub(crate) fn implicit_parts<C, const N: usize, const R: usize>(
+    c: &C,
+    s: Softness,
+    x: &[DVec3; N],
+    h: f64,
+    mode: HessianMode,
+) -> ImplicitParts<N>
+where
+    C: PointConstraint<N, R>,
+{
     let j = c.jacobian(x);
     let g = gram(&j.grad);
     let h2k = h * h * s.stiffness;
@@ -208,30 +255,46 @@ where
                     a[i][jj] = g[i][jj] * coef;
                 }
             }
+            ImplicitParts {
+                stiffness: a,
+                project: false,
+                damping: None,
+            }
         }
         HessianMode::Exact | HessianMode::Projected => {
             let mut w = j.value;
             for wi in w.iter_mut() {
                 *wi *= h2k;
             }
-            let curv = c.curvature(x, &w);
-            for i in 0..N {
-                for jj in 0..N {
-                    a[i][jj] = g[i][jj] * h2k + curv.blocks[i][jj];
-                }
-            }
-            if mode == HessianMode::Projected {
-                project_psd(&mut a);
-            }
-            if s.damping != 0.0 {
-                let hc = h * s.damping;
+            // No curvature term: the Gram part alone is already PSD.
+            let curved = !w.iter().all(|&wi| wi == 0.0);
+            if curved {
+                let curv = c.curvature(x, &w);
                 for i in 0..N {
                     for jj in 0..N {
-                        a[i][jj] += g[i][jj] * hc;
+                        a[i][jj] = g[i][jj] * h2k + curv.blocks[i][jj];
+                    }
+                }
+            } else {
+                for i in 0..N {
+                    for jj in 0..N {
+                        a[i][jj] = g[i][jj] * h2k;
                     }
                 }
             }
+            let damping = (s.damping != 0.0).then(|| {
+                let hc = h * s.damping;
+                let mut d = g;
+                for b in d.iter_mut().flatten() {
+                    *b *= hc;
+                }
+                d
+            });
+            ImplicitParts {
+                stiffness: a,
+                project: curved && mode == HessianMode::Projected,
+                damping,
+            }
         }
     }
-    a
 }

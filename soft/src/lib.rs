@@ -43,9 +43,11 @@ pub mod bsr;
 pub mod cg;
 #[cfg(feature = "faer")]
 pub mod direct;
+mod eigen;
 pub mod energy;
 pub mod error;
 pub mod integrate;
+pub mod ordering;
 pub mod project;
 pub mod scenes;
 pub mod set;

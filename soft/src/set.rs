@@ -4,7 +4,8 @@
 use crate::bsr::{BlockMatrix, BlockPattern};
 use crate::energy::{self, HessianMode, Softness};
 use crate::error::SoftError;
-use constraint_core::{DVec3, PointConstraint};
+use crate::project::{project_batch, BATCH};
+use constraint_core::{DMat3, DVec3, PointConstraint};
 
 /// A set of constraints of one type with per-constraint softness.
 #[derive(Clone, Debug)]
@@ -195,19 +196,54 @@ where
         pinned: &[bool],
         a: &mut BlockMatrix,
     ) {
-        for ((c, s), slots) in self.constraints.iter().zip(&self.softness).zip(&self.slots) {
-            let blocks = energy::implicit_blocks(c, *s, &Self::gather(c, x), h, mode);
-            let idx = c.stencil();
-            for i in 0..N {
-                if pinned[idx[i]] {
-                    continue;
+        // Elements go through in batches so that their projections can share one
+        // eigen-iteration (project::BATCH); the result is the same as one at a time.
+        let n = self
+            .constraints
+            .len()
+            .min(self.softness.len())
+            .min(self.slots.len());
+        let mut start = 0;
+        while start < n {
+            let end = (start + BATCH).min(n);
+            let mut xs = [[DVec3::ZERO; N]; BATCH];
+            let mut stiff = [[[DMat3::ZERO; N]; N]; BATCH];
+            let mut damp: [Option<[[DMat3; N]; N]>; BATCH] = [None; BATCH];
+            let mut selected = [false; BATCH];
+            for (l, k) in (start..end).enumerate() {
+                let c = &self.constraints[k];
+                xs[l] = Self::gather(c, x);
+                let parts = energy::implicit_parts(c, self.softness[k], &xs[l], h, mode);
+                stiff[l] = parts.stiffness;
+                selected[l] = parts.project;
+                damp[l] = parts.damping;
+            }
+            if selected.iter().any(|&s| s) {
+                project_batch(&mut stiff[..end - start], &xs[..end - start], &selected);
+            }
+            for (l, k) in (start..end).enumerate() {
+                let idx = self.constraints[k].stencil();
+                let slots = &self.slots[k];
+                let blocks = &mut stiff[l];
+                if let Some(d) = &damp[l] {
+                    for i in 0..N {
+                        for j in 0..N {
+                            blocks[i][j] += d[i][j];
+                        }
+                    }
                 }
-                for j in 0..N {
-                    if !pinned[idx[j]] {
-                        a.values[slots[i][j] as usize] += blocks[i][j];
+                for i in 0..N {
+                    if pinned[idx[i]] {
+                        continue;
+                    }
+                    for j in 0..N {
+                        if !pinned[idx[j]] {
+                            a.values[slots[i][j] as usize] += blocks[i][j];
+                        }
                     }
                 }
             }
+            start = end;
         }
     }
 }
