@@ -45,6 +45,13 @@ pub enum SoftError {
     },
     /// The time step was not positive and finite.
     InvalidTimeStep,
+    /// A scene parameter was out of range (named, with the rule it broke).
+    InvalidParameter {
+        /// The parameter.
+        name: &'static str,
+        /// What it must satisfy.
+        rule: &'static str,
+    },
     /// Position and mass arrays differ in length.
     LengthMismatch,
     /// The implicit system matrix was found indefinite by conjugate gradients
@@ -90,6 +97,7 @@ impl fmt::Display for SoftError {
                 "set '{set}': infinite stiffness; use a hard (Lagrange) constraint instead"
             ),
             Self::InvalidTimeStep => f.write_str("time step must be positive and finite"),
+            Self::InvalidParameter { name, rule } => write!(f, "parameter {name}: {rule}"),
             Self::LengthMismatch => f.write_str("positions and masses differ in length"),
             Self::Indefinite { iteration } => write!(
                 f,

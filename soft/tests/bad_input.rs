@@ -119,24 +119,52 @@ fn time_steps_are_checked() {
 
 #[test]
 fn scenes_reject_bad_parameters() {
-    assert!(Cloth {
-        n: 1,
-        ..Cloth::default()
-    }
-    .build()
-    .is_err());
-    assert!(Cloth {
-        size: 0.0,
-        ..Cloth::default()
-    }
-    .build()
-    .is_err());
-    assert!(Cloth {
-        size: f64::NAN,
-        ..Cloth::default()
-    }
-    .build()
-    .is_err());
+    let bad = |e: Result<SoftSystem, SoftError>, name: &str| {
+        assert!(
+            matches!(e, Err(SoftError::InvalidParameter { name: n, .. }) if n == name),
+            "{name}"
+        )
+    };
+    bad(
+        Cloth {
+            n: 1,
+            ..Cloth::default()
+        }
+        .build(),
+        "n",
+    );
+    bad(
+        Cloth {
+            size: 0.0,
+            ..Cloth::default()
+        }
+        .build(),
+        "size",
+    );
+    bad(
+        Cloth {
+            size: f64::NAN,
+            ..Cloth::default()
+        }
+        .build(),
+        "size",
+    );
+    bad(
+        Jelly {
+            cells: [0, 1, 1],
+            ..Jelly::default()
+        }
+        .build(),
+        "cells",
+    );
+    bad(
+        Jelly {
+            cell: -0.1,
+            ..Jelly::default()
+        }
+        .build(),
+        "cell",
+    );
     assert_eq!(
         Cloth {
             mass: -1.0,
@@ -146,18 +174,6 @@ fn scenes_reject_bad_parameters() {
         .unwrap_err(),
         SoftError::InvalidMass { particle: 0 }
     );
-    assert!(Jelly {
-        cells: [0, 1, 1],
-        ..Jelly::default()
-    }
-    .build()
-    .is_err());
-    assert!(Jelly {
-        cell: -0.1,
-        ..Jelly::default()
-    }
-    .build()
-    .is_err());
     assert_eq!(
         Jelly {
             volume: Softness::stiff(f64::INFINITY),

@@ -69,15 +69,21 @@ impl Cloth {
     /// Builds the system.
     ///
     /// # Errors
-    /// [`SoftError::LengthMismatch`] for `n < 2`, `InvalidMass` for a bad mass,
-    /// `NonFiniteState` for a non-finite or non-positive size, softness errors.
+    /// [`SoftError::InvalidParameter`] for `n < 2` or a size that is not positive and
+    /// finite, `InvalidMass` for a bad mass, softness errors.
     pub fn build(&self) -> Result<SoftSystem, SoftError> {
         let n = self.n;
         if n < 2 {
-            return Err(SoftError::LengthMismatch);
+            return Err(SoftError::InvalidParameter {
+                name: "n",
+                rule: "at least 2 particles per side",
+            });
         }
         if !(self.size > 0.0 && self.size.is_finite()) {
-            return Err(SoftError::NonFiniteState { particle: 0 });
+            return Err(SoftError::InvalidParameter {
+                name: "size",
+                rule: "positive and finite",
+            });
         }
         let dx = self.size / (n - 1) as f64;
         let x: Vec<DVec3> = (0..n * n)

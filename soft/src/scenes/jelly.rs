@@ -61,15 +61,21 @@ impl Jelly {
     /// Builds the system.
     ///
     /// # Errors
-    /// `LengthMismatch` for a zero cell count, `NonFiniteState` for a bad cell size,
-    /// `InvalidMass`, softness errors.
+    /// `InvalidParameter` for a zero cell count or a cell size that is not positive and
+    /// finite, `InvalidMass`, softness errors.
     pub fn build(&self) -> Result<SoftSystem, SoftError> {
         let [cx, cy, cz] = self.cells;
         if cx == 0 || cy == 0 || cz == 0 {
-            return Err(SoftError::LengthMismatch);
+            return Err(SoftError::InvalidParameter {
+                name: "cells",
+                rule: "at least one cell along each axis",
+            });
         }
         if !(self.cell > 0.0 && self.cell.is_finite()) {
-            return Err(SoftError::NonFiniteState { particle: 0 });
+            return Err(SoftError::InvalidParameter {
+                name: "cell",
+                rule: "positive and finite",
+            });
         }
         let (nx, ny, nz) = (cx + 1, cy + 1, cz + 1);
         let id = |i: usize, j: usize, k: usize| (k * ny + j) * nx + i;
