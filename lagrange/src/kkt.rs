@@ -122,7 +122,9 @@ pub enum KktSolver {
     /// Dense Cholesky of the Schur complement, falling back to the SVD when the
     /// complement is singular (redundant constraints). Needs a diagonal `A`.
     DenseSchur,
-    /// Sparse Cholesky (faer) of the Schur complement. Needs a diagonal `A`.
+    /// Sparse Cholesky (faer) of the Schur complement, falling back to the dense SVD
+    /// when it is singular and has at most [`SPARSE_SVD_FALLBACK_ROWS`] rows. Needs a
+    /// diagonal `A`.
     #[cfg(feature = "sparse")]
     SparseSchur,
     /// MINRES on the whole KKT matrix.
@@ -326,6 +328,11 @@ impl LinearOperator for KktOperator<'_, '_> {
     }
 }
 
+/// Largest number of rows for which a failed sparse Cholesky (a singular Schur
+/// complement: redundant constraints) falls back to the dense minimum-norm SVD solve;
+/// above it the failure is returned as [`KktError::Factorization`].
+pub const SPARSE_SVD_FALLBACK_ROWS: usize = 2000;
+
 /// Reusable scratch for [`solve_kkt`]: the sparse analysis (kept while the row
 /// structure is unchanged) and work vectors.
 #[derive(Debug, Default)]
@@ -409,7 +416,19 @@ pub fn solve_kkt(
             if !diagonal {
                 return Err(KktError::NeedsDiagonalMass);
             }
-            ws.sparse.solve(problem, w, lambda)?;
+            match ws.sparse.solve(problem, w, lambda) {
+                Ok(()) => {}
+                // Singular complement (redundant hard constraints): minimum-norm
+                // multipliers from the dense SVD while the system is small enough.
+                Err(KktError::Factorization) if m <= SPARSE_SVD_FALLBACK_ROWS => {
+                    let (s, rhs) = problem.dense_schur(w);
+                    let tol = solve::SvdSolver::default_tolerance(m, m).max(1e-12);
+                    let r = solve::svd::min_norm_solve(&s, &rhs, tol)?;
+                    stats.rank = r.rank;
+                    lambda.copy_from_slice(&r.x);
+                }
+                Err(e) => return Err(e),
+            }
             problem.back_substitute(w, lambda, x);
         }
         KktSolver::Minres(settings) | KktSolver::Gmres { settings, .. } => {

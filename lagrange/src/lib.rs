@@ -47,6 +47,7 @@ pub mod sparse;
 mod step;
 #[cfg(feature = "std")]
 pub mod velocity;
+pub mod volume_ring;
 
 #[cfg(feature = "std")]
 pub use acceleration::{AccelerationLevel, Baumgarte};
@@ -59,3 +60,4 @@ pub use rows::ConstraintRows;
 pub use set::{Constraints, HardSet, RestScale, RowSet, SetError};
 #[cfg(feature = "std")]
 pub use velocity::{BaseStep, VelocityLevel};
+pub use volume_ring::OneRingVolumes;

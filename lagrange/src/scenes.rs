@@ -1,6 +1,7 @@
 //! Scenes with hard constraints: a particle pendulum / chain and an inextensible cloth.
 
 use crate::set::{Constraints, HardSet};
+use crate::volume_ring::OneRingVolumes;
 use constraint_core::{DVec3, Dihedral, Distance};
 use constraint_soft::{Cloth, ConstraintSet, SoftError, SoftSystem, Softness};
 
@@ -175,4 +176,32 @@ pub fn add_bending(sys: &mut SoftSystem, n: usize, k_bend: f64) -> Result<(), So
         hinges,
         Softness::stiff(k_bend),
     )?)
+}
+
+/// The soft crate's default jelly block (3×3×3 cells of 10 cm, 1 kg, top layer pinned)
+/// with edge springs of stiffness `k_spring` (N/m; soft ones give large deformation) and
+/// its volume enforced hard per node (one-ring volumes, Irving et al. 2007) instead of
+/// by soft per-tetrahedron volume springs.
+///
+/// # Errors
+/// Soft or constraint errors for bad parameters.
+pub fn hard_volume_jelly(
+    k_spring: f64,
+) -> Result<(SoftSystem, Constraints, OneRingVolumes), SoftError> {
+    let jelly = constraint_soft::Jelly {
+        spring: Softness::stiff(k_spring),
+        volume: Softness::stiff(0.0),
+        ..constraint_soft::Jelly::default()
+    };
+    let (x, tets) = jelly.mesh()?;
+    let sys = jelly.build()?;
+    let rings =
+        OneRingVolumes::new(&tets, &x, sys.pinned()).map_err(|error| SoftError::Constraint {
+            set: "one-ring volumes",
+            index: 0,
+            error,
+        })?;
+    let mut cons = Constraints::new();
+    cons.add_rows(Box::new(rings.clone()));
+    Ok((sys, cons, rings))
 }

@@ -216,6 +216,12 @@ impl Constraints {
         self.sets.push(Box::new(set));
     }
 
+    /// Adds a set of any kind (for example
+    /// [`OneRingVolumes`](crate::volume_ring::OneRingVolumes)).
+    pub fn add_rows(&mut self, set: Box<dyn RowSet>) {
+        self.sets.push(set);
+    }
+
     /// The sets.
     pub fn sets(&self) -> impl Iterator<Item = &dyn RowSet> {
         self.sets.iter().map(|s| s.as_ref())

@@ -221,3 +221,87 @@ pub fn series_names(pts: &[StrainPoint]) -> Vec<String> {
     }
     names
 }
+
+/// One row of the hard-versus-soft volume comparison on the jelly.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JellyVolumeRow {
+    /// What enforces volume.
+    pub method: String,
+    /// Max over time of the worst one-ring relative volume error; `None` if it failed.
+    pub ring_error: Option<f64>,
+    /// Max over time of how far the lowest node moved down (m).
+    pub sag: f64,
+    /// Wall-clock milliseconds per step.
+    pub ms_per_step: f64,
+}
+
+/// The jelly with soft 100 N/m edge springs hanging for `secs` at `h = 1/60`: volume
+/// enforced hard per node (fast projection, tolerance 1e-7) or by soft
+/// per-tetrahedron volume springs of each stiffness in `ks`. Errors are measured on
+/// the same one-ring volumes for both.
+pub fn jelly_hard_vs_soft(secs: f64, ks: &[f64]) -> Vec<JellyVolumeRow> {
+    use constraint_lagrange::scenes::hard_volume_jelly;
+    let h = 1.0 / 60.0;
+    let steps = (secs / h).round() as usize;
+    let mut out = Vec::new();
+    let lowest =
+        |x: &[constraint_core::DVec3]| -x.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+    let hard = || -> Result<JellyVolumeRow, LagrangeError> {
+        let (mut sys, cons, rings) = hard_volume_jelly(100.0)?;
+        let mut step = ProjectedStep::new(
+            ImplicitEuler::new(h, HessianMode::Projected, LinearSolver::SparseLdlt)?,
+            FastProjection::new(1e-7, 30, KktSolver::SparseSchur)?,
+        );
+        let (mut e, mut sag) = (0.0f64, 0.0f64);
+        let t0 = Instant::now();
+        for _ in 0..steps {
+            step.step(&mut sys, &cons)?;
+            e = e.max(rings.max_relative_error(&sys.x));
+            sag = sag.max(lowest(&sys.x));
+        }
+        Ok(JellyVolumeRow {
+            method: "hard one-ring volumes (fast projection, tol 1e-7)".into(),
+            ring_error: Some(e),
+            sag,
+            ms_per_step: t0.elapsed().as_secs_f64() * 1e3 / steps as f64,
+        })
+    };
+    out.push(hard().unwrap_or(JellyVolumeRow {
+        method: "hard one-ring volumes".into(),
+        ring_error: None,
+        sag: f64::NAN,
+        ms_per_step: f64::NAN,
+    }));
+    for &k in ks {
+        let soft = || -> Result<JellyVolumeRow, LagrangeError> {
+            let (_, _, rings) = hard_volume_jelly(100.0)?;
+            let mut sys = constraint_soft::Jelly {
+                spring: Softness::stiff(100.0),
+                volume: Softness::stiff(k),
+                ..constraint_soft::Jelly::default()
+            }
+            .build()?;
+            let mut step = ImplicitEuler::new(h, HessianMode::Projected, LinearSolver::SparseLdlt)?;
+            let (mut e, mut sag) = (0.0f64, 0.0f64);
+            let t0 = Instant::now();
+            for _ in 0..steps {
+                step.step(&mut sys)?;
+                e = e.max(rings.max_relative_error(&sys.x));
+                sag = sag.max(lowest(&sys.x));
+            }
+            Ok(JellyVolumeRow {
+                method: format!("soft tetrahedron volumes, k = {k:.0e} J/m⁶"),
+                ring_error: Some(e),
+                sag,
+                ms_per_step: t0.elapsed().as_secs_f64() * 1e3 / steps as f64,
+            })
+        };
+        out.push(soft().unwrap_or(JellyVolumeRow {
+            method: format!("soft tetrahedron volumes, k = {k:.0e} J/m⁶"),
+            ring_error: None,
+            sag: f64::NAN,
+            ms_per_step: f64::NAN,
+        }));
+    }
+    out
+}

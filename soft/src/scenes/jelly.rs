@@ -58,12 +58,12 @@ impl Default for Jelly {
 }
 
 impl Jelly {
-    /// Builds the system.
+    /// The rest positions and the tetrahedra (positively oriented) of the block.
     ///
     /// # Errors
     /// `InvalidParameter` for a zero cell count or a cell size that is not positive and
-    /// finite, `InvalidMass`, softness errors.
-    pub fn build(&self) -> Result<SoftSystem, SoftError> {
+    /// finite.
+    pub fn mesh(&self) -> Result<(Vec<DVec3>, Vec<[usize; 4]>), SoftError> {
         let [cx, cy, cz] = self.cells;
         if cx == 0 || cy == 0 || cz == 0 {
             return Err(SoftError::InvalidParameter {
@@ -104,6 +104,19 @@ impl Jelly {
                 }
             }
         }
+        Ok((x, tets))
+    }
+
+    /// Builds the system.
+    ///
+    /// # Errors
+    /// `InvalidParameter` for a zero cell count or a cell size that is not positive and
+    /// finite, `InvalidMass`, softness errors.
+    pub fn build(&self) -> Result<SoftSystem, SoftError> {
+        let (x, tets) = self.mesh()?;
+        let (nx, ny) = (self.cells[0] + 1, self.cells[1] + 1);
+        let cz = self.cells[2];
+        let id = |i: usize, j: usize, k: usize| (k * ny + j) * nx + i;
         let mut edges = Vec::new();
         for t in &tets {
             for a in 0..4 {
@@ -137,7 +150,12 @@ impl Jelly {
         let n = x.len();
         let mut sys = SoftSystem::new(x, vec![self.mass / n as f64; n])?;
         sys.add_set(ConstraintSet::uniform("springs", springs, self.spring)?)?;
-        sys.add_set(ConstraintSet::uniform("volumes", volumes, self.volume)?)?;
+        if self.volume.stiffness > 0.0 || self.volume.damping > 0.0 {
+            sys.add_set(ConstraintSet::uniform("volumes", volumes, self.volume)?)?;
+        } else {
+            // Still validate the softness (NaN, negative) as the set would.
+            ConstraintSet::uniform("volumes", Vec::<Volume>::new(), self.volume)?;
+        }
         if self.pins == JellyPins::TopLayer {
             for j in 0..ny {
                 for i in 0..nx {
