@@ -451,3 +451,22 @@ fn hard_one_ring_volumes_hold_to_one_part_per_million() {
     // 1.2e-2 m over 1 s).
     assert!(sag > 1e-3, "{sag}");
 }
+
+#[test]
+fn cloth_hinges_cover_every_interior_edge_once() {
+    use constraint_lagrange::scenes::{add_bending, cloth_hinges};
+    for n in [2usize, 3, 5, 8] {
+        let hinges = cloth_hinges(n);
+        // A triangulated n×n grid has 3(n−1)² + 2(n−1) edges, 4(n−1) on the boundary.
+        assert_eq!(hinges.len(), 3 * (n - 1) * (n - 1) - 2 * (n - 1), "n = {n}");
+        let mut edges: Vec<(usize, usize)> = hinges
+            .iter()
+            .map(|h| (h[0].min(h[1]), h[0].max(h[1])))
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        assert_eq!(edges.len(), hinges.len(), "an edge hinged twice (n = {n})");
+        let (mut sys, _) = inextensible_cloth(n, 1.0).expect("scene");
+        add_bending(&mut sys, n, 1e-2).expect("flat hinges are valid");
+    }
+}
