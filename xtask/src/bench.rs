@@ -1,8 +1,11 @@
 //! `cargo xtask bench`: the criterion benchmarks.
 //!
 //! Runs `cargo bench -p constraint-soft --bench cloth_step` (time per implicit cloth step
-//! for N = 32, 64, 128: assembly, step with sparse LDLᵀ, step with CG) and prints the
-//! growth exponent of each series, fitted on log time against log N.
+//! for N = 32, 64, 128: assembly, step with sparse LDLᵀ, step with CG) and
+//! `cargo bench -p constraint-lagrange --bench kkt_solvers` (one KKT solve of the
+//! inextensible cloth per solver), then prints tables with the growth exponent of each
+//! series, fitted on log time against log N. Peer engines (MuJoCo, rapier) join in a
+//! later issue.
 
 use crate::run::{cargo, root};
 
@@ -44,33 +47,18 @@ fn slope(pts: &[(f64, f64)]) -> Option<f64> {
     Some(num / den)
 }
 
-pub fn main(args: &[String]) -> Result<(), String> {
-    let ok = cargo()
-        .args([
-            "bench",
-            "-p",
-            "constraint-soft",
-            "--bench",
-            "cloth_step",
-            "--",
-        ])
-        .args(args)
-        .status()
-        .map(|s| s.success())
-        .unwrap_or(false);
-    if !ok {
-        return Err("cargo bench failed".into());
-    }
-    println!("\n| series | N=32 | N=64 | N=128 | exponent in N |");
+fn table(group: &str, names: &[&str]) {
+    println!("\n{group}: median time per call\n");
+    println!("| series | N=32 | N=64 | N=128 | exponent in N |");
     println!("|---|---|---|---|---|");
-    for name in ["assemble", "step_ldlt", "step_cg"] {
+    for name in names {
         let mut pts = Vec::new();
         let mut cells = Vec::new();
         for n in [32usize, 64, 128] {
-            match estimate("cloth_implicit", name, n) {
+            match estimate(group, name, n) {
                 Some(t) => {
                     pts.push((n as f64, t));
-                    cells.push(format!("{:.2} ms", t * 1e3));
+                    cells.push(format!("{:.3} ms", t * 1e3));
                 }
                 None => cells.push("–".into()),
             }
@@ -78,5 +66,27 @@ pub fn main(args: &[String]) -> Result<(), String> {
         let e = slope(&pts).map_or("–".into(), |s| format!("{s:.2}"));
         println!("| {name} | {} | {e} |", cells.join(" | "));
     }
+}
+
+pub fn main(args: &[String]) -> Result<(), String> {
+    for (krate, bench) in [
+        ("constraint-soft", "cloth_step"),
+        ("constraint-lagrange", "kkt_solvers"),
+    ] {
+        let ok = cargo()
+            .args(["bench", "-p", krate, "--bench", bench, "--"])
+            .args(args)
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false);
+        if !ok {
+            return Err(format!("cargo bench -p {krate} --bench {bench} failed"));
+        }
+    }
+    table("cloth_implicit", &["assemble", "step_ldlt", "step_cg"]);
+    table(
+        "cloth_kkt",
+        &["sparse_schur", "minres", "gmres", "dense_schur"],
+    );
     Ok(())
 }

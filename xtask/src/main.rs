@@ -21,7 +21,7 @@ const USAGE: &str = "usage: cargo xtask <command>
 commands:
   verify [--quick]   checks, tests, no_std build and sweeps; writes target/verify/report.md
   no-std             build constraint-core and constraint-lagrange for thumbv7em-none-eabihf without std
-  bench              criterion benchmarks (time per implicit cloth step, N = 32, 64, 128)";
+  bench              criterion benchmarks: implicit cloth step and KKT solvers, N = 32, 64, 128";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
