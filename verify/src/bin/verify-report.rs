@@ -169,7 +169,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let _ = writeln!(md, "![cloth work-precision](cloth_work_precision.svg)\n");
     let _ = writeln!(
         md,
-        "{note} Run time: wall clock, best of {} run(s), one thread.\n",
+        "{note} Run time: wall clock, best of {} run(s), one thread. The implicit errors level off near \
+         4e-2 m at small steps: implicit Euler damps the cloth's stiff vibration modes (ω ≈ 700 rad/s), \
+         which the symplectic reference keeps; the plateau ends only when hω√(ωT) ≪ 1.\n",
         p.repeats
     );
     let _ = writeln!(
@@ -183,13 +185,16 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             || format!("failed: {}", q.failure.clone().unwrap_or_default()),
             |e| format!("{e:.3e}"),
         );
+        let cost = if q.error.is_some() {
+            format!("{:.3e}", q.cost)
+        } else {
+            "–".into()
+        };
         let _ = writeln!(
             md,
-            "| {} | {:.3e} | {:.3e} | {} |",
+            "| {} | {:.3e} | {cost} | {err} |",
             q.method.label(),
-            q.h,
-            q.cost,
-            err
+            q.h
         );
         let _ = writeln!(
             csv,
