@@ -119,6 +119,10 @@ pub struct KktProblem<'a> {
 /// Which solver to use.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum KktSolver {
+    /// Chosen by size and structure: with a diagonal `A`, the dense Schur complement up
+    /// to [`AUTO_DENSE_ROWS`] rows and the sparse one above (MINRES without the
+    /// `sparse` feature); with a block `A`, MINRES. [`KktStats::chosen`] says which.
+    Auto,
     /// Dense Cholesky of the Schur complement, falling back to the SVD when the
     /// complement is singular (redundant constraints). Needs a diagonal `A`.
     DenseSchur,
@@ -149,9 +153,14 @@ pub enum KktSolver {
     },
 }
 
+/// Largest number of rows [`KktSolver::Auto`] hands to the dense Schur solve.
+pub const AUTO_DENSE_ROWS: usize = 300;
+
 /// What a KKT solve did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct KktStats {
+    /// The solver actually used (differs from the request for [`KktSolver::Auto`]).
+    pub chosen: Option<KktSolver>,
     /// Iterations (1 for direct solves).
     pub iterations: usize,
     /// Relative residual of the whole KKT system.
@@ -374,7 +383,15 @@ pub fn solve_kkt(
     }
     let w = &mut ws.w;
     let diagonal = problem.mass.inverse_diagonal(w);
+    let solver = match solver {
+        KktSolver::Auto if diagonal && m <= AUTO_DENSE_ROWS => KktSolver::DenseSchur,
+        #[cfg(feature = "sparse")]
+        KktSolver::Auto if diagonal => KktSolver::SparseSchur,
+        KktSolver::Auto => KktSolver::Minres(IterSettings::default()),
+        s => s,
+    };
     let mut stats = KktStats {
+        chosen: Some(solver),
         iterations: 1,
         converged: true,
         rank: m,
@@ -431,7 +448,12 @@ pub fn solve_kkt(
             }
             problem.back_substitute(w, lambda, x);
         }
-        KktSolver::Minres(settings) | KktSolver::Gmres { settings, .. } => {
+        // Resolved above; treated as MINRES should it ever reach here.
+        KktSolver::Auto | KktSolver::Minres(_) | KktSolver::Gmres { .. } => {
+            let settings = match solver {
+                KktSolver::Minres(s) | KktSolver::Gmres { settings: s, .. } => s,
+                _ => IterSettings::default(),
+            };
             let op = KktOperator { p: problem, n };
             let mut rhs = alloc::vec![0.0; 3 * n + m];
             for i in 0..n {

@@ -470,3 +470,25 @@ fn cloth_hinges_cover_every_interior_edge_once() {
         add_bending(&mut sys, n, 1e-2).expect("flat hinges are valid");
     }
 }
+
+#[test]
+fn auto_solver_picks_by_size_and_structure() {
+    let h = 1e-2;
+    let mut small = VelocityLevel::new(h, BaseStep::Explicit, KktSolver::Auto).expect("h");
+    let (mut sys, cons) = chain(5, 0.1, 0.1, 0.3).expect("scene");
+    let st = small.step(&mut sys, &cons).expect("step");
+    assert_eq!(st.chosen, Some(KktSolver::DenseSchur));
+    let (mut sys, cons) = inextensible_cloth(16, 1.0).expect("scene");
+    let mut big = VelocityLevel::new(h, BaseStep::Explicit, KktSolver::Auto).expect("h");
+    let st = big.step(&mut sys, &cons).expect("step");
+    assert!(cons.rows() > constraint_lagrange::kkt::AUTO_DENSE_ROWS);
+    assert_eq!(st.chosen, Some(KktSolver::SparseSchur));
+    let (mut sys, cons) = chain(3, 0.1, 0.1, 0.3).expect("scene");
+    let imp = ImplicitEuler::new(h, HessianMode::Projected, LinearSolver::SparseLdlt).expect("h");
+    let mut block =
+        VelocityLevel::new(h, BaseStep::Implicit(Box::new(imp)), KktSolver::Auto).expect("h");
+    let st = block.step(&mut sys, &cons).expect("step");
+    assert!(matches!(st.chosen, Some(KktSolver::Minres(_))));
+    // MINRES default tolerance 1e-10 (its converged flag means residual ≤ 1e-10); gate 1e-8
+    assert!(st.converged && st.residual < 1e-8, "{st:?}");
+}
