@@ -61,7 +61,7 @@ impl FastProjection {
     /// A projection to `tolerance` in at most `max_iterations` iterations.
     ///
     /// # Errors
-    /// `InvalidParameter` unless `tolerance > 0` and finite.
+    /// `InvalidParameter` unless `tolerance > 0` and finite and `max_iterations ≥ 1`.
     pub fn new(
         tolerance: f64,
         max_iterations: usize,
@@ -69,6 +69,9 @@ impl FastProjection {
     ) -> Result<Self, LagrangeError> {
         if !(tolerance > 0.0 && tolerance.is_finite()) {
             return Err(LagrangeError::InvalidParameter("tolerance"));
+        }
+        if max_iterations == 0 {
+            return Err(LagrangeError::InvalidParameter("max_iterations"));
         }
         Ok(Self {
             tolerance,
@@ -140,7 +143,7 @@ impl FastProjection {
                 c: &self.c,
             };
             let k = solve_kkt(&p, self.solver, &mut self.ws, &mut self.dx, &mut self.mu)?;
-            st.worst_residual = st.worst_residual.max(k.residual);
+            st.worst_residual = crate::rows::nan_max(st.worst_residual, k.residual);
             for (xi, d) in x.iter_mut().zip(&self.dx) {
                 *xi += *d;
             }

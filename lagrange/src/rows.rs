@@ -146,9 +146,20 @@ impl ConstraintRows {
         })
     }
 
-    /// Largest `|C_r|`.
+    /// Largest `|C_r|` (NaN if any value is NaN).
     pub fn max_violation(&self) -> f64 {
-        self.value.iter().fold(0.0, |m: f64, v| m.max(v.abs()))
+        self.value.iter().fold(0.0, |m, v| nan_max(m, v.abs()))
+    }
+}
+
+/// `max(a, b)` that propagates NaN (`f64::max` drops it, which would let a NaN state
+/// pass as satisfied).
+#[inline]
+pub fn nan_max(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
     }
 }
 

@@ -90,6 +90,12 @@ pub fn tilted_inextensible_cloth(
 /// # Errors
 /// Constraint errors for coincident rest points.
 pub fn structural_links(n: usize, x: &[DVec3]) -> Result<Vec<Distance>, SoftError> {
+    if n < 2 || x.len() < n * n {
+        return Err(SoftError::InvalidParameter {
+            name: "n",
+            rule: "at least 2, with n² positions",
+        });
+    }
     let mut d = Vec::with_capacity(2 * n * (n - 1));
     for r in 0..n {
         for c in 0..n {

@@ -15,6 +15,7 @@ pub(crate) fn check_h(h: f64) -> Result<f64, LagrangeError> {
 }
 
 pub(crate) fn check_indices(sys: &SoftSystem, cons: &Constraints) -> Result<(), LagrangeError> {
+    sys.check_lengths()?;
     let needed = cons.max_index();
     if needed > sys.len() {
         return Err(LagrangeError::IndexOutOfBounds {
@@ -37,7 +38,7 @@ pub(crate) fn max_relative(rows: &ConstraintRows, scales: &[f64]) -> f64 {
         .iter()
         .zip(scales)
         .map(|(c, s)| (c / s).abs())
-        .fold(0.0, f64::max)
+        .fold(0.0, crate::rows::nan_max)
 }
 
 /// Writes `(x_new, v_new)` into `sys` if every value is finite and bounded by 1e12.

@@ -108,7 +108,7 @@ impl OneRingVolumes {
                     .sum();
                 ((v - r.rest) / r.rest).abs()
             })
-            .fold(0.0, f64::max)
+            .fold(0.0, crate::rows::nan_max)
     }
 }
 

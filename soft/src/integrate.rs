@@ -90,6 +90,7 @@ impl Integrator for SymplecticEuler {
     }
 
     fn step(&mut self, sys: &mut SoftSystem) -> Result<SolveStats, SoftError> {
+        sys.check_lengths()?;
         let n = sys.len();
         self.f.resize(n, DVec3::ZERO);
         sys.forces(true, &mut self.f);
@@ -218,6 +219,7 @@ impl ImplicitEuler {
 
     /// Assembles `A = M − h∂F/∂v − h²∂F/∂x` and `b = M v + h F_nd` for the current state.
     pub fn assemble(&mut self, sys: &mut SoftSystem) -> Result<(), SoftError> {
+        sys.check_lengths()?;
         if self.topology != Some(sys.topology) {
             self.rebuild(sys)?;
         }

@@ -174,7 +174,13 @@ where
         self.constraints
             .iter()
             .flat_map(|c| c.value(&Self::gather(c, x)))
-            .fold(0.0, |m: f64, v| m.max(v.abs()))
+            .fold(0.0, |m: f64, v| {
+                if m.is_nan() || v.is_nan() {
+                    f64::NAN
+                } else {
+                    m.max(v.abs())
+                }
+            })
     }
 
     fn add_forces(&self, x: &[DVec3], v: Option<&[DVec3]>, f: &mut [DVec3]) {

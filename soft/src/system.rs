@@ -189,12 +189,28 @@ impl SoftSystem {
             .sum()
     }
 
-    /// Largest `|C|` over all sets.
+    /// Largest `|C|` over all sets (NaN if any value is NaN).
     pub fn max_violation(&self) -> f64 {
         self.sets
             .iter()
             .map(|s| s.max_violation(&self.x))
-            .fold(0.0, f64::max)
+            .fold(0.0, |m: f64, v| {
+                if m.is_nan() || v.is_nan() {
+                    f64::NAN
+                } else {
+                    m.max(v)
+                }
+            })
+    }
+
+    /// `Err(LengthMismatch)` when the public `x` or `v` was resized away from the
+    /// particle count (every stepping entry point checks this first).
+    pub fn check_lengths(&self) -> Result<(), SoftError> {
+        let n = self.mass.len();
+        if self.x.len() != n || self.v.len() != n {
+            return Err(SoftError::LengthMismatch);
+        }
+        Ok(())
     }
 
     /// Checks a candidate state; returns the first bad particle. "Bad" means non-finite

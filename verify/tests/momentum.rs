@@ -68,11 +68,12 @@ fn cloth_momentum() {
             // measured 4.6e-15, 3.5e-2 (angular drift reported, not conserved)
             (5e-14, 0.1),
             // measured 9.6e-9, 3.4e1: the exact, indefinite Hessian makes this step
-            // unstable on the cloth (|b| grows to 3e7; see the stability map); linear
+            // unstable on the cloth (|b| grows to 3e7; see the stability map). Linear
             // momentum then holds only to the accuracy of LDLᵀ on a growing, badly
-            // conditioned system (1.2e-4 with the nested-dissection ordering), so this
-            // gate is a loose sanity bound and angular momentum is not bounded
-            (1e-3, f64::INFINITY),
+            // conditioned system, which depends on rounding (1.2e-4 when the ordering
+            // was forced to nested dissection); angular momentum is deliberately not
+            // gated here — the divergence itself is what the stability map reports
+            (1e-7, f64::INFINITY),
             // measured 2.7e-13, 1.7e-13: Gauss–Newton keeps only ∇C∇Cᵀ, whose rows exert
             // no torque, so this step conserves angular momentum too
             (3e-12, 2e-12),
