@@ -306,10 +306,12 @@ fn libm_sqrt(x: f64) -> f64 {
     <f64 as nalgebra::ComplexField>::sqrt(x)
 }
 
-/// The whole KKT matrix as a flat operator on `[x (3n); λ (m)]`.
+/// The whole KKT matrix as a flat operator on `[x (3n); λ (m)]`. The two point-sized
+/// scratch vectors are allocated once per solve, not per product.
 struct KktOperator<'a, 'b> {
     p: &'b KktProblem<'a>,
     n: usize,
+    scratch: core::cell::RefCell<(Vec<DVec3>, Vec<DVec3>)>,
 }
 
 impl LinearOperator for KktOperator<'_, '_> {
@@ -319,18 +321,19 @@ impl LinearOperator for KktOperator<'_, '_> {
 
     fn apply(&self, z: &[f64], y: &mut [f64]) {
         let n = self.n;
-        let x: Vec<DVec3> = (0..n)
-            .map(|i| DVec3::from_slice(&z[3 * i..3 * i + 3]))
-            .collect();
+        let mut scratch = self.scratch.borrow_mut();
+        let (x, ax) = &mut *scratch;
+        for (i, xi) in x.iter_mut().enumerate() {
+            *xi = DVec3::from_slice(&z[3 * i..3 * i + 3]);
+        }
         let lambda = &z[3 * n..];
-        let mut ax = alloc::vec![DVec3::ZERO; n];
-        self.p.mass.apply(&x, &mut ax);
-        self.p.rows.mul_transpose_add(lambda, &mut ax);
+        self.p.mass.apply(x, ax);
+        self.p.rows.mul_transpose_add(lambda, ax);
         for i in 0..n {
             y[3 * i..3 * i + 3].copy_from_slice(&ax[i].to_array());
         }
         let (_, yl) = y.split_at_mut(3 * n);
-        self.p.rows.mul(&x, yl);
+        self.p.rows.mul(x, yl);
         for (k, yk) in yl.iter_mut().enumerate() {
             *yk -= self.p.compliance[k] * lambda[k];
         }
@@ -343,7 +346,9 @@ impl LinearOperator for KktOperator<'_, '_> {
 pub const SPARSE_SVD_FALLBACK_ROWS: usize = 2000;
 
 /// Reusable scratch for [`solve_kkt`]: the sparse analysis (kept while the row
-/// structure is unchanged) and work vectors.
+/// structure is unchanged) and the MINRES/GMRES work vectors. (The Schur right-hand
+/// side, the dense complement and the residual check still allocate once per call —
+/// per step or projection iteration, never per inner iteration.)
 #[derive(Debug, Default)]
 pub struct KktWorkspace {
     #[cfg(feature = "sparse")]
@@ -454,7 +459,14 @@ pub fn solve_kkt(
                 KktSolver::Minres(s) | KktSolver::Gmres { settings: s, .. } => s,
                 _ => IterSettings::default(),
             };
-            let op = KktOperator { p: problem, n };
+            let op = KktOperator {
+                p: problem,
+                n,
+                scratch: core::cell::RefCell::new((
+                    alloc::vec![DVec3::ZERO; n],
+                    alloc::vec![DVec3::ZERO; n],
+                )),
+            };
             let mut rhs = alloc::vec![0.0; 3 * n + m];
             for i in 0..n {
                 rhs[3 * i..3 * i + 3].copy_from_slice(&problem.b[i].to_array());
