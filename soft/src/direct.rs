@@ -32,8 +32,8 @@ use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
-    SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, SymbolicCholesky,
+    SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
@@ -67,6 +67,7 @@ pub struct SparseLdlt {
     map: Vec<(u32, u8, u8)>,
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
+    factored: bool,
     rhs: Vec<f64>,
     buf: MemBuffer,
 }
@@ -369,6 +370,7 @@ impl SparseLdlt {
             lower,
             map,
             l_values: vec![0.0; symbolic.len_val()],
+            factored: false,
             symbolic,
             rhs: vec![0.0; n],
             buf: MemBuffer::new(req),
@@ -386,13 +388,65 @@ impl SparseLdlt {
         b: &[DVec3],
         x: &mut [DVec3],
     ) -> Result<SolveStats, SoftError> {
+        self.factor(a)?;
+        self.solve_factored(b, x)?;
+        Ok(SolveStats {
+            iterations: 1,
+            residual: 0.0,
+            converged: true,
+        })
+    }
+
+    /// Factors the current values of `a` (numeric phase only; the analysis is reused).
+    ///
+    /// # Errors
+    /// [`SoftError::LengthMismatch`] if `a` does not match the analysed pattern;
+    /// [`SoftError::Factorization`] on a zero pivot (no factor is kept then).
+    pub fn factor(&mut self, a: &BlockMatrix) -> Result<(), SoftError> {
         let nb = self.n / 3;
-        if a.pattern.len() != nb || a.values.len() != self.blocks || b.len() != nb || x.len() != nb
-        {
+        if a.pattern.len() != nb || a.values.len() != self.blocks {
             return Err(SoftError::LengthMismatch);
         }
+        self.factored = false;
         for (v, &(slot, r, c)) in self.values.iter_mut().zip(&self.map) {
             *v = a.values[slot as usize].col(c as usize)[r as usize];
+        }
+        let mat = SparseColMatRef::new(self.lower.as_ref(), &self.values);
+        let stack = MemStack::new(&mut self.buf);
+        self.symbolic
+            .factorize_numeric_ldlt(
+                &mut self.l_values,
+                mat,
+                Side::Lower,
+                LdltRegularization::default(),
+                Par::Seq,
+                stack,
+                Default::default(),
+            )
+            .map_err(|_| SoftError::Factorization)?;
+        self.factored = true;
+        Ok(())
+    }
+
+    /// Whether a numeric factor is held (the last [`SparseLdlt::factor`] succeeded).
+    pub fn is_factored(&self) -> bool {
+        self.factored
+    }
+
+    /// Solves `A x = b` with the factor of the last [`SparseLdlt::factor`] call —
+    /// possibly of an older `A`, which is how the lagged solver uses it as a
+    /// preconditioner.
+    ///
+    /// # Errors
+    /// [`SoftError::LengthMismatch`] for wrong sizes, [`SoftError::Factorization`]
+    /// when no factor is held.
+    pub fn solve_factored(&mut self, b: &[DVec3], x: &mut [DVec3]) -> Result<(), SoftError> {
+        let nb = self.n / 3;
+        if b.len() != nb || x.len() != nb {
+            return Err(SoftError::LengthMismatch);
+        }
+        if !self.factored {
+            return Err(SoftError::Factorization);
         }
         match &self.forward {
             Some(forward) => {
@@ -406,20 +460,8 @@ impl SparseLdlt {
                 }
             }
         }
-        let mat = SparseColMatRef::new(self.lower.as_ref(), &self.values);
         let stack = MemStack::new(&mut self.buf);
-        let ldlt = self
-            .symbolic
-            .factorize_numeric_ldlt(
-                &mut self.l_values,
-                mat,
-                Side::Lower,
-                LdltRegularization::default(),
-                Par::Seq,
-                stack,
-                Default::default(),
-            )
-            .map_err(|_| SoftError::Factorization)?;
+        let ldlt = LdltRef::new(&self.symbolic, &self.l_values);
         let rhs = MatMut::from_column_major_slice_mut(&mut self.rhs, self.n, 1);
         ldlt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, stack);
         match &self.forward {
@@ -434,11 +476,7 @@ impl SparseLdlt {
                 }
             }
         }
-        Ok(SolveStats {
-            iterations: 1,
-            residual: 0.0,
-            converged: true,
-        })
+        Ok(())
     }
 }
 
@@ -549,5 +587,23 @@ mod tests {
             SparseLdlt::with_ordering(&a, FillReducing::NestedDissection, &sys.x[1..]).err(),
             Some(SoftError::LengthMismatch)
         );
+    }
+
+    #[test]
+    fn factor_then_solve_factored_matches_solve() {
+        let (a, sys) = cloth_matrix(6);
+        let b = rhs(sys.len());
+        let mut ldlt = SparseLdlt::new(&a).unwrap();
+        let mut x = vec![DVec3::ZERO; sys.len()];
+        assert_eq!(
+            ldlt.solve_factored(&b, &mut x),
+            Err(SoftError::Factorization)
+        );
+        assert!(!ldlt.is_factored());
+        let mut y = vec![DVec3::ZERO; sys.len()];
+        ldlt.solve(&a, &b, &mut y).unwrap();
+        ldlt.factor(&a).unwrap();
+        ldlt.solve_factored(&b, &mut x).unwrap();
+        assert_eq!(x, y, "same factor, same bits");
     }
 }
