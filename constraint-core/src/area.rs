@@ -59,7 +59,7 @@ impl Area {
     /// An area constraint whose rest area is the area of the triangle in `rest`.
     ///
     /// # Errors
-    /// `NonFinite` (also for an index out of bounds), `RepeatedIndex`, or
+    /// `NonFinite`, `IndexOutOfBounds`, `RepeatedIndex`, or
     /// `DegenerateTriangle` when the rest triangle is a sliver (see [`SLIVER_TOL`]).
     pub fn from_rest(points: [usize; 3], rest: &[DVec3]) -> Result<Self, ConstraintError> {
         distinct(&points)?;
@@ -81,7 +81,7 @@ impl Area {
 fn gather3(points: [usize; 3], rest: &[DVec3]) -> Result<[DVec3; 3], ConstraintError> {
     let mut x = [DVec3::ZERO; 3];
     for (o, &i) in x.iter_mut().zip(points.iter()) {
-        *o = *rest.get(i).ok_or(ConstraintError::NonFinite)?;
+        *o = *rest.get(i).ok_or(ConstraintError::IndexOutOfBounds)?;
     }
     if !all_finite(&x) {
         return Err(ConstraintError::NonFinite);
@@ -178,7 +178,7 @@ mod tests {
         );
         assert_eq!(
             Area::from_rest([0, 1, 7], &tri()),
-            Err(ConstraintError::NonFinite)
+            Err(ConstraintError::IndexOutOfBounds)
         );
         assert_eq!(
             Area::new([0, 1, 1], 1.0),

@@ -93,7 +93,7 @@ impl Dihedral {
     /// A dihedral constraint whose rest angle is the angle of the hinge in `rest`.
     ///
     /// # Errors
-    /// `NonFinite` (also for an index out of bounds), `RepeatedIndex`, `ZeroNormal` when
+    /// `NonFinite`, `IndexOutOfBounds`, `RepeatedIndex`, `ZeroNormal` when
     /// the rest hinge edge has (relatively) zero length, and `DegenerateTriangle` when
     /// either rest triangle is a sliver (the test of [`Area::from_rest`] with
     /// [`SLIVER_TOL`]).
@@ -103,7 +103,7 @@ impl Dihedral {
         distinct(&points)?;
         let mut x = [DVec3::ZERO; 4];
         for (o, &i) in x.iter_mut().zip(points.iter()) {
-            *o = *rest.get(i).ok_or(ConstraintError::NonFinite)?;
+            *o = *rest.get(i).ok_or(ConstraintError::IndexOutOfBounds)?;
         }
         if !all_finite(&x) {
             return Err(ConstraintError::NonFinite);
@@ -530,7 +530,7 @@ mod tests {
         );
         assert_eq!(
             Dihedral::from_rest([0, 1, 2, 4], &ok),
-            Err(ConstraintError::NonFinite)
+            Err(ConstraintError::IndexOutOfBounds)
         );
         assert_eq!(
             Dihedral::from_rest([0, 1, 2, 2], &ok),

@@ -20,6 +20,8 @@ pub enum ConstraintError {
     ZeroNormal,
     /// Two stencil entries name the same point.
     RepeatedIndex,
+    /// A stencil index is beyond the end of the rest positions given.
+    IndexOutOfBounds,
 }
 
 impl fmt::Display for ConstraintError {
@@ -32,6 +34,7 @@ impl fmt::Display for ConstraintError {
             Self::InvertedTetrahedron => "rest tetrahedron is inverted (negative volume)",
             Self::ZeroNormal => "normal or hinge edge has zero length",
             Self::RepeatedIndex => "a point appears twice in the stencil",
+            Self::IndexOutOfBounds => "a stencil index is out of bounds of the rest positions",
         };
         f.write_str(s)
     }

@@ -56,7 +56,8 @@ impl Distance {
     /// A distance constraint whose rest length is the current distance of the two points.
     ///
     /// # Errors
-    /// As [`Distance::new`]; coincident rest points give `ZeroRestLength`.
+    /// As [`Distance::new`]; coincident rest points give `ZeroRestLength`, an index
+    /// beyond `rest` gives `IndexOutOfBounds`.
     pub fn from_rest(a: usize, b: usize, rest: &[DVec3]) -> Result<Self, ConstraintError> {
         let (pa, pb) = rest_pair(a, b, rest)?;
         Self::new(a, b, (pa - pb).length())
@@ -75,7 +76,7 @@ impl Distance {
 
 fn rest_pair(a: usize, b: usize, rest: &[DVec3]) -> Result<(DVec3, DVec3), ConstraintError> {
     let (Some(&pa), Some(&pb)) = (rest.get(a), rest.get(b)) else {
-        return Err(ConstraintError::NonFinite);
+        return Err(ConstraintError::IndexOutOfBounds);
     };
     if !(pa.is_finite() && pb.is_finite()) {
         return Err(ConstraintError::NonFinite);
@@ -160,6 +161,10 @@ mod tests {
         assert_eq!(
             Distance::from_rest(0, 1, &p),
             Err(ConstraintError::ZeroRestLength)
+        );
+        assert_eq!(
+            Distance::from_rest(0, 2, &p),
+            Err(ConstraintError::IndexOutOfBounds)
         );
     }
 

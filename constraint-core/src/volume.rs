@@ -64,13 +64,13 @@ impl Volume {
     /// A volume constraint whose rest volume is that of the tetrahedron in `rest`.
     ///
     /// # Errors
-    /// `NonFinite` (also for an index out of bounds), `RepeatedIndex`, `FlatTetrahedron`
+    /// `NonFinite`, `IndexOutOfBounds`, `RepeatedIndex`, `FlatTetrahedron`
     /// (see [`FLAT_TOL`]) or `InvertedTetrahedron`.
     pub fn from_rest(points: [usize; 4], rest: &[DVec3]) -> Result<Self, ConstraintError> {
         distinct(&points)?;
         let mut x = [DVec3::ZERO; 4];
         for (o, &i) in x.iter_mut().zip(points.iter()) {
-            *o = *rest.get(i).ok_or(ConstraintError::NonFinite)?;
+            *o = *rest.get(i).ok_or(ConstraintError::IndexOutOfBounds)?;
         }
         if !all_finite(&x) {
             return Err(ConstraintError::NonFinite);
@@ -165,6 +165,10 @@ mod tests {
         assert_eq!(
             Volume::new([0, 1, 2, 3], f64::NAN),
             Err(ConstraintError::NonFinite)
+        );
+        assert_eq!(
+            Volume::from_rest([0, 1, 2, 9], &unit_tet()),
+            Err(ConstraintError::IndexOutOfBounds)
         );
     }
 

@@ -38,10 +38,18 @@ impl Baumgarte {
     pub const NONE: Self = Self { kx: 0.0, kv: 0.0 };
 
     /// Critically damped gains for a response time `τ`: `k_x = 1/τ²`, `k_v = 2/τ`.
-    pub fn critical(tau: f64) -> Self {
-        Self {
+    ///
+    /// # Errors
+    /// `InvalidParameter("tau")` unless `τ > 0` and the gains are finite.
+    pub fn critical(tau: f64) -> Result<Self, LagrangeError> {
+        let g = Self {
             kx: 1.0 / (tau * tau),
             kv: 2.0 / tau,
+        };
+        if tau > 0.0 && g.kx.is_finite() && g.kv.is_finite() {
+            Ok(g)
+        } else {
+            Err(LagrangeError::InvalidParameter("tau"))
         }
     }
 }

@@ -184,6 +184,8 @@ pub enum KktError {
     Solve(SolveError),
     /// The sparse factorization failed.
     Factorization,
+    /// A solver parameter was out of range (named).
+    InvalidSolver(&'static str),
 }
 
 impl core::fmt::Display for KktError {
@@ -195,6 +197,7 @@ impl core::fmt::Display for KktError {
             }
             Self::Solve(e) => write!(f, "{e}"),
             Self::Factorization => f.write_str("sparse Cholesky factorization failed"),
+            Self::InvalidSolver(p) => write!(f, "solver parameter {p} out of range"),
         }
     }
 }
@@ -366,12 +369,31 @@ impl KktWorkspace {
     }
 }
 
+fn check_solver(solver: KktSolver) -> Result<(), KktError> {
+    let nonneg = |v: f64| v >= 0.0 && v.is_finite();
+    match solver {
+        KktSolver::Svd { rank_tol } if !nonneg(rank_tol) => {
+            Err(KktError::InvalidSolver("rank_tol"))
+        }
+        KktSolver::DampedLeastSquares { damping } if !nonneg(damping) => {
+            Err(KktError::InvalidSolver("damping"))
+        }
+        KktSolver::Gmres { restart: 0, .. } => Err(KktError::InvalidSolver("restart")),
+        KktSolver::Minres(s) | KktSolver::Gmres { settings: s, .. }
+            if !(s.tolerance > 0.0 && s.tolerance.is_finite()) =>
+        {
+            Err(KktError::InvalidSolver("tolerance"))
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Solves `problem`, writing `x` and `λ` (both used as the initial guess by the
 /// iterative solvers).
 ///
 /// # Errors
-/// [`KktError`] for inconsistent sizes, a Schur solver with a non-diagonal `A`, or a
-/// failed factorization. A non-converged iterative solve is **not** an error: it is
+/// [`KktError`] for inconsistent sizes, a solver parameter out of range, a Schur
+/// solver with a non-diagonal `A`, or a failed factorization. A non-converged iterative solve is **not** an error: it is
 /// reported in [`KktStats::converged`] and [`KktStats::residual`].
 pub fn solve_kkt(
     problem: &KktProblem<'_>,
@@ -381,6 +403,7 @@ pub fn solve_kkt(
     lambda: &mut [f64],
 ) -> Result<KktStats, KktError> {
     problem.check()?;
+    check_solver(solver)?;
     let n = problem.mass.points();
     let m = problem.rows.len();
     if x.len() != n || lambda.len() != m {

@@ -96,8 +96,12 @@ fn drift_without_baumgarte_and_its_cures() {
     let no_bg = chain_drift(2.0, |s, c| {
         a0.step(s, c).expect("step");
     });
-    let mut a1 =
-        AccelerationLevel::new(h, Baumgarte::critical(0.01), KktSolver::DenseSchur).expect("h");
+    let mut a1 = AccelerationLevel::new(
+        h,
+        Baumgarte::critical(0.01).expect("tau"),
+        KktSolver::DenseSchur,
+    )
+    .expect("h");
     let bg = chain_drift(2.0, |s, c| {
         a1.step(s, c).expect("step");
     });
@@ -386,6 +390,45 @@ fn bad_input_is_a_typed_error() {
             constraint_lagrange::KktError::NeedsDiagonalMass
         ))
     ));
+    for tau in [0.0, -1.0, f64::NAN, 1e-200] {
+        assert!(matches!(
+            Baumgarte::critical(tau),
+            Err(LagrangeError::InvalidParameter("tau"))
+        ));
+    }
+    // Solver parameters out of range are typed errors at the first solve.
+    let bad_solvers = [
+        (KktSolver::Svd { rank_tol: -1.0 }, "rank_tol"),
+        (
+            KktSolver::DampedLeastSquares { damping: f64::NAN },
+            "damping",
+        ),
+        (
+            KktSolver::Gmres {
+                restart: 0,
+                settings: IterSettings::default(),
+            },
+            "restart",
+        ),
+        (
+            KktSolver::Minres(IterSettings {
+                tolerance: 0.0,
+                max_iterations: 10,
+            }),
+            "tolerance",
+        ),
+    ];
+    for (solver, name) in bad_solvers {
+        let (mut sys, cons) = chain(2, 0.1, 0.1, 0.2).expect("scene");
+        let mut step = VelocityLevel::new(1e-3, BaseStep::Explicit, solver).expect("h");
+        assert!(
+            matches!(
+                step.step(&mut sys, &cons),
+                Err(LagrangeError::Kkt(constraint_lagrange::KktError::InvalidSolver(p))) if p == name
+            ),
+            "{name}"
+        );
+    }
 }
 
 #[test]

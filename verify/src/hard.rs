@@ -37,7 +37,7 @@ pub fn chain_drift(
     let mut acc = AccelerationLevel::new(
         h,
         if method == 1 {
-            Baumgarte::critical(0.01)
+            Baumgarte::critical(0.01)?
         } else {
             Baumgarte::NONE
         },
