@@ -44,13 +44,21 @@ impl core::fmt::Debug for SparseSchur {
 }
 
 impl SparseSchur {
-    fn key(problem: &KktProblem<'_>, w: &[f64]) -> Vec<u64> {
+    /// The row structure and the pinned mask that the analysis depends on.
+    fn structure<'p>(problem: &'p KktProblem<'_>, w: &'p [f64]) -> impl Iterator<Item = u64> + 'p {
         let rows = problem.rows;
-        let mut k = Vec::with_capacity(rows.row_ptr().len() + rows.cols().len() + w.len());
-        k.extend(rows.row_ptr().iter().map(|&p| p as u64));
-        k.extend(rows.cols().iter().map(|&c| c as u64 | (1 << 40)));
-        k.extend(w.iter().map(|&w| u64::from(w == 0.0) | (1 << 41)));
-        k
+        rows.row_ptr()
+            .iter()
+            .map(|&p| p as u64)
+            .chain(rows.cols().iter().map(|&c| c as u64 | (1 << 40)))
+            .chain(w.iter().map(|&w| u64::from(w == 0.0) | (1 << 41)))
+    }
+
+    /// `true` when `problem` has the structure the cached analysis was made for
+    /// (compared in place: no allocation per call).
+    fn same_structure(&self, problem: &KktProblem<'_>, w: &[f64]) -> bool {
+        let len = problem.rows.row_ptr().len() + problem.rows.cols().len() + w.len();
+        self.key.len() == len && self.key.iter().copied().eq(Self::structure(problem, w))
     }
 
     fn analyse(&mut self, problem: &KktProblem<'_>, w: &[f64]) -> Result<(), KktError> {
@@ -146,10 +154,10 @@ impl SparseSchur {
         w: &[f64],
         lambda: &mut [f64],
     ) -> Result<(), KktError> {
-        let key = Self::key(problem, w);
-        if self.symbolic.is_none() || key != self.key {
+        if self.symbolic.is_none() || !self.same_structure(problem, w) {
             self.analyse(problem, w)?;
-            self.key = key;
+            self.key.clear();
+            self.key.extend(Self::structure(problem, w));
         }
         let rows = problem.rows;
         let m = rows.len();

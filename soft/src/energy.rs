@@ -95,6 +95,14 @@ where
     f
 }
 
+/// Multiplies every block by `s`.
+#[inline]
+fn scale_blocks<const N: usize>(m: &mut [[DMat3; N]; N], s: f64) {
+    for b in m.iter_mut().flatten() {
+        *b *= s;
+    }
+}
+
 /// `Σ_r ∇C_r ∇C_rᵀ` as blocks.
 #[inline]
 fn gram<const N: usize, const R: usize>(grad: &[[DVec3; N]; R]) -> [[DMat3; N]; N] {
@@ -121,11 +129,7 @@ where
 {
     let j = c.jacobian(x);
     let mut h = gram(&j.grad);
-    for row in h.iter_mut() {
-        for b in row.iter_mut() {
-            *b *= k;
-        }
-    }
+    scale_blocks(&mut h, k);
     if mode == HessianMode::GaussNewton {
         return h;
     }
@@ -161,11 +165,7 @@ where
     C: PointConstraint<N, R>,
 {
     let mut h = energy_hessian(c, k, x, mode);
-    for row in h.iter_mut() {
-        for b in row.iter_mut() {
-            *b = -*b;
-        }
-    }
+    scale_blocks(&mut h, -1.0);
     h
 }
 
@@ -179,11 +179,7 @@ where
     C: PointConstraint<N, R>,
 {
     let mut g = gram(&c.jacobian(x).grad);
-    for row in g.iter_mut() {
-        for b in row.iter_mut() {
-            *b *= -damping;
-        }
-    }
+    scale_blocks(&mut g, -damping);
     g
 }
 
