@@ -22,6 +22,8 @@ pub enum ConstraintError {
     RepeatedIndex,
     /// A stencil index is beyond the end of the rest positions given.
     IndexOutOfBounds,
+    /// A rigid-body orientation quaternion was not of unit length (to within 1e-6).
+    NonUnitQuaternion,
 }
 
 impl fmt::Display for ConstraintError {
@@ -35,6 +37,7 @@ impl fmt::Display for ConstraintError {
             Self::ZeroNormal => "normal or hinge edge has zero length",
             Self::RepeatedIndex => "a point appears twice in the stencil",
             Self::IndexOutOfBounds => "a stencil index is out of bounds of the rest positions",
+            Self::NonUnitQuaternion => "orientation quaternion is not of unit length",
         };
         f.write_str(s)
     }

@@ -1,0 +1,415 @@
+//! Stock joints between two rigid bodies (Otaduy 2010, "Sólidos Articulados"; DESIGN.md
+//! §3): spherical, hinge, prismatic, fixed (weld) and distance.
+//!
+//! Every joint stores anchors `r` and directions in the two body frames (from the
+//! centre of mass), built from a rest configuration by a `from_world` constructor. The
+//! world is the body with pose [`Pose::IDENTITY`]. Row conventions:
+//!
+//! | joint | rows | `C` |
+//! |---|---|---|
+//! | [`Spherical`] | 3 | `p_a − p_b = R_a r_a + x_a − R_b r_b − x_b` (the lecture's equation) |
+//! | [`Hinge`] | 5 | spherical rows, then `(R_a n₁)·(R_b u_b)`, `(R_a n₂)·(R_b u_b)` (axis `u` stays ⟂ to `n₁, n₂`) |
+//! | [`Prismatic`] | 5 | `(R_a n₁)·d`, `(R_a n₂)·d` with `d = p_b − p_a` (slide along `u` only), then the 3 orientation rows |
+//! | [`Fixed`] | 6 | spherical rows, then the 3 orientation rows |
+//! | [`DistanceJoint`] | 1 | `|p_b − p_a| − L₀` |
+//!
+//! The orientation rows are `(R_a e₁)·(R_b f₂)`, `(R_a e₂)·(R_b f₃)`, `(R_a e₃)·(R_b f₁)`
+//! with `R_b f_i = R_a e_i` at rest: to first order they are the components of the
+//! relative rotation `θ_a − θ_b` along `e₃, e₁, e₂`.
+//!
+//! Degenerate current configurations: a distance joint whose anchors coincide returns
+//! `C = −L₀` with zero gradient and curvature (the direction is undefined there).
+
+use glam::DVec3;
+
+use crate::frame_expr::{add_dot_hessian, add_norm_hessian, dot_grad, FrameExpr};
+use crate::rigid::{BodyConstraint, Pose, TwistCurvature, TwistJacobian};
+use crate::ConstraintError;
+
+fn finite(v: &[DVec3]) -> Result<(), ConstraintError> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(ConstraintError::NonFinite)
+    }
+}
+
+fn unit(axis: DVec3) -> Result<DVec3, ConstraintError> {
+    if !axis.is_finite() {
+        return Err(ConstraintError::NonFinite);
+    }
+    let len = axis.length();
+    if !(len > 1e-12) {
+        return Err(ConstraintError::ZeroNormal);
+    }
+    Ok(axis / len)
+}
+
+/// Spherical rows `C = p_a − p_b`: value, Jacobian rows, and their curvature.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Point {
+    r_a: DVec3,
+    r_b: DVec3,
+}
+
+impl Point {
+    fn sep(&self, a: &Pose, b: &Pose) -> FrameExpr {
+        FrameExpr::separation(a, self.r_a, b, self.r_b)
+    }
+    fn value(&self, a: &Pose, b: &Pose) -> DVec3 {
+        a.point(self.r_a) - b.point(self.r_b)
+    }
+    fn rows(&self, a: &Pose, b: &Pose, value: &mut [f64], rows: &mut [[DVec3; 4]]) {
+        let d = self.sep(a, b);
+        for (i, e) in [DVec3::X, DVec3::Y, DVec3::Z].into_iter().enumerate() {
+            value[i] = -d.value[i];
+            rows[i] = d.grad(-e);
+        }
+    }
+    fn curvature(&self, a: &Pose, b: &Pose, w: DVec3, h: &mut TwistCurvature) {
+        // C = −D: ∂²(w·C) = −H_D[w].
+        self.sep(a, b).add_hessian(-w, 1.0, h);
+    }
+}
+
+/// The three orientation rows `(R_a e₁)·(R_b f₂)`, `(R_a e₂)·(R_b f₃)`, `(R_a e₃)·(R_b f₁)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Orientation {
+    e: [DVec3; 3],
+    f: [DVec3; 3],
+}
+
+const PAIRS: [(usize, usize); 3] = [(0, 1), (1, 2), (2, 0)];
+
+impl Orientation {
+    fn from_world(a: &Pose, b: &Pose) -> Self {
+        let basis = [DVec3::X, DVec3::Y, DVec3::Z];
+        Self {
+            e: basis.map(|d| a.dir_to_local(d)),
+            f: basis.map(|d| b.dir_to_local(d)),
+        }
+    }
+    fn exprs(&self, a: &Pose, b: &Pose, k: usize) -> (FrameExpr, FrameExpr) {
+        let (i, j) = PAIRS[k];
+        (
+            FrameExpr::dir_a(a, self.e[i]),
+            FrameExpr::dir_b(b, self.f[j]),
+        )
+    }
+    fn rows(&self, a: &Pose, b: &Pose, value: &mut [f64], rows: &mut [[DVec3; 4]]) {
+        for k in 0..3 {
+            let (ea, fb) = self.exprs(a, b, k);
+            value[k] = ea.value.dot(fb.value);
+            rows[k] = dot_grad(&ea, &fb);
+        }
+    }
+    fn curvature(&self, a: &Pose, b: &Pose, w: &[f64], h: &mut TwistCurvature) {
+        for k in 0..3 {
+            let (ea, fb) = self.exprs(a, b, k);
+            add_dot_hessian(&ea, &fb, w[k], h);
+        }
+    }
+}
+
+/// Spherical (ball) joint: `C = R_a r_a + x_a − R_b r_b − x_b = 0` (3 rows), exactly the
+/// lecture's joint; at velocity level `ṗ_a − ṗ_b = v_a + ω_a × (R_a r_a) − v_b − ω_b × (R_b r_b)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spherical {
+    point: Point,
+}
+
+impl Spherical {
+    /// A joint at the world point `anchor` between bodies at rest poses `a` and `b`.
+    pub fn from_world(a: &Pose, b: &Pose, anchor: DVec3) -> Result<Self, ConstraintError> {
+        finite(&[a.x, b.x, anchor])?;
+        Ok(Self::new(a.to_local(anchor), b.to_local(anchor)))
+    }
+
+    /// A joint from body-frame anchors (from each centre of mass).
+    pub fn new(r_a: DVec3, r_b: DVec3) -> Self {
+        Self {
+            point: Point { r_a, r_b },
+        }
+    }
+
+    /// Anchor in body `a`'s frame.
+    pub fn anchor_a(&self) -> DVec3 {
+        self.point.r_a
+    }
+
+    /// Anchor in body `b`'s frame.
+    pub fn anchor_b(&self) -> DVec3 {
+        self.point.r_b
+    }
+}
+
+impl BodyConstraint<3> for Spherical {
+    fn value(&self, a: &Pose, b: &Pose) -> [f64; 3] {
+        self.point.value(a, b).to_array()
+    }
+    fn jacobian(&self, a: &Pose, b: &Pose) -> TwistJacobian<3> {
+        let mut j = TwistJacobian {
+            value: [0.0; 3],
+            rows: [[DVec3::ZERO; 4]; 3],
+        };
+        self.point.rows(a, b, &mut j.value, &mut j.rows);
+        j
+    }
+    fn curvature(&self, a: &Pose, b: &Pose, w: &[f64; 3]) -> TwistCurvature {
+        let mut h = TwistCurvature::ZERO;
+        self.point.curvature(a, b, DVec3::from_array(*w), &mut h);
+        h
+    }
+}
+
+/// Hinge (revolute) joint: the spherical rows plus two rows keeping the axis fixed in
+/// body `b` perpendicular to two directions fixed in body `a` (5 rows; 1 free rotation).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hinge {
+    point: Point,
+    n: [DVec3; 2],
+    u_b: DVec3,
+    u_a: DVec3,
+}
+
+impl Hinge {
+    /// A hinge through the world point `anchor` about the world direction `axis`, for
+    /// bodies at rest poses `a` and `b`. Errors: non-finite input, zero axis.
+    pub fn from_world(
+        a: &Pose,
+        b: &Pose,
+        anchor: DVec3,
+        axis: DVec3,
+    ) -> Result<Self, ConstraintError> {
+        finite(&[a.x, b.x, anchor])?;
+        let u = unit(axis)?;
+        let (n1, n2) = u.any_orthonormal_pair();
+        Ok(Self {
+            point: Point {
+                r_a: a.to_local(anchor),
+                r_b: b.to_local(anchor),
+            },
+            n: [a.dir_to_local(n1), a.dir_to_local(n2)],
+            u_b: b.dir_to_local(u),
+            u_a: a.dir_to_local(u),
+        })
+    }
+
+    /// The hinge axis in body `a`'s frame.
+    pub fn axis_a(&self) -> DVec3 {
+        self.u_a
+    }
+
+    /// The hinge axis in body `b`'s frame.
+    pub fn axis_b(&self) -> DVec3 {
+        self.u_b
+    }
+}
+
+impl BodyConstraint<5> for Hinge {
+    fn value(&self, a: &Pose, b: &Pose) -> [f64; 5] {
+        let p = self.point.value(a, b);
+        let u = b.q * self.u_b;
+        [
+            p.x,
+            p.y,
+            p.z,
+            (a.q * self.n[0]).dot(u),
+            (a.q * self.n[1]).dot(u),
+        ]
+    }
+    fn jacobian(&self, a: &Pose, b: &Pose) -> TwistJacobian<5> {
+        let mut j = TwistJacobian {
+            value: [0.0; 5],
+            rows: [[DVec3::ZERO; 4]; 5],
+        };
+        self.point.rows(a, b, &mut j.value[..3], &mut j.rows[..3]);
+        let ub = FrameExpr::dir_b(b, self.u_b);
+        for k in 0..2 {
+            let na = FrameExpr::dir_a(a, self.n[k]);
+            j.value[3 + k] = na.value.dot(ub.value);
+            j.rows[3 + k] = dot_grad(&na, &ub);
+        }
+        j
+    }
+    fn curvature(&self, a: &Pose, b: &Pose, w: &[f64; 5]) -> TwistCurvature {
+        let mut h = TwistCurvature::ZERO;
+        self.point
+            .curvature(a, b, DVec3::new(w[0], w[1], w[2]), &mut h);
+        let ub = FrameExpr::dir_b(b, self.u_b);
+        for k in 0..2 {
+            add_dot_hessian(&FrameExpr::dir_a(a, self.n[k]), &ub, w[3 + k], &mut h);
+        }
+        h
+    }
+}
+
+/// Prismatic (slider) joint: body `b` keeps its orientation relative to `a` and its
+/// anchor moves only along the axis fixed in `a` (5 rows; 1 free translation).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prismatic {
+    point: Point,
+    n: [DVec3; 2],
+    u_a: DVec3,
+    orient: Orientation,
+}
+
+impl Prismatic {
+    /// A slider through the world point `anchor` along the world direction `axis`.
+    pub fn from_world(
+        a: &Pose,
+        b: &Pose,
+        anchor: DVec3,
+        axis: DVec3,
+    ) -> Result<Self, ConstraintError> {
+        finite(&[a.x, b.x, anchor])?;
+        let u = unit(axis)?;
+        let (n1, n2) = u.any_orthonormal_pair();
+        Ok(Self {
+            point: Point {
+                r_a: a.to_local(anchor),
+                r_b: b.to_local(anchor),
+            },
+            n: [a.dir_to_local(n1), a.dir_to_local(n2)],
+            u_a: a.dir_to_local(u),
+            orient: Orientation::from_world(a, b),
+        })
+    }
+
+    /// The slide axis in body `a`'s frame.
+    pub fn axis_a(&self) -> DVec3 {
+        self.u_a
+    }
+
+    /// Displacement of `b`'s anchor from `a`'s along the axis.
+    pub fn displacement(&self, a: &Pose, b: &Pose) -> f64 {
+        (a.q * self.u_a).dot(b.point(self.point.r_b) - a.point(self.point.r_a))
+    }
+}
+
+impl BodyConstraint<5> for Prismatic {
+    fn value(&self, a: &Pose, b: &Pose) -> [f64; 5] {
+        self.jacobian(a, b).value
+    }
+    fn jacobian(&self, a: &Pose, b: &Pose) -> TwistJacobian<5> {
+        let mut j = TwistJacobian {
+            value: [0.0; 5],
+            rows: [[DVec3::ZERO; 4]; 5],
+        };
+        let d = self.point.sep(a, b);
+        for k in 0..2 {
+            let na = FrameExpr::dir_a(a, self.n[k]);
+            j.value[k] = na.value.dot(d.value);
+            j.rows[k] = dot_grad(&na, &d);
+        }
+        self.orient.rows(a, b, &mut j.value[2..], &mut j.rows[2..]);
+        j
+    }
+    fn curvature(&self, a: &Pose, b: &Pose, w: &[f64; 5]) -> TwistCurvature {
+        let mut h = TwistCurvature::ZERO;
+        let d = self.point.sep(a, b);
+        for k in 0..2 {
+            add_dot_hessian(&FrameExpr::dir_a(a, self.n[k]), &d, w[k], &mut h);
+        }
+        self.orient.curvature(a, b, &w[2..], &mut h);
+        h
+    }
+}
+
+/// Fixed (weld) joint: the spherical rows and the three orientation rows (6 rows).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fixed {
+    point: Point,
+    orient: Orientation,
+}
+
+impl Fixed {
+    /// A weld at the world point `anchor` for bodies at rest poses `a` and `b`.
+    pub fn from_world(a: &Pose, b: &Pose, anchor: DVec3) -> Result<Self, ConstraintError> {
+        finite(&[a.x, b.x, anchor])?;
+        Ok(Self {
+            point: Point {
+                r_a: a.to_local(anchor),
+                r_b: b.to_local(anchor),
+            },
+            orient: Orientation::from_world(a, b),
+        })
+    }
+}
+
+impl BodyConstraint<6> for Fixed {
+    fn value(&self, a: &Pose, b: &Pose) -> [f64; 6] {
+        self.jacobian(a, b).value
+    }
+    fn jacobian(&self, a: &Pose, b: &Pose) -> TwistJacobian<6> {
+        let mut j = TwistJacobian {
+            value: [0.0; 6],
+            rows: [[DVec3::ZERO; 4]; 6],
+        };
+        self.point.rows(a, b, &mut j.value[..3], &mut j.rows[..3]);
+        self.orient.rows(a, b, &mut j.value[3..], &mut j.rows[3..]);
+        j
+    }
+    fn curvature(&self, a: &Pose, b: &Pose, w: &[f64; 6]) -> TwistCurvature {
+        let mut h = TwistCurvature::ZERO;
+        self.point
+            .curvature(a, b, DVec3::new(w[0], w[1], w[2]), &mut h);
+        self.orient.curvature(a, b, &w[3..], &mut h);
+        h
+    }
+}
+
+/// Distance joint (a massless rod between two body points): `C = |p_b − p_a| − L₀`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DistanceJoint {
+    point: Point,
+    rest_length: f64,
+}
+
+impl DistanceJoint {
+    /// A rod between world points `p_a` (on `a`) and `p_b` (on `b`) at rest; its length is
+    /// the rest length. Errors: non-finite input, coincident points (`ZeroRestLength`).
+    pub fn from_world(a: &Pose, b: &Pose, p_a: DVec3, p_b: DVec3) -> Result<Self, ConstraintError> {
+        finite(&[a.x, b.x, p_a, p_b])?;
+        let rest_length = (p_b - p_a).length();
+        if !(rest_length > 1e-12) {
+            return Err(ConstraintError::ZeroRestLength);
+        }
+        Ok(Self {
+            point: Point {
+                r_a: a.to_local(p_a),
+                r_b: b.to_local(p_b),
+            },
+            rest_length,
+        })
+    }
+
+    /// The rest length `L₀`.
+    pub fn rest_length(&self) -> f64 {
+        self.rest_length
+    }
+}
+
+impl BodyConstraint<1> for DistanceJoint {
+    fn value(&self, a: &Pose, b: &Pose) -> [f64; 1] {
+        [(b.point(self.point.r_b) - a.point(self.point.r_a)).length() - self.rest_length]
+    }
+    fn jacobian(&self, a: &Pose, b: &Pose) -> TwistJacobian<1> {
+        let d = self.point.sep(a, b);
+        let len = d.value.length();
+        let n = if len > 0.0 {
+            d.value / len
+        } else {
+            DVec3::ZERO
+        };
+        TwistJacobian {
+            value: [len - self.rest_length],
+            rows: [d.grad(n)],
+        }
+    }
+    fn curvature(&self, a: &Pose, b: &Pose, w: &[f64; 1]) -> TwistCurvature {
+        let mut h = TwistCurvature::ZERO;
+        add_norm_hessian(&self.point.sep(a, b), w[0], &mut h);
+        h
+    }
+}
