@@ -1,0 +1,220 @@
+//! Attribute values: numbers, vectors, keywords, with errors that name element,
+//! attribute and line.
+
+use crate::error::MjcfError;
+
+/// One attribute as written, with where it was written.
+#[derive(Clone, Debug)]
+pub(crate) struct Attr {
+    /// Element the attribute sits on (for error messages).
+    pub element: String,
+    /// Attribute name.
+    pub name: String,
+    /// Raw value.
+    pub value: String,
+    /// 1-based line of the attribute.
+    pub line: u32,
+}
+
+/// One element's name, line and attributes.
+#[derive(Clone, Debug)]
+pub(crate) struct Element {
+    /// Tag name.
+    pub name: String,
+    /// 1-based line of the start tag.
+    pub line: u32,
+    /// Attributes in document order.
+    pub attrs: Vec<Attr>,
+}
+
+impl Element {
+    /// Reads a tree node.
+    pub fn from_node(doc: &roxmltree::Document<'_>, node: roxmltree::Node<'_, '_>) -> Element {
+        let name = node.tag_name().name().to_string();
+        let line = line_at(doc, node.range().start);
+        let attrs = node
+            .attributes()
+            .map(|a| Attr {
+                element: name.clone(),
+                name: a.name().to_string(),
+                value: a.value().to_string(),
+                line: line_at(doc, a.range().start),
+            })
+            .collect();
+        Element { name, line, attrs }
+    }
+
+    /// The attribute `name`, if present.
+    pub fn get(&self, name: &str) -> Option<&Attr> {
+        self.attrs.iter().find(|a| a.name == name)
+    }
+
+    /// The attribute `name`, or [`MjcfError::MissingAttribute`].
+    pub fn require(&self, name: &str) -> Result<&Attr, MjcfError> {
+        self.get(name).ok_or_else(|| MjcfError::MissingAttribute {
+            element: self.name.clone(),
+            attribute: name.to_string(),
+            line: self.line,
+        })
+    }
+
+    /// Every attribute must be in `allowed`.
+    pub fn only(&self, allowed: &[&str]) -> Result<(), MjcfError> {
+        match self
+            .attrs
+            .iter()
+            .find(|a| !allowed.contains(&a.name.as_str()))
+        {
+            Some(a) => Err(a.unsupported()),
+            None => Ok(()),
+        }
+    }
+
+    /// [`MjcfError::Invalid`] for this element.
+    pub fn invalid(&self, reason: impl Into<String>) -> MjcfError {
+        MjcfError::Invalid {
+            element: self.name.clone(),
+            line: self.line,
+            reason: reason.into(),
+        }
+    }
+
+    /// [`MjcfError::Unsupported`] for this element.
+    pub fn unsupported(&self) -> MjcfError {
+        MjcfError::Unsupported {
+            element: self.name.clone(),
+            line: self.line,
+        }
+    }
+}
+
+/// 1-based line of a byte offset.
+pub(crate) fn line_at(doc: &roxmltree::Document<'_>, pos: usize) -> u32 {
+    doc.text_pos_at(pos).row
+}
+
+impl Attr {
+    /// [`MjcfError::UnsupportedAttribute`] for this attribute.
+    pub fn unsupported(&self) -> MjcfError {
+        MjcfError::UnsupportedAttribute {
+            element: self.element.clone(),
+            attribute: self.name.clone(),
+            line: self.line,
+        }
+    }
+
+    /// [`MjcfError::BadValue`] for this attribute.
+    pub fn bad(&self, reason: impl Into<String>) -> MjcfError {
+        MjcfError::BadValue {
+            element: self.element.clone(),
+            attribute: self.name.clone(),
+            value: self.value.clone(),
+            line: self.line,
+            reason: reason.into(),
+        }
+    }
+
+    fn bad_number(&self) -> MjcfError {
+        MjcfError::BadNumber {
+            element: self.element.clone(),
+            attribute: self.name.clone(),
+            value: self.value.clone(),
+            line: self.line,
+        }
+    }
+
+    /// All whitespace-separated finite numbers.
+    pub fn numbers(&self) -> Result<Vec<f64>, MjcfError> {
+        self.value
+            .split_ascii_whitespace()
+            .map(|t| match t.parse::<f64>() {
+                Ok(x) if x.is_finite() => Ok(x),
+                _ => Err(self.bad_number()),
+            })
+            .collect()
+    }
+
+    /// Exactly `N` numbers.
+    pub fn exact<const N: usize>(&self) -> Result<[f64; N], MjcfError> {
+        let v = self.numbers()?;
+        if v.len() != N {
+            return Err(self.bad(format!("expected {N} numbers, found {}", v.len())));
+        }
+        let mut out = [0.0; N];
+        out.copy_from_slice(&v);
+        Ok(out)
+    }
+
+    /// One to `N` numbers overwriting the first entries of `into` (MuJoCo's non-strict
+    /// read: `size`, `friction`).
+    pub fn partial<const N: usize>(&self, into: &mut [f64; N]) -> Result<(), MjcfError> {
+        let v = self.numbers()?;
+        if v.is_empty() || v.len() > N {
+            return Err(self.bad(format!("expected 1 to {N} numbers, found {}", v.len())));
+        }
+        into[..v.len()].copy_from_slice(&v);
+        Ok(())
+    }
+
+    /// One finite number.
+    pub fn scalar(&self) -> Result<f64, MjcfError> {
+        Ok(self.exact::<1>()?[0])
+    }
+
+    /// One finite number `≥ 0`.
+    pub fn non_negative(&self) -> Result<f64, MjcfError> {
+        let x = self.scalar()?;
+        if x < 0.0 {
+            return Err(self.bad("must not be negative"));
+        }
+        Ok(x)
+    }
+
+    /// One finite number `> 0`.
+    pub fn positive(&self) -> Result<f64, MjcfError> {
+        let x = self.scalar()?;
+        if !(x > 0.0) {
+            return Err(self.bad("must be positive"));
+        }
+        Ok(x)
+    }
+
+    /// Accepted only when the value is zero (an attribute whose non-zero value would
+    /// change the dynamics beyond the subset).
+    pub fn zero_only(&self) -> Result<(), MjcfError> {
+        if self.scalar()? != 0.0 {
+            return Err(self.unsupported());
+        }
+        Ok(())
+    }
+
+    /// A non-negative integer.
+    pub fn unsigned(&self) -> Result<u32, MjcfError> {
+        let t = self.value.trim();
+        t.parse::<u32>().map_err(|_| {
+            if t.parse::<i64>().is_ok() {
+                self.bad("must be a non-negative integer")
+            } else {
+                self.bad_number()
+            }
+        })
+    }
+
+    /// One of `choices` (exact, case-sensitive, as MuJoCo).
+    pub fn keyword<T: Copy>(&self, choices: &[(&str, T)]) -> Result<T, MjcfError> {
+        let t = self.value.trim();
+        choices
+            .iter()
+            .find(|(k, _)| *k == t)
+            .map(|(_, v)| *v)
+            .ok_or_else(|| {
+                let names: Vec<&str> = choices.iter().map(|(k, _)| *k).collect();
+                self.bad(format!("expected one of: {}", names.join(", ")))
+            })
+    }
+
+    /// `true` or `false`.
+    pub fn boolean(&self) -> Result<bool, MjcfError> {
+        self.keyword(&[("true", true), ("false", false)])
+    }
+}

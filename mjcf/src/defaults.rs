@@ -1,0 +1,113 @@
+//! `default` classes: nested classes inherit their parent's joint and geom attributes;
+//! an element takes its `class`, else the nearest enclosing body's `childclass`, else
+//! the top-level class (`main`).
+//!
+//! A class is stored as the attribute list of its whole ancestry, outermost first; an
+//! element applies that list and then its own attributes in order. Applying in order
+//! reproduces MuJoCo's copy-then-override semantics, including partial vectors such as
+//! `friction="0.5"` keeping the inherited torsional and rolling coefficients.
+
+use std::collections::BTreeMap;
+
+use crate::attrs::{Attr, Element};
+use crate::error::MjcfError;
+
+/// One class with its inherited attributes.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Class {
+    /// Joint attributes, ancestors first.
+    pub joint: Vec<Attr>,
+    /// Geom attributes, ancestors first.
+    pub geom: Vec<Attr>,
+}
+
+/// All classes; index 0 is the top-level class.
+#[derive(Clone, Debug)]
+pub(crate) struct Defaults {
+    /// Classes by index.
+    pub classes: Vec<Class>,
+    names: BTreeMap<String, usize>,
+    seen_top: bool,
+}
+
+/// Elements inside `default` that only style visual or ignored elements.
+const IGNORED: [&str; 5] = ["site", "camera", "light", "material", "mesh"];
+
+impl Defaults {
+    /// Only the (empty) top-level class `main`.
+    pub fn new() -> Self {
+        let mut names = BTreeMap::new();
+        names.insert("main".to_string(), 0);
+        Defaults {
+            classes: vec![Class::default()],
+            names,
+            seen_top: false,
+        }
+    }
+
+    /// Index of a class by name.
+    pub fn find(&self, name: &str) -> Option<usize> {
+        self.names.get(name).copied()
+    }
+
+    /// The class an element names in `attr` (`class` or `childclass`).
+    pub fn lookup(&self, attr: &Attr) -> Result<usize, MjcfError> {
+        self.find(attr.value.trim())
+            .ok_or_else(|| MjcfError::UnknownClass {
+                element: attr.element.clone(),
+                class: attr.value.clone(),
+                line: attr.line,
+            })
+    }
+
+    /// Reads one top-level `<default>` with its nested classes. `check` validates the
+    /// finished class (so a bad value in an unused class is still an error).
+    pub fn parse(
+        &mut self,
+        doc: &roxmltree::Document<'_>,
+        top: roxmltree::Node<'_, '_>,
+        check: &dyn Fn(&Class) -> Result<(), MjcfError>,
+    ) -> Result<(), MjcfError> {
+        let el = Element::from_node(doc, top);
+        if self.seen_top {
+            return Err(el.invalid("only one top-level <default> is allowed"));
+        }
+        self.seen_top = true;
+        el.only(&["class"])?;
+        if let Some(c) = el.get("class") {
+            self.names.insert(c.value.trim().to_string(), 0);
+        }
+        let mut stack = vec![(top, 0usize)];
+        while let Some((node, index)) = stack.pop() {
+            let mut nested = Vec::new();
+            for child in node.children().filter(|n| n.is_element()) {
+                let ce = Element::from_node(doc, child);
+                match ce.name.as_str() {
+                    "default" => nested.push(child),
+                    "joint" => self.classes[index].joint.extend(ce.attrs),
+                    "geom" => self.classes[index].geom.extend(ce.attrs),
+                    n if IGNORED.contains(&n) => {}
+                    _ => return Err(ce.unsupported()),
+                }
+            }
+            check(&self.classes[index])?;
+            let mut created = Vec::new();
+            for child in nested {
+                let ce = Element::from_node(doc, child);
+                ce.only(&["class"])?;
+                let name = ce.require("class")?.value.trim().to_string();
+                if self.names.contains_key(&name) {
+                    return Err(ce.invalid(format!("repeated default class name \"{name}\"")));
+                }
+                let inherited = self.classes[index].clone();
+                self.classes.push(inherited);
+                let new = self.classes.len() - 1;
+                self.names.insert(name, new);
+                created.push((child, new));
+            }
+            // Reverse so that the stack pops sibling classes in document order.
+            stack.extend(created.into_iter().rev());
+        }
+        Ok(())
+    }
+}

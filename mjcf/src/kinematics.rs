@@ -1,0 +1,248 @@
+//! From MuJoCo's generalized coordinates to maximal coordinates: positions as in
+//! `mj_kinematics`, velocities as in `mj_comVel`.
+//!
+//! Generalized coordinates, per joint in [`Model::joints`] order (`qpos_adr`, `dof_adr`):
+//! - hinge: angle (rad) about the joint axis through the anchor; rate (rad/s);
+//! - slide: displacement (m) along the axis; rate (m/s);
+//! - ball: quaternion `[w, x, y, z]` of the child relative to its parent's frame, about
+//!   the anchor; angular velocity (rad/s) in the **child body's** frame;
+//! - free: world position of the body frame origin and orientation quaternion; linear
+//!   velocity of the body frame origin in **world** coordinates, then angular velocity
+//!   in the **body** frame (MuJoCo's `cdof` for free joints).
+//!
+//! Quaternions in `qpos` are normalised as MuJoCo does (a zero quaternion counts as the
+//! identity).
+
+use crate::error::MjcfError;
+use crate::math::{self, Q, V3};
+use crate::model::{BodyState, JointKind, Keyframe, Model};
+
+impl Model {
+    /// Number of generalized positions (hinge, slide 1; ball 4; free 7).
+    pub fn nq(&self) -> usize {
+        self.joints.iter().map(|j| qpos_len(j.kind)).sum()
+    }
+
+    /// Number of generalized velocities (hinge, slide 1; ball 3; free 6).
+    pub fn nv(&self) -> usize {
+        self.joints.iter().map(|j| dof_len(j.kind)).sum()
+    }
+
+    /// MuJoCo's `qpos0`: hinge and slide 0, ball identity, free joint at the body's
+    /// default pose.
+    pub fn qpos0(&self) -> Vec<f64> {
+        let mut q = vec![0.0; self.nq()];
+        for j in &self.joints {
+            let a = j.qpos_adr;
+            // (`get_mut` keeps a hand-built model with bad addresses from panicking;
+            // `body_states` reports those.)
+            match (j.kind, q.get_mut(a..a.saturating_add(qpos_len(j.kind)))) {
+                (JointKind::Ball, Some(s)) => s[0] = 1.0,
+                (JointKind::Free, Some(s)) => {
+                    if let Some(b) = self.bodies.get(j.body) {
+                        s[..3].copy_from_slice(&b.pos);
+                        s[3..].copy_from_slice(&b.quat);
+                    }
+                }
+                _ => {}
+            }
+        }
+        q
+    }
+
+    /// The keyframe called `name`.
+    pub fn keyframe(&self, name: &str) -> Result<&Keyframe, MjcfError> {
+        self.keyframes
+            .iter()
+            .find(|k| k.name == name)
+            .ok_or_else(|| MjcfError::UnknownKeyframe(name.to_string()))
+    }
+
+    /// Every body's world state for keyframe `key`, or the default pose at rest
+    /// (`qpos0`, zero velocity) for `None`.
+    pub fn initial_state(&self, key: Option<&str>) -> Result<Vec<BodyState>, MjcfError> {
+        match key {
+            Some(name) => {
+                let k = self.keyframe(name)?;
+                self.body_states(&k.qpos, &k.qvel)
+            }
+            None => self.body_states(&self.qpos0(), &vec![0.0; self.nv()]),
+        }
+    }
+
+    /// Every body's world state (in [`Model::bodies`] order) for the generalized
+    /// positions `qpos` (length [`Model::nq`]) and velocities `qvel` (length
+    /// [`Model::nv`]). `vel` is the velocity of each body's centre of mass.
+    pub fn body_states(&self, qpos: &[f64], qvel: &[f64]) -> Result<Vec<BodyState>, MjcfError> {
+        check_vector("qpos", qpos, self.nq())?;
+        check_vector("qvel", qvel, self.nv())?;
+        self.check_joints()?;
+        let mut joint_of = vec![None; self.bodies.len()];
+        for j in &self.joints {
+            if let Some(slot) = joint_of.get_mut(j.body) {
+                *slot = Some(j);
+            }
+        }
+        // World pose and twist (angular velocity, velocity of the body frame origin).
+        let mut pose: Vec<(V3, Q)> = Vec::with_capacity(self.bodies.len());
+        let mut twist: Vec<(V3, V3)> = Vec::with_capacity(self.bodies.len());
+        let mut out = Vec::with_capacity(self.bodies.len());
+        for (i, body) in self.bodies.iter().enumerate() {
+            // Parents precede children (depth-first document order); anything else is
+            // treated as a child of the world rather than indexed out of range.
+            let parent = body.parent.filter(|p| *p < i);
+            let (default_ppos, default_pquat, ppos, pquat, pomega, pvel) = match parent {
+                Some(p) => {
+                    let pb = &self.bodies[p];
+                    (
+                        pb.pos, pb.quat, pose[p].0, pose[p].1, twist[p].0, twist[p].1,
+                    )
+                }
+                None => (
+                    [0.0; 3],
+                    math::QUAT_ID,
+                    [0.0; 3],
+                    math::QUAT_ID,
+                    [0.0; 3],
+                    [0.0; 3],
+                ),
+            };
+            // The body's fixed frame in its parent, recovered from the default pose.
+            let local_quat = math::mul_quat(math::conj(default_pquat), body.quat);
+            let local_pos =
+                math::rotate(math::conj(default_pquat), math::sub(body.pos, default_ppos));
+
+            let mut xpos;
+            let mut xquat;
+            let mut omega;
+            let mut vel;
+            match joint_of[i] {
+                Some(j) if j.kind == JointKind::Free => {
+                    let a = j.qpos_adr;
+                    let d = j.dof_adr;
+                    xpos = [qpos[a], qpos[a + 1], qpos[a + 2]];
+                    xquat = math::normalize4([qpos[a + 3], qpos[a + 4], qpos[a + 5], qpos[a + 6]]);
+                    vel = [qvel[d], qvel[d + 1], qvel[d + 2]];
+                    omega = math::rotate(xquat, [qvel[d + 3], qvel[d + 4], qvel[d + 5]]);
+                }
+                joint => {
+                    xpos = math::add(ppos, math::rotate(pquat, local_pos));
+                    xquat = math::mul_quat(pquat, local_quat);
+                    omega = pomega;
+                    vel = math::add(pvel, math::cross(pomega, math::sub(xpos, ppos)));
+                    if let Some(j) = joint {
+                        let a = j.qpos_adr;
+                        let d = j.dof_adr;
+                        let xaxis = math::rotate(xquat, j.axis);
+                        let xanchor = math::add(math::rotate(xquat, j.pos), xpos);
+                        match j.kind {
+                            JointKind::Slide => {
+                                xpos = math::add(xpos, math::scale(xaxis, qpos[a]));
+                                // The parent's velocity, taken where the body now is.
+                                vel = math::add(pvel, math::cross(pomega, math::sub(xpos, ppos)));
+                                vel = math::add(vel, math::scale(xaxis, qvel[d]));
+                            }
+                            JointKind::Hinge | JointKind::Ball => {
+                                let qloc = if j.kind == JointKind::Hinge {
+                                    math::axis_angle(j.axis, qpos[a])
+                                } else {
+                                    math::normalize4([
+                                        qpos[a],
+                                        qpos[a + 1],
+                                        qpos[a + 2],
+                                        qpos[a + 3],
+                                    ])
+                                };
+                                xquat = math::mul_quat(xquat, qloc);
+                                xpos = math::sub(xanchor, math::rotate(xquat, j.pos));
+                                let rel = if j.kind == JointKind::Hinge {
+                                    math::scale(xaxis, qvel[d])
+                                } else {
+                                    math::rotate(
+                                        math::normalize4(xquat),
+                                        [qvel[d], qvel[d + 1], qvel[d + 2]],
+                                    )
+                                };
+                                // The parent's velocity, taken where the body now is.
+                                vel = math::add(pvel, math::cross(pomega, math::sub(xpos, ppos)));
+                                vel = math::add(vel, math::cross(rel, math::sub(xpos, xanchor)));
+                                omega = math::add(omega, rel);
+                            }
+                            JointKind::Free => {}
+                        }
+                    }
+                }
+            }
+            xquat = math::normalize4(xquat);
+            let com = math::add(xpos, math::rotate(xquat, body.com));
+            let com_vel = math::add(vel, math::cross(omega, math::sub(com, xpos)));
+            pose.push((xpos, xquat));
+            twist.push((omega, vel));
+            out.push(BodyState {
+                pos: xpos,
+                quat: xquat,
+                com,
+                vel: com_vel,
+                omega,
+            });
+        }
+        Ok(out)
+    }
+}
+
+impl Model {
+    /// Joint addresses and bodies consistent with `nq`, `nv` and the body list (always
+    /// true for a loaded model; checked for hand-built ones).
+    fn check_joints(&self) -> Result<(), MjcfError> {
+        let (nq, nv) = (self.nq(), self.nv());
+        let mut owner = vec![false; self.bodies.len()];
+        for j in &self.joints {
+            let bad = |reason: &str| MjcfError::Invalid {
+                element: "joint".into(),
+                line: j.line,
+                reason: format!("joint \"{}\": {reason}", j.name),
+            };
+            if j.qpos_adr.saturating_add(qpos_len(j.kind)) > nq
+                || j.dof_adr.saturating_add(dof_len(j.kind)) > nv
+            {
+                return Err(bad("qpos_adr or dof_adr out of range"));
+            }
+            match owner.get_mut(j.body) {
+                None => return Err(bad("body index out of range")),
+                Some(true) => return Err(bad("a body may hold one joint")),
+                Some(o) => *o = true,
+            }
+        }
+        Ok(())
+    }
+}
+
+fn qpos_len(kind: JointKind) -> usize {
+    match kind {
+        JointKind::Hinge | JointKind::Slide => 1,
+        JointKind::Ball => 4,
+        JointKind::Free => 7,
+    }
+}
+
+fn dof_len(kind: JointKind) -> usize {
+    match kind {
+        JointKind::Hinge | JointKind::Slide => 1,
+        JointKind::Ball => 3,
+        JointKind::Free => 6,
+    }
+}
+
+fn check_vector(what: &'static str, v: &[f64], expected: usize) -> Result<(), MjcfError> {
+    if v.len() != expected {
+        return Err(MjcfError::StateLength {
+            what,
+            expected,
+            got: v.len(),
+        });
+    }
+    if let Some(index) = v.iter().position(|x| !x.is_finite()) {
+        return Err(MjcfError::NonFiniteState { what, index });
+    }
+    Ok(())
+}
