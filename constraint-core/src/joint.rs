@@ -285,6 +285,12 @@ impl Prismatic {
     pub fn displacement(&self, a: &Pose, b: &Pose) -> f64 {
         (a.q * self.u_a).dot(b.point(self.point.r_b) - a.point(self.point.r_a))
     }
+
+    /// Gradient of [`Self::displacement`] with respect to `(v_a, ω_a, v_b, ω_b)`: the
+    /// row of the sliding rate (used for joint damping).
+    pub fn displacement_row(&self, a: &Pose, b: &Pose) -> [DVec3; 4] {
+        dot_grad(&FrameExpr::dir_a(a, self.u_a), &self.point.sep(a, b))
+    }
 }
 
 impl BodyConstraint<5> for Prismatic {

@@ -1,0 +1,174 @@
+//! Joints between two bodies (or a body and the world) as rows of the KKT system.
+//!
+//! A [`Joint`] wraps one stock constraint of `constraint-core` ([`JointKind`]) with the
+//! indices of its bodies and an optional viscous damping. Damping is not a force added
+//! to the right-hand side but extra *compliant* rows of the same joint (velocity level):
+//! the relative rate `J_d v` of the free coordinate(s) with compliance `1/(h d)`,
+//! `J_d v' − λ_d/(h d) = 0`, which is exactly the implicit damping force
+//! `−d J_dᵀ J_d v'`; keeping it on the joint keeps the KKT graph a tree (a damping
+//! force between two bodies would couple their mass blocks directly).
+
+use constraint_core::{
+    BodyConstraint, DVec3, DistanceJoint, Fixed, Hinge, Pose, Prismatic, Spherical, TwistCurvature,
+};
+
+/// Largest number of rows a joint contributes (hard plus damping).
+pub const MAX_ROWS: usize = 6;
+
+/// The constraint a joint enforces.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum JointKind {
+    /// Ball joint, 3 rows (damping: 3 rows on the relative angular velocity).
+    Spherical(Spherical),
+    /// Revolute joint, 5 rows (damping: 1 row on the rate about the axis).
+    Hinge(Hinge),
+    /// Slider, 5 rows (damping: 1 row on the sliding rate).
+    Prismatic(Prismatic),
+    /// Weld, 6 rows (no damping).
+    Fixed(Fixed),
+    /// Rod between two points, 1 row (damping: 1 row along the rod).
+    Distance(DistanceJoint),
+}
+
+/// A joint between `parent` (`None` = the world) and `child`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Joint {
+    /// Body `a` of the constraint; `None` is the world (pose identity, infinite mass).
+    pub parent: Option<usize>,
+    /// Body `b` of the constraint.
+    pub child: usize,
+    /// The constraint.
+    pub kind: JointKind,
+    /// Viscous damping of the free coordinate(s) (N·m·s/rad or N·s/m), `≥ 0`.
+    pub damping: f64,
+}
+
+/// A joint's rows at one configuration.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct JointRows {
+    /// Number of hard rows (first) and of all rows.
+    pub n_hard: usize,
+    pub n: usize,
+    /// `C` for hard rows (0 for damping rows).
+    pub value: [f64; MAX_ROWS],
+    /// Jacobian rows `[v_a, ω_a, v_b, ω_b]`.
+    pub rows: [[DVec3; 4]; MAX_ROWS],
+}
+
+impl JointRows {
+    fn new() -> Self {
+        Self {
+            n_hard: 0,
+            n: 0,
+            value: [0.0; MAX_ROWS],
+            rows: [[DVec3::ZERO; 4]; MAX_ROWS],
+        }
+    }
+
+    fn push_hard<const R: usize>(&mut self, j: constraint_core::TwistJacobian<R>) {
+        for r in 0..R {
+            self.value[self.n] = j.value[r];
+            self.rows[self.n] = j.rows[r];
+            self.n += 1;
+        }
+        self.n_hard = self.n;
+    }
+
+    fn push_rate(&mut self, row: [DVec3; 4]) {
+        self.value[self.n] = 0.0;
+        self.rows[self.n] = row;
+        self.n += 1;
+    }
+}
+
+impl Joint {
+    /// Number of hard rows.
+    pub fn hard_rows(&self) -> usize {
+        match self.kind {
+            JointKind::Spherical(_) => 3,
+            JointKind::Hinge(_) | JointKind::Prismatic(_) => 5,
+            JointKind::Fixed(_) => 6,
+            JointKind::Distance(_) => 1,
+        }
+    }
+
+    /// Number of damping rows (0 when `damping == 0`).
+    pub fn damping_rows(&self) -> usize {
+        if !(self.damping > 0.0) {
+            return 0;
+        }
+        match self.kind {
+            JointKind::Spherical(_) => 3,
+            JointKind::Hinge(_) | JointKind::Prismatic(_) | JointKind::Distance(_) => 1,
+            JointKind::Fixed(_) => 0,
+        }
+    }
+
+    /// Value and Jacobian of the hard rows, then (when `with_damping`) the damping rows.
+    pub(crate) fn rows(&self, a: &Pose, b: &Pose, with_damping: bool) -> JointRows {
+        let mut out = JointRows::new();
+        match &self.kind {
+            JointKind::Spherical(c) => out.push_hard(c.jacobian(a, b)),
+            JointKind::Hinge(c) => out.push_hard(c.jacobian(a, b)),
+            JointKind::Prismatic(c) => out.push_hard(c.jacobian(a, b)),
+            JointKind::Fixed(c) => out.push_hard(c.jacobian(a, b)),
+            JointKind::Distance(c) => out.push_hard(c.jacobian(a, b)),
+        }
+        if with_damping && self.damping_rows() > 0 {
+            match &self.kind {
+                JointKind::Spherical(_) => {
+                    for e in [DVec3::X, DVec3::Y, DVec3::Z] {
+                        out.push_rate([DVec3::ZERO, -e, DVec3::ZERO, e]);
+                    }
+                }
+                JointKind::Hinge(c) => {
+                    let u = b.q * c.axis_b();
+                    out.push_rate([DVec3::ZERO, -u, DVec3::ZERO, u]);
+                }
+                JointKind::Prismatic(c) => out.push_rate(c.displacement_row(a, b)),
+                JointKind::Distance(_) => {
+                    let r = out.rows[0];
+                    out.push_rate(r);
+                }
+                JointKind::Fixed(_) => {}
+            }
+        }
+        out
+    }
+
+    /// The hard rows' values `C` (first [`Self::hard_rows`] entries).
+    pub fn value(&self, a: &Pose, b: &Pose) -> [f64; MAX_ROWS] {
+        let mut v = [0.0; MAX_ROWS];
+        match &self.kind {
+            JointKind::Spherical(c) => v[..3].copy_from_slice(&c.value(a, b)),
+            JointKind::Hinge(c) => v[..5].copy_from_slice(&c.value(a, b)),
+            JointKind::Prismatic(c) => v[..5].copy_from_slice(&c.value(a, b)),
+            JointKind::Fixed(c) => v[..6].copy_from_slice(&c.value(a, b)),
+            JointKind::Distance(c) => v[..1].copy_from_slice(&c.value(a, b)),
+        }
+        v
+    }
+
+    /// Largest separation of the joint's anchor points (m): the norm of the three
+    /// position rows for spherical, hinge and fixed joints, the two sliding-plane rows
+    /// for a prismatic joint, `|C|` for a distance joint.
+    pub fn separation(&self, a: &Pose, b: &Pose) -> f64 {
+        let v = self.value(a, b);
+        match self.kind {
+            JointKind::Prismatic(_) => (v[0] * v[0] + v[1] * v[1]).sqrt(),
+            JointKind::Distance(_) => v[0].abs(),
+            _ => (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt(),
+        }
+    }
+
+    /// `Σ_r w_r ∂²C_r` of the hard rows (`w` beyond [`Self::hard_rows`] ignored).
+    pub fn curvature(&self, a: &Pose, b: &Pose, w: &[f64; MAX_ROWS]) -> TwistCurvature {
+        match &self.kind {
+            JointKind::Spherical(c) => c.curvature(a, b, &[w[0], w[1], w[2]]),
+            JointKind::Hinge(c) => c.curvature(a, b, &[w[0], w[1], w[2], w[3], w[4]]),
+            JointKind::Prismatic(c) => c.curvature(a, b, &[w[0], w[1], w[2], w[3], w[4]]),
+            JointKind::Fixed(c) => c.curvature(a, b, w),
+            JointKind::Distance(c) => c.curvature(a, b, &[w[0]]),
+        }
+    }
+}

@@ -1,0 +1,478 @@
+//! Baraff's linear-time factorization of the KKT matrix of a tree of bodies and joints
+//! (Baraff 1996, "Linear-time dynamics using Lagrange multipliers").
+//!
+//! The KKT matrix
+//!
+//! ```text
+//! H = [M   Jᵀ]
+//!     [J  −C ]
+//! ```
+//!
+//! (`M` block-diagonal 6×6 per body, `J` one block per joint and body it touches, `C`
+//! the joint rows' compliance, zero for hard rows) is the adjacency structure of a
+//! graph whose nodes are bodies and joints. When that graph is a forest, ordering the
+//! nodes so that every node comes before its parent (leaves first) makes block `LDLᵀ`
+//! produce no fill-in: eliminating a node touches only its parent. Factor and solve
+//! are then `O(n)` in the number of bodies, with dense work only on the ≤ 6×6 blocks:
+//!
+//! ```text
+//! factor, for i in order:  D_i = H_ii − Σ_{c child of i} H_icᵀ... = H_ii − Σ_c H_ci ᵀ D_c⁻¹ H_ci
+//!                          L_i = D_i⁻¹ H_{i,parent(i)}
+//! solve:   forward  (order):    z_i = D_i⁻¹ (b_i − Σ_c H_ciᵀ z_c)
+//!          backward (reverse):  x_i = z_i − L_i x_parent(i)
+//! ```
+//!
+//! Body pivots `D_i` are symmetric positive definite (mass plus the positive
+//! semi-definite contribution of eliminated joints), joint pivots negative definite, so
+//! the block `LDLᵀ` without pivoting is stable (the matrix is quasi-definite). Joints
+//! that would close a cycle — including a cycle through the world, such as the last bar
+//! of a four-bar linkage — are not tree nodes: they become *loop rows* `G`, handled as
+//! in Baraff's paper by the Schur complement `(G H⁻¹ Gᵀ + C_G) μ = G H⁻¹ r − r_G`
+//! (one tree solve per loop row), solved by SVD for the minimum-norm `μ` so that a
+//! redundant closing constraint (a planar four-bar closes with one dependent row) gives
+//! finite multipliers.
+//!
+//! A zero pivot inside a *joint* block (two rows of one joint that are dependent at the
+//! current configuration) is dropped: that row gets `λ = 0`. A zero or negative pivot
+//! in a *body* block is an error ([`ArticulatedError::Singular`]).
+
+use alloc::vec;
+use alloc::vec::Vec;
+
+use constraint_core::DVec3;
+use constraint_lagrange::solve::svd::min_norm_solve;
+use constraint_lagrange::solve::DenseMatrix;
+
+use crate::error::ArticulatedError;
+
+/// A ≤ 6×6 dense block, row-major.
+pub(crate) type Blk = [[f64; 6]; 6];
+const ZERO: Blk = [[0.0; 6]; 6];
+const NONE: usize = usize::MAX;
+
+/// The structure of the tree (built once per topology) and the factor (per step).
+#[derive(Clone, Debug)]
+pub(crate) struct TreeSolver {
+    pub n_bodies: usize,
+    /// Node dimension: 6 for bodies, rows for joints.
+    dim: Vec<usize>,
+    /// Offset of each node's unknowns in the solution vector.
+    offset: Vec<usize>,
+    parent: Vec<usize>,
+    /// Elimination order: every node before its parent.
+    order: Vec<usize>,
+    /// `H_ii` on entry, then the factored `D_i` (unit-lower `L` below the diagonal, `d`
+    /// on it).
+    diag: Vec<Blk>,
+    /// Zero-pivot mask per node (bit r set: pivot r dropped).
+    dropped: Vec<u8>,
+    /// `H_{i,parent(i)}` (`dim_i × dim_parent`).
+    off: Vec<Blk>,
+    /// `D_i⁻¹ H_{i,parent(i)}`.
+    lmat: Vec<Blk>,
+    /// For joint `j`: its node, or `NONE` for a loop joint.
+    pub joint_node: Vec<usize>,
+    /// Loop joints, in joint order.
+    pub loops: Vec<usize>,
+    /// Total unknowns of the tree system.
+    pub size: usize,
+}
+
+/// Per-joint topology the solver needs: its bodies and number of rows.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct JointTopo {
+    pub a: Option<usize>,
+    pub b: usize,
+    pub rows: usize,
+}
+
+fn find(uf: &mut [usize], mut i: usize) -> usize {
+    while uf[i] != i {
+        uf[i] = uf[uf[i]];
+        i = uf[i];
+    }
+    i
+}
+
+impl TreeSolver {
+    /// Builds the spanning forest (world included as a union-find node), the node
+    /// parents and the leaves-first order.
+    pub fn new(n_bodies: usize, joints: &[JointTopo]) -> Self {
+        let world = n_bodies;
+        let mut uf: Vec<usize> = (0..=n_bodies).collect();
+        let mut joint_node = vec![NONE; joints.len()];
+        let mut node_joint: Vec<usize> = vec![NONE; n_bodies];
+        let mut loops = Vec::new();
+        let mut dim: Vec<usize> = vec![6; n_bodies];
+        // adjacency: for each body, its tree joints
+        let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n_bodies];
+        for (j, t) in joints.iter().enumerate() {
+            let ra = find(&mut uf, t.a.unwrap_or(world));
+            let rb = find(&mut uf, t.b);
+            if ra == rb {
+                loops.push(j);
+                continue;
+            }
+            uf[ra] = rb;
+            joint_node[j] = dim.len();
+            node_joint.push(j);
+            dim.push(t.rows);
+            adj[t.b].push(j);
+            if let Some(a) = t.a {
+                adj[a].push(j);
+            }
+        }
+        let n_nodes = dim.len();
+        let mut parent = vec![NONE; n_nodes];
+        let mut order = Vec::with_capacity(n_nodes);
+        let mut visited = vec![false; n_bodies];
+        // Roots: a joint to the world is the root of its component (as a leaf its pivot
+        // would be the zero block of a hard joint; as the root it is eliminated last,
+        // with pivot −J D⁻¹ Jᵀ). Components without one are rooted at a body.
+        let mut roots: Vec<usize> = Vec::new();
+        for (j, t) in joints.iter().enumerate() {
+            if joint_node[j] != NONE && t.a.is_none() {
+                roots.push(joint_node[j]);
+            }
+        }
+        roots.extend(0..n_bodies);
+        // Iterative DFS producing a post-order (children before parents).
+        let mut stack: Vec<(usize, bool)> = Vec::new();
+        for &r in &roots {
+            if r < n_bodies {
+                if visited[r] {
+                    continue;
+                }
+                visited[r] = true;
+            }
+            stack.push((r, false));
+            while let Some((node, expanded)) = stack.pop() {
+                if expanded {
+                    order.push(node);
+                    continue;
+                }
+                stack.push((node, true));
+                if node < n_bodies {
+                    for &j in &adj[node] {
+                        let jn = joint_node[j];
+                        if jn == parent[node] {
+                            continue;
+                        }
+                        parent[jn] = node;
+                        stack.push((jn, false));
+                    }
+                } else {
+                    // joint node: its bodies other than its parent are its children
+                    let t = joints[node_joint[node]];
+                    for body in [Some(t.b), t.a].into_iter().flatten() {
+                        if body != parent[node] && !visited[body] {
+                            visited[body] = true;
+                            parent[body] = node;
+                            stack.push((body, false));
+                        }
+                    }
+                }
+            }
+        }
+        let mut offset = Vec::with_capacity(n_nodes);
+        let mut size = 0;
+        for &d in &dim {
+            offset.push(size);
+            size += d;
+        }
+        Self {
+            n_bodies,
+            dim,
+            offset,
+            parent,
+            order,
+            diag: vec![ZERO; n_nodes],
+            dropped: vec![0; n_nodes],
+            off: vec![ZERO; n_nodes],
+            lmat: vec![ZERO; n_nodes],
+            joint_node,
+            loops,
+            size,
+        }
+    }
+
+    /// Offset of body `i`'s 6 unknowns `(v, ω)`.
+    #[inline]
+    pub fn body_offset(&self, i: usize) -> usize {
+        self.offset[i]
+    }
+
+    /// Offset of tree joint `j`'s rows (`None` for a loop joint).
+    #[inline]
+    pub fn joint_offset(&self, j: usize) -> Option<usize> {
+        let n = self.joint_node[j];
+        (n != NONE).then(|| self.offset[n])
+    }
+
+    /// Sets body `i`'s mass block `diag(m, m, m) ⊕ I_world`.
+    pub fn set_body(&mut self, i: usize, mass: f64, inertia: &constraint_core::DMat3) {
+        let d = &mut self.diag[i];
+        *d = ZERO;
+        for k in 0..3 {
+            d[k][k] = mass;
+            for l in 0..3 {
+                d[3 + k][3 + l] = inertia.col(l)[k];
+            }
+        }
+    }
+
+    /// Sets tree joint `j`'s blocks: its rows' Jacobian (`rows[r] = [v_a, ω_a, v_b, ω_b]`)
+    /// and compliance (`−C` on the diagonal).
+    pub fn set_joint(
+        &mut self,
+        j: usize,
+        topo: &JointTopo,
+        rows: &[[DVec3; 4]],
+        compliance: &[f64],
+    ) {
+        let node = self.joint_node[j];
+        let m = rows.len();
+        let d = &mut self.diag[node];
+        *d = ZERO;
+        for r in 0..m {
+            d[r][r] = -compliance[r];
+        }
+        let p = self.parent[node];
+        // The body whose blocks are H_{joint, parent} and the child body's H_{child, joint}.
+        for (side, body) in [(0usize, topo.a), (1usize, Some(topo.b))] {
+            let Some(body) = body else { continue };
+            let blk = |r: usize, c: usize| rows[r][2 * side + c / 3][c % 3];
+            if body == p {
+                let o = &mut self.off[node];
+                for r in 0..m {
+                    for c in 0..6 {
+                        o[r][c] = blk(r, c);
+                    }
+                }
+            } else {
+                // body is the joint's child: H_{body, joint} = Jᵀ
+                let o = &mut self.off[body];
+                for c in 0..6 {
+                    for r in 0..m {
+                        o[c][r] = blk(r, c);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Block LDLᵀ of the whole tree, leaves first.
+    pub fn factor(&mut self) -> Result<(), ArticulatedError> {
+        for k in 0..self.order.len() {
+            let i = self.order[k];
+            let n = self.dim[i];
+            let is_body = i < self.n_bodies;
+            let mask = ldlt_in_place(&mut self.diag[i], n);
+            if is_body && mask != 0 {
+                return Err(ArticulatedError::Singular { node: i });
+            }
+            if is_body && (0..n).any(|r| !(self.diag[i][r][r] > 0.0)) {
+                return Err(ArticulatedError::Singular { node: i });
+            }
+            self.dropped[i] = mask;
+            let p = self.parent[i];
+            if p == NONE {
+                continue;
+            }
+            let np = self.dim[p];
+            // lmat = D_i⁻¹ off_i (column by column)
+            let mut l = ZERO;
+            for c in 0..np {
+                let mut col = [0.0; 6];
+                for r in 0..n {
+                    col[r] = self.off[i][r][c];
+                }
+                ldlt_solve(&self.diag[i], mask, n, &mut col);
+                for r in 0..n {
+                    l[r][c] = col[r];
+                }
+            }
+            self.lmat[i] = l;
+            // D_p −= off_iᵀ lmat_i
+            let o = &self.off[i];
+            let dp = &mut self.diag[p];
+            for r in 0..np {
+                for c in 0..np {
+                    let mut s = 0.0;
+                    for t in 0..n {
+                        s += o[t][r] * l[t][c];
+                    }
+                    dp[r][c] -= s;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Solves `H x = b` in place with the factor.
+    pub fn solve(&self, x: &mut [f64]) {
+        for &i in &self.order {
+            let n = self.dim[i];
+            let oi = self.offset[i];
+            let mut z = [0.0; 6];
+            z[..n].copy_from_slice(&x[oi..oi + n]);
+            ldlt_solve(&self.diag[i], self.dropped[i], n, &mut z);
+            x[oi..oi + n].copy_from_slice(&z[..n]);
+            let p = self.parent[i];
+            if p != NONE {
+                let op = self.offset[p];
+                let o = &self.off[i];
+                for c in 0..self.dim[p] {
+                    let mut s = 0.0;
+                    for t in 0..n {
+                        s += o[t][c] * z[t];
+                    }
+                    x[op + c] -= s;
+                }
+            }
+        }
+        for &i in self.order.iter().rev() {
+            let p = self.parent[i];
+            if p == NONE {
+                continue;
+            }
+            let (n, np) = (self.dim[i], self.dim[p]);
+            let (oi, op) = (self.offset[i], self.offset[p]);
+            let l = &self.lmat[i];
+            for r in 0..n {
+                let mut s = 0.0;
+                for c in 0..np {
+                    s += l[r][c] * x[op + c];
+                }
+                x[oi + r] -= s;
+            }
+        }
+    }
+
+    /// Solves the tree system augmented with loop rows:
+    ///
+    /// `[H Gᵀ; G −C_G][x; μ] = [b; r_G]`, `G` acting on body unknowns only.
+    ///
+    /// `loop_rows[k] = (a, b, row)`, `loop_c[k]` its compliance, `loop_rhs[k] = r_G`.
+    /// On return `x` holds the tree unknowns and `mu` the loop multipliers.
+    pub fn solve_with_loops(
+        &self,
+        x: &mut [f64],
+        loop_rows: &[(Option<usize>, usize, [DVec3; 4])],
+        loop_c: &[f64],
+        loop_rhs: &[f64],
+        mu: &mut Vec<f64>,
+    ) -> Result<(), ArticulatedError> {
+        self.solve(x);
+        let k = loop_rows.len();
+        mu.clear();
+        if k == 0 {
+            return Ok(());
+        }
+        // Y = H⁻¹ Gᵀ, one tree solve per loop row.
+        let mut y = vec![0.0; k * self.size];
+        for (r, (a, b, row)) in loop_rows.iter().enumerate() {
+            let col = &mut y[r * self.size..(r + 1) * self.size];
+            self.scatter(col, *a, *b, row, 1.0);
+            self.solve(col);
+        }
+        let gdot = |v: &[f64], (a, b, row): &(Option<usize>, usize, [DVec3; 4])| {
+            let mut s = 0.0;
+            for (side, body) in [(0usize, *a), (1usize, Some(*b))] {
+                let Some(body) = body else { continue };
+                let o = self.offset[body];
+                s += row[2 * side].dot(DVec3::new(v[o], v[o + 1], v[o + 2]))
+                    + row[2 * side + 1].dot(DVec3::new(v[o + 3], v[o + 4], v[o + 5]));
+            }
+            s
+        };
+        let s = DenseMatrix::from_fn(k, k, |i, j| {
+            gdot(&y[j * self.size..(j + 1) * self.size], &loop_rows[i])
+                + if i == j { loop_c[i] } else { 0.0 }
+        });
+        let rhs: Vec<f64> = (0..k)
+            .map(|i| gdot(x, &loop_rows[i]) - loop_rhs[i])
+            .collect();
+        if !s.is_finite() || rhs.iter().any(|v| !v.is_finite()) {
+            return Err(ArticulatedError::LoopSolve);
+        }
+        let sol = min_norm_solve(&s, &rhs, 1e-10).map_err(|_| ArticulatedError::LoopSolve)?;
+        for (r, m) in sol.x.iter().enumerate() {
+            let col = &y[r * self.size..(r + 1) * self.size];
+            for (xi, yi) in x.iter_mut().zip(col) {
+                *xi -= m * yi;
+            }
+        }
+        mu.extend_from_slice(&sol.x);
+        Ok(())
+    }
+
+    /// `x += s · Gᵀ_row` (the row's blocks placed on its bodies' unknowns).
+    pub fn scatter(&self, x: &mut [f64], a: Option<usize>, b: usize, row: &[DVec3; 4], s: f64) {
+        for (side, body) in [(0usize, a), (1usize, Some(b))] {
+            let Some(body) = body else { continue };
+            let o = self.offset[body];
+            for c in 0..3 {
+                x[o + c] += s * row[2 * side][c];
+                x[o + 3 + c] += s * row[2 * side + 1][c];
+            }
+        }
+    }
+}
+
+/// In-place `LDLᵀ` of the leading `n×n` block (no pivoting): `L` below the diagonal,
+/// `d` on it. Pivots below `1e-12 ·` the largest diagonal magnitude are dropped
+/// (returned as a bit mask, their `d` set to 0 and their column of `L` to 0).
+fn ldlt_in_place(a: &mut Blk, n: usize) -> u8 {
+    let scale = (0..n).map(|i| a[i][i].abs()).fold(0.0f64, f64::max);
+    let tol = 1e-12 * scale;
+    let mut mask = 0u8;
+    for j in 0..n {
+        let mut d = a[j][j];
+        for k in 0..j {
+            d -= a[j][k] * a[j][k] * a[k][k];
+        }
+        if !(d.abs() > tol) {
+            mask |= 1 << j;
+            a[j][j] = 0.0;
+            for i in j + 1..n {
+                a[i][j] = 0.0;
+            }
+            continue;
+        }
+        a[j][j] = d;
+        for i in j + 1..n {
+            let mut s = a[i][j];
+            for k in 0..j {
+                s -= a[i][k] * a[j][k] * a[k][k];
+            }
+            a[i][j] = s / d;
+        }
+    }
+    mask
+}
+
+/// Solves with the factor of [`ldlt_in_place`]; dropped pivots give 0.
+fn ldlt_solve(a: &Blk, mask: u8, n: usize, x: &mut [f64; 6]) {
+    for i in 0..n {
+        let mut s = x[i];
+        for k in 0..i {
+            s -= a[i][k] * x[k];
+        }
+        x[i] = s;
+    }
+    for i in 0..n {
+        x[i] = if mask & (1 << i) != 0 {
+            0.0
+        } else {
+            x[i] / a[i][i]
+        };
+    }
+    for i in (0..n).rev() {
+        let mut s = x[i];
+        for k in i + 1..n {
+            s -= a[k][i] * x[k];
+        }
+        x[i] = s;
+    }
+}

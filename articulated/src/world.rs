@@ -1,0 +1,615 @@
+//! A world of rigid bodies and joints, and its time step.
+//!
+//! Every method assembles the same KKT matrix `[M Jᵀ; J −C]` and factors it with
+//! Baraff's tree ordering ([`crate::tree`]); they differ in the unknowns and the
+//! right-hand side (Otaduy 2010, "Restricciones Fuertes"):
+//!
+//! | [`Method`] | system | then |
+//! |---|---|---|
+//! | `Velocity` | `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C(x₀)/h]` ("Opción 2") | `x' = x + h v'`, `R' = exp(h ω') R` |
+//! | `VelocityProjected` | as `Velocity` | Newton projection `[M Jᵀ; J 0][δ; λ] = [0; −C(x')]` until `max|C| ≤ tol` (Goldenthal 2007) |
+//! | `Acceleration` | `[M Jᵀ; J 0][a; λ] = [f; −J̇v − k_x C − k_v J v]` ("Opción 1", Baumgarte) | `v' = v + h a`, `x' = x + h v'` |
+//!
+//! `f` is gravity; the gyroscopic term `−ω × I ω` enters through an implicit
+//! (backward Euler, one Newton step) update of `ω` before the solve
+//! ([`RigidBody::gyroscopic_step`]) in the velocity methods, explicitly in the
+//! acceleration method. Joint damping is implicit in the velocity methods (compliant
+//! rows, [`crate::joint`]) and explicit in the acceleration method.
+
+use alloc::vec;
+use alloc::vec::Vec;
+
+use constraint_core::rigid::rotate_by;
+use constraint_core::{DVec3, Pose};
+
+use crate::body::RigidBody;
+use crate::error::ArticulatedError;
+use crate::joint::{Joint, JointKind, MAX_ROWS};
+use crate::tree::{JointTopo, TreeSolver};
+
+/// How a step enforces the joints.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Method {
+    /// Velocity level, `J v' = −β C(x₀)/h`, `0 < β ≤ 1` (`β = 1` is the lecture's).
+    Velocity {
+        /// Fraction of the position error corrected per step.
+        beta: f64,
+    },
+    /// Velocity level followed by Newton position projection onto `C(x) = 0`.
+    VelocityProjected {
+        /// Fraction of the position error corrected by the velocity solve.
+        beta: f64,
+        /// Stop when every joint separation is `≤ tolerance` (m).
+        tolerance: f64,
+        /// Most Newton iterations per step.
+        max_iterations: usize,
+        /// Also add `δ/h` to the velocities (the correction becomes part of the motion,
+        /// as in SHAKE) instead of moving positions only.
+        correct_velocity: bool,
+    },
+    /// Acceleration level with Baumgarte stabilisation `C̈ + k_v Ċ + k_x C = 0`.
+    Acceleration {
+        /// Position gain `k_x` (1/s²), `≥ 0`.
+        kx: f64,
+        /// Velocity gain `k_v` (1/s), `≥ 0`.
+        kv: f64,
+    },
+}
+
+impl Default for Method {
+    /// `Velocity { beta: 1.0 }`, the lecture's velocity level.
+    fn default() -> Self {
+        Method::Velocity { beta: 1.0 }
+    }
+}
+
+/// What a step did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepStats {
+    /// Newton projection iterations used (0 without projection).
+    pub projection_iterations: usize,
+    /// Largest joint separation after the step (m).
+    pub max_separation: f64,
+}
+
+/// Bodies, joints, gravity and the solver's reusable storage.
+#[derive(Clone, Debug)]
+pub struct World {
+    bodies: Vec<RigidBody>,
+    joints: Vec<Joint>,
+    /// Gravity (m/s²).
+    pub gravity: DVec3,
+    steps: u64,
+    solver: Option<TreeSolver>,
+    rhs: Vec<f64>,
+    mu: Vec<f64>,
+    saved: Vec<RigidBody>,
+}
+
+impl World {
+    /// An empty world with the given gravity.
+    pub fn new(gravity: DVec3) -> Self {
+        Self {
+            bodies: Vec::new(),
+            joints: Vec::new(),
+            gravity,
+            steps: 0,
+            solver: None,
+            rhs: Vec::new(),
+            mu: Vec::new(),
+            saved: Vec::new(),
+        }
+    }
+
+    /// Adds a body; returns its index. Its velocities must be finite.
+    pub fn add_body(&mut self, body: RigidBody) -> Result<usize, ArticulatedError> {
+        let i = self.bodies.len();
+        if !body.v.is_finite() || !body.omega.is_finite() {
+            return Err(ArticulatedError::InvalidBody {
+                body: i,
+                reason: "velocity must be finite",
+            });
+        }
+        // Re-validate (fields are public).
+        let mut checked = RigidBody::new(i, body.mass, body.inertia, body.pose)?;
+        checked.v = body.v;
+        checked.omega = body.omega;
+        checked.com = body.com;
+        self.bodies.push(checked);
+        self.solver = None;
+        Ok(i)
+    }
+
+    /// Adds a joint; returns its index. Errors: unknown body, a body joined to itself,
+    /// negative or non-finite damping.
+    pub fn add_joint(&mut self, joint: Joint) -> Result<usize, ArticulatedError> {
+        let j = self.joints.len();
+        let bad = |reason| ArticulatedError::InvalidJoint { joint: j, reason };
+        if joint.child >= self.bodies.len() || joint.parent.is_some_and(|p| p >= self.bodies.len())
+        {
+            return Err(bad("unknown body"));
+        }
+        if joint.parent == Some(joint.child) {
+            return Err(bad("a joint needs two different bodies"));
+        }
+        if !(joint.damping >= 0.0) || !joint.damping.is_finite() {
+            return Err(bad("damping must be finite and non-negative"));
+        }
+        self.joints.push(joint);
+        self.solver = None;
+        Ok(j)
+    }
+
+    /// The bodies.
+    pub fn bodies(&self) -> &[RigidBody] {
+        &self.bodies
+    }
+
+    /// Mutable access to the bodies' state (masses are re-checked by nothing here:
+    /// change them through [`RigidBody::new`]).
+    pub fn bodies_mut(&mut self) -> &mut [RigidBody] {
+        &mut self.bodies
+    }
+
+    /// The joints.
+    pub fn joints(&self) -> &[Joint] {
+        &self.joints
+    }
+
+    /// Steps taken so far.
+    pub fn step_count(&self) -> u64 {
+        self.steps
+    }
+
+    fn pose(&self, b: Option<usize>) -> Pose {
+        b.map_or(Pose::IDENTITY, |i| self.bodies[i].pose)
+    }
+
+    /// Largest joint separation (m) at the current state.
+    pub fn max_separation(&self) -> f64 {
+        self.joints
+            .iter()
+            .map(|j| j.separation(&self.pose(j.parent), &self.pose(Some(j.child))))
+            .fold(0.0, f64::max)
+    }
+
+    /// Kinetic plus gravitational potential energy `Σ ½mv² + ½ωᵀIω − m g·x`.
+    pub fn energy(&self) -> (f64, f64) {
+        let kin = self.bodies.iter().map(|b| b.kinetic_energy()).sum();
+        let pot = self
+            .bodies
+            .iter()
+            .map(|b| -b.mass * self.gravity.dot(b.pose.x))
+            .sum();
+        (kin, pot)
+    }
+
+    /// Number of loop-closure joints (joints outside the spanning tree).
+    pub fn loop_joints(&mut self) -> usize {
+        self.ensure_solver();
+        self.solver.as_ref().map_or(0, |s| s.loops.len())
+    }
+
+    fn topo(&self, with_damping: bool) -> Vec<JointTopo> {
+        self.joints
+            .iter()
+            .map(|j| JointTopo {
+                a: j.parent,
+                b: j.child,
+                rows: j.hard_rows() + if with_damping { j.damping_rows() } else { 0 },
+            })
+            .collect()
+    }
+
+    fn ensure_solver(&mut self) {
+        if self.solver.is_none() {
+            self.solver = Some(TreeSolver::new(self.bodies.len(), &self.topo(true)));
+        }
+    }
+
+    /// Advances the world by `h` seconds.
+    ///
+    /// On error (bad parameter, singular system, divergence) the state is left as it was
+    /// before the call.
+    pub fn step(&mut self, h: f64, method: Method) -> Result<StepStats, ArticulatedError> {
+        if !(h > 0.0) || !h.is_finite() {
+            return Err(ArticulatedError::InvalidParameter {
+                name: "h",
+                rule: "time step must be positive and finite",
+            });
+        }
+        check_method(&method)?;
+        self.ensure_solver();
+        self.saved.clone_from(&self.bodies);
+        let result = self.step_inner(h, method);
+        match result {
+            Ok(stats) => {
+                self.steps += 1;
+                if let Some(body) = self.first_bad_body() {
+                    self.bodies.clone_from(&self.saved);
+                    return Err(ArticulatedError::Diverged {
+                        step: self.steps,
+                        body,
+                    });
+                }
+                Ok(stats)
+            }
+            Err(e) => {
+                self.bodies.clone_from(&self.saved);
+                Err(e)
+            }
+        }
+    }
+
+    fn first_bad_body(&self) -> Option<usize> {
+        let ok = |v: DVec3| v.is_finite() && v.abs().max_element() < 1e12;
+        self.bodies
+            .iter()
+            .position(|b| !ok(b.pose.x) || !ok(b.v) || !ok(b.omega) || !b.pose.q.is_finite())
+    }
+
+    fn step_inner(&mut self, h: f64, method: Method) -> Result<StepStats, ArticulatedError> {
+        let mut stats = StepStats::default();
+        match method {
+            Method::Velocity { beta } => self.velocity_solve(h, beta)?,
+            Method::VelocityProjected {
+                beta,
+                tolerance,
+                max_iterations,
+                correct_velocity,
+            } => {
+                self.velocity_solve(h, beta)?;
+                stats.projection_iterations =
+                    self.project(tolerance, max_iterations, correct_velocity.then_some(h))?;
+            }
+            Method::Acceleration { kx, kv } => self.acceleration_solve(h, kx, kv)?,
+        }
+        stats.max_separation = self.max_separation();
+        Ok(stats)
+    }
+
+    /// Loads the mass blocks and the joint rows into the solver; `rhs_joint(j, rows)`
+    /// writes the joint's right-hand side and returns nothing. Returns the loop rows.
+    #[allow(clippy::type_complexity)]
+    fn assemble(
+        &mut self,
+        h: f64,
+        with_damping: bool,
+        mut joint_rhs: impl FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]),
+    ) -> (Vec<(Option<usize>, usize, [DVec3; 4])>, Vec<f64>, Vec<f64>) {
+        let solver = self.solver.as_mut().expect("solver built by ensure_solver");
+        for (i, b) in self.bodies.iter().enumerate() {
+            solver.set_body(i, b.mass, &b.world_inertia());
+        }
+        let mut loop_rows = Vec::new();
+        let mut loop_c = Vec::new();
+        let mut loop_rhs = Vec::new();
+        for (j, joint) in self.joints.iter().enumerate() {
+            let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
+            let b = self.bodies[joint.child].pose;
+            let rows = joint.rows(&a, &b, with_damping);
+            let mut comp = [0.0; MAX_ROWS];
+            for r in rows.n_hard..rows.n {
+                comp[r] = 1.0 / (h * joint.damping);
+            }
+            // In the topology every joint has its damping rows; without damping they get
+            // infinite compliance, i.e. a decoupled row with λ = 0.
+            let n_topo = joint.hard_rows() + joint.damping_rows();
+            for r in rows.n..n_topo {
+                comp[r] = 1.0;
+            }
+            let mut full = rows.rows;
+            for r in rows.n..n_topo {
+                full[r] = [DVec3::ZERO; 4];
+            }
+            let mut rhs = [0.0; MAX_ROWS];
+            joint_rhs(j, joint, &rows, &mut rhs[..rows.n]);
+            let topo = JointTopo {
+                a: joint.parent,
+                b: joint.child,
+                rows: n_topo,
+            };
+            match solver.joint_offset(j) {
+                Some(o) => {
+                    solver.set_joint(j, &topo, &full[..n_topo], &comp[..n_topo]);
+                    self.rhs[o..o + n_topo].copy_from_slice(&rhs[..n_topo]);
+                }
+                None => {
+                    for r in 0..rows.n {
+                        loop_rows.push((joint.parent, joint.child, rows.rows[r]));
+                        loop_c.push(comp[r]);
+                        loop_rhs.push(rhs[r]);
+                    }
+                }
+            }
+        }
+        (loop_rows, loop_c, loop_rhs)
+    }
+
+    fn solve(
+        &mut self,
+        loops: (Vec<(Option<usize>, usize, [DVec3; 4])>, Vec<f64>, Vec<f64>),
+    ) -> Result<(), ArticulatedError> {
+        let solver = self.solver.as_mut().expect("solver built by ensure_solver");
+        solver.factor()?;
+        let (rows, c, r) = loops;
+        solver.solve_with_loops(&mut self.rhs, &rows, &c, &r, &mut self.mu)
+    }
+
+    fn body_rhs(&mut self, f: impl Fn(&RigidBody) -> (DVec3, DVec3)) {
+        let size = self.solver.as_ref().map_or(0, |s| s.size);
+        self.rhs.clear();
+        self.rhs.resize(size, 0.0);
+        let solver = self.solver.as_ref().expect("solver built by ensure_solver");
+        for (i, b) in self.bodies.iter().enumerate() {
+            let o = solver.body_offset(i);
+            let (lin, ang) = f(b);
+            self.rhs[o..o + 3].copy_from_slice(&lin.to_array());
+            self.rhs[o + 3..o + 6].copy_from_slice(&ang.to_array());
+        }
+    }
+
+    fn body_solution(&self, i: usize) -> (DVec3, DVec3) {
+        let o = self.solver.as_ref().map_or(0, |s| s.body_offset(i));
+        let x = &self.rhs;
+        (
+            DVec3::new(x[o], x[o + 1], x[o + 2]),
+            DVec3::new(x[o + 3], x[o + 4], x[o + 5]),
+        )
+    }
+
+    /// `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`, then `x' = x + h v'`.
+    fn velocity_solve(&mut self, h: f64, beta: f64) -> Result<(), ArticulatedError> {
+        self.velocity_system_solve(h, beta)?;
+        for i in 0..self.bodies.len() {
+            let (v, w) = self.body_solution(i);
+            let b = &mut self.bodies[i];
+            b.v = v;
+            b.omega = w;
+            b.pose.x += v * h;
+            b.pose.q = rotate_by(b.pose.q, w * h);
+        }
+        Ok(())
+    }
+
+    /// The end-of-step twists `(v', ω')` of the velocity-level system
+    /// `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`, solved by the tree factorization,
+    /// without moving the bodies (for checking against [`Self::dense_velocity_system`]).
+    pub fn velocity_twists(
+        &mut self,
+        h: f64,
+        beta: f64,
+    ) -> Result<Vec<(DVec3, DVec3)>, ArticulatedError> {
+        self.ensure_solver();
+        self.velocity_system_solve(h, beta)?;
+        Ok((0..self.bodies.len())
+            .map(|i| self.body_solution(i))
+            .collect())
+    }
+
+    /// The velocity-level KKT system of [`Self::velocity_twists`] as one dense matrix
+    /// (all joints' rows, loop joints included, damping rows with compliance
+    /// `1/(h d)`): unknowns `[v₀, ω₀, v₁, ω₁, …, λ]`. A reference for tests and for
+    /// tiny systems; `O(n²)` memory.
+    pub fn dense_velocity_system(&self, h: f64, beta: f64) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let nb = self.bodies.len();
+        let rows: usize = self
+            .joints
+            .iter()
+            .map(|j| j.hard_rows() + j.damping_rows())
+            .sum();
+        let n = 6 * nb + rows;
+        let mut m = vec![vec![0.0; n]; n];
+        let mut rhs = vec![0.0; n];
+        for (i, b) in self.bodies.iter().enumerate() {
+            let iw = b.world_inertia();
+            let w = b.gyroscopic_step(h);
+            let lin = b.v * b.mass + self.gravity * (b.mass * h);
+            let ang = iw * w;
+            for k in 0..3 {
+                m[6 * i + k][6 * i + k] = b.mass;
+                for l in 0..3 {
+                    m[6 * i + 3 + k][6 * i + 3 + l] = iw.col(l)[k];
+                }
+                rhs[6 * i + k] = lin[k];
+                rhs[6 * i + 3 + k] = ang[k];
+            }
+        }
+        let mut r0 = 6 * nb;
+        for joint in &self.joints {
+            let a = self.pose(joint.parent);
+            let b = self.pose(Some(joint.child));
+            let jr = joint.rows(&a, &b, true);
+            for r in 0..jr.n {
+                let row = r0 + r;
+                for (side, body) in [(0usize, joint.parent), (1usize, Some(joint.child))] {
+                    let Some(body) = body else { continue };
+                    for c in 0..3 {
+                        for (blk, off) in [(2 * side, 0), (2 * side + 1, 3)] {
+                            let v = jr.rows[r][blk][c];
+                            m[row][6 * body + off + c] = v;
+                            m[6 * body + off + c][row] = v;
+                        }
+                    }
+                }
+                if r >= jr.n_hard {
+                    m[row][row] = -1.0 / (h * joint.damping);
+                } else {
+                    rhs[row] = -beta * jr.value[r] / h;
+                }
+            }
+            r0 += jr.n;
+        }
+        (m, rhs)
+    }
+
+    fn velocity_system_solve(&mut self, h: f64, beta: f64) -> Result<(), ArticulatedError> {
+        let g = self.gravity;
+        self.body_rhs(|b| {
+            let w = b.gyroscopic_step(h);
+            (b.v * b.mass + g * (b.mass * h), b.world_inertia() * w)
+        });
+        let loops = self.assemble(h, true, |_, _, rows, rhs| {
+            for r in 0..rows.n_hard {
+                rhs[r] = -beta * rows.value[r] / h;
+            }
+        });
+        self.solve(loops)
+    }
+
+    /// Newton projection onto `C(x) = 0` with mass-weighted minimum-norm steps
+    /// `[M Jᵀ; J 0][δ; λ] = [0; −C]` (Goldenthal et al. 2007, fast projection).
+    fn project(
+        &mut self,
+        tolerance: f64,
+        max_iterations: usize,
+        velocity_h: Option<f64>,
+    ) -> Result<usize, ArticulatedError> {
+        for it in 0..max_iterations {
+            if self.max_separation() <= tolerance {
+                return Ok(it);
+            }
+            self.body_rhs(|_| (DVec3::ZERO, DVec3::ZERO));
+            let loops = self.assemble(1.0, false, |_, _, rows, rhs| {
+                for r in 0..rows.n_hard {
+                    rhs[r] = -rows.value[r];
+                }
+            });
+            self.solve(loops)?;
+            for i in 0..self.bodies.len() {
+                let (dx, dth) = self.body_solution(i);
+                let b = &mut self.bodies[i];
+                b.pose.x += dx;
+                b.pose.q = rotate_by(b.pose.q, dth);
+                if let Some(h) = velocity_h {
+                    b.v += dx / h;
+                    b.omega += dth / h;
+                }
+            }
+        }
+        Ok(max_iterations)
+    }
+
+    /// `[M Jᵀ; J 0][a; λ] = [f; −J̇v − k_x C − k_v J v]`, then `v' = v + h a`,
+    /// `x' = x + h v'`.
+    fn acceleration_solve(&mut self, h: f64, kx: f64, kv: f64) -> Result<(), ArticulatedError> {
+        let g = self.gravity;
+        // Explicit joint damping torques/forces: −d J_dᵀ (J_d v).
+        let mut damp = vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()];
+        for joint in &self.joints {
+            if joint.damping_rows() == 0 {
+                continue;
+            }
+            let a = self.pose(joint.parent);
+            let b = self.pose(Some(joint.child));
+            let rows = joint.rows(&a, &b, true);
+            let twist = self.twist(joint);
+            for r in rows.n_hard..rows.n {
+                let rate: f64 = (0..4).map(|k| rows.rows[r][k].dot(twist[k])).sum();
+                let s = -joint.damping * rate;
+                if let Some(p) = joint.parent {
+                    damp[p].0 += rows.rows[r][0] * s;
+                    damp[p].1 += rows.rows[r][1] * s;
+                }
+                damp[joint.child].0 += rows.rows[r][2] * s;
+                damp[joint.child].1 += rows.rows[r][3] * s;
+            }
+        }
+        let bodies = self.bodies.clone();
+        let joints = self.joints.clone();
+        self.body_rhs(|b| {
+            let w = b.omega;
+            (g * b.mass, -w.cross(b.world_inertia() * w))
+        });
+        for (i, (f, t)) in damp.iter().enumerate() {
+            let o = self.solver.as_ref().map_or(0, |s| s.body_offset(i));
+            for c in 0..3 {
+                self.rhs[o + c] += f[c];
+                self.rhs[o + 3 + c] += t[c];
+            }
+        }
+        let twist_of = |joint: &Joint| {
+            let tw = |b: Option<usize>| {
+                b.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
+                    (bodies[i].v, bodies[i].omega)
+                })
+            };
+            let (va, wa) = tw(joint.parent);
+            let (vb, wb) = tw(Some(joint.child));
+            [va, wa, vb, wb]
+        };
+        let pose_of = |b: Option<usize>| b.map_or(Pose::IDENTITY, |i| bodies[i].pose);
+        let loops = self.assemble(h, false, |j, _, rows, rhs| {
+            let joint = &joints[j];
+            let u = twist_of(joint);
+            let (a, b) = (pose_of(joint.parent), pose_of(Some(joint.child)));
+            for r in 0..rows.n_hard {
+                let mut w = [0.0; MAX_ROWS];
+                w[r] = 1.0;
+                let jdot_v = joint.curvature(&a, &b, &w).quadratic(&u);
+                let cdot: f64 = (0..4).map(|k| rows.rows[r][k].dot(u[k])).sum();
+                rhs[r] = -jdot_v - kx * rows.value[r] - kv * cdot;
+            }
+        });
+        self.solve(loops)?;
+        for i in 0..self.bodies.len() {
+            let (a, alpha) = self.body_solution(i);
+            let b = &mut self.bodies[i];
+            b.v += a * h;
+            b.omega += alpha * h;
+            b.pose.x += b.v * h;
+            b.pose.q = rotate_by(b.pose.q, b.omega * h);
+        }
+        Ok(())
+    }
+
+    fn twist(&self, joint: &Joint) -> [DVec3; 4] {
+        let tw = |b: Option<usize>| {
+            b.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
+                (self.bodies[i].v, self.bodies[i].omega)
+            })
+        };
+        let (va, wa) = tw(joint.parent);
+        let (vb, wb) = tw(Some(joint.child));
+        [va, wa, vb, wb]
+    }
+
+    /// The constraint-force multipliers of the last solve for loop joints (for tests).
+    pub fn loop_multipliers(&self) -> &[f64] {
+        &self.mu
+    }
+
+    /// Kind name of joint `j` (for reports).
+    pub fn joint_kind_name(&self, j: usize) -> &'static str {
+        match self.joints.get(j).map(|j| &j.kind) {
+            Some(JointKind::Spherical(_)) => "spherical",
+            Some(JointKind::Hinge(_)) => "hinge",
+            Some(JointKind::Prismatic(_)) => "prismatic",
+            Some(JointKind::Fixed(_)) => "fixed",
+            Some(JointKind::Distance(_)) => "distance",
+            None => "none",
+        }
+    }
+}
+
+fn check_method(m: &Method) -> Result<(), ArticulatedError> {
+    let bad = |name, rule| Err(ArticulatedError::InvalidParameter { name, rule });
+    match *m {
+        Method::Velocity { beta } | Method::VelocityProjected { beta, .. }
+            if !(beta > 0.0 && beta <= 1.0) =>
+        {
+            bad("beta", "must be in (0, 1]")
+        }
+        Method::VelocityProjected { tolerance, .. }
+            if !(tolerance > 0.0) || !tolerance.is_finite() =>
+        {
+            bad("tolerance", "must be positive and finite")
+        }
+        Method::Acceleration { kx, kv }
+            if !(kx >= 0.0) || !(kv >= 0.0) || !kx.is_finite() || !kv.is_finite() =>
+        {
+            bad("kx/kv", "Baumgarte gains must be finite and non-negative")
+        }
+        _ => Ok(()),
+    }
+}
