@@ -123,11 +123,12 @@ pub enum MjcfError {
         got: usize,
     },
     /// A generalized-coordinate vector handed to [`crate::Model::body_states`] holds a
-    /// NaN or an infinity.
+    /// NaN or an infinity (`what` = `"qpos"` / `"qvel"`), or a computed body state
+    /// overflows (`what` = `"body state"`).
     NonFiniteState {
-        /// `"qpos"` or `"qvel"`.
+        /// `"qpos"`, `"qvel"` or `"body state"`.
         what: &'static str,
-        /// Index of the first non-finite entry.
+        /// Index of the first non-finite entry, or of the body.
         index: usize,
     },
 }

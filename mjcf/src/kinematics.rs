@@ -73,6 +73,11 @@ impl Model {
     /// Every body's world state (in [`Model::bodies`] order) for the generalized
     /// positions `qpos` (length [`Model::nq`]) and velocities `qvel` (length
     /// [`Model::nv`]). `vel` is the velocity of each body's centre of mass.
+    ///
+    /// Errors: [`MjcfError::StateLength`] or [`MjcfError::NonFiniteState`] (`what` =
+    /// `"qpos"` / `"qvel"`) for bad input; `NonFiniteState` with `what = "body state"`
+    /// and `index` = the body when a result overflows (huge but finite input);
+    /// [`MjcfError::Invalid`] for a hand-built model with inconsistent joint addresses.
     pub fn body_states(&self, qpos: &[f64], qvel: &[f64]) -> Result<Vec<BodyState>, MjcfError> {
         check_vector("qpos", qpos, self.nq())?;
         check_vector("qvel", qvel, self.nv())?;
@@ -176,6 +181,13 @@ impl Model {
             xquat = math::normalize4(xquat);
             let com = math::add(xpos, math::rotate(xquat, body.com));
             let com_vel = math::add(vel, math::cross(omega, math::sub(com, xpos)));
+            let all = [xpos, com, com_vel, omega];
+            if all.iter().flatten().chain(&xquat).any(|x| !x.is_finite()) {
+                return Err(MjcfError::NonFiniteState {
+                    what: "body state",
+                    index: i,
+                });
+            }
             pose.push((xpos, xquat));
             twist.push((omega, vel));
             out.push(BodyState {

@@ -61,14 +61,15 @@
 //!   are visual and ignored. Planes only in static bodies, as MuJoCo requires.
 //! - `equality`: `connect` with `body1` (required), `body2` (default world), `anchor`
 //!   (required), `name`, `active` only when true.
-//! - `keyframe`: `key` with `name`, `time`, `qpos`, `qvel`. As in MuJoCo
-//!   (`mjCKey::Compile`), an absent or empty vector means `qpos0` / zeros, and any other
-//!   length than `nq` / `nv` is an error (MuJoCo does not pad short keys).
+//! - `keyframe`: `key` with `name`, `time`, `qpos`, `qvel`. As MuJoCo 4.0 compiles
+//!   keys: the values given fill the front, the rest is `qpos0` / zero, more than
+//!   `nq` / `nv` values are an error, and ball / free quaternions are normalised (a zero
+//!   quaternion becomes the identity).
 //! - Not supported (typed error naming element and line): `include`, `contact`,
 //!   `tendon`, `actuator`, `sensor`, `frame`, `site`-based connects, cylinders,
 //!   ellipsoids, meshes, joint limits, and anything else not listed.
 //!
-//! Mass and inertia from geoms use MuJoCo's solid formulas ([`inertia`](crate#inertia)):
+//! Mass and inertia from geoms use MuJoCo's solid formulas:
 //! sphere, box, capsule (cylinder plus two hemispheres); several geoms are combined about
 //! their common centre of mass with the parallel-axis theorem; planes and geoms of mass
 //! `≤ 1e-14` count for nothing. A moving body (one with a joint) needs mass and principal

@@ -375,6 +375,9 @@ impl<'a, 'input> Loader<'a, 'input> {
         };
         let pos = math::add(p.pos, math::rotate(p.quat, local_pos));
         let quat = math::mul_quat(p.quat, local_quat);
+        if pos.iter().any(|x| !x.is_finite()) {
+            return Err(el.invalid("world position overflows"));
+        }
         let index = self.model.bodies.len();
         if el.get("name").map(|a| a.value.trim() == "world") == Some(true) {
             return Err(el.invalid("the name \"world\" is reserved for the world body"));
@@ -734,6 +737,9 @@ impl<'a, 'input> Loader<'a, 'input> {
             let (p2, q2) = pose(body2);
             let world = math::add(p1, math::rotate(q1, anchor));
             let anchor2 = math::rotate(math::conj(q2), math::sub(world, p2));
+            if anchor2.iter().any(|x| !x.is_finite()) {
+                return Err(el.invalid("anchor overflows"));
+            }
             let index = self.model.connects.len();
             register(&mut self.connect_names, &el, index)?;
             self.model.connects.push(Connect {
@@ -762,25 +768,36 @@ impl<'a, 'input> Loader<'a, 'input> {
                 Some(a) => a.scalar()?,
                 None => 0.0,
             };
-            // MuJoCo (mjCKey::Compile): an absent or empty vector means qpos0 / zeros;
-            // any other length than nq / nv is an error.
-            let read = |attr: &str, n: usize, fill: &[f64]| -> Result<Vec<f64>, MjcfError> {
-                match el.get(attr) {
-                    None => Ok(fill.to_vec()),
-                    Some(a) => {
-                        let v = a.numbers()?;
-                        if v.is_empty() {
-                            Ok(fill.to_vec())
-                        } else if v.len() != n {
-                            Err(a.bad(format!("expected {n} numbers, found {}", v.len())))
-                        } else {
-                            Ok(v)
-                        }
+            // As MuJoCo 4.0 compiles keys: values given fill the front; the rest is
+            // qpos0 / zero; more than nq / nv values are an error.
+            let read = |attr: &str, fill: &[f64]| -> Result<Vec<f64>, MjcfError> {
+                let mut out = fill.to_vec();
+                if let Some(a) = el.get(attr) {
+                    let v = a.numbers()?;
+                    if v.len() > fill.len() {
+                        return Err(a.bad(format!(
+                            "expected at most {} numbers, found {}",
+                            fill.len(),
+                            v.len()
+                        )));
                     }
+                    out[..v.len()].copy_from_slice(&v);
                 }
+                Ok(out)
             };
-            let qpos = read("qpos", self.nq, &qpos0)?;
-            let qvel = read("qvel", self.nv, &vec![0.0; self.nv])?;
+            let mut qpos = read("qpos", &qpos0)?;
+            let qvel = read("qvel", &vec![0.0; self.nv])?;
+            // MuJoCo normalises the quaternions of ball and free joints in key_qpos (a
+            // zero quaternion becomes the identity).
+            for j in &self.model.joints {
+                let a = match j.kind {
+                    JointKind::Ball => j.qpos_adr,
+                    JointKind::Free => j.qpos_adr + 3,
+                    JointKind::Hinge | JointKind::Slide => continue,
+                };
+                let q = math::normalize4([qpos[a], qpos[a + 1], qpos[a + 2], qpos[a + 3]]);
+                qpos[a..a + 4].copy_from_slice(&q);
+            }
             let index = self.model.keyframes.len();
             register(&mut self.key_names, &el, index)?;
             self.model.keyframes.push(Keyframe {

@@ -79,7 +79,11 @@ fn body_frames_compose_and_names_default() {
     assert_eq!(m.bodies[0].line, 3);
     // Rotated 90° about z, so the child's x offset points along world y.
     close(m.bodies[1].pos, [1.0, 1.0, 0.0], 1e-15);
-    same_rotation(m.bodies[1].quat, [FRAC_1_SQRT_2, 0.0, 0.0, FRAC_1_SQRT_2], 1e-15);
+    same_rotation(
+        m.bodies[1].quat,
+        [FRAC_1_SQRT_2, 0.0, 0.0, FRAC_1_SQRT_2],
+        1e-15,
+    );
     assert_eq!(m.geoms[1].body, Some(1));
 }
 
@@ -93,7 +97,9 @@ fn degrees_are_the_default_and_radians_on_request() {
     let want = [FRAC_1_SQRT_2, FRAC_1_SQRT_2, 0.0, 0.0];
     same_rotation(deg.bodies[0].quat, want, 1e-15);
     same_rotation(rad.bodies[0].quat, want, 1e-15);
-    let aa = load(&world(r#"<body axisangle="1 0 0 90"><geom size="1"/></body>"#));
+    let aa = load(&world(
+        r#"<body axisangle="1 0 0 90"><geom size="1"/></body>"#,
+    ));
     same_rotation(aa.bodies[0].quat, want, 1e-15);
 }
 
@@ -130,7 +136,9 @@ fn euler_sequence_rotating_and_fixed_axes() {
     let body = r#"<worldbody><body euler="90 90 0"><geom size="1"/></body></worldbody>"#;
     let moving = load(&format!("<mujoco>{body}</mujoco>"));
     same_rotation(moving.bodies[0].quat, mul(qx, qy), 1e-15);
-    let fixed = load(&format!("<mujoco><compiler eulerseq=\"XYZ\"/>{body}</mujoco>"));
+    let fixed = load(&format!(
+        "<mujoco><compiler eulerseq=\"XYZ\"/>{body}</mujoco>"
+    ));
     same_rotation(fixed.bodies[0].quat, mul(qy, qx), 1e-15);
 }
 
@@ -148,7 +156,13 @@ fn joints_of_each_kind_and_addresses() {
     let kinds: Vec<JointKind> = m.joints.iter().map(|j| j.kind).collect();
     assert_eq!(
         kinds,
-        [JointKind::Hinge, JointKind::Ball, JointKind::Slide, JointKind::Free, JointKind::Free]
+        [
+            JointKind::Hinge,
+            JointKind::Ball,
+            JointKind::Slide,
+            JointKind::Free,
+            JointKind::Free
+        ]
     );
     let qadr: Vec<usize> = m.joints.iter().map(|j| j.qpos_adr).collect();
     let vadr: Vec<usize> = m.joints.iter().map(|j| j.dof_adr).collect();
@@ -161,7 +175,10 @@ fn joints_of_each_kind_and_addresses() {
     assert_eq!(m.joints[0].pos, [0.0, 0.0, 1.0]);
     assert_eq!(m.joints[0].damping, 0.5);
     assert_eq!(m.joints[4].damping, 1.0);
-    assert_eq!(m.joints.iter().map(|j| j.body).collect::<Vec<_>>(), [0, 1, 2, 3, 4]);
+    assert_eq!(
+        m.joints.iter().map(|j| j.body).collect::<Vec<_>>(),
+        [0, 1, 2, 3, 4]
+    );
     // qpos0: hinge 0, ball identity, slide 0, free at the body pose.
     let q0 = m.qpos0();
     assert_eq!(&q0[1..5], &[1.0, 0.0, 0.0, 0.0]);
@@ -195,15 +212,31 @@ fn geoms_shapes_and_contact_attributes() {
     assert_eq!(g[0].friction, [0.3, 0.005, 0.0001]);
     assert_eq!((g[0].contype, g[0].conaffinity), (2, 5));
     assert_eq!(g[0].density, 1000.0);
-    assert_eq!(g[1].shape, Shape::Box { half: [0.1, 0.2, 0.3] });
+    assert_eq!(
+        g[1].shape,
+        Shape::Box {
+            half: [0.1, 0.2, 0.3]
+        }
+    );
     assert_eq!(g[1].pos, [1.0, 2.0, 3.0]);
     assert_eq!(g[1].quat, [0.0, 0.0, 0.0, 1.0]);
     assert_eq!(g[2].friction, [0.5, 0.1, 0.01]);
     // fromto: midpoint, half length |b − a|/2, z axis along (from − to) as in MuJoCo.
-    assert_eq!(g[3].shape, Shape::Capsule { radius: 0.05, half_length: 1.0 });
+    assert_eq!(
+        g[3].shape,
+        Shape::Capsule {
+            radius: 0.05,
+            half_length: 1.0
+        }
+    );
     assert_eq!(g[3].pos, [0.0, 0.0, 1.0]);
     same_rotation(g[3].quat, [0.0, 1.0, 0.0, 0.0], 1e-15);
-    assert_eq!(g[4].shape, Shape::Box { half: [0.1, 0.1, 1.0] });
+    assert_eq!(
+        g[4].shape,
+        Shape::Box {
+            half: [0.1, 0.1, 1.0]
+        }
+    );
     assert_eq!(g[4].pos, [1.0, 0.0, 0.0]);
     same_rotation(g[4].quat, [FRAC_1_SQRT_2, 0.0, -FRAC_1_SQRT_2, 0.0], 1e-15);
     assert_eq!(g[4].line, 9);
@@ -211,7 +244,9 @@ fn geoms_shapes_and_contact_attributes() {
 
 #[test]
 fn geom_mass_becomes_effective_density() {
-    let m = load(&world(r#"<body><freejoint/><geom type="box" size="0.5 0.5 0.5" mass="3"/></body>"#));
+    let m = load(&world(
+        r#"<body><freejoint/><geom type="box" size="0.5 0.5 0.5" mass="3"/></body>"#,
+    ));
     assert_eq!(m.geoms[0].density, 3.0);
     assert_eq!(m.bodies[0].mass, 3.0);
 }
@@ -241,13 +276,23 @@ fn default_classes_nest_and_childclass_applies_to_descendants() {
            </mujoco>"#,
     );
     let g = &m.geoms;
-    assert_eq!(g[0].shape, Shape::Box { half: [0.1, 0.1, 0.1] });
+    assert_eq!(
+        g[0].shape,
+        Shape::Box {
+            half: [0.1, 0.1, 0.1]
+        }
+    );
     assert_eq!(g[0].friction, [0.8, 0.01, 0.001]);
     // Partial friction keeps the inherited torsional and rolling coefficients.
     assert_eq!(g[1].shape, Shape::Sphere { radius: 0.1 });
     assert_eq!(g[1].friction, [0.4, 0.01, 0.001]);
     assert_eq!(g[2].friction, [0.1, 0.01, 0.001]);
-    assert_eq!(g[3].shape, Shape::Box { half: [0.1, 0.1, 0.1] });
+    assert_eq!(
+        g[3].shape,
+        Shape::Box {
+            half: [0.1, 0.1, 0.1]
+        }
+    );
     assert_eq!(m.joints[0].kind, JointKind::Hinge);
     assert_eq!(m.joints[0].damping, 0.2);
     assert_eq!(m.joints[1].kind, JointKind::Hinge);
@@ -265,7 +310,11 @@ fn inertial_overrides_geoms_under_auto_and_not_under_true() {
     let auto = load(&format!("<mujoco>{body}</mujoco>"));
     assert_eq!(auto.bodies[0].mass, 2.0);
     assert_eq!(auto.bodies[0].com, [0.0, 0.0, 1.0]);
-    close_mat(auto.bodies[0].inertia, [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]], 0.0);
+    close_mat(
+        auto.bodies[0].inertia,
+        [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]],
+        0.0,
+    );
     let forced = load(&format!(
         "<mujoco><compiler inertiafromgeom=\"true\"/>{body}</mujoco>"
     ));
@@ -286,8 +335,16 @@ fn inertial_orientation_and_full_inertia() {
            <body><joint/><inertial pos="0 0 0" mass="1" fullinertia="2 3 4 0.1 0.2 0.3"/></body>"#,
     ));
     // 90° about z swaps the x and y principal moments.
-    close_mat(m.bodies[0].inertia, [[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 3.0]], 1e-15);
-    close_mat(m.bodies[1].inertia, [[2.0, 0.1, 0.2], [0.1, 3.0, 0.3], [0.2, 0.3, 4.0]], 0.0);
+    close_mat(
+        m.bodies[0].inertia,
+        [[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 3.0]],
+        1e-15,
+    );
+    close_mat(
+        m.bodies[1].inertia,
+        [[2.0, 0.1, 0.2], [0.1, 3.0, 0.3], [0.2, 0.3, 4.0]],
+        0.0,
+    );
 }
 
 #[test]
@@ -330,11 +387,44 @@ fn keyframes_fill_absent_vectors_like_mujoco() {
     );
     let a = m.keyframe("a").expect("key a");
     assert_eq!(a.time, 1.5);
-    assert_eq!(a.qpos, vec![1.0, 2.0, 3.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
+    assert_eq!(
+        a.qpos,
+        vec![1.0, 2.0, 3.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]
+    );
     assert_eq!(a.qvel.len(), 9);
     let b = m.keyframe("key1").expect("key1");
     assert_eq!(b.qvel, vec![0.0; 9]);
     assert_eq!(b.time, 0.0);
+}
+
+#[test]
+fn short_keys_are_padded_and_quaternions_normalised_like_mujoco() {
+    // Values checked against MuJoCo 4.0.0 (`m.key_qpos`, `m.key_qvel`).
+    let m = load(
+        r#"<mujoco><worldbody>
+             <body pos="1 2 3" euler="0 0 90"><freejoint/><geom size="1"/></body>
+             <body pos="0 0 1"><joint type="ball"/><geom size="1"/></body>
+           </worldbody>
+           <keyframe>
+             <key qpos="5"/>
+             <key qpos="5 6 7 0 0 0 2  0 0 0 0" qvel="1"/>
+             <key qpos="" qvel=""/>
+           </keyframe></mujoco>"#,
+    );
+    let h = FRAC_1_SQRT_2;
+    let k = &m.keyframes;
+    close(
+        k[0].qpos[..].try_into().expect("11"),
+        [5.0, 2.0, 3.0, h, 0.0, 0.0, h, 1.0, 0.0, 0.0, 0.0],
+        1e-15,
+    );
+    assert_eq!(
+        k[1].qpos,
+        vec![5.0, 6.0, 7.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0]
+    );
+    assert_eq!(k[1].qvel, vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    assert_eq!(k[2].qpos, m.qpos0());
+    assert_eq!(k[2].qvel, vec![0.0; 9]);
 }
 
 #[test]

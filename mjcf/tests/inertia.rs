@@ -34,7 +34,9 @@ fn solid_sphere() {
 #[test]
 fn solid_box() {
     let (a, b, c) = (0.1, 0.2, 0.3);
-    let m = load(&world(r#"<body><freejoint/><geom type="box" size="0.1 0.2 0.3"/></body>"#));
+    let m = load(&world(
+        r#"<body><freejoint/><geom type="box" size="0.1 0.2 0.3"/></body>"#,
+    ));
     let mass = RHO * 8.0 * a * b * c; // 48 kg
     rel(m.bodies[0].mass, mass);
     let want = [
@@ -91,7 +93,11 @@ fn two_geoms_combine_with_the_parallel_axis_theorem() {
     let b = &m.bodies[0];
     rel(b.mass, 2.0 * each);
     close(b.com, [0.0; 3], 1e-16);
-    let want = [2.0 * own, 2.0 * (own + each * 0.25), 2.0 * (own + each * 0.25)];
+    let want = [
+        2.0 * own,
+        2.0 * (own + each * 0.25),
+        2.0 * (own + each * 0.25),
+    ];
     close_mat(b.inertia, diag(want), REL * want[1]);
 }
 

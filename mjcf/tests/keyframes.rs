@@ -123,16 +123,22 @@ fn default_state_is_the_compiled_pose_at_rest() {
 
 #[test]
 fn body_states_checks_vector_lengths_and_values() {
-    let m = load(
-        r#"<mujoco><worldbody><body><joint/><geom size="0.1"/></body></worldbody></mujoco>"#,
-    );
+    let m =
+        load(r#"<mujoco><worldbody><body><joint/><geom size="0.1"/></body></worldbody></mujoco>"#);
     assert_eq!(
         m.body_states(&[0.0, 1.0], &[0.0]),
-        Err(MjcfError::StateLength { what: "qpos", expected: 1, got: 2 })
+        Err(MjcfError::StateLength {
+            what: "qpos",
+            expected: 1,
+            got: 2
+        })
     );
     assert_eq!(
         m.body_states(&[0.0], &[f64::NAN]),
-        Err(MjcfError::NonFiniteState { what: "qvel", index: 0 })
+        Err(MjcfError::NonFiniteState {
+            what: "qvel",
+            index: 0
+        })
     );
     // A zero quaternion counts as the identity, as in MuJoCo's mju_normalize4.
     let m = load(

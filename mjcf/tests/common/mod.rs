@@ -38,7 +38,11 @@ pub fn close<const N: usize>(a: [f64; N], b: [f64; N], tol: f64) {
 /// Same rotation (`q` or `−q`).
 #[track_caller]
 pub fn same_rotation(a: [f64; 4], b: [f64; 4], tol: f64) {
-    let s = if a.iter().zip(&b).map(|(x, y)| x * y).sum::<f64>() < 0.0 { -1.0 } else { 1.0 };
+    let s = if a.iter().zip(&b).map(|(x, y)| x * y).sum::<f64>() < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
     close([a[0] * s, a[1] * s, a[2] * s, a[3] * s], b, tol);
 }
 
