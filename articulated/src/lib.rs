@@ -21,10 +21,14 @@ extern crate alloc;
 pub mod body;
 pub mod error;
 pub mod joint;
+#[cfg(feature = "mjcf")]
+pub mod mjcf;
 pub mod tree;
 pub mod world;
 
 pub use body::RigidBody;
 pub use error::ArticulatedError;
 pub use joint::{Joint, JointKind};
+#[cfg(feature = "mjcf")]
+pub use mjcf::MjcfScene;
 pub use world::{Method, StepStats, World};

@@ -60,7 +60,8 @@
 //!   `contype`, `conaffinity`, `condim` only when 3; `name`, `rgba`, `material`, `group`
 //!   are visual and ignored. Planes only in static bodies, as MuJoCo requires.
 //! - `equality`: `connect` with `body1` (required), `body2` (default world), `anchor`
-//!   (required), `name`, `active` only when true.
+//!   (required), `name`, `active` only when true; `solref` / `solimp` accepted and ignored
+//!   (they set the softness of MuJoCo's connect; this library enforces it as a hard constraint).
 //! - `keyframe`: `key` with `name`, `time`, `qpos`, `qvel`. As MuJoCo 4.0 compiles
 //!   keys: the values given fill the front, the rest is `qpos0` / zero, more than
 //!   `nq` / `nv` values are an error, and ball / free quaternions are normalised (a zero

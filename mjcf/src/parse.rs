@@ -705,7 +705,11 @@ impl<'a, 'input> Loader<'a, 'input> {
                 return Err(el.unsupported());
             }
             self.no_children(child)?;
-            el.only(&["name", "body1", "body2", "anchor", "active"])?;
+            // `solref`/`solimp` only tune how soft MuJoCo's connect is; here a connect is a
+            // hard constraint, so they are accepted and ignored (documented in lib.rs).
+            el.only(&[
+                "name", "body1", "body2", "anchor", "active", "solref", "solimp",
+            ])?;
             if let Some(a) = el.get("active") {
                 if !a.boolean()? {
                     return Err(a.unsupported());

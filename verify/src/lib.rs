@@ -26,7 +26,9 @@
 pub mod chart;
 pub mod fd;
 pub mod hard;
+pub mod scene;
 pub mod sweeps;
+pub mod trajectory;
 
 pub use fd::{
     check_derivatives, corrected_rel_error, exceeds, measure_only, tol_scale, FdOptions, FdReport,

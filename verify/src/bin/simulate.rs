@@ -1,0 +1,88 @@
+//! `simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--method M]
+//! --out FILE.csv` — runs an MJCF scene with this library and writes the trajectory
+//! (DESIGN.md §6). `cargo xtask simulate` calls this. Exit status 1 with a one-line
+//! reason on any error.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use constraint_verify::scene::{run, RunOptions, METHODS};
+
+fn parse(args: &[String]) -> Result<(PathBuf, RunOptions, PathBuf), String> {
+    let mut scene = None;
+    let mut out = None;
+    let mut opts = RunOptions {
+        keyframe: None,
+        dt: None,
+        duration: f64::NAN,
+        every: 1,
+        method: "velocity".into(),
+    };
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut val = |name: &str| it.next().cloned().ok_or(format!("{name} needs a value"));
+        let num = |s: String, name: &str| {
+            s.parse::<f64>()
+                .map_err(|_| format!("{name}: not a number: {s:?}"))
+        };
+        match a.as_str() {
+            "--keyframe" => opts.keyframe = Some(val("--keyframe")?),
+            "--dt" => opts.dt = Some(num(val("--dt")?, "--dt")?),
+            "--duration" => opts.duration = num(val("--duration")?, "--duration")?,
+            "--every" => {
+                let v = val("--every")?;
+                opts.every = v
+                    .parse()
+                    .map_err(|_| format!("--every: not a positive integer: {v:?}"))?;
+            }
+            "--method" => opts.method = val("--method")?,
+            "--out" => out = Some(PathBuf::from(val("--out")?)),
+            s if s.starts_with("--") => return Err(format!("unknown option {s}")),
+            s => {
+                if scene.replace(PathBuf::from(s)).is_some() {
+                    return Err("more than one scene file given".into());
+                }
+            }
+        }
+    }
+    let scene = scene.ok_or("missing SCENE.xml")?;
+    let out = out.ok_or("missing --out FILE.csv")?;
+    if opts.duration.is_nan() {
+        return Err("missing --duration T".into());
+    }
+    Ok((scene, opts, out))
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.iter().any(|a| a == "-h" || a == "--help") {
+        println!("usage: simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--method M] --out FILE.csv");
+        for (n, d) in METHODS {
+            println!("  --method {n:<13} {d}");
+        }
+        return ExitCode::SUCCESS;
+    }
+    let result = parse(&args).and_then(|(scene, opts, out)| {
+        let (traj, secs) = run(&scene, &opts)?;
+        std::fs::write(&out, traj.to_csv()).map_err(|e| format!("{}: {e}", out.display()))?;
+        let steps = ((opts.duration / opts.dt.unwrap_or(f64::NAN)).round()).max(0.0);
+        eprintln!(
+            "simulate: wrote {} rows to {} ({secs:.3} s stepping{})",
+            traj.rows.len(),
+            out.display(),
+            if steps.is_finite() && steps > 0.0 {
+                format!(", {:.2} µs/step", secs / steps * 1e6)
+            } else {
+                String::new()
+            }
+        );
+        Ok(())
+    });
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("simulate: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
