@@ -2,14 +2,18 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `verify [--quick]` | fmt and clippy checks, the whole test suite, the `no_std` build, the stiffness and work-precision sweeps; writes `target/verify/report.md` with charts |
+//! | `verify [--quick] [--mujoco]` | fmt and clippy checks, the whole test suite, the `no_std` build, the stiffness and work-precision sweeps; writes `target/verify/report.md` with charts; `--mujoco` also regenerates the MuJoCo references of `scenes/reference/` into `target/verify/mujoco/` and checks them against the committed ones (needs Python) |
 //! | `no-std` | builds `constraint-core` (no allocator) and `constraint-lagrange` (`alloc` only) without `std` for `thumbv7em-none-eabihf` |
 //! | `bench` | runs the criterion benchmarks and prints the time per step and growth exponents |
+//! | `mujoco SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--integrator euler\|implicitfast\|rk4] --out FILE.csv [--timing FILE.json]` | runs an MJCF scene in MuJoCo (virtual environment with a pinned `mujoco` from PyPI in `target/mujoco-venv`, made on first use) and writes the trajectory file of DESIGN.md section 6; `--timing` adds seconds per step in MuJoCo's C loop |
+//! | `compare A.csv B.csv` | max COM position, orientation and body-origin error between two trajectory files, with time and body |
 //!
 //! One file per command, as in glam's `tools/ci`. Standard library only, so the task
-//! runner itself builds in seconds.
+//! runner itself builds in seconds (MuJoCo runs through Python, never at build time).
 
 mod bench;
+mod compare;
+mod mujoco;
 mod no_std;
 mod run;
 mod verify;
@@ -19,9 +23,16 @@ use std::process::ExitCode;
 const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
-  verify [--quick]   checks, tests, no_std build and sweeps; writes target/verify/report.md
+  verify [--quick] [--mujoco]
+                     checks, tests, no_std build and sweeps; writes target/verify/report.md;
+                     --mujoco also regenerates scenes/reference/ in MuJoCo and checks it
   no-std             build constraint-core and constraint-lagrange for thumbv7em-none-eabihf without std
-  bench              criterion benchmarks: implicit cloth step and KKT solvers, N = 32, 64, 128";
+  bench              criterion benchmarks: implicit cloth step and KKT solvers, N = 32, 64, 128
+  mujoco SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K]
+         [--integrator euler|implicitfast|rk4] --out FILE.csv [--timing FILE.json]
+                     run the scene in MuJoCo (pip-installed into target/mujoco-venv on first use)
+  compare A.csv B.csv
+                     max COM, orientation and body-origin error between two trajectory files";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -29,6 +40,8 @@ fn main() -> ExitCode {
         Some("verify") => verify::main(&args[1..]),
         Some("no-std") => no_std::main(&args[1..]).map(|_| ()),
         Some("bench") => bench::main(&args[1..]),
+        Some("mujoco") => mujoco::main(&args[1..]),
+        Some("compare") => compare::main(&args[1..]),
         Some("-h" | "--help" | "help") | None => {
             println!("{USAGE}");
             Ok(())

@@ -8,6 +8,10 @@
 //! 5. the sweeps (`verify-report` binary, release build): cloth stability map and
 //!    work-precision chart
 //!
+//! 6. with `--mujoco` only: every MuJoCo reference of `scenes/reference/` regenerated into
+//!    `target/verify/mujoco/` and compared with the committed file (COM, body origin and
+//!    orientation within 1e-9; needs Python, see `mujoco.rs`)
+//!
 //! and writes `target/verify/report.md`. A failing stage does not stop the later ones;
 //! the exit status is non-zero if any failed.
 
@@ -38,12 +42,15 @@ fn git_head() -> String {
 
 pub fn main(args: &[String]) -> Result<(), String> {
     let quick = args.iter().any(|a| a == "--quick");
-    if let Some(a) = args.iter().find(|a| *a != "--quick") {
-        return Err(format!("unknown argument {a:?} (expected --quick)"));
+    let with_mujoco = args.iter().any(|a| a == "--mujoco");
+    if let Some(a) = args.iter().find(|a| *a != "--quick" && *a != "--mujoco") {
+        return Err(format!(
+            "unknown argument {a:?} (expected --quick, --mujoco)"
+        ));
     }
     let out = root().join("target/verify");
     std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
-    let total = 5;
+    let total = if with_mujoco { 6 } else { 5 };
     let mut stages: Vec<Stage> = Vec::new();
     let begin = |k: usize, name: &str| eprintln!("\n[{k}/{total}] {name}");
 
@@ -137,14 +144,33 @@ pub fn main(args: &[String]) -> Result<(), String> {
         note: String::new(),
     });
 
+    if with_mujoco {
+        begin(
+            6,
+            "MuJoCo references regenerated and compared with scenes/reference/",
+        );
+        let t0 = std::time::Instant::now();
+        let (ok, note) = match crate::mujoco::check_references(&out.join("mujoco"), 1e-9) {
+            Ok(lines) => (true, format!("{} scenes within 1e-9", lines.len())),
+            Err(e) => (false, e),
+        };
+        stages.push(Stage {
+            name: "MuJoCo references (verify --mujoco)",
+            ok,
+            secs: t0.elapsed().as_secs_f64(),
+            note,
+        });
+    }
+
     let mut md = String::new();
     let _ = writeln!(md, "# Verification report\n");
     let _ = writeln!(
         md,
-        "Commit `{}`, mode `{}`. Reproduce with `cargo xtask verify{}`.\n",
+        "Commit `{}`, mode `{}`. Reproduce with `cargo xtask verify{}{}`.\n",
         git_head(),
         if quick { "quick" } else { "full" },
-        if quick { " --quick" } else { "" }
+        if quick { " --quick" } else { "" },
+        if with_mujoco { " --mujoco" } else { "" }
     );
     let _ = writeln!(
         md,
@@ -162,7 +188,13 @@ pub fn main(args: &[String]) -> Result<(), String> {
     }
     md.push('\n');
     match std::fs::read_to_string(out.join("sweeps.md")) {
-        Ok(s) if stages.last().is_some_and(|s| s.ok) => md.push_str(&s),
+        Ok(s)
+            if stages
+                .iter()
+                .any(|s| s.name == "sweeps (verify-report)" && s.ok) =>
+        {
+            md.push_str(&s)
+        }
         _ => md.push_str("Sweeps did not complete; see the console output.\n"),
     }
     let report = out.join("report.md");

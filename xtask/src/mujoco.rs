@@ -1,0 +1,483 @@
+//! `cargo xtask mujoco SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K]
+//! [--integrator euler|implicitfast|rk4] --out FILE.csv [--timing FILE.json]`
+//!
+//! Runs an MJCF scene in MuJoCo and writes the trajectory file of DESIGN.md section 6.
+//! On first use it creates a virtual environment in `target/mujoco-venv` (`python3 -m venv`)
+//! and installs `mujoco==MUJOCO_VERSION` from PyPI into it; the Python side is
+//! `xtask/mujoco_run.py`, embedded here and written to `target/xtask/` at run time.
+//! `--timing FILE.json` also times the same rollout in MuJoCo's C loop (`mujoco.rollout`)
+//! and writes seconds per step.
+//!
+//! `REFERENCES` lists the committed MuJoCo exports in `scenes/reference/` and how each
+//! was made; `cargo xtask verify --mujoco` regenerates them (`check_references`).
+
+use crate::compare::{compare, format_report, Trajectory};
+use crate::run::root;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The MuJoCo release the references were made with (PyPI `mujoco`).
+pub const MUJOCO_VERSION: &str = "4.0.0";
+
+const SCRIPT: &str = include_str!("../mujoco_run.py");
+
+/// Integrators `--integrator` accepts.
+pub const INTEGRATORS: [&str; 3] = ["euler", "implicitfast", "rk4"];
+
+/// One MuJoCo run.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    pub scene: PathBuf,
+    pub keyframe: Option<String>,
+    /// Overrides the file's `option timestep`.
+    pub dt: Option<String>,
+    pub duration: String,
+    pub every: usize,
+    pub integrator: Option<String>,
+    pub out: PathBuf,
+    pub timing: Option<PathBuf>,
+}
+
+/// A committed reference export: `scenes/reference/<scene>.csv`, MuJoCo RK4 from
+/// keyframe `start`.
+pub struct Reference {
+    pub scene: &'static str,
+    pub dt: &'static str,
+    pub duration: &'static str,
+    pub every: usize,
+}
+
+/// The committed references (scenes/reference/README.md gives their error figures).
+pub const REFERENCES: [Reference; 7] = [
+    Reference {
+        scene: "pendulum",
+        dt: "1e-5",
+        duration: "2",
+        every: 1000,
+    },
+    Reference {
+        scene: "double_pendulum",
+        dt: "1e-5",
+        duration: "2",
+        every: 1000,
+    },
+    Reference {
+        scene: "spherical_pendulum",
+        dt: "1e-5",
+        duration: "2",
+        every: 1000,
+    },
+    Reference {
+        scene: "four_bar",
+        dt: "1e-5",
+        duration: "2",
+        every: 1000,
+    },
+    Reference {
+        scene: "chain20",
+        dt: "1e-5",
+        duration: "2",
+        every: 4000,
+    },
+    Reference {
+        scene: "chain20_heavy",
+        dt: "1e-5",
+        duration: "2",
+        every: 4000,
+    },
+    Reference {
+        scene: "chain100",
+        dt: "1e-4",
+        duration: "1",
+        every: 1000,
+    },
+];
+
+impl Reference {
+    /// The run that produces this reference, writing to `out`.
+    pub fn options(&self, out: PathBuf) -> RunOptions {
+        RunOptions {
+            scene: root().join("scenes").join(format!("{}.xml", self.scene)),
+            keyframe: Some("start".into()),
+            dt: Some(self.dt.into()),
+            duration: self.duration.into(),
+            every: self.every,
+            integrator: Some("rk4".into()),
+            out,
+            timing: None,
+        }
+    }
+}
+
+fn venv_dir() -> PathBuf {
+    root().join("target/mujoco-venv")
+}
+
+fn venv_python() -> PathBuf {
+    if cfg!(windows) {
+        venv_dir().join("Scripts/python.exe")
+    } else {
+        venv_dir().join("bin/python")
+    }
+}
+
+/// The last non-empty line of a process's stderr (or stdout), for one-line reasons.
+fn last_line(out: &std::process::Output) -> String {
+    let err = String::from_utf8_lossy(&out.stderr);
+    let std = String::from_utf8_lossy(&out.stdout);
+    err.lines()
+        .chain(std.lines())
+        .rev()
+        .find(|l| !l.trim().is_empty())
+        .map(|l| l.trim().to_string())
+        .unwrap_or_else(|| format!("exit status {}", out.status))
+}
+
+/// Creates `target/mujoco-venv` with `mujoco==MUJOCO_VERSION` unless it is already there;
+/// returns its Python.
+pub fn ensure_venv() -> Result<PathBuf, String> {
+    let python = venv_python();
+    let marker = venv_dir().join("xtask-mujoco-version");
+    if python.exists() && std::fs::read_to_string(&marker).is_ok_and(|v| v.trim() == MUJOCO_VERSION)
+    {
+        return Ok(python);
+    }
+    if !python.exists() {
+        let system = ["python3", "python"]
+            .into_iter()
+            .find(|p| {
+                Command::new(p)
+                    .args(["-c", "import sys; assert sys.version_info >= (3, 9)"])
+                    .output()
+                    .is_ok_and(|o| o.status.success())
+            })
+            .ok_or(
+                "python3 (3.9 or newer) not found on PATH: MuJoCo runs need it \
+                 (Debian/Ubuntu: apt-get install python3 python3-venv)",
+            )?;
+        eprintln!(
+            "xtask: creating {} (first use of MuJoCo)",
+            venv_dir().display()
+        );
+        let out = Command::new(system)
+            .args(["-m", "venv"])
+            .arg(venv_dir())
+            .output()
+            .map_err(|e| format!("{system} -m venv: {e}"))?;
+        if !out.status.success() || !python.exists() {
+            let _ = std::fs::remove_dir_all(venv_dir());
+            return Err(format!(
+                "{system} -m venv failed (venv/ensurepip missing? Debian/Ubuntu: apt-get install \
+                 python3-venv): {}",
+                last_line(&out)
+            ));
+        }
+    }
+    let pip_ok = Command::new(&python)
+        .args(["-m", "pip", "--version"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !pip_ok {
+        let _ = std::fs::remove_dir_all(venv_dir());
+        return Err(
+            "pip is missing from the virtual environment (Debian/Ubuntu: apt-get install \
+             python3-pip python3-venv)"
+                .into(),
+        );
+    }
+    eprintln!("xtask: pip install mujoco=={MUJOCO_VERSION} into target/mujoco-venv");
+    let out = Command::new(&python)
+        .args(["-m", "pip", "install", "--disable-pip-version-check", "-q"])
+        .arg(format!("mujoco=={MUJOCO_VERSION}"))
+        .output()
+        .map_err(|e| format!("pip install: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "pip install mujoco=={MUJOCO_VERSION} failed: {}",
+            last_line(&out)
+        ));
+    }
+    std::fs::write(&marker, MUJOCO_VERSION).map_err(|e| format!("{}: {e}", marker.display()))?;
+    Ok(python)
+}
+
+/// Writes the embedded script to `target/xtask/mujoco_run.py` (if changed); returns its path.
+fn script_path() -> Result<PathBuf, String> {
+    let dir = root().join("target/xtask");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let path = dir.join("mujoco_run.py");
+    if std::fs::read_to_string(&path).ok().as_deref() != Some(SCRIPT) {
+        std::fs::write(&path, SCRIPT).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    Ok(path)
+}
+
+/// Runs MuJoCo on `o`; stderr of the script is shown on success, its last line is the
+/// error on failure.
+pub fn run(o: &RunOptions) -> Result<(), String> {
+    if !o.scene.is_file() {
+        return Err(format!("{}: no such scene file", o.scene.display()));
+    }
+    if let Some(parent) = o.out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
+    }
+    let python = ensure_venv()?;
+    let script = script_path()?;
+    let mut cmd = Command::new(python);
+    cmd.arg(script).arg(&o.scene);
+    if let Some(k) = &o.keyframe {
+        cmd.args(["--keyframe", k]);
+    }
+    if let Some(dt) = &o.dt {
+        cmd.args(["--dt", dt]);
+    }
+    cmd.args(["--duration", &o.duration]);
+    cmd.args(["--every", &o.every.to_string()]);
+    if let Some(i) = &o.integrator {
+        cmd.args(["--integrator", i]);
+    }
+    cmd.arg("--out").arg(&o.out);
+    if let Some(t) = &o.timing {
+        cmd.arg("--timing").arg(t);
+    }
+    let out = cmd
+        .output()
+        .map_err(|e| format!("running MuJoCo's Python: {e}"))?;
+    if !out.status.success() {
+        let line = last_line(&out);
+        return Err(line
+            .strip_prefix("mujoco_run: ")
+            .map(str::to_string)
+            .unwrap_or(line));
+    }
+    eprint!("{}", String::from_utf8_lossy(&out.stderr));
+    Ok(())
+}
+
+fn positive(flag: &str, v: &str) -> Result<String, String> {
+    match v.parse::<f64>() {
+        Ok(x) if x > 0.0 && x.is_finite() => Ok(v.to_string()),
+        _ => Err(format!("{flag} needs a positive number, got {v:?}")),
+    }
+}
+
+/// Parses the command line of `cargo xtask mujoco`.
+pub fn parse_args(args: &[String]) -> Result<RunOptions, String> {
+    let mut o = RunOptions {
+        every: 1,
+        ..RunOptions::default()
+    };
+    let mut scene = None;
+    let mut duration = None;
+    let mut out = None;
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut value = |flag: &str| {
+            it.next()
+                .cloned()
+                .ok_or_else(|| format!("{flag} needs a value"))
+        };
+        match a.as_str() {
+            "--keyframe" => o.keyframe = Some(value("--keyframe")?),
+            "--dt" => o.dt = Some(positive("--dt", &value("--dt")?)?),
+            "--duration" => {
+                let v = value("--duration")?;
+                match v.parse::<f64>() {
+                    Ok(x) if x >= 0.0 && x.is_finite() => duration = Some(v),
+                    _ => return Err(format!("--duration needs a number >= 0, got {v:?}")),
+                }
+            }
+            "--every" => {
+                let v = value("--every")?;
+                o.every = v
+                    .parse()
+                    .ok()
+                    .filter(|&k: &usize| k >= 1)
+                    .ok_or_else(|| format!("--every needs a whole number >= 1, got {v:?}"))?;
+            }
+            "--integrator" => {
+                let v = value("--integrator")?;
+                if !INTEGRATORS.contains(&v.as_str()) {
+                    return Err(format!(
+                        "--integrator must be one of {}, got {v:?}",
+                        INTEGRATORS.join("|")
+                    ));
+                }
+                o.integrator = Some(v);
+            }
+            "--out" => out = Some(PathBuf::from(value("--out")?)),
+            "--timing" => o.timing = Some(PathBuf::from(value("--timing")?)),
+            s if s.starts_with('-') => return Err(format!("unknown option {s:?}")),
+            s => {
+                if scene.replace(PathBuf::from(s)).is_some() {
+                    return Err(format!("more than one scene given ({s:?})"));
+                }
+            }
+        }
+    }
+    o.scene = scene.ok_or("no SCENE.xml given")?;
+    o.duration = duration.ok_or("--duration T is required")?;
+    o.out = out.ok_or("--out FILE.csv is required")?;
+    Ok(o)
+}
+
+pub const USAGE: &str = "usage: cargo xtask mujoco SCENE.xml [--keyframe NAME] [--dt DT] \
+--duration T [--every K] [--integrator euler|implicitfast|rk4] --out FILE.csv [--timing FILE.json]";
+
+pub fn main(args: &[String]) -> Result<(), String> {
+    if args.iter().any(|a| a == "-h" || a == "--help") {
+        println!("{USAGE}");
+        return Ok(());
+    }
+    let o = parse_args(args).map_err(|e| format!("{e}\n{USAGE}"))?;
+    run(&o)
+}
+
+/// Regenerates every reference into `dir` and compares each with the committed
+/// `scenes/reference/<scene>.csv`; fails if any COM, body-origin or orientation difference
+/// exceeds `tol` or a sample is missing. Returns one summary line per scene.
+pub fn check_references(dir: &Path, tol: f64) -> Result<Vec<String>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut lines = Vec::new();
+    let mut failed = Vec::new();
+    for r in &REFERENCES {
+        let committed = root()
+            .join("scenes/reference")
+            .join(format!("{}.csv", r.scene));
+        let fresh = dir.join(format!("{}.csv", r.scene));
+        let t0 = std::time::Instant::now();
+        eprintln!(
+            "xtask: MuJoCo RK4 dt {} for {} s: {}",
+            r.dt, r.duration, r.scene
+        );
+        let res = run(&r.options(fresh.clone())).and_then(|()| {
+            let a = Trajectory::read(&committed)?;
+            let b = Trajectory::read(&fresh)?;
+            compare(&a, &b)
+        });
+        let line = match res {
+            Ok(rep) => {
+                let worst = rep
+                    .com
+                    .value
+                    .max(rep.origin.value)
+                    .max(rep.orientation.value);
+                let ok = rep.all_matched() && worst <= tol;
+                if !ok {
+                    failed.push(r.scene);
+                    eprint!("{}", format_report(&rep));
+                }
+                format!(
+                    "{} {}: COM {:.3e} m, origin {:.3e} m, orientation {:.3e} rad over {} samples ({:.1} s)",
+                    if ok { "ok  " } else { "FAIL" },
+                    r.scene,
+                    rep.com.value,
+                    rep.origin.value,
+                    rep.orientation.value,
+                    rep.matched,
+                    t0.elapsed().as_secs_f64()
+                )
+            }
+            Err(e) => {
+                failed.push(r.scene);
+                format!("FAIL {}: {e}", r.scene)
+            }
+        };
+        eprintln!("  {line}");
+        lines.push(line);
+    }
+    if failed.is_empty() {
+        Ok(lines)
+    } else {
+        Err(format!(
+            "MuJoCo references differ from the committed ones by more than {tol:e} (or failed): {}",
+            failed.join(", ")
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(s: &str) -> Vec<String> {
+        s.split_whitespace().map(String::from).collect()
+    }
+
+    #[test]
+    fn parses_a_full_command_line() {
+        let o = parse_args(&args(
+            "scenes/chain20.xml --keyframe start --dt 1e-3 --duration 2 --every 10 \
+             --integrator rk4 --out a.csv --timing a.json",
+        ))
+        .unwrap();
+        assert_eq!(o.scene, PathBuf::from("scenes/chain20.xml"));
+        assert_eq!(o.keyframe.as_deref(), Some("start"));
+        assert_eq!(o.dt.as_deref(), Some("1e-3"));
+        assert_eq!(o.duration, "2");
+        assert_eq!(o.every, 10);
+        assert_eq!(o.integrator.as_deref(), Some("rk4"));
+        assert_eq!(o.out, PathBuf::from("a.csv"));
+        assert_eq!(o.timing, Some(PathBuf::from("a.json")));
+    }
+
+    #[test]
+    fn rejects_bad_command_lines() {
+        for (line, want) in [
+            ("s.xml --out a.csv", "--duration"),
+            ("s.xml --duration 1", "--out"),
+            ("--duration 1 --out a.csv", "SCENE"),
+            ("s.xml --duration 1 --out a.csv --dt 0", "positive"),
+            ("s.xml --duration -1 --out a.csv", ">= 0"),
+            ("s.xml --duration 1 --out a.csv --every 0", ">= 1"),
+            ("s.xml --duration 1 --out a.csv --integrator rk45", "one of"),
+            ("s.xml --duration 1 --out a.csv --bogus", "unknown option"),
+            ("s.xml t.xml --duration 1 --out a.csv", "more than one"),
+            ("s.xml --duration", "needs a value"),
+        ] {
+            let e = parse_args(&args(line)).expect_err(line);
+            assert!(e.contains(want), "{line}: {want:?} not in {e:?}");
+        }
+    }
+
+    #[test]
+    fn every_reference_scene_exists_and_samples_divide_the_horizon() {
+        for r in &REFERENCES {
+            let scene = root().join("scenes").join(format!("{}.xml", r.scene));
+            assert!(scene.is_file(), "{}", scene.display());
+            let dt: f64 = r.dt.parse().unwrap();
+            let t: f64 = r.duration.parse().unwrap();
+            let steps = (t / dt).round();
+            assert!((steps * dt - t).abs() < 1e-12);
+            assert_eq!(steps as usize % r.every, 0, "{}", r.scene);
+        }
+    }
+
+    #[test]
+    fn committed_references_parse() {
+        for r in &REFERENCES {
+            let path = root()
+                .join("scenes/reference")
+                .join(format!("{}.csv", r.scene));
+            let t = Trajectory::read(&path).unwrap();
+            assert_eq!(t.times[0], 0.0);
+            let dur: f64 = r.duration.parse().unwrap();
+            assert!((t.times[t.times.len() - 1] - dur).abs() < 1e-9);
+            assert_eq!(t.extras, ["E_kin", "E_pot", "E_tot"]);
+            let dt: f64 = r.dt.parse().unwrap();
+            let step = dt * r.every as f64;
+            assert_eq!(
+                t.times.len(),
+                (dur / step).round() as usize + 1,
+                "{}",
+                r.scene
+            );
+            // Under ~300 KB each, so the repository stays small.
+            assert!(
+                std::fs::metadata(&path).unwrap().len() < 300_000,
+                "{}",
+                r.scene
+            );
+        }
+    }
+}
