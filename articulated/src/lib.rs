@@ -23,6 +23,7 @@ pub mod error;
 pub mod joint;
 #[cfg(feature = "mjcf")]
 pub mod mjcf;
+pub mod scenes;
 pub mod tree;
 pub mod world;
 

@@ -16,10 +16,10 @@
 //! are then `O(n)` in the number of bodies, with dense work only on the ≤ 6×6 blocks:
 //!
 //! ```text
-//! factor, for i in order:  D_i = H_ii − Σ_{c child of i} H_icᵀ... = H_ii − Σ_c H_ci ᵀ D_c⁻¹ H_ci
-//!                          L_i = D_i⁻¹ H_{i,parent(i)}
-//! solve:   forward  (order):    z_i = D_i⁻¹ (b_i − Σ_c H_ciᵀ z_c)
-//!          backward (reverse):  x_i = z_i − L_i x_parent(i)
+//! factor, for i in order:  D_i = H_ii − Σ_{c child of i} H_ciᵀ D_c⁻¹ H_ci   (= L_i d_i L_iᵀ)
+//!                          W_i = L_i⁻¹ H_{i,parent(i)}
+//! solve:   forward  (order):    s_i = d_i⁻¹ L_i⁻¹ (b_i − Σ_c W_cᵀ s_c)
+//!          backward (reverse):  x_i = L_i⁻ᵀ (s_i − d_i⁻¹ W_i x_parent(i))
 //! ```
 //!
 //! Body pivots `D_i` are symmetric positive definite (mass plus the positive
@@ -68,8 +68,10 @@ pub(crate) struct TreeSolver {
     dropped: Vec<u8>,
     /// `H_{i,parent(i)}` (`dim_i × dim_parent`).
     off: Vec<Blk>,
-    /// `D_i⁻¹ H_{i,parent(i)}`.
-    lmat: Vec<Blk>,
+    /// `W_i = L_i⁻¹ H_{i,parent(i)}` (`L_i` the unit lower factor of `D_i`).
+    wmat: Vec<Blk>,
+    /// `1/d` of each node's pivots (0 for dropped pivots).
+    dinv: Vec<[f64; 6]>,
     /// For joint `j`: its node, or `NONE` for a loop joint.
     pub joint_node: Vec<usize>,
     /// Loop joints, in joint order.
@@ -189,7 +191,8 @@ impl TreeSolver {
             diag: vec![ZERO; n_nodes],
             dropped: vec![0; n_nodes],
             off: vec![ZERO; n_nodes],
-            lmat: vec![ZERO; n_nodes],
+            wmat: vec![ZERO; n_nodes],
+            dinv: vec![[0.0; 6]; n_nodes],
             joint_node,
             loops,
             size,
@@ -261,91 +264,123 @@ impl TreeSolver {
         }
     }
 
-    /// Block LDLᵀ of the whole tree, leaves first.
+    /// Block LDLᵀ of the whole tree, leaves first. With `D_i = L_i d_i L_iᵀ` and
+    /// `W_i = L_i⁻¹ H_{i,p}`, the parent's pivot update is
+    /// `D_p −= H_{i,p}ᵀ D_i⁻¹ H_{i,p} = W_iᵀ d_i⁻¹ W_i` (lower triangle only: the block
+    /// factorization reads no more).
     pub fn factor(&mut self) -> Result<(), ArticulatedError> {
         for k in 0..self.order.len() {
             let i = self.order[k];
             let n = self.dim[i];
             let is_body = i < self.n_bodies;
             let mask = ldlt_in_place(&mut self.diag[i], n);
-            if is_body && mask != 0 {
-                return Err(ArticulatedError::Singular { node: i });
-            }
-            if is_body && (0..n).any(|r| !(self.diag[i][r][r] > 0.0)) {
+            if is_body && (mask != 0 || (0..n).any(|r| !(self.diag[i][r][r] > 0.0))) {
                 return Err(ArticulatedError::Singular { node: i });
             }
             self.dropped[i] = mask;
+            let d = &self.diag[i];
+            let mut dinv = [0.0; 6];
+            for r in 0..n {
+                dinv[r] = if mask & (1 << r) != 0 {
+                    0.0
+                } else {
+                    1.0 / d[r][r]
+                };
+            }
+            self.dinv[i] = dinv;
             let p = self.parent[i];
             if p == NONE {
                 continue;
             }
             let np = self.dim[p];
-            // lmat = D_i⁻¹ off_i (column by column)
-            let mut l = ZERO;
-            for c in 0..np {
-                let mut col = [0.0; 6];
-                for r in 0..n {
-                    col[r] = self.off[i][r][c];
-                }
-                ldlt_solve(&self.diag[i], mask, n, &mut col);
-                for r in 0..n {
-                    l[r][c] = col[r];
+            // W = L⁻¹ off (forward substitution, all columns at once).
+            let mut w = self.off[i];
+            for r in 0..n {
+                for t in 0..r {
+                    let l = d[r][t];
+                    if l != 0.0 {
+                        for c in 0..np {
+                            w[r][c] -= l * w[t][c];
+                        }
+                    }
                 }
             }
-            self.lmat[i] = l;
-            // D_p −= off_iᵀ lmat_i
-            let o = &self.off[i];
             let dp = &mut self.diag[p];
             for r in 0..np {
-                for c in 0..np {
+                for c in 0..=r {
                     let mut s = 0.0;
                     for t in 0..n {
-                        s += o[t][r] * l[t][c];
+                        s += w[t][r] * dinv[t] * w[t][c];
                     }
                     dp[r][c] -= s;
                 }
             }
+            self.wmat[i] = w;
         }
         Ok(())
     }
 
-    /// Solves `H x = b` in place with the factor.
+    /// Solves `H x = b` in place with the factor:
+    /// forward (leaves first) `u_i = L_i⁻¹ y_i`, `s_i = d_i⁻¹ u_i`, `y_p −= W_iᵀ s_i`;
+    /// backward (root first) `x_i = L_i⁻ᵀ (s_i − d_i⁻¹ W_i x_p)`.
     pub fn solve(&self, x: &mut [f64]) {
         for &i in &self.order {
             let n = self.dim[i];
             let oi = self.offset[i];
-            let mut z = [0.0; 6];
-            z[..n].copy_from_slice(&x[oi..oi + n]);
-            ldlt_solve(&self.diag[i], self.dropped[i], n, &mut z);
-            x[oi..oi + n].copy_from_slice(&z[..n]);
+            let d = &self.diag[i];
+            let dinv = &self.dinv[i];
+            let mut u = [0.0; 6];
+            for r in 0..n {
+                let mut s = x[oi + r];
+                for t in 0..r {
+                    s -= d[r][t] * u[t];
+                }
+                u[r] = s;
+            }
+            for r in 0..n {
+                u[r] *= dinv[r];
+                x[oi + r] = u[r];
+            }
             let p = self.parent[i];
             if p != NONE {
                 let op = self.offset[p];
-                let o = &self.off[i];
+                let w = &self.wmat[i];
                 for c in 0..self.dim[p] {
                     let mut s = 0.0;
                     for t in 0..n {
-                        s += o[t][c] * z[t];
+                        s += w[t][c] * u[t];
                     }
                     x[op + c] -= s;
                 }
             }
         }
         for &i in self.order.iter().rev() {
+            let n = self.dim[i];
+            let oi = self.offset[i];
+            let d = &self.diag[i];
+            let dinv = &self.dinv[i];
+            let mut s = [0.0; 6];
+            s[..n].copy_from_slice(&x[oi..oi + n]);
             let p = self.parent[i];
-            if p == NONE {
-                continue;
-            }
-            let (n, np) = (self.dim[i], self.dim[p]);
-            let (oi, op) = (self.offset[i], self.offset[p]);
-            let l = &self.lmat[i];
-            for r in 0..n {
-                let mut s = 0.0;
-                for c in 0..np {
-                    s += l[r][c] * x[op + c];
+            if p != NONE {
+                let op = self.offset[p];
+                let w = &self.wmat[i];
+                for r in 0..n {
+                    let mut acc = 0.0;
+                    for c in 0..self.dim[p] {
+                        acc += w[r][c] * x[op + c];
+                    }
+                    s[r] -= dinv[r] * acc;
                 }
-                x[oi + r] -= s;
             }
+            for r in (0..n).rev() {
+                let mut v = s[r];
+                for t in r + 1..n {
+                    v -= d[t][r] * s[t];
+                }
+                s[r] = v;
+            }
+            x[oi..oi + n].copy_from_slice(&s[..n]);
         }
     }
 
@@ -450,29 +485,4 @@ fn ldlt_in_place(a: &mut Blk, n: usize) -> u8 {
         }
     }
     mask
-}
-
-/// Solves with the factor of [`ldlt_in_place`]; dropped pivots give 0.
-fn ldlt_solve(a: &Blk, mask: u8, n: usize, x: &mut [f64; 6]) {
-    for i in 0..n {
-        let mut s = x[i];
-        for k in 0..i {
-            s -= a[i][k] * x[k];
-        }
-        x[i] = s;
-    }
-    for i in 0..n {
-        x[i] = if mask & (1 << i) != 0 {
-            0.0
-        } else {
-            x[i] / a[i][i]
-        };
-    }
-    for i in (0..n).rev() {
-        let mut s = x[i];
-        for k in i + 1..n {
-            s -= a[k][i] * x[k];
-        }
-        x[i] = s;
-    }
 }
