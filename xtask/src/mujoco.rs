@@ -453,6 +453,15 @@ mod tests {
         }
     }
 
+    /// The regression check of `cargo xtask verify --mujoco`, runnable alone with
+    /// `cargo test -p xtask -- --ignored` (about 2 minutes).
+    #[test]
+    #[ignore = "needs Python and MuJoCo (pip); cargo xtask verify --mujoco runs the same"]
+    fn regenerated_references_match_the_committed_ones() {
+        let lines = check_references(&root().join("target/verify/mujoco"), 1e-9).unwrap();
+        assert_eq!(lines.len(), REFERENCES.len());
+    }
+
     #[test]
     fn committed_references_parse() {
         for r in &REFERENCES {
