@@ -40,7 +40,7 @@ use alloc::vec;
 use alloc::vec::Vec;
 
 use constraint_core::DVec3;
-use constraint_lagrange::solve::svd::min_norm_solve;
+use constraint_lagrange::solve::svd::SvdSolver;
 use constraint_lagrange::solve::DenseMatrix;
 
 use crate::error::ArticulatedError;
@@ -293,29 +293,19 @@ impl TreeSolver {
                 continue;
             }
             let np = self.dim[p];
-            // W = L⁻¹ off (forward substitution, all columns at once).
-            let mut w = self.off[i];
-            for r in 0..n {
-                for t in 0..r {
-                    let l = d[r][t];
-                    if l != 0.0 {
-                        for c in 0..np {
-                            w[r][c] -= l * w[t][c];
-                        }
+            let (di, dp) = pair_mut(&mut self.diag, i, p);
+            let w = &mut self.wmat[i];
+            *w = self.off[i];
+            // Fixed-size kernels for the shapes of body/joint pairs (the loops unroll).
+            macro_rules! dispatch {
+                ($($a:literal, $b:literal);*) => {
+                    match (n, np) {
+                        $(($a, $b) => update::<$a, $b>(di, &dinv, w, dp),)*
+                        _ => update_dyn(n, np, di, &dinv, w, dp),
                     }
-                }
+                };
             }
-            let dp = &mut self.diag[p];
-            for r in 0..np {
-                for c in 0..=r {
-                    let mut s = 0.0;
-                    for t in 0..n {
-                        s += w[t][r] * dinv[t] * w[t][c];
-                    }
-                    dp[r][c] -= s;
-                }
-            }
-            self.wmat[i] = w;
+            dispatch!(6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6);
         }
         Ok(())
     }
@@ -389,13 +379,15 @@ impl TreeSolver {
     /// `[H Gᵀ; G −C_G][x; μ] = [b; r_G]`, `G` acting on body unknowns only.
     ///
     /// `loop_rows[k] = (a, b, row)`, `loop_c[k]` its compliance, `loop_rhs[k] = r_G`.
-    /// On return `x` holds the tree unknowns and `mu` the loop multipliers.
+    /// On return `x` holds the tree unknowns and `mu` the loop multipliers. `free_scale`
+    /// is the largest `g M⁻¹ gᵀ` of the loop rows (their scale without the tree).
     pub fn solve_with_loops(
         &self,
         x: &mut [f64],
         loop_rows: &[(Option<usize>, usize, [DVec3; 4])],
         loop_c: &[f64],
         loop_rhs: &[f64],
+        free_scale: f64,
         mu: &mut Vec<f64>,
     ) -> Result<(), ArticulatedError> {
         self.solve(x);
@@ -431,7 +423,24 @@ impl TreeSolver {
         if !s.is_finite() || rhs.iter().any(|v| !v.is_finite()) {
             return Err(ArticulatedError::LoopSolve);
         }
-        let sol = min_norm_solve(&s, &rhs, 1e-10).map_err(|_| ArticulatedError::LoopSolve)?;
+        // Truncate singular values below 1e-10 of the loop rows' scale without the tree
+        // (`free_scale ≈ max G M⁻¹ Gᵀ`): a loop row that repeats a tree constraint has
+        // `G H⁻¹ Gᵀ ≈ 0` up to round-off, and a tolerance relative to that noise would
+        // turn the noise into forces.
+        let svd = SvdSolver::new(&s, 1e-10).map_err(|_| ArticulatedError::LoopSolve)?;
+        let smax = svd.singular_values().first().copied().unwrap_or(0.0);
+        let floor = 1e-10 * free_scale;
+        let mut sol_x = vec![0.0; k];
+        if smax > floor {
+            let svd = if floor > 1e-10 * smax {
+                SvdSolver::new(&s, floor / smax).map_err(|_| ArticulatedError::LoopSolve)?
+            } else {
+                svd
+            };
+            svd.solve_min_norm(&rhs, &mut sol_x)
+                .map_err(|_| ArticulatedError::LoopSolve)?;
+        }
+        let sol = MinNorm { x: sol_x };
         for (r, m) in sol.x.iter().enumerate() {
             let col = &y[r * self.size..(r + 1) * self.size];
             for (xi, yi) in x.iter_mut().zip(col) {
@@ -485,4 +494,69 @@ fn ldlt_in_place(a: &mut Blk, n: usize) -> u8 {
         }
     }
     mask
+}
+
+/// Two distinct elements of a slice, mutably.
+fn pair_mut(v: &mut [Blk], i: usize, p: usize) -> (&Blk, &mut Blk) {
+    if i < p {
+        let (lo, hi) = v.split_at_mut(p);
+        (&lo[i], &mut hi[0])
+    } else {
+        let (lo, hi) = v.split_at_mut(i);
+        (&hi[0], &mut lo[p])
+    }
+}
+
+/// `W = L⁻¹ W` (unit lower `L` in `d`'s strict lower triangle) and
+/// `D_p −= Wᵀ diag(dinv) W` on the lower triangle, for an `N`-node under an `NP`-parent.
+#[inline]
+fn update<const N: usize, const NP: usize>(d: &Blk, dinv: &[f64; 6], w: &mut Blk, dp: &mut Blk) {
+    for r in 1..N {
+        for t in 0..r {
+            let l = d[r][t];
+            for c in 0..NP {
+                w[r][c] -= l * w[t][c];
+            }
+        }
+    }
+    let mut sw = [[0.0; 6]; 6];
+    for t in 0..N {
+        for c in 0..NP {
+            sw[t][c] = w[t][c] * dinv[t];
+        }
+    }
+    for r in 0..NP {
+        for c in 0..=r {
+            let mut s = 0.0;
+            for t in 0..N {
+                s += w[t][r] * sw[t][c];
+            }
+            dp[r][c] -= s;
+        }
+    }
+}
+
+/// [`update`] for any shape.
+fn update_dyn(n: usize, np: usize, d: &Blk, dinv: &[f64; 6], w: &mut Blk, dp: &mut Blk) {
+    for r in 1..n {
+        for t in 0..r {
+            let l = d[r][t];
+            for c in 0..np {
+                w[r][c] -= l * w[t][c];
+            }
+        }
+    }
+    for r in 0..np {
+        for c in 0..=r {
+            let mut s = 0.0;
+            for t in 0..n {
+                s += w[t][r] * dinv[t] * w[t][c];
+            }
+            dp[r][c] -= s;
+        }
+    }
+}
+
+struct MinNorm {
+    x: Vec<f64>,
 }

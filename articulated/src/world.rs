@@ -333,7 +333,19 @@ impl World {
         let solver = self.solver.as_mut().expect("solver built by ensure_solver");
         solver.factor()?;
         let (rows, c, r) = loops;
-        solver.solve_with_loops(&mut self.rhs, &rows, &c, &r, &mut self.mu)
+        let mut free_scale: f64 = 0.0;
+        for (a, b, row) in &rows {
+            let mut g = 0.0;
+            for (side, body) in [(0usize, *a), (1usize, Some(*b))] {
+                if let Some(i) = body {
+                    let bd = &self.bodies[i];
+                    g += row[2 * side].length_squared() / bd.mass
+                        + row[2 * side + 1].dot(bd.world_inv_inertia() * row[2 * side + 1]);
+                }
+            }
+            free_scale = free_scale.max(g);
+        }
+        solver.solve_with_loops(&mut self.rhs, &rows, &c, &r, free_scale, &mut self.mu)
     }
 
     fn body_rhs(&mut self, f: impl Fn(&RigidBody) -> (DVec3, DVec3)) {
