@@ -46,7 +46,7 @@ fn bench(c: &mut Criterion) {
                 }
             }
             g.bench_with_input(BenchmarkId::new(name, n), &n, |b, _| {
-                b.iter(|| w.step(1e-3, m).map(|s| s.max_separation))
+                b.iter(|| w.step(1e-3, m).map(|s| s.projection_iterations))
             });
             println!(
                 "{name} n={n}: joint separation after the run {:.2e} m",

@@ -161,7 +161,12 @@ impl RigidBody {
     /// body frame (Catto 2015, "Numerical methods", GDC): implicit, so a spinning body
     /// never gains energy from this term.
     pub fn gyroscopic_step(&self, h: f64) -> DVec3 {
-        let r = self.rotation();
+        self.gyroscopic_step_with(&self.rotation(), h)
+    }
+
+    /// [`Self::gyroscopic_step`] with the rotation matrix `r` already at hand.
+    pub fn gyroscopic_step_with(&self, r: &DMat3, h: f64) -> DVec3 {
+        let r = *r;
         let w = r.transpose() * self.omega;
         let iw = self.inertia * w;
         let f = w.cross(iw) * h;

@@ -66,10 +66,9 @@ pub(crate) struct TreeSolver {
     diag: Vec<Blk>,
     /// Zero-pivot mask per node (bit r set: pivot r dropped).
     dropped: Vec<u8>,
-    /// `H_{i,parent(i)}` (`dim_i × dim_parent`).
-    off: Vec<Blk>,
+    /// `H_{i,parent(i)}` (`dim_i × dim_parent`) on assembly; after [`Self::factor`],
     /// `W_i = L_i⁻¹ H_{i,parent(i)}` (`L_i` the unit lower factor of `D_i`).
-    wmat: Vec<Blk>,
+    off: Vec<Blk>,
     /// `1/d` of each node's pivots (0 for dropped pivots).
     dinv: Vec<[f64; 6]>,
     /// For joint `j`: its node, or `NONE` for a loop joint.
@@ -191,7 +190,6 @@ impl TreeSolver {
             diag: vec![ZERO; n_nodes],
             dropped: vec![0; n_nodes],
             off: vec![ZERO; n_nodes],
-            wmat: vec![ZERO; n_nodes],
             dinv: vec![[0.0; 6]; n_nodes],
             joint_node,
             loops,
@@ -224,8 +222,9 @@ impl TreeSolver {
         }
     }
 
-    /// Sets tree joint `j`'s blocks: its rows' Jacobian (`rows[r] = [v_a, ω_a, v_b, ω_b]`)
-    /// and compliance (`−C` on the diagonal).
+    /// Sets tree joint `j`'s blocks: its rows' Jacobian (`rows[r] = [v_a, ω_a, v_b, ω_b]`;
+    /// rows beyond `rows.len()` up to `topo.rows` are zero) and compliance (`−C` on the
+    /// diagonal).
     pub fn set_joint(
         &mut self,
         j: usize,
@@ -234,17 +233,24 @@ impl TreeSolver {
         compliance: &[f64],
     ) {
         let node = self.joint_node[j];
-        let m = rows.len();
+        let m = topo.rows;
         let d = &mut self.diag[node];
         *d = ZERO;
         for r in 0..m {
             d[r][r] = -compliance[r];
         }
+        let given = rows.len();
         let p = self.parent[node];
         // The body whose blocks are H_{joint, parent} and the child body's H_{child, joint}.
         for (side, body) in [(0usize, topo.a), (1usize, Some(topo.b))] {
             let Some(body) = body else { continue };
-            let blk = |r: usize, c: usize| rows[r][2 * side + c / 3][c % 3];
+            let blk = |r: usize, c: usize| {
+                if r < given {
+                    rows[r][2 * side + c / 3][c % 3]
+                } else {
+                    0.0
+                }
+            };
             if body == p {
                 let o = &mut self.off[node];
                 for r in 0..m {
@@ -294,8 +300,8 @@ impl TreeSolver {
             }
             let np = self.dim[p];
             let (di, dp) = pair_mut(&mut self.diag, i, p);
-            let w = &mut self.wmat[i];
-            *w = self.off[i];
+            // W overwrites H_{i,p} in place (set again at every assembly).
+            let w = &mut self.off[i];
             // Fixed-size kernels for the shapes of body/joint pairs (the loops unroll).
             macro_rules! dispatch {
                 ($($a:literal, $b:literal);*) => {
@@ -334,7 +340,7 @@ impl TreeSolver {
             let p = self.parent[i];
             if p != NONE {
                 let op = self.offset[p];
-                let w = &self.wmat[i];
+                let w = &self.off[i];
                 for c in 0..self.dim[p] {
                     let mut s = 0.0;
                     for t in 0..n {
@@ -354,7 +360,7 @@ impl TreeSolver {
             let p = self.parent[i];
             if p != NONE {
                 let op = self.offset[p];
-                let w = &self.wmat[i];
+                let w = &self.off[i];
                 for r in 0..n {
                     let mut acc = 0.0;
                     for c in 0..self.dim[p] {

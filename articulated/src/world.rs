@@ -20,7 +20,7 @@ use alloc::vec;
 use alloc::vec::Vec;
 
 use constraint_core::rigid::rotate_by;
-use constraint_core::{DVec3, Pose};
+use constraint_core::{DMat3, DVec3, Pose};
 
 use crate::body::RigidBody;
 use crate::error::ArticulatedError;
@@ -68,8 +68,6 @@ impl Default for Method {
 pub struct StepStats {
     /// Newton projection iterations used (0 without projection).
     pub projection_iterations: usize,
-    /// Largest joint separation after the step (m).
-    pub max_separation: f64,
 }
 
 /// Bodies, joints, gravity and the solver's reusable storage.
@@ -264,7 +262,6 @@ impl World {
             }
             Method::Acceleration { kx, kv } => self.acceleration_solve(h, kx, kv)?,
         }
-        stats.max_separation = self.max_separation();
         Ok(stats)
     }
 
@@ -278,9 +275,6 @@ impl World {
         mut joint_rhs: impl FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]),
     ) -> (Vec<(Option<usize>, usize, [DVec3; 4])>, Vec<f64>, Vec<f64>) {
         let solver = self.solver.as_mut().expect("solver built by ensure_solver");
-        for (i, b) in self.bodies.iter().enumerate() {
-            solver.set_body(i, b.mass, &b.world_inertia());
-        }
         let mut loop_rows = Vec::new();
         let mut loop_c = Vec::new();
         let mut loop_rhs = Vec::new();
@@ -298,10 +292,6 @@ impl World {
             for r in rows.n..n_topo {
                 comp[r] = 1.0;
             }
-            let mut full = rows.rows;
-            for r in rows.n..n_topo {
-                full[r] = [DVec3::ZERO; 4];
-            }
             let mut rhs = [0.0; MAX_ROWS];
             joint_rhs(j, joint, &rows, &mut rhs[..rows.n]);
             let topo = JointTopo {
@@ -311,7 +301,7 @@ impl World {
             };
             match solver.joint_offset(j) {
                 Some(o) => {
-                    solver.set_joint(j, &topo, &full[..n_topo], &comp[..n_topo]);
+                    solver.set_joint(j, &topo, &rows.rows[..rows.n], &comp[..n_topo]);
                     self.rhs[o..o + n_topo].copy_from_slice(&rhs[..n_topo]);
                 }
                 None => {
@@ -348,14 +338,19 @@ impl World {
         solver.solve_with_loops(&mut self.rhs, &rows, &c, &r, free_scale, &mut self.mu)
     }
 
-    fn body_rhs(&mut self, f: impl Fn(&RigidBody) -> (DVec3, DVec3)) {
+    /// Loads every body's mass block `diag(m) ⊕ R I Rᵀ` into the solver and its
+    /// right-hand side `f(body, R, I_world)`.
+    fn body_rhs(&mut self, f: impl Fn(&RigidBody, &DMat3, &DMat3) -> (DVec3, DVec3)) {
         let size = self.solver.as_ref().map_or(0, |s| s.size);
         self.rhs.clear();
         self.rhs.resize(size, 0.0);
-        let solver = self.solver.as_ref().expect("solver built by ensure_solver");
+        let solver = self.solver.as_mut().expect("solver built by ensure_solver");
         for (i, b) in self.bodies.iter().enumerate() {
             let o = solver.body_offset(i);
-            let (lin, ang) = f(b);
+            let r = b.rotation();
+            let iw = r * b.inertia * r.transpose();
+            solver.set_body(i, b.mass, &iw);
+            let (lin, ang) = f(b, &r, &iw);
             self.rhs[o..o + 3].copy_from_slice(&lin.to_array());
             self.rhs[o + 3..o + 6].copy_from_slice(&ang.to_array());
         }
@@ -457,9 +452,9 @@ impl World {
 
     fn velocity_system_solve(&mut self, h: f64, beta: f64) -> Result<(), ArticulatedError> {
         let g = self.gravity;
-        self.body_rhs(|b| {
-            let w = b.gyroscopic_step(h);
-            (b.v * b.mass + g * (b.mass * h), b.world_inertia() * w)
+        self.body_rhs(|b, r, iw| {
+            let w = b.gyroscopic_step_with(r, h);
+            (b.v * b.mass + g * (b.mass * h), *iw * w)
         });
         let loops = self.assemble(h, true, |_, _, rows, rhs| {
             for r in 0..rows.n_hard {
@@ -481,7 +476,7 @@ impl World {
             if self.max_separation() <= tolerance {
                 return Ok(it);
             }
-            self.body_rhs(|_| (DVec3::ZERO, DVec3::ZERO));
+            self.body_rhs(|_, _, _| (DVec3::ZERO, DVec3::ZERO));
             let loops = self.assemble(1.0, false, |_, _, rows, rhs| {
                 for r in 0..rows.n_hard {
                     rhs[r] = -rows.value[r];
@@ -529,9 +524,9 @@ impl World {
         }
         let bodies = self.bodies.clone();
         let joints = self.joints.clone();
-        self.body_rhs(|b| {
+        self.body_rhs(|b, _, iw| {
             let w = b.omega;
-            (g * b.mass, -w.cross(b.world_inertia() * w))
+            (g * b.mass, -w.cross(*iw * w))
         });
         for (i, (f, t)) in damp.iter().enumerate() {
             let o = self.solver.as_ref().map_or(0, |s| s.body_offset(i));
