@@ -6,6 +6,7 @@
 //! | `no-std` | builds `constraint-core` (no allocator) and `constraint-lagrange` (`alloc` only) without `std` for `thumbv7em-none-eabihf` |
 //! | `bench` | runs the criterion benchmarks and prints the time per step and growth exponents |
 //! | `mujoco SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--integrator euler\|implicitfast\|rk4] --out FILE.csv [--timing FILE.json]` | runs an MJCF scene in MuJoCo (virtual environment with a pinned `mujoco` from PyPI in `target/mujoco-venv`, made on first use) and writes the trajectory file of DESIGN.md section 6; `--timing` adds seconds per step in MuJoCo's C loop |
+//! | `simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--method M] --out FILE.csv` | runs an MJCF scene with this library (the `simulate` binary of `constraint-verify`, release build) and writes the same trajectory file; one-line error and non-zero exit on any failure, divergence included |
 //! | `compare A.csv B.csv` | max COM position, orientation and body-origin error between two trajectory files, with time and body |
 //!
 //! One file per command, as in glam's `tools/ci`. Standard library only, so the task
@@ -16,6 +17,7 @@ mod compare;
 mod mujoco;
 mod no_std;
 mod run;
+mod simulate;
 mod verify;
 
 use std::process::ExitCode;
@@ -31,6 +33,9 @@ commands:
   mujoco SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K]
          [--integrator euler|implicitfast|rk4] --out FILE.csv [--timing FILE.json]
                      run the scene in MuJoCo (pip-installed into target/mujoco-venv on first use)
+  simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K]
+           [--method velocity|projected|shake|baumgarte|acceleration] --out FILE.csv
+                     run the scene with this library (maximal coordinates) and write its trajectory
   compare A.csv B.csv
                      max COM, orientation and body-origin error between two trajectory files";
 
@@ -42,6 +47,7 @@ fn main() -> ExitCode {
         Some("bench") => bench::main(&args[1..]),
         Some("mujoco") => mujoco::main(&args[1..]),
         Some("compare") => compare::main(&args[1..]),
+        Some("simulate") => simulate::main(&args[1..]),
         Some("-h" | "--help" | "help") | None => {
             println!("{USAGE}");
             Ok(())
