@@ -32,4 +32,4 @@ pub use error::ArticulatedError;
 pub use joint::{Joint, JointKind};
 #[cfg(feature = "mjcf")]
 pub use mjcf::MjcfScene;
-pub use world::{Method, StepStats, World};
+pub use world::{GeometricStiffness, Method, StepStats, World};

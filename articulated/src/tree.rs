@@ -222,6 +222,22 @@ impl TreeSolver {
         }
     }
 
+    /// Adds `xx` and `θθ` blocks to body `i`'s mass block (after [`Self::set_body`]).
+    pub fn add_body_blocks(
+        &mut self,
+        i: usize,
+        xx: &constraint_core::DMat3,
+        tt: &constraint_core::DMat3,
+    ) {
+        let d = &mut self.diag[i];
+        for k in 0..3 {
+            for l in 0..3 {
+                d[k][l] += xx.col(l)[k];
+                d[3 + k][3 + l] += tt.col(l)[k];
+            }
+        }
+    }
+
     /// Sets tree joint `j`'s blocks: its rows' Jacobian (`rows[r] = [v_a, ω_a, v_b, ω_b]`;
     /// rows beyond `rows.len()` up to `topo.rows` are zero) and compliance (`−C` on the
     /// diagonal).
@@ -335,8 +351,8 @@ impl TreeSolver {
             }
             for r in 0..n {
                 u[r] *= dinv[r];
-                x[oi + r] = u[r];
             }
+            x[oi..oi + n].copy_from_slice(&u[..n]);
             let p = self.parent[i];
             if p != NONE {
                 let op = self.offset[p];

@@ -58,7 +58,7 @@ fn random_world(rng: &mut Rng, n: usize, loops: usize, only_spherical: bool) -> 
             .with_velocity(rng.v(1.0), rng.v(1.0));
         w.add_body(body).unwrap();
     }
-    let mut add = |w: &mut World, rng: &mut Rng, parent: Option<usize>, child: usize| {
+    let add = |w: &mut World, rng: &mut Rng, parent: Option<usize>, child: usize| {
         let pa = parent.map_or(Pose::IDENTITY, |p| w.bodies()[p].pose);
         let pb = w.bodies()[child].pose;
         let anchor = (pa.x + pb.x) * 0.5 + rng.v(0.3);
