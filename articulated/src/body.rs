@@ -35,11 +35,11 @@ pub fn symmetric_eigenvalues(a: &DMat3) -> [f64; 3] {
     let (a01, a02, a12) = (a.y_axis.x, a.z_axis.x, a.z_axis.y);
     let p1 = a01 * a01 + a02 * a02 + a12 * a12;
     let q = (a00 + a11 + a22) / 3.0;
-    let p2 = (a00 - q).powi(2) + (a11 - q).powi(2) + (a22 - q).powi(2) + 2.0 * p1;
+    let p2 = (a00 - q) * (a00 - q) + (a11 - q) * (a11 - q) + (a22 - q) * (a22 - q) + 2.0 * p1;
     if p2 <= 1e-300 {
         return [q, q, q];
     }
-    let p = (p2 / 6.0).sqrt();
+    let p = libm::sqrt(p2 / 6.0);
     let b = (*a - DMat3::from_diagonal(DVec3::splat(q))) * (1.0 / p);
     let r = (b.determinant() / 2.0).clamp(-1.0, 1.0);
     let phi = libm::acos(r) / 3.0;
@@ -65,9 +65,9 @@ pub fn psd_part(m: &DMat3) -> DMat3 {
                 continue;
             }
             let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let t = theta.signum() / (theta.abs() + libm::sqrt(theta * theta + 1.0));
             let t = if theta == 0.0 { 1.0 } else { t };
-            let c = 1.0 / (t * t + 1.0).sqrt();
+            let c = 1.0 / libm::sqrt(t * t + 1.0);
             let s = t * c;
             for k in 0..3 {
                 let (akp, akq) = (a[k][p], a[k][q]);

@@ -155,9 +155,9 @@ impl Joint {
     pub fn separation(&self, a: &Pose, b: &Pose) -> f64 {
         let v = self.value(a, b);
         match self.kind {
-            JointKind::Prismatic(_) => (v[0] * v[0] + v[1] * v[1]).sqrt(),
+            JointKind::Prismatic(_) => libm::sqrt(v[0] * v[0] + v[1] * v[1]),
             JointKind::Distance(_) => v[0].abs(),
-            _ => (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt(),
+            _ => libm::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]),
         }
     }
 

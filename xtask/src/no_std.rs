@@ -1,5 +1,6 @@
 //! `cargo xtask no-std`: build `constraint-core` (no `std`, no allocator) and
-//! `constraint-lagrange` (no `std`, `alloc` only) for an embedded target.
+//! `constraint-lagrange` and `constraint-articulated` (no `std`, `alloc` only) for an
+//! embedded target.
 //!
 //! Installs the target with rustup when it is missing; when it cannot be installed
 //! (no rustup, no network), falls back to a host build with `--no-default-features`
@@ -12,8 +13,12 @@ use std::process::Command;
 pub const TARGET: &str = "thumbv7em-none-eabihf";
 
 /// The crates that must build without `std`: the core (no allocator) and the
-/// lagrange crate's dense path (`alloc` only).
-pub const CRATES: [&str; 2] = ["constraint-core", "constraint-lagrange"];
+/// lagrange crate's dense path and the articulated crate (`alloc` only).
+pub const CRATES: [&str; 3] = [
+    "constraint-core",
+    "constraint-lagrange",
+    "constraint-articulated",
+];
 
 /// What the check built.
 pub enum Outcome {
