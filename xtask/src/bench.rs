@@ -1,13 +1,27 @@
-//! `cargo xtask bench`: the criterion benchmarks.
+//! `cargo xtask bench [--no-mujoco] [--peers-only] [CRITERION ARGS]`: the criterion
+//! benchmarks and the peer comparison.
 //!
 //! Runs `cargo bench -p constraint-soft --bench cloth_step` (time per implicit cloth step
 //! for N = 32, 64, 128: assembly, step with sparse LDLᵀ, step with CG) and
 //! `cargo bench -p constraint-lagrange --bench kkt_solvers` (one KKT solve of the
 //! inextensible cloth per solver), then prints tables with the growth exponent of each
-//! series, fitted on log time against log N. Peer engines (MuJoCo, rapier) join in a
-//! later issue.
+//! series, fitted on log time against log N.
+//!
+//! Then the peers: `cargo bench -p constraint-peers --features rapier --bench chain_peers`
+//! times one step of ball-joint chains (10 … 10000 links, dt = 1e-3) with this library
+//! (velocity level, velocity level + projection) and rapier3d (f64, spherical impulse
+//! joints) in one run and writes joint separations to `target/peers/accuracy.tsv`; the
+//! same chains as MJCF (`scenes/generate_chains.py --ball-chain`, into
+//! `target/peers/mjcf/`) are timed in MuJoCo's C loop (Euler, `mujoco.rollout`) through
+//! [`crate::mujoco::run`] when Python is available (skipped with a note otherwise, or
+//! with `--no-mujoco`). Writes `target/bench/ratios.md`: time per step per engine and
+//! size, the ratios ours/rapier3d and ours/MuJoCo, joint separation after 2 s, growth
+//! exponents, and the heavy-tip outcome. `--peers-only` skips the cloth and KKT benches.
 
+use crate::mujoco::{ensure_venv, run as run_mujoco, RunOptions};
 use crate::run::{cargo, root};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 
 /// Median (criterion's point estimate) in seconds for `group/name/n`, if present.
 fn estimate(group: &str, name: &str, n: usize) -> Option<f64> {
@@ -68,25 +82,454 @@ fn table(group: &str, names: &[&str]) {
     }
 }
 
-pub fn main(args: &[String]) -> Result<(), String> {
-    for (krate, bench) in [
-        ("constraint-soft", "cloth_step"),
-        ("constraint-lagrange", "kkt_solvers"),
-    ] {
-        let ok = cargo()
-            .args(["bench", "-p", krate, "--bench", bench, "--"])
-            .args(args)
-            .status()
-            .map(|s| s.success())
-            .unwrap_or(false);
-        if !ok {
-            return Err(format!("cargo bench -p {krate} --bench {bench} failed"));
+/// Chain sizes of the peer comparison.
+const CHAIN_SIZES: [usize; 5] = [10, 20, 100, 1000, 10000];
+
+/// MuJoCo runs per chain size: simulated seconds for the trajectory and the timed
+/// rollout (dt = 1e-3). Its mass matrix is dense for a chain (about 1.6–3 s per step at
+/// 1000 links, and loading that MJCF takes about half a minute), so the big chain gets
+/// one step; 10000 links (about 1000× that per step) is left out.
+const MUJOCO_RUNS: [(usize, &str); 4] = [(10, "1"), (20, "1"), (100, "0.2"), (1000, "0.001")];
+
+/// What the peer runs measured.
+#[derive(Default)]
+struct Peers {
+    /// `(engine, links) → s/step` for engines `ours_velocity`, `ours_projected`, `rapier`,
+    /// `mujoco`.
+    time: Vec<(String, usize, f64)>,
+    /// `(engine, links) → joint separation (m) after 2 s`.
+    separation: Vec<(String, usize, f64)>,
+    /// `(engine, max separation over 10 s, holds, time of a failed step)` for the heavy
+    /// tip at dt = 1/60.
+    heavy_tip: Vec<(String, f64, bool, Option<f64>)>,
+    /// Notes for the report (skipped runs, versions).
+    notes: Vec<String>,
+}
+
+impl Peers {
+    fn time(&self, engine: &str, n: usize) -> Option<f64> {
+        self.time
+            .iter()
+            .find(|(e, k, _)| e == engine && *k == n)
+            .map(|t| t.2)
+    }
+
+    fn separation(&self, engine: &str, n: usize) -> Option<f64> {
+        self.separation
+            .iter()
+            .find(|(e, k, _)| e == engine && *k == n)
+            .map(|t| t.2)
+    }
+}
+
+/// Reads `target/peers/accuracy.tsv` written by the chain_peers bench.
+fn read_accuracy(p: &mut Peers) {
+    let path = root().join("target/peers/accuracy.tsv");
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        p.notes
+            .push(format!("{}: missing, no joint separations", path.display()));
+        return;
+    };
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split('\t').collect();
+        if f.len() < 8 {
+            continue;
+        }
+        let (Ok(n), Ok(at_end), Ok(max)) = (
+            f[2].parse::<usize>(),
+            f[5].parse::<f64>(),
+            f[6].parse::<f64>(),
+        ) else {
+            continue;
+        };
+        match f[0] {
+            "separation_2s" => p.separation.push((f[1].into(), n, at_end)),
+            "heavy_tip" => p.heavy_tip.push((
+                f[1].into(),
+                max,
+                f[7] == "true",
+                f.get(8).and_then(|t| t.parse().ok()),
+            )),
+            _ => {}
         }
     }
-    table("cloth_implicit", &["assemble", "step_ldlt", "step_cg"]);
-    table(
-        "cloth_kkt",
-        &["sparse_schur", "minres", "gmres", "dense_schur"],
+}
+
+/// `"seconds_per_step": X` from a timing file of `cargo xtask mujoco --timing`.
+fn json_number(text: &str, key: &str) -> Option<f64> {
+    let k = text.find(&format!("\"{key}\""))?;
+    let rest = &text[k + key.len() + 2..];
+    let rest = rest[rest.find(':')? + 1..].trim_start();
+    let num: String = rest
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '-' | '+'))
+        .collect();
+    num.parse().ok()
+}
+
+fn json_string(text: &str, key: &str) -> Option<String> {
+    let k = text.find(&format!("\"{key}\""))?;
+    let rest = &text[k + key.len() + 2..];
+    let rest = rest[rest.find(':')? + 1..].trim_start().strip_prefix('"')?;
+    Some(rest[..rest.find('"')?].to_string())
+}
+
+/// The MuJoCo side: generate the MJCF chains and time each in MuJoCo's C loop.
+fn mujoco_chains(p: &mut Peers) {
+    let python = match ensure_venv() {
+        Ok(py) => py,
+        Err(e) => {
+            p.notes.push(format!("MuJoCo skipped: {e}"));
+            eprintln!("xtask: MuJoCo skipped: {e}");
+            return;
+        }
+    };
+    let dir = root().join("target/peers/mjcf");
+    let sizes: Vec<String> = MUJOCO_RUNS.iter().map(|(n, _)| n.to_string()).collect();
+    let ok = std::process::Command::new(&python)
+        .arg(root().join("scenes/generate_chains.py"))
+        .arg("--ball-chain")
+        .args(&sizes)
+        .arg("--out")
+        .arg(&dir)
+        .status()
+        .is_ok_and(|s| s.success());
+    if !ok {
+        p.notes
+            .push("MuJoCo skipped: scenes/generate_chains.py --ball-chain failed".to_string());
+        return;
+    }
+    let mut version = None;
+    for (n, duration) in MUJOCO_RUNS {
+        let scene = dir.join(format!("ball_chain{n}.xml"));
+        let timing = dir.join(format!("ball_chain{n}.timing.json"));
+        let steps = (duration.parse::<f64>().unwrap_or(0.0) / 1e-3).round() as usize;
+        eprintln!(
+            "xtask: MuJoCo Euler dt 1e-3, {n} links, {steps} steps (timed by mujoco.rollout)"
+        );
+        let t0 = std::time::Instant::now();
+        let res = run_mujoco(&RunOptions {
+            scene: scene.clone(),
+            keyframe: Some("start".into()),
+            dt: Some("1e-3".into()),
+            duration: duration.into(),
+            every: steps.max(1),
+            integrator: Some("euler".into()),
+            out: dir.join(format!("ball_chain{n}.csv")),
+            timing: Some(timing.clone()),
+        });
+        let text = res.and_then(|()| {
+            std::fs::read_to_string(&timing).map_err(|e| format!("{}: {e}", timing.display()))
+        });
+        match text {
+            Ok(text) => match json_number(&text, "seconds_per_step") {
+                Some(t) => {
+                    eprintln!(
+                        "  {n} links: {:.3e} s/step ({:.0} s with loading)",
+                        t,
+                        t0.elapsed().as_secs_f64()
+                    );
+                    p.time.push(("mujoco".into(), n, t));
+                    version = version.or_else(|| json_string(&text, "mujoco_version"));
+                }
+                None => p
+                    .notes
+                    .push(format!("MuJoCo {n} links: no seconds_per_step")),
+            },
+            Err(e) => p.notes.push(format!("MuJoCo {n} links failed: {e}")),
+        }
+    }
+    p.notes.push(format!(
+        "MuJoCo {} (PyPI), Euler, dt = 1e-3, from rest (its cost does not depend on the \
+         configuration here: no contacts), timed over {} in MuJoCo's C loop (`mujoco.rollout`, \
+         best of at least 3 repeats); 10000 links not run (dense mass matrix: about 1000× the \
+         1000-link step). Joint separation is zero by construction (reduced coordinates).",
+        version.as_deref().unwrap_or("?"),
+        MUJOCO_RUNS
+            .iter()
+            .map(|(n, d)| format!("{d} s for {n} links"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    ));
+}
+
+/// `version` of `name` in Cargo.lock.
+fn locked_version(name: &str) -> Option<String> {
+    let lock = std::fs::read_to_string(root().join("Cargo.lock")).ok()?;
+    let key = format!("name = \"{name}\"\nversion = \"");
+    let rest = &lock[lock.find(&key)? + key.len()..];
+    Some(rest[..rest.find('"')?].to_string())
+}
+
+fn fmt_time(t: Option<f64>) -> String {
+    match t {
+        Some(t) if t < 1e-3 => format!("{:.2} µs", t * 1e6),
+        Some(t) if t < 1.0 => format!("{:.3} ms", t * 1e3),
+        Some(t) => format!("{t:.2} s"),
+        None => "–".into(),
+    }
+}
+
+fn fmt_ratio(a: Option<f64>, b: Option<f64>) -> String {
+    match (a, b) {
+        (Some(a), Some(b)) if b > 0.0 => {
+            let r = a / b;
+            if r < 0.01 {
+                format!("{r:.1e}")
+            } else {
+                format!("{r:.3}")
+            }
+        }
+        _ => "–".into(),
+    }
+}
+
+fn fmt_sep(s: Option<f64>) -> String {
+    s.map_or("–".into(), |s| format!("{s:.1e} m"))
+}
+
+const ENGINES: [(&str, &str); 4] = [
+    ("ours_velocity", "ours (velocity)"),
+    ("ours_projected", "ours (projected)"),
+    ("rapier", "rapier3d"),
+    ("mujoco", "MuJoCo (Euler)"),
+];
+
+/// The Markdown of `target/bench/ratios.md`.
+fn ratios_markdown(p: &Peers) -> String {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# Ball-joint chains: time per step, this library against peers\n\n\
+         One run of `cargo xtask bench`. Chains of `constraint_articulated::scenes::ball_chain(n, 1.0)` \
+         (0.1 m solid-cylinder links, radius 0.01, density 1000, hanging from the origin, \
+         released horizontally at rest), dt = 1e-3, one core. Ours and rapier3d are \
+         criterion medians after 0.2 s of simulated warm-up (`cargo bench -p constraint-peers \
+         --features rapier`); ours (velocity) is `Method::Velocity {{ beta: 1 }}`, ours \
+         (projected) `Method::VelocityProjected` to 1e-10 m; rapier3d {} (f64) uses \
+         spherical impulse joints with default integration parameters and no colliders. \
+         A ratio below 1 means this library is faster.\n",
+        locked_version("rapier3d-f64").as_deref().unwrap_or("?")
     );
+    let _ = writeln!(md, "## Time per step and ratios\n");
+    let _ = writeln!(
+        md,
+        "| links | ours (velocity) | ours (projected) | rapier3d | MuJoCo (Euler) | \
+         velocity / rapier3d | projected / rapier3d | velocity / MuJoCo | projected / MuJoCo |"
+    );
+    let _ = writeln!(md, "|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for n in CHAIN_SIZES {
+        let [v, pr, r, m] = ENGINES.map(|(e, _)| p.time(e, n));
+        let _ = writeln!(
+            md,
+            "| {n} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            fmt_time(v),
+            fmt_time(pr),
+            fmt_time(r),
+            fmt_time(m),
+            fmt_ratio(v, r),
+            fmt_ratio(pr, r),
+            fmt_ratio(v, m),
+            fmt_ratio(pr, m)
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\n## Joint separation after 2 s (from rest, dt = 1e-3)\n\n\
+         Largest distance between the two anchors of any joint at t = 2 s (rapier3d: from \
+         the body poses and the joint anchors). MuJoCo works in reduced coordinates: its \
+         joints cannot separate.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| links | ours (velocity) | ours (projected) | rapier3d | MuJoCo |"
+    );
+    let _ = writeln!(md, "|---:|---:|---:|---:|---:|");
+    for n in CHAIN_SIZES {
+        let _ = writeln!(
+            md,
+            "| {n} | {} | {} | {} | {} |",
+            fmt_sep(p.separation("ours_velocity", n)),
+            fmt_sep(p.separation("ours_projected", n)),
+            fmt_sep(p.separation("rapier", n)),
+            if p.time("mujoco", n).is_some() {
+                "0 (reduced coordinates)"
+            } else {
+                "–"
+            }
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\n## Growth exponents\n\n\
+         Slope of log(time per step) against log(links) between consecutive sizes, and the \
+         least-squares fit over all sizes measured (1 = linear).\n"
+    );
+    let _ = writeln!(
+        md,
+        "| sizes | {} |",
+        ENGINES.map(|(_, label)| label).join(" | ")
+    );
+    let _ = writeln!(md, "|---|---:|---:|---:|---:|");
+    for w in CHAIN_SIZES.windows(2) {
+        let cells = ENGINES.map(|(e, _)| match (p.time(e, w[0]), p.time(e, w[1])) {
+            (Some(a), Some(b)) => format!("{:.2}", (b / a).ln() / (w[1] as f64 / w[0] as f64).ln()),
+            _ => "–".into(),
+        });
+        let _ = writeln!(md, "| {} → {} | {} |", w[0], w[1], cells.join(" | "));
+    }
+    let fits = ENGINES.map(|(e, _)| {
+        let pts: Vec<(f64, f64)> = CHAIN_SIZES
+            .iter()
+            .filter_map(|&n| p.time(e, n).map(|t| (n as f64, t)))
+            .collect();
+        slope(&pts).map_or("–".into(), |s| format!("{s:.2}"))
+    });
+    let _ = writeln!(md, "| fit, all sizes | {} |", fits.join(" | "));
+    let _ = writeln!(
+        md,
+        "\n## Heavy tip at dt = 1/60\n\n\
+         `ball_chain(20, 1000.0)` (last link 1000× heavier), 10 s at dt = 1/60 from rest; \
+         holds if every joint stays within 1 cm at every step.\n"
+    );
+    let _ = writeln!(md, "| engine | largest separation over 10 s | holds |");
+    let _ = writeln!(md, "|---|---:|---|");
+    for (e, label) in &ENGINES[..3] {
+        if let Some((_, max, holds, failed)) = p.heavy_tip.iter().find(|h| h.0 == *e) {
+            let (sep, verdict) = match failed {
+                Some(t) => (
+                    "–".to_string(),
+                    format!("no: a step failed (typed divergence error) at t = {t:.4} s"),
+                ),
+                None if *holds => (fmt_sep(Some(*max)), "yes".to_string()),
+                None => (fmt_sep(Some(*max)), "no, comes apart".to_string()),
+            };
+            let _ = writeln!(md, "| {label} | {sep} | {verdict} |");
+        }
+    }
+    if !p.notes.is_empty() {
+        let _ = writeln!(md, "\n## Notes\n");
+        for n in &p.notes {
+            let _ = writeln!(md, "- {n}");
+        }
+    }
+    md
+}
+
+/// The peer comparison: the chain_peers bench, MuJoCo, then `target/bench/ratios.md`.
+fn peers(criterion_args: &[String], mujoco: bool) -> Result<PathBuf, String> {
+    // A stale accuracy file must not pass for this run's.
+    let _ = std::fs::remove_file(root().join("target/peers/accuracy.tsv"));
+    let ok = cargo()
+        .args([
+            "bench",
+            "-p",
+            "constraint-peers",
+            "--features",
+            "rapier",
+            "--bench",
+            "chain_peers",
+            "--",
+        ])
+        .args(criterion_args)
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false);
+    if !ok {
+        return Err("cargo bench -p constraint-peers --features rapier failed".into());
+    }
+    let mut p = Peers::default();
+    for (engine, _) in &ENGINES[..3] {
+        for n in CHAIN_SIZES {
+            if let Some(t) = estimate("chain_peers", engine, n) {
+                p.time.push((engine.to_string(), n, t));
+            }
+        }
+    }
+    read_accuracy(&mut p);
+    if mujoco {
+        mujoco_chains(&mut p);
+    } else {
+        p.notes.push("MuJoCo skipped (--no-mujoco)".into());
+    }
+    let md = ratios_markdown(&p);
+    println!("\n{md}");
+    write_report(&root().join("target/bench"), &md)
+}
+
+fn write_report(dir: &Path, md: &str) -> Result<PathBuf, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let path = dir.join("ratios.md");
+    std::fs::write(&path, md).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(path)
+}
+
+pub fn main(args: &[String]) -> Result<(), String> {
+    let mujoco = !args.iter().any(|a| a == "--no-mujoco");
+    let peers_only = args.iter().any(|a| a == "--peers-only");
+    let criterion_args: Vec<String> = args
+        .iter()
+        .filter(|a| !matches!(a.as_str(), "--no-mujoco" | "--peers-only"))
+        .cloned()
+        .collect();
+    if !peers_only {
+        for (krate, bench) in [
+            ("constraint-soft", "cloth_step"),
+            ("constraint-lagrange", "kkt_solvers"),
+        ] {
+            let ok = cargo()
+                .args(["bench", "-p", krate, "--bench", bench, "--"])
+                .args(&criterion_args)
+                .status()
+                .map(|s| s.success())
+                .unwrap_or(false);
+            if !ok {
+                return Err(format!("cargo bench -p {krate} --bench {bench} failed"));
+            }
+        }
+        table("cloth_implicit", &["assemble", "step_ldlt", "step_cg"]);
+        table(
+            "cloth_kkt",
+            &["sparse_schur", "minres", "gmres", "dense_schur"],
+        );
+    }
+    let path = peers(&criterion_args, mujoco)?;
+    println!("wrote {}", path.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_numbers_and_strings_from_the_timing_json() {
+        let j = "{\n  \"scene\": \"a.xml\",\n  \"seconds_per_step\": 2.5e-05,\n  \"mujoco_version\": \"4.0.0\"\n}";
+        assert_eq!(json_number(j, "seconds_per_step"), Some(2.5e-5));
+        assert_eq!(json_string(j, "mujoco_version").as_deref(), Some("4.0.0"));
+        assert_eq!(json_number(j, "missing"), None);
+    }
+
+    #[test]
+    fn the_ratio_table_has_a_row_per_size_and_exponents() {
+        let mut p = Peers::default();
+        for (e, base) in [("ours_velocity", 1e-7), ("rapier", 1e-6), ("mujoco", 1e-6)] {
+            for n in CHAIN_SIZES {
+                p.time.push((e.into(), n, base * n as f64));
+            }
+        }
+        p.heavy_tip.push(("rapier".into(), 3.0, false, None));
+        p.heavy_tip
+            .push(("ours_velocity".into(), f64::INFINITY, false, Some(0.5)));
+        let md = ratios_markdown(&p);
+        assert!(
+            md.contains("| 100 | 10.00 µs | – | 100.00 µs | 100.00 µs | 0.100 |"),
+            "{md}"
+        );
+        assert!(md.contains("| 10 → 20 | 1.00 | – | 1.00 | 1.00 |"), "{md}");
+        assert!(
+            md.contains("| rapier3d | 3.0e0 m | no, comes apart |"),
+            "{md}"
+        );
+    }
 }
