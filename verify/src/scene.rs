@@ -7,7 +7,7 @@ use constraint_articulated::{Method, MjcfScene};
 use crate::trajectory::Trajectory;
 
 /// The named step methods of `cargo xtask simulate --method M`.
-pub const METHODS: [(&str, &str); 5] = [
+pub const METHODS: [(&str, &str); 7] = [
     (
         "velocity",
         "velocity level, J v' = −C/h (the lecture's Opción 2)",
@@ -22,11 +22,19 @@ pub const METHODS: [(&str, &str); 5] = [
     ),
     (
         "baumgarte",
-        "acceleration level with Baumgarte gains k_x = 1/h², k_v = 2/h·0.5",
+        "acceleration level with critically damped Baumgarte gains, time constant 5h",
     ),
     (
         "acceleration",
         "acceleration level without stabilisation (drifts)",
+    ),
+    (
+        "rattle",
+        "RATTLE: kick, drift, SHAKE projection to 1e-12 m, kick, velocity projection (second order)",
+    ),
+    (
+        "rattle4",
+        "RATTLE composed by Yoshida's triple jump (fourth order, undamped scenes)",
     ),
 ];
 
@@ -49,6 +57,14 @@ pub fn method(name: &str, h: f64) -> Result<Method, String> {
             }
         }
         "acceleration" => Method::Acceleration { kx: 0.0, kv: 0.0 },
+        "rattle" => Method::Rattle {
+            tolerance: 1e-12,
+            max_iterations: 20,
+        },
+        "rattle4" => Method::Rattle4 {
+            tolerance: 1e-12,
+            max_iterations: 20,
+        },
         other => {
             let names: Vec<&str> = METHODS.iter().map(|m| m.0).collect();
             return Err(format!(
@@ -100,16 +116,17 @@ pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> 
     let m = method(&opts.method, h)?;
     let mut traj = Trajectory::for_bodies(&scene.body_names);
     traj.push(0.0, &scene.world);
-    let start = std::time::Instant::now();
-    let mut elapsed = 0.0;
+    // Only the steps are timed: the clock pauses while a row is recorded.
+    let mut start = std::time::Instant::now();
+    let mut stepping = 0.0;
     for i in 1..=steps {
         scene.world.step(h, m).map_err(|e| e.to_string())?;
         if i % opts.every as u64 == 0 {
-            elapsed += start.elapsed().as_secs_f64();
+            stepping += start.elapsed().as_secs_f64();
             traj.push(i as f64 * h, &scene.world);
+            start = std::time::Instant::now();
         }
     }
-    let _ = elapsed;
-    let total = start.elapsed().as_secs_f64();
-    Ok((traj, total))
+    stepping += start.elapsed().as_secs_f64();
+    Ok((traj, stepping))
 }

@@ -16,7 +16,7 @@ fn parse(args: &[String]) -> Result<(PathBuf, RunOptions, PathBuf), String> {
         dt: None,
         duration: f64::NAN,
         every: 1,
-        method: "velocity".into(),
+        method: "rattle".into(),
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
