@@ -299,14 +299,14 @@ impl World {
         let result = self.step_inner(h, method);
         match result {
             Ok(stats) => {
-                self.steps += 1;
                 if let Some(body) = self.first_bad_body() {
                     self.bodies.clone_from(&self.saved);
                     return Err(ArticulatedError::Diverged {
-                        step: self.steps,
+                        step: self.steps + 1,
                         body,
                     });
                 }
+                self.steps += 1;
                 Ok(stats)
             }
             Err(e) => {
