@@ -27,6 +27,8 @@ pub struct RigidBody {
     /// Centre of mass in the body frame (offset from the body frame origin).
     pub com: DVec3,
     pub(crate) inv_inertia: DMat3,
+    /// Smallest principal moment.
+    pub(crate) i_min: f64,
 }
 
 /// Eigenvalues of a symmetric 3×3 matrix, ascending (closed form, Smith 1961).
@@ -151,6 +153,7 @@ impl RigidBody {
             omega: DVec3::ZERO,
             com: DVec3::ZERO,
             inv_inertia: inertia.inverse(),
+            i_min: ev[0],
         })
     }
 

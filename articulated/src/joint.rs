@@ -82,6 +82,24 @@ impl JointRows {
 }
 
 impl Joint {
+    /// A bound on the scale of the joint's curvature per unit multiplier: the longer of
+    /// the two anchor lever arms (m), plus 1 for joints with orientation rows (dot
+    /// products of unit vectors), so that `|Σ λ_r ∂²C_r| ≤ 2 lever Σ|λ_r|`.
+    pub fn lever(&self) -> f64 {
+        let (a, b) = match &self.kind {
+            JointKind::Spherical(c) => (c.anchor_a(), c.anchor_b()),
+            JointKind::Hinge(c) => (c.anchor_a(), c.anchor_b()),
+            JointKind::Prismatic(c) => (c.anchor_a(), c.anchor_b()),
+            JointKind::Fixed(c) => (c.anchor_a(), c.anchor_b()),
+            JointKind::Distance(c) => (c.anchor_a(), c.anchor_b()),
+        };
+        let arm = a.length().max(b.length());
+        match self.kind {
+            JointKind::Spherical(_) | JointKind::Distance(_) => arm,
+            _ => arm + 1.0,
+        }
+    }
+
     /// Number of hard rows.
     pub fn hard_rows(&self) -> usize {
         match self.kind {

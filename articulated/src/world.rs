@@ -599,7 +599,10 @@ impl World {
         let solver = self.solver.as_mut().expect("solver built by ensure_solver");
         for (j, joint) in self.joints.iter().enumerate() {
             let lam = &self.impulses[j];
-            if lam.iter().all(|l| *l == 0.0) {
+            // Cheap bound first: |h Σ λ_r ∂²C_r| ≤ 2 h lever Σ|λ_r|.
+            let bound = 2.0 * h * joint.lever() * lam.iter().map(|l| l.abs()).sum::<f64>();
+            let i_min = |b: Option<usize>| b.map_or(f64::INFINITY, |i| self.bodies[i].i_min);
+            if !(bound > threshold * i_min(joint.parent).min(i_min(Some(joint.child)))) {
                 continue;
             }
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
@@ -608,13 +611,11 @@ impl World {
             for (side, body) in [(0usize, joint.parent), (1usize, Some(joint.child))] {
                 let Some(i) = body else { continue };
                 let tt = crate::body::psd_part(&(k.blocks[2 * side + 1][2 * side + 1] * h));
-                let xx = crate::body::psd_part(&(k.blocks[2 * side][2 * side] * h));
                 // (hω)² of the stiffest rotational mode this term describes, against the
                 // body's smallest principal moment.
-                let bd = &self.bodies[i];
-                let i_min = crate::body::symmetric_eigenvalues(&bd.inertia)[0];
                 let t_max = crate::body::symmetric_eigenvalues(&tt)[2];
-                if t_max > threshold * i_min {
+                if t_max > threshold * self.bodies[i].i_min {
+                    let xx = crate::body::psd_part(&(k.blocks[2 * side][2 * side] * h));
                     solver.add_body_blocks(i, &xx, &tt);
                 }
             }

@@ -173,6 +173,16 @@ pub struct Hinge {
 }
 
 impl Hinge {
+    /// Anchor in body `a`'s frame (from its centre of mass).
+    pub fn anchor_a(&self) -> DVec3 {
+        self.point.r_a
+    }
+
+    /// Anchor in body `b`'s frame (from its centre of mass).
+    pub fn anchor_b(&self) -> DVec3 {
+        self.point.r_b
+    }
+
     /// A hinge through the world point `anchor` about the world direction `axis`, for
     /// bodies at rest poses `a` and `b`. Errors: non-finite input, zero axis.
     pub fn from_world(
@@ -255,6 +265,16 @@ pub struct Prismatic {
 }
 
 impl Prismatic {
+    /// Anchor in body `a`'s frame (from its centre of mass).
+    pub fn anchor_a(&self) -> DVec3 {
+        self.point.r_a
+    }
+
+    /// Anchor in body `b`'s frame (from its centre of mass).
+    pub fn anchor_b(&self) -> DVec3 {
+        self.point.r_b
+    }
+
     /// A slider through the world point `anchor` along the world direction `axis`.
     pub fn from_world(
         a: &Pose,
@@ -330,6 +350,16 @@ pub struct Fixed {
 }
 
 impl Fixed {
+    /// Anchor in body `a`'s frame (from its centre of mass).
+    pub fn anchor_a(&self) -> DVec3 {
+        self.point.r_a
+    }
+
+    /// Anchor in body `b`'s frame (from its centre of mass).
+    pub fn anchor_b(&self) -> DVec3 {
+        self.point.r_b
+    }
+
     /// A weld at the world point `anchor` for bodies at rest poses `a` and `b`.
     pub fn from_world(a: &Pose, b: &Pose, anchor: DVec3) -> Result<Self, ConstraintError> {
         finite(&[a.x, b.x, anchor])?;
@@ -373,6 +403,16 @@ pub struct DistanceJoint {
 }
 
 impl DistanceJoint {
+    /// Anchor in body `a`'s frame (from its centre of mass).
+    pub fn anchor_a(&self) -> DVec3 {
+        self.point.r_a
+    }
+
+    /// Anchor in body `b`'s frame (from its centre of mass).
+    pub fn anchor_b(&self) -> DVec3 {
+        self.point.r_b
+    }
+
     /// A rod between world points `p_a` (on `a`) and `p_b` (on `b`) at rest; its length is
     /// the rest length. Errors: non-finite input, coincident points (`ZeroRestLength`).
     pub fn from_world(a: &Pose, b: &Pose, p_a: DVec3, p_b: DVec3) -> Result<Self, ConstraintError> {
