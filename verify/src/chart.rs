@@ -27,20 +27,45 @@ pub struct LogLogChart {
     pub y_label: String,
     /// The series.
     pub series: Vec<Series>,
-    /// A note printed under the plot (e.g. how the reference was computed).
+    /// A note printed under the plot (e.g. how the reference was computed); each `\n`
+    /// starts a new line and makes the chart taller.
     pub note: String,
     /// Logarithmic x axis (`false`: linear, for time series).
     pub log_x: bool,
+    /// Mark the Pareto front over all series (see [`pareto_front`]): a dashed black line
+    /// through the non-dominated points, each ringed, with its own legend entry.
+    pub pareto: bool,
+}
+
+/// The non-dominated points (no other point has both a smaller-or-equal `x` and a
+/// smaller-or-equal `y`, one of them strictly), sorted by increasing `x` (hence
+/// decreasing `y`). Non-positive and non-finite values are ignored; duplicates kept once.
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut p: Vec<(f64, f64)> = points
+        .iter()
+        .copied()
+        .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
+        .collect();
+    p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let mut front: Vec<(f64, f64)> = Vec::new();
+    for q in p {
+        if front.last().is_none_or(|l| q.1 < l.1) {
+            front.push(q);
+        }
+    }
+    front
 }
 
 const W: f64 = 760.0;
-const H: f64 = 520.0;
+const H0: f64 = 520.0;
+const NOTE_LINE: f64 = 14.0;
 const L: f64 = 80.0;
 const R: f64 = 230.0;
 const T: f64 = 40.0;
 const B: f64 = 70.0;
-const COLORS: [&str; 8] = [
+const COLORS: [&str; 10] = [
     "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf",
+    "#bcbd22", "#7f7f7f",
 ];
 
 fn esc(s: &str) -> String {
@@ -61,6 +86,8 @@ fn decades(lo: f64, hi: f64) -> (f64, f64) {
 impl LogLogChart {
     /// Renders the chart as a standalone SVG document.
     pub fn to_svg(&self) -> String {
+        let notes: Vec<&str> = self.note.split('\n').collect();
+        let height = H0 + NOTE_LINE * (notes.len() - 1) as f64;
         let pts = || {
             self.series
                 .iter()
@@ -88,15 +115,15 @@ impl LogLogChart {
         let fx = move |x: f64| if log_x { x.log10() } else { x };
         let (ya, yb) = decades(y0, y1);
         let pw = W - L - R;
-        let ph = H - T - B;
+        let ph = H0 - T - B;
         let sx = |x: f64| L + (fx(x) - xa) / (xb - xa) * pw;
         let sy = |y: f64| T + ph - (y.log10() - ya) / (yb - ya) * ph;
         let mut s = String::new();
         let _ = writeln!(
             s,
-            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" viewBox="0 0 {W} {H}" font-family="sans-serif" font-size="12">"#
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{height}" viewBox="0 0 {W} {height}" font-family="sans-serif" font-size="12">"#
         );
-        let _ = writeln!(s, r#"<rect width="{W}" height="{H}" fill="white"/>"#);
+        let _ = writeln!(s, r#"<rect width="{W}" height="{height}" fill="white"/>"#);
         let _ = writeln!(
             s,
             r#"<text x="{}" y="22" text-anchor="middle" font-size="15">{}</text>"#,
@@ -149,7 +176,7 @@ impl LogLogChart {
             s,
             r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
             L + pw / 2.0,
-            H - B + 36.0,
+            H0 - B + 36.0,
             esc(&self.x_label)
         );
         let _ = writeln!(
@@ -197,14 +224,61 @@ impl LogLogChart {
                 esc(&ser.name)
             );
         }
-        let _ = writeln!(
-            s,
-            r##"<text x="{L}" y="{:.1}" font-size="11" fill="#444">{}</text>"##,
-            H - 12.0,
-            esc(&self.note)
-        );
+        if self.pareto {
+            self.front_svg(&mut s, sx, sy);
+        }
+        for (i, line) in notes.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                r##"<text x="{L}" y="{:.1}" font-size="11" fill="#444">{}</text>"##,
+                H0 - 12.0 + NOTE_LINE * i as f64,
+                esc(line)
+            );
+        }
         s.push_str("</svg>\n");
         s
+    }
+}
+
+impl LogLogChart {
+    /// The Pareto front's dashed line, rings and legend entry (after the series').
+    fn front_svg(&self, s: &mut String, sx: impl Fn(f64) -> f64, sy: impl Fn(f64) -> f64) {
+        let all: Vec<(f64, f64)> = self
+            .series
+            .iter()
+            .flat_map(|ser| ser.points.iter().copied())
+            .collect();
+        let front = pareto_front(&all);
+        if front.is_empty() {
+            return;
+        }
+        let path: Vec<String> = front
+            .iter()
+            .map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y)))
+            .collect();
+        let _ = writeln!(
+            s,
+            r#"<polyline points="{}" fill="none" stroke="black" stroke-width="1" stroke-dasharray="5 3"/>"#,
+            path.join(" ")
+        );
+        for &(x, y) in &front {
+            let _ = writeln!(
+                s,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="6.5" fill="none" stroke="black" stroke-width="1.2"/>"#,
+                sx(x),
+                sy(y)
+            );
+        }
+        let ly = T + 14.0 + 18.0 * self.series.len() as f64;
+        let lx = W - R + 14.0;
+        let _ = writeln!(
+            s,
+            r#"<line x1="{lx}" y1="{ly}" x2="{}" y2="{ly}" stroke="black" stroke-dasharray="5 3"/><circle cx="{}" cy="{ly}" r="6.5" fill="none" stroke="black"/><text x="{}" y="{}">Pareto front</text>"#,
+            lx + 22.0,
+            lx + 11.0,
+            lx + 28.0,
+            ly + 4.0
+        );
     }
 }
 
@@ -230,11 +304,52 @@ mod tests {
             ],
             note: "n".into(),
             log_x: true,
+            pareto: false,
         };
         let s = c.to_svg();
         assert_eq!(s.matches("<polyline").count(), 1);
         assert_eq!(s.matches("<circle").count(), 3 + 2);
         assert!(s.contains("a&lt;b"));
         assert!(s.starts_with("<svg") && s.ends_with("</svg>\n"));
+    }
+
+    #[test]
+    fn pareto_front_keeps_non_dominated_points_in_x_order() {
+        let pts = [
+            (1.0, 1.0),
+            (2.0, 0.5),
+            (2.0, 2.0),
+            (3.0, 0.5),
+            (0.5, 4.0),
+            (4.0, 0.1),
+            (f64::NAN, 1e-9),
+            (1.0, 0.0),
+        ];
+        assert_eq!(
+            pareto_front(&pts),
+            vec![(0.5, 4.0), (1.0, 1.0), (2.0, 0.5), (4.0, 0.1)]
+        );
+        assert!(pareto_front(&[]).is_empty());
+    }
+
+    #[test]
+    fn front_and_multi_line_note_are_drawn() {
+        let c = LogLogChart {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            series: vec![Series {
+                name: "a".into(),
+                points: vec![(1e-3, 1e-2), (1e-2, 1e-4), (2e-2, 1e-3)],
+            }],
+            note: "one\ntwo".into(),
+            log_x: true,
+            pareto: true,
+        };
+        let s = c.to_svg();
+        assert_eq!(s.matches("stroke-dasharray").count(), 2);
+        assert_eq!(s.matches(r#"r="6.5""#).count(), 2 + 1);
+        assert!(s.contains(">one</text>") && s.contains(">two</text>"));
+        assert!(s.contains(r#"height="534""#));
     }
 }

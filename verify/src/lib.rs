@@ -8,7 +8,9 @@
 //!   configurations.
 //! * [`sweeps`] runs the soft crate's integrators over stiffness and time step (the
 //!   stability map) and measures error against run time (the work-precision diagram).
-//! * [`chart`] draws log–log SVG charts for the report.
+//! * [`chart`] draws log–log SVG charts for the report (with the Pareto front marked).
+//! * [`articulated_report`] measures the MJCF scenes' error against run time next to
+//!   MuJoCo's committed points, and the joint drift of the 20-link chain.
 //!
 //! The binary `verify-report` (run by `cargo xtask verify`) writes the sweeps to
 //! `target/verify/`. The integration tests (`tests/`) apply the checks:
@@ -23,6 +25,7 @@
 //! * `momentum.rs` — linear and angular momentum of free bodies under every integrator.
 #![deny(missing_docs)]
 
+pub mod articulated_report;
 pub mod chart;
 pub mod fd;
 pub mod hard;

@@ -1,6 +1,8 @@
 //! Runs the sweeps of the verification report and writes them to an output folder:
 //! `sweeps.md` (tables), `cloth_work_precision.svg` (chart), `work_precision.csv` and
-//! `stability.csv` (raw data).
+//! `stability.csv` (raw data), and the articulated section
+//! (`articulated_<scene>.svg`, `articulated_chain20_drift.svg`,
+//! `articulated_work_precision.csv`; see `constraint_verify::articulated_report`).
 //!
 //! `cargo run --release -p constraint-verify --bin verify-report -- [--quick] [--out DIR]`
 //! (normally called by `cargo xtask verify`).
@@ -163,6 +165,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             .collect(),
         note: note.clone(),
         log_x: true,
+        pareto: true,
     };
     std::fs::write(out.join("cloth_work_precision.svg"), chart.to_svg())?;
     let _ = writeln!(md, "## Work-precision: cloth\n");
@@ -297,6 +300,12 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     hard_sections(&mut md, &out, quick)?;
+    let t0 = Instant::now();
+    constraint_verify::articulated_report::section(&mut md, &out, quick)?;
+    eprintln!(
+        "    articulated section done in {:.1} s",
+        t0.elapsed().as_secs_f64()
+    );
     std::fs::write(out.join("sweeps.md"), md)?;
     eprintln!("  wrote {}", out.join("sweeps.md").display());
     Ok(())
@@ -353,6 +362,7 @@ fn hard_sections(
             "10 links of 0.1 m, h = {h} s; acceleration level integrated with symplectic Euler."
         ),
         log_x: false,
+        pareto: false,
     };
     std::fs::write(out.join("chain_drift.svg"), chart.to_svg())?;
 
@@ -415,6 +425,7 @@ fn hard_sections(
             "Projection: tolerance 1e-1…1e-4; springs: k = 1e2…1e6 N/m; compliant: α = 1e-2…0 m/N."
                 .into(),
         log_x: true,
+        pareto: false,
     };
     std::fs::write(out.join("cloth_strain.svg"), chart.to_svg())?;
 
