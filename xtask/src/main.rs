@@ -4,7 +4,7 @@
 //! |---|---|
 //! | `verify [--quick] [--mujoco]` | fmt and clippy checks, the whole test suite, the `no_std` build, the stiffness and work-precision sweeps; writes `target/verify/report.md` with charts; `--mujoco` also regenerates the MuJoCo references of `scenes/reference/` into `target/verify/mujoco/` and checks them against the committed ones (needs Python) |
 //! | `no-std` | builds `constraint-core` (no allocator) and `constraint-lagrange` (`alloc` only) without `std` for `thumbv7em-none-eabihf` |
-//! | `bench` | runs the criterion benchmarks and prints the time per step and growth exponents |
+//! | `bench [--no-mujoco] [--peers-only]` | runs the criterion benchmarks, prints the time per step and growth exponents, and writes the peer table (this library against rapier3d and MuJoCo on ball-joint chains) to `target/bench/ratios.md` |
 //! | `mujoco SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--integrator euler\|implicitfast\|rk4] --out FILE.csv [--timing FILE.json]` | runs an MJCF scene in MuJoCo (virtual environment with a pinned `mujoco` from PyPI in `target/mujoco-venv`, made on first use) and writes the trajectory file of DESIGN.md section 6; `--timing` adds seconds per step in MuJoCo's C loop |
 //! | `simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--method M] --out FILE.csv` | runs an MJCF scene with this library (the `simulate` binary of `constraint-verify`, release build) and writes the same trajectory file; one-line error and non-zero exit on any failure, divergence included |
 //! | `compare A.csv B.csv` | max COM position, orientation and body-origin error between two trajectory files, with time and body |
@@ -29,7 +29,9 @@ commands:
                      checks, tests, no_std build and sweeps; writes target/verify/report.md;
                      --mujoco also regenerates scenes/reference/ in MuJoCo and checks it
   no-std             build constraint-core and constraint-lagrange for thumbv7em-none-eabihf without std
-  bench              criterion benchmarks: implicit cloth step and KKT solvers, N = 32, 64, 128
+  bench [--no-mujoco] [--peers-only] [CRITERION ARGS]
+                     criterion benchmarks (cloth step, KKT solvers, chains) and the peer
+                     comparison with rapier3d and MuJoCo: target/bench/ratios.md
   mujoco SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K]
          [--integrator euler|implicitfast|rk4] --out FILE.csv [--timing FILE.json]
                      run the scene in MuJoCo (pip-installed into target/mujoco-venv on first use)
