@@ -336,63 +336,39 @@ impl TreeSolver {
     /// forward (leaves first) `u_i = L_i⁻¹ y_i`, `s_i = d_i⁻¹ u_i`, `y_p −= W_iᵀ s_i`;
     /// backward (root first) `x_i = L_i⁻ᵀ (s_i − d_i⁻¹ W_i x_p)`.
     pub fn solve(&self, x: &mut [f64]) {
+        // Fixed-size kernels for the node shapes of body/joint pairs (loops unroll);
+        // `NP = 0` is a root.
+        macro_rules! dispatch {
+            ($f:ident, $n:expr, $np:expr, $args:expr, $x:expr; $($a:literal, $b:literal);*) => {
+                match ($n, $np) {
+                    $(($a, $b) => $f::<$a, $b>($args, $x),)*
+                    _ => $f::<6, 6>($args, $x),
+                }
+            };
+        }
         for &i in &self.order {
-            let n = self.dim[i];
-            let oi = self.offset[i];
-            let d = &self.diag[i];
-            let dinv = &self.dinv[i];
-            let mut u = [0.0; 6];
-            for r in 0..n {
-                let mut s = x[oi + r];
-                for t in 0..r {
-                    s -= d[r][t] * u[t];
-                }
-                u[r] = s;
-            }
-            for r in 0..n {
-                u[r] *= dinv[r];
-            }
-            x[oi..oi + n].copy_from_slice(&u[..n]);
-            let p = self.parent[i];
-            if p != NONE {
-                let op = self.offset[p];
-                let w = &self.off[i];
-                for c in 0..self.dim[p] {
-                    let mut s = 0.0;
-                    for t in 0..n {
-                        s += w[t][c] * u[t];
-                    }
-                    x[op + c] -= s;
-                }
-            }
+            let (n, oi, p) = (self.dim[i], self.offset[i], self.parent[i]);
+            let (np, op) = if p == NONE {
+                (0, 0)
+            } else {
+                (self.dim[p], self.offset[p])
+            };
+            let args = (&self.diag[i], &self.dinv[i], &self.off[i], oi, op, n, np);
+            dispatch!(forward, n, np, args, x;
+                6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
+                1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
         }
         for &i in self.order.iter().rev() {
-            let n = self.dim[i];
-            let oi = self.offset[i];
-            let d = &self.diag[i];
-            let dinv = &self.dinv[i];
-            let mut s = [0.0; 6];
-            s[..n].copy_from_slice(&x[oi..oi + n]);
-            let p = self.parent[i];
-            if p != NONE {
-                let op = self.offset[p];
-                let w = &self.off[i];
-                for r in 0..n {
-                    let mut acc = 0.0;
-                    for c in 0..self.dim[p] {
-                        acc += w[r][c] * x[op + c];
-                    }
-                    s[r] -= dinv[r] * acc;
-                }
-            }
-            for r in (0..n).rev() {
-                let mut v = s[r];
-                for t in r + 1..n {
-                    v -= d[t][r] * s[t];
-                }
-                s[r] = v;
-            }
-            x[oi..oi + n].copy_from_slice(&s[..n]);
+            let (n, oi, p) = (self.dim[i], self.offset[i], self.parent[i]);
+            let (np, op) = if p == NONE {
+                (0, 0)
+            } else {
+                (self.dim[p], self.offset[p])
+            };
+            let args = (&self.diag[i], &self.dinv[i], &self.off[i], oi, op, n, np);
+            dispatch!(backward, n, np, args, x;
+                6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
+                1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
         }
     }
 
@@ -581,4 +557,72 @@ fn update_dyn(n: usize, np: usize, d: &Blk, dinv: &[f64; 6], w: &mut Blk, dp: &m
 
 struct MinNorm {
     x: Vec<f64>,
+}
+
+/// One node's data for the solve kernels: `(D factor, 1/d, W, offset, parent offset,
+/// n, n_parent)`.
+type NodeArgs<'a> = (&'a Blk, &'a [f64; 6], &'a Blk, usize, usize, usize, usize);
+
+/// Forward pass at one node: `u = L⁻¹ y`, `s = d⁻¹ u` (stored), `y_p −= Wᵀ s`.
+/// `N`/`NP` are the compile-time shapes when they match the runtime ones (the generic
+/// fallback instance `<6, 6>` uses the runtime sizes).
+#[inline]
+fn forward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
+    let (d, dinv, w, oi, op, n_rt, np_rt) = args;
+    let (n, np) = if N == n_rt && NP == np_rt {
+        (N, NP)
+    } else {
+        (n_rt, np_rt)
+    };
+    let mut u = [0.0; 6];
+    for r in 0..n {
+        let mut s = x[oi + r];
+        for t in 0..r {
+            s -= d[r][t] * u[t];
+        }
+        u[r] = s;
+    }
+    for r in 0..n {
+        u[r] *= dinv[r];
+    }
+    x[oi..oi + n].copy_from_slice(&u[..n]);
+    for c in 0..np {
+        let mut s = 0.0;
+        for t in 0..n {
+            s += w[t][c] * u[t];
+        }
+        x[op + c] -= s;
+    }
+}
+
+/// Backward pass at one node: `x_i = L⁻ᵀ (s − d⁻¹ W x_p)`.
+#[inline]
+fn backward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
+    let (d, dinv, w, oi, op, n_rt, np_rt) = args;
+    let (n, np) = if N == n_rt && NP == np_rt {
+        (N, NP)
+    } else {
+        (n_rt, np_rt)
+    };
+    let mut s = [0.0; 6];
+    s[..n].copy_from_slice(&x[oi..oi + n]);
+    if np > 0 {
+        let mut xp = [0.0; 6];
+        xp[..np].copy_from_slice(&x[op..op + np]);
+        for r in 0..n {
+            let mut acc = 0.0;
+            for c in 0..np {
+                acc += w[r][c] * xp[c];
+            }
+            s[r] -= dinv[r] * acc;
+        }
+    }
+    for r in (0..n).rev() {
+        let mut v = s[r];
+        for t in r + 1..n {
+            v -= d[t][r] * s[t];
+        }
+        s[r] = v;
+    }
+    x[oi..oi + n].copy_from_slice(&s[..n]);
 }
