@@ -1,1 +1,18 @@
 //! Shapes and contact generation.
+//!
+//! | module | holds |
+//! |---|---|
+//! | [`shape`] | [`Shape`] (plane, sphere, box, capsule), [`Collider`] (a shape on a body with its offset pose, friction, restitution), [`Aabb`], [`GeometryError`] |
+//! | [`contact`] | [`Contact`] (pair, point, normal from `a` to `b`, depth = −gap, feature id) and [`ParticleContact`] |
+//! | [`narrow`] | [`collide`] for any pair of colliders, [`point_vs`] for particles, [`closest_point`], [`closest_segments`] |
+//! | [`broad`] | sort-and-sweep [`sweep_and_prune`], the all-pairs reference [`brute_force`], and [`generate_contacts`] for a whole scene |
+
+pub mod broad;
+pub mod contact;
+pub mod narrow;
+pub mod shape;
+
+pub use broad::{brute_force, generate_contacts, sweep_and_prune, BroadStats};
+pub use contact::{Contact, ParticleContact};
+pub use narrow::{closest_point, closest_segments, collide, point_vs, Closest};
+pub use shape::{Aabb, Collider, GeometryError, Shape};

@@ -1,0 +1,159 @@
+//! Broad phase: which bounding boxes overlap, without testing all pairs.
+//!
+//! [`sweep_and_prune`] sorts the boxes by their lower bound along the axis on which the
+//! box centres vary most and sweeps: box `i` is tested only against the boxes that start
+//! before it ends on that axis. Output pairs are `(i, j)` with `i < j`, sorted, so the
+//! result does not depend on the sort (deterministic). [`brute_force`] is the all-pairs
+//! reference. [`generate_contacts`] runs both phases over a scene of colliders.
+
+use alloc::vec::Vec;
+
+use constraint_core::Pose;
+
+use super::contact::Contact;
+use super::narrow::collide;
+use super::shape::{Aabb, Collider, GeometryError};
+
+/// What a broad-phase pass did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct BroadStats {
+    /// Box–box overlap tests performed.
+    pub tests: usize,
+    /// Overlapping pairs found.
+    pub pairs: usize,
+    /// Sweep axis (0 = x, 1 = y, 2 = z; 0 for the brute force).
+    pub axis: usize,
+}
+
+/// The axis along which the finite box centres have the largest variance (ties: lowest
+/// axis; x when there are none).
+fn sweep_axis(aabbs: &[Aabb]) -> usize {
+    let mut n = 0.0;
+    let mut mean = [0.0; 3];
+    let mut m2 = [0.0; 3];
+    for b in aabbs {
+        if !(b.min.is_finite() && b.max.is_finite()) {
+            continue;
+        }
+        n += 1.0;
+        let c = (b.min + b.max) * 0.5;
+        for k in 0..3 {
+            // Welford's update.
+            let d = c[k] - mean[k];
+            mean[k] += d / n;
+            m2[k] += d * (c[k] - mean[k]);
+        }
+    }
+    let mut axis = 0;
+    for k in 1..3 {
+        if m2[k] > m2[axis] {
+            axis = k;
+        }
+    }
+    axis
+}
+
+/// Overlapping pairs `(i, j)`, `i < j`, sorted, by sort-and-sweep along the axis of
+/// largest variance of the box centres. `out` is cleared first. Unbounded boxes (planes)
+/// are handled (they overlap everything they span); boxes with NaN bounds overlap
+/// nothing.
+pub fn sweep_and_prune(aabbs: &[Aabb], out: &mut Vec<(usize, usize)>) -> BroadStats {
+    out.clear();
+    let axis = sweep_axis(aabbs);
+    let mut order: Vec<usize> = (0..aabbs.len()).collect();
+    order.sort_unstable_by(|&i, &j| {
+        aabbs[i].min[axis]
+            .total_cmp(&aabbs[j].min[axis])
+            .then(i.cmp(&j))
+    });
+    let mut tests = 0;
+    for (si, &i) in order.iter().enumerate() {
+        let end = aabbs[i].max[axis];
+        for &j in &order[si + 1..] {
+            if aabbs[j].min[axis] > end {
+                break;
+            }
+            tests += 1;
+            if aabbs[i].overlaps(&aabbs[j]) {
+                out.push(if i < j { (i, j) } else { (j, i) });
+            }
+        }
+    }
+    out.sort_unstable();
+    BroadStats {
+        tests,
+        pairs: out.len(),
+        axis,
+    }
+}
+
+/// All pairs tested: the reference for [`sweep_and_prune`]. `out` is cleared first.
+pub fn brute_force(aabbs: &[Aabb], out: &mut Vec<(usize, usize)>) -> BroadStats {
+    out.clear();
+    let mut tests = 0;
+    for i in 0..aabbs.len() {
+        for j in i + 1..aabbs.len() {
+            tests += 1;
+            if aabbs[i].overlaps(&aabbs[j]) {
+                out.push((i, j));
+            }
+        }
+    }
+    BroadStats {
+        tests,
+        pairs: out.len(),
+        axis: 0,
+    }
+}
+
+/// All contacts of a scene: bounding boxes grown by `margin / 2` (so pairs closer than
+/// `margin` meet), [`sweep_and_prune`], then [`collide`] on every overlapping pair except
+/// two colliders on the same body or two static ones. `body_poses[k]` is the pose of
+/// body `k`; static colliders use [`Pose::IDENTITY`]. `out` is cleared first and filled
+/// in pair order `(a, b)`, `a < b`, then in each pair's point order.
+///
+/// Errors: a negative or non-finite margin, a collider naming a body beyond
+/// `body_poses`, a non-finite body pose.
+pub fn generate_contacts(
+    colliders: &[Collider],
+    body_poses: &[Pose],
+    margin: f64,
+    out: &mut Vec<Contact>,
+) -> Result<BroadStats, GeometryError> {
+    out.clear();
+    if !(margin >= 0.0) || !margin.is_finite() {
+        return Err(GeometryError::BadMargin);
+    }
+    if body_poses
+        .iter()
+        .any(|p| !p.x.is_finite() || !p.q.is_finite())
+    {
+        return Err(GeometryError::NonFinite);
+    }
+    let pose_of = |c: &Collider| match c.body {
+        Some(b) => body_poses[b],
+        None => Pose::IDENTITY,
+    };
+    let mut aabbs = Vec::with_capacity(colliders.len());
+    for (k, c) in colliders.iter().enumerate() {
+        if let Some(b) = c.body {
+            if b >= body_poses.len() {
+                return Err(GeometryError::BodyOutOfRange {
+                    collider: k,
+                    body: b,
+                });
+            }
+        }
+        aabbs.push(c.aabb(&pose_of(c), 0.5 * margin));
+    }
+    let mut pairs = Vec::new();
+    let stats = sweep_and_prune(&aabbs, &mut pairs);
+    for &(i, j) in &pairs {
+        let (a, b) = (&colliders[i], &colliders[j]);
+        if a.body == b.body {
+            continue;
+        }
+        collide((i, j), a, &pose_of(a), b, &pose_of(b), margin, out);
+    }
+    Ok(stats)
+}

@@ -1,0 +1,805 @@
+//! Narrow phase: contact points, normals, depths and feature ids for a pair of colliders,
+//! and particles (points with a radius) against a collider.
+//!
+//! Every pair of shapes is handled (plane–plane yields nothing). Contacts are reported
+//! for `depth ≥ −margin` (see [`crate::geometry::contact`] for the sign convention).
+//!
+//! | pair | points | ids |
+//! |---|---|---|
+//! | sphere–anything | 1 (closest point of the other shape to the centre) | 0 |
+//! | capsule–plane | 2 (the segment's end spheres; 1 if `half_length = 0`) | 0, 1 (end `−z`, `+z`) |
+//! | capsule–capsule | 1, or 2 when the axes are parallel to within 0.02 rad and overlap | 0; 1, 2 |
+//! | capsule–box | 1 (closest points segment–box), or 2 when the segment lies along a face (to within 0.2 rad) | 0; `4 face + 1`, `4 face + 2` |
+//! | box–plane | up to 4 vertices (the deepest within the margin) | vertex index 0..8 |
+//! | box–box | SAT over 15 axes; a face axis gives up to 4 points by clipping the incident face against the reference face's sides (Sutherland–Hodgman; more than 4 reduced to 4), an edge axis gives 1 point | reference face, incident face and the two clipping features of each point |
+//!
+//! Degenerate inputs have documented fallback normals instead of NaN: a point at a
+//! sphere's centre gets the outward normal `+z` (world), a point on a capsule's axis a
+//! direction normal to the axis ([`DVec3::any_orthonormal_vector`] of the axis), a point
+//! exactly at the centre of a box face ties to the lowest axis and the `+` side,
+//! intersecting capsule axes the common normal of the two axes (or a direction normal to
+//! both when they are collinear). Poses are assumed finite (as [`Pose::new`] checks).
+
+use alloc::vec::Vec;
+
+use constraint_core::Pose;
+use glam::{DMat3, DVec3};
+
+use super::contact::{Contact, ParticleContact};
+use super::shape::{Collider, Shape};
+
+#[inline]
+fn sqrt(x: f64) -> f64 {
+    libm::sqrt(x)
+}
+
+#[inline]
+fn sign(x: f64) -> f64 {
+    if x < 0.0 {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
+/// Closest point of a shape's surface to a world point, with the outward normal there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Closest {
+    /// Closest point on the surface (world).
+    pub surface: DVec3,
+    /// Outward unit normal of the surface at `surface` (world); the query point is at
+    /// `surface + distance · normal`.
+    pub normal: DVec3,
+    /// Signed distance of the query point from the surface (negative inside).
+    pub distance: f64,
+}
+
+/// The closest surface point of `shape`, placed at the world frame `frame` (the
+/// collider frame, [`Collider::world_pose`]), to the world point `p`, with the outward
+/// normal and the signed distance. Fallbacks for degenerate queries are in the module
+/// documentation.
+pub fn closest_point(shape: &Shape, frame: &Pose, p: DVec3) -> Closest {
+    match *shape {
+        Shape::Plane { normal, offset } => {
+            let n = frame.q * normal;
+            let d = offset + n.dot(frame.x);
+            let dist = n.dot(p) - d;
+            Closest {
+                surface: p - n * dist,
+                normal: n,
+                distance: dist,
+            }
+        }
+        Shape::Sphere { radius } => ball_closest(frame.x, radius, p, DVec3::Z),
+        Shape::Capsule {
+            radius,
+            half_length,
+        } => {
+            let axis = frame.q * DVec3::Z;
+            let t = (p - frame.x).dot(axis).clamp(-half_length, half_length);
+            let q = frame.x + axis * t;
+            ball_closest(q, radius, p, axis.any_orthonormal_vector())
+        }
+        Shape::Box { half } => {
+            let local = frame.to_local(p);
+            let c = local.clamp(-half, half);
+            if c != local {
+                let delta = local - c;
+                let dist = delta.length();
+                Closest {
+                    surface: frame.point(c),
+                    normal: frame.q * (delta / dist),
+                    distance: dist,
+                }
+            } else {
+                // Inside: leave through the nearest face (ties: lowest axis, `+` side).
+                let mut k = 0;
+                let mut best = f64::INFINITY;
+                for m in 0..3 {
+                    let g = half[m] - local[m].abs();
+                    if g < best {
+                        best = g;
+                        k = m;
+                    }
+                }
+                let s = sign(local[k]);
+                let mut surf = local;
+                surf[k] = s * half[k];
+                let mut n = DVec3::ZERO;
+                n[k] = s;
+                Closest {
+                    surface: frame.point(surf),
+                    normal: frame.q * n,
+                    distance: -best,
+                }
+            }
+        }
+    }
+}
+
+fn ball_closest(c: DVec3, r: f64, p: DVec3, fallback: DVec3) -> Closest {
+    let delta = p - c;
+    let dist = delta.length();
+    let n = if dist > 1e-12 * r {
+        delta / dist
+    } else {
+        fallback
+    };
+    Closest {
+        surface: c + n * r,
+        normal: n,
+        distance: dist - r,
+    }
+}
+
+/// A particle (centre `p`, `radius ≥ 0`) against a collider whose body is at `body`:
+/// the contact if `depth ≥ −margin`. The normal points out of the collider.
+pub fn point_vs(
+    collider: &Collider,
+    body: &Pose,
+    p: DVec3,
+    radius: f64,
+    margin: f64,
+) -> Option<ParticleContact> {
+    let frame = collider.world_pose(body);
+    let cl = closest_point(&collider.shape, &frame, p);
+    let depth = radius - cl.distance;
+    (depth >= -margin).then_some(ParticleContact {
+        surface: cl.surface,
+        normal: cl.normal,
+        depth,
+    })
+}
+
+/// Appends the contacts of one pair, normal from `a` to `b`.
+struct Sink<'o> {
+    out: &'o mut Vec<Contact>,
+    a: usize,
+    b: usize,
+    flip: bool,
+    margin: f64,
+    count: usize,
+}
+
+impl Sink<'_> {
+    /// `pa`, `pb`: witness points on the first and second shape of the native routine;
+    /// `n` from the first to the second.
+    fn push(&mut self, pa: DVec3, pb: DVec3, n: DVec3, depth: f64, id: u64) {
+        if !(depth >= -self.margin) {
+            return;
+        }
+        self.out.push(Contact {
+            a: self.a,
+            b: self.b,
+            point: (pa + pb) * 0.5,
+            normal: if self.flip { -n } else { n },
+            depth,
+            id,
+        });
+        self.count += 1;
+    }
+}
+
+fn rank(s: &Shape) -> u8 {
+    match s {
+        Shape::Sphere { .. } => 0,
+        Shape::Plane { .. } => 1,
+        Shape::Capsule { .. } => 2,
+        Shape::Box { .. } => 3,
+    }
+}
+
+/// Contacts between collider `a` (body pose `pose_a`) and collider `b` (body pose
+/// `pose_b`; [`Pose::IDENTITY`] for world colliders), appended to `out` with
+/// `Contact::a, Contact::b = pair`, normals from `a` to `b`, for every point with
+/// `depth ≥ −margin`. Returns the number of contacts appended.
+pub fn collide(
+    pair: (usize, usize),
+    a: &Collider,
+    pose_a: &Pose,
+    b: &Collider,
+    pose_b: &Pose,
+    margin: f64,
+    out: &mut Vec<Contact>,
+) -> usize {
+    let (mut fa, mut fb) = (a.world_pose(pose_a), b.world_pose(pose_b));
+    let (mut sa, mut sb) = (a.shape, b.shape);
+    let flip = rank(&sa) > rank(&sb);
+    if flip {
+        core::mem::swap(&mut fa, &mut fb);
+        core::mem::swap(&mut sa, &mut sb);
+    }
+    let mut sink = Sink {
+        out,
+        a: pair.0,
+        b: pair.1,
+        flip,
+        margin,
+        count: 0,
+    };
+    match (sa, sb) {
+        (Shape::Sphere { radius }, other) => {
+            let cl = closest_point(&other, &fb, fa.x);
+            let n = -cl.normal;
+            sink.push(fa.x + n * radius, cl.surface, n, radius - cl.distance, 0);
+        }
+        (Shape::Plane { .. }, Shape::Plane { .. }) => {}
+        (Shape::Plane { .. }, Shape::Capsule { .. }) => {
+            let (p0, p1, r) = segment(&sb, &fb);
+            let ends: &[DVec3] = if p0 == p1 { &[p0] } else { &[p0, p1] };
+            for (k, &e) in ends.iter().enumerate() {
+                let cl = closest_point(&sa, &fa, e);
+                sink.push(
+                    cl.surface,
+                    e - cl.normal * r,
+                    cl.normal,
+                    r - cl.distance,
+                    k as u64,
+                );
+            }
+        }
+        (Shape::Plane { normal, offset }, Shape::Box { half }) => {
+            plane_box(&fa, normal, offset, &fb, half, &mut sink)
+        }
+        (Shape::Capsule { .. }, Shape::Capsule { .. }) => {
+            capsule_capsule(&sa, &fa, &sb, &fb, &mut sink)
+        }
+        (Shape::Capsule { .. }, Shape::Box { half }) => capsule_box(&sa, &fa, half, &fb, &mut sink),
+        (Shape::Box { half: ha }, Shape::Box { half: hb }) => box_box(&fa, ha, &fb, hb, &mut sink),
+        // `rank` orders the pair so the first shape never ranks above the second.
+        _ => {}
+    }
+    sink.count
+}
+
+/// World end points of a capsule's core segment (`−z`, `+z`) and its radius.
+fn segment(s: &Shape, f: &Pose) -> (DVec3, DVec3, f64) {
+    match *s {
+        Shape::Capsule {
+            radius,
+            half_length,
+        } => {
+            let h = f.q * DVec3::new(0.0, 0.0, half_length);
+            (f.x - h, f.x + h, radius)
+        }
+        _ => (f.x, f.x, 0.0),
+    }
+}
+
+fn plane_box(fp: &Pose, normal: DVec3, offset: f64, fb: &Pose, half: DVec3, sink: &mut Sink) {
+    let n = fp.q * normal;
+    let d = offset + n.dot(fp.x);
+    let mut depth = [0.0; 8];
+    let mut vert = [DVec3::ZERO; 8];
+    for k in 0..8 {
+        vert[k] = fb.point(box_vertex(half, k));
+        depth[k] = d - n.dot(vert[k]);
+    }
+    // The (up to) four deepest vertices within the margin, reported in vertex order.
+    let mut order = [0usize, 1, 2, 3, 4, 5, 6, 7];
+    order.sort_by(|&i, &j| depth[j].total_cmp(&depth[i]).then(i.cmp(&j)));
+    let mut keep = [false; 8];
+    for &k in order.iter().take(4) {
+        keep[k] = depth[k] >= -sink.margin;
+    }
+    for k in 0..8 {
+        if keep[k] {
+            sink.push(vert[k] + n * depth[k], vert[k], n, depth[k], k as u64);
+        }
+    }
+}
+
+/// Box vertex `k` (bit 0: x sign, bit 1: y, bit 2: z; set bit = `+`) in the box frame.
+#[inline]
+fn box_vertex(half: DVec3, k: usize) -> DVec3 {
+    let s = |bit: usize| if k & bit != 0 { 1.0 } else { -1.0 };
+    DVec3::new(s(1) * half.x, s(2) * half.y, s(4) * half.z)
+}
+
+/// Closest points of the segments `p1 + s (q1 − p1)` and `p2 + t (q2 − p2)`,
+/// `s, t ∈ [0, 1]` (Ericson, Real-Time Collision Detection, 5.1.9); parallel segments
+/// take `s = 0` where it is a minimiser.
+pub fn closest_segments(p1: DVec3, q1: DVec3, p2: DVec3, q2: DVec3) -> (f64, f64, DVec3, DVec3) {
+    let d1 = q1 - p1;
+    let d2 = q2 - p2;
+    let r = p1 - p2;
+    let a = d1.dot(d1);
+    let e = d2.dot(d2);
+    let f = d2.dot(r);
+    let tiny = 1e-300;
+    let (s, t) = if a <= tiny && e <= tiny {
+        (0.0, 0.0)
+    } else if a <= tiny {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = d1.dot(r);
+        if e <= tiny {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = d1.dot(d2);
+            let denom = a * e - b * b;
+            let mut s = if denom > 1e-14 * a * e {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let mut t = (b * s + f) / e;
+            if t < 0.0 {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if t > 1.0 {
+                t = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            (s, t)
+        }
+    };
+    (s, t, p1 + d1 * s, p2 + d2 * t)
+}
+
+/// Two balls (core points `ca`, `cb`) given a fallback normal for coincident centres.
+fn balls(sink: &mut Sink, ca: DVec3, ra: f64, cb: DVec3, rb: f64, fallback: DVec3, id: u64) {
+    let delta = cb - ca;
+    let dist = delta.length();
+    let n = if dist > 1e-12 * (ra + rb) {
+        delta / dist
+    } else {
+        fallback
+    };
+    sink.push(ca + n * ra, cb - n * rb, n, ra + rb - dist, id);
+}
+
+fn capsule_capsule(sa: &Shape, fa: &Pose, sb: &Shape, fb: &Pose, sink: &mut Sink) {
+    let (a0, a1, ra) = segment(sa, fa);
+    let (b0, b1, rb) = segment(sb, fb);
+    let da = a1 - a0;
+    let db = b1 - b0;
+    // Fallback for intersecting axes: their common normal, oriented from a to b.
+    let cross = da.cross(db);
+    let towards = (b0 + b1 - a0 - a1) * 0.5;
+    let fallback = if cross.length_squared() > 1e-20 * da.length_squared() * db.length_squared()
+        && cross.length_squared() > 0.0
+    {
+        let c = cross.normalize();
+        if c.dot(towards) < 0.0 {
+            -c
+        } else {
+            c
+        }
+    } else {
+        let axis = if da.length_squared() > 0.0 {
+            da
+        } else if db.length_squared() > 0.0 {
+            db
+        } else {
+            DVec3::Z
+        };
+        let perp = towards - axis * (towards.dot(axis) / axis.length_squared());
+        if perp.length_squared() > 1e-24 * (1.0 + towards.length_squared()) {
+            perp.normalize()
+        } else {
+            axis.normalize().any_orthonormal_vector()
+        }
+    };
+    let la = da.length();
+    let lb = db.length();
+    // Parallel axes: the two ends of the overlap of b's projection onto a's axis.
+    if la > 0.0 && lb > 0.0 && cross.length() <= 0.02 * la * lb {
+        let u = da / la;
+        let t0 = (b0 - a0).dot(u);
+        let t1 = (b1 - a0).dot(u);
+        let lo = t0.min(t1).max(0.0);
+        let hi = t0.max(t1).min(la);
+        if hi - lo > 1e-9 * la {
+            for (k, t) in [lo, hi].into_iter().enumerate() {
+                let p = a0 + u * t;
+                let (_, _, q, _) = closest_segments(b0, b1, p, p);
+                balls(sink, p, ra, q, rb, fallback, k as u64 + 1);
+            }
+            return;
+        }
+    }
+    let (_, _, p, q) = closest_segments(a0, a1, b0, b1);
+    balls(sink, p, ra, q, rb, fallback, 0);
+}
+
+fn capsule_box(sc: &Shape, fc: &Pose, half: DVec3, fb: &Pose, sink: &mut Sink) {
+    let (w0, w1, r) = segment(sc, fc);
+    // Work in the box frame.
+    let p0 = fb.to_local(w0);
+    let p1 = fb.to_local(w1);
+    let u = p1 - p0;
+    // Closest points of the segment and the (solid) box: end points against the box,
+    // the segment against the 12 edges.
+    let mut best_d2 = f64::INFINITY;
+    let mut sp = p0;
+    let mut bp = p0;
+    for p in [p0, p1] {
+        let c = p.clamp(-half, half);
+        let d2 = (p - c).length_squared();
+        if d2 < best_d2 {
+            best_d2 = d2;
+            sp = p;
+            bp = c;
+        }
+    }
+    for axis in 0..3 {
+        let (i, j) = ((axis + 1) % 3, (axis + 2) % 3);
+        for corner in 0..4 {
+            let mut e0 = DVec3::ZERO;
+            e0[i] = if corner & 1 != 0 { half[i] } else { -half[i] };
+            e0[j] = if corner & 2 != 0 { half[j] } else { -half[j] };
+            let mut e1 = e0;
+            e0[axis] = -half[axis];
+            e1[axis] = half[axis];
+            let (_, _, s, e) = closest_segments(p0, p1, e0, e1);
+            let d2 = (s - e).length_squared();
+            if d2 < best_d2 {
+                best_d2 = d2;
+                sp = s;
+                bp = e;
+            }
+        }
+    }
+    let scale = half.max_element();
+    let (n, core_depth) = if best_d2 > (1e-9 * scale) * (1e-9 * scale) {
+        // Separated core: outward normal of the box towards the segment.
+        let d = sqrt(best_d2);
+        ((sp - bp) / d, -d)
+    } else {
+        // The core segment meets the box: separating-axis test over the 3 face normals
+        // and the 3 cross products of the segment with them; the axis of least
+        // penetration (faces preferred by a small tolerance).
+        let mid = (p0 + p1) * 0.5;
+        let mut best = (f64::INFINITY, DVec3::Z, 0.0);
+        let mut axes = [DVec3::ZERO; 6];
+        for k in 0..3 {
+            axes[k][k] = 1.0;
+            let mut e = DVec3::ZERO;
+            e[k] = 1.0;
+            axes[3 + k] = u.cross(e);
+        }
+        for (idx, &l) in axes.iter().enumerate() {
+            let len = l.length();
+            if !(len > 1e-9 * (1.0 + u.length())) {
+                continue;
+            }
+            let mut l = l / len;
+            if l.dot(mid) < 0.0 {
+                l = -l;
+            }
+            let rb = half.dot(l.abs());
+            let lo = l.dot(p0).min(l.dot(p1));
+            let pen = rb - lo;
+            let pen_cmp = if idx < 3 {
+                pen
+            } else {
+                pen * 1.05 + 1e-9 * scale
+            };
+            if pen_cmp < best.0 {
+                best = (pen_cmp, l, pen);
+            }
+        }
+        let l = best.1;
+        sp = if l.dot(p0) <= l.dot(p1) { p0 } else { p1 };
+        bp = sp + l * best.2;
+        (l, best.2)
+    };
+    // `core_depth`: penetration of the core segment (negative: its distance).
+    let depth = r + core_depth;
+    // Along a face: clip the segment to the face rectangle, two points.
+    let k = n.abs().max_position();
+    if n[k].abs() >= 0.98 && u.length() > 0.0 && u[k].abs() <= 0.2 * u.length() {
+        let s = sign(n[k]);
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        for m in [i, j] {
+            if u[m].abs() > 1e-15 * u.length() {
+                let ta = (-half[m] - p0[m]) / u[m];
+                let tb = (half[m] - p0[m]) / u[m];
+                lo = lo.max(ta.min(tb));
+                hi = hi.min(ta.max(tb));
+            } else if p0[m].abs() > half[m] {
+                hi = -1.0;
+            }
+        }
+        if hi >= lo {
+            let face = (2 * k + usize::from(s < 0.0)) as u64;
+            let ts: &[f64] = if hi - lo > 1e-9 { &[lo, hi] } else { &[lo] };
+            let mut nf = DVec3::ZERO;
+            nf[k] = s;
+            let nw = fb.q * nf;
+            for (e, &t) in ts.iter().enumerate() {
+                let q = p0 + u * t;
+                let dist = s * q[k] - half[k];
+                let mut on_box = q;
+                on_box[k] = s * half[k];
+                // Native order is capsule (first) to box (second): normal −n_face.
+                sink.push(
+                    fb.point(q - nf * r),
+                    fb.point(on_box),
+                    -nw,
+                    r - dist,
+                    4 * face + e as u64 + 1,
+                );
+            }
+            return;
+        }
+    }
+    let nw = fb.q * n;
+    // Native order is capsule (first) to box (second): normal −n.
+    sink.push(fb.point(sp) - nw * r, fb.point(bp), -nw, depth, 0);
+}
+
+/// A vertex of a clipped polygon: position and the features (incident edges 0..4,
+/// reference side planes 4..8) of the edges entering and leaving it.
+#[derive(Clone, Copy)]
+struct Vtx {
+    p: DVec3,
+    inn: u8,
+    out: u8,
+}
+
+struct Poly {
+    v: [Vtx; 12],
+    n: usize,
+}
+
+impl Poly {
+    fn push(&mut self, v: Vtx) {
+        if self.n < self.v.len() {
+            self.v[self.n] = v;
+            self.n += 1;
+        }
+    }
+}
+
+/// Sutherland–Hodgman against the half-space `m·p ≤ o` (side feature `label`).
+fn clip(input: &Poly, m: DVec3, o: f64, label: u8) -> Poly {
+    let mut out = Poly {
+        v: [Vtx {
+            p: DVec3::ZERO,
+            inn: 0,
+            out: 0,
+        }; 12],
+        n: 0,
+    };
+    for idx in 0..input.n {
+        let cur = input.v[idx];
+        let next = input.v[(idx + 1) % input.n];
+        let dc = m.dot(cur.p) - o;
+        let dn = m.dot(next.p) - o;
+        let cross = |c: &Vtx, n: &Vtx| {
+            let t = dc / (dc - dn);
+            c.p + (n.p - c.p) * t
+        };
+        match (dc <= 0.0, dn <= 0.0) {
+            (true, true) => out.push(next),
+            (true, false) => out.push(Vtx {
+                p: cross(&cur, &next),
+                inn: cur.out,
+                out: label,
+            }),
+            (false, true) => {
+                out.push(Vtx {
+                    p: cross(&cur, &next),
+                    inn: label,
+                    out: next.inn,
+                });
+                out.push(next);
+            }
+            (false, false) => {}
+        }
+    }
+    out
+}
+
+fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
+    let ra = DMat3::from_quat(fa.q);
+    let rb = DMat3::from_quat(fb.q);
+    let ua = [ra.x_axis, ra.y_axis, ra.z_axis];
+    let ub = [rb.x_axis, rb.y_axis, rb.z_axis];
+    let t = fb.x - fa.x;
+    let proj = |h: DVec3, u: &[DVec3; 3], l: DVec3| {
+        h.x * u[0].dot(l).abs() + h.y * u[1].dot(l).abs() + h.z * u[2].dot(l).abs()
+    };
+    let sep = |l: DVec3| t.dot(l).abs() - proj(ha, &ua, l) - proj(hb, &ub, l);
+    // Best face of A, face of B, edge pair.
+    let mut face_a = (f64::NEG_INFINITY, 0usize);
+    let mut face_b = (f64::NEG_INFINITY, 0usize);
+    let mut edge = (f64::NEG_INFINITY, 0usize, 0usize, DVec3::ZERO);
+    for i in 0..3 {
+        let s = sep(ua[i]);
+        if s > sink.margin {
+            return;
+        }
+        if s > face_a.0 {
+            face_a = (s, i);
+        }
+    }
+    for j in 0..3 {
+        let s = sep(ub[j]);
+        if s > sink.margin {
+            return;
+        }
+        if s > face_b.0 {
+            face_b = (s, j);
+        }
+    }
+    for i in 0..3 {
+        for j in 0..3 {
+            let l = ua[i].cross(ub[j]);
+            let len = l.length();
+            if len < 1e-6 {
+                continue;
+            }
+            let l = l / len;
+            let s = sep(l);
+            if s > sink.margin {
+                return;
+            }
+            if s > edge.0 {
+                edge = (s, i, j, l);
+            }
+        }
+    }
+    // Prefer faces of A, then faces of B, then edges, by small tolerances, so resting
+    // contact keeps one reference face from frame to frame.
+    let tol = 1e-3 * ha.min_element().min(hb.min_element());
+    let (face_sep, ref_is_b) = if face_b.0 > face_a.0 + 0.01 * face_a.0.abs() + tol {
+        (face_b.0, true)
+    } else {
+        (face_a.0, false)
+    };
+    if edge.0 > face_sep + 0.05 * face_sep.abs() + tol {
+        // Edge–edge: the supporting edges of A (towards +n) and B (towards −n).
+        let (s, i, j, mut l) = edge;
+        if t.dot(l) < 0.0 {
+            l = -l;
+        }
+        let mut ca = fa.x;
+        let mut bits_a = 0u64;
+        for m in 0..3 {
+            if m != i {
+                let sg = sign(ua[m].dot(l));
+                ca += ua[m] * (sg * ha[m]);
+                bits_a |= u64::from(sg < 0.0) << m;
+            }
+        }
+        let mut cb = fb.x;
+        let mut bits_b = 0u64;
+        for m in 0..3 {
+            if m != j {
+                let sg = -sign(ub[m].dot(l));
+                cb += ub[m] * (sg * hb[m]);
+                bits_b |= u64::from(sg < 0.0) << m;
+            }
+        }
+        let (_, _, pa, pb) = closest_segments(
+            ca - ua[i] * ha[i],
+            ca + ua[i] * ha[i],
+            cb - ub[j] * hb[j],
+            cb + ub[j] * hb[j],
+        );
+        let id =
+            (1u64 << 20) | ((i as u64) << 14) | (bits_a << 10) | ((j as u64) << 6) | (bits_b << 2);
+        // Witnesses consistent with the SAT depth along l.
+        let mid = (pa + pb) * 0.5;
+        sink.push(mid + l * (0.5 * -s), mid - l * (0.5 * -s), l, -s, id);
+        return;
+    }
+    // Face contact: reference box R (face `i`, outward normal n towards the other box),
+    // incident box I.
+    let (fr, hr, ur, hi, ui, ci, i) = if ref_is_b {
+        (fb, hb, &ub, ha, &ua, fa.x, face_b.1)
+    } else {
+        (fa, ha, &ua, hb, &ub, fb.x, face_a.1)
+    };
+    let to_inc = ci - fr.x;
+    let n = if ur[i].dot(to_inc) < 0.0 {
+        -ur[i]
+    } else {
+        ur[i]
+    };
+    let ref_face = (2 * i + usize::from(ur[i].dot(n) < 0.0)) as u64;
+    // Incident face: the face of I most anti-parallel to n.
+    let mut k = 0;
+    for m in 1..3 {
+        if ui[m].dot(n).abs() > ui[k].dot(n).abs() {
+            k = m;
+        }
+    }
+    let sk = -sign(ui[k].dot(n));
+    let inc_face = (2 * k + usize::from(sk < 0.0)) as u64;
+    let (k1, k2) = ((k + 1) % 3, (k + 2) % 3);
+    let fc = ci + ui[k] * (sk * hi[k]);
+    let e1 = ui[k1] * hi[k1];
+    let e2 = ui[k2] * hi[k2];
+    let corners = [fc + e1 + e2, fc - e1 + e2, fc - e1 - e2, fc + e1 - e2];
+    let mut poly = Poly {
+        v: [Vtx {
+            p: DVec3::ZERO,
+            inn: 0,
+            out: 0,
+        }; 12],
+        n: 4,
+    };
+    for (c, &p) in corners.iter().enumerate() {
+        poly.v[c] = Vtx {
+            p,
+            inn: ((c + 3) % 4) as u8,
+            out: c as u8,
+        };
+    }
+    let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+    for (label, m, sg) in [(4u8, i1, 1.0), (5, i1, -1.0), (6, i2, 1.0), (7, i2, -1.0)] {
+        let dir = ur[m] * sg;
+        poly = clip(&poly, dir, dir.dot(fr.x) + hr[m], label);
+        if poly.n == 0 {
+            return;
+        }
+    }
+    let plane = n.dot(fr.x) + hr[i];
+    let mut pts = [(DVec3::ZERO, 0.0, 0u64); 12];
+    let mut np = 0;
+    for v in &poly.v[..poly.n] {
+        let depth = plane - n.dot(v.p);
+        if depth >= -sink.margin {
+            pts[np] = (v.p, depth, u64::from(v.inn) * 8 + u64::from(v.out));
+            np += 1;
+        }
+    }
+    let keep = reduce(&pts[..np], n);
+    let base = (u64::from(ref_is_b) << 12) | (ref_face << 9) | (inc_face << 6);
+    let sgn = if ref_is_b { -1.0 } else { 1.0 };
+    for (idx, &(p, depth, vid)) in pts[..np].iter().enumerate() {
+        if keep[idx] {
+            let on_ref = p + n * depth;
+            // Native order: a = A, b = B; normal from A to B.
+            let (pa, pb) = if ref_is_b { (p, on_ref) } else { (on_ref, p) };
+            sink.push(pa, pb, n * sgn, depth, base | vid);
+        }
+    }
+}
+
+/// Which of up to 12 manifold points to keep (at most 4): the deepest, the farthest
+/// from it, and the two spanning the largest triangles on either side of that segment.
+fn reduce(pts: &[(DVec3, f64, u64)], n: DVec3) -> [bool; 12] {
+    let mut keep = [false; 12];
+    if pts.len() <= 4 {
+        keep[..pts.len()].fill(true);
+        return keep;
+    }
+    let mut i0 = 0;
+    for k in 1..pts.len() {
+        if pts[k].1 > pts[i0].1 {
+            i0 = k;
+        }
+    }
+    let p0 = pts[i0].0;
+    let mut i1 = if i0 == 0 { 1 } else { 0 };
+    for k in 0..pts.len() {
+        if k != i0 && (pts[k].0 - p0).length_squared() > (pts[i1].0 - p0).length_squared() {
+            i1 = k;
+        }
+    }
+    let e = pts[i1].0 - p0;
+    let area = |k: usize| e.cross(pts[k].0 - p0).dot(n);
+    let (mut i2, mut i3) = (i0, i0);
+    let (mut amax, mut amin) = (0.0, 0.0);
+    for k in 0..pts.len() {
+        let a = area(k);
+        if a > amax {
+            amax = a;
+            i2 = k;
+        }
+        if a < amin {
+            amin = a;
+            i3 = k;
+        }
+    }
+    for k in [i0, i1, i2, i3] {
+        keep[k] = true;
+    }
+    keep
+}
