@@ -1,0 +1,454 @@
+//! The LCP as plain, validated data; its natural-map residual; the solution and error
+//! types shared by every solver.
+
+use alloc::vec;
+use alloc::vec::Vec;
+use core::fmt;
+
+/// A linear complementarity problem, standard or boxed, with dense row-major `M`.
+///
+/// **Standard LCP** (the lecture's contact conditions `λ ≥ 0`, `d λ = 0` at velocity
+/// level): find `z` such that
+///
+/// ```text
+/// w = M z + q,   z ≥ 0,   w ≥ 0,   zᵀ w = 0.
+/// ```
+///
+/// **Boxed LCP** (friction): each `z_i` lies in `[lo_i, hi_i]` and
+///
+/// ```text
+/// z_i = lo_i  ⇒ w_i ≥ 0,   z_i = hi_i ⇒ w_i ≤ 0,   lo_i < z_i < hi_i ⇒ w_i = 0,
+/// ```
+///
+/// i.e. `z = mid(lo, z − w, hi)`. The standard LCP is the case `lo = 0`, `hi = ∞`.
+///
+/// **Friction-scaled bounds** (pyramidal Coulomb cone, `|z_f| ≤ μ z_n`): a row `i` with
+/// `friction[i] = Some((n, μ))` has the bounds `[−μ z_n, μ z_n]` taken from the current
+/// value of its normal variable `z_n`; its stored `lo_i`/`hi_i` are ignored. The normal
+/// row must itself have fixed bounds with `lo_n ≥ 0`.
+///
+/// Fields are private so that every `Lcp` is valid (square finite `M`, finite `q`,
+/// `lo ≤ hi`, consistent friction links); read them with the accessors.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lcp {
+    n: usize,
+    m: Vec<f64>,
+    q: Vec<f64>,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    friction: Vec<Option<(usize, f64)>>,
+}
+
+/// Why a problem was rejected or a solver failed. No solver returns a `z` on failure: the
+/// safe impulse for a caller that must continue is `z = 0` (for the infeasible
+/// `M = [[−1]], q = [−1]` that is the issue's "failure with z = 0").
+#[derive(Clone, Debug, PartialEq)]
+pub enum LcpError {
+    /// An array has the wrong length (`what` names it: `"m"`, `"lo"`, `"z0"`, ...).
+    DimensionMismatch {
+        /// Which array.
+        what: &'static str,
+        /// The length it must have.
+        expected: usize,
+        /// The length it has.
+        found: usize,
+    },
+    /// A NaN or infinite entry in `M`, `q`, or a warm-start vector.
+    NonFinite {
+        /// Which array.
+        what: &'static str,
+        /// Index of the first bad entry (row-major for `M`).
+        index: usize,
+    },
+    /// Bounds with `lo_i > hi_i`, a NaN bound, `lo_i = +∞` or `hi_i = −∞`.
+    BadBounds {
+        /// The row.
+        index: usize,
+    },
+    /// A friction link that points out of range, to itself, to another friction row or
+    /// to a normal row with `lo < 0`, or a coefficient `μ` that is negative or not finite.
+    BadFriction {
+        /// The friction row.
+        index: usize,
+    },
+    /// A solver setting out of range (`ω ∉ (0, 2)`, tolerance ≤ 0, ...).
+    BadSettings(&'static str),
+    /// The solver does not handle this kind of problem (e.g. Lemke or Newton on a boxed LCP).
+    Unsupported(&'static str),
+    /// Projected Gauss–Seidel needs `M_ii > 0`.
+    NonPositiveDiagonal {
+        /// The row.
+        index: usize,
+    },
+    /// Lemke's method ended on a secondary ray: no complementary solution was found.
+    /// With `proven_infeasible` the ray gave a Farkas certificate `y ≥ 0`, `Mᵀy ≤ 0`,
+    /// `qᵀy < 0` (checked numerically), so no `z ≥ 0` with `M z + q ≥ 0` exists at all;
+    /// otherwise (M not copositive-plus) the LCP may still have a solution.
+    RayTermination {
+        /// Pivots done before the ray.
+        pivots: usize,
+        /// Whether the ray certifies infeasibility.
+        proven_infeasible: bool,
+    },
+    /// Lemke's method hit its pivot limit.
+    PivotLimit {
+        /// The limit.
+        pivots: usize,
+    },
+    /// An iterative method hit its iteration limit above the tolerance.
+    IterationLimit {
+        /// Iterations done.
+        iterations: usize,
+        /// Natural-map residual of the last iterate.
+        residual: f64,
+    },
+    /// The Newton method's line search found no decrease of the merit function (a
+    /// stationary point of `½|Φ|²` that is not a solution, e.g. an infeasible problem).
+    Stalled {
+        /// Iterations done.
+        iterations: usize,
+        /// Natural-map residual of the last iterate.
+        residual: f64,
+    },
+    /// The method finished but its answer misses the requested tolerance (round-off in
+    /// an ill-conditioned pivot sequence); the answer is not returned as a success.
+    Inaccurate {
+        /// The residual reached.
+        residual: f64,
+        /// The tolerance asked for.
+        tolerance: f64,
+    },
+}
+
+impl fmt::Display for LcpError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LcpError::DimensionMismatch {
+                what,
+                expected,
+                found,
+            } => write!(f, "LCP: `{what}` has length {found}, expected {expected}"),
+            LcpError::NonFinite { what, index } => {
+                write!(f, "LCP: non-finite entry {index} in `{what}`")
+            }
+            LcpError::BadBounds { index } => write!(f, "LCP: bad bounds in row {index}"),
+            LcpError::BadFriction { index } => {
+                write!(f, "LCP: bad friction link in row {index}")
+            }
+            LcpError::BadSettings(what) => write!(f, "LCP solver settings: {what}"),
+            LcpError::Unsupported(what) => write!(f, "LCP solver: unsupported problem: {what}"),
+            LcpError::NonPositiveDiagonal { index } => {
+                write!(f, "LCP: M[{index}][{index}] ≤ 0 (projected Gauss–Seidel needs > 0)")
+            }
+            LcpError::RayTermination {
+                pivots,
+                proven_infeasible,
+            } => {
+                write!(f, "Lemke: ray termination after {pivots} pivots")?;
+                if *proven_infeasible {
+                    write!(f, " (infeasible: Farkas certificate found)")
+                } else {
+                    Ok(())
+                }
+            }
+            LcpError::PivotLimit { pivots } => write!(f, "Lemke: pivot limit {pivots} reached"),
+            LcpError::IterationLimit {
+                iterations,
+                residual,
+            } => write!(
+                f,
+                "LCP: no convergence in {iterations} iterations (residual {residual:.3e})"
+            ),
+            LcpError::Stalled {
+                iterations,
+                residual,
+            } => write!(
+                f,
+                "LCP Newton: line search stalled after {iterations} iterations (residual {residual:.3e})"
+            ),
+            LcpError::Inaccurate {
+                residual,
+                tolerance,
+            } => write!(
+                f,
+                "LCP: residual {residual:.3e} above the tolerance {tolerance:.3e}"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for LcpError {}
+
+/// A solver's answer: `z`, `w = M z + q`, the natural-map residual and the work done.
+/// Only returned when `residual ≤` the solver's tolerance.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LcpSolution {
+    /// The unknowns (impulses, multipliers `λ`).
+    pub z: Vec<f64>,
+    /// `w = M z + q`, recomputed from `z` (not read from a tableau).
+    pub w: Vec<f64>,
+    /// [`Lcp::residual`] of `z`.
+    pub residual: f64,
+    /// Pivots (Lemke, warm attempt included), sweeps (PGS) or Newton steps.
+    pub iterations: usize,
+    /// Lemke only: the final complementary basis, `basis[i] = true` when `z_i` is basic
+    /// (else `w_i`); pass it back as the warm start of the next, nearby problem.
+    pub basis: Option<Vec<bool>>,
+}
+
+fn check_len(what: &'static str, expected: usize, found: usize) -> Result<(), LcpError> {
+    if expected == found {
+        Ok(())
+    } else {
+        Err(LcpError::DimensionMismatch {
+            what,
+            expected,
+            found,
+        })
+    }
+}
+
+fn check_finite(what: &'static str, v: &[f64]) -> Result<(), LcpError> {
+    match v.iter().position(|x| !x.is_finite()) {
+        None => Ok(()),
+        Some(index) => Err(LcpError::NonFinite { what, index }),
+    }
+}
+
+impl Lcp {
+    /// The standard LCP `w = M z + q ≥ 0`, `z ≥ 0`, `zᵀw = 0`; `n = q.len()`, `m` is
+    /// row-major `n × n`. `n = 0` is valid (solved trivially by every solver).
+    pub fn new(m: Vec<f64>, q: Vec<f64>) -> Result<Lcp, LcpError> {
+        let n = q.len();
+        Lcp::boxed(m, q, vec![0.0; n], vec![f64::INFINITY; n])
+    }
+
+    /// The boxed LCP `z = mid(lo, z − w, hi)`, `w = M z + q`; bounds may be infinite.
+    pub fn boxed(m: Vec<f64>, q: Vec<f64>, lo: Vec<f64>, hi: Vec<f64>) -> Result<Lcp, LcpError> {
+        let n = q.len();
+        check_len("m", n * n, m.len())?;
+        check_len("lo", n, lo.len())?;
+        check_len("hi", n, hi.len())?;
+        check_finite("m", &m)?;
+        check_finite("q", &q)?;
+        for i in 0..n {
+            let (l, h) = (lo[i], hi[i]);
+            if l.is_nan() || h.is_nan() || l > h || l == f64::INFINITY || h == f64::NEG_INFINITY {
+                return Err(LcpError::BadBounds { index: i });
+            }
+        }
+        Ok(Lcp {
+            n,
+            m,
+            q,
+            lo,
+            hi,
+            friction: vec![None; n],
+        })
+    }
+
+    /// Adds friction-scaled bounds: `friction[i] = Some((n, μ))` makes row `i`'s bounds
+    /// `[−μ z_n, μ z_n]` (pyramidal cone `|z_i| ≤ μ z_n`).
+    pub fn with_friction(mut self, friction: Vec<Option<(usize, f64)>>) -> Result<Lcp, LcpError> {
+        check_len("friction", self.n, friction.len())?;
+        for (i, link) in friction.iter().enumerate() {
+            if let Some((k, mu)) = *link {
+                let ok = k < self.n
+                    && k != i
+                    && friction[k].is_none()
+                    && self.lo[k] >= 0.0
+                    && mu.is_finite()
+                    && mu >= 0.0;
+                if !ok {
+                    return Err(LcpError::BadFriction { index: i });
+                }
+            }
+        }
+        self.friction = friction;
+        Ok(self)
+    }
+
+    /// A contact problem with rows ordered `(normal, tangent 1, tangent 2)` per contact:
+    /// `n = 3 · mu.len()`, normal rows `z ≥ 0`, tangent rows `|z_t| ≤ μ_c z_n`.
+    pub fn contact(m: Vec<f64>, q: Vec<f64>, mu: &[f64]) -> Result<Lcp, LcpError> {
+        let n = 3 * mu.len();
+        check_len("q", n, q.len())?;
+        let mut lo = vec![0.0; n];
+        let mut hi = vec![f64::INFINITY; n];
+        let mut friction = vec![None; n];
+        for (c, &m_c) in mu.iter().enumerate() {
+            for t in 1..3 {
+                lo[3 * c + t] = f64::NEG_INFINITY;
+                hi[3 * c + t] = f64::INFINITY;
+                friction[3 * c + t] = Some((3 * c, m_c));
+            }
+        }
+        Lcp::boxed(m, q, lo, hi)?.with_friction(friction)
+    }
+
+    /// The empty problem (`n = 0`).
+    pub fn empty() -> Lcp {
+        Lcp {
+            n: 0,
+            m: Vec::new(),
+            q: Vec::new(),
+            lo: Vec::new(),
+            hi: Vec::new(),
+            friction: Vec::new(),
+        }
+    }
+
+    /// Number of unknowns.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// `M`, row-major `n × n`.
+    pub fn m(&self) -> &[f64] {
+        &self.m
+    }
+
+    /// `M_ij`.
+    #[inline]
+    pub fn m_ij(&self, i: usize, j: usize) -> f64 {
+        self.m[i * self.n + j]
+    }
+
+    /// Row `i` of `M`.
+    #[inline]
+    pub fn row(&self, i: usize) -> &[f64] {
+        &self.m[i * self.n..(i + 1) * self.n]
+    }
+
+    /// `q`.
+    pub fn q(&self) -> &[f64] {
+        &self.q
+    }
+
+    /// Stored lower bounds (ignored on friction-scaled rows).
+    pub fn lo(&self) -> &[f64] {
+        &self.lo
+    }
+
+    /// Stored upper bounds (ignored on friction-scaled rows).
+    pub fn hi(&self) -> &[f64] {
+        &self.hi
+    }
+
+    /// Friction links `(normal row, μ)`.
+    pub fn friction(&self) -> &[Option<(usize, f64)>] {
+        &self.friction
+    }
+
+    /// Replaces `q` (same `n`, finite), e.g. for the next time step of the same contacts.
+    pub fn set_q(&mut self, q: Vec<f64>) -> Result<(), LcpError> {
+        check_len("q", self.n, q.len())?;
+        check_finite("q", &q)?;
+        self.q = q;
+        Ok(())
+    }
+
+    /// Whether this is a standard LCP (`lo = 0`, `hi = ∞`, no friction links).
+    pub fn is_standard(&self) -> bool {
+        self.friction.iter().all(Option::is_none)
+            && self.lo.iter().all(|&l| l == 0.0)
+            && self.hi.iter().all(|&h| h == f64::INFINITY)
+    }
+
+    /// Bounds of row `i` at the point `z` (friction rows read `z` of their normal).
+    #[inline]
+    pub fn bounds(&self, i: usize, z: &[f64]) -> (f64, f64) {
+        match self.friction[i] {
+            Some((k, mu)) => {
+                let b = mu * z[k].max(0.0);
+                (-b, b)
+            }
+            None => (self.lo[i], self.hi[i]),
+        }
+    }
+
+    /// `w = M z + q`.
+    pub fn w(&self, z: &[f64]) -> Vec<f64> {
+        (0..self.n)
+            .map(|i| self.q[i] + dot(self.row(i), z))
+            .collect()
+    }
+
+    /// `max(1, |q|_∞)`, the residual's scale.
+    pub fn scale(&self) -> f64 {
+        self.q.iter().fold(1.0_f64, |a, &x| a.max(libm::fabs(x)))
+    }
+
+    /// The natural-map residual `|z − mid(lo, z − w, hi)|_∞ / max(1, |q|_∞)` with
+    /// `w = M z + q`; for the standard LCP `|z − max(0, z − w)|_∞ / max(1, |q|_∞)`. It is
+    /// zero exactly at solutions; `+∞` for a `z` of the wrong length or with NaN/∞.
+    pub fn residual(&self, z: &[f64]) -> f64 {
+        if z.len() != self.n {
+            return f64::INFINITY;
+        }
+        let w = self.w(z);
+        self.residual_with(z, &w)
+    }
+
+    /// [`Lcp::residual`] with a precomputed `w` (must be `M z + q`).
+    pub fn residual_with(&self, z: &[f64], w: &[f64]) -> f64 {
+        if z.len() != self.n || w.len() != self.n {
+            return f64::INFINITY;
+        }
+        let mut r = 0.0_f64;
+        for i in 0..self.n {
+            if !z[i].is_finite() || !w[i].is_finite() {
+                return f64::INFINITY;
+            }
+            let (lo, hi) = self.bounds(i, z);
+            let p = (z[i] - w[i]).max(lo).min(hi);
+            r = r.max(libm::fabs(z[i] - p));
+        }
+        r / self.scale()
+    }
+
+    /// Validates a warm-start / initial vector.
+    pub(crate) fn check_vector(&self, what: &'static str, z: &[f64]) -> Result<(), LcpError> {
+        check_len(what, self.n, z.len())?;
+        check_finite(what, z)
+    }
+
+    /// Packs `z` into a solution if its residual meets `tolerance`, else `Inaccurate`.
+    pub(crate) fn finish(
+        &self,
+        z: Vec<f64>,
+        iterations: usize,
+        basis: Option<Vec<bool>>,
+        tolerance: f64,
+    ) -> Result<LcpSolution, LcpError> {
+        let w = self.w(&z);
+        let residual = self.residual_with(&z, &w);
+        if residual <= tolerance {
+            Ok(LcpSolution {
+                z,
+                w,
+                residual,
+                iterations,
+                basis,
+            })
+        } else {
+            Err(LcpError::Inaccurate {
+                residual,
+                tolerance,
+            })
+        }
+    }
+}
+
+#[inline]
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+pub(crate) fn check_tolerance(tolerance: f64) -> Result<(), LcpError> {
+    if tolerance > 0.0 && tolerance.is_finite() {
+        Ok(())
+    } else {
+        Err(LcpError::BadSettings("tolerance must be finite and > 0"))
+    }
+}
