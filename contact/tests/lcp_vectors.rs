@@ -132,7 +132,8 @@ fn degenerate_psd() {
 }
 
 /// Infeasible 1×1: `M = [[−1]]`, `q = (−1)`: `w = −z − 1 < 0` for every `z ≥ 0`. Every
-/// solver reports a typed failure and no `z` (the caller applies `z = 0`).
+/// solver reports a typed failure and no `z` (the caller applies `z = 0`). Measured: Lemke
+/// ray after 1 pivot with a Farkas certificate; Newton `IterationLimit` (residual 0.5).
 #[test]
 fn infeasible_one_by_one() {
     let lcp = Lcp::new(vec![-1.0], vec![-1.0]).unwrap();

@@ -145,6 +145,13 @@ pub fn fischer_newton(
                 grad[j] += v * phi[i];
             }
         }
+        // Regularized step (H − μI) d = −Φ with μ = |Φ|₂: since −D_a, −D_b ≥ 0 this
+        // matrix is nonsingular for P₀ matrices (PSD included), and μ → 0 keeps the fast
+        // local rate on problems whose solutions are not isolated.
+        let mu = libm::sqrt(2.0 * psi).min(1e-2);
+        for i in 0..n {
+            h[i * n + i] -= mu;
+        }
         let minus_phi: Vec<f64> = phi.iter().map(|p| -p).collect();
         let newton = Lu::factor(h, n).map(|lu| lu.solve(&minus_phi));
         let gnorm2: f64 = grad.iter().map(|g| g * g).sum();
