@@ -450,8 +450,7 @@ fn capsule_box(sc: &Shape, fc: &Pose, half: DVec3, fb: &Pose, sink: &mut Sink) {
         // The core segment meets the box: separating-axis test over the 3 face normals
         // and the 3 cross products of the segment with them; the axis of least
         // penetration (faces preferred by a small tolerance).
-        let mid = (p0 + p1) * 0.5;
-        let mut best = (f64::INFINITY, DVec3::Z, 0.0);
+        let mut best = (f64::INFINITY, DVec3::Z, 0.0, 0usize);
         let mut axes = [DVec3::ZERO; 6];
         for k in 0..3 {
             axes[k][k] = 1.0;
@@ -464,26 +463,43 @@ fn capsule_box(sc: &Shape, fc: &Pose, half: DVec3, fb: &Pose, sink: &mut Sink) {
             if !(len > 1e-9 * (1.0 + u.length())) {
                 continue;
             }
-            let mut l = l / len;
-            if l.dot(mid) < 0.0 {
-                l = -l;
-            }
+            let l = l / len;
             let rb = half.dot(l.abs());
-            let lo = l.dot(p0).min(l.dot(p1));
-            let pen = rb - lo;
-            let pen_cmp = if idx < 3 {
-                pen
-            } else {
-                pen * 1.05 + 1e-9 * scale
-            };
-            if pen_cmp < best.0 {
-                best = (pen_cmp, l, pen);
+            // Both orientations: push the segment out along +l or −l.
+            for l in [l, -l] {
+                let pen = rb - l.dot(p0).min(l.dot(p1));
+                let pen_cmp = if idx < 3 {
+                    pen
+                } else {
+                    pen * 1.05 + 1e-9 * scale
+                };
+                if pen_cmp < best.0 {
+                    best = (pen_cmp, l, pen, idx);
+                }
             }
         }
-        let l = best.1;
-        sp = if l.dot(p0) <= l.dot(p1) { p0 } else { p1 };
-        bp = sp + l * best.2;
-        (l, best.2)
+        let (_, l, pen, idx) = best;
+        sp = if idx >= 3 {
+            // Cross axis: the segment's closest point to the box edge along `e_k` that
+            // supports the box in direction `l`.
+            let k = idx - 3;
+            let mut c = DVec3::new(sign(l.x), sign(l.y), sign(l.z)) * half;
+            c[k] = -half[k];
+            let mut c1 = c;
+            c1[k] = half[k];
+            closest_segments(p0, p1, c, c1).2
+        } else {
+            let (d0, d1) = (l.dot(p0), l.dot(p1));
+            if (d0 - d1).abs() <= 1e-12 * scale {
+                (p0 + p1) * 0.5
+            } else if d0 < d1 {
+                p0
+            } else {
+                p1
+            }
+        };
+        bp = sp + l * (rb_of(half, l) - l.dot(sp));
+        (l, pen)
     };
     // `core_depth`: penetration of the core segment (negative: its distance).
     let depth = r + core_depth;
@@ -529,6 +545,12 @@ fn capsule_box(sc: &Shape, fc: &Pose, half: DVec3, fb: &Pose, sink: &mut Sink) {
     let nw = fb.q * n;
     // Native order is capsule (first) to box (second): normal −n.
     sink.push(fb.point(sp) - nw * r, fb.point(bp), -nw, depth, 0);
+}
+
+/// Half the width of a box along the unit direction `l` (box frame).
+#[inline]
+fn rb_of(half: DVec3, l: DVec3) -> f64 {
+    half.dot(l.abs())
 }
 
 /// A vertex of a clipped polygon: position and the features (incident edges 0..4,
@@ -764,41 +786,62 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
 
 /// Which of up to 12 manifold points to keep (at most 4): the deepest, the farthest
 /// from it, and the two spanning the largest triangles on either side of that segment.
+/// Near ties (rectangles make exact ones) go to the deeper point, then the lower id, so
+/// the choice does not depend on rounding.
 fn reduce(pts: &[(DVec3, f64, u64)], n: DVec3) -> [bool; 12] {
     let mut keep = [false; 12];
     if pts.len() <= 4 {
         keep[..pts.len()].fill(true);
         return keep;
     }
+    let mut size = 0.0f64;
+    for p in pts {
+        size = size.max((p.0 - pts[0].0).length());
+    }
+    let tol_d = 1e-9 * size;
+    // Is candidate `k` (score `a`) better than `best` (score `b`), scores compared to
+    // within `tol`?
+    let better = |a: f64, k: usize, b: f64, best: usize, tol: f64| {
+        if a > b + tol {
+            return true;
+        }
+        if a < b - tol {
+            return false;
+        }
+        let (dk, db) = (pts[k].1, pts[best].1);
+        dk > db + tol_d || (dk >= db - tol_d && pts[k].2 < pts[best].2)
+    };
     let mut i0 = 0;
     for k in 1..pts.len() {
-        if pts[k].1 > pts[i0].1 {
+        if better(pts[k].1, k, pts[i0].1, i0, tol_d) {
             i0 = k;
         }
     }
     let p0 = pts[i0].0;
-    let mut i1 = if i0 == 0 { 1 } else { 0 };
+    let dist2 = |k: usize| (pts[k].0 - p0).length_squared();
+    let mut i1 = usize::from(i0 == 0);
     for k in 0..pts.len() {
-        if k != i0 && (pts[k].0 - p0).length_squared() > (pts[i1].0 - p0).length_squared() {
+        if k != i0 && better(dist2(k), k, dist2(i1), i1, tol_d * size) {
             i1 = k;
         }
     }
     let e = pts[i1].0 - p0;
     let area = |k: usize| e.cross(pts[k].0 - p0).dot(n);
-    let (mut i2, mut i3) = (i0, i0);
-    let (mut amax, mut amin) = (0.0, 0.0);
+    let tol_a = tol_d * size;
+    let (mut i2, mut i3) = (None::<usize>, None::<usize>);
     for k in 0..pts.len() {
-        let a = area(k);
-        if a > amax {
-            amax = a;
-            i2 = k;
+        if k == i0 || k == i1 {
+            continue;
         }
-        if a < amin {
-            amin = a;
-            i3 = k;
+        let a = area(k);
+        if a > tol_a && i2.is_none_or(|b| better(a, k, area(b), b, tol_a)) {
+            i2 = Some(k);
+        }
+        if a < -tol_a && i3.is_none_or(|b| better(-a, k, -area(b), b, tol_a)) {
+            i3 = Some(k);
         }
     }
-    for k in [i0, i1, i2, i3] {
+    for k in [Some(i0), Some(i1), i2, i3].into_iter().flatten() {
         keep[k] = true;
     }
     keep
