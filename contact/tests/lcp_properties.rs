@@ -313,14 +313,14 @@ impl Stat {
 /// ```text
 /// family / solver        tolerance  worst residual  iterations (mean / max)
 /// PD lemke               1e-10      8.6e-16         12.5 / 37 pivots
-/// PD newton              1e-12      9.8e-13          7.5 / 10 steps
+/// PD newton              1e-12      9.7e-13          8.2 / 12 steps
 /// PD pgs                 1e-10      9.9e-11         81.0 / 310 sweeps
 /// PSD lemke              1e-10      2.8e-15         13.5 / 37 pivots
-/// PSD newton             1e-12      9.9e-13          9.1 / 20 steps
+/// PSD newton             1e-12      8.9e-13         10.6 / 30 steps
 /// PSD pgs                1e-8       1.0e-8          1695 / 99730 sweeps (0 failures)
 /// friction pgs (ω = 1)   1e-8       1.0e-8          44.9 / 1400 sweeps
 /// friction pgs (ω = 1.2) 1e-8       9.8e-9          38.4 / 1050 sweeps
-/// SPD agreement with Lemke, |Δz|∞ / max(1, |q|∞) ≤ 1e-8: Newton 1.2e-12, PGS 2.9e-10
+/// SPD agreement with Lemke, |Δz|∞ / max(1, |q|∞) ≤ 1e-8: Newton 2.2e-12, PGS 2.9e-10
 /// ```
 #[test]
 fn report_planted() {
@@ -398,8 +398,8 @@ fn report_planted() {
 
 /// A larger PD problem (n = 200, as a scene with ~70 contacts would give): Lemke and
 /// Newton to their tolerances, agreeing within 1e-8. Measured: see the printed line
-/// (measured: Lemke 118 pivots, residual 7.2e-16; Newton 11 steps, residual 1.6e-14;
-/// |Δz|∞ 1.6e-14).
+/// (measured: Lemke 118 pivots, residual 7.2e-16; Newton 11 steps, residual 1.6e-15;
+/// |Δz|∞ 1.6e-16).
 #[test]
 fn large_planted_pd() {
     let lcp = planted_standard(7, 200, false);
@@ -411,4 +411,27 @@ fn large_planted_pd() {
         l.iterations, l.residual, f.iterations, f.residual, d
     );
     assert!(l.residual <= LEMKE_TOL && f.residual <= 1e-12 && d <= 1e-8);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// Contact matrices span many orders of magnitude (heavy and light bodies): scaling
+    /// `M` by `s ∈ {1e-6, 1e-3, 1e3, 1e6}` (and `z*` by `1/s`, so `q` stays put) leaves
+    /// every solver at its tolerance and Lemke's pivot count unchanged.
+    #[test]
+    fn scaled_problems(seed in any::<u64>(), n in 1usize..=24, k in 0usize..4) {
+        let s = [1e-6, 1e-3, 1e3, 1e6][k];
+        let base = planted_standard(seed, n, false);
+        let m: Vec<f64> = base.m().iter().map(|x| x * s).collect();
+        let lcp = Lcp::new(m, base.q().to_vec()).unwrap();
+        let l0 = lemke(&base, &lemke_s(), None).unwrap();
+        let l = lemke(&lcp, &lemke_s(), None).unwrap();
+        prop_assert!(l.residual <= LEMKE_TOL);
+        prop_assert_eq!(l.iterations, l0.iterations);
+        let f = fischer_newton(&lcp, &newton_s(), None).unwrap();
+        prop_assert!(f.residual <= NEWTON_TOL);
+        let p = pgs(&lcp, &pgs_s(PGS_TOL), None).unwrap();
+        prop_assert!(p.residual <= PGS_TOL);
+    }
 }

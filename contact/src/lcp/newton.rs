@@ -7,13 +7,18 @@
 //! φ(a, b) = √(a² + b²) − a − b,    Φ_i(z) = φ(z_i, w_i),   w = M z + q.
 //! ```
 //!
+//! (the code pairs `z_i` with `w_i / α`, `α` the largest diagonal entry of `M`, so that
+//! the iteration does not depend on the units of `M`; below, read `M / α` for `M`).
 //! `Φ` is semismooth; a generalized Jacobian is `H = D_a + D_b M` with
 //! `D_a = diag(z_i / r_i − 1)`, `D_b = diag(w_i / r_i − 1)`, `r_i = ‖(z_i, w_i)‖` (at
 //! `r_i = 0` the element `1/√2 − 1` of the generalized gradient is used). Each step
 //! solves `H d = −Φ` by dense LU with partial pivoting and backtracks (Armijo) on the
 //! merit `Ψ = ½|Φ|²`, whose gradient is `Hᵀ Φ`; if `H` is singular or the Newton
 //! direction is not a descent direction, the step falls back to the gradient direction
-//! `−Hᵀ Φ`. Near a non-degenerate solution convergence is quadratic (De Luca, Facchinei
+//! `−Hᵀ Φ`. The step actually solved is `(H − μI) d = −Φ` with `μ = min(|Φ|, 0.01)`:
+//! `−(H − μI)` is a positive diagonal plus a nonnegative diagonal times `M`, nonsingular
+//! whenever `M` is a P₀ matrix (PSD included), and `μ → 0` keeps a fast local rate on
+//! problems whose solutions are not isolated. Near a non-degenerate solution convergence is quadratic (De Luca, Facchinei
 //! & Kanzow 1996). Each step costs an `O(n³)` factorization.
 //!
 //! This method solves the **standard** LCP only (`lo = 0`, `hi = ∞`, no friction); use
@@ -63,11 +68,12 @@ fn fb(a: f64, b: f64) -> f64 {
     }
 }
 
-fn merit(lcp: &Lcp, z: &[f64], w: &mut Vec<f64>, phi: &mut [f64]) -> f64 {
+/// `Ψ = ½|Φ|²` at `z`, with `Φ_i = φ(z_i, w_i / α)`; also stores `w = M z + q`.
+fn merit(lcp: &Lcp, alpha: f64, z: &[f64], w: &mut Vec<f64>, phi: &mut [f64]) -> f64 {
     *w = lcp.w(z);
     let mut s = 0.0;
     for i in 0..z.len() {
-        phi[i] = fb(z[i], w[i]);
+        phi[i] = fb(z[i], w[i] / alpha);
         s += phi[i] * phi[i];
     }
     0.5 * s
@@ -111,7 +117,18 @@ pub fn fischer_newton(
     };
     let mut w = Vec::new();
     let mut phi = vec![0.0; n];
-    let mut psi = merit(lcp, &z, &mut w, &mut phi);
+    // Units: Φ pairs z with w / α, α the largest diagonal of M, so that the method does
+    // not depend on the scale of M (heavy or light bodies).
+    let dmax = (0..n).fold(0.0_f64, |a, i| a.max(lcp.m_ij(i, i)));
+    let mmax = lcp.m().iter().fold(0.0_f64, |a, &x| a.max(libm::fabs(x)));
+    let alpha = if dmax > 0.0 {
+        dmax
+    } else if mmax > 0.0 {
+        mmax
+    } else {
+        1.0
+    };
+    let mut psi = merit(lcp, alpha, &z, &mut w, &mut phi);
     let mut residual = lcp.residual_with(&z, &w);
     let mut trial = vec![0.0; n];
     let mut w_trial = Vec::new();
@@ -126,26 +143,27 @@ pub fn fischer_newton(
             break;
         }
         for i in 0..n {
-            let r = libm::hypot(z[i], w[i]);
+            let wi = w[i] / alpha;
+            let r = libm::hypot(z[i], wi);
             if r > 0.0 {
                 da[i] = z[i] / r - 1.0;
-                db[i] = w[i] / r - 1.0;
+                db[i] = wi / r - 1.0;
             } else {
                 da[i] = core::f64::consts::FRAC_1_SQRT_2 - 1.0;
                 db[i] = core::f64::consts::FRAC_1_SQRT_2 - 1.0;
             }
         }
-        // H = D_a + D_b M; ∇Ψ = Hᵀ Φ.
+        // H = D_a + D_b M / α; ∇Ψ = Hᵀ Φ.
         let mut h = vec![0.0; n * n];
         let mut grad = vec![0.0; n];
         for i in 0..n {
             for j in 0..n {
-                let v = db[i] * lcp.m_ij(i, j) + if i == j { da[i] } else { 0.0 };
+                let v = db[i] * lcp.m_ij(i, j) / alpha + if i == j { da[i] } else { 0.0 };
                 h[i * n + j] = v;
                 grad[j] += v * phi[i];
             }
         }
-        // Regularized step (H − μI) d = −Φ with μ = |Φ|₂: since −D_a, −D_b ≥ 0 this
+        // Regularized step (H − μI) d = −Φ with μ = min(|Φ|₂, 0.01): since −D_a, −D_b ≥ 0 this
         // matrix is nonsingular for P₀ matrices (PSD included), and μ → 0 keeps the fast
         // local rate on problems whose solutions are not isolated.
         let mu = libm::sqrt(2.0 * psi).min(1e-2);
@@ -174,7 +192,7 @@ pub fn fischer_newton(
                 for i in 0..n {
                     trial[i] = z[i] + t * d[i];
                 }
-                let psi_t = merit(lcp, &trial, &mut w_trial, &mut phi_trial);
+                let psi_t = merit(lcp, alpha, &trial, &mut w_trial, &mut phi_trial);
                 if psi_t <= psi + settings.armijo * t * slope {
                     core::mem::swap(&mut z, &mut trial);
                     core::mem::swap(&mut w, &mut w_trial);
