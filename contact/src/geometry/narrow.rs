@@ -11,7 +11,7 @@
 //! | capsule–capsule | 1, or 2 when the axes are parallel to within 0.02 rad and overlap | 0; 1, 2 |
 //! | capsule–box | 1 (closest points segment–box), or 2 when the segment lies along a face (to within 0.2 rad) | 0; `4 face + 1`, `4 face + 2` |
 //! | box–plane | up to 4 vertices (the deepest within the margin) | vertex index 0..8 |
-//! | box–box | SAT over 15 axes; a face axis gives up to 4 points by clipping the incident face against the reference face's sides (Sutherland–Hodgman; more than 4 reduced to 4), an edge axis gives 1 point | reference face, incident face and the two clipping features of each point |
+//! | box–box | SAT over 15 axes; a face axis gives up to 4 points by clipping the incident face against the reference face's sides (Sutherland–Hodgman, sides pushed out by [`CLIP_SLACK`] so flush vertices keep their ids; more than 4 reduced to 4), an edge axis gives 1 point | reference face, incident face and the two clipping features of each point |
 //!
 //! Degenerate inputs have documented fallback normals instead of NaN: a point at a
 //! sphere's centre gets the outward normal `+z` (world), a point on a capsule's axis a
@@ -616,6 +616,10 @@ fn clip(input: &Poly, m: DVec3, o: f64, label: u8) -> Poly {
     out
 }
 
+/// Relative slack of the reference face's side planes in box–box clipping: a point may
+/// lie this fraction of the reference box's smallest half extent outside the face.
+pub const CLIP_SLACK: f64 = 1e-4;
+
 fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
     let ra = DMat3::from_quat(fa.q);
     let rb = DMat3::from_quat(fb.q);
@@ -754,9 +758,13 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
         };
     }
     let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+    // The side planes are pushed out by `CLIP_SLACK` of the reference box's smallest
+    // half extent, so an incident vertex lying on a side (equal boxes stacked flush)
+    // stays a vertex, whatever the rounding, and keeps its id.
+    let slack = CLIP_SLACK * hr.min_element();
     for (label, m, sg) in [(4u8, i1, 1.0), (5, i1, -1.0), (6, i2, 1.0), (7, i2, -1.0)] {
         let dir = ur[m] * sg;
-        poly = clip(&poly, dir, dir.dot(fr.x) + hr[m], label);
+        poly = clip(&poly, dir, dir.dot(fr.x) + hr[m] + slack, label);
         if poly.n == 0 {
             return;
         }
