@@ -1,0 +1,812 @@
+//! Rigid bodies in contact: the lecture's velocity-level contact LCP (Otaduy 2010,
+//! "Contacto mediante restricciones"):
+//!
+//! ```text
+//! M v' = M v + h f + Jᵀ z,    w = J v' − b ≥ 0,    z ≥ 0,    zᵀ w = 0
+//! ```
+//!
+//! one normal row per contact point (`J_n v` is the rate of the gap `d = nᵀ(p_b − p_a)`,
+//! `z_n = λ` its impulse) and two tangent rows with Coulomb's pyramidal bounds
+//! `|z_t| ≤ μ z_n`. Eliminating `v'` gives the LCP `w = A z + q` with the Delassus
+//! matrix `A = J M⁻¹ Jᵀ` and `q = J v_free − b`.
+//!
+//! Solvers ([`ContactSolver`]):
+//! * `SequentialImpulses`: projected Gauss–Seidel on `A` without forming it (each row's
+//!   impulse goes straight into the two bodies' velocities; Catto 2005, Erleben 2007),
+//!   warm-started from the previous step's impulses matched by contact id;
+//! * `Pgs`, `Lemke`, `Newton`: the dense LCP of [`crate::lcp`] on the assembled `A`.
+//!   Lemke and the Fischer–Burmeister Newton method take standard LCPs only, so friction
+//!   goes by Kaufman et al.'s staggered projections (2008): a normal LCP with the
+//!   friction impulses fixed, then the boxed friction problem with the normal impulses
+//!   fixed, alternated ([`FrictionModel::Staggered`]); PGS can also solve the boxed
+//!   problem in one go ([`FrictionModel::Boxed`]).
+//!
+//! Position error is corrected at velocity level (Baumgarte): a penetration deeper than
+//! `slop` asks for a separating velocity `β (depth − slop)/h`; a speculative contact
+//! (separated by less than `margin`) allows approach at `gap/h`, so bodies stop at the
+//! surface instead of tunnelling in. Restitution `e` asks for `−e v_n` when the
+//! approach speed exceeds a threshold. Shock propagation (Erleben 2007) can add final
+//! Gauss–Seidel sweeps bottom-up with each lower body frozen, so a stack's weight does
+//! not have to travel through many iterations.
+
+use alloc::collections::BTreeMap;
+use alloc::vec;
+use alloc::vec::Vec;
+use core::fmt;
+
+use constraint_articulated::RigidBody;
+use constraint_core::rigid::rotate_by;
+use constraint_core::{DMat3, DVec3, Pose};
+
+use crate::geometry::{generate_contacts, Collider, Contact, GeometryError};
+use crate::lcp::{
+    fischer_newton, lemke, pgs, Lcp, LcpError, LemkeSettings, NewtonSettings, PgsSettings,
+};
+
+/// Which solver handles the contact LCP.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ContactSolver {
+    /// `Newton` (staggered friction) while the scene has at most
+    /// [`AUTO_DENSE_CONTACTS`] contact points, `SequentialImpulses` beyond.
+    Auto,
+    /// Matrix-free projected Gauss–Seidel (sequential impulses).
+    SequentialImpulses,
+    /// Projected Gauss–Seidel on the assembled Delassus matrix.
+    Pgs,
+    /// Lemke's pivoting on the assembled matrix (friction by staggered projections).
+    Lemke,
+    /// Fischer–Burmeister Newton on the assembled matrix (friction staggered).
+    Newton,
+}
+
+/// Largest number of contact points [`ContactSolver::Auto`] solves densely (the
+/// Delassus matrix has `9 n²` entries).
+pub const AUTO_DENSE_CONTACTS: usize = 200;
+
+/// How friction is coupled with the normal impulses in the dense solvers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrictionModel {
+    /// One boxed LCP with bounds `|z_t| ≤ μ z_n` (PGS only).
+    Boxed,
+    /// Staggered projections (Kaufman et al. 2008): alternate normal and friction solves.
+    Staggered {
+        /// Normal/friction alternations per step.
+        sweeps: usize,
+    },
+}
+
+/// Step settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactSettings {
+    /// The LCP solver.
+    pub solver: ContactSolver,
+    /// Friction coupling for the dense solvers.
+    pub friction: FrictionModel,
+    /// Gauss–Seidel sweeps (sequential impulses) or iteration cap (dense PGS).
+    pub iterations: usize,
+    /// Residual tolerance for the dense solvers.
+    pub tolerance: f64,
+    /// Baumgarte factor `β ∈ [0, 1]`.
+    pub baumgarte: f64,
+    /// Penetration allowed without correction (m).
+    pub slop: f64,
+    /// Speculative margin (m): pairs closer than this get contact rows.
+    pub margin: f64,
+    /// Approach speed above which restitution applies (m/s).
+    pub restitution_threshold: f64,
+    /// Final bottom-up sweeps with the lower body frozen (Erleben 2007); 0 = off.
+    pub shock_propagation: usize,
+    /// Start from the previous step's impulses.
+    pub warm_start: bool,
+    /// Correct penetration with split impulses (Catto; Tonge et al. 2012): the
+    /// Baumgarte target goes into a separate pseudo-velocity solve that moves positions
+    /// only, so correcting position error never adds kinetic energy. Off: the target is
+    /// part of the velocity rows (plain Baumgarte).
+    pub split_impulse: bool,
+}
+
+impl Default for ContactSettings {
+    fn default() -> Self {
+        Self {
+            solver: ContactSolver::Auto,
+            friction: FrictionModel::Staggered { sweeps: 2 },
+            iterations: 30,
+            tolerance: 1e-6,
+            baumgarte: 0.2,
+            slop: 1e-4,
+            margin: 0.02,
+            restitution_threshold: 0.5,
+            shock_propagation: 2,
+            warm_start: true,
+            split_impulse: true,
+        }
+    }
+}
+
+/// What a step did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactStats {
+    /// Contact points.
+    pub contacts: usize,
+    /// Broad-phase overlap tests.
+    pub pair_tests: usize,
+    /// Solver iterations (sweeps, pivots or Newton steps).
+    pub iterations: usize,
+    /// Natural-map residual of the contact LCP at the returned impulses,
+    /// `|z − mid(lo, z − w, hi)|∞ / max(1, |q|∞)`.
+    pub residual: f64,
+    /// Deepest penetration before the step (m).
+    pub max_penetration: f64,
+}
+
+/// Why a contact world rejected input or a step failed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ContactError {
+    /// A collider names a body that does not exist.
+    UnknownBody {
+        /// The collider.
+        collider: usize,
+    },
+    /// A body was rejected (see the articulated crate's rules).
+    Body(constraint_articulated::ArticulatedError),
+    /// Geometry rejected a collider, margin or pose.
+    Geometry(GeometryError),
+    /// The LCP solver failed (typed; never a wrong answer reported as success).
+    Lcp(LcpError),
+    /// A setting or the time step was out of range.
+    InvalidParameter {
+        /// The parameter.
+        name: &'static str,
+        /// Its rule.
+        rule: &'static str,
+    },
+    /// The step left a non-finite or huge state (rolled back).
+    Diverged {
+        /// The step number.
+        step: u64,
+        /// The first offending body.
+        body: usize,
+    },
+}
+
+impl fmt::Display for ContactError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::UnknownBody { collider } => write!(f, "collider {collider}: unknown body"),
+            Self::Body(e) => write!(f, "{e}"),
+            Self::Geometry(e) => write!(f, "geometry: {e:?}"),
+            Self::Lcp(e) => write!(f, "contact LCP: {e}"),
+            Self::InvalidParameter { name, rule } => write!(f, "parameter {name}: {rule}"),
+            Self::Diverged { step, body } => write!(f, "step {step} diverged (body {body})"),
+        }
+    }
+}
+
+impl core::error::Error for ContactError {}
+
+/// One contact row: bodies, Jacobian blocks, `M⁻¹Jᵀ` blocks, effective mass, target.
+#[derive(Clone, Copy, Debug)]
+struct Row {
+    a: Option<usize>,
+    b: Option<usize>,
+    j: [DVec3; 4],
+    mj: [DVec3; 4],
+    /// `J M⁻¹ Jᵀ`.
+    k: f64,
+    /// Required `J v' ≥ bias` (normal) or friction target 0.
+    bias: f64,
+    /// Split-impulse target for the pseudo velocities (normal rows; 0 otherwise).
+    push: f64,
+}
+
+/// Rigid bodies, colliders and the contact solver's state.
+#[derive(Clone, Debug)]
+pub struct ContactWorld {
+    bodies: Vec<RigidBody>,
+    colliders: Vec<Collider>,
+    /// Gravity (m/s²).
+    pub gravity: DVec3,
+    /// Solver settings.
+    pub settings: ContactSettings,
+    contacts: Vec<Contact>,
+    rows: Vec<Row>,
+    impulses: Vec<f64>,
+    warm: BTreeMap<(usize, usize, u64), (f64, DVec3)>,
+    steps: u64,
+}
+
+impl ContactWorld {
+    /// An empty world.
+    pub fn new(gravity: DVec3) -> Self {
+        Self {
+            bodies: Vec::new(),
+            colliders: Vec::new(),
+            gravity,
+            settings: ContactSettings::default(),
+            contacts: Vec::new(),
+            rows: Vec::new(),
+            impulses: Vec::new(),
+            warm: BTreeMap::new(),
+            steps: 0,
+        }
+    }
+
+    /// Adds a body (re-validated); returns its index.
+    pub fn add_body(&mut self, body: RigidBody) -> Result<usize, ContactError> {
+        let i = self.bodies.len();
+        let mut b =
+            RigidBody::new(i, body.mass, body.inertia, body.pose).map_err(ContactError::Body)?;
+        if !body.v.is_finite() || !body.omega.is_finite() {
+            return Err(ContactError::InvalidParameter {
+                name: "velocity",
+                rule: "must be finite",
+            });
+        }
+        b.v = body.v;
+        b.omega = body.omega;
+        b.com = body.com;
+        self.bodies.push(b);
+        Ok(i)
+    }
+
+    /// Adds a collider (its body must exist); returns its index.
+    pub fn add_collider(&mut self, c: Collider) -> Result<usize, ContactError> {
+        let k = self.colliders.len();
+        if c.body.is_some_and(|b| b >= self.bodies.len()) {
+            return Err(ContactError::UnknownBody { collider: k });
+        }
+        let checked = Collider::new(c.body, c.shape, c.local, c.friction, c.restitution)
+            .map_err(ContactError::Geometry)?;
+        self.colliders.push(checked);
+        Ok(k)
+    }
+
+    /// The bodies.
+    pub fn bodies(&self) -> &[RigidBody] {
+        &self.bodies
+    }
+
+    /// Mutable access to the bodies' state.
+    pub fn bodies_mut(&mut self) -> &mut [RigidBody] {
+        &mut self.bodies
+    }
+
+    /// The colliders.
+    pub fn colliders(&self) -> &[Collider] {
+        &self.colliders
+    }
+
+    /// The contacts of the last step.
+    pub fn contacts(&self) -> &[Contact] {
+        &self.contacts
+    }
+
+    /// Kinetic plus gravitational potential energy.
+    pub fn energy(&self) -> f64 {
+        self.bodies
+            .iter()
+            .map(|b| b.kinetic_energy() - b.mass * self.gravity.dot(b.pose.x))
+            .sum()
+    }
+
+    fn check(&self, h: f64) -> Result<(), ContactError> {
+        let s = &self.settings;
+        let bad = |name, rule| Err(ContactError::InvalidParameter { name, rule });
+        if !(h > 0.0) || !h.is_finite() {
+            return bad("h", "time step must be positive and finite");
+        }
+        if !(0.0..=1.0).contains(&s.baumgarte) {
+            return bad("baumgarte", "must be in [0, 1]");
+        }
+        if !(s.slop >= 0.0) || !s.slop.is_finite() || !(s.margin >= 0.0) || !s.margin.is_finite() {
+            return bad("slop/margin", "must be finite and non-negative");
+        }
+        if !(s.tolerance > 0.0) || !s.tolerance.is_finite() {
+            return bad("tolerance", "must be positive and finite");
+        }
+        if s.iterations == 0 {
+            return bad("iterations", "must be at least 1");
+        }
+        if matches!(
+            s.solver,
+            ContactSolver::Lemke | ContactSolver::Newton | ContactSolver::Auto
+        ) {
+            if let FrictionModel::Boxed = s.friction {
+                return bad(
+                    "friction",
+                    "Lemke, Newton and Auto take friction only as Staggered",
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Advances by `h`. On error the state is left as before the call.
+    pub fn step(&mut self, h: f64) -> Result<ContactStats, ContactError> {
+        self.check(h)?;
+        let saved = self.bodies.clone();
+        match self.step_inner(h) {
+            Ok(stats) => {
+                let ok = |v: DVec3| v.is_finite() && v.abs().max_element() < 1e12;
+                if let Some(body) = self
+                    .bodies
+                    .iter()
+                    .position(|b| !ok(b.pose.x) || !ok(b.v) || !ok(b.omega))
+                {
+                    self.bodies = saved;
+                    return Err(ContactError::Diverged {
+                        step: self.steps + 1,
+                        body,
+                    });
+                }
+                self.steps += 1;
+                Ok(stats)
+            }
+            Err(e) => {
+                self.bodies = saved;
+                Err(e)
+            }
+        }
+    }
+
+    fn step_inner(&mut self, h: f64) -> Result<ContactStats, ContactError> {
+        let mut stats = ContactStats::default();
+        // Contacts at the start of the step.
+        let poses: Vec<Pose> = self.bodies.iter().map(|b| b.pose).collect();
+        let mut contacts = core::mem::take(&mut self.contacts);
+        let broad = generate_contacts(&self.colliders, &poses, self.settings.margin, &mut contacts)
+            .map_err(ContactError::Geometry)?;
+        stats.pair_tests = broad.tests;
+        stats.contacts = contacts.len();
+        stats.max_penetration = contacts.iter().map(|c| c.depth).fold(0.0, f64::max);
+        // Velocities before the step (restitution) and free velocities.
+        let v0: Vec<(DVec3, DVec3)> = self.bodies.iter().map(|b| (b.v, b.omega)).collect();
+        let g = self.gravity;
+        let inv: Vec<(f64, DMat3)> = self
+            .bodies
+            .iter()
+            .map(|b| (1.0 / b.mass, b.world_inv_inertia()))
+            .collect();
+        for b in &mut self.bodies {
+            b.omega = b.gyroscopic_step(h);
+            b.v += g * h;
+        }
+        self.build_rows(&contacts, &v0, &inv, h);
+        self.contacts = contacts;
+        let z0 = self.warm_impulses();
+        let solver = match self.settings.solver {
+            ContactSolver::Auto if self.contacts.len() <= AUTO_DENSE_CONTACTS => {
+                ContactSolver::Newton
+            }
+            ContactSolver::Auto => ContactSolver::SequentialImpulses,
+            s => s,
+        };
+        let (z, iterations) = match solver {
+            ContactSolver::SequentialImpulses => self.sequential_impulses(z0, &inv),
+            _ => self.dense(solver, z0)?,
+        };
+        stats.iterations = iterations;
+        // Apply the impulses (the sequential solver has applied them already).
+        if solver != ContactSolver::SequentialImpulses {
+            for (r, zi) in self.rows.iter().zip(&z) {
+                apply(&mut self.bodies, r, *zi);
+            }
+        }
+        stats.residual = self.residual(&z);
+        self.store_warm(&z);
+        self.impulses = z;
+        let pseudo = if self.settings.split_impulse {
+            self.pseudo_velocities()
+        } else {
+            vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()]
+        };
+        for (b, (pv, pw)) in self.bodies.iter_mut().zip(pseudo) {
+            b.pose.x += (b.v + pv) * h;
+            b.pose.q = rotate_by(b.pose.q, (b.omega + pw) * h);
+        }
+        Ok(stats)
+    }
+
+    fn build_rows(
+        &mut self,
+        contacts: &[Contact],
+        v0: &[(DVec3, DVec3)],
+        inv: &[(f64, DMat3)],
+        h: f64,
+    ) {
+        let s = self.settings;
+        self.rows.clear();
+        for c in contacts {
+            let (ca, cb) = (&self.colliders[c.a], &self.colliders[c.b]);
+            let (ia, ib) = (ca.body, cb.body);
+            let r_a = ia.map_or(DVec3::ZERO, |i| c.point_on_a() - self.bodies[i].pose.x);
+            let r_b = ib.map_or(DVec3::ZERO, |i| c.point_on_b() - self.bodies[i].pose.x);
+            let n = c.normal;
+            let (t1, t2) = n.any_orthonormal_pair();
+            let rate = |d: DVec3, v: &[(DVec3, DVec3)]| {
+                let va = ia.map_or(DVec3::ZERO, |i| v[i].0 + v[i].1.cross(r_a));
+                let vb = ib.map_or(DVec3::ZERO, |i| v[i].0 + v[i].1.cross(r_b));
+                d.dot(vb - va)
+            };
+            // Normal target: Baumgarte on penetration beyond slop, speculative approach.
+            let correction = if c.depth > s.slop {
+                s.baumgarte * (c.depth - s.slop) / h
+            } else {
+                0.0
+            };
+            let mut bias = if c.depth < 0.0 {
+                c.depth / h
+            } else if s.split_impulse {
+                0.0
+            } else {
+                correction
+            };
+            let push = if s.split_impulse { correction } else { 0.0 };
+            let e = ca.restitution.max(cb.restitution);
+            let vn = rate(n, v0);
+            if e > 0.0 && vn < -s.restitution_threshold {
+                bias = bias.max(-e * vn);
+            }
+            for (d, bias, push) in [(n, bias, push), (t1, 0.0, 0.0), (t2, 0.0, 0.0)] {
+                let j = [-d, -r_a.cross(d), d, r_b.cross(d)];
+                let mut mj = [DVec3::ZERO; 4];
+                let mut k = 0.0;
+                if let Some(i) = ia {
+                    mj[0] = j[0] * inv[i].0;
+                    mj[1] = inv[i].1 * j[1];
+                    k += j[0].dot(mj[0]) + j[1].dot(mj[1]);
+                }
+                if let Some(i) = ib {
+                    mj[2] = j[2] * inv[i].0;
+                    mj[3] = inv[i].1 * j[3];
+                    k += j[2].dot(mj[2]) + j[3].dot(mj[3]);
+                }
+                self.rows.push(Row {
+                    a: ia,
+                    b: ib,
+                    j,
+                    mj,
+                    k,
+                    bias,
+                    push,
+                });
+            }
+        }
+    }
+
+    /// Friction coefficient of contact `c` (the larger of the two colliders', as
+    /// MuJoCo and Box2D combine them: `max`).
+    fn mu(&self, c: usize) -> f64 {
+        let ct = &self.contacts[c];
+        self.colliders[ct.a]
+            .friction
+            .max(self.colliders[ct.b].friction)
+    }
+
+    fn warm_impulses(&self) -> Vec<f64> {
+        let mut z = vec![0.0; self.rows.len()];
+        if !self.settings.warm_start {
+            return z;
+        }
+        for (k, c) in self.contacts.iter().enumerate() {
+            if let Some((zn, ft)) = self.warm.get(&c.key()) {
+                let (t1, t2) = c.normal.any_orthonormal_pair();
+                z[3 * k] = *zn;
+                z[3 * k + 1] = ft.dot(t1);
+                z[3 * k + 2] = ft.dot(t2);
+            }
+        }
+        z
+    }
+
+    fn store_warm(&mut self, z: &[f64]) {
+        self.warm.clear();
+        for (k, c) in self.contacts.iter().enumerate() {
+            let (t1, t2) = c.normal.any_orthonormal_pair();
+            self.warm
+                .insert(c.key(), (z[3 * k], t1 * z[3 * k + 1] + t2 * z[3 * k + 2]));
+        }
+    }
+
+    fn row_rate(&self, r: &Row) -> f64 {
+        let mut s = 0.0;
+        if let Some(i) = r.a {
+            s += r.j[0].dot(self.bodies[i].v) + r.j[1].dot(self.bodies[i].omega);
+        }
+        if let Some(i) = r.b {
+            s += r.j[2].dot(self.bodies[i].v) + r.j[3].dot(self.bodies[i].omega);
+        }
+        s
+    }
+
+    /// Bounds of row `i` at impulses `z`.
+    fn bounds(&self, i: usize, z: &[f64]) -> (f64, f64) {
+        if i % 3 == 0 {
+            (0.0, f64::INFINITY)
+        } else {
+            let m = self.mu(i / 3) * z[i - i % 3];
+            (-m, m)
+        }
+    }
+
+    /// Matrix-free projected Gauss–Seidel: for each contact, friction rows then the
+    /// normal row, `z_i ← clamp(z_i − (J_i v − b_i)/k_i)`, the change applied at once.
+    fn sequential_impulses(&mut self, mut z: Vec<f64>, inv: &[(f64, DMat3)]) -> (Vec<f64>, usize) {
+        for (r, zi) in self.rows.iter().zip(&z) {
+            apply(&mut self.bodies, r, *zi);
+        }
+        // Sweep order: contacts from the ground up (along −gravity), so a stack's weight
+        // reaches the ground within one sweep (Gauss–Seidel in gravity order).
+        let up = if self.gravity.length() > 0.0 {
+            -self.gravity.normalize()
+        } else {
+            DVec3::Z
+        };
+        let mut by_height: Vec<usize> = (0..self.contacts.len()).collect();
+        by_height.sort_by(|&p, &q| {
+            let hp = self.contacts[p].point.dot(up);
+            let hq = self.contacts[q].point.dot(up);
+            hp.total_cmp(&hq).then(p.cmp(&q))
+        });
+        let order: Vec<usize> = by_height
+            .iter()
+            .flat_map(|&k| [3 * k + 1, 3 * k + 2, 3 * k])
+            .collect();
+        let iterations = self.settings.iterations;
+        for _ in 0..iterations {
+            for &i in &order {
+                self.relax(i, &mut z);
+            }
+        }
+        // Shock propagation: bottom-up sweeps with the lower body of each contact frozen.
+        if self.settings.shock_propagation > 0 && !self.contacts.is_empty() {
+            for _ in 0..self.settings.shock_propagation {
+                for &k in &by_height {
+                    for i in [3 * k + 1, 3 * k + 2, 3 * k] {
+                        let r = self.rows[i];
+                        let frozen = self.frozen_row(&r, up, inv);
+                        self.relax_row(i, &frozen, &mut z);
+                    }
+                }
+            }
+        }
+        (z, iterations)
+    }
+
+    /// The row with the lower of its two bodies given infinite mass.
+    fn frozen_row(&self, r: &Row, up: DVec3, inv: &[(f64, DMat3)]) -> Row {
+        let h = |b: Option<usize>| b.map_or(f64::NEG_INFINITY, |i| self.bodies[i].pose.x.dot(up));
+        let mut f = *r;
+        let _ = inv;
+        if let (Some(_), Some(_)) = (r.a, r.b) {
+            if h(r.a) < h(r.b) {
+                f.mj[0] = DVec3::ZERO;
+                f.mj[1] = DVec3::ZERO;
+                f.a = None;
+            } else {
+                f.mj[2] = DVec3::ZERO;
+                f.mj[3] = DVec3::ZERO;
+                f.b = None;
+            }
+            f.k = f.j[0].dot(f.mj[0])
+                + f.j[1].dot(f.mj[1])
+                + f.j[2].dot(f.mj[2])
+                + f.j[3].dot(f.mj[3]);
+        }
+        f
+    }
+
+    fn relax(&mut self, i: usize, z: &mut [f64]) {
+        let r = self.rows[i];
+        self.relax_row(i, &r, z);
+    }
+
+    fn relax_row(&mut self, i: usize, r: &Row, z: &mut [f64]) {
+        if !(r.k > 0.0) {
+            return;
+        }
+        let (lo, hi) = self.bounds(i, z);
+        let rate = self.row_rate(&self.rows[i]);
+        let target = z[i] - (rate - r.bias) / r.k;
+        let new = target.clamp(lo, hi);
+        let dz = new - z[i];
+        if dz != 0.0 {
+            z[i] = new;
+            apply(&mut self.bodies, r, dz);
+        }
+    }
+
+    /// Delassus matrix `A = J M⁻¹ Jᵀ` (dense, row-major) and `q = J v_free − b`.
+    fn delassus(&self) -> (Vec<f64>, Vec<f64>) {
+        let n = self.rows.len();
+        let mut a = vec![0.0; n * n];
+        for (i, ri) in self.rows.iter().enumerate() {
+            for (j, rj) in self.rows.iter().enumerate().skip(i) {
+                let mut s = 0.0;
+                for (si, bi) in [(0usize, ri.a), (2usize, ri.b)] {
+                    let Some(bi) = bi else { continue };
+                    for (sj, bj) in [(0usize, rj.a), (2usize, rj.b)] {
+                        if Some(bi) == bj {
+                            s += ri.j[si].dot(rj.mj[sj]) + ri.j[si + 1].dot(rj.mj[sj + 1]);
+                        }
+                    }
+                }
+                a[i * n + j] = s;
+                a[j * n + i] = s;
+            }
+        }
+        let q = self
+            .rows
+            .iter()
+            .map(|r| self.row_rate(r) - r.bias)
+            .collect();
+        (a, q)
+    }
+
+    fn dense(
+        &mut self,
+        solver: ContactSolver,
+        z0: Vec<f64>,
+    ) -> Result<(Vec<f64>, usize), ContactError> {
+        let n = self.rows.len();
+        if n == 0 {
+            return Ok((Vec::new(), 0));
+        }
+        let (a, q) = self.delassus();
+        let mu: Vec<f64> = (0..self.contacts.len()).map(|c| self.mu(c)).collect();
+        let s = self.settings;
+        let pgs_settings = PgsSettings {
+            tolerance: s.tolerance,
+            max_iterations: s.iterations.max(1000),
+            ..PgsSettings::default()
+        };
+        if solver == ContactSolver::Pgs && s.friction == FrictionModel::Boxed {
+            let lcp = Lcp::contact(a, q, &mu).map_err(ContactError::Lcp)?;
+            let sol = pgs(&lcp, &pgs_settings, Some(&z0)).map_err(ContactError::Lcp)?;
+            return Ok((sol.z, sol.iterations));
+        }
+        let sweeps = match s.friction {
+            FrictionModel::Staggered { sweeps } => sweeps.max(1),
+            FrictionModel::Boxed => 1,
+        };
+        // Staggered projections: normal rows 3k, friction rows 3k+1, 3k+2.
+        let nc = self.contacts.len();
+        let normal: Vec<usize> = (0..nc).map(|k| 3 * k).collect();
+        let tangent: Vec<usize> = (0..nc).flat_map(|k| [3 * k + 1, 3 * k + 2]).collect();
+        let mut z = z0;
+        let mut iterations = 0;
+        let sub = |rows: &[usize], cols: &[usize]| -> Vec<f64> {
+            let mut m = Vec::with_capacity(rows.len() * cols.len());
+            for &i in rows {
+                for &j in cols {
+                    m.push(a[i * n + j]);
+                }
+            }
+            m
+        };
+        let ann = sub(&normal, &normal);
+        let att = sub(&tangent, &tangent);
+        let frictionless = mu.iter().all(|m| *m == 0.0);
+        for _ in 0..sweeps {
+            // Normal LCP with the friction impulses fixed.
+            let qn: Vec<f64> = normal
+                .iter()
+                .map(|&i| q[i] + tangent.iter().map(|&j| a[i * n + j] * z[j]).sum::<f64>())
+                .collect();
+            let lcp = Lcp::new(ann.clone(), qn).map_err(ContactError::Lcp)?;
+            let zn0: Vec<f64> = normal.iter().map(|&i| z[i]).collect();
+            let sol = match solver {
+                ContactSolver::Lemke => lemke(
+                    &lcp,
+                    &LemkeSettings {
+                        tolerance: s.tolerance,
+                        ..LemkeSettings::default()
+                    },
+                    None,
+                ),
+                ContactSolver::Newton => fischer_newton(
+                    &lcp,
+                    &NewtonSettings {
+                        tolerance: s.tolerance.min(1e-10),
+                        ..NewtonSettings::default()
+                    },
+                    Some(&zn0),
+                ),
+                _ => pgs(&lcp, &pgs_settings, Some(&zn0)),
+            }
+            .map_err(ContactError::Lcp)?;
+            iterations += sol.iterations;
+            for (k, &i) in normal.iter().enumerate() {
+                // The solvers return z ≥ 0 up to round-off; clamp so the friction bounds
+                // ±μ z_n stay ordered.
+                z[i] = sol.z[k].max(0.0);
+            }
+            if frictionless {
+                break;
+            }
+            // Boxed friction problem with the normal impulses fixed.
+            let qt: Vec<f64> = tangent
+                .iter()
+                .map(|&i| q[i] + normal.iter().map(|&j| a[i * n + j] * z[j]).sum::<f64>())
+                .collect();
+            let lo: Vec<f64> = tangent.iter().map(|&i| -mu[i / 3] * z[i - i % 3]).collect();
+            let hi: Vec<f64> = lo.iter().map(|v| -v).collect();
+            let lcp = Lcp::boxed(att.clone(), qt, lo, hi).map_err(ContactError::Lcp)?;
+            let zt0: Vec<f64> = tangent.iter().map(|&i| z[i]).collect();
+            let sol = pgs(&lcp, &pgs_settings, Some(&zt0)).map_err(ContactError::Lcp)?;
+            iterations += sol.iterations;
+            for (k, &i) in tangent.iter().enumerate() {
+                z[i] = sol.z[k];
+            }
+        }
+        Ok((z, iterations))
+    }
+
+    /// Natural-map residual of the contact LCP at `z` (velocities already updated).
+    fn residual(&self, z: &[f64]) -> f64 {
+        let mut worst: f64 = 0.0;
+        let mut scale: f64 = 1.0;
+        for (i, r) in self.rows.iter().enumerate() {
+            let w = self.row_rate(r) - r.bias;
+            scale = scale.max(w.abs());
+            let (lo, hi) = self.bounds(i, z);
+            let proj = (z[i] - w).clamp(lo, hi);
+            worst = worst.max((z[i] - proj).abs());
+        }
+        worst / scale
+    }
+
+    /// Split impulses: Gauss–Seidel on the normal rows for pseudo velocities `(u, ψ)`
+    /// from zero with `J (u, ψ) ≥ push`, `z ≥ 0`; they move positions this step only.
+    fn pseudo_velocities(&self) -> Vec<(DVec3, DVec3)> {
+        let mut p = vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()];
+        if self.rows.iter().all(|r| r.push == 0.0) {
+            return p;
+        }
+        let mut z = vec![0.0; self.contacts.len()];
+        for _ in 0..self.settings.iterations {
+            for (k, zk) in z.iter_mut().enumerate() {
+                let r = &self.rows[3 * k];
+                if !(r.k > 0.0) {
+                    continue;
+                }
+                let mut rate = 0.0;
+                if let Some(i) = r.a {
+                    rate += r.j[0].dot(p[i].0) + r.j[1].dot(p[i].1);
+                }
+                if let Some(i) = r.b {
+                    rate += r.j[2].dot(p[i].0) + r.j[3].dot(p[i].1);
+                }
+                let new = (*zk - (rate - r.push) / r.k).max(0.0);
+                let dz = new - *zk;
+                *zk = new;
+                if let Some(i) = r.a {
+                    p[i].0 += r.mj[0] * dz;
+                    p[i].1 += r.mj[1] * dz;
+                }
+                if let Some(i) = r.b {
+                    p[i].0 += r.mj[2] * dz;
+                    p[i].1 += r.mj[3] * dz;
+                }
+            }
+        }
+        p
+    }
+
+    /// The impulses of the last step, three rows per contact (normal, two tangents).
+    pub fn impulses(&self) -> &[f64] {
+        &self.impulses
+    }
+}
+
+/// `v += M⁻¹ Jᵀ dz` for the row's bodies.
+fn apply(bodies: &mut [RigidBody], r: &Row, dz: f64) {
+    if let Some(i) = r.a {
+        bodies[i].v += r.mj[0] * dz;
+        bodies[i].omega += r.mj[1] * dz;
+    }
+    if let Some(i) = r.b {
+        bodies[i].v += r.mj[2] * dz;
+        bodies[i].omega += r.mj[3] * dz;
+    }
+}
