@@ -12,7 +12,8 @@ use std::fmt::Write as _;
 pub struct Series {
     /// Legend entry.
     pub name: String,
-    /// Points; non-positive or non-finite values are skipped (log axes).
+    /// Points; non-positive values are skipped (log axes); a non-finite point is not
+    /// drawn and breaks the line (several curves in one series, e.g. one per problem).
     pub points: Vec<(f64, f64)>,
 }
 
@@ -187,14 +188,17 @@ impl LogLogChart {
         );
         for (k, ser) in self.series.iter().enumerate() {
             let c = COLORS[k % COLORS.len()];
-            let p: Vec<(f64, f64)> = ser
-                .points
-                .iter()
-                .copied()
-                .filter(|(x, y)| (*x > 0.0 || !log_x) && *y > 0.0 && x.is_finite() && y.is_finite())
-                .collect();
-            if p.len() > 1 {
-                let path: Vec<String> = p
+            let keep = |(x, y): &(f64, f64)| {
+                (*x > 0.0 || !log_x) && *y > 0.0 && x.is_finite() && y.is_finite()
+            };
+            let p: Vec<(f64, f64)> = ser.points.iter().copied().filter(keep).collect();
+            // A non-finite point lifts the pen: the line restarts after it.
+            for piece in ser.points.split(|(x, y)| !x.is_finite() || !y.is_finite()) {
+                let piece: Vec<(f64, f64)> = piece.iter().copied().filter(keep).collect();
+                if piece.len() < 2 {
+                    continue;
+                }
+                let path: Vec<String> = piece
                     .iter()
                     .map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y)))
                     .collect();
@@ -311,6 +315,34 @@ mod tests {
         assert_eq!(s.matches("<circle").count(), 3 + 2);
         assert!(s.contains("a&lt;b"));
         assert!(s.starts_with("<svg") && s.ends_with("</svg>\n"));
+    }
+
+    #[test]
+    fn a_non_finite_point_breaks_the_line() {
+        let nan = f64::NAN;
+        let c = LogLogChart {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            series: vec![Series {
+                name: "a".into(),
+                points: vec![
+                    (1.0, 1.0),
+                    (2.0, 0.5),
+                    (nan, nan),
+                    (3.0, 0.3),
+                    (nan, nan),
+                    (4.0, 0.2),
+                    (5.0, 0.1),
+                ],
+            }],
+            note: String::new(),
+            log_x: true,
+            pareto: false,
+        };
+        let s = c.to_svg();
+        assert_eq!(s.matches("<polyline").count(), 2);
+        assert_eq!(s.matches("<circle").count(), 5 + 1);
     }
 
     #[test]

@@ -11,6 +11,8 @@
 //! * [`chart`] draws log–log SVG charts for the report (with the Pareto front marked).
 //! * [`articulated_report`] measures the MJCF scenes' error against run time next to
 //!   MuJoCo's committed points, and the joint drift of the 20-link chain.
+//! * [`contact_report`] measures the contact LCP solvers' residual against run time on
+//!   the LCPs of stacks and pyramids, and the contact scenes' error against run time.
 //!
 //! The binary `verify-report` (run by `cargo xtask verify`) writes the sweeps to
 //! `target/verify/`. The integration tests (`tests/`) apply the checks:
@@ -27,6 +29,7 @@
 
 pub mod articulated_report;
 pub mod chart;
+pub mod contact_report;
 pub mod fd;
 pub mod hard;
 pub mod scene;

@@ -2,7 +2,9 @@
 //! `sweeps.md` (tables), `cloth_work_precision.svg` (chart), `work_precision.csv` and
 //! `stability.csv` (raw data), and the articulated section
 //! (`articulated_<scene>.svg`, `articulated_chain20_drift.svg`,
-//! `articulated_work_precision.csv`; see `constraint_verify::articulated_report`).
+//! `articulated_work_precision.csv`; see `constraint_verify::articulated_report`), and
+//! the contact section (`contact_lcp_residual.svg`, `contact_<scene>.svg`,
+//! `contact_lcp.csv`, `contact_scenes.csv`; see `constraint_verify::contact_report`).
 //!
 //! `cargo run --release -p constraint-verify --bin verify-report -- [--quick] [--out DIR]`
 //! (normally called by `cargo xtask verify`).
@@ -304,6 +306,12 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     constraint_verify::articulated_report::section(&mut md, &out, quick)?;
     eprintln!(
         "    articulated section done in {:.1} s",
+        t0.elapsed().as_secs_f64()
+    );
+    let t0 = Instant::now();
+    constraint_verify::contact_report::section(&mut md, &out, quick)?;
+    eprintln!(
+        "    contact section done in {:.1} s",
         t0.elapsed().as_secs_f64()
     );
     std::fs::write(out.join("sweeps.md"), md)?;
