@@ -10,8 +10,13 @@
 //! chain as rapier3d (f64) rigid bodies joined by spherical impulse joints. The criterion
 //! bench `benches/chain_peers.rs` times both and writes the accuracy figures that
 //! `cargo xtask bench` puts next to the times (MuJoCo's side runs through xtask).
+//!
+//! [`contact`] does the same for contact scenes (the 10-box stack and the pyramid with
+//! base 20 of [`constraint_contact::scenes`]), timed by `benches/contact_peers.rs`.
 
 use std::path::PathBuf;
+
+pub mod contact;
 
 /// Link length (m).
 pub const LINK_LENGTH: f64 = 0.1;

@@ -16,20 +16,29 @@
 //! [`crate::mujoco::run`] when Python is available (skipped with a note otherwise, or
 //! with `--no-mujoco`). Writes `target/bench/ratios.md`: time per step per engine and
 //! size, the ratios ours/rapier3d and ours/MuJoCo, joint separation after 2 s, growth
-//! exponents, and the heavy-tip outcome. `--peers-only` skips the cloth and KKT benches.
+//! exponents, and the heavy-tip outcome.
+//!
+//! Then the contact scenes: `cargo bench -p constraint-peers --features rapier --bench
+//! contact_peers` times one step at dt = 1/60 of the 10-box stack and the pyramid with
+//! base 20 with this library (`ContactSolver::Auto`, and sequential impulses on the
+//! stack) and rapier3d in one run, and writes the 10 s accuracy runs (top-box drift and
+//! sink, worst box displacement) to `target/peers/contact_accuracy.tsv`; a contact table
+//! is appended to `target/bench/ratios.md`. MuJoCo is not run on contact scenes (the
+//! MJCF subset has no contact-ready scenes yet). `--peers-only` skips the cloth and KKT
+//! benches.
 
 use crate::mujoco::{ensure_venv, run as run_mujoco, RunOptions};
 use crate::run::{cargo, root};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Median (criterion's point estimate) in seconds for `group/name/n`, if present.
-fn estimate(group: &str, name: &str, n: usize) -> Option<f64> {
+/// Median (criterion's point estimate) in seconds for `group/name/param`, if present.
+fn estimate(group: &str, name: &str, param: impl std::fmt::Display) -> Option<f64> {
     let p = root()
         .join("target/criterion")
         .join(group)
         .join(name)
-        .join(n.to_string())
+        .join(param.to_string())
         .join("new/estimates.json");
     let s = std::fs::read_to_string(p).ok()?;
     // The file is small JSON; read `"median":{..."point_estimate":X`.
@@ -416,7 +425,227 @@ fn ratios_markdown(p: &Peers) -> String {
     md
 }
 
-/// The peer comparison: the chain_peers bench, MuJoCo, then `target/bench/ratios.md`.
+/// Contact scenes of the contact_peers bench: `(id, label)`.
+const CONTACT_SCENES: [(&str, &str); 2] = [
+    ("stack10", "10-box stack"),
+    ("pyramid20", "pyramid, base 20 (210 boxes)"),
+];
+
+/// Engines of the contact_peers bench: `(id, label)`.
+const CONTACT_ENGINES: [(&str, &str); 3] = [
+    ("ours_auto", "ours (Auto)"),
+    ("ours_si", "ours (SI)"),
+    ("rapier", "rapier3d"),
+];
+
+/// One line of `target/peers/contact_accuracy.tsv`.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct ContactAccuracy {
+    top_drift: f64,
+    top_sink: f64,
+    worst_displacement: f64,
+    contacts: Option<usize>,
+    failed_at: Option<f64>,
+}
+
+/// What the contact_peers bench measured.
+#[derive(Default)]
+struct ContactPeers {
+    /// `(engine, scene) → s/step`.
+    time: Vec<(String, String, f64)>,
+    /// `(engine, scene) → 10 s accuracy run`.
+    accuracy: Vec<(String, String, ContactAccuracy)>,
+    /// Notes for the report.
+    notes: Vec<String>,
+}
+
+impl ContactPeers {
+    fn time(&self, engine: &str, scene: &str) -> Option<f64> {
+        self.time
+            .iter()
+            .find(|(e, s, _)| e == engine && s == scene)
+            .map(|t| t.2)
+    }
+
+    fn accuracy(&self, engine: &str, scene: &str) -> Option<&ContactAccuracy> {
+        self.accuracy
+            .iter()
+            .find(|(e, s, _)| e == engine && s == scene)
+            .map(|t| &t.2)
+    }
+}
+
+/// Parses `target/peers/contact_accuracy.tsv` (header line first).
+fn parse_contact_accuracy(text: &str) -> Vec<(String, String, ContactAccuracy)> {
+    let mut out = Vec::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split('\t').collect();
+        if f.len() < 12 {
+            continue;
+        }
+        let (Ok(top_drift), Ok(top_sink), Ok(worst_displacement)) =
+            (f[5].parse(), f[6].parse(), f[7].parse())
+        else {
+            continue;
+        };
+        out.push((
+            f[1].to_string(),
+            f[0].to_string(),
+            ContactAccuracy {
+                top_drift,
+                top_sink,
+                worst_displacement,
+                contacts: f[9].parse().ok(),
+                failed_at: f[11].parse().ok(),
+            },
+        ));
+    }
+    out
+}
+
+fn fmt_len(x: Option<f64>) -> String {
+    x.map_or("–".into(), |x| format!("{x:.1e} m"))
+}
+
+/// The contact section appended to `target/bench/ratios.md`.
+fn contact_markdown(p: &ContactPeers) -> String {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "\n# Contact scenes: time per step and resting accuracy, this library against rapier3d\n\n\
+         Same run (`cargo bench -p constraint-peers --features rapier --bench contact_peers`). \
+         Scenes of `constraint_contact::scenes`: `box_stack(10)` (unit boxes, 1 m, density \
+         1000, friction 0.5, on the ground plane z = 0, each resting exactly on the one \
+         below) and `pyramid(20)` (210 unit boxes, rows in the x–z plane at 1.1 m pitch). \
+         dt = 1/60, one core. Time per step: criterion median after 1 s of simulated \
+         warm-up (the stacks are at rest by then). Accuracy: a separate untimed run of 10 s \
+         at 60 Hz from the start; drift is the top box's largest distance from its start \
+         over the run, sink its start height minus its final height, worst displacement \
+         the largest distance of any box from its start over the run. A ratio below 1 \
+         means this library is faster.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| scene | engine | time per step | ours / rapier3d | top-box drift (max over 10 s) | \
+         top-box sink (at 10 s) | worst box displacement (max over 10 s) | contact points |"
+    );
+    let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|");
+    for (scene, scene_label) in CONTACT_SCENES {
+        let rapier = p.time("rapier", scene);
+        for (engine, label) in CONTACT_ENGINES {
+            let t = p.time(engine, scene);
+            let a = p.accuracy(engine, scene);
+            if t.is_none() && a.is_none() {
+                continue;
+            }
+            let ratio = if engine == "rapier" {
+                "–".to_string()
+            } else {
+                fmt_ratio(t, rapier)
+            };
+            let (drift, sink, worst) = match a {
+                Some(a) if a.failed_at.is_some() => {
+                    let f = format!("step failed at t = {:.3} s", a.failed_at.unwrap_or(0.0));
+                    (f.clone(), f.clone(), f)
+                }
+                Some(a) => (
+                    fmt_len(Some(a.top_drift)),
+                    fmt_len(Some(a.top_sink)),
+                    fmt_len(Some(a.worst_displacement)),
+                ),
+                None => ("–".into(), "–".into(), "–".into()),
+            };
+            let contacts = a
+                .and_then(|a| a.contacts)
+                .map_or("–".into(), |c| c.to_string());
+            let _ = writeln!(
+                md,
+                "| {scene_label} | {label} | {} | {ratio} | {drift} | {sink} | {worst} | {contacts} |",
+                fmt_time(t)
+            );
+        }
+    }
+    let _ = writeln!(md, "\n## Notes (contact)\n");
+    let auto_pyramid = p
+        .accuracy("ours_auto", "pyramid20")
+        .and_then(|a| a.contacts)
+        .map_or(String::new(), |c| {
+            format!(
+                " On the pyramid ({c} contact points at the end) `Auto` is sequential impulses."
+            )
+        });
+    let mut notes = vec![
+        format!(
+            "ours (Auto) is `ContactSolver::Auto` with default `ContactSettings`: dense \
+             Fischer–Burmeister Newton with staggered friction up to 200 contact points, \
+             matrix-free sequential impulses (30 sweeps, 2 shock-propagation sweeps, split \
+             impulses) beyond.{auto_pyramid} ours (SI) forces `ContactSolver::SequentialImpulses` \
+             (stack only)."
+        ),
+        format!(
+            "rapier3d {} (f64): the same bodies at the same poses (built from our scene), \
+             cuboid colliders of half extent 0.5, friction 0.5, restitution 0, density 1000, \
+             a half-space ground on a fixed body, default `IntegrationParameters` with dt = \
+             1/60 and the default solver; sleeping is off (`can_sleep(false)`) so that, like \
+             ours, every body is simulated every step (a resting stack would otherwise fall \
+             asleep and cost almost nothing). Contact points: ours only.",
+            locked_version("rapier3d-f64").as_deref().unwrap_or("?")
+        ),
+        "MuJoCo is not run on the contact scenes: the MJCF subset has no contact-ready \
+         scenes yet (the chain comparison above is the only MuJoCo one)."
+            .to_string(),
+    ];
+    notes.extend(p.notes.iter().cloned());
+    for n in notes {
+        let _ = writeln!(md, "- {n}");
+    }
+    md
+}
+
+/// The contact scenes: the contact_peers bench and its accuracy file.
+fn contact_peers(criterion_args: &[String]) -> Result<ContactPeers, String> {
+    let path = root().join("target/peers/contact_accuracy.tsv");
+    // A stale accuracy file must not pass for this run's.
+    let _ = std::fs::remove_file(&path);
+    let ok = cargo()
+        .args([
+            "bench",
+            "-p",
+            "constraint-peers",
+            "--features",
+            "rapier",
+            "--bench",
+            "contact_peers",
+            "--",
+        ])
+        .args(criterion_args)
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false);
+    if !ok {
+        return Err(
+            "cargo bench -p constraint-peers --features rapier --bench contact_peers failed".into(),
+        );
+    }
+    let mut p = ContactPeers::default();
+    for (engine, _) in CONTACT_ENGINES {
+        for (scene, _) in CONTACT_SCENES {
+            if let Some(t) = estimate("contact_peers", engine, scene) {
+                p.time.push((engine.to_string(), scene.to_string(), t));
+            }
+        }
+    }
+    match std::fs::read_to_string(&path) {
+        Ok(text) => p.accuracy = parse_contact_accuracy(&text),
+        Err(_) => p
+            .notes
+            .push(format!("{}: missing, no accuracy figures", path.display())),
+    }
+    Ok(p)
+}
+
+/// The peer comparison: the chain_peers bench, MuJoCo, the contact_peers bench, then
+/// `target/bench/ratios.md`.
 fn peers(criterion_args: &[String], mujoco: bool) -> Result<PathBuf, String> {
     // A stale accuracy file must not pass for this run's.
     let _ = std::fs::remove_file(root().join("target/peers/accuracy.tsv"));
@@ -452,7 +681,9 @@ fn peers(criterion_args: &[String], mujoco: bool) -> Result<PathBuf, String> {
     } else {
         p.notes.push("MuJoCo skipped (--no-mujoco)".into());
     }
-    let md = ratios_markdown(&p);
+    let contact = contact_peers(criterion_args)?;
+    let mut md = ratios_markdown(&p);
+    md.push_str(&contact_markdown(&contact));
     println!("\n{md}");
     write_report(&root().join("target/bench"), &md)
 }
@@ -531,5 +762,39 @@ mod tests {
             md.contains("| rapier3d | 3.0e0 m | no, comes apart |"),
             "{md}"
         );
+    }
+
+    #[test]
+    fn the_contact_table_has_times_ratios_and_accuracy() {
+        let tsv = "scene\tengine\tboxes\tdt\tduration\ttop_drift\ttop_sink\tworst_displacement\t\
+                   worst_at_end\tcontacts\tfinite\tfailed_at\n\
+                   stack10\tours_auto\t10\t1.6e-2\t10\t2e-10\t2.5e-11\t3e-10\t3e-10\t40\ttrue\t-\n\
+                   stack10\trapier\t10\t1.6e-2\t10\t5.6e-3\t2.5e-2\t5.6e-3\t5e-3\t-\ttrue\t-\n\
+                   pyramid20\tours_auto\t210\t1.6e-2\t10\t1e-2\t1e-3\t2e-2\t2e-2\t800\tfalse\t2.5\n";
+        let mut p = ContactPeers {
+            accuracy: parse_contact_accuracy(tsv),
+            ..ContactPeers::default()
+        };
+        assert_eq!(p.accuracy.len(), 3);
+        p.time.push(("ours_auto".into(), "stack10".into(), 11e-6));
+        p.time.push(("rapier".into(), "stack10".into(), 22e-6));
+        let md = contact_markdown(&p);
+        assert!(
+            md.contains(
+                "| 10-box stack | ours (Auto) | 11.00 µs | 0.500 | 2.0e-10 m | 2.5e-11 m | 3.0e-10 m | 40 |"
+            ),
+            "{md}"
+        );
+        assert!(
+            md.contains("| 10-box stack | rapier3d | 22.00 µs | – | 5.6e-3 m | 2.5e-2 m |"),
+            "{md}"
+        );
+        assert!(md.contains("step failed at t = 2.500 s"), "{md}");
+        assert!(md.contains("(800 contact points at the end)"), "{md}");
+        assert!(
+            md.contains("MuJoCo is not run on the contact scenes"),
+            "{md}"
+        );
+        assert!(!md.contains("(210 boxes) | ours (SI)"), "{md}");
     }
 }

@@ -1,0 +1,130 @@
+//! Contact scenes, this library against rapier3d (f64), in one run.
+//!
+//! Times one step at dt = 1/60 (after 1 s of simulated warm-up: the stacks are at rest by
+//! then) of the 10-box stack (`constraint_contact::scenes::box_stack(10)`) and the
+//! pyramid with base 20 (`scenes::pyramid(20)`, 210 boxes):
+//! `contact_peers/ours_auto/SCENE` (`ContactWorld::step`, default settings,
+//! `ContactSolver::Auto`), `contact_peers/ours_si/stack10`
+//! (`ContactSolver::SequentialImpulses`) and `contact_peers/rapier/SCENE` (one
+//! `PhysicsPipeline::step` of the same boxes as cuboid colliders on a half-space ground,
+//! default integration parameters, sleeping off).
+//!
+//! Then, untimed, writes `target/peers/contact_accuracy.tsv`: each engine run for 10 s at
+//! 60 Hz from the start — the top box's largest displacement (drift) and its final sink,
+//! and the worst displacement of any box.
+//!
+//! `cargo bench -p constraint-peers --features rapier --bench contact_peers`
+//! (`cargo xtask bench` runs it). `CONTACT_PEERS_ACCURACY=0` skips the accuracy runs.
+
+use constraint_peers::contact::{ours, rapier, solvers, ContactRun, Scene, DT};
+use constraint_peers::out_dir;
+use criterion::{BenchmarkId, Criterion};
+use std::fmt::Write as _;
+use std::time::Duration;
+
+const WARM_UP: f64 = 1.0;
+const DURATION: f64 = 10.0;
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("contact_peers");
+    g.warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3))
+        .sample_size(20);
+    for scene in Scene::BENCH {
+        let name = scene.name();
+        for (engine, solver) in solvers(scene) {
+            let mut w = match ours::world(scene, solver, DT, WARM_UP) {
+                Ok(w) => w,
+                Err(e) => panic!("{engine} {name}: {e}"),
+            };
+            g.bench_with_input(BenchmarkId::new(engine, &name), &name, |b, _| {
+                b.iter(|| match w.step(DT) {
+                    Ok(s) => s.contacts,
+                    Err(e) => panic!("{engine} {name}: {e}"),
+                })
+            });
+        }
+        let start = match scene.world() {
+            Ok(w) => w,
+            Err(e) => panic!("{name}: {e}"),
+        };
+        let mut r = match rapier::world(&start, DT, WARM_UP) {
+            Ok(r) => r,
+            Err(e) => panic!("rapier {name}: {e}"),
+        };
+        g.bench_with_input(BenchmarkId::new("rapier", &name), &name, |b, _| {
+            b.iter(|| r.step())
+        });
+    }
+    g.finish();
+}
+
+fn row(out: &mut String, scene: Scene, engine: &str, r: &ContactRun) {
+    let _ = writeln!(
+        out,
+        "{}\t{engine}\t{}\t{DT:e}\t{DURATION}\t{:e}\t{:e}\t{:e}\t{:e}\t{}\t{}\t{}",
+        scene.name(),
+        scene.boxes(),
+        r.top_drift,
+        r.top_sink,
+        r.worst_displacement,
+        r.worst_at_end,
+        r.contacts.map_or("-".into(), |c| c.to_string()),
+        r.finite,
+        r.failed_at.map_or("-".into(), |t| format!("{t}"))
+    );
+    println!(
+        "{:>10} {engine:>10}: top drift {:.2e} m, top sink {:.2e} m, worst displacement {:.2e} m \
+         (at end {:.2e} m){}{}",
+        scene.name(),
+        r.top_drift,
+        r.top_sink,
+        r.worst_displacement,
+        r.worst_at_end,
+        r.contacts
+            .map_or(String::new(), |c| format!(", {c} contact points")),
+        r.failed_at
+            .map_or(String::new(), |t| format!(" (step failed at t = {t:.4} s)"))
+    );
+}
+
+/// Untimed runs: 10 s at 60 Hz from the start, per scene and engine.
+fn accuracy() {
+    let mut out = String::from(
+        "scene\tengine\tboxes\tdt\tduration\ttop_drift\ttop_sink\tworst_displacement\t\
+         worst_at_end\tcontacts\tfinite\tfailed_at\n",
+    );
+    for scene in Scene::BENCH {
+        for (engine, solver) in solvers(scene) {
+            match ours::run(scene, solver, DT, DURATION) {
+                Ok(r) => row(&mut out, scene, engine, &r),
+                Err(e) => panic!("{engine} {}: {e}", scene.name()),
+            }
+        }
+        let start = match scene.world() {
+            Ok(w) => w,
+            Err(e) => panic!("{}: {e}", scene.name()),
+        };
+        match rapier::run(&start, DT, DURATION) {
+            Ok(r) => row(&mut out, scene, "rapier", &r),
+            Err(e) => panic!("rapier {}: {e}", scene.name()),
+        }
+    }
+    let dir = out_dir();
+    let path = dir.join("contact_accuracy.tsv");
+    if let Err(e) = std::fs::create_dir_all(&dir).and_then(|()| std::fs::write(&path, out)) {
+        panic!("{}: {e}", path.display());
+    }
+    println!("wrote {}", path.display());
+}
+
+fn main() {
+    let mut c = Criterion::default().configure_from_args();
+    bench(&mut c);
+    c.final_summary();
+    let listing = std::env::args().any(|a| a == "--list");
+    let skip = std::env::var("CONTACT_PEERS_ACCURACY").is_ok_and(|v| v == "0");
+    if !listing && !skip {
+        accuracy();
+    }
+}

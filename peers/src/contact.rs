@@ -1,0 +1,425 @@
+//! Contact scenes in this library and in rapier3d, built from the same description so
+//! that time per step and resting accuracy can be compared in one run.
+//!
+//! The scenes are [`constraint_contact::scenes::box_stack`] (`n` unit boxes, 1 m, density
+//! 1000 kg/m³, friction 0.5, each resting exactly on the one below, on the ground plane
+//! `z = 0`) and [`constraint_contact::scenes::pyramid`] (rows of unit boxes in the x–z
+//! plane at 1.1 m pitch, `base − k` boxes at level `k`). [`Scene::world`] builds ours;
+//! [`rapier::RapierBoxes::from_world`] (feature `rapier`) turns that very world into
+//! rapier3d (f64) rigid bodies and colliders, so both engines start from identical poses.
+//!
+//! Accuracy ([`ContactRun`]) is measured on the box centres: the top box (highest at the
+//! start) — its largest displacement over the run (drift) and how far it went down by
+//! the end (sink) — and the largest displacement of any box over the run.
+
+use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld};
+use constraint_contact::scenes;
+
+use crate::ours::steps_for;
+
+/// Time step of the contact scenes (s): 60 Hz.
+pub const DT: f64 = 1.0 / 60.0;
+
+/// A contact scene of the comparison.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scene {
+    /// [`scenes::box_stack`]`(n)`: `n` unit boxes stacked on the ground.
+    Stack(usize),
+    /// [`scenes::pyramid`]`(base)`: `base (base + 1) / 2` unit boxes.
+    Pyramid(usize),
+}
+
+impl Scene {
+    /// The scenes of the benchmark: the 10-box stack and the pyramid with base 20.
+    pub const BENCH: [Scene; 2] = [Scene::Stack(10), Scene::Pyramid(20)];
+
+    /// Short name used in benchmark ids and files: `stack10`, `pyramid20`.
+    pub fn name(&self) -> String {
+        match self {
+            Scene::Stack(n) => format!("stack{n}"),
+            Scene::Pyramid(b) => format!("pyramid{b}"),
+        }
+    }
+
+    /// Number of boxes.
+    pub fn boxes(&self) -> usize {
+        match *self {
+            Scene::Stack(n) => n,
+            Scene::Pyramid(b) => b * (b + 1) / 2,
+        }
+    }
+
+    /// This library's world for the scene, default settings.
+    pub fn world(&self) -> Result<ContactWorld, ContactError> {
+        match *self {
+            Scene::Stack(n) => scenes::box_stack(n),
+            Scene::Pyramid(b) => scenes::pyramid(b),
+        }
+    }
+}
+
+/// Accuracy of one untimed run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactRun {
+    /// Largest distance of the top box from its start over the run (m).
+    pub top_drift: f64,
+    /// Start height minus final height of the top box (m; positive = it went down).
+    pub top_sink: f64,
+    /// Largest distance of any box from its start, over all boxes and steps (m).
+    pub worst_displacement: f64,
+    /// Largest distance of any box from its start at the end of the run (m).
+    pub worst_at_end: f64,
+    /// Contact points at the last step (ours only).
+    pub contacts: Option<usize>,
+    /// Whether every step succeeded with a finite state.
+    pub finite: bool,
+    /// Simulated time (s) at which a step returned an error, if one did.
+    pub failed_at: Option<f64>,
+}
+
+/// Follows the box centres during a run: start poses, the top box, running maxima.
+#[derive(Clone, Debug)]
+pub struct Tracker {
+    start: Vec<[f64; 3]>,
+    top: usize,
+    top_drift: f64,
+    worst: f64,
+}
+
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+impl Tracker {
+    /// Starts from the box centres `x0`; the top box is the highest one (the first of
+    /// equals).
+    pub fn new(x0: Vec<[f64; 3]>) -> Self {
+        let top = x0
+            .iter()
+            .enumerate()
+            .fold(None::<(usize, f64)>, |best, (i, x)| match best {
+                Some((_, z)) if z >= x[2] => best,
+                _ => Some((i, x[2])),
+            })
+            .map_or(0, |b| b.0);
+        Self {
+            start: x0,
+            top,
+            top_drift: 0.0,
+            worst: 0.0,
+        }
+    }
+
+    /// Index of the top box.
+    pub fn top(&self) -> usize {
+        self.top
+    }
+
+    /// Records the centres after a step. A non-finite position makes the maxima infinite.
+    pub fn observe(&mut self, x: &[[f64; 3]]) {
+        for (i, (p, p0)) in x.iter().zip(&self.start).enumerate() {
+            let d = distance(*p, *p0);
+            // NaN compares false: keep it visible.
+            let d = if d.is_finite() { d } else { f64::INFINITY };
+            self.worst = self.worst.max(d);
+            if i == self.top {
+                self.top_drift = self.top_drift.max(d);
+            }
+        }
+    }
+
+    /// The run's figures from the final centres.
+    pub fn finish(&self, x: &[[f64; 3]], contacts: Option<usize>) -> ContactRun {
+        let finite = x.iter().all(|p| p.iter().all(|c| c.is_finite()));
+        let worst_at_end = x
+            .iter()
+            .zip(&self.start)
+            .map(|(p, p0)| distance(*p, *p0))
+            .fold(0.0, f64::max);
+        ContactRun {
+            top_drift: self.top_drift,
+            top_sink: self.start[self.top][2] - x[self.top][2],
+            worst_displacement: self.worst,
+            worst_at_end,
+            contacts,
+            finite,
+            failed_at: None,
+        }
+    }
+}
+
+/// This library's side.
+pub mod ours {
+    use super::{steps_for, ContactRun, Scene, Tracker};
+    use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld};
+
+    /// Box centres of a world, in body order.
+    pub fn centres(w: &ContactWorld) -> Vec<[f64; 3]> {
+        w.bodies()
+            .iter()
+            .map(|b| [b.pose.x.x, b.pose.x.y, b.pose.x.z])
+            .collect()
+    }
+
+    /// The scene with `solver` (other settings default), run for `warm_up` seconds at `dt`.
+    pub fn world(
+        scene: Scene,
+        solver: ContactSolver,
+        dt: f64,
+        warm_up: f64,
+    ) -> Result<ContactWorld, ContactError> {
+        let mut w = scene.world()?;
+        w.settings.solver = solver;
+        for _ in 0..steps_for(warm_up, dt) {
+            w.step(dt)?;
+        }
+        Ok(w)
+    }
+
+    /// Runs the scene from rest for `duration` seconds at `dt`. A failed step ends the
+    /// run with `finite = false` and the time of the failure.
+    pub fn run(
+        scene: Scene,
+        solver: ContactSolver,
+        dt: f64,
+        duration: f64,
+    ) -> Result<ContactRun, ContactError> {
+        let mut w = scene.world()?;
+        w.settings.solver = solver;
+        let mut t = Tracker::new(centres(&w));
+        let mut contacts = None;
+        for k in 0..steps_for(duration, dt) {
+            match w.step(dt) {
+                Ok(s) => contacts = Some(s.contacts),
+                Err(_) => {
+                    let mut r = t.finish(&centres(&w), contacts);
+                    r.finite = false;
+                    r.failed_at = Some((k + 1) as f64 * dt);
+                    return Ok(r);
+                }
+            }
+            t.observe(&centres(&w));
+        }
+        Ok(t.finish(&centres(&w), contacts))
+    }
+}
+
+/// The solvers of ours that the bench runs on `scene`: `Auto` everywhere, and
+/// `SequentialImpulses` on stacks (on the pyramid `Auto` already is sequential impulses).
+pub fn solvers(scene: Scene) -> Vec<(&'static str, ContactSolver)> {
+    let mut v = vec![("ours_auto", ContactSolver::Auto)];
+    if let Scene::Stack(_) = scene {
+        v.push(("ours_si", ContactSolver::SequentialImpulses));
+    }
+    v
+}
+
+/// rapier3d's side (f64).
+#[cfg(feature = "rapier")]
+pub mod rapier {
+    use super::{steps_for, ContactRun, Tracker};
+    use constraint_contact::geometry::Shape;
+    use constraint_contact::rigid::ContactWorld;
+    use rapier3d_f64::na::Unit;
+    use rapier3d_f64::prelude::*;
+
+    /// Density of the boxes (kg/m³), as in the scenes.
+    pub const DENSITY: f64 = 1000.0;
+
+    /// A rapier world of boxes on a ground, stepped by [`PhysicsPipeline::step`].
+    pub struct RapierBoxes {
+        pipeline: PhysicsPipeline,
+        params: IntegrationParameters,
+        islands: IslandManager,
+        broad_phase: BroadPhaseBvh,
+        narrow_phase: NarrowPhase,
+        bodies: RigidBodySet,
+        colliders: ColliderSet,
+        impulse_joints: ImpulseJointSet,
+        multibody_joints: MultibodyJointSet,
+        soft_bodies: SoftBodySet,
+        ccd: CCDSolver,
+        gravity: Vector,
+        /// Our body `i` is rapier's `handles[i]`.
+        handles: Vec<RigidBodyHandle>,
+    }
+
+    impl RapierBoxes {
+        /// The same scene as `w` (which must be at its start): each of our bodies becomes
+        /// a dynamic rapier body at the same pose (sleeping off, so it is simulated every
+        /// step as ours is), each box collider a cuboid with the same half extents,
+        /// friction and restitution and density [`DENSITY`]; each static plane a
+        /// half-space on a fixed body. Default integration parameters except `dt`.
+        /// Fails on shapes other than planes and boxes, on colliders offset from their
+        /// body, and on a plane attached to a body.
+        pub fn from_world(w: &ContactWorld, dt: f64) -> Result<Self, String> {
+            let mut bodies = RigidBodySet::new();
+            let mut colliders = ColliderSet::new();
+            let handles: Vec<RigidBodyHandle> = w
+                .bodies()
+                .iter()
+                .map(|b| {
+                    let (x, r) = (b.pose.x, b.pose.q.to_scaled_axis());
+                    bodies.insert(
+                        RigidBodyBuilder::dynamic()
+                            .translation(Vector::new(x.x, x.y, x.z))
+                            .rotation(Vector::new(r.x, r.y, r.z))
+                            .linvel(Vector::new(b.v.x, b.v.y, b.v.z))
+                            .angvel(Vector::new(b.omega.x, b.omega.y, b.omega.z))
+                            .can_sleep(false),
+                    )
+                })
+                .collect();
+            for (k, c) in w.colliders().iter().enumerate() {
+                let local = c.local;
+                if local.x.length() > 0.0 || local.q.to_scaled_axis().length() > 0.0 {
+                    return Err(format!("collider {k}: offset from its body"));
+                }
+                let material = |b: ColliderBuilder| {
+                    b.friction(c.friction)
+                        .restitution(c.restitution)
+                        .density(DENSITY)
+                };
+                match (c.body, c.shape) {
+                    (None, Shape::Plane { normal, offset }) => {
+                        let p = normal * offset;
+                        let ground = bodies.insert(
+                            RigidBodyBuilder::fixed().translation(Vector::new(p.x, p.y, p.z)),
+                        );
+                        let n = Unit::new_unchecked(Vector::new(normal.x, normal.y, normal.z));
+                        colliders.insert_with_parent(
+                            material(ColliderBuilder::halfspace(n)),
+                            ground,
+                            &mut bodies,
+                        );
+                    }
+                    (Some(b), Shape::Box { half }) => {
+                        colliders.insert_with_parent(
+                            material(ColliderBuilder::cuboid(half.x, half.y, half.z)),
+                            handles[b],
+                            &mut bodies,
+                        );
+                    }
+                    (_, s) => return Err(format!("collider {k}: {s:?} not supported")),
+                }
+            }
+            let g = w.gravity;
+            Ok(Self {
+                pipeline: PhysicsPipeline::new(),
+                params: IntegrationParameters {
+                    dt,
+                    ..IntegrationParameters::default()
+                },
+                islands: IslandManager::new(),
+                broad_phase: DefaultBroadPhase::default(),
+                narrow_phase: NarrowPhase::new(),
+                bodies,
+                colliders,
+                impulse_joints: ImpulseJointSet::new(),
+                multibody_joints: MultibodyJointSet::new(),
+                soft_bodies: SoftBodySet::new(),
+                ccd: CCDSolver::new(),
+                gravity: Vector::new(g.x, g.y, g.z),
+                handles,
+            })
+        }
+
+        /// One `PhysicsPipeline::step`.
+        pub fn step(&mut self) {
+            self.pipeline.step(
+                self.gravity,
+                &self.params,
+                &mut self.islands,
+                &mut self.broad_phase,
+                &mut self.narrow_phase,
+                &mut self.bodies,
+                &mut self.colliders,
+                &mut self.impulse_joints,
+                &mut self.multibody_joints,
+                &mut self.soft_bodies,
+                &mut self.ccd,
+                &(),
+                &(),
+            );
+        }
+
+        /// Box centres in our body order.
+        pub fn centres(&self) -> Vec<[f64; 3]> {
+            self.handles
+                .iter()
+                .map(|&h| {
+                    let x = self.bodies[h].translation();
+                    [x.x, x.y, x.z]
+                })
+                .collect()
+        }
+
+        /// Masses in our body order (kg), from the colliders' density.
+        pub fn masses(&self) -> Vec<f64> {
+            self.handles
+                .iter()
+                .map(|&h| self.bodies[h].mass())
+                .collect()
+        }
+    }
+
+    /// [`RapierBoxes::from_world`] then `warm_up` seconds of steps.
+    pub fn world(w: &ContactWorld, dt: f64, warm_up: f64) -> Result<RapierBoxes, String> {
+        let mut r = RapierBoxes::from_world(w, dt)?;
+        for _ in 0..steps_for(warm_up, dt) {
+            r.step();
+        }
+        Ok(r)
+    }
+
+    /// Runs the scene of `w` from its start for `duration` seconds at `dt`.
+    pub fn run(w: &ContactWorld, dt: f64, duration: f64) -> Result<ContactRun, String> {
+        let mut r = RapierBoxes::from_world(w, dt)?;
+        let mut t = Tracker::new(r.centres());
+        for _ in 0..steps_for(duration, dt) {
+            r.step();
+            t.observe(&r.centres());
+        }
+        Ok(t.finish(&r.centres(), None))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scenes_have_their_boxes_and_the_tracker_finds_the_top() {
+        for s in Scene::BENCH {
+            let w = s.world().unwrap();
+            assert_eq!(w.bodies().len(), s.boxes(), "{s:?}");
+            let x0 = ours::centres(&w);
+            let t = Tracker::new(x0.clone());
+            let zmax = x0.iter().map(|x| x[2]).fold(f64::MIN, f64::max);
+            assert_eq!(x0[t.top()][2], zmax);
+        }
+        let t = Tracker::new(vec![[0.0, 0.0, 0.5], [0.0, 0.0, 1.5]]);
+        let r = t.finish(&[[0.0, 0.0, 0.5], [0.0, 0.0, 1.25]], None);
+        assert_eq!(r.top_sink, 0.25);
+        assert_eq!(r.worst_at_end, 0.25);
+    }
+
+    #[test]
+    fn a_short_stack_run_stays_put() {
+        let r = ours::run(Scene::Stack(3), ContactSolver::Auto, DT, 0.5).unwrap();
+        assert!(r.finite && r.top_drift < 1e-3, "{r:?}");
+    }
+
+    #[cfg(feature = "rapier")]
+    #[test]
+    fn the_rapier_scene_has_the_same_boxes() {
+        let w = Scene::Stack(3).world().unwrap();
+        let r = rapier::RapierBoxes::from_world(&w, DT).unwrap();
+        assert_eq!(r.centres(), ours::centres(&w));
+        for (m, b) in r.masses().iter().zip(w.bodies()) {
+            assert!((m - b.mass).abs() < 1e-9 * b.mass, "{m} vs {}", b.mass);
+        }
+        let run = rapier::run(&w, DT, 0.5).unwrap();
+        assert!(run.finite && run.top_drift < 0.05, "{run:?}");
+    }
+}
