@@ -553,22 +553,59 @@ impl ContactWorld {
             .flat_map(|&k| [3 * k + 1, 3 * k + 2, 3 * k])
             .collect();
         let iterations = self.settings.iterations;
-        for _ in 0..iterations {
-            for &i in &order {
-                self.relax(i, &mut z);
+        // Flat copies for the inner loop (Box2D style): velocities in one array with a
+        // last, static slot (its `M⁻¹Jᵀ` blocks are zero, so it stays at rest), and per
+        // row the two slots, the friction coefficient and the normal row it is bounded by.
+        let nb = self.bodies.len();
+        let mut vel: Vec<[DVec3; 2]> = self.bodies.iter().map(|b| [b.v, b.omega]).collect();
+        vel.push([DVec3::ZERO; 2]);
+        let slot = |b: Option<usize>| b.unwrap_or(nb);
+        let mu: Vec<f64> = (0..self.contacts.len()).map(|c| self.mu(c)).collect();
+        let sweep = |rows: &[Row], order: &[usize], vel: &mut [[DVec3; 2]], z: &mut [f64]| {
+            for &i in order {
+                let r = &rows[i];
+                if !(r.k > 0.0) {
+                    continue;
+                }
+                let (a, b) = (slot(r.a), slot(r.b));
+                let rate = r.j[0].dot(vel[a][0])
+                    + r.j[1].dot(vel[a][1])
+                    + r.j[2].dot(vel[b][0])
+                    + r.j[3].dot(vel[b][1]);
+                let (lo, hi) = if i % 3 == 0 {
+                    (0.0, f64::INFINITY)
+                } else {
+                    let m = mu[i / 3] * z[i - i % 3];
+                    (-m, m)
+                };
+                let new = (z[i] - (rate - r.bias) / r.k).clamp(lo, hi);
+                let dz = new - z[i];
+                if dz != 0.0 {
+                    z[i] = new;
+                    vel[a][0] += r.mj[0] * dz;
+                    vel[a][1] += r.mj[1] * dz;
+                    vel[b][0] += r.mj[2] * dz;
+                    vel[b][1] += r.mj[3] * dz;
+                }
             }
+        };
+        for _ in 0..iterations {
+            sweep(&self.rows, &order, &mut vel, &mut z);
         }
         // Shock propagation: bottom-up sweeps with the lower body of each contact frozen.
         if self.settings.shock_propagation > 0 && !self.contacts.is_empty() {
+            let frozen: Vec<Row> = self
+                .rows
+                .iter()
+                .map(|r| self.frozen_row(r, up, inv))
+                .collect();
             for _ in 0..self.settings.shock_propagation {
-                for &k in &by_height {
-                    for i in [3 * k + 1, 3 * k + 2, 3 * k] {
-                        let r = self.rows[i];
-                        let frozen = self.frozen_row(&r, up, inv);
-                        self.relax_row(i, &frozen, &mut z);
-                    }
-                }
+                sweep(&frozen, &order, &mut vel, &mut z);
             }
+        }
+        for (b, v) in self.bodies.iter_mut().zip(&vel) {
+            b.v = v[0];
+            b.omega = v[1];
         }
         (z, iterations)
     }
@@ -582,11 +619,9 @@ impl ContactWorld {
             if h(r.a) < h(r.b) {
                 f.mj[0] = DVec3::ZERO;
                 f.mj[1] = DVec3::ZERO;
-                f.a = None;
             } else {
                 f.mj[2] = DVec3::ZERO;
                 f.mj[3] = DVec3::ZERO;
-                f.b = None;
             }
             f.k = f.j[0].dot(f.mj[0])
                 + f.j[1].dot(f.mj[1])
@@ -594,26 +629,6 @@ impl ContactWorld {
                 + f.j[3].dot(f.mj[3]);
         }
         f
-    }
-
-    fn relax(&mut self, i: usize, z: &mut [f64]) {
-        let r = self.rows[i];
-        self.relax_row(i, &r, z);
-    }
-
-    fn relax_row(&mut self, i: usize, r: &Row, z: &mut [f64]) {
-        if !(r.k > 0.0) {
-            return;
-        }
-        let (lo, hi) = self.bounds(i, z);
-        let rate = self.row_rate(&self.rows[i]);
-        let target = z[i] - (rate - r.bias) / r.k;
-        let new = target.clamp(lo, hi);
-        let dz = new - z[i];
-        if dz != 0.0 {
-            z[i] = new;
-            apply(&mut self.bodies, r, dz);
-        }
     }
 
     /// Delassus matrix `A = J M⁻¹ Jᵀ` (dense, row-major) and `q = J v_free − b`.
