@@ -1,0 +1,99 @@
+//! The acceleration level with Baumgarte stabilisation (Otaduy 2010, "Opción 1").
+
+use alloc::vec;
+
+use constraint_core::rigid::rotate_by;
+use constraint_core::{DVec3, Pose};
+
+use super::*;
+
+impl World {
+    /// `[M Jᵀ; J 0][a; λ] = [f; −J̇v − k_x C − k_v J v]`, then `v' = v + h a`,
+    /// `x' = x + h v'`.
+    pub(super) fn acceleration_solve(
+        &mut self,
+        h: f64,
+        kx: f64,
+        kv: f64,
+    ) -> Result<(), ArticulatedError> {
+        let g = self.gravity;
+        // Explicit joint damping torques/forces: −d J_dᵀ (J_d v).
+        let mut damp = vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()];
+        for joint in &self.joints {
+            if joint.damping_rows() == 0 {
+                continue;
+            }
+            let a = self.pose(joint.parent);
+            let b = self.pose(Some(joint.child));
+            let rows = joint.rows(&a, &b, true);
+            let twist = self.twist(joint);
+            for r in rows.n_hard..rows.n {
+                let rate: f64 = (0..4).map(|k| rows.rows[r][k].dot(twist[k])).sum();
+                let s = -joint.damping * rate;
+                if let Some(p) = joint.parent {
+                    damp[p].0 += rows.rows[r][0] * s;
+                    damp[p].1 += rows.rows[r][1] * s;
+                }
+                damp[joint.child].0 += rows.rows[r][2] * s;
+                damp[joint.child].1 += rows.rows[r][3] * s;
+            }
+        }
+        let bodies = self.bodies.clone();
+        let joints = self.joints.clone();
+        self.body_rhs(|b, _, iw| {
+            let w = b.omega;
+            (g * b.mass, -w.cross(*iw * w))
+        });
+        for (i, (f, t)) in damp.iter().enumerate() {
+            let o = self.solver.as_ref().map_or(0, |s| s.body_offset(i));
+            for c in 0..3 {
+                self.rhs[o + c] += f[c];
+                self.rhs[o + 3 + c] += t[c];
+            }
+        }
+        let twist_of = |joint: &Joint| {
+            let tw = |b: Option<usize>| {
+                b.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
+                    (bodies[i].v, bodies[i].omega)
+                })
+            };
+            let (va, wa) = tw(joint.parent);
+            let (vb, wb) = tw(Some(joint.child));
+            [va, wa, vb, wb]
+        };
+        let pose_of = |b: Option<usize>| b.map_or(Pose::IDENTITY, |i| bodies[i].pose);
+        let loops = self.assemble(h, false, |j, _, rows, rhs| {
+            let joint = &joints[j];
+            let u = twist_of(joint);
+            let (a, b) = (pose_of(joint.parent), pose_of(Some(joint.child)));
+            for r in 0..rows.n_hard {
+                let mut w = [0.0; MAX_ROWS];
+                w[r] = 1.0;
+                let jdot_v = joint.curvature(&a, &b, &w).quadratic(&u);
+                let cdot: f64 = (0..4).map(|k| rows.rows[r][k].dot(u[k])).sum();
+                rhs[r] = -jdot_v - kx * rows.value[r] - kv * cdot;
+            }
+        });
+        self.solve(loops)?;
+        for i in 0..self.bodies.len() {
+            let (a, alpha) = self.body_solution(i);
+            let b = &mut self.bodies[i];
+            b.v += a * h;
+            b.omega += alpha * h;
+            b.pose.x += b.v * h;
+            b.pose.q = rotate_by(b.pose.q, b.omega * h);
+        }
+        Ok(())
+    }
+
+    pub(super) fn twist(&self, joint: &Joint) -> [DVec3; 4] {
+        let tw = |b: Option<usize>| {
+            b.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
+                (self.bodies[i].v, self.bodies[i].omega)
+            })
+        };
+        let (va, wa) = tw(joint.parent);
+        let (vb, wb) = tw(Some(joint.child));
+        [va, wa, vb, wb]
+    }
+}

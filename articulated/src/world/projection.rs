@@ -1,0 +1,69 @@
+//! Newton projection onto `C(x) = 0` with mass-weighted minimum-norm steps (Goldenthal
+//! et al. 2007), with backtracking.
+
+use alloc::vec::Vec;
+
+use constraint_core::rigid::rotate_by;
+use constraint_core::{DVec3, Pose};
+
+use super::*;
+
+impl World {
+    /// Newton projection onto `C(x) = 0` with mass-weighted minimum-norm steps
+    /// `[M Jᵀ; J 0][δ; λ] = [0; −C]` (Goldenthal et al. 2007, fast projection).
+    pub(super) fn project(
+        &mut self,
+        tolerance: f64,
+        max_iterations: usize,
+        velocity_h: Option<f64>,
+    ) -> Result<usize, ArticulatedError> {
+        let mut err = self.max_separation();
+        for it in 0..max_iterations {
+            if err <= tolerance {
+                return Ok(it);
+            }
+            self.body_rhs(|_, _, _| (DVec3::ZERO, DVec3::ZERO));
+            let loops = self.assemble(1.0, false, |_, _, rows, rhs| {
+                for r in 0..rows.n_hard {
+                    rhs[r] = -rows.value[r];
+                }
+            });
+            self.solve(loops)?;
+            // Backtracking: a full Newton step can overshoot far from the manifold (light
+            // bodies turned by large angles); halve it until the separation decreases.
+            let base: Vec<(Pose, DVec3, DVec3)> =
+                self.bodies.iter().map(|b| (b.pose, b.v, b.omega)).collect();
+            let mut alpha = 1.0;
+            let mut accepted = false;
+            for _ in 0..8 {
+                for i in 0..self.bodies.len() {
+                    let (dx, dth) = self.body_solution(i);
+                    let (pose, v, w) = base[i];
+                    let b = &mut self.bodies[i];
+                    b.pose.x = pose.x + dx * alpha;
+                    b.pose.q = rotate_by(pose.q, dth * alpha);
+                    if let Some(h) = velocity_h {
+                        b.v = v + dx * (alpha / h);
+                        b.omega = w + dth * (alpha / h);
+                    }
+                }
+                let trial = self.max_separation();
+                if trial < err {
+                    err = trial;
+                    accepted = true;
+                    break;
+                }
+                alpha *= 0.5;
+            }
+            if !accepted {
+                for (b, (pose, v, w)) in self.bodies.iter_mut().zip(base) {
+                    b.pose = pose;
+                    b.v = v;
+                    b.omega = w;
+                }
+                return Ok(it + 1);
+            }
+        }
+        Ok(max_iterations)
+    }
+}

@@ -1,0 +1,189 @@
+//! The velocity level (Otaduy 2010, "Opción 2"): `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`,
+//! with the joints' geometric stiffness where the explicit treatment would be unstable.
+
+use alloc::vec;
+use alloc::vec::Vec;
+
+use constraint_core::rigid::rotate_by;
+use constraint_core::{DVec3, Pose};
+
+use super::*;
+
+impl World {
+    /// `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`, then `x' = x + h v'`.
+    pub(super) fn velocity_solve(&mut self, h: f64, beta: f64) -> Result<(), ArticulatedError> {
+        self.velocity_system_solve(h, beta)?;
+        for i in 0..self.bodies.len() {
+            let (v, w) = self.body_solution(i);
+            let b = &mut self.bodies[i];
+            b.v = v;
+            b.omega = w;
+            b.pose.x += v * h;
+            b.pose.q = rotate_by(b.pose.q, w * h);
+        }
+        Ok(())
+    }
+
+    /// The end-of-step twists `(v', ω')` of the velocity-level system
+    /// `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`, solved by the tree factorization,
+    /// without moving the bodies (for checking against [`Self::dense_velocity_system`]).
+    pub fn velocity_twists(
+        &mut self,
+        h: f64,
+        beta: f64,
+    ) -> Result<Vec<(DVec3, DVec3)>, ArticulatedError> {
+        self.ensure_solver();
+        self.velocity_system_solve(h, beta)?;
+        Ok((0..self.bodies.len())
+            .map(|i| self.body_solution(i))
+            .collect())
+    }
+
+    /// The velocity-level KKT system of [`Self::velocity_twists`] as one dense matrix
+    /// (all joints' rows, loop joints included, damping rows with compliance
+    /// `1/(h d)`): unknowns `[v₀, ω₀, v₁, ω₁, …, λ]`. A reference for tests and for
+    /// tiny systems; `O(n²)` memory.
+    pub fn dense_velocity_system(&self, h: f64, beta: f64) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let nb = self.bodies.len();
+        let rows: usize = self
+            .joints
+            .iter()
+            .map(|j| j.hard_rows() + j.damping_rows())
+            .sum();
+        let n = 6 * nb + rows;
+        let mut m = vec![vec![0.0; n]; n];
+        let mut rhs = vec![0.0; n];
+        for (i, b) in self.bodies.iter().enumerate() {
+            let iw = b.world_inertia();
+            let w = b.gyroscopic_step(h);
+            let lin = b.v * b.mass + self.gravity * (b.mass * h);
+            let ang = iw * w;
+            for k in 0..3 {
+                m[6 * i + k][6 * i + k] = b.mass;
+                for l in 0..3 {
+                    m[6 * i + 3 + k][6 * i + 3 + l] = iw.col(l)[k];
+                }
+                rhs[6 * i + k] = lin[k];
+                rhs[6 * i + 3 + k] = ang[k];
+            }
+        }
+        let mut r0 = 6 * nb;
+        for joint in &self.joints {
+            let a = self.pose(joint.parent);
+            let b = self.pose(Some(joint.child));
+            let jr = joint.rows(&a, &b, true);
+            for r in 0..jr.n {
+                let row = r0 + r;
+                for (side, body) in [(0usize, joint.parent), (1usize, Some(joint.child))] {
+                    let Some(body) = body else { continue };
+                    for c in 0..3 {
+                        for (blk, off) in [(2 * side, 0), (2 * side + 1, 3)] {
+                            let v = jr.rows[r][blk][c];
+                            m[row][6 * body + off + c] = v;
+                            m[6 * body + off + c][row] = v;
+                        }
+                    }
+                }
+                if r >= jr.n_hard {
+                    m[row][row] = -1.0 / (h * joint.damping);
+                } else {
+                    rhs[row] = -beta * jr.value[r] / h;
+                }
+            }
+            r0 += jr.n;
+        }
+        (m, rhs)
+    }
+
+    pub(super) fn velocity_system_solve(
+        &mut self,
+        h: f64,
+        beta: f64,
+    ) -> Result<(), ArticulatedError> {
+        let g = self.gravity;
+        self.body_rhs(|b, r, iw| {
+            let w = b.gyroscopic_step_with(r, h);
+            (b.v * b.mass + g * (b.mass * h), *iw * w)
+        });
+        if self.geometric_stiffness != GeometricStiffness::Off
+            && self.impulses.len() == self.joints.len()
+        {
+            self.add_geometric_stiffness(h);
+        }
+        let loops = self.assemble(h, true, |_, _, rows, rhs| {
+            for r in 0..rows.n_hard {
+                rhs[r] = -beta * rows.value[r] / h;
+            }
+        });
+        self.solve(loops)?;
+        self.store_impulses();
+        Ok(())
+    }
+
+    /// Geometric stiffness (Andrews, Teichmann and Kry 2017, "Geometric stiffness for
+    /// real-time constrained multibody dynamics"; Tournier et al. 2015): the constraint
+    /// force `−Jᵀλ/h` depends on the configuration through `J`, with
+    /// `∂(−Jᵀλ/h)/∂x = −Σ_r (λ_r/h) ∂²C_r/∂x²` — the joint curvature of
+    /// `constraint-core`. Treating it implicitly, like the soft crate's linearized backward
+    /// Euler, adds `h² Σ_r (λ_r/h) ∂²C_r = h Σ_r λ_r ∂²C_r` to the mass matrix, with the
+    /// impulses `λ` of the previous step.
+    /// Without it the transverse "string" modes of a tense chain (a light link under a
+    /// heavy load: `ω² ≈ T/(mL)`) are integrated explicitly and blow up once `hω > 2`.
+    /// To keep Baraff's tree structure only each body's own diagonal blocks (`xx` and
+    /// `θθ`) are kept, and each is replaced by its positive semi-definite part, as in
+    /// Andrews et al.'s diagonal approximation.
+    pub(super) fn add_geometric_stiffness(&mut self, h: f64) {
+        let threshold = match self.geometric_stiffness {
+            GeometricStiffness::Off => return,
+            GeometricStiffness::Always => 0.0,
+            GeometricStiffness::Auto { ratio } => ratio,
+        };
+        // h² K with K = Σ (λ_r/h) ∂²C_r (λ are impulses): h Σ λ_r ∂²C_r.
+        let solver = self.solver.as_mut().expect("solver built by ensure_solver");
+        for (j, joint) in self.joints.iter().enumerate() {
+            let lam = &self.impulses[j];
+            // Cheap bound first: |h Σ λ_r ∂²C_r| ≤ 2 h lever Σ|λ_r|.
+            let bound = 2.0 * h * joint.lever() * lam.iter().map(|l| l.abs()).sum::<f64>();
+            let i_min = |b: Option<usize>| b.map_or(f64::INFINITY, |i| self.bodies[i].i_min);
+            if !(bound > threshold * i_min(joint.parent).min(i_min(Some(joint.child)))) {
+                continue;
+            }
+            let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
+            let b = self.bodies[joint.child].pose;
+            let k = joint.curvature(&a, &b, lam);
+            for (side, body) in [(0usize, joint.parent), (1usize, Some(joint.child))] {
+                let Some(i) = body else { continue };
+                let tt = crate::body::psd_part(&(k.blocks[2 * side + 1][2 * side + 1] * h));
+                // (hω)² of the stiffest rotational mode this term describes, against the
+                // body's smallest principal moment.
+                let t_max = crate::body::symmetric_eigenvalues(&tt)[2];
+                if t_max > threshold * self.bodies[i].i_min {
+                    let xx = crate::body::psd_part(&(k.blocks[2 * side][2 * side] * h));
+                    solver.add_body_blocks(i, &xx, &tt);
+                }
+            }
+        }
+    }
+
+    /// Copies the hard-row multipliers of the last solve (tree joints from the solution,
+    /// loop joints from the loop multipliers, in joint order).
+    pub(super) fn store_impulses(&mut self) {
+        let solver = self.solver.as_ref().expect("solver built by ensure_solver");
+        self.impulses.resize(self.joints.len(), [0.0; MAX_ROWS]);
+        let mut next_loop = 0;
+        for (j, joint) in self.joints.iter().enumerate() {
+            let n = joint.hard_rows();
+            let mut lam = [0.0; MAX_ROWS];
+            match solver.joint_offset(j) {
+                Some(o) => lam[..n].copy_from_slice(&self.rhs[o..o + n]),
+                None => {
+                    for r in 0..n {
+                        lam[r] = self.mu.get(next_loop + r).copied().unwrap_or(0.0);
+                    }
+                    next_loop += n;
+                }
+            }
+            self.impulses[j] = lam;
+        }
+    }
+}
