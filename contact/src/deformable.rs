@@ -169,6 +169,8 @@ impl DeformableContact {
         sys: &mut SoftSystem,
         imp: &mut ImplicitEuler,
     ) -> Result<DeformableStats, DeformableError> {
+        // The public `x`/`v` may have been resized away from the particle count.
+        sys.check_lengths().map_err(DeformableError::Soft)?;
         let h = imp.time_step();
         let s = self.settings;
         let mut stats = DeformableStats::default();

@@ -39,6 +39,9 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DVec3, Pose};
 
 use crate::geometry::{generate_contacts, Collider, Contact, GeometryError};
+mod dense;
+mod sequential;
+
 use crate::lcp::{
     fischer_newton, lemke, pgs, Lcp, LcpError, LemkeSettings, NewtonSettings, PgsSettings,
 };
@@ -318,6 +321,19 @@ impl ContactWorld {
                 );
             }
         }
+        // Public fields and `bodies_mut` can hold anything: a non-finite gravity or body
+        // state would reach `f64::clamp` with NaN bounds (a panic) in the solvers.
+        if !self.gravity.is_finite() {
+            return bad("gravity", "must be finite");
+        }
+        if self.bodies.iter().any(|b| {
+            !(b.pose.x.is_finite()
+                && b.pose.q.is_finite()
+                && b.v.is_finite()
+                && b.omega.is_finite())
+        }) {
+            return bad("body state", "positions and velocities must be finite");
+        }
         Ok(())
     }
 
@@ -529,288 +545,6 @@ impl ContactWorld {
         }
     }
 
-    /// Matrix-free projected Gauss–Seidel: for each contact, friction rows then the
-    /// normal row, `z_i ← clamp(z_i − (J_i v − b_i)/k_i)`, the change applied at once.
-    fn sequential_impulses(&mut self, mut z: Vec<f64>, inv: &[(f64, DMat3)]) -> (Vec<f64>, usize) {
-        for (r, zi) in self.rows.iter().zip(&z) {
-            apply(&mut self.bodies, r, *zi);
-        }
-        // Sweep order: contacts from the ground up (along −gravity), so a stack's weight
-        // reaches the ground within one sweep (Gauss–Seidel in gravity order).
-        let up = if self.gravity.length() > 0.0 {
-            -self.gravity.normalize()
-        } else {
-            DVec3::Z
-        };
-        let mut by_height: Vec<usize> = (0..self.contacts.len()).collect();
-        by_height.sort_by(|&p, &q| {
-            let hp = self.contacts[p].point.dot(up);
-            let hq = self.contacts[q].point.dot(up);
-            hp.total_cmp(&hq).then(p.cmp(&q))
-        });
-        let order: Vec<usize> = by_height
-            .iter()
-            .flat_map(|&k| [3 * k + 1, 3 * k + 2, 3 * k])
-            .collect();
-        let iterations = self.settings.iterations;
-        // Flat copies for the inner loop (Box2D style): velocities in one array with a
-        // last, static slot (its `M⁻¹Jᵀ` blocks are zero, so it stays at rest), and per
-        // row the two slots, the friction coefficient and the normal row it is bounded by.
-        let nb = self.bodies.len();
-        let mut vel: Vec<[DVec3; 2]> = self.bodies.iter().map(|b| [b.v, b.omega]).collect();
-        vel.push([DVec3::ZERO; 2]);
-        let slot = |b: Option<usize>| b.unwrap_or(nb);
-        let mu: Vec<f64> = (0..self.contacts.len()).map(|c| self.mu(c)).collect();
-        let sweep = |rows: &[Row], order: &[usize], vel: &mut [[DVec3; 2]], z: &mut [f64]| {
-            for &i in order {
-                let r = &rows[i];
-                if !(r.k > 0.0) {
-                    continue;
-                }
-                let (a, b) = (slot(r.a), slot(r.b));
-                let rate = r.j[0].dot(vel[a][0])
-                    + r.j[1].dot(vel[a][1])
-                    + r.j[2].dot(vel[b][0])
-                    + r.j[3].dot(vel[b][1]);
-                let (lo, hi) = if i % 3 == 0 {
-                    (0.0, f64::INFINITY)
-                } else {
-                    let m = mu[i / 3] * z[i - i % 3];
-                    (-m, m)
-                };
-                let new = (z[i] - (rate - r.bias) / r.k).clamp(lo, hi);
-                let dz = new - z[i];
-                if dz != 0.0 {
-                    z[i] = new;
-                    vel[a][0] += r.mj[0] * dz;
-                    vel[a][1] += r.mj[1] * dz;
-                    vel[b][0] += r.mj[2] * dz;
-                    vel[b][1] += r.mj[3] * dz;
-                }
-            }
-        };
-        for _ in 0..iterations {
-            sweep(&self.rows, &order, &mut vel, &mut z);
-        }
-        // Shock propagation: bottom-up sweeps with the lower body of each contact frozen.
-        if self.settings.shock_propagation > 0 && !self.contacts.is_empty() {
-            let frozen: Vec<Row> = self
-                .rows
-                .iter()
-                .map(|r| self.frozen_row(r, up, inv))
-                .collect();
-            for _ in 0..self.settings.shock_propagation {
-                sweep(&frozen, &order, &mut vel, &mut z);
-            }
-        }
-        for (b, v) in self.bodies.iter_mut().zip(&vel) {
-            b.v = v[0];
-            b.omega = v[1];
-        }
-        (z, iterations)
-    }
-
-    /// The row with the lower of its two bodies given infinite mass.
-    fn frozen_row(&self, r: &Row, up: DVec3, inv: &[(f64, DMat3)]) -> Row {
-        let h = |b: Option<usize>| b.map_or(f64::NEG_INFINITY, |i| self.bodies[i].pose.x.dot(up));
-        let mut f = *r;
-        let _ = inv;
-        if let (Some(_), Some(_)) = (r.a, r.b) {
-            if h(r.a) < h(r.b) {
-                f.mj[0] = DVec3::ZERO;
-                f.mj[1] = DVec3::ZERO;
-            } else {
-                f.mj[2] = DVec3::ZERO;
-                f.mj[3] = DVec3::ZERO;
-            }
-            f.k = f.j[0].dot(f.mj[0])
-                + f.j[1].dot(f.mj[1])
-                + f.j[2].dot(f.mj[2])
-                + f.j[3].dot(f.mj[3]);
-        }
-        f
-    }
-
-    /// Delassus matrix `A = J M⁻¹ Jᵀ` (dense, row-major) and `q = J v_free − b`.
-    fn delassus(&self) -> (Vec<f64>, Vec<f64>) {
-        let n = self.rows.len();
-        let mut a = vec![0.0; n * n];
-        for (i, ri) in self.rows.iter().enumerate() {
-            for (j, rj) in self.rows.iter().enumerate().skip(i) {
-                let mut s = 0.0;
-                for (si, bi) in [(0usize, ri.a), (2usize, ri.b)] {
-                    let Some(bi) = bi else { continue };
-                    for (sj, bj) in [(0usize, rj.a), (2usize, rj.b)] {
-                        if Some(bi) == bj {
-                            s += ri.j[si].dot(rj.mj[sj]) + ri.j[si + 1].dot(rj.mj[sj + 1]);
-                        }
-                    }
-                }
-                a[i * n + j] = s;
-                a[j * n + i] = s;
-            }
-        }
-        let q = self
-            .rows
-            .iter()
-            .map(|r| self.row_rate(r) - r.bias)
-            .collect();
-        (a, q)
-    }
-
-    fn dense(
-        &mut self,
-        solver: ContactSolver,
-        z0: Vec<f64>,
-    ) -> Result<(Vec<f64>, usize), ContactError> {
-        let n = self.rows.len();
-        if n == 0 {
-            return Ok((Vec::new(), 0));
-        }
-        let (a, q) = self.delassus();
-        let mu: Vec<f64> = (0..self.contacts.len()).map(|c| self.mu(c)).collect();
-        let s = self.settings;
-        let pgs_settings = PgsSettings {
-            tolerance: s.tolerance,
-            max_iterations: s.iterations.max(10_000),
-            ..PgsSettings::default()
-        };
-        if solver == ContactSolver::Pgs && s.friction == FrictionModel::Boxed {
-            let lcp = Lcp::contact(a, q, &mu).map_err(ContactError::Lcp)?;
-            let sol = pgs(&lcp, &pgs_settings, Some(&z0)).map_err(ContactError::Lcp)?;
-            return Ok((sol.z, sol.iterations));
-        }
-        let sweeps = match s.friction {
-            FrictionModel::Staggered { sweeps } => sweeps.max(1),
-            FrictionModel::Boxed => 1,
-        };
-        // Staggered projections: normal rows 3k, friction rows 3k+1, 3k+2.
-        let nc = self.contacts.len();
-        let normal: Vec<usize> = (0..nc).map(|k| 3 * k).collect();
-        let tangent: Vec<usize> = (0..nc).flat_map(|k| [3 * k + 1, 3 * k + 2]).collect();
-        let mut z = z0;
-        let mut iterations = 0;
-        let sub = |rows: &[usize], cols: &[usize]| -> Vec<f64> {
-            let mut m = Vec::with_capacity(rows.len() * cols.len());
-            for &i in rows {
-                for &j in cols {
-                    m.push(a[i * n + j]);
-                }
-            }
-            m
-        };
-        let ann = sub(&normal, &normal);
-        let att = sub(&tangent, &tangent);
-        let frictionless = mu.iter().all(|m| *m == 0.0);
-        for _ in 0..sweeps {
-            // Normal LCP with the friction impulses fixed.
-            let qn: Vec<f64> = normal
-                .iter()
-                .map(|&i| q[i] + tangent.iter().map(|&j| a[i * n + j] * z[j]).sum::<f64>())
-                .collect();
-            let lcp = Lcp::new(ann.clone(), qn).map_err(ContactError::Lcp)?;
-            let zn0: Vec<f64> = normal.iter().map(|&i| z[i]).collect();
-            let lemke_settings = LemkeSettings {
-                tolerance: s.tolerance,
-                ..LemkeSettings::default()
-            };
-            let newton_settings = NewtonSettings {
-                tolerance: s.tolerance,
-                max_iterations: 200,
-                ..NewtonSettings::default()
-            };
-            // The requested solver first; where it fails (Newton stalls and Lemke loses
-            // accuracy on the semi-definite Delassus matrix of coplanar contact points),
-            // the others in turn, so a step fails only when all three do (the last
-            // error is returned). `ContactStats::residual` reports the accepted answer.
-            let order = match solver {
-                ContactSolver::Lemke => [
-                    ContactSolver::Lemke,
-                    ContactSolver::Newton,
-                    ContactSolver::Pgs,
-                ],
-                ContactSolver::Newton => [
-                    ContactSolver::Newton,
-                    ContactSolver::Lemke,
-                    ContactSolver::Pgs,
-                ],
-                _ => [
-                    ContactSolver::Pgs,
-                    ContactSolver::Newton,
-                    ContactSolver::Lemke,
-                ],
-            };
-            let mut result = Err(LcpError::BadSettings("no solver ran"));
-            for which in order {
-                result = match which {
-                    ContactSolver::Lemke => lemke(&lcp, &lemke_settings, None),
-                    ContactSolver::Newton => fischer_newton(&lcp, &newton_settings, Some(&zn0)),
-                    _ => pgs(&lcp, &pgs_settings, Some(&zn0)),
-                };
-                if result.is_ok() {
-                    break;
-                }
-            }
-            let sol = result.map_err(ContactError::Lcp)?;
-            iterations += sol.iterations;
-            for (k, &i) in normal.iter().enumerate() {
-                // The solvers return z ≥ 0 up to round-off; clamp so the friction bounds
-                // ±μ z_n stay ordered.
-                z[i] = sol.z[k].max(0.0);
-            }
-            if frictionless {
-                break;
-            }
-            // Boxed friction problem with the normal impulses fixed: projected
-            // Gauss–Seidel on the dense friction block to 1e-8. Its Delassus block is only
-            // semi-definite when a face touches at four coplanar points, where PGS can
-            // converge slowly; when it runs out of sweeps, a last budget of sweeps from
-            // the warm start is kept instead of failing the step (the whole LCP's residual
-            // is reported in `ContactStats`).
-            let qt: Vec<f64> = tangent
-                .iter()
-                .map(|&i| q[i] + normal.iter().map(|&j| a[i * n + j] * z[j]).sum::<f64>())
-                .collect();
-            let lo: Vec<f64> = tangent.iter().map(|&i| -mu[i / 3] * z[i - i % 3]).collect();
-            let hi: Vec<f64> = lo.iter().map(|v| -v).collect();
-            let zt0: Vec<f64> = tangent.iter().map(|&i| z[i]).collect();
-            let friction_settings = PgsSettings {
-                tolerance: 1e-8,
-                max_iterations: 10_000,
-                ..PgsSettings::default()
-            };
-            let lcp = Lcp::boxed(att.clone(), qt.clone(), lo, hi).map_err(ContactError::Lcp)?;
-            match pgs(&lcp, &friction_settings, Some(&zt0)) {
-                Ok(sol) => {
-                    iterations += sol.iterations;
-                    for (k, &i) in tangent.iter().enumerate() {
-                        z[i] = sol.z[k];
-                    }
-                }
-                Err(LcpError::IterationLimit { .. }) => {
-                    let nt = tangent.len();
-                    for _ in 0..10_000 {
-                        for (k, &i) in tangent.iter().enumerate() {
-                            let d = att[k * nt + k];
-                            if !(d > 0.0) {
-                                continue;
-                            }
-                            let mut w = qt[k];
-                            for (l, &j) in tangent.iter().enumerate() {
-                                w += att[k * nt + l] * z[j];
-                            }
-                            let bound = mu[i / 3] * z[i - i % 3];
-                            z[i] = (z[i] - w / d).clamp(-bound, bound);
-                        }
-                        iterations += 1;
-                    }
-                }
-                Err(e) => return Err(ContactError::Lcp(e)),
-            }
-        }
-        Ok((z, iterations))
-    }
-
     /// Natural-map residual of the contact LCP at `z` (velocities already updated).
     fn residual(&self, z: &[f64]) -> f64 {
         let mut worst: f64 = 0.0;
@@ -823,43 +557,6 @@ impl ContactWorld {
             worst = worst.max((z[i] - proj).abs());
         }
         worst / scale
-    }
-
-    /// Split impulses: Gauss–Seidel on the normal rows for pseudo velocities `(u, ψ)`
-    /// from zero with `J (u, ψ) ≥ push`, `z ≥ 0`; they move positions this step only.
-    fn pseudo_velocities(&self) -> Vec<(DVec3, DVec3)> {
-        let mut p = vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()];
-        if self.rows.iter().all(|r| r.push == 0.0) {
-            return p;
-        }
-        let mut z = vec![0.0; self.contacts.len()];
-        for _ in 0..self.settings.iterations {
-            for (k, zk) in z.iter_mut().enumerate() {
-                let r = &self.rows[3 * k];
-                if !(r.k > 0.0) {
-                    continue;
-                }
-                let mut rate = 0.0;
-                if let Some(i) = r.a {
-                    rate += r.j[0].dot(p[i].0) + r.j[1].dot(p[i].1);
-                }
-                if let Some(i) = r.b {
-                    rate += r.j[2].dot(p[i].0) + r.j[3].dot(p[i].1);
-                }
-                let new = (*zk - (rate - r.push) / r.k).max(0.0);
-                let dz = new - *zk;
-                *zk = new;
-                if let Some(i) = r.a {
-                    p[i].0 += r.mj[0] * dz;
-                    p[i].1 += r.mj[1] * dz;
-                }
-                if let Some(i) = r.b {
-                    p[i].0 += r.mj[2] * dz;
-                    p[i].1 += r.mj[3] * dz;
-                }
-            }
-        }
-        p
     }
 
     /// The impulses of the last step, three rows per contact (normal, two tangents).
