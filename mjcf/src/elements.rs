@@ -188,7 +188,11 @@ pub(crate) struct GeomData {
 }
 
 /// Attributes accepted and ignored on `geom` (visual only).
-const GEOM_IGNORED: [&str; 3] = ["rgba", "material", "group"];
+/// Visual attributes, and `solref` / `solimp` / `margin` / `gap`, which only set how soft
+/// MuJoCo's contact is (this library's contact is hard, with its own speculative margin).
+const GEOM_IGNORED: [&str; 7] = [
+    "rgba", "material", "group", "solref", "solimp", "margin", "gap",
+];
 
 impl GeomSpec {
     /// Applies one attribute (`name` and `class` are the caller's).

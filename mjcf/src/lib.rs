@@ -58,7 +58,8 @@
 //!   (capsule, box), `pos`, an orientation, `friction`, `density` (default 1000),
 //!   `mass` (overrides density: stored as the effective density `mass / volume`),
 //!   `contype`, `conaffinity`, `condim` only when 3; `name`, `rgba`, `material`, `group`
-//!   are visual and ignored. Planes only in static bodies, as MuJoCo requires.
+//!   are visual and ignored; `solref`, `solimp`, `margin`, `gap` (and `option cone`) only
+//!   tune MuJoCo's soft contact and are ignored (this library's contact is hard). Planes only in static bodies, as MuJoCo requires.
 //! - `equality`: `connect` with `body1` (required), `body2` (default world), `anchor`
 //!   (required), `name`, `active` only when true; `solref` / `solimp` accepted and ignored
 //!   (they set the softness of MuJoCo's connect; this library enforces it as a hard constraint).

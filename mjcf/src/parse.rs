@@ -30,7 +30,10 @@ const IGNORED_SECTIONS: [&str; 4] = ["size", "visual", "statistic", "asset"];
 /// Body children accepted and ignored: massless, collision-free markers and visuals.
 const IGNORED_IN_BODY: [&str; 3] = ["site", "camera", "light"];
 /// `option` attributes that only steer MuJoCo's solver, accepted and ignored.
-const SOLVER_ONLY_OPTIONS: [&str; 6] = [
+const SOLVER_ONLY_OPTIONS: [&str; 7] = [
+    // `cone`: MuJoCo's friction cone shape; this library's contact uses the pyramidal
+    // Coulomb cone whatever the file says.
+    "cone",
     "solver",
     "iterations",
     "ls_iterations",

@@ -116,10 +116,8 @@ fn two_joints_on_one_body() {
 #[test]
 fn unknown_or_dynamics_changing_attributes() {
     assert_eq!(
-        fail(&world(
-            "<body>\n<geom size=\"1\" solref=\"0.02 1\"/></body>"
-        )),
-        unsupported_attr("geom", "solref", 4)
+        fail(&world("<body>\n<geom size=\"1\" priority=\"1\"/></body>")),
+        unsupported_attr("geom", "priority", 4)
     );
     assert_eq!(
         fail(&world(
@@ -167,8 +165,8 @@ fn unknown_or_dynamics_changing_attributes() {
     );
     // Attribute errors in a default class point at the class's line.
     assert_eq!(
-        fail("<mujoco>\n<default>\n<geom margin=\"0.1\"/>\n</default></mujoco>"),
-        unsupported_attr("geom", "margin", 3)
+        fail("<mujoco>\n<default>\n<geom priority=\"1\"/>\n</default></mujoco>"),
+        unsupported_attr("geom", "priority", 3)
     );
     assert_eq!(
         fail("<mujoco><keyframe><key ctrl=\"1\"/></keyframe></mujoco>"),

@@ -3,6 +3,7 @@
 use std::path::Path;
 
 use constraint_articulated::{Method, MjcfScene};
+use constraint_contact::mjcf::MjcfContactScene;
 
 use crate::trajectory::Trajectory;
 
@@ -94,8 +95,16 @@ pub struct RunOptions {
 /// multiples of the step) and the wall time spent stepping (s). Any error, including
 /// divergence, is one line of text.
 pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> {
-    let mut scene =
-        MjcfScene::from_file(path, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
+    let model = constraint_mjcf::load_file(path).map_err(|e| format!("scene: {e}"))?;
+    let collides = !model.contact_disabled
+        && model
+            .geoms
+            .iter()
+            .any(|g| g.contype != 0 || g.conaffinity != 0);
+    if collides {
+        return run_contact(&model, opts);
+    }
+    let mut scene = MjcfScene::new(&model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
     let h = opts.dt.unwrap_or(scene.timestep);
     if !(h > 0.0) || !h.is_finite() {
         return Err(format!("time step must be positive and finite, got {h}"));
@@ -124,6 +133,54 @@ pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> 
         if i % opts.every as u64 == 0 {
             stepping += start.elapsed().as_secs_f64();
             traj.push(i as f64 * h, &scene.world);
+            start = std::time::Instant::now();
+        }
+    }
+    stepping += start.elapsed().as_secs_f64();
+    Ok((traj, stepping))
+}
+
+/// A scene with collision geoms: free bodies in a [`ContactWorld`] (the contact crate's
+/// defaults; `--method` is ignored). The trailing `C_max` column holds the deepest
+/// penetration before each step.
+fn run_contact(
+    model: &constraint_mjcf::Model,
+    opts: &RunOptions,
+) -> Result<(Trajectory, f64), String> {
+    let mut scene =
+        MjcfContactScene::new(model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
+    let h = opts.dt.unwrap_or(scene.timestep);
+    if !(h > 0.0) || !h.is_finite() {
+        return Err(format!("time step must be positive and finite, got {h}"));
+    }
+    if !(opts.duration >= 0.0) || !opts.duration.is_finite() {
+        return Err(format!(
+            "duration must be non-negative and finite, got {}",
+            opts.duration
+        ));
+    }
+    if opts.every == 0 {
+        return Err("--every must be at least 1".into());
+    }
+    let steps = (opts.duration / h).round() as u64;
+    if steps > 1_000_000_000 {
+        return Err(format!("{steps} steps is too many"));
+    }
+    let energy = |w: &constraint_contact::rigid::ContactWorld| {
+        let k: f64 = w.bodies().iter().map(|b| b.kinetic_energy()).sum();
+        (k, w.energy() - k)
+    };
+    let mut traj = Trajectory::for_bodies(&scene.body_names);
+    let (k, p) = energy(&scene.world);
+    traj.push_bodies(0.0, scene.world.bodies(), k, p, 0.0);
+    let mut start = std::time::Instant::now();
+    let mut stepping = 0.0;
+    for i in 1..=steps {
+        let st = scene.world.step(h).map_err(|e| e.to_string())?;
+        if i % opts.every as u64 == 0 {
+            stepping += start.elapsed().as_secs_f64();
+            let (k, p) = energy(&scene.world);
+            traj.push_bodies(i as f64 * h, scene.world.bodies(), k, p, st.max_penetration);
             start = std::time::Instant::now();
         }
     }

@@ -7,7 +7,7 @@
 
 use std::fmt::Write as _;
 
-use constraint_articulated::World;
+use constraint_articulated::{RigidBody, World};
 
 /// A trajectory: column names and rows of numbers.
 #[derive(Clone, Debug, PartialEq)]
@@ -41,17 +41,23 @@ impl Trajectory {
 
     /// Appends the world's state at time `t`.
     pub fn push(&mut self, t: f64, world: &World) {
+        let (k, p) = world.energy();
+        self.push_bodies(t, world.bodies(), k, p, world.max_separation());
+    }
+
+    /// Appends a row from bodies and the trailing columns (kinetic and potential energy,
+    /// largest constraint violation or penetration).
+    pub fn push_bodies(&mut self, t: f64, bodies: &[RigidBody], kin: f64, pot: f64, c_max: f64) {
         let mut row = Vec::with_capacity(self.header.len());
         row.push(t);
-        for b in world.bodies() {
+        for b in bodies {
             let o = b.origin();
             let q = b.orientation();
             row.extend_from_slice(&[
                 o.x, o.y, o.z, q.w, q.x, q.y, q.z, b.pose.x.x, b.pose.x.y, b.pose.x.z,
             ]);
         }
-        let (k, p) = world.energy();
-        row.extend_from_slice(&[k, p, k + p, world.max_separation()]);
+        row.extend_from_slice(&[kin, pot, kin + pot, c_max]);
         self.rows.push(row);
     }
 
