@@ -14,6 +14,7 @@
 
 mod bench;
 mod compare;
+mod fuzz;
 mod mujoco;
 mod no_std;
 mod run;
@@ -39,7 +40,9 @@ commands:
            [--method velocity|projected|shake|baumgarte|acceleration] --out FILE.csv
                      run the scene with this library (maximal coordinates) and write its trajectory
   compare A.csv B.csv
-                     max COM, orientation and body-origin error between two trajectory files";
+                     max COM, orientation and body-origin error between two trajectory files
+  fuzz [--seconds N] [TARGET...]
+                     run the cargo-fuzz targets of fuzz/ for N seconds each (default 60)";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -49,6 +52,7 @@ fn main() -> ExitCode {
         Some("bench") => bench::main(&args[1..]),
         Some("mujoco") => mujoco::main(&args[1..]),
         Some("compare") => compare::main(&args[1..]),
+        Some("fuzz") => fuzz::main(&args[1..]),
         Some("simulate") => simulate::main(&args[1..]),
         Some("-h" | "--help" | "help") | None => {
             println!("{USAGE}");

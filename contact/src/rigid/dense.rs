@@ -175,7 +175,7 @@ impl ContactWorld {
                                 w += att[k * nt + l] * z[j];
                             }
                             let bound = mu[i / 3] * z[i - i % 3];
-                            z[i] = (z[i] - w / d).clamp(-bound, bound);
+                            z[i] = (z[i] - w / d).min(bound).max(-bound); // NaN-safe, see sequential.rs
                         }
                         iterations += 1;
                     }

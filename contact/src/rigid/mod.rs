@@ -553,7 +553,7 @@ impl ContactWorld {
             let w = self.row_rate(r) - r.bias;
             scale = scale.max(w.abs());
             let (lo, hi) = self.bounds(i, z);
-            let proj = (z[i] - w).clamp(lo, hi);
+            let proj = (z[i] - w).min(hi).max(lo); // NaN-safe, see sequential.rs
             worst = worst.max((z[i] - proj).abs());
         }
         worst / scale

@@ -60,7 +60,10 @@ impl ContactWorld {
                     let m = mu[i / 3] * z[i - i % 3];
                     (-m, m)
                 };
-                let new = (z[i] - (rate - r.bias) / r.k).clamp(lo, hi);
+                // `min`/`max`, not `clamp`: an overflowing state gives NaN bounds, and `clamp`
+                // panics on those (fuzz crash world_step-0c30798a); the divergence check
+                // of `step` then rejects the state.
+                let new = (z[i] - (rate - r.bias) / r.k).min(hi).max(lo);
                 let dz = new - z[i];
                 if dz != 0.0 {
                     z[i] = new;
