@@ -13,6 +13,11 @@
 //!   MuJoCo's committed points, and the joint drift of the 20-link chain.
 //! * [`contact_report`] measures the contact LCP solvers' residual against run time on
 //!   the LCPs of stacks and pyramids, and the contact scenes' error against run time.
+//! * [`articulated_stability`] classifies the articulated formulations on the ball
+//!   chain over time step × mass ratio, chain length and initial violation, drawn by
+//!   [`heatmap`].
+//! * [`deps`] lists what each scene family compiles (`cargo tree`) and runs.
+//! * [`html`] turns the Markdown report into one self-contained HTML page.
 //!
 //! The binary `verify-report` (run by `cargo xtask verify`) writes the sweeps to
 //! `target/verify/`. The integration tests (`tests/`) apply the checks:
@@ -28,10 +33,14 @@
 #![deny(missing_docs)]
 
 pub mod articulated_report;
+pub mod articulated_stability;
 pub mod chart;
 pub mod contact_report;
+pub mod deps;
 pub mod fd;
 pub mod hard;
+pub mod heatmap;
+pub mod html;
 pub mod scene;
 pub mod sweeps;
 pub mod trajectory;

@@ -4,10 +4,19 @@
 //! (`articulated_<scene>.svg`, `articulated_chain20_drift.svg`,
 //! `articulated_work_precision.csv`; see `constraint_verify::articulated_report`), and
 //! the contact section (`contact_lcp_residual.svg`, `contact_<scene>.svg`,
-//! `contact_lcp.csv`, `contact_scenes.csv`; see `constraint_verify::contact_report`).
+//! `contact_lcp.csv`, `contact_scenes.csv`; see `constraint_verify::contact_report`),
+//! the articulated stability map (`articulated_stability_<axis>.svg`,
+//! `articulated_stability.csv`; see `constraint_verify::articulated_stability`), the
+//! cloth stability heat map (`cloth_stability.svg`), the dependency listing per scene
+//! family (`constraint_verify::deps`), and `report.html`: `sweeps.md` as one
+//! self-contained page with every chart inline (`constraint_verify::html`).
 //!
 //! `cargo run --release -p constraint-verify --bin verify-report -- [--quick] [--out DIR]`
 //! (normally called by `cargo xtask verify`).
+//!
+//! `verify-report --html REPORT.md [PAGE.html]` only converts a report (default page:
+//! `REPORT.html` beside it), inlining the SVG charts it links; `cargo xtask verify` can
+//! call it once it has written `report.md`, so the page has the checks table too.
 
 use constraint_verify::chart::{LogLogChart, Series};
 use constraint_verify::sweeps::{
@@ -71,6 +80,15 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
+            "--html" => {
+                let md = PathBuf::from(args.next().ok_or("--html needs a Markdown file")?);
+                let page = args
+                    .next()
+                    .map_or_else(|| md.with_extension("html"), PathBuf::from);
+                constraint_verify::html::convert_file(&md, &page)?;
+                eprintln!("  wrote {}", page.display());
+                return Ok(());
+            }
             "--quick" => quick = true,
             "--out" => out = PathBuf::from(args.next().ok_or("--out needs a folder")?),
             other => return Err(format!("unknown argument {other:?}").into()),
@@ -134,6 +152,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let total: usize = rows.iter().map(|r| r.outcomes.len()).sum();
     let _ = writeln!(md, "\n{stable} of {total} runs bounded.\n");
     std::fs::write(out.join("stability.csv"), csv)?;
+    std::fs::write(
+        out.join("cloth_stability.svg"),
+        cloth_heat_map(&rows, &p).to_svg(),
+    )?;
+    let _ = writeln!(md, "![cloth stability map](cloth_stability.svg)\n");
 
     // Work-precision.
     let t0 = Instant::now();
@@ -314,9 +337,84 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         "    contact section done in {:.1} s",
         t0.elapsed().as_secs_f64()
     );
-    std::fs::write(out.join("sweeps.md"), md)?;
+    let t0 = Instant::now();
+    let panics = constraint_verify::articulated_stability::section(&mut md, &out, quick)?;
+    let stab_secs = t0.elapsed().as_secs_f64();
+    eprintln!("    articulated stability map done in {stab_secs:.1} s ({panics} panics)");
+    let t0 = Instant::now();
+    eprintln!("  dependency listing (cargo tree per scene family)");
+    constraint_verify::deps::section(&mut md, &constraint_verify::articulated_report::root());
+    let deps_secs = t0.elapsed().as_secs_f64();
+    eprintln!("    done in {deps_secs:.1} s");
+    std::fs::write(out.join("sweeps.md"), &md)?;
     eprintln!("  wrote {}", out.join("sweeps.md").display());
+    // The page: the sweeps under a title (xtask's report.md adds the checks table; see
+    // `--html` to convert that file instead).
+    let page = format!(
+        "# Verification report: sweeps\n\nMode `{}`. The same sections as `report.md` after its checks table; \
+         charts inline.\n\n{md}",
+        if quick { "quick" } else { "full" }
+    );
+    constraint_verify::html::write_page(&page, &out, &out.join("report.html"))?;
+    eprintln!("  wrote {}", out.join("report.html").display());
+    if panics > 0 {
+        return Err(format!("articulated stability map: {panics} cell(s) panicked").into());
+    }
     Ok(())
+}
+
+/// The cloth stability map as a heat map: one panel per method, h × k.
+fn cloth_heat_map(
+    rows: &[constraint_verify::sweeps::StabilityRow],
+    p: &Plan,
+) -> constraint_verify::heatmap::HeatMap {
+    use constraint_verify::heatmap::{tick, Class, HeatMap, Panel};
+    let class = |o: &Outcome| match o {
+        Outcome::Stable => 0,
+        Outcome::NotConverged => 1,
+        Outcome::EnergyGrowth => 2,
+        Outcome::Diverged => 3,
+        Outcome::SolverFailed => 4,
+    };
+    let c = |label: &str, color, symbol| Class {
+        label: label.into(),
+        color,
+        symbol,
+    };
+    HeatMap {
+        title: format!("Cloth {n}×{n}: stiffness × time step", n = p.stab_n),
+        x_label: "h (s)".into(),
+        y_label: "k (N/m)".into(),
+        x_ticks: p.hs.iter().map(|&h| tick(h)).collect(),
+        y_ticks: p.ks.iter().map(|&k| tick(k)).collect(),
+        classes: vec![
+            c("bounded", "#8fd18f", "✓"),
+            c("bounded, CG at its limit", "#cde8a0", "~"),
+            c("energy above E(0) + 0.1 MgL", "#f3d36b", "↑"),
+            c("typed divergence", "#e06666", "✗"),
+            c("linear solver failed", "#a64d79", "!"),
+        ],
+        panels: Method::ALL
+            .iter()
+            .map(|m| Panel {
+                title: m.label(),
+                cells: p
+                    .ks
+                    .iter()
+                    .map(|k| {
+                        rows.iter()
+                            .find(|r| r.method == *m && r.k == *k)
+                            .map_or_else(
+                                || vec![None; p.hs.len()],
+                                |r| r.outcomes.iter().map(|o| Some(class(o))).collect(),
+                            )
+                    })
+                    .collect(),
+            })
+            .collect(),
+        columns: 3,
+        note: format!("{} s from rest; classes as in the table.", p.stab_t),
+    }
 }
 
 /// Drift chart and soft-versus-hard strain chart (lagrange crate).
@@ -339,7 +437,7 @@ fn hard_sections(
     );
     let _ = writeln!(
         md,
-        "| formulation | max |C| first second (m) | max |C| whole run (m) |\n|---|---|---|"
+        "| formulation | max \\|C\\| first second (m) | max \\|C\\| whole run (m) |\n|---|---|---|"
     );
     for (k, name) in DRIFT_METHODS.iter().enumerate() {
         match chain_drift(k, h, secs, 0.05) {
