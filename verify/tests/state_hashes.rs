@@ -103,3 +103,54 @@ fn catalogue_state_hashes_are_deterministic_and_pinned() {
         mismatches.join("\n")
     );
 }
+
+/// The MJCF contact scenes (contact world, default solver), 300 steps at the files'
+/// steps: same hash twice, and pinned.
+#[test]
+fn contact_scene_hashes_are_deterministic_and_pinned() {
+    use constraint_contact::mjcf::MjcfContactScene;
+    let run = |scene: &str, key: Option<&str>| {
+        let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("../scenes/{scene}.xml"));
+        let mut s = MjcfContactScene::from_file(&path, key).unwrap();
+        for _ in 0..300 {
+            s.world.step(s.timestep).unwrap();
+        }
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        for b in s.world.bodies() {
+            for v in b
+                .pose
+                .x
+                .to_array()
+                .into_iter()
+                .chain([b.pose.q.w, b.pose.q.x, b.pose.q.y, b.pose.q.z])
+            {
+                fnv1a(&mut h, v);
+            }
+            for v in b.v.to_array().into_iter().chain(b.omega.to_array()) {
+                fnv1a(&mut h, v);
+            }
+        }
+        h
+    };
+    let print = std::env::var("PRINT_STATE_HASHES").is_ok();
+    let mut mismatches = Vec::new();
+    for (scene, key, pinned) in [
+        ("sphere_drop", Some("start"), 0x4b4d2923e0e4b796u64),
+        ("sliding_box", Some("start"), 0x1acfdf02e8bbc796),
+        ("box_stack", None, 0x2907a46c5aee425b),
+    ] {
+        let (a, b) = (run(scene, key), run(scene, key));
+        assert_eq!(a, b, "{scene}: two runs differ");
+        if print {
+            println!("{scene}: {a:#018x}");
+        }
+        if a != pinned {
+            mismatches.push(format!("{scene}: {a:#018x} (pinned {pinned:#018x})"));
+        }
+    }
+    assert!(
+        mismatches.is_empty(),
+        "state hashes changed:\n{}",
+        mismatches.join("\n")
+    );
+}
