@@ -136,6 +136,10 @@ impl RigidBody {
         if ev[2] > (ev[0] + ev[1]) * (1.0 + 1e-9) {
             return Err(bad("principal moments violate the triangle inequality"));
         }
+        let inv_inertia = inertia.inverse();
+        if !inv_inertia.is_finite() || !(1.0 / mass).is_finite() {
+            return Err(bad("mass and inertia must have finite inverses"));
+        }
         if !pose.x.is_finite() || !pose.q.is_finite() {
             return Err(bad("pose must be finite"));
         }
@@ -152,7 +156,7 @@ impl RigidBody {
             v: DVec3::ZERO,
             omega: DVec3::ZERO,
             com: DVec3::ZERO,
-            inv_inertia: inertia.inverse(),
+            inv_inertia,
             i_min: ev[0],
         })
     }

@@ -34,6 +34,17 @@ fn finite(v: &[DVec3]) -> Result<(), ConstraintError> {
     }
 }
 
+/// A rest pose must be finite with a unit (to 1e-6) quaternion.
+fn pose_ok(p: &Pose) -> Result<(), ConstraintError> {
+    if !p.x.is_finite() || !p.q.is_finite() {
+        return Err(ConstraintError::NonFinite);
+    }
+    if (p.q.length() - 1.0).abs() > 1e-6 {
+        return Err(ConstraintError::NonUnitQuaternion);
+    }
+    Ok(())
+}
+
 fn unit(axis: DVec3) -> Result<DVec3, ConstraintError> {
     if !axis.is_finite() {
         return Err(ConstraintError::NonFinite);
@@ -121,6 +132,8 @@ pub struct Spherical {
 impl Spherical {
     /// A joint at the world point `anchor` between bodies at rest poses `a` and `b`.
     pub fn from_world(a: &Pose, b: &Pose, anchor: DVec3) -> Result<Self, ConstraintError> {
+        pose_ok(a)?;
+        pose_ok(b)?;
         finite(&[a.x, b.x, anchor])?;
         Ok(Self::new(a.to_local(anchor), b.to_local(anchor)))
     }
@@ -191,6 +204,8 @@ impl Hinge {
         anchor: DVec3,
         axis: DVec3,
     ) -> Result<Self, ConstraintError> {
+        pose_ok(a)?;
+        pose_ok(b)?;
         finite(&[a.x, b.x, anchor])?;
         let u = unit(axis)?;
         let (n1, n2) = u.any_orthonormal_pair();
@@ -282,6 +297,8 @@ impl Prismatic {
         anchor: DVec3,
         axis: DVec3,
     ) -> Result<Self, ConstraintError> {
+        pose_ok(a)?;
+        pose_ok(b)?;
         finite(&[a.x, b.x, anchor])?;
         let u = unit(axis)?;
         let (n1, n2) = u.any_orthonormal_pair();
@@ -362,6 +379,8 @@ impl Fixed {
 
     /// A weld at the world point `anchor` for bodies at rest poses `a` and `b`.
     pub fn from_world(a: &Pose, b: &Pose, anchor: DVec3) -> Result<Self, ConstraintError> {
+        pose_ok(a)?;
+        pose_ok(b)?;
         finite(&[a.x, b.x, anchor])?;
         Ok(Self {
             point: Point {
@@ -416,8 +435,13 @@ impl DistanceJoint {
     /// A rod between world points `p_a` (on `a`) and `p_b` (on `b`) at rest; its length is
     /// the rest length. Errors: non-finite input, coincident points (`ZeroRestLength`).
     pub fn from_world(a: &Pose, b: &Pose, p_a: DVec3, p_b: DVec3) -> Result<Self, ConstraintError> {
+        pose_ok(a)?;
+        pose_ok(b)?;
         finite(&[a.x, b.x, p_a, p_b])?;
         let rest_length = (p_b - p_a).length();
+        if !rest_length.is_finite() {
+            return Err(ConstraintError::NonFinite);
+        }
         if !(rest_length > 1e-12) {
             return Err(ConstraintError::ZeroRestLength);
         }

@@ -402,6 +402,31 @@ pub fn solve_kkt(
     x: &mut [DVec3],
     lambda: &mut [f64],
 ) -> Result<KktStats, KktError> {
+    // Non-finite input, or a solve that overflows (a zero mass, 1e300 entries, a tiny
+    // compliance against a huge right-hand side), is an error, never an `Ok` holding
+    // NaN or infinity.
+    let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+    if !problem.b.iter().all(|b| b.is_finite())
+        || !finite(problem.c)
+        || !finite(problem.compliance)
+        || !problem.rows.blocks().iter().all(|b| b.is_finite())
+    {
+        return Err(KktError::Solve(SolveError::NonFinite));
+    }
+    let stats = solve_kkt_unchecked(problem, solver, ws, x, lambda)?;
+    if !x.iter().all(|v| v.is_finite()) || !finite(lambda) || !stats.residual.is_finite() {
+        return Err(KktError::Solve(SolveError::NonFinite));
+    }
+    Ok(stats)
+}
+
+fn solve_kkt_unchecked(
+    problem: &KktProblem<'_>,
+    solver: KktSolver,
+    ws: &mut KktWorkspace,
+    x: &mut [DVec3],
+    lambda: &mut [f64],
+) -> Result<KktStats, KktError> {
     problem.check()?;
     check_solver(solver)?;
     let n = problem.mass.points();

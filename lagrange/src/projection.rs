@@ -124,7 +124,14 @@ impl FastProjection {
                 st.converged = true;
                 return Ok(st);
             }
-            if st.iterations == self.max_iterations || !err.is_finite() {
+            if !err.is_finite() || !x.iter().all(|p| p.is_finite()) {
+                // Non-finite input positions (or an update that overflowed): an error,
+                // never an `Ok` with NaN positions.
+                return Err(LagrangeError::Kkt(crate::kkt::KktError::Solve(
+                    crate::solve::SolveError::NonFinite,
+                )));
+            }
+            if st.iterations == self.max_iterations {
                 return Ok(st);
             }
             let m = self.rows.len();

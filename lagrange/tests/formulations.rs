@@ -547,10 +547,18 @@ fn nan_states_and_bad_parameters_are_not_reported_as_converged() {
     let mut x = sys.x.clone();
     x[2].x = f64::NAN;
     let mut p = FastProjection::new(1e-6, 10, KktSolver::DenseSchur).expect("tol");
-    let st = p
-        .project(sys.masses(), sys.pinned(), &cons, &mut x)
-        .expect("project");
-    assert!(!st.converged && st.r#final.is_nan(), "{st:?}");
+    // A NaN position is a typed error (it was an `Ok` marked not converged with a NaN
+    // residual until the bad-input sweep of issue 7 asked for errors).
+    let r = p.project(sys.masses(), sys.pinned(), &cons, &mut x);
+    assert!(
+        matches!(
+            r,
+            Err(LagrangeError::Kkt(constraint_lagrange::KktError::Solve(
+                constraint_lagrange::solve::SolveError::NonFinite
+            )))
+        ),
+        "{r:?}"
+    );
     assert!(matches!(
         FastProjection::new(1e-3, 0, KktSolver::DenseSchur),
         Err(LagrangeError::InvalidParameter("max_iterations"))

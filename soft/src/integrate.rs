@@ -24,6 +24,18 @@ pub trait Integrator {
     fn step(&mut self, sys: &mut SoftSystem) -> Result<SolveStats, SoftError>;
 }
 
+/// Gravity must be finite (a NaN or infinite field would otherwise reach the solver).
+fn check_gravity(sys: &SoftSystem) -> Result<(), SoftError> {
+    if sys.gravity.is_finite() {
+        Ok(())
+    } else {
+        Err(SoftError::InvalidParameter {
+            name: "gravity",
+            rule: "must be finite",
+        })
+    }
+}
+
 fn check_h(h: f64) -> Result<f64, SoftError> {
     if h > 0.0 && h.is_finite() {
         Ok(h)
@@ -91,6 +103,7 @@ impl Integrator for SymplecticEuler {
 
     fn step(&mut self, sys: &mut SoftSystem) -> Result<SolveStats, SoftError> {
         sys.check_lengths()?;
+        check_gravity(sys)?;
         let n = sys.len();
         self.f.resize(n, DVec3::ZERO);
         sys.forces(true, &mut self.f);
@@ -220,6 +233,7 @@ impl ImplicitEuler {
     /// Assembles `A = M − h∂F/∂v − h²∂F/∂x` and `b = M v + h F_nd` for the current state.
     pub fn assemble(&mut self, sys: &mut SoftSystem) -> Result<(), SoftError> {
         sys.check_lengths()?;
+        check_gravity(sys)?;
         if self.topology != Some(sys.topology) {
             self.rebuild(sys)?;
         }

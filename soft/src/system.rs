@@ -219,6 +219,12 @@ impl SoftSystem {
         const LIMIT: f64 = 1e12;
         x.iter()
             .zip(v)
-            .position(|(x, v)| !(x.abs().max_element() < LIMIT && v.abs().max_element() < LIMIT))
+            // `is_finite` first: glam's `max_element` drops a NaN component.
+            .position(|(x, v)| {
+                !(x.is_finite()
+                    && v.is_finite()
+                    && x.abs().max_element() < LIMIT
+                    && v.abs().max_element() < LIMIT)
+            })
     }
 }

@@ -126,10 +126,9 @@ fn contact_step_with_overflowing_state_does_not_panic() {
 
 /// Fuzz crash `kkt_solvers` crash-56c7c419: one empty row with compliance 8.6e-308 and
 /// `c = 1.1e45` gives `λ = c/D = ∞`, returned as `Ok` by `solve_kkt` (Auto → dense
-/// Schur). Open library finding (reported on issue 7, not fixed here): `solve_kkt`
-/// checks neither its inputs' nor its output's finiteness.
+/// Schur). Fixed: `solve_kkt` now checks its inputs' and its output's finiteness and
+/// returns `KktError::Solve(SolveError::NonFinite)`.
 #[test]
-#[ignore = "open finding: solve_kkt returns Ok with an infinite multiplier"]
 fn kkt_tiny_compliance_overflows_lambda() {
     use constraint_lagrange::{
         solve_kkt, ConstraintRows, KktProblem, KktSolver, KktWorkspace, MassMatrix,

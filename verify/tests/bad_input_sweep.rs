@@ -139,44 +139,7 @@ fn mutating<E>(before: Vec<f64>, r: Result<(), E>, after: Vec<f64>, what: &str) 
 /// panics are fixed in this change). A non-finite `Ok` in a case whose name starts
 /// with one of these prefixes is counted in the printed figure but does not fail the
 /// test; anything else does. Remove an entry when its bug is fixed.
-const OPEN_FINDINGS: &[(&str, &str)] = &[
-    (
-        "DistanceJoint::from_world",
-        "core: 1e300 anchors give an infinite rest length (|p_b - p_a| overflows)",
-    ),
-    (
-        "Spherical::from_world quat",
-        "core: from_world checks positions but not the poses' quaternions",
-    ),
-    (
-        "Hinge::from_world quat",
-        "core: from_world checks positions but not the poses' quaternions",
-    ),
-    (
-        "x[1] x=NaN / step",
-        "soft: SoftSystem::first_bad uses abs().max_element(), which drops a NaN",
-    ),
-    (
-        "v[1] x=NaN / step",
-        "soft: SoftSystem::first_bad uses abs().max_element(), which drops a NaN",
-    ),
-    (
-        "gravity ",
-        "soft: steps accept a non-finite gravity (and first_bad misses NaN)",
-    ),
-    (
-        "solve_kkt ",
-        "lagrange: solve_kkt checks neither its inputs' nor its output's finiteness",
-    ),
-    (
-        "FastProjection::project x[1]",
-        "lagrange: project returns Ok with non-finite positions",
-    ),
-    (
-        "RigidBody::new inertia diag=",
-        "articulated: accepts an inertia whose inverse is non-finite (1e300, subnormal)",
-    ),
-];
+const OPEN_FINDINGS: &[(&str, &str)] = &[];
 
 fn open_finding(case: &str) -> Option<&'static str> {
     OPEN_FINDINGS
