@@ -200,6 +200,24 @@ pub fn main(args: &[String]) -> Result<(), String> {
     let report = out.join("report.md");
     std::fs::write(&report, md).map_err(|e| e.to_string())?;
     let sweep_ok = bad_input_sweep(&report);
+    // The same report as one self-contained HTML page, charts inline.
+    let mut html = cargo();
+    html.args([
+        "run",
+        "--release",
+        "--quiet",
+        "-p",
+        "constraint-verify",
+        "--bin",
+        "verify-report",
+        "--",
+        "--html",
+    ]);
+    html.arg(&report).arg(out.join("report.html"));
+    let (html_ok, _) = status(&mut html);
+    if !html_ok {
+        eprintln!("warning: report.html was not written (the markdown report is complete)");
+    }
 
     eprintln!("\nsummary:");
     for s in &stages {
@@ -211,6 +229,9 @@ pub fn main(args: &[String]) -> Result<(), String> {
         );
     }
     eprintln!("report: {}", report.display());
+    if html_ok {
+        eprintln!("        {}", out.join("report.html").display());
+    }
     let mut failed: Vec<&str> = stages.iter().filter(|s| !s.ok).map(|s| s.name).collect();
     if !sweep_ok {
         failed.push("bad-input sweep");
