@@ -349,7 +349,7 @@ impl World {
                 let (it, ok) = self.rattle_step(h, tolerance, max_iterations)?;
                 stats.projection_iterations = it;
                 if !ok {
-                    self.fall_back(start, h, &mut stats)?;
+                    self.fall_back(start, h, tolerance, max_iterations, &mut stats)?;
                 }
             }
             Method::Rattle4 {
@@ -363,7 +363,7 @@ impl World {
                     let (it, ok) = self.rattle_step(w * h, tolerance, max_iterations)?;
                     stats.projection_iterations += it;
                     if !ok {
-                        self.fall_back(start.clone(), h, &mut stats)?;
+                        self.fall_back(start.clone(), h, tolerance, max_iterations, &mut stats)?;
                         break;
                     }
                 }

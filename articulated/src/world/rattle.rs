@@ -8,17 +8,23 @@ use constraint_core::{DVec3, Pose};
 use super::*;
 
 impl World {
-    /// Restores `start` and redoes the step with the velocity level.
+    /// Restores `start` and redoes the step with the velocity level (with its geometric
+    /// stiffness), then projects the positions back onto the joints (`tolerance`), so a
+    /// fallback step keeps the joints as tight as a RATTLE step.
     pub(super) fn fall_back(
         &mut self,
         start: (Vec<RigidBody>, Vec<[f64; MAX_ROWS]>),
         h: f64,
+        tolerance: f64,
+        max_iterations: usize,
         stats: &mut StepStats,
     ) -> Result<(), ArticulatedError> {
         self.bodies = start.0;
         self.impulses = start.1;
         stats.fallbacks += 1;
-        self.velocity_solve(h, 1.0)
+        self.velocity_solve(h, 1.0)?;
+        stats.projection_iterations += self.project(tolerance, max_iterations, None)?;
+        Ok(())
     }
 
     /// One RATTLE step of `h` (may be negative inside a Yoshida composition). Returns
