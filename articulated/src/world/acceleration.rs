@@ -45,7 +45,7 @@ impl World {
             (g * b.mass, -w.cross(*iw * w))
         });
         for (i, (f, t)) in damp.iter().enumerate() {
-            let o = self.solver.as_ref().map_or(0, |s| s.body_offset(i));
+            let o = self.solver.body_offset(i);
             for c in 0..3 {
                 self.rhs[o + c] += f[c];
                 self.rhs[o + 3 + c] += t[c];

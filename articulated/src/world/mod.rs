@@ -149,7 +149,9 @@ pub struct World {
     /// Gravity (m/s²).
     pub gravity: DVec3,
     steps: u64,
-    solver: Option<TreeSolver>,
+    solver: TreeSolver,
+    /// The topology changed since `solver` was built.
+    solver_stale: bool,
     rhs: Vec<f64>,
     mu: Vec<f64>,
     saved: Vec<RigidBody>,
@@ -169,7 +171,8 @@ impl World {
             joints: Vec::new(),
             gravity,
             steps: 0,
-            solver: None,
+            solver: TreeSolver::new(0, &[]),
+            solver_stale: true,
             rhs: Vec::new(),
             mu: Vec::new(),
             saved: Vec::new(),
@@ -194,7 +197,7 @@ impl World {
         checked.omega = body.omega;
         checked.com = body.com;
         self.bodies.push(checked);
-        self.solver = None;
+        self.solver_stale = true;
         Ok(i)
     }
 
@@ -214,7 +217,7 @@ impl World {
             return Err(bad("damping must be finite and non-negative"));
         }
         self.joints.push(joint);
-        self.solver = None;
+        self.solver_stale = true;
         Ok(j)
     }
 
@@ -265,7 +268,7 @@ impl World {
     /// Number of loop-closure joints (joints outside the spanning tree).
     pub fn loop_joints(&mut self) -> usize {
         self.ensure_solver();
-        self.solver.as_ref().map_or(0, |s| s.loops.len())
+        self.solver.loops.len()
     }
 
     fn topo(&self, with_damping: bool) -> Vec<JointTopo> {
@@ -280,8 +283,9 @@ impl World {
     }
 
     fn ensure_solver(&mut self) {
-        if self.solver.is_none() {
-            self.solver = Some(TreeSolver::new(self.bodies.len(), &self.topo(true)));
+        if self.solver_stale {
+            self.solver = TreeSolver::new(self.bodies.len(), &self.topo(true));
+            self.solver_stale = false;
         }
     }
 
@@ -380,7 +384,7 @@ impl World {
         with_damping: bool,
         mut joint_rhs: impl FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]),
     ) -> LoopRows {
-        let solver = self.solver.as_mut().expect("solver built by ensure_solver");
+        let solver = &mut self.solver;
         let mut loop_rows = Vec::new();
         let mut loop_c = Vec::new();
         let mut loop_rhs = Vec::new();
@@ -423,14 +427,14 @@ impl World {
     }
 
     fn solve(&mut self, loops: LoopRows) -> Result<(), ArticulatedError> {
-        let solver = self.solver.as_mut().expect("solver built by ensure_solver");
+        let solver = &mut self.solver;
         solver.factor()?;
         self.solve_factored(&loops)
     }
 
     /// Solves with the factor already in the solver (loop rows as assembled with it).
     fn solve_factored(&mut self, loops: &LoopRows) -> Result<(), ArticulatedError> {
-        let solver = self.solver.as_mut().expect("solver built by ensure_solver");
+        let solver = &mut self.solver;
         let (rows, c, r) = loops;
         let mut free_scale: f64 = 0.0;
         for (a, b, row) in rows {
@@ -450,10 +454,10 @@ impl World {
     /// Loads every body's mass block `diag(m) ⊕ R I Rᵀ` into the solver and its
     /// right-hand side `f(body, R, I_world)`.
     fn body_rhs(&mut self, f: impl Fn(&RigidBody, &DMat3, &DMat3) -> (DVec3, DVec3)) {
-        let size = self.solver.as_ref().map_or(0, |s| s.size);
+        let size = self.solver.size;
         self.rhs.clear();
         self.rhs.resize(size, 0.0);
-        let solver = self.solver.as_mut().expect("solver built by ensure_solver");
+        let solver = &mut self.solver;
         for (i, b) in self.bodies.iter().enumerate() {
             let o = solver.body_offset(i);
             let r = b.rotation();
@@ -466,7 +470,7 @@ impl World {
     }
 
     fn body_solution(&self, i: usize) -> (DVec3, DVec3) {
-        let o = self.solver.as_ref().map_or(0, |s| s.body_offset(i));
+        let o = self.solver.body_offset(i);
         let x = &self.rhs;
         (
             DVec3::new(x[o], x[o + 1], x[o + 2]),

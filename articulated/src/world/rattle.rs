@@ -91,10 +91,10 @@ impl World {
         for it in 0..=max_iterations {
             let mut err: f64 = 0.0;
             let mut loop_rhs = Vec::new();
-            let size = self.solver.as_ref().map_or(0, |s| s.size);
+            let size = self.solver.size;
             self.rhs.clear();
             self.rhs.resize(size, 0.0);
-            let solver = self.solver.as_ref().expect("solver built by ensure_solver");
+            let solver = &self.solver;
             for (j, joint) in self.joints.iter().enumerate() {
                 let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
                 let b = self.bodies[joint.child].pose;
@@ -137,7 +137,7 @@ impl World {
         //    [M Jᵀ; J −C][v'; μ] = [M v½ + (h/2) m g; 0], angular part L½.
         self.body_rhs(|b, _, _| (b.v * b.mass + g * (b.mass * half), DVec3::ZERO));
         {
-            let solver = self.solver.as_ref().expect("solver built by ensure_solver");
+            let solver = &self.solver;
             for (i, l) in momenta.iter().enumerate() {
                 let o = solver.body_offset(i) + 3;
                 self.rhs[o..o + 3].copy_from_slice(&l.to_array());

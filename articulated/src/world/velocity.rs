@@ -139,7 +139,7 @@ impl World {
             GeometricStiffness::Auto { ratio } => ratio,
         };
         // h² K with K = Σ (λ_r/h) ∂²C_r (λ are impulses): h Σ λ_r ∂²C_r.
-        let solver = self.solver.as_mut().expect("solver built by ensure_solver");
+        let solver = &mut self.solver;
         for (j, joint) in self.joints.iter().enumerate() {
             let lam = &self.impulses[j];
             // Cheap bound first: |h Σ λ_r ∂²C_r| ≤ 2 h lever Σ|λ_r|.
@@ -168,7 +168,7 @@ impl World {
     /// Copies the hard-row multipliers of the last solve (tree joints from the solution,
     /// loop joints from the loop multipliers, in joint order).
     pub(super) fn store_impulses(&mut self) {
-        let solver = self.solver.as_ref().expect("solver built by ensure_solver");
+        let solver = &self.solver;
         self.impulses.resize(self.joints.len(), [0.0; MAX_ROWS]);
         let mut next_loop = 0;
         for (j, joint) in self.joints.iter().enumerate() {
