@@ -45,6 +45,13 @@ fn pose_ok(p: &Pose) -> Result<(), ConstraintError> {
     Ok(())
 }
 
+/// The unit axis `u` (world) and two perpendicular directions fixed in body `a`.
+fn axis_frame(a: &Pose, axis: DVec3) -> Result<(DVec3, [DVec3; 2]), ConstraintError> {
+    let u = unit(axis)?;
+    let (n1, n2) = u.any_orthonormal_pair();
+    Ok((u, [a.dir_to_local(n1), a.dir_to_local(n2)]))
+}
+
 fn unit(axis: DVec3) -> Result<DVec3, ConstraintError> {
     if !axis.is_finite() {
         return Err(ConstraintError::NonFinite);
@@ -64,6 +71,17 @@ struct Point {
 }
 
 impl Point {
+    /// The anchor `anchor` (world) in both bodies' frames, after checking the rest poses.
+    fn from_world(a: &Pose, b: &Pose, anchor: DVec3) -> Result<Self, ConstraintError> {
+        pose_ok(a)?;
+        pose_ok(b)?;
+        finite(&[anchor])?;
+        Ok(Self {
+            r_a: a.to_local(anchor),
+            r_b: b.to_local(anchor),
+        })
+    }
+
     fn sep(&self, a: &Pose, b: &Pose) -> FrameExpr {
         FrameExpr::separation(a, self.r_a, b, self.r_b)
     }
@@ -132,10 +150,9 @@ pub struct Spherical {
 impl Spherical {
     /// A joint at the world point `anchor` between bodies at rest poses `a` and `b`.
     pub fn from_world(a: &Pose, b: &Pose, anchor: DVec3) -> Result<Self, ConstraintError> {
-        pose_ok(a)?;
-        pose_ok(b)?;
-        finite(&[a.x, b.x, anchor])?;
-        Ok(Self::new(a.to_local(anchor), b.to_local(anchor)))
+        Ok(Self {
+            point: Point::from_world(a, b, anchor)?,
+        })
     }
 
     /// A joint from body-frame anchors (from each centre of mass).
@@ -204,17 +221,11 @@ impl Hinge {
         anchor: DVec3,
         axis: DVec3,
     ) -> Result<Self, ConstraintError> {
-        pose_ok(a)?;
-        pose_ok(b)?;
-        finite(&[a.x, b.x, anchor])?;
-        let u = unit(axis)?;
-        let (n1, n2) = u.any_orthonormal_pair();
+        let point = Point::from_world(a, b, anchor)?;
+        let (u, n) = axis_frame(a, axis)?;
         Ok(Self {
-            point: Point {
-                r_a: a.to_local(anchor),
-                r_b: b.to_local(anchor),
-            },
-            n: [a.dir_to_local(n1), a.dir_to_local(n2)],
+            point,
+            n,
             u_b: b.dir_to_local(u),
             u_a: a.dir_to_local(u),
         })
@@ -297,17 +308,11 @@ impl Prismatic {
         anchor: DVec3,
         axis: DVec3,
     ) -> Result<Self, ConstraintError> {
-        pose_ok(a)?;
-        pose_ok(b)?;
-        finite(&[a.x, b.x, anchor])?;
-        let u = unit(axis)?;
-        let (n1, n2) = u.any_orthonormal_pair();
+        let point = Point::from_world(a, b, anchor)?;
+        let (u, n) = axis_frame(a, axis)?;
         Ok(Self {
-            point: Point {
-                r_a: a.to_local(anchor),
-                r_b: b.to_local(anchor),
-            },
-            n: [a.dir_to_local(n1), a.dir_to_local(n2)],
+            point,
+            n,
             u_a: a.dir_to_local(u),
             orient: Orientation::from_world(a, b),
         })
@@ -379,14 +384,9 @@ impl Fixed {
 
     /// A weld at the world point `anchor` for bodies at rest poses `a` and `b`.
     pub fn from_world(a: &Pose, b: &Pose, anchor: DVec3) -> Result<Self, ConstraintError> {
-        pose_ok(a)?;
-        pose_ok(b)?;
-        finite(&[a.x, b.x, anchor])?;
+        let point = Point::from_world(a, b, anchor)?;
         Ok(Self {
-            point: Point {
-                r_a: a.to_local(anchor),
-                r_b: b.to_local(anchor),
-            },
+            point,
             orient: Orientation::from_world(a, b),
         })
     }

@@ -106,22 +106,7 @@ pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> 
     }
     let mut scene = MjcfScene::new(&model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
     let h = opts.dt.unwrap_or(scene.timestep);
-    if !(h > 0.0) || !h.is_finite() {
-        return Err(format!("time step must be positive and finite, got {h}"));
-    }
-    if !(opts.duration >= 0.0) || !opts.duration.is_finite() {
-        return Err(format!(
-            "duration must be non-negative and finite, got {}",
-            opts.duration
-        ));
-    }
-    if opts.every == 0 {
-        return Err("--every must be at least 1".into());
-    }
-    let steps = (opts.duration / h).round() as u64;
-    if steps > 1_000_000_000 {
-        return Err(format!("{steps} steps is too many"));
-    }
+    let steps = step_count(h, opts)?;
     let m = method(&opts.method, h)?;
     let mut traj = Trajectory::for_bodies(&scene.body_names);
     traj.push(0.0, &scene.world);
@@ -140,16 +125,8 @@ pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> 
     Ok((traj, stepping))
 }
 
-/// A scene with collision geoms: free bodies in a [`ContactWorld`] (the contact crate's
-/// defaults; `--method` is ignored). The trailing `C_max` column holds the deepest
-/// penetration before each step.
-fn run_contact(
-    model: &constraint_mjcf::Model,
-    opts: &RunOptions,
-) -> Result<(Trajectory, f64), String> {
-    let mut scene =
-        MjcfContactScene::new(model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
-    let h = opts.dt.unwrap_or(scene.timestep);
+/// The number of steps of `h` in `opts.duration`, after checking the run options.
+fn step_count(h: f64, opts: &RunOptions) -> Result<u64, String> {
     if !(h > 0.0) || !h.is_finite() {
         return Err(format!("time step must be positive and finite, got {h}"));
     }
@@ -166,6 +143,20 @@ fn run_contact(
     if steps > 1_000_000_000 {
         return Err(format!("{steps} steps is too many"));
     }
+    Ok(steps)
+}
+
+/// A scene with collision geoms: free bodies in a [`ContactWorld`] (the contact crate's
+/// defaults; `--method` is ignored). The trailing `C_max` column holds the deepest
+/// penetration before each step.
+fn run_contact(
+    model: &constraint_mjcf::Model,
+    opts: &RunOptions,
+) -> Result<(Trajectory, f64), String> {
+    let mut scene =
+        MjcfContactScene::new(model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
+    let h = opts.dt.unwrap_or(scene.timestep);
+    let steps = step_count(h, opts)?;
     let energy = |w: &constraint_contact::rigid::ContactWorld| {
         let k: f64 = w.bodies().iter().map(|b| b.kinetic_energy()).sum();
         (k, w.energy() - k)

@@ -161,6 +161,8 @@ pub struct World {
     impulses: Vec<[f64; MAX_ROWS]>,
     /// Per-body angular momenta (RATTLE scratch).
     momenta: Vec<DVec3>,
+    /// Per-body state at the start of a projection iteration (scratch).
+    proj_base: Vec<(Pose, DVec3, DVec3)>,
 }
 
 impl World {
@@ -179,6 +181,7 @@ impl World {
             geometric_stiffness: GeometricStiffness::default(),
             impulses: Vec::new(),
             momenta: Vec::new(),
+            proj_base: Vec::new(),
         }
     }
 

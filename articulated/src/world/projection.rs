@@ -1,10 +1,8 @@
 //! Newton projection onto `C(x) = 0` with mass-weighted minimum-norm steps (Goldenthal
 //! et al. 2007), with backtracking.
 
-use alloc::vec::Vec;
-
 use constraint_core::rigid::rotate_by;
-use constraint_core::{DVec3, Pose};
+use constraint_core::DVec3;
 
 use super::*;
 
@@ -31,8 +29,11 @@ impl World {
             self.solve(loops)?;
             // Backtracking: a full Newton step can overshoot far from the manifold (light
             // bodies turned by large angles); halve it until the separation decreases.
-            let base: Vec<(Pose, DVec3, DVec3)> =
-                self.bodies.iter().map(|b| (b.pose, b.v, b.omega)).collect();
+            // The iterate the trials start from, in a reused scratch (no allocation per
+            // iteration).
+            let mut base = core::mem::take(&mut self.proj_base);
+            base.clear();
+            base.extend(self.bodies.iter().map(|b| (b.pose, b.v, b.omega)));
             let mut alpha = 1.0;
             let mut accepted = false;
             for _ in 0..8 {
@@ -56,11 +57,14 @@ impl World {
                 alpha *= 0.5;
             }
             if !accepted {
-                for (b, (pose, v, w)) in self.bodies.iter_mut().zip(base) {
+                for (b, &(pose, v, w)) in self.bodies.iter_mut().zip(&base) {
                     b.pose = pose;
                     b.v = v;
                     b.omega = w;
                 }
+            }
+            self.proj_base = base;
+            if !accepted {
                 return Ok(it + 1);
             }
         }
