@@ -10,8 +10,6 @@
 //! scheduling (only the wall times do).
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 use std::time::Instant;
 
 use constraint_articulated::scenes::ball_chain;
@@ -272,69 +270,34 @@ pub fn classify(cell: &Cell) -> CellResult {
     r
 }
 
-/// [`classify`] under `catch_unwind`: a panic becomes [`Class3::Panicked`].
-pub fn run_cell(cell: &Cell) -> CellResult {
-    let t0 = Instant::now();
-    catch_unwind(AssertUnwindSafe(|| classify(cell))).unwrap_or_else(|p| {
-        let msg = p
-            .downcast_ref::<&str>()
-            .map(|s| (*s).to_string())
-            .or_else(|| p.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "panic".into());
-        CellResult {
-            cell: *cell,
-            class: Class3::Panicked,
-            steps: 0,
-            simulated: 0.0,
-            separation: f64::NAN,
-            energy: f64::NAN,
-            fallbacks: 0,
-            seconds: t0.elapsed().as_secs_f64(),
-            message: msg.replace('\n', " "),
-        }
-    })
+/// The result of a cell whose run panicked.
+fn panicked(cell: &Cell, message: String) -> CellResult {
+    CellResult {
+        cell: *cell,
+        class: Class3::Panicked,
+        steps: 0,
+        simulated: 0.0,
+        separation: f64::NAN,
+        energy: f64::NAN,
+        fallbacks: 0,
+        seconds: 0.0,
+        message,
+    }
 }
 
-/// Runs `cells` on up to `threads` threads (longest first, for balance); results in the
-/// order of `cells`.
+/// [`classify`] under `catch_unwind`: a panic becomes [`Class3::Panicked`].
+pub fn run_cell(cell: &Cell) -> CellResult {
+    catch_unwind(AssertUnwindSafe(|| classify(cell)))
+        .unwrap_or_else(|p| panicked(cell, crate::par::panic_message(p.as_ref())))
+}
+
+/// Runs `cells` on up to `threads` threads ([`crate::par::map_cells`], longest first);
+/// results in the order of `cells`.
 pub fn run_all(cells: &[Cell], threads: usize) -> Vec<CellResult> {
-    let mut order: Vec<usize> = (0..cells.len()).collect();
     // Work estimate: link-steps, times a per-method factor.
     let cost =
         |c: &Cell| steps(c) as f64 * c.links as f64 * [1.0, 2.0, 2.0, 4.0, 11.0][c.method.min(4)];
-    order.sort_by(|&a, &b| cost(&cells[b]).total_cmp(&cost(&cells[a])).then(a.cmp(&b)));
-    let next = AtomicUsize::new(0);
-    let out: Mutex<Vec<Option<CellResult>>> = Mutex::new(vec![None; cells.len()]);
-    std::thread::scope(|s| {
-        for _ in 0..threads.max(1) {
-            s.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&k) = order.get(i) else { break };
-                let r = run_cell(&cells[k]);
-                if let Ok(mut o) = out.lock() {
-                    o[k] = Some(r);
-                }
-            });
-        }
-    });
-    out.into_inner()
-        .unwrap_or_else(|e| e.into_inner())
-        .into_iter()
-        .zip(cells)
-        .map(|(r, c)| {
-            r.unwrap_or_else(|| CellResult {
-                cell: *c,
-                class: Class3::Panicked,
-                steps: 0,
-                simulated: 0.0,
-                separation: f64::NAN,
-                energy: f64::NAN,
-                fallbacks: 0,
-                seconds: 0.0,
-                message: "worker lost".into(),
-            })
-        })
-        .collect()
+    crate::par::map_cells("articulated", cells, threads, cost, run_cell, panicked)
 }
 
 /// One pair of axes: time step × another.
@@ -579,7 +542,7 @@ pub fn section(
 ) -> Result<usize, Box<dyn std::error::Error>> {
     use std::fmt::Write as _;
     let plan = Plan::new(quick);
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = crate::par::threads();
     let _ = writeln!(
         md,
         "\n## Stability map: articulated formulations\n\n\

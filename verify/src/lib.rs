@@ -41,6 +41,7 @@ pub mod fd;
 pub mod hard;
 pub mod heatmap;
 pub mod html;
+pub mod par;
 pub mod scene;
 pub mod sweeps;
 pub mod trajectory;
