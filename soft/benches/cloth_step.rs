@@ -43,6 +43,10 @@ fn bench(c: &mut Criterion) {
         for (name, solver) in [
             ("step_ldlt", LinearSolver::SparseLdlt),
             (
+                "step_lagged",
+                LinearSolver::LaggedLdlt(constraint_soft::lagged::LaggedSettings::default()),
+            ),
+            (
                 "step_cg",
                 LinearSolver::ConjugateGradient(CgSettings::default()),
             ),

@@ -47,6 +47,8 @@ mod eigen;
 pub mod energy;
 pub mod error;
 pub mod integrate;
+#[cfg(feature = "faer")]
+pub mod lagged;
 pub mod ordering;
 pub mod project;
 pub mod scenes;
