@@ -74,6 +74,8 @@ pub enum Outcome {
     SolverFailed,
     /// Some CG solve stopped at its iteration limit (the run itself stayed bounded).
     NotConverged,
+    /// The run panicked (caught per cell; a bug that must never happen).
+    Panicked,
 }
 
 impl Outcome {
@@ -85,6 +87,7 @@ impl Outcome {
             Outcome::Diverged => "✗",
             Outcome::SolverFailed => "!",
             Outcome::NotConverged => "~",
+            Outcome::Panicked => "P",
         }
     }
 }
@@ -141,22 +144,53 @@ pub struct StabilityRow {
     pub outcomes: Vec<Outcome>,
 }
 
-/// Stiffness × time-step sweep of the cloth for every method.
+/// Stiffness × time-step sweep of the cloth for every method. The cells run in
+/// parallel on [`crate::par::threads`] threads ([`crate::par::map_cells`]); each cell is
+/// deterministic and the rows come back in method, stiffness, step order whatever the
+/// thread count.
 pub fn stability_sweep(n: usize, ks: &[f64], hs: &[f64], duration: f64) -> Vec<StabilityRow> {
-    let mut rows = Vec::new();
+    stability_sweep_on(n, ks, hs, duration, crate::par::threads())
+}
+
+/// [`stability_sweep`] on `threads` threads.
+pub fn stability_sweep_on(
+    n: usize,
+    ks: &[f64],
+    hs: &[f64],
+    duration: f64,
+    threads: usize,
+) -> Vec<StabilityRow> {
+    let mut cells = Vec::new();
     for method in Method::ALL {
         for &k in ks {
-            let outcomes = hs
-                .iter()
-                .map(|&h| match sweep_cloth(n, k) {
-                    Ok(sys) => classify(sys, method, h, duration),
-                    Err(_) => Outcome::SolverFailed,
-                })
-                .collect();
+            for &h in hs {
+                cells.push((method, k, h));
+            }
+        }
+    }
+    // Cost: steps, with CG and the exact Hessian dearer.
+    let cost = |&(m, _, h): &(Method, f64, f64)| {
+        duration / h
+            * match m {
+                Method::Symplectic => 0.2,
+                _ => 1.0,
+            }
+    };
+    let run = |&(m, k, h): &(Method, f64, f64)| match sweep_cloth(n, k) {
+        Ok(sys) => classify(sys, m, h, duration),
+        Err(_) => Outcome::SolverFailed,
+    };
+    let out = crate::par::map_cells("cloth", &cells, threads, cost, run, |_, _| {
+        Outcome::Panicked
+    });
+    let mut rows = Vec::new();
+    let mut it = out.into_iter();
+    for method in Method::ALL {
+        for &k in ks {
             rows.push(StabilityRow {
                 method,
                 k,
-                outcomes,
+                outcomes: it.by_ref().take(hs.len()).collect(),
             });
         }
     }
@@ -398,4 +432,23 @@ pub fn jelly_volume(method: Method, h: f64, ks: &[f64], duration: f64) -> Vec<Je
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The parallel sweep gives the same table on one thread and on several.
+    #[test]
+    fn the_cloth_sweep_does_not_depend_on_the_thread_count() {
+        let (ks, hs) = ([1e2, 1e5], [1e-2, 3e-2]);
+        let one = stability_sweep_on(6, &ks, &hs, 0.1, 1);
+        let three = stability_sweep_on(6, &ks, &hs, 0.1, 3);
+        assert_eq!(one.len(), Method::ALL.len() * ks.len());
+        assert_eq!(one, three);
+        assert!(one
+            .iter()
+            .flat_map(|r| &r.outcomes)
+            .all(|o| *o != Outcome::Panicked));
+    }
 }
