@@ -1,0 +1,304 @@
+//! `simulate` (what `cargo xtask simulate` runs) on malformed and hostile scene files
+//! and options (issue 7): every case must exit with a non-zero status and exactly one
+//! line on stderr naming the reason, within a time limit (no hang), without a panic,
+//! and without writing an output file with non-finite numbers. Valid files that
+//! diverge must stop with the typed divergence error, not write NaN.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Each case must finish within this (s); measured: the slowest case takes 0.05 s.
+const LIMIT: Duration = Duration::from_secs(20);
+
+fn dir() -> PathBuf {
+    let d = std::env::temp_dir().join(format!("simulate_cli_{}", std::process::id()));
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+/// Runs `simulate` with `args`; returns (success, stderr, wall time).
+fn simulate(args: &[&str]) -> (bool, String, Duration) {
+    let t0 = Instant::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_simulate"))
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn simulate");
+    loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            let mut err = String::new();
+            if let Some(mut e) = child.stderr.take() {
+                use std::io::Read as _;
+                let _ = e.read_to_string(&mut err);
+            }
+            return (status.success(), err, t0.elapsed());
+        }
+        if t0.elapsed() > LIMIT {
+            let _ = child.kill();
+            panic!("simulate {args:?} hung (killed after {LIMIT:?})");
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+/// The one-line-failure contract; `out` must not hold non-finite numbers if written.
+fn assert_clean_failure(name: &str, args: &[&str], out: &Path) {
+    let (ok, err, t) = simulate(args);
+    assert!(!ok, "{name}: exit status 0 (stderr {err:?})");
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{name}: stderr is not one line: {err:?}");
+    assert!(
+        lines[0].starts_with("simulate: ") && lines[0].len() > "simulate: ".len() + 3,
+        "{name}: {err:?}"
+    );
+    assert!(!err.contains("panicked"), "{name}: panic: {err:?}");
+    if let Ok(csv) = std::fs::read_to_string(out) {
+        for tok in csv
+            .split([',', '\n'])
+            .skip_while(|t| t.parse::<f64>().is_err())
+        {
+            if let Ok(v) = tok.trim().parse::<f64>() {
+                assert!(v.is_finite(), "{name}: non-finite output {tok}");
+            }
+        }
+    }
+    eprintln!("{name}: {} ({:.3} s)", lines[0], t.as_secs_f64());
+}
+
+const PENDULUM: &str = r#"<mujoco model="p">
+  <option timestep="0.001" gravity="0 0 -9.81"><flag contact="disable"/></option>
+  <worldbody>
+    <body name="bob">
+      <joint name="hinge" type="hinge" axis="AXIS"/>
+      <inertial pos="0 0 -1" mass="MASS" diaginertia="INERTIA"/>
+    </body>
+  </worldbody>
+</mujoco>"#;
+
+fn pendulum(axis: &str, mass: &str, inertia: &str) -> String {
+    PENDULUM
+        .replace("AXIS", axis)
+        .replace("MASS", mass)
+        .replace("INERTIA", inertia)
+}
+
+fn hostile_files() -> Vec<(&'static str, String)> {
+    let deep = format!(
+        "<mujoco><worldbody>{}{}</worldbody></mujoco>",
+        "<body><geom type=\"sphere\" size=\"0.1\"/>".repeat(10_000),
+        "</body>".repeat(10_000)
+    );
+    let wide = format!(
+        "<mujoco><worldbody>{}</worldbody></mujoco>",
+        "<unknown/>".repeat(100_000)
+    );
+    vec![
+        ("empty file", String::new()),
+        ("not XML", "this is not a scene \u{0}\u{1}".into()),
+        ("binary garbage", "\u{7f}ELF\u{2}\u{1}\u{1}".repeat(100)),
+        ("unclosed tag", "<mujoco><worldbody>".into()),
+        ("wrong root", "<robot/>".into()),
+        (
+            "unknown element",
+            "<mujoco><worldbody><teapot/></worldbody></mujoco>".into(),
+        ),
+        ("100k unknown elements", wide),
+        ("10,000-deep nesting", deep),
+        ("missing joint axis value", pendulum("", "1", "1e-4 1e-4 1e-4")),
+        ("NaN axis", pendulum("nan 0 0", "1", "1e-4 1e-4 1e-4")),
+        ("zero axis", pendulum("0 0 0", "1", "1e-4 1e-4 1e-4")),
+        ("huge number", pendulum("0 1 0", "1e400", "1e-4 1e-4 1e-4")),
+        ("negative mass", pendulum("0 1 0", "-1", "1e-4 1e-4 1e-4")),
+        ("zero mass", pendulum("0 1 0", "0", "0 0 0")),
+        ("NaN mass", pendulum("0 1 0", "NaN", "1e-4 1e-4 1e-4")),
+        ("infinite mass", pendulum("0 1 0", "inf", "1e-4 1e-4 1e-4")),
+        ("triangle inequality", pendulum("0 1 0", "1", "1 1 3")),
+        ("two values for three", pendulum("0 1 0", "1", "1 1")),
+        (
+            "NaN gravity",
+            pendulum("0 1 0", "1", "1e-4 1e-4 1e-4").replace("0 0 -9.81", "0 0 nan"),
+        ),
+        (
+            "negative time step",
+            pendulum("0 1 0", "1", "1e-4 1e-4 1e-4").replace("0.001", "-0.001"),
+        ),
+        (
+            "unknown attribute",
+            pendulum("0 1 0", "1", "1e-4 1e-4 1e-4").replace("<joint ", "<joint bogus=\"1\" "),
+        ),
+        (
+            "duplicate body name",
+            "<mujoco><worldbody><body name=\"a\"><freejoint/><geom type=\"sphere\" size=\"1\"/></body>\
+             <body name=\"a\"><freejoint/><geom type=\"sphere\" size=\"1\"/></body></worldbody></mujoco>"
+                .into(),
+        ),
+        (
+            "keyframe of the wrong length",
+            pendulum("0 1 0", "1", "1e-4 1e-4 1e-4")
+                .replace("</mujoco>", "<keyframe><key name=\"start\" qpos=\"1 2 3\"/></keyframe></mujoco>"),
+        ),
+        (
+            "NaN in a keyframe",
+            pendulum("0 1 0", "1", "1e-4 1e-4 1e-4")
+                .replace("</mujoco>", "<keyframe><key name=\"start\" qpos=\"nan\"/></keyframe></mujoco>"),
+        ),
+        (
+            "sphere of negative size",
+            "<mujoco><worldbody><geom type=\"plane\" size=\"1 1 1\"/><body pos=\"0 0 1\"><freejoint/>\
+             <geom type=\"sphere\" size=\"-0.1\"/></body></worldbody></mujoco>"
+                .into(),
+        ),
+    ]
+}
+
+#[test]
+fn hostile_scene_files_fail_with_one_line() {
+    let d = dir();
+    let out = d.join("out.csv");
+    let mut n = 0;
+    for (name, text) in hostile_files() {
+        let path = d.join("scene.xml");
+        std::fs::write(&path, text).expect("write scene");
+        let _ = std::fs::remove_file(&out);
+        let p = path.to_string_lossy().to_string();
+        let o = out.to_string_lossy().to_string();
+        let mut args = vec![p.as_str(), "--duration", "0.01", "--out", o.as_str()];
+        if name.contains("keyframe") {
+            args.extend(["--keyframe", "start"]);
+        }
+        assert_clean_failure(name, &args, &out);
+        n += 1;
+    }
+    eprintln!("{n} hostile files");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn bad_options_fail_with_one_line() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/pendulum.xml");
+    let s = scene.to_string_lossy().to_string();
+    let d = dir().join("opts");
+    std::fs::create_dir_all(&d).expect("dir");
+    let out = d.join("out.csv");
+    let o = out.to_string_lossy().to_string();
+    let missing = d.join("missing.xml").to_string_lossy().to_string();
+    let cases: Vec<(&str, Vec<&str>)> = vec![
+        ("no arguments", vec![]),
+        ("missing duration", vec![&s, "--out", &o]),
+        ("missing out", vec![&s, "--duration", "1"]),
+        (
+            "missing file",
+            vec![&missing, "--duration", "1", "--out", &o],
+        ),
+        (
+            "NaN dt",
+            vec![&s, "--dt", "nan", "--duration", "1", "--out", &o],
+        ),
+        (
+            "zero dt",
+            vec![&s, "--dt", "0", "--duration", "1", "--out", &o],
+        ),
+        (
+            "negative dt",
+            vec![&s, "--dt", "-1e-3", "--duration", "1", "--out", &o],
+        ),
+        (
+            "infinite duration",
+            vec![&s, "--duration", "inf", "--out", &o],
+        ),
+        (
+            "negative duration",
+            vec![&s, "--duration", "-1", "--out", &o],
+        ),
+        (
+            "every 0",
+            vec![&s, "--duration", "1", "--every", "0", "--out", &o],
+        ),
+        (
+            "every -1",
+            vec![&s, "--duration", "1", "--every", "-1", "--out", &o],
+        ),
+        (
+            "too many steps",
+            vec![&s, "--dt", "1e-300", "--duration", "1", "--out", &o],
+        ),
+        (
+            "unknown method",
+            vec![&s, "--duration", "1", "--method", "magic", "--out", &o],
+        ),
+        (
+            "unknown keyframe",
+            vec![&s, "--duration", "1", "--keyframe", "nope", "--out", &o],
+        ),
+        (
+            "unknown option",
+            vec![&s, "--duration", "1", "--frobnicate", "--out", &o],
+        ),
+        ("two scenes", vec![&s, &s, "--duration", "1", "--out", &o]),
+        (
+            "unwritable output",
+            vec![
+                &s,
+                "--duration",
+                "0.01",
+                "--out",
+                "/nonexistent/dir/out.csv",
+            ],
+        ),
+    ];
+    for (name, args) in &cases {
+        let _ = std::fs::remove_file(&out);
+        assert_clean_failure(name, args, &out);
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A valid scene driven to blow up (an absurd initial spin at a huge step) stops with
+/// the typed divergence error or runs finite; it never writes a non-finite number.
+#[test]
+fn a_diverging_run_never_writes_non_finite_numbers() {
+    let d = dir().join("diverge");
+    std::fs::create_dir_all(&d).expect("dir");
+    let path = d.join("spin.xml");
+    let text = pendulum("0 1 0", "1", "1e-4 1e-4 1e-4").replace(
+        "</mujoco>",
+        "<keyframe><key name=\"start\" qpos=\"1\" qvel=\"1e200\"/></keyframe></mujoco>",
+    );
+    std::fs::write(&path, text).expect("write");
+    let out = d.join("out.csv");
+    let (p, o) = (
+        path.to_string_lossy().to_string(),
+        out.to_string_lossy().to_string(),
+    );
+    for method in ["rattle", "velocity"] {
+        let _ = std::fs::remove_file(&out);
+        let args = [
+            p.as_str(),
+            "--keyframe",
+            "start",
+            "--dt",
+            "0.1",
+            "--duration",
+            "10",
+            "--method",
+            method,
+            "--out",
+            o.as_str(),
+        ];
+        let (ok, err, _) = simulate(&args);
+        assert!(!err.contains("panicked"), "{method}: {err}");
+        if ok {
+            let csv = std::fs::read_to_string(&out).expect("output written");
+            for tok in csv.lines().skip(1).flat_map(|l| l.split(',')) {
+                let v: f64 = tok.trim().parse().expect("number");
+                assert!(v.is_finite(), "{method}: non-finite output");
+            }
+            eprintln!("{method}: ran finite");
+        } else {
+            assert_clean_failure(method, &args, &out);
+        }
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
