@@ -18,6 +18,7 @@
 //! | [`acceleration`] | `[M Jᵀ; J 0][ẍ; λ] = [F; −J̇ẋ − k_x C − k_v Ċ]` | "Opción 1", Baumgarte |
 //! | [`velocity`] | `[A Jᵀ; J −α/h²][v; λ] = [b; −C(x₀)/Δt]` | "Opción 2"; compliant when `α > 0` |
 //! | [`projection`] | Newton on `C(x) = 0` with `(h²JM⁻¹Jᵀ)δλ = C` | Goldenthal et al. 2007 |
+//! | [`rattle`] | RATTLE (2nd order, symplectic) and RATTLE4 (Yoshida, 4th order) | beyond the lecture: the accurate corner |
 //!
 //! All share [`kkt::solve_kkt`] and its solvers ([`kkt::KktSolver`]).
 //!
@@ -36,6 +37,8 @@ pub mod error;
 pub mod kkt;
 #[cfg(feature = "std")]
 pub mod projection;
+#[cfg(feature = "std")]
+pub mod rattle;
 pub mod rows;
 #[cfg(feature = "std")]
 pub mod scenes;
@@ -56,6 +59,8 @@ pub use error::LagrangeError;
 pub use kkt::{solve_kkt, KktError, KktProblem, KktSolver, KktStats, KktWorkspace, MassMatrix};
 #[cfg(feature = "std")]
 pub use projection::{FastProjection, ProjectedStep, ProjectionStats};
+#[cfg(feature = "std")]
+pub use rattle::{Rattle, RattleOrder, RattleStats};
 pub use rows::ConstraintRows;
 pub use set::{Constraints, HardSet, RestScale, RowSet, SetError};
 #[cfg(feature = "std")]
