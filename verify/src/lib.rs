@@ -42,6 +42,7 @@ pub mod hard;
 pub mod heatmap;
 pub mod html;
 pub mod par;
+pub mod particle_report;
 pub mod scene;
 pub mod sweeps;
 pub mod trajectory;

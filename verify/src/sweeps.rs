@@ -254,20 +254,41 @@ pub fn work_precision(
     repeats: usize,
 ) -> Result<Vec<WorkPoint>, SoftError> {
     let k = Cloth::default().spring.stiffness;
-    let (reference, _) = trajectory(
-        sweep_cloth(n, k)?,
-        Method::Symplectic,
+    work_precision_of(
+        &|| sweep_cloth(n, k),
+        &Method::ALL,
+        hs,
         h_ref,
         duration,
         sample,
-    )?;
+        repeats,
+    )
+}
+
+/// Work-precision sweep of any soft scene built by `build`: each of `methods` at every
+/// `h`, error (max over particles and samples of `|x − x_ref|`) against symplectic
+/// Euler at `h_ref` (which must divide every `h` and `sample`); run time is the best
+/// of `repeats` runs, per simulated second.
+///
+/// # Errors
+/// Building the scene, or the reference run failing.
+pub fn work_precision_of(
+    build: &dyn Fn() -> Result<SoftSystem, SoftError>,
+    methods: &[Method],
+    hs: &[f64],
+    h_ref: f64,
+    duration: f64,
+    sample: f64,
+    repeats: usize,
+) -> Result<Vec<WorkPoint>, SoftError> {
+    let (reference, _) = trajectory(build()?, Method::Symplectic, h_ref, duration, sample)?;
     let mut pts = Vec::new();
-    for method in Method::ALL {
+    for &method in methods {
         for &h in hs {
             let mut best = f64::INFINITY;
             let mut res = None;
             for _ in 0..repeats.max(1) {
-                match trajectory(sweep_cloth(n, k)?, method, h, duration, sample) {
+                match trajectory(build()?, method, h, duration, sample) {
                     Ok((traj, secs)) => {
                         best = best.min(secs);
                         res = Some(Ok(traj));

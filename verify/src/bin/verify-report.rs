@@ -335,6 +335,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     hard_sections(&mut md, &out, quick)?;
+    constraint_verify::particle_report::section(&mut md, &out, quick)?;
     let t0 = Instant::now();
     constraint_verify::articulated_report::section(&mut md, &out, quick)?;
     eprintln!(
