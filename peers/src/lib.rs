@@ -13,10 +13,15 @@
 //!
 //! [`contact`] does the same for contact scenes (the 10-box stack and the pyramid with
 //! base 20 of [`constraint_contact::scenes`]), timed by `benches/contact_peers.rs`.
+//!
+//! [`mjcf`] loads the MJCF scenes of `scenes/*.xml` into this library's worlds, timed by
+//! `benches/mjcf_scenes.rs` against MuJoCo's Euler on the same files (MuJoCo's side runs
+//! through xtask).
 
 use std::path::PathBuf;
 
 pub mod contact;
+pub mod mjcf;
 
 /// Link length (m).
 pub const LINK_LENGTH: f64 = 0.1;

@@ -1,45 +1,64 @@
-//! `cargo xtask bench [--no-mujoco] [--peers-only] [CRITERION ARGS]`: the criterion
-//! benchmarks and the peer comparison.
+//! `cargo xtask bench [--no-mujoco] [--peers-only] [--only SECTIONS] [CRITERION ARGS]`:
+//! the criterion benchmarks and the peer comparisons, in one run, into
+//! `target/bench/ratios.md`. SECTIONS is a comma-separated subset of `chains`,
+//! `contact`, `mjcf`, `cloth` (default: all; `--peers-only` drops `cloth`); a section not
+//! run says so in the report. CRITERION ARGS (`--quick`, a filter, …) go to every bench.
 //!
-//! Runs `cargo bench -p constraint-soft --bench cloth_step` (time per implicit cloth step
-//! for N = 32, 64, 128: assembly, step with sparse LDLᵀ, step with CG) and
-//! `cargo bench -p constraint-lagrange --bench kkt_solvers` (one KKT solve of the
-//! inextensible cloth per solver), then prints tables with the growth exponent of each
-//! series, fitted on log time against log N.
+//! - `cloth`: `cargo bench -p constraint-soft --bench cloth_step` (time per implicit cloth
+//!   step for N = 32, 64, 128: assembly, step with sparse LDLᵀ, with lagged LDLᵀ, with CG)
+//!   and `cargo bench -p constraint-lagrange --bench kkt_solvers` (one KKT solve of the
+//!   inextensible cloth per solver); tables of time per call and growth exponents
+//!   (slopes of log time against log nodes between sizes, least-squares fit), read from
+//!   criterion's `estimates.json` (median).
+//! - `chains`: `cargo bench -p constraint-peers --features rapier --bench chain_peers`
+//!   times one step of ball-joint chains (10 … 10000 links, dt = 1e-3) with this library
+//!   (velocity level, velocity level + projection) and rapier3d (f64, spherical impulse
+//!   joints) in one run and writes joint separations to `target/peers/accuracy.tsv`; the
+//!   same chains as MJCF (`scenes/generate_chains.py --ball-chain`, into
+//!   `target/peers/mjcf/`) are timed in MuJoCo's C loop (Euler, `mujoco.rollout`) through
+//!   [`crate::mujoco::run`] when Python is available (skipped with a note otherwise, or
+//!   with `--no-mujoco`). Tables: time per step per engine and size, the ratios
+//!   ours/rapier3d and ours/MuJoCo, joint separation after 2 s, growth exponents, and the
+//!   heavy-tip outcome.
+//! - `contact`: `cargo bench -p constraint-peers --features rapier --bench contact_peers`
+//!   times one step at dt = 1/60 of the 10-box stack and the pyramid with base 20 with
+//!   this library (`ContactSolver::Auto`, and sequential impulses on the stack) and
+//!   rapier3d in one run, and writes the 10 s accuracy runs (top-box drift and sink, worst
+//!   box displacement) to `target/peers/contact_accuracy.tsv`.
+//! - `mjcf`: every MJCF scene of `scenes/` (articulated and contact) with this library
+//!   (`cargo bench -p constraint-peers --bench mjcf_scenes`) and MuJoCo's Euler on the same
+//!   files, same dt, same one-second window ([`crate::bench_mjcf`]).
 //!
-//! Then the peers: `cargo bench -p constraint-peers --features rapier --bench chain_peers`
-//! times one step of ball-joint chains (10 … 10000 links, dt = 1e-3) with this library
-//! (velocity level, velocity level + projection) and rapier3d (f64, spherical impulse
-//! joints) in one run and writes joint separations to `target/peers/accuracy.tsv`; the
-//! same chains as MJCF (`scenes/generate_chains.py --ball-chain`, into
-//! `target/peers/mjcf/`) are timed in MuJoCo's C loop (Euler, `mujoco.rollout`) through
-//! [`crate::mujoco::run`] when Python is available (skipped with a note otherwise, or
-//! with `--no-mujoco`). Writes `target/bench/ratios.md`: time per step per engine and
-//! size, the ratios ours/rapier3d and ours/MuJoCo, joint separation after 2 s, growth
-//! exponents, and the heavy-tip outcome.
-//!
-//! Then the contact scenes: `cargo bench -p constraint-peers --features rapier --bench
-//! contact_peers` times one step at dt = 1/60 of the 10-box stack and the pyramid with
-//! base 20 with this library (`ContactSolver::Auto`, and sequential impulses on the
-//! stack) and rapier3d in one run, and writes the 10 s accuracy runs (top-box drift and
-//! sink, worst box displacement) to `target/peers/contact_accuracy.tsv`; a contact table
-//! is appended to `target/bench/ratios.md`. MuJoCo is not run on contact scenes (the
-//! MJCF subset has no contact-ready scenes yet). `--peers-only` skips the cloth and KKT
-//! benches.
+//! Only criterion estimates written during this run are read (older `estimates.json`
+//! files, e.g. of a series a filter left out, show as "–").
 
+use crate::bench_cloth::{self, cloth_markdown};
+use crate::bench_mjcf;
 use crate::mujoco::{ensure_venv, run as run_mujoco, RunOptions};
 use crate::run::{cargo, root};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use std::time::SystemTime;
 
-/// Median (criterion's point estimate) in seconds for `group/name/param`, if present.
-fn estimate(group: &str, name: &str, param: impl std::fmt::Display) -> Option<f64> {
+/// When this `cargo xtask bench` started: estimates written before are stale.
+static RUN_START: OnceLock<SystemTime> = OnceLock::new();
+
+/// Median (criterion's point estimate) in seconds for `group/name/param`, if present
+/// (and, once [`RUN_START`] is set, written during this run).
+pub(crate) fn estimate(group: &str, name: &str, param: impl std::fmt::Display) -> Option<f64> {
     let p = root()
         .join("target/criterion")
         .join(group)
         .join(name)
         .join(param.to_string())
         .join("new/estimates.json");
+    if let Some(t0) = RUN_START.get() {
+        let written = std::fs::metadata(&p).and_then(|m| m.modified()).ok()?;
+        if written < *t0 {
+            return None;
+        }
+    }
     let s = std::fs::read_to_string(p).ok()?;
     // The file is small JSON; read `"median":{..."point_estimate":X`.
     let m = s.find("\"median\"")?;
@@ -53,7 +72,7 @@ fn estimate(group: &str, name: &str, param: impl std::fmt::Display) -> Option<f6
 }
 
 /// Least-squares slope of log t against log n.
-fn slope(pts: &[(f64, f64)]) -> Option<f64> {
+pub(crate) fn slope(pts: &[(f64, f64)]) -> Option<f64> {
     if pts.len() < 2 {
         return None;
     }
@@ -68,27 +87,6 @@ fn slope(pts: &[(f64, f64)]) -> Option<f64> {
         den += (x.ln() - mx) * (x.ln() - mx);
     }
     Some(num / den)
-}
-
-fn table(group: &str, names: &[&str]) {
-    println!("\n{group}: median time per call\n");
-    println!("| series | N=32 | N=64 | N=128 | exponent in N |");
-    println!("|---|---|---|---|---|");
-    for name in names {
-        let mut pts = Vec::new();
-        let mut cells = Vec::new();
-        for n in [32usize, 64, 128] {
-            match estimate(group, name, n) {
-                Some(t) => {
-                    pts.push((n as f64, t));
-                    cells.push(format!("{:.3} ms", t * 1e3));
-                }
-                None => cells.push("–".into()),
-            }
-        }
-        let e = slope(&pts).map_or("–".into(), |s| format!("{s:.2}"));
-        println!("| {name} | {} | {e} |", cells.join(" | "));
-    }
 }
 
 /// Chain sizes of the peer comparison.
@@ -165,7 +163,7 @@ fn read_accuracy(p: &mut Peers) {
 }
 
 /// `"seconds_per_step": X` from a timing file of `cargo xtask mujoco --timing`.
-fn json_number(text: &str, key: &str) -> Option<f64> {
+pub(crate) fn json_number(text: &str, key: &str) -> Option<f64> {
     let k = text.find(&format!("\"{key}\""))?;
     let rest = &text[k + key.len() + 2..];
     let rest = rest[rest.find(':')? + 1..].trim_start();
@@ -176,7 +174,7 @@ fn json_number(text: &str, key: &str) -> Option<f64> {
     num.parse().ok()
 }
 
-fn json_string(text: &str, key: &str) -> Option<String> {
+pub(crate) fn json_string(text: &str, key: &str) -> Option<String> {
     let k = text.find(&format!("\"{key}\""))?;
     let rest = &text[k + key.len() + 2..];
     let rest = rest[rest.find(':')? + 1..].trim_start().strip_prefix('"')?;
@@ -270,7 +268,7 @@ fn locked_version(name: &str) -> Option<String> {
     Some(rest[..rest.find('"')?].to_string())
 }
 
-fn fmt_time(t: Option<f64>) -> String {
+pub(crate) fn fmt_time(t: Option<f64>) -> String {
     match t {
         Some(t) if t < 1e-3 => format!("{:.2} µs", t * 1e6),
         Some(t) if t < 1.0 => format!("{:.3} ms", t * 1e3),
@@ -279,7 +277,7 @@ fn fmt_time(t: Option<f64>) -> String {
     }
 }
 
-fn fmt_ratio(a: Option<f64>, b: Option<f64>) -> String {
+pub(crate) fn fmt_ratio(a: Option<f64>, b: Option<f64>) -> String {
     match (a, b) {
         (Some(a), Some(b)) if b > 0.0 => {
             let r = a / b;
@@ -591,8 +589,10 @@ fn contact_markdown(p: &ContactPeers) -> String {
              asleep and cost almost nothing). Contact points: ours only.",
             locked_version("rapier3d-f64").as_deref().unwrap_or("?")
         ),
-        "MuJoCo is not run on the contact scenes: the MJCF subset has no contact-ready \
-         scenes yet (the chain comparison above is the only MuJoCo one)."
+        "MuJoCo is not run on these two scenes: they are built in code \
+         (`constraint_contact::scenes`), not from MJCF. The MJCF contact scenes \
+         (sphere_drop, sliding_box, box_stack) are compared with MuJoCo in the MJCF \
+         section below."
             .to_string(),
     ];
     notes.extend(p.notes.iter().cloned());
@@ -644,9 +644,8 @@ fn contact_peers(criterion_args: &[String]) -> Result<ContactPeers, String> {
     Ok(p)
 }
 
-/// The peer comparison: the chain_peers bench, MuJoCo, the contact_peers bench, then
-/// `target/bench/ratios.md`.
-fn peers(criterion_args: &[String], mujoco: bool) -> Result<PathBuf, String> {
+/// The chains: the chain_peers bench, then MuJoCo on the same chains.
+fn chains(criterion_args: &[String], mujoco: bool) -> Result<Peers, String> {
     // A stale accuracy file must not pass for this run's.
     let _ = std::fs::remove_file(root().join("target/peers/accuracy.tsv"));
     let ok = cargo()
@@ -681,11 +680,7 @@ fn peers(criterion_args: &[String], mujoco: bool) -> Result<PathBuf, String> {
     } else {
         p.notes.push("MuJoCo skipped (--no-mujoco)".into());
     }
-    let contact = contact_peers(criterion_args)?;
-    let mut md = ratios_markdown(&p);
-    md.push_str(&contact_markdown(&contact));
-    println!("\n{md}");
-    write_report(&root().join("target/bench"), &md)
+    Ok(p)
 }
 
 fn write_report(dir: &Path, md: &str) -> Result<PathBuf, String> {
@@ -695,36 +690,111 @@ fn write_report(dir: &Path, md: &str) -> Result<PathBuf, String> {
     Ok(path)
 }
 
-pub fn main(args: &[String]) -> Result<(), String> {
-    let mujoco = !args.iter().any(|a| a == "--no-mujoco");
-    let peers_only = args.iter().any(|a| a == "--peers-only");
-    let criterion_args: Vec<String> = args
-        .iter()
-        .filter(|a| !matches!(a.as_str(), "--no-mujoco" | "--peers-only"))
-        .cloned()
-        .collect();
-    if !peers_only {
-        for (krate, bench) in [
-            ("constraint-soft", "cloth_step"),
-            ("constraint-lagrange", "kkt_solvers"),
-        ] {
-            let ok = cargo()
-                .args(["bench", "-p", krate, "--bench", bench, "--"])
-                .args(&criterion_args)
-                .status()
-                .map(|s| s.success())
-                .unwrap_or(false);
-            if !ok {
-                return Err(format!("cargo bench -p {krate} --bench {bench} failed"));
+/// The sections of a run, in the report's order.
+const SECTIONS: [&str; 4] = ["chains", "contact", "mjcf", "cloth"];
+
+/// The command line of `cargo xtask bench`.
+#[derive(Debug, PartialEq)]
+struct Options {
+    mujoco: bool,
+    /// Sections to run, a subset of [`SECTIONS`] in its order.
+    sections: Vec<&'static str>,
+    /// Everything else, for criterion.
+    criterion_args: Vec<String>,
+}
+
+fn parse_args(args: &[String]) -> Result<Options, String> {
+    let mut mujoco = true;
+    let mut peers_only = false;
+    let mut only: Option<Vec<String>> = None;
+    let mut criterion_args = Vec::new();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--no-mujoco" => mujoco = false,
+            "--peers-only" => peers_only = true,
+            "--only" => {
+                let v = it.next().ok_or("--only needs a value (e.g. mjcf,cloth)")?;
+                only = Some(v.split(',').map(|s| s.trim().to_string()).collect());
             }
+            s if s.starts_with("--only=") => {
+                only = Some(s[7..].split(',').map(|s| s.trim().to_string()).collect());
+            }
+            _ => criterion_args.push(a.clone()),
         }
-        table("cloth_implicit", &["assemble", "step_ldlt", "step_cg"]);
-        table(
-            "cloth_kkt",
-            &["sparse_schur", "minres", "gmres", "dense_schur"],
+    }
+    if let Some(only) = &only {
+        if let Some(bad) = only.iter().find(|s| !SECTIONS.contains(&s.as_str())) {
+            return Err(format!(
+                "--only: unknown section {bad:?} (sections: {})",
+                SECTIONS.join(", ")
+            ));
+        }
+    }
+    let sections = SECTIONS
+        .into_iter()
+        .filter(|s| only.as_ref().is_none_or(|o| o.iter().any(|x| x == s)))
+        .filter(|s| !(peers_only && *s == "cloth"))
+        .collect();
+    Ok(Options {
+        mujoco,
+        sections,
+        criterion_args,
+    })
+}
+
+pub fn main(args: &[String]) -> Result<(), String> {
+    let o = parse_args(args)?;
+    let _ = RUN_START.set(SystemTime::now());
+    let args = &o.criterion_args;
+    let run = |s: &str| o.sections.contains(&s);
+    let cloth = if run("cloth") {
+        Some(bench_cloth::run(args)?)
+    } else {
+        None
+    };
+    let chains = if run("chains") {
+        Some(chains(args, o.mujoco)?)
+    } else {
+        None
+    };
+    let contact = if run("contact") {
+        Some(contact_peers(args)?)
+    } else {
+        None
+    };
+    let mjcf = if run("mjcf") {
+        Some(bench_mjcf::run(args, o.mujoco)?)
+    } else {
+        None
+    };
+    let mut md = String::new();
+    if let Some(p) = &chains {
+        md.push_str(&ratios_markdown(p));
+    }
+    if let Some(c) = &contact {
+        md.push_str(&contact_markdown(c));
+    }
+    if let Some(m) = &mjcf {
+        md.push_str(&bench_mjcf::markdown(m));
+    }
+    if let Some((c, k)) = &cloth {
+        md.push_str(&cloth_markdown(c, k));
+    }
+    let skipped: Vec<&str> = SECTIONS
+        .into_iter()
+        .filter(|s| !o.sections.contains(s))
+        .collect();
+    if !skipped.is_empty() {
+        let _ = writeln!(
+            md,
+            "\n# Not run\n\nSections left out of this run (`--peers-only` or `--only`): {}.",
+            skipped.join(", ")
         );
     }
-    let path = peers(&criterion_args, mujoco)?;
+    let md = md.trim_start();
+    println!("\n{md}");
+    let path = write_report(&root().join("target/bench"), md)?;
     println!("wrote {}", path.display());
     Ok(())
 }
@@ -739,6 +809,26 @@ mod tests {
         assert_eq!(json_number(j, "seconds_per_step"), Some(2.5e-5));
         assert_eq!(json_string(j, "mujoco_version").as_deref(), Some("4.0.0"));
         assert_eq!(json_number(j, "missing"), None);
+    }
+
+    fn args(s: &str) -> Vec<String> {
+        s.split_whitespace().map(String::from).collect()
+    }
+
+    #[test]
+    fn parses_sections_and_passes_the_rest_to_criterion() {
+        let o = parse_args(&args("--quick --no-mujoco")).unwrap();
+        assert_eq!(o.sections, SECTIONS);
+        assert!(!o.mujoco);
+        assert_eq!(o.criterion_args, ["--quick"]);
+        let o = parse_args(&args("--peers-only --only cloth,mjcf")).unwrap();
+        assert_eq!(o.sections, ["mjcf"]);
+        assert!(o.mujoco);
+        let o = parse_args(&args("--only=cloth,chains filter")).unwrap();
+        assert_eq!(o.sections, ["chains", "cloth"]);
+        assert_eq!(o.criterion_args, ["filter"]);
+        assert!(parse_args(&args("--only rigid")).is_err());
+        assert!(parse_args(&args("--only")).is_err());
     }
 
     #[test]
@@ -791,10 +881,7 @@ mod tests {
         );
         assert!(md.contains("step failed at t = 2.500 s"), "{md}");
         assert!(md.contains("(800 contact points at the end)"), "{md}");
-        assert!(
-            md.contains("MuJoCo is not run on the contact scenes"),
-            "{md}"
-        );
+        assert!(md.contains("MJCF section below"), "{md}");
         assert!(!md.contains("(210 boxes) | ours (SI)"), "{md}");
     }
 }
