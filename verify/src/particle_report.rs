@@ -63,35 +63,51 @@ pub struct ChainPoint {
 }
 
 enum Stepper {
-    Acc(AccelerationLevel),
-    Vel(VelocityLevel),
-    Soft(ImplicitEuler),
-    Rattle(Rattle),
+    Acc(Box<AccelerationLevel>),
+    Vel(Box<VelocityLevel>),
+    Soft(Box<ImplicitEuler>),
+    Rattle(Box<Rattle>),
 }
 
 impl Stepper {
     fn new(method: usize, h: f64) -> Result<Self, LagrangeError> {
         let solver = KktSolver::DenseSchur;
         Ok(match method {
-            0 => Stepper::Acc(AccelerationLevel::new(h, Baumgarte::NONE, solver)?),
-            1 => Stepper::Acc(AccelerationLevel::new(
+            0 => Stepper::Acc(Box::new(AccelerationLevel::new(
+                h,
+                Baumgarte::NONE,
+                solver,
+            )?)),
+            1 => Stepper::Acc(Box::new(AccelerationLevel::new(
                 h,
                 Baumgarte::critical(5.0 * h)?,
                 solver,
-            )?),
-            2 => Stepper::Vel(VelocityLevel::new(h, BaseStep::Explicit, solver)?),
+            )?)),
+            2 => Stepper::Vel(Box::new(VelocityLevel::new(h, BaseStep::Explicit, solver)?)),
             3 => {
                 let mut v = VelocityLevel::new(h, BaseStep::Explicit, solver)?;
                 v.projection = Some(FastProjection::new(1e-12, 20, solver)?);
-                Stepper::Vel(v)
+                Stepper::Vel(Box::new(v))
             }
-            4 => Stepper::Soft(ImplicitEuler::new(
+            4 => Stepper::Soft(Box::new(ImplicitEuler::new(
                 h,
                 HessianMode::Projected,
                 LinearSolver::SparseLdlt,
-            )?),
-            5 => Stepper::Rattle(Rattle::new(h, RattleOrder::Second, 1e-13, 40, solver)?),
-            _ => Stepper::Rattle(Rattle::new(h, RattleOrder::Fourth, 1e-13, 40, solver)?),
+            )?)),
+            5 => Stepper::Rattle(Box::new(Rattle::new(
+                h,
+                RattleOrder::Second,
+                1e-13,
+                40,
+                solver,
+            )?)),
+            _ => Stepper::Rattle(Box::new(Rattle::new(
+                h,
+                RattleOrder::Fourth,
+                1e-13,
+                40,
+                solver,
+            )?)),
         })
     }
 
