@@ -15,6 +15,15 @@
 //! ([`RigidBody::gyroscopic_step`]) in the velocity methods, explicitly in the
 //! acceleration method. Joint damping is implicit in the velocity methods (compliant
 //! rows, [`crate::joint`]) and explicit in the acceleration method.
+//!
+//! A joint can also be made *compliant* ([`World::set_compliance`]): `C(x) = −α λ_f`
+//! instead of `C(x) = 0` (`α = 1/k`, `λ_f` the joint force), a stiff spring of potential
+//! `C²/(2α)`. The velocity methods treat it implicitly in the lecture's compliant form
+//! `[M Jᵀ; J −α/h²][v'; λ] = [M v + h f; −β C/h]` (exactly the backward-Euler spring for
+//! `β = 1`) and leave it out of the position projection; the acceleration level and
+//! RATTLE apply it as the explicit spring force `−(1/α) Jᵀ C` (symplectic Euler, and
+//! Störmer–Verlet in RATTLE's kicks), with its rows out of the KKT system and out of the
+//! SHAKE projection — stable only while `h √(k/m)` stays small.
 
 use alloc::vec::Vec;
 
@@ -36,6 +45,15 @@ const MAX_TURN: f64 = 0.5;
 
 /// Loop-closure rows of one assembly: `(a, b, row)`, compliance, right-hand side.
 type LoopRows = (Vec<(Option<usize>, usize, [DVec3; 4])>, Vec<f64>, Vec<f64>);
+
+/// How an assembly treats the hard rows of compliant joints (`α > 0`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Soft {
+    /// Compliance `α/h²` on the rows: the implicit compliant form.
+    Implicit,
+    /// Rows decoupled (zero rows, `λ = 0`): the joint acts by its explicit spring force.
+    Free,
+}
 
 /// How a step enforces the joints.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -163,6 +181,8 @@ pub struct World {
     momenta: Vec<DVec3>,
     /// Per-body state at the start of a projection iteration (scratch).
     proj_base: Vec<(Pose, DVec3, DVec3)>,
+    /// Positional compliance `α ≥ 0` per joint (0: hard).
+    compliance: Vec<f64>,
 }
 
 impl World {
@@ -182,6 +202,7 @@ impl World {
             impulses: Vec::new(),
             momenta: Vec::new(),
             proj_base: Vec::new(),
+            compliance: Vec::new(),
         }
     }
 
@@ -220,8 +241,31 @@ impl World {
             return Err(bad("damping must be finite and non-negative"));
         }
         self.joints.push(joint);
+        self.compliance.push(0.0);
         self.solver_stale = true;
         Ok(j)
+    }
+
+    /// Makes joint `joint` compliant: its hard rows obey `C(x) = −α λ_f` (a spring of
+    /// stiffness `1/α` on each row; units m/N for position rows, rad/(N·m) for
+    /// orientation rows) instead of `C(x) = 0`; `alpha = 0` makes it hard again. See the
+    /// module documentation for how each [`Method`] treats it. Errors: unknown joint,
+    /// negative or non-finite `alpha`.
+    pub fn set_compliance(&mut self, joint: usize, alpha: f64) -> Result<(), ArticulatedError> {
+        let bad = |reason| ArticulatedError::InvalidJoint { joint, reason };
+        let Some(slot) = self.compliance.get_mut(joint) else {
+            return Err(bad("unknown joint"));
+        };
+        if !(alpha >= 0.0) || !alpha.is_finite() {
+            return Err(bad("compliance must be finite and non-negative"));
+        }
+        *slot = alpha;
+        Ok(())
+    }
+
+    /// The joints' compliances `α` (0: hard), in joint order.
+    pub fn compliances(&self) -> &[f64] {
+        &self.compliance
     }
 
     /// The bodies.
@@ -249,7 +293,7 @@ impl World {
         b.map_or(Pose::IDENTITY, |i| self.bodies[i].pose)
     }
 
-    /// Largest joint separation (m) at the current state.
+    /// Largest joint separation (m) at the current state (compliant joints included).
     pub fn max_separation(&self) -> f64 {
         self.joints
             .iter()
@@ -257,15 +301,84 @@ impl World {
             .fold(0.0, f64::max)
     }
 
-    /// Kinetic plus gravitational potential energy `Σ ½mv² + ½ωᵀIω − m g·x`.
+    /// Whether joint `j` is compliant (`α > 0`).
+    fn is_soft(&self, j: usize) -> bool {
+        self.compliance.get(j).is_some_and(|&a| a > 0.0)
+    }
+
+    /// Largest separation of the hard joints (the ones the projections enforce).
+    fn max_hard_separation(&self) -> f64 {
+        self.joints
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| !self.is_soft(*j))
+            .map(|(_, j)| j.separation(&self.pose(j.parent), &self.pose(Some(j.child))))
+            .fold(0.0, f64::max)
+    }
+
+    /// Kinetic energy, and potential energy: gravitational plus the compliant joints'
+    /// elastic `Σ C²/(2α)`: `(Σ ½mv² + ½ωᵀIω, −Σ m g·x + Σ C²/(2α))`.
     pub fn energy(&self) -> (f64, f64) {
         let kin = self.bodies.iter().map(|b| b.kinetic_energy()).sum();
-        let pot = self
+        let gravity: f64 = self
             .bodies
             .iter()
             .map(|b| -b.mass * self.gravity.dot(b.pose.x))
             .sum();
-        (kin, pot)
+        let elastic: f64 = self
+            .joints
+            .iter()
+            .zip(&self.compliance)
+            .filter(|(_, &a)| a > 0.0)
+            .map(|(j, &a)| {
+                let c = j.value(&self.pose(j.parent), &self.pose(Some(j.child)));
+                c[..j.hard_rows()].iter().map(|v| v * v).sum::<f64>() / (2.0 * a)
+            })
+            .sum();
+        (kin, gravity + elastic)
+    }
+
+    /// The compliant joints' explicit spring forces `−(1/α) Jᵀ C` per body, `(force,
+    /// torque)`; `None` when no joint is compliant.
+    fn spring_forces(&self) -> Option<Vec<(DVec3, DVec3)>> {
+        if !self.compliance.iter().any(|&a| a > 0.0) {
+            return None;
+        }
+        let mut f = alloc::vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()];
+        for (joint, &alpha) in self.joints.iter().zip(&self.compliance) {
+            if !(alpha > 0.0) {
+                continue;
+            }
+            let rows = joint.rows(
+                &self.pose(joint.parent),
+                &self.pose(Some(joint.child)),
+                false,
+            );
+            for r in 0..rows.n_hard {
+                let s = -rows.value[r] / alpha;
+                if let Some(p) = joint.parent {
+                    f[p].0 += rows.rows[r][0] * s;
+                    f[p].1 += rows.rows[r][1] * s;
+                }
+                f[joint.child].0 += rows.rows[r][2] * s;
+                f[joint.child].1 += rows.rows[r][3] * s;
+            }
+        }
+        Some(f)
+    }
+
+    /// Adds `scale ×` the compliant joints' spring forces to the bodies' right-hand side.
+    fn add_spring_rhs(&mut self, scale: f64) {
+        let Some(f) = self.spring_forces() else {
+            return;
+        };
+        for (i, (force, torque)) in f.iter().enumerate() {
+            let o = self.solver.body_offset(i);
+            for c in 0..3 {
+                self.rhs[o + c] += force[c] * scale;
+                self.rhs[o + 3 + c] += torque[c] * scale;
+            }
+        }
     }
 
     /// Number of loop-closure joints (joints outside the spanning tree).
@@ -385,6 +498,7 @@ impl World {
         &mut self,
         h: f64,
         with_damping: bool,
+        soft: Soft,
         mut joint_rhs: impl FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]),
     ) -> LoopRows {
         let solver = &mut self.solver;
@@ -394,7 +508,7 @@ impl World {
         for (j, joint) in self.joints.iter().enumerate() {
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
-            let rows = joint.rows(&a, &b, with_damping);
+            let mut rows = joint.rows(&a, &b, with_damping);
             let mut comp = [0.0; MAX_ROWS];
             for r in rows.n_hard..rows.n {
                 comp[r] = 1.0 / (h * joint.damping);
@@ -407,6 +521,19 @@ impl World {
             }
             let mut rhs = [0.0; MAX_ROWS];
             joint_rhs(j, joint, &rows, &mut rhs[..rows.n]);
+            let alpha = self.compliance.get(j).copied().unwrap_or(0.0);
+            if alpha > 0.0 {
+                for r in 0..rows.n_hard {
+                    match soft {
+                        Soft::Implicit => comp[r] = alpha / (h * h),
+                        Soft::Free => {
+                            rows.rows[r] = [DVec3::ZERO; 4];
+                            comp[r] = 1.0;
+                            rhs[r] = 0.0;
+                        }
+                    }
+                }
+            }
             let topo = JointTopo {
                 a: joint.parent,
                 b: joint.child,

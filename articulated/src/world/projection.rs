@@ -15,13 +15,14 @@ impl World {
         max_iterations: usize,
         velocity_h: Option<f64>,
     ) -> Result<usize, ArticulatedError> {
-        let mut err = self.max_separation();
+        // Compliant joints are not projected (their separation is their spring's).
+        let mut err = self.max_hard_separation();
         for it in 0..max_iterations {
             if err <= tolerance {
                 return Ok(it);
             }
             self.body_rhs(|_, _, _| (DVec3::ZERO, DVec3::ZERO));
-            let loops = self.assemble(1.0, false, |_, _, rows, rhs| {
+            let loops = self.assemble(1.0, false, Soft::Free, |_, _, rows, rhs| {
                 for r in 0..rows.n_hard {
                     rhs[r] = -rows.value[r];
                 }
@@ -48,7 +49,7 @@ impl World {
                         b.omega = w + dth * (alpha / h);
                     }
                 }
-                let trial = self.max_separation();
+                let trial = self.max_hard_separation();
                 if trial < err {
                     err = trial;
                     accepted = true;

@@ -42,7 +42,10 @@ impl World {
         // 1. Half kick with the constraint impulse that makes the drift land on the
         //    linearised manifold: [M Jᵀ; J −C][v½; λ] = [M v + (h/2) m g; −C(x)/h].
         self.body_rhs(|b, _, iw| (b.v * b.mass + g * (b.mass * half), *iw * b.omega));
-        let loops = self.assemble(hd, true, |_, _, rows, rhs| {
+        // Compliant joints: half a kick of their spring force at x (Störmer–Verlet); their
+        // rows are left out of the kicks and of SHAKE.
+        self.add_spring_rhs(half);
+        let loops = self.assemble(hd, true, Soft::Free, |_, _, rows, rhs| {
             for r in 0..rows.n_hard {
                 rhs[r] = -rows.value[r] / h;
             }
@@ -98,8 +101,12 @@ impl World {
             for (j, joint) in self.joints.iter().enumerate() {
                 let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
                 let b = self.bodies[joint.child].pose;
-                err = err.max(joint.separation(&a, &b));
-                let c = joint.value(&a, &b);
+                let c = if self.compliance.get(j).is_some_and(|&a| a > 0.0) {
+                    [0.0; MAX_ROWS]
+                } else {
+                    err = err.max(joint.separation(&a, &b));
+                    joint.value(&a, &b)
+                };
                 let n = joint.hard_rows();
                 match solver.joint_offset(j) {
                     Some(o) => {
@@ -143,7 +150,8 @@ impl World {
                 self.rhs[o..o + 3].copy_from_slice(&l.to_array());
             }
         }
-        let loops = self.assemble(hd, true, |_, _, _, _| {});
+        self.add_spring_rhs(half);
+        let loops = self.assemble(hd, true, Soft::Free, |_, _, _, _| {});
         self.solve(loops)?;
         // Whole-step impulses (both kicks), for the geometric stiffness of a later
         // velocity-level step.

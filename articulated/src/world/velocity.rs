@@ -41,7 +41,7 @@ impl World {
 
     /// The velocity-level KKT system of [`Self::velocity_twists`] as one dense matrix
     /// (all joints' rows, loop joints included, damping rows with compliance
-    /// `1/(h d)`): unknowns `[v₀, ω₀, v₁, ω₁, …, λ]`. A reference for tests and for
+    /// `1/(h d)`, compliant joints' hard rows with `α/h²`): unknowns `[v₀, ω₀, v₁, ω₁, …, λ]`. A reference for tests and for
     /// tiny systems; `O(n²)` memory.
     pub fn dense_velocity_system(&self, h: f64, beta: f64) -> (Vec<Vec<f64>>, Vec<f64>) {
         let nb = self.bodies.len();
@@ -68,7 +68,7 @@ impl World {
             }
         }
         let mut r0 = 6 * nb;
-        for joint in &self.joints {
+        for (joint, &alpha) in self.joints.iter().zip(&self.compliance) {
             let a = self.pose(joint.parent);
             let b = self.pose(Some(joint.child));
             let jr = joint.rows(&a, &b, true);
@@ -88,6 +88,9 @@ impl World {
                     m[row][row] = -1.0 / (h * joint.damping);
                 } else {
                     rhs[row] = -beta * jr.value[r] / h;
+                    if alpha > 0.0 {
+                        m[row][row] = -alpha / (h * h);
+                    }
                 }
             }
             r0 += jr.n;
@@ -110,7 +113,7 @@ impl World {
         {
             self.add_geometric_stiffness(h);
         }
-        let loops = self.assemble(h, true, |_, _, rows, rhs| {
+        let loops = self.assemble(h, true, Soft::Implicit, |_, _, rows, rhs| {
             for r in 0..rows.n_hard {
                 rhs[r] = -beta * rows.value[r] / h;
             }
