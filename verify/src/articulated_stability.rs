@@ -1,8 +1,9 @@
 //! Stability map of the articulated formulations (issue 6): the ball chain
 //! ([`constraint_articulated::scenes::ball_chain`]) stepped by each [`METHODS`] entry
 //! over pairs of axes — time step × tip mass ratio, time step × chain length, time step
-//! × initial joint violation — each cell classified by [`classify`] as stable,
-//! inaccurate or unstable. Every cell runs under `catch_unwind`: a panic is its own
+//! × initial joint violation, time step × joint compliance `α = 1/k` (every joint made
+//! compliant by `World::set_compliance`; the stiffness axis) — each cell classified by
+//! [`classify`] as stable, inaccurate or unstable. Every cell runs under `catch_unwind`: a panic is its own
 //! class, counted, and must never happen.
 //!
 //! Cells run in parallel over all cores; each run is single-threaded and deterministic,
@@ -30,9 +31,18 @@ pub const SEPARATION_TOL: f64 = 1e-3;
 pub const ENERGY_TOL: f64 = 1e-2;
 
 /// Blow-up: a body farther than this many initial extents (chain length including the
-/// initial stretch, plus one link) from the anchor, or a non-finite energy. (An energy
-/// injected by correcting a violation is bounded: it is inaccuracy, not blow-up.)
+/// initial stretch, plus one link, plus for compliant joints twice the static stretch
+/// [`static_stretch`]) from the anchor, or a non-finite energy. (An energy injected by
+/// correcting a violation is bounded: it is inaccuracy, not blow-up.)
 pub const BLOWUP_EXTENT: f64 = 10.0;
+
+/// Blow-up on the compliance map (α > 0) also: a kinetic energy above this many
+/// `M g × extent` (the energy of a fall over that many initial extents). Those cells
+/// start at rest with no violation, so such energy can only come from the integrator (an
+/// explicit stiff spring makes the links spin at up to 1e9 rad/s while their centres stay
+/// in bounds); on the violation map the correction of the initial stretch injects a
+/// bounded energy (`~ (δ/h)²`), which stays inaccuracy.
+pub const KINETIC_BLOWUP: f64 = 1e3;
 
 /// The formulations: report label, and the [`Method`] at step `h`.
 pub const METHODS: [&str; 5] = [
@@ -149,6 +159,8 @@ pub struct Cell {
     pub tip_ratio: f64,
     /// Initial stretch of every joint, as a fraction of the link length.
     pub violation: f64,
+    /// Compliance `α` of every joint (m/N; 0: hard joints).
+    pub compliance: f64,
     /// Simulated time asked for (s).
     pub horizon: f64,
     /// Most `links × steps` of the run (the horizon is cut to fit).
@@ -179,7 +191,8 @@ pub struct CellResult {
 }
 
 /// The chain of `cell`, every joint stretched by `violation × LINK` (body `i` moved by
-/// `(i + 1)·violation·LINK` along `−x`, away from the anchor).
+/// `(i + 1)·violation·LINK` along `−x`, away from the anchor) and given the cell's
+/// compliance.
 pub fn world(cell: &Cell) -> Result<World, ArticulatedError> {
     let mut w = ball_chain(cell.links, cell.tip_ratio)?;
     if cell.violation != 0.0 {
@@ -187,7 +200,26 @@ pub fn world(cell: &Cell) -> Result<World, ArticulatedError> {
             b.pose.x.x -= (i as f64 + 1.0) * cell.violation * LINK;
         }
     }
+    if cell.compliance != 0.0 {
+        for j in 0..w.joints().len() {
+            w.set_compliance(j, cell.compliance)?;
+        }
+    }
     Ok(w)
+}
+
+/// The chain's total static stretch hanging at rest, `α g Σ_k (k + 1) m_k` (joint `j`
+/// carries the weight of bodies `j…n−1`; m): the compliant joints' share of the
+/// blow-up bound.
+pub fn static_stretch(w: &World, alpha: f64) -> f64 {
+    let g = w.gravity.length();
+    alpha
+        * g
+        * w.bodies()
+            .iter()
+            .enumerate()
+            .map(|(k, b)| (k as f64 + 1.0) * b.mass)
+            .sum::<f64>()
 }
 
 /// Steps of a cell: `horizon / h` rounded, cut to `max_link_steps / links`, at least 1.
@@ -223,7 +255,7 @@ pub fn classify(cell: &Cell) -> CellResult {
     let mass: f64 = w.bodies().iter().map(|b| b.mass).sum();
     let length = cell.links as f64 * LINK;
     let scale = mass * 9.81 * length;
-    let extent = length * (1.0 + cell.violation) + LINK;
+    let extent = length * (1.0 + cell.violation) + LINK + 2.0 * static_stretch(&w, cell.compliance);
     let m = method(cell.method, cell.h);
     let mut sep = 0.0f64;
     for k in 1..=n {
@@ -248,11 +280,12 @@ pub fn classify(cell: &Cell) -> CellResult {
             .iter()
             .map(|b| b.pose.x.length())
             .fold(0.0, f64::max);
-        if !(far <= BLOWUP_EXTENT * extent) || !r.energy.is_finite() {
+        let spun = cell.compliance > 0.0 && !(kin <= KINETIC_BLOWUP * mass * 9.81 * extent);
+        if !(far <= BLOWUP_EXTENT * extent) || !r.energy.is_finite() || spun {
             r.class = Class3::BlowUp;
             r.message = format!(
-                "blow-up at step {k}: max |x| = {far:.3e} m, energy measure {:.3e}",
-                r.energy
+                "blow-up at step {k}: max |x| = {far:.3e} m, energy measure {:.3e}, kinetic {:.3e} J",
+                r.energy, kin
             );
             break;
         }
@@ -262,8 +295,10 @@ pub fn classify(cell: &Cell) -> CellResult {
         }
     }
     r.simulated = r.steps as f64 * cell.h;
-    if r.class == Class3::Stable && (!(r.separation <= SEPARATION_TOL) || !(r.energy <= ENERGY_TOL))
-    {
+    // A compliant joint's separation is its spring's stretch, not an error: only the
+    // energy (elastic part included) judges those cells.
+    let separated = cell.compliance == 0.0 && !(r.separation <= SEPARATION_TOL);
+    if r.class == Class3::Stable && (separated || !(r.energy <= ENERGY_TOL)) {
         r.class = Class3::Inaccurate;
     }
     r.seconds = t0.elapsed().as_secs_f64();
@@ -309,11 +344,18 @@ pub enum Axis {
     Length,
     /// Initial joint stretch (fraction of the link length).
     Violation,
+    /// Joint compliance `α = 1/k` (m/N) of every joint.
+    Compliance,
 }
 
 impl Axis {
     /// Every axis paired with the time step, in report order.
-    pub const ALL: [Axis; 3] = [Axis::MassRatio, Axis::Length, Axis::Violation];
+    pub const ALL: [Axis; 4] = [
+        Axis::MassRatio,
+        Axis::Length,
+        Axis::Violation,
+        Axis::Compliance,
+    ];
 
     /// Axis label.
     pub fn label(self) -> &'static str {
@@ -321,6 +363,7 @@ impl Axis {
             Axis::MassRatio => "tip mass ratio",
             Axis::Length => "links",
             Axis::Violation => "initial stretch / link length",
+            Axis::Compliance => "joint compliance α (m/N)",
         }
     }
 
@@ -330,6 +373,7 @@ impl Axis {
             Axis::MassRatio => "mass",
             Axis::Length => "length",
             Axis::Violation => "violation",
+            Axis::Compliance => "compliance",
         }
     }
 }
@@ -345,7 +389,9 @@ pub struct Plan {
     pub lengths: Vec<usize>,
     /// Initial stretches (fraction of the link length).
     pub violations: Vec<f64>,
-    /// Links of the mass-ratio and violation maps.
+    /// Joint compliances `α` (m/N; 0: hard).
+    pub compliances: Vec<f64>,
+    /// Links of the mass-ratio, violation and compliance maps.
     pub base_links: usize,
     /// Simulated time per cell (s).
     pub horizon: f64,
@@ -362,6 +408,7 @@ impl Plan {
                 ratios: vec![1.0, 1e2, 1e4, 1e6],
                 lengths: vec![10, 100, 1000, 10_000],
                 violations: vec![0.0, 1e-2, 0.1, 0.5],
+                compliances: vec![0.0, 1e-12, 1e-8, 1e-4, 1.0],
                 base_links: 10,
                 horizon: 1.0,
                 max_link_steps: 2e5,
@@ -372,6 +419,7 @@ impl Plan {
                 ratios: vec![1.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6],
                 lengths: vec![10, 30, 100, 300, 1000, 3000, 10_000],
                 violations: vec![0.0, 1e-3, 1e-2, 0.1, 0.3, 1.0],
+                compliances: vec![0.0, 1e-12, 1e-10, 1e-8, 1e-6, 1e-4, 1e-2, 1.0],
                 base_links: 10,
                 horizon: 1.0,
                 max_link_steps: 1e6,
@@ -385,6 +433,7 @@ impl Plan {
             Axis::MassRatio => self.ratios.clone(),
             Axis::Length => self.lengths.iter().map(|&n| n as f64).collect(),
             Axis::Violation => self.violations.clone(),
+            Axis::Compliance => self.compliances.clone(),
         }
     }
 
@@ -400,6 +449,7 @@ impl Plan {
                         links: self.base_links,
                         tip_ratio: 1.0,
                         violation: 0.0,
+                        compliance: 0.0,
                         horizon: self.horizon,
                         max_link_steps: self.max_link_steps,
                     };
@@ -407,6 +457,7 @@ impl Plan {
                         Axis::MassRatio => c.tip_ratio = x,
                         Axis::Length => c.links = x as usize,
                         Axis::Violation => c.violation = x,
+                        Axis::Compliance => c.compliance = x,
                     }
                     v.push(c);
                 }
@@ -435,6 +486,10 @@ pub fn heat_map(plan: &Plan, axis: Axis, results: &[CellResult]) -> HeatMap {
         })
         .collect();
     let note = match axis {
+        Axis::Compliance => format!(
+            "Ball chain of {} links (0.1 m), every joint compliant (α; k = 1/α), released horizontal, {} s per cell.\nStable: max |E|/(M g ℓ) ≤ {ENERGY_TOL:e} with the joints' elastic energy (α = 0: also separation ≤ {SEPARATION_TOL:e} m).",
+            plan.base_links, plan.horizon
+        ),
         Axis::Length => format!(
             "Ball chain, 0.1 m links, released horizontal; {} s or at most {:.0e} link-steps per cell (long chains: shorter runs).\nStable: max joint separation over the run's second half ≤ {SEPARATION_TOL:e} m and max |E|/(M g ℓ) ≤ {ENERGY_TOL:e}.",
             plan.horizon, plan.max_link_steps
@@ -468,6 +523,7 @@ mod tests {
             links: 3,
             tip_ratio: 1.0,
             violation: 0.0,
+            compliance: 0.0,
             horizon: 0.05,
             max_link_steps: 1e9,
         }
@@ -480,6 +536,25 @@ mod tests {
             assert_eq!(r.class, Class3::Stable, "{}: {r:?}", METHODS[m]);
             assert_eq!(r.steps, 50);
         }
+    }
+
+    #[test]
+    fn a_short_small_step_run_of_compliant_joints_is_stable_for_every_method() {
+        for m in 0..METHODS.len() {
+            let c = Cell {
+                compliance: 1e-4,
+                ..cell(m, 1e-4)
+            };
+            let r = run_cell(&c);
+            assert_eq!(r.class, Class3::Stable, "{}: {r:?}", METHODS[m]);
+            assert_eq!(r.fallbacks, 0);
+        }
+        let w = world(&Cell {
+            compliance: 1e-4,
+            ..cell(0, 1e-4)
+        })
+        .unwrap();
+        assert_eq!(w.compliances(), &[1e-4; 3]);
     }
 
     #[test]
@@ -501,6 +576,30 @@ mod tests {
         };
         assert_eq!(steps(&c), 50);
         assert_eq!(steps(&cell(0, 1.0)), 1);
+    }
+
+    /// The quick compliance map alone, printed (`cargo test --release -p
+    /// constraint-verify --lib compliance_map -- --ignored --nocapture`).
+    #[test]
+    #[ignore]
+    fn compliance_map() {
+        let plan = Plan::new(true);
+        let t0 = Instant::now();
+        let res = run_all(&plan.cells(Axis::Compliance), crate::par::threads());
+        for r in &res {
+            println!(
+                "{:24} α {:8.1e} h {:8.1e}: {:?} sep {:.2e} E {:.2e} fb {} {}",
+                METHODS[r.cell.method],
+                r.cell.compliance,
+                r.cell.h,
+                r.class,
+                r.separation,
+                r.energy,
+                r.fallbacks,
+                r.message
+            );
+        }
+        println!("{:.1} s", t0.elapsed().as_secs_f64());
     }
 
     #[test]
@@ -530,7 +629,7 @@ pub struct Tally {
     pub panics: usize,
 }
 
-/// Writes the section (three heat maps `articulated_stability_<axis>.svg`, tables, a
+/// Writes the section (four heat maps `articulated_stability_<axis>.svg`, tables, a
 /// summary and `articulated_stability.csv`) and returns the panic count.
 ///
 /// # Errors
@@ -548,21 +647,40 @@ pub fn section(
         "\n## Stability map: articulated formulations\n\n\
          The ball chain of `constraint_articulated::scenes::ball_chain` (0.1 m rods, 34 g, \
          ball joints, hanging from the origin, released at rest along −x) stepped by five \
-         formulations over time step × tip mass ratio ({} links), time step × chain length, and \
+         formulations over time step × tip mass ratio ({} links), time step × chain length, \
          time step × initial violation (every joint stretched by a fraction of the link length: \
-         body i moved by (i + 1)·δ·0.1 m along −x). Methods: velocity level `Velocity {{ β: 1 }}`; \
+         body i moved by (i + 1)·δ·0.1 m along −x), and time step × joint compliance α = 1/k \
+         (the stiffness axis: every joint made compliant by `World::set_compliance`, \
+         C(x) = −α λ_f, a spring of stiffness k = 1/α N/m on each of the three rows; α = 0 is the \
+         hard joint of the other maps). Methods: velocity level `Velocity {{ β: 1 }}`; \
          velocity level + Newton projection to 1e-10 m (≤ 10 iterations); acceleration level with \
          critically damped Baumgarte gains kx = 1/τ², kv = 2/τ, τ = 5h; RATTLE \
          (`Method::default()`, SHAKE to 1e-12 m, falls back to the velocity level when its \
-         projection fails); RATTLE4 (Yoshida triple jump, 1e-12 m).\n\n\
+         projection fails); RATTLE4 (Yoshida triple jump, 1e-12 m). Compliant joints: the two \
+         velocity-level methods take them implicitly in the compliant form \
+         [M Jᵀ; J −α/h²][v'; λ] = [M v + h f; −C/h] (backward Euler on the spring) and leave them \
+         out of the projection (so with every joint compliant, velocity + projection equals the \
+         velocity level); Baumgarte, RATTLE and RATTLE4 apply the explicit spring force \
+         −(1/α) Jᵀ C (symplectic Euler / Störmer–Verlet in the kicks, rows out of the KKT system \
+         and of SHAKE), stable only while h·√(k/m) stays small — RATTLE's fallback to the \
+         velocity level (when a body turns by more than 0.5 rad in a step) can rescue a step.\n\n\
          Classes (thresholds exact): **✓ stable**: every step finite, bounded, max joint \
          separation over the second half of the run ≤ {SEPARATION_TOL:e} m (1 % of the link) and \
          max over the run of |E(t)|/(M g ℓ) ≤ {ENERGY_TOL:e} (E = kinetic + gravitational, exactly \
          0 at the start and for the exact motion; M total mass, ℓ chain length); **~ inaccurate**: \
-         bounded but above either threshold; **✗ unstable**: `ArticulatedError::Diverged` \
+         bounded but above either threshold; on the compliance map (α > 0) the separation \
+         threshold does not apply (a compliant joint's stretch is its spring's, about α × the \
+         force it carries) and E includes the joints' elastic energy Σ C²/(2α) — so at very stiff \
+         α the velocity level's own O(h²) position drift (the hard joint's separation, 1e-7 m at \
+         h = 1e-4 on this chain) counts as elastic energy C²/(2α) and such cells are inaccurate \
+         though bounded; **✗ unstable**: `ArticulatedError::Diverged` \
          (non-finite or beyond 1e12); **↑ unstable**: blow-up, a body beyond {BLOWUP_EXTENT} × the \
-         initial extent (chain length with its stretch, plus a link) from the anchor, or a non-finite \
-         energy; **! unstable**: another \
+         initial extent (chain length with its stretch, plus a link, plus for α > 0 twice the \
+         chain's static stretch α g Σₖ (k + 1) mₖ) from the anchor, or a non-finite \
+         energy, or on the compliance map a kinetic energy above {KINETIC_BLOWUP:e} × M g × that \
+         extent (those cells start at rest without violation, so such energy is made by the \
+         integrator: an explicit stiff spring spins the links up while their centres stay in \
+         bounds); **! unstable**: another \
          typed error; **P**: a panic (caught per cell by `catch_unwind`; must be 0). Each cell \
          simulates {} s (long chains: at most {:.0e} link-steps, so fewer steps). Cells run on {threads} \
          thread(s); each run is deterministic.\n",
@@ -571,7 +689,7 @@ pub fn section(
         plan.max_link_steps
     );
     let mut csv = String::from(
-        "axis,method,h,links,tip_ratio,violation,class,steps,simulated_s,separation_m,energy_rel,fallbacks,wall_s,message\n",
+        "axis,method,h,links,tip_ratio,violation,compliance,class,steps,simulated_s,separation_m,energy_rel,fallbacks,wall_s,message\n",
     );
     let mut tally = [Tally::default(); METHODS.len()];
     let mut all: Vec<(Axis, Vec<CellResult>)> = Vec::new();
@@ -626,13 +744,14 @@ pub fn section(
             let c = &r.cell;
             let _ = writeln!(
                 csv,
-                "{},{},{:e},{},{:e},{:e},{:?},{},{:e},{:e},{:e},{},{:.4},{}",
+                "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{},{:.4},{}",
                 axis.stem(),
                 METHODS[c.method],
                 c.h,
                 c.links,
                 c.tip_ratio,
                 c.violation,
+                c.compliance,
                 r.class,
                 r.steps,
                 r.simulated,

@@ -14,8 +14,10 @@
 //! * [`contact_report`] measures the contact LCP solvers' residual against run time on
 //!   the LCPs of stacks and pyramids, and the contact scenes' error against run time.
 //! * [`articulated_stability`] classifies the articulated formulations on the ball
-//!   chain over time step × mass ratio, chain length and initial violation, drawn by
-//!   [`heatmap`].
+//!   chain over time step × mass ratio, chain length, initial violation and joint
+//!   compliance, drawn by [`heatmap`].
+//! * [`contact_stability`] classifies the rigid contact solvers on a box stack over
+//!   time step × stack height, top mass ratio, initial overlap and Baumgarte factor.
 //! * [`deps`] lists what each scene family compiles (`cargo tree`) and runs.
 //! * [`html`] turns the Markdown report into one self-contained HTML page.
 //!
@@ -36,6 +38,7 @@ pub mod articulated_report;
 pub mod articulated_stability;
 pub mod chart;
 pub mod contact_report;
+pub mod contact_stability;
 pub mod deps;
 pub mod fd;
 pub mod hard;

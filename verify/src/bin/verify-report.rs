@@ -349,6 +349,12 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         t0.elapsed().as_secs_f64()
     );
     let t0 = Instant::now();
+    let contact_panics = constraint_verify::contact_stability::section(&mut md, &out, quick)?;
+    eprintln!(
+        "    contact stability map done in {:.1} s ({contact_panics} panics)",
+        t0.elapsed().as_secs_f64()
+    );
+    let t0 = Instant::now();
     let panics = constraint_verify::articulated_stability::section(&mut md, &out, quick)?;
     let stab_secs = t0.elapsed().as_secs_f64();
     eprintln!("    articulated stability map done in {stab_secs:.1} s ({panics} panics)");
@@ -370,6 +376,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     eprintln!("  wrote {}", out.join("report.html").display());
     if panics > 0 {
         return Err(format!("articulated stability map: {panics} cell(s) panicked").into());
+    }
+    if contact_panics > 0 {
+        return Err(format!("contact stability map: {contact_panics} cell(s) panicked").into());
     }
     Ok(())
 }

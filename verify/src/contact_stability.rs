@@ -1,0 +1,858 @@
+//! Stability map of the rigid contact solvers (issue 6): a stack of unit boxes on the
+//! ground ([`constraint_contact::scenes::add_box`], [`constraint_contact::scenes::ground`])
+//! stepped by each [`METHODS`] entry over pairs of axes — time step × stack height,
+//! time step × top-box mass ratio, time step × initial interpenetration, time step ×
+//! Baumgarte factor β (the contact "stiffness": the contacts are hard, there is no
+//! compliance or softness parameter in `ContactSettings`; β is the error-reduction
+//! parameter, the fraction of the penetration corrected per step) — each cell
+//! classified by [`classify`] as stable, inaccurate or unstable. Every cell runs under
+//! `catch_unwind`: a panic is its own class, counted, and must never happen.
+//!
+//! Cells run in parallel over all cores ([`crate::par::map_cells`]); each run is
+//! single-threaded and deterministic and the results are stored by cell index, so the
+//! tables do not depend on the scheduling (only the wall times do).
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::time::Instant;
+
+use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld, FrictionModel};
+use constraint_contact::scenes::{add_box, ground};
+use constraint_core::DVec3;
+
+use crate::heatmap::{tick, Class, HeatMap, Panel};
+
+/// Edge of the boxes (m); each is 1000 kg (density 1000), friction 0.5 on the boxes and
+/// the ground.
+pub const SIZE: f64 = 1.0;
+
+/// Friction coefficient of the boxes and the ground.
+pub const FRICTION: f64 = 0.5;
+
+/// Stable: max over the second half of the run of any box's distance from its rest
+/// position `(0, 0, (k + ½)·SIZE)` at most this (m), 1 % of the box size.
+pub const DRIFT_TOL: f64 = 1e-2 * SIZE;
+
+/// Stable: max penetration depth (the world's deepest contact at the start of each
+/// step) over the second half of the run at most this (m), 1 % of the box size.
+pub const PENETRATION_TOL: f64 = 1e-2 * SIZE;
+
+/// Toppled or thrown (reported in the message; the class is inaccurate unless beyond the
+/// blow-up bound): a box farther than this from its rest position at the end of the run
+/// (m), half the box size.
+pub const TOPPLE: f64 = 0.5 * SIZE;
+
+/// Blow-up: a box farther than this many stack heights (plus one box) from its rest
+/// position, or a non-finite energy.
+pub const BLOWUP_EXTENT: f64 = 10.0;
+
+/// The solvers and formulations: report label.
+pub const METHODS: [&str; 5] = [
+    "sequential impulses",
+    "dense PGS (boxed)",
+    "Lemke (staggered)",
+    "Newton (staggered)",
+    "seq. impulses, plain Baumgarte",
+];
+
+/// `ContactWorld` settings of `METHODS[k]` with Baumgarte factor `beta`: the world's
+/// defaults (30 iterations, tolerance 1e-10, slop 1e-4 m, 2 cm speculative margin, two
+/// shock-propagation sweeps, warm start, split impulses) except the solver, the friction
+/// model (boxed for PGS, two staggered sweeps for Lemke and Newton) and, for the last
+/// entry, split impulses off (plain Baumgarte: the correction is part of the velocity).
+pub fn settings(k: usize, beta: f64) -> constraint_contact::rigid::ContactSettings {
+    let mut s = constraint_contact::rigid::ContactSettings {
+        baumgarte: beta,
+        ..Default::default()
+    };
+    match k {
+        0 => s.solver = ContactSolver::SequentialImpulses,
+        1 => {
+            s.solver = ContactSolver::Pgs;
+            s.friction = FrictionModel::Boxed;
+        }
+        2 => s.solver = ContactSolver::Lemke,
+        3 => s.solver = ContactSolver::Newton,
+        _ => {
+            s.solver = ContactSolver::SequentialImpulses;
+            s.split_impulse = false;
+        }
+    }
+    s
+}
+
+/// A cell's class.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ContactClass {
+    /// Finite, bounded, drift ≤ [`DRIFT_TOL`] and penetration ≤ [`PENETRATION_TOL`].
+    Stable,
+    /// Finite and bounded, but drift or penetration above its threshold (or toppled).
+    Inaccurate,
+    /// The step returned `ContactError::Diverged`.
+    Diverged,
+    /// Finite but a box beyond the blow-up bound (counted as unstable).
+    BlowUp,
+    /// Another typed error (an LCP solver failing; counted as unstable).
+    Failed,
+    /// The step panicked (a bug: must never happen).
+    Panicked,
+}
+
+impl ContactClass {
+    /// Every class, in legend order.
+    pub const ALL: [ContactClass; 6] = [
+        ContactClass::Stable,
+        ContactClass::Inaccurate,
+        ContactClass::Diverged,
+        ContactClass::BlowUp,
+        ContactClass::Failed,
+        ContactClass::Panicked,
+    ];
+
+    /// One-character cell for tables.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            ContactClass::Stable => "✓",
+            ContactClass::Inaccurate => "~",
+            ContactClass::Diverged => "✗",
+            ContactClass::BlowUp => "↑",
+            ContactClass::Failed => "!",
+            ContactClass::Panicked => "P",
+        }
+    }
+
+    /// Whether the class counts as unstable.
+    pub fn unstable(self) -> bool {
+        !matches!(self, ContactClass::Stable | ContactClass::Inaccurate)
+    }
+
+    fn index(self) -> usize {
+        ContactClass::ALL
+            .iter()
+            .position(|c| *c == self)
+            .unwrap_or(0)
+    }
+
+    /// The heat-map classes, in [`ContactClass::ALL`] order.
+    pub fn legend() -> Vec<Class> {
+        let c = |label: &str, color, symbol| Class {
+            label: label.into(),
+            color,
+            symbol,
+        };
+        vec![
+            c("stable", "#8fd18f", "✓"),
+            c("inaccurate (bounded)", "#f3d36b", "~"),
+            c("unstable: Diverged", "#e06666", "✗"),
+            c("unstable: blow-up", "#c0504d", "↑"),
+            c("unstable: other typed error", "#a64d79", "!"),
+            c("panic (must not happen)", "#222222", "P"),
+        ]
+    }
+}
+
+/// One cell's configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    /// Index into [`METHODS`].
+    pub method: usize,
+    /// Time step (s).
+    pub h: f64,
+    /// Boxes in the stack.
+    pub boxes: usize,
+    /// Mass of the top box over the others'.
+    pub top_ratio: f64,
+    /// Initial overlap of every interface (box–ground and box–box), as a fraction of
+    /// the box size.
+    pub violation: f64,
+    /// Baumgarte factor β.
+    pub beta: f64,
+    /// Simulated time asked for (s).
+    pub horizon: f64,
+    /// Most `boxes × steps` of the run (the horizon is cut to fit).
+    pub max_box_steps: f64,
+}
+
+/// What one cell measured.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CellResult {
+    /// The configuration.
+    pub cell: Cell,
+    /// The class.
+    pub class: ContactClass,
+    /// Steps taken (the last one that failed not counted).
+    pub steps: u64,
+    /// Simulated time covered (s).
+    pub simulated: f64,
+    /// Max over the second half of the run of any box's distance from rest (m); NaN if
+    /// not reached.
+    pub drift: f64,
+    /// Max penetration over the second half of the run (m); NaN if not reached.
+    pub penetration: f64,
+    /// Largest distance of a box from rest at the end (m).
+    pub final_drift: f64,
+    /// Mean solver iterations per step.
+    pub iterations: f64,
+    /// Worst LCP residual reported by the steps.
+    pub residual: f64,
+    /// Wall time (s).
+    pub seconds: f64,
+    /// The error or panic message, or a note (toppled), if any (one line).
+    pub message: String,
+}
+
+/// Rest position of box `k` (m).
+pub fn rest(k: usize) -> DVec3 {
+    DVec3::new(0.0, 0.0, (k as f64 + 0.5) * SIZE)
+}
+
+/// The stack of `cell`: `boxes` unit boxes on the ground, the top one `top_ratio` times
+/// as heavy (inertia scaled with it), every interface overlapping by `violation ×
+/// SIZE` (box `k` at `z = (k + ½)·SIZE − (k + 1)·violation·SIZE`), at rest, with the
+/// settings of the cell's method.
+pub fn world(cell: &Cell) -> Result<ContactWorld, ContactError> {
+    let mut w = ContactWorld::new(DVec3::new(0.0, 0.0, -9.81));
+    w.settings = settings(cell.method, cell.beta);
+    ground(&mut w, FRICTION)?;
+    let half = DVec3::splat(0.5 * SIZE);
+    let m = 1000.0 * SIZE * SIZE * SIZE;
+    for k in 0..cell.boxes {
+        let mass = if k + 1 == cell.boxes {
+            m * cell.top_ratio
+        } else {
+            m
+        };
+        let x = rest(k) - DVec3::Z * ((k as f64 + 1.0) * cell.violation * SIZE);
+        add_box(&mut w, half, Some(mass), x, FRICTION)?;
+    }
+    Ok(w)
+}
+
+/// Steps of a cell: `horizon / h` rounded, cut to `max_box_steps / boxes`, at least 1.
+pub fn steps(cell: &Cell) -> u64 {
+    let want = (cell.horizon / cell.h).round().max(1.0);
+    let cap = (cell.max_box_steps / cell.boxes.max(1) as f64)
+        .floor()
+        .max(1.0);
+    want.min(cap) as u64
+}
+
+/// The largest distance of a box from its rest position (m); infinite if non-finite.
+fn max_drift(w: &ContactWorld) -> f64 {
+    w.bodies()
+        .iter()
+        .enumerate()
+        .map(|(k, b)| {
+            let d = (b.pose.x - rest(k)).length();
+            if d.is_finite() {
+                d
+            } else {
+                f64::INFINITY
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Runs one cell (no panic guard; see [`run_cell`]).
+pub fn classify(cell: &Cell) -> CellResult {
+    let t0 = Instant::now();
+    let n = steps(cell);
+    let mut r = CellResult {
+        cell: *cell,
+        class: ContactClass::Stable,
+        steps: 0,
+        simulated: 0.0,
+        drift: f64::NAN,
+        penetration: f64::NAN,
+        final_drift: f64::NAN,
+        iterations: 0.0,
+        residual: 0.0,
+        seconds: 0.0,
+        message: String::new(),
+    };
+    let mut w = match world(cell) {
+        Ok(w) => w,
+        Err(e) => {
+            r.class = ContactClass::Failed;
+            r.message = e.to_string();
+            return r;
+        }
+    };
+    let bound = BLOWUP_EXTENT * (cell.boxes as f64 + 1.0) * SIZE;
+    let (mut drift, mut pen, mut iters) = (0.0f64, 0.0f64, 0usize);
+    for k in 1..=n {
+        let stats = match w.step(cell.h) {
+            Ok(s) => s,
+            Err(e) => {
+                r.class = if matches!(e, ContactError::Diverged { .. }) {
+                    ContactClass::Diverged
+                } else {
+                    ContactClass::Failed
+                };
+                r.message = e.to_string();
+                break;
+            }
+        };
+        r.steps = k;
+        iters += stats.iterations;
+        r.residual = r.residual.max(stats.residual);
+        let far = max_drift(&w);
+        if !(far <= bound) || !w.energy().is_finite() {
+            r.class = ContactClass::BlowUp;
+            r.message = format!("blow-up at step {k}: a box {far:.3e} m from rest");
+            break;
+        }
+        if 2 * k >= n {
+            drift = drift.max(far);
+            pen = pen.max(stats.max_penetration);
+            r.drift = drift;
+            r.penetration = pen;
+        }
+    }
+    r.simulated = r.steps as f64 * cell.h;
+    r.iterations = iters as f64 / r.steps.max(1) as f64;
+    r.final_drift = max_drift(&w);
+    if r.class == ContactClass::Stable {
+        if !(r.drift <= DRIFT_TOL) || !(r.penetration <= PENETRATION_TOL) {
+            r.class = ContactClass::Inaccurate;
+        }
+        if r.final_drift > TOPPLE {
+            r.message = format!(
+                "toppled or thrown: a box {:.2} m from rest at the end",
+                r.final_drift
+            );
+        }
+    }
+    r.seconds = t0.elapsed().as_secs_f64();
+    r
+}
+
+/// The result of a cell whose run panicked.
+fn panicked(cell: &Cell, message: String) -> CellResult {
+    CellResult {
+        cell: *cell,
+        class: ContactClass::Panicked,
+        steps: 0,
+        simulated: 0.0,
+        drift: f64::NAN,
+        penetration: f64::NAN,
+        final_drift: f64::NAN,
+        iterations: 0.0,
+        residual: f64::NAN,
+        seconds: 0.0,
+        message,
+    }
+}
+
+/// [`classify`] under `catch_unwind`: a panic becomes [`ContactClass::Panicked`].
+pub fn run_cell(cell: &Cell) -> CellResult {
+    catch_unwind(AssertUnwindSafe(|| classify(cell)))
+        .unwrap_or_else(|p| panicked(cell, crate::par::panic_message(p.as_ref())))
+}
+
+/// Runs `cells` on up to `threads` threads ([`crate::par::map_cells`], longest first);
+/// results in the order of `cells`.
+pub fn run_all(cells: &[Cell], threads: usize) -> Vec<CellResult> {
+    // Work estimate: box-steps (dense solvers: rows², so boxes² per step).
+    let cost = |c: &Cell| {
+        let b = c.boxes as f64;
+        let per_step = match c.method {
+            1..=3 => b * b,
+            _ => b,
+        };
+        steps(c) as f64 * per_step
+    };
+    crate::par::map_cells("contact", cells, threads, cost, run_cell, panicked)
+}
+
+/// One pair of axes: time step × another.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    /// Boxes in the stack (the contact analogue of chain length).
+    Height,
+    /// Top box's mass over the others'.
+    MassRatio,
+    /// Initial overlap of every interface (fraction of the box size).
+    Violation,
+    /// Baumgarte factor β (error reduction per step; the contact stiffness knob).
+    Baumgarte,
+}
+
+impl Axis {
+    /// Every axis paired with the time step, in report order.
+    pub const ALL: [Axis; 4] = [
+        Axis::Height,
+        Axis::MassRatio,
+        Axis::Violation,
+        Axis::Baumgarte,
+    ];
+
+    /// Axis label.
+    pub fn label(self) -> &'static str {
+        match self {
+            Axis::Height => "boxes in the stack",
+            Axis::MassRatio => "top mass ratio",
+            Axis::Violation => "initial overlap / box size",
+            Axis::Baumgarte => "Baumgarte β",
+        }
+    }
+
+    /// File stem of the chart.
+    pub fn stem(self) -> &'static str {
+        match self {
+            Axis::Height => "height",
+            Axis::MassRatio => "mass",
+            Axis::Violation => "violation",
+            Axis::Baumgarte => "baumgarte",
+        }
+    }
+}
+
+/// What one mode of the map runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    /// Time steps (s).
+    pub hs: Vec<f64>,
+    /// Stack heights (boxes).
+    pub heights: Vec<usize>,
+    /// Top mass ratios.
+    pub ratios: Vec<f64>,
+    /// Initial overlaps (fraction of the box size).
+    pub violations: Vec<f64>,
+    /// Baumgarte factors.
+    pub betas: Vec<f64>,
+    /// Boxes of the mass-ratio, violation and Baumgarte maps.
+    pub base_boxes: usize,
+    /// Initial overlap of the Baumgarte map (so that the correction has work to do).
+    pub beta_violation: f64,
+    /// Simulated time per cell (s).
+    pub horizon: f64,
+    /// Cap on `boxes × steps` per cell (tall stacks' horizon is cut to fit).
+    pub max_box_steps: f64,
+}
+
+impl Plan {
+    /// The quick (CI) or full plan.
+    pub fn new(quick: bool) -> Self {
+        if quick {
+            Self {
+                hs: vec![1e-4, 1e-3, 1e-2, 1.0 / 30.0],
+                heights: vec![1, 3, 10, 20],
+                ratios: vec![1.0, 1e2, 1e4, 1e6],
+                violations: vec![0.0, 1e-3, 1e-2, 0.1],
+                betas: vec![0.0, 0.2, 0.5, 1.0],
+                base_boxes: 3,
+                beta_violation: 1e-2,
+                horizon: 1.0,
+                max_box_steps: 3e4,
+            }
+        } else {
+            Self {
+                hs: vec![1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 1.0 / 30.0],
+                heights: vec![1, 2, 5, 10, 20, 40],
+                ratios: vec![1.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6],
+                violations: vec![0.0, 1e-4, 1e-3, 1e-2, 0.1, 0.3],
+                betas: vec![0.0, 0.05, 0.1, 0.2, 0.5, 0.8, 1.0],
+                base_boxes: 5,
+                beta_violation: 1e-2,
+                horizon: 2.0,
+                max_box_steps: 1e5,
+            }
+        }
+    }
+
+    /// Values along `axis` (as numbers).
+    pub fn values(&self, axis: Axis) -> Vec<f64> {
+        match axis {
+            Axis::Height => self.heights.iter().map(|&n| n as f64).collect(),
+            Axis::MassRatio => self.ratios.clone(),
+            Axis::Violation => self.violations.clone(),
+            Axis::Baumgarte => self.betas.clone(),
+        }
+    }
+
+    /// The cells of one map: for each method, value and step.
+    pub fn cells(&self, axis: Axis) -> Vec<Cell> {
+        let beta = settings(0, 0.2).baumgarte;
+        let mut v = Vec::new();
+        for m in 0..METHODS.len() {
+            for &x in &self.values(axis) {
+                for &h in &self.hs {
+                    let mut c = Cell {
+                        method: m,
+                        h,
+                        boxes: self.base_boxes,
+                        top_ratio: 1.0,
+                        violation: 0.0,
+                        beta,
+                        horizon: self.horizon,
+                        max_box_steps: self.max_box_steps,
+                    };
+                    match axis {
+                        Axis::Height => c.boxes = x as usize,
+                        Axis::MassRatio => c.top_ratio = x,
+                        Axis::Violation => c.violation = x,
+                        Axis::Baumgarte => {
+                            c.beta = x;
+                            c.violation = self.beta_violation;
+                        }
+                    }
+                    v.push(c);
+                }
+            }
+        }
+        v
+    }
+}
+
+/// The heat map of one axis pair from its results (in [`Plan::cells`] order).
+pub fn heat_map(plan: &Plan, axis: Axis, results: &[CellResult]) -> HeatMap {
+    let nv = plan.values(axis).len();
+    let nh = plan.hs.len();
+    let panels = METHODS
+        .iter()
+        .enumerate()
+        .map(|(m, name)| Panel {
+            title: (*name).into(),
+            cells: (0..nv)
+                .map(|v| {
+                    (0..nh)
+                        .map(|k| results.get((m * nv + v) * nh + k).map(|r| r.class.index()))
+                        .collect()
+                })
+                .collect(),
+        })
+        .collect();
+    let stable = format!(
+        "Stable: over the run's second half every box within {DRIFT_TOL:e} m of rest and penetration ≤ {PENETRATION_TOL:e} m."
+    );
+    let note = match axis {
+        Axis::Height => format!(
+            "Stacks of 1 m, 1000 kg boxes (μ 0.5) at rest on the ground; {} s or at most {:.0e} box-steps per cell (tall stacks: shorter runs).\n{stable}",
+            plan.horizon, plan.max_box_steps
+        ),
+        Axis::Baumgarte => format!(
+            "Stack of {} boxes, every interface overlapping by {} of the box size at the start, {} s per cell.\n{stable}",
+            plan.base_boxes, plan.beta_violation, plan.horizon
+        ),
+        _ => format!(
+            "Stack of {} boxes (1 m, 1000 kg, μ 0.5), {} s per cell.\n{stable}",
+            plan.base_boxes, plan.horizon
+        ),
+    };
+    HeatMap {
+        title: format!("Contact stability: time step × {}", axis.label()),
+        x_label: "h (s)".into(),
+        y_label: axis.label().into(),
+        x_ticks: plan.hs.iter().map(|&h| tick(h)).collect(),
+        y_ticks: plan.values(axis).iter().map(|&v| tick(v)).collect(),
+        classes: ContactClass::legend(),
+        panels,
+        columns: 3,
+        note,
+    }
+}
+
+/// Counts of one method's cells over all maps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tally {
+    /// Stable cells.
+    pub stable: usize,
+    /// Inaccurate cells.
+    pub inaccurate: usize,
+    /// Unstable cells (diverged, blow-up, other typed error).
+    pub unstable: usize,
+    /// Panics.
+    pub panics: usize,
+}
+
+/// Writes the section (four heat maps `contact_stability_<axis>.svg`, tables, a
+/// per-solver summary and `contact_stability.csv`) and returns the panic count.
+///
+/// # Errors
+/// Writing a file.
+pub fn section(
+    md: &mut String,
+    out: &std::path::Path,
+    quick: bool,
+) -> Result<usize, Box<dyn std::error::Error>> {
+    use std::fmt::Write as _;
+    let plan = Plan::new(quick);
+    let threads = crate::par::threads();
+    let cap = plan.heights.iter().copied().max().unwrap_or(0);
+    let _ = writeln!(
+        md,
+        "\n## Stability map: rigid contact solvers\n\n\
+         A stack of 1 m boxes (1000 kg, μ 0.5 on boxes and ground) resting on the ground \
+         plane, built from `constraint_contact::scenes::{{ground, add_box}}`, stepped by the \
+         contact world with each solver over time step × stack height (the contact analogue of \
+         chain length: 1 … {cap} boxes; taller stacks are left out to keep the dense solvers' \
+         cells affordable — their Delassus matrix grows as (12 n)²), time step × top-box mass \
+         ratio ({} boxes, the top one heavier), time step × initial overlap (every interface, \
+         box–ground and box–box, overlapping by a fraction δ of the box size: box k starts \
+         (k + 1)·δ·1 m below its rest height) and time step × Baumgarte factor β ({} boxes \
+         starting with δ = {}). The contacts are hard (an LCP per step): `ContactSettings` has \
+         no compliance, softness or stiffness parameter, so the contact-stiffness axis is β, the \
+         error-reduction parameter (fraction of the penetration beyond the slop corrected per \
+         step; as a spring on the penetration it is k ≈ β m/h²). Solvers: sequential \
+         impulses (matrix-free projected Gauss–Seidel, 30 sweeps); dense PGS on the boxed \
+         friction LCP; Lemke and Fischer–Burmeister Newton with two staggered friction sweeps \
+         (the world falls back to the other dense solvers when the requested one fails, so a \
+         step fails only when all three do); and sequential impulses with plain Baumgarte \
+         (`split_impulse: false`: the correction is part of the velocity, so correcting \
+         penetration adds kinetic energy) — the other four use split impulses (the world's \
+         default: the correction moves positions only). `ContactSolver::Auto` is Newton below \
+         200 contact points, i.e. identical to the Newton panel on every stack here. Everything \
+         else is the world's default (tolerance 1e-10, slop 1e-4 m, 2 cm speculative margin, two \
+         shock-propagation sweeps, warm start).\n\n\
+         Classes (thresholds exact): **✓ stable**: every step finite and bounded, max over the \
+         second half of the run of every box's distance from its rest position (0, 0, k + ½) m \
+         ≤ {DRIFT_TOL:e} m (1 % of the box) and max penetration depth (deepest contact at the \
+         start of each step) over the second half ≤ {PENETRATION_TOL:e} m; **~ inaccurate**: \
+         bounded but above either threshold (including stacks that topple or throw a box: a \
+         box more than {TOPPLE} m from rest at the end, noted in the CSV); **✗ unstable**: \
+         `ContactError::Diverged` (non-finite or beyond 1e12); **↑ unstable**: blow-up, a box \
+         more than {BLOWUP_EXTENT} × (boxes + 1) m from its rest position, or a non-finite \
+         energy; **! unstable**: another typed error (an LCP solver's `IterationLimit`, …); \
+         **P**: a panic (caught per cell by `catch_unwind`; must be 0). Each cell simulates {} s \
+         (tall stacks: at most {:.0e} box-steps, so fewer steps). Cells run on {threads} \
+         thread(s); each run is deterministic.\n",
+        plan.base_boxes, plan.base_boxes, plan.beta_violation, plan.horizon, plan.max_box_steps
+    );
+    let mut csv = String::from(
+        "axis,method,h,boxes,top_ratio,violation,beta,class,steps,simulated_s,drift_m,penetration_m,final_drift_m,iterations_per_step,worst_residual,wall_s,message\n",
+    );
+    let mut tally = [Tally::default(); METHODS.len()];
+    let mut all: Vec<(Axis, Vec<CellResult>)> = Vec::new();
+    for axis in Axis::ALL {
+        let t0 = Instant::now();
+        let cells = plan.cells(axis);
+        eprintln!(
+            "  contact stability: h × {}, {} cells on {threads} thread(s)",
+            axis.label(),
+            cells.len()
+        );
+        let res = run_all(&cells, threads);
+        let secs = t0.elapsed().as_secs_f64();
+        eprintln!("    done in {secs:.1} s");
+        let stem = format!("contact_stability_{}", axis.stem());
+        std::fs::write(
+            out.join(format!("{stem}.svg")),
+            heat_map(&plan, axis, &res).to_svg(),
+        )?;
+        let _ = writeln!(
+            md,
+            "### Contact: time step × {}\n\n![contact stability, h × {}]({stem}.svg)\n",
+            axis.label(),
+            axis.label()
+        );
+        let mut head = format!("| solver | {} \\ h (s) |", axis.label());
+        let mut sep = String::from("|---|---|");
+        for h in &plan.hs {
+            let _ = write!(head, " {} |", tick(*h));
+            sep.push_str("---|");
+        }
+        let _ = writeln!(md, "{head}\n{sep}");
+        let vals = plan.values(axis);
+        let nh = plan.hs.len();
+        for (m, name) in METHODS.iter().enumerate() {
+            for (v, x) in vals.iter().enumerate() {
+                let row: Vec<&str> = (0..nh)
+                    .map(|k| {
+                        res.get((m * vals.len() + v) * nh + k)
+                            .map_or(" ", |r| r.class.symbol())
+                    })
+                    .collect();
+                let _ = writeln!(md, "| {name} | {} | {} |", tick(*x), row.join(" | "));
+            }
+        }
+        let _ = writeln!(md, "\n({} cells, {secs:.1} s wall.)\n", res.len());
+        for r in &res {
+            let t = &mut tally[r.cell.method];
+            match r.class {
+                ContactClass::Stable => t.stable += 1,
+                ContactClass::Inaccurate => t.inaccurate += 1,
+                ContactClass::Panicked => t.panics += 1,
+                _ => t.unstable += 1,
+            }
+            let c = &r.cell;
+            let _ = writeln!(
+                csv,
+                "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{:e},{:.1},{:e},{:.4},{}",
+                axis.stem(),
+                METHODS[c.method],
+                c.h,
+                c.boxes,
+                c.top_ratio,
+                c.violation,
+                c.beta,
+                r.class,
+                r.steps,
+                r.simulated,
+                r.drift,
+                r.penetration,
+                r.final_drift,
+                r.iterations,
+                r.residual,
+                r.seconds,
+                r.message.replace(',', ";")
+            );
+        }
+        all.push((axis, res));
+    }
+    std::fs::write(out.join("contact_stability.csv"), csv)?;
+    let _ = writeln!(md, "### Contact: summary per solver\n");
+    let mut head = String::from("| solver | ✓ | ~ | unstable | panics |");
+    let mut sep = String::from("|---|---|---|---|---|");
+    for axis in Axis::ALL {
+        let _ = write!(
+            head,
+            " largest h stable / bounded on every {} |",
+            axis.label()
+        );
+        sep.push_str("---|");
+    }
+    let _ = writeln!(md, "{head}\n{sep}");
+    let nh = plan.hs.len();
+    for (m, name) in METHODS.iter().enumerate() {
+        let t = tally[m];
+        let mut row = format!(
+            "| {name} | {} | {} | {} | {} |",
+            t.stable, t.inaccurate, t.unstable, t.panics
+        );
+        for (axis, res) in &all {
+            let nv = plan.values(*axis).len();
+            let class = |v: usize, k: usize| res.get((m * nv + v) * nh + k).map(|r| r.class);
+            let largest = |ok: &dyn Fn(ContactClass) -> bool| {
+                (0..nh)
+                    .filter(|&k| (0..nv).all(|v| class(v, k).is_some_and(ok)))
+                    .map(|k| plan.hs[k])
+                    .fold(None, |a: Option<f64>, h| Some(a.map_or(h, |a| a.max(h))))
+                    .map_or("none".to_string(), tick)
+            };
+            let _ = write!(
+                row,
+                " {} / {} |",
+                largest(&|c| c == ContactClass::Stable),
+                largest(&|c| !c.unstable())
+            );
+        }
+        let _ = writeln!(md, "{row}");
+    }
+    let panics: usize = tally.iter().map(|t| t.panics).sum();
+    let _ = writeln!(
+        md,
+        "\nPanics: {panics} (of {} cells). Raw data: `contact_stability.csv` (class, steps, \
+         drift, penetration, final drift, solver iterations per step, worst LCP residual, wall \
+         time and the error message per cell).\n",
+        all.iter().map(|(_, r)| r.len()).sum::<usize>()
+    );
+    Ok(panics)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cell(method: usize, h: f64) -> Cell {
+        Cell {
+            method,
+            h,
+            boxes: 2,
+            top_ratio: 1.0,
+            violation: 0.0,
+            beta: 0.2,
+            horizon: 0.1,
+            max_box_steps: 1e9,
+        }
+    }
+
+    #[test]
+    fn a_short_small_step_run_is_stable_for_every_solver() {
+        for m in 0..METHODS.len() {
+            let r = run_cell(&cell(m, 1e-2));
+            assert_eq!(r.class, ContactClass::Stable, "{}: {r:?}", METHODS[m]);
+            assert_eq!(r.steps, 10);
+        }
+    }
+
+    #[test]
+    fn overlapping_boxes_start_at_the_violation() {
+        let c = Cell {
+            violation: 0.1,
+            boxes: 3,
+            ..cell(0, 1e-2)
+        };
+        let w = world(&c).unwrap();
+        let z: Vec<f64> = w.bodies().iter().map(|b| b.pose.x.z).collect();
+        assert!((z[0] - 0.4).abs() < 1e-12);
+        assert!((z[1] - z[0] - 0.9).abs() < 1e-12 && (z[2] - z[1] - 0.9).abs() < 1e-12);
+        assert_eq!(w.settings.solver, ContactSolver::SequentialImpulses);
+        assert!(
+            !world(&Cell { method: 4, ..c })
+                .unwrap()
+                .settings
+                .split_impulse
+        );
+    }
+
+    #[test]
+    fn the_horizon_is_cut_to_the_box_step_budget() {
+        let c = Cell {
+            boxes: 30,
+            max_box_steps: 3e3,
+            ..cell(0, 1e-4)
+        };
+        assert_eq!(steps(&c), 100);
+        assert_eq!(steps(&cell(0, 1.0)), 1);
+    }
+
+    #[test]
+    fn results_keep_the_cell_order_whatever_the_threads() {
+        let cells: Vec<Cell> = (0..METHODS.len())
+            .map(|m| Cell {
+                violation: 1e-2,
+                ..cell(m, 2e-2)
+            })
+            .collect();
+        let a = run_all(&cells, 1);
+        let b = run_all(&cells, 3);
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!(x.cell, y.cell);
+            assert_eq!(x.class, y.class);
+            assert_eq!(x.steps, y.steps);
+            assert_eq!(x.drift.to_bits(), y.drift.to_bits());
+            assert_eq!(x.penetration.to_bits(), y.penetration.to_bits());
+        }
+    }
+
+    /// The quick map's cells, printed with their wall times (`cargo test --release -p
+    /// constraint-verify --lib contact_map -- --ignored --nocapture`).
+    #[test]
+    #[ignore]
+    fn contact_map() {
+        let plan = Plan::new(true);
+        for axis in Axis::ALL {
+            let t0 = Instant::now();
+            let res = run_all(&plan.cells(axis), crate::par::threads());
+            for r in &res {
+                let c = &r.cell;
+                println!(
+                    "{:32} n {:3} r {:7.1e} δ {:7.1e} β {:3} h {:7.1e}: {:?} drift {:.2e} pen {:.2e} it {:.1} {:.3} s {}",
+                    METHODS[c.method],
+                    c.boxes,
+                    c.top_ratio,
+                    c.violation,
+                    c.beta,
+                    c.h,
+                    r.class,
+                    r.drift,
+                    r.penetration,
+                    r.iterations,
+                    r.seconds,
+                    r.message
+                );
+            }
+            println!("{:?}: {:.1} s", axis, t0.elapsed().as_secs_f64());
+        }
+    }
+}
