@@ -27,7 +27,8 @@ use constraint_lagrange::solve::{
 };
 use constraint_lagrange::{
     solve_kkt, AccelerationLevel, BaseStep, Baumgarte, ConstraintRows, Constraints, FastProjection,
-    HardSet, KktProblem, KktSolver, KktWorkspace, MassMatrix, VelocityLevel,
+    HardSet, KktProblem, KktSolver, KktWorkspace, MassMatrix, ProjectedStep, Rattle, RattleOrder,
+    VelocityLevel,
 };
 use constraint_soft::{
     CgSettings, Cloth, ConstraintSet, HessianMode, ImplicitEuler, Integrator, Jelly, LinearSolver,
@@ -436,6 +437,13 @@ fn integrators(h: f64) -> Vec<(String, Box<dyn Integrator>)> {
         if let Ok(i) = ImplicitEuler::new(h, mode, LinearSolver::SparseLdlt) {
             out.push((format!("implicit LDLT {mode:?}"), Box::new(i)));
         }
+        if let Ok(i) = ImplicitEuler::new(
+            h,
+            mode,
+            LinearSolver::LaggedLdlt(constraint_soft::lagged::LaggedSettings::default()),
+        ) {
+            out.push((format!("implicit lagged LDLT {mode:?}"), Box::new(i)));
+        }
     }
     out
 }
@@ -455,6 +463,57 @@ fn soft_steps(s: &mut Sweep, what: &str, make: &dyn Fn() -> Option<SoftSystem>) 
 }
 
 fn soft_cases(s: &mut Sweep) {
+    // The lagged solver's settings: each bad value in each field is rejected by a step.
+    use constraint_soft::lagged::LaggedSettings;
+    for &v in &BAD {
+        for (field, settings) in [
+            (
+                "tolerance",
+                LaggedSettings {
+                    tolerance: v,
+                    ..LaggedSettings::default()
+                },
+            ),
+            (
+                "factor_cost",
+                LaggedSettings {
+                    factor_cost: v,
+                    ..LaggedSettings::default()
+                },
+            ),
+        ] {
+            s.case(format!("LaggedLdlt step {field}={v:e}"), || {
+                let mut sys = spring_system();
+                let Ok(mut int) = ImplicitEuler::new(
+                    1e-3,
+                    HessianMode::Projected,
+                    LinearSolver::LaggedLdlt(settings),
+                ) else {
+                    return Outcome::Rejected;
+                };
+                let before = soft_state(&sys);
+                let r = int.step(&mut sys).map(|_| ());
+                mutating(before, r, soft_state(&sys), "lagged step")
+            });
+        }
+    }
+    s.case("LaggedLdlt step max_iterations=0", || {
+        let mut sys = spring_system();
+        let settings = LaggedSettings {
+            max_iterations: 0,
+            ..LaggedSettings::default()
+        };
+        let Ok(mut int) = ImplicitEuler::new(
+            1e-3,
+            HessianMode::Projected,
+            LinearSolver::LaggedLdlt(settings),
+        ) else {
+            return Outcome::Rejected;
+        };
+        let before = soft_state(&sys);
+        let r = int.step(&mut sys).map(|_| ());
+        mutating(before, r, soft_state(&sys), "lagged step")
+    });
     // SoftSystem::new: a bad coordinate or mass in each slot, and mismatched lengths.
     for p in 0..2 {
         for (label, v) in bad_vecs(DVec3::ZERO) {
@@ -1075,6 +1134,21 @@ fn lagrange_cases(s: &mut Sweep) {
             of(HardSet::compliant("s", vec![c], vec![v]).map(|_| ()))
         });
     }
+    for &v in &BAD {
+        for order in [RattleOrder::Second, RattleOrder::Fourth] {
+            s.case(format!("Rattle::new {order:?} h={v:e}"), || {
+                of(Rattle::new(v, order, 1e-12, 10, KktSolver::Auto).map(|_| ()))
+            });
+            s.case(format!("Rattle::new {order:?} tolerance={v:e}"), || {
+                of(Rattle::new(1e-3, order, v, 10, KktSolver::Auto).map(|_| ()))
+            });
+        }
+    }
+    for it in [0, 1] {
+        s.case(format!("Rattle::new max_iterations={it}"), || {
+            of(Rattle::new(1e-3, RattleOrder::Second, 1e-12, it, KktSolver::Auto).map(|_| ()))
+        });
+    }
     s.case("FastProjection::new max_iterations=0", || {
         of(FastProjection::new(1e-9, 0, KktSolver::Auto).map(|_| ()))
     });
@@ -1134,6 +1208,30 @@ fn lagrange_cases(s: &mut Sweep) {
             let before = soft_state(&sys);
             let r = st.step(&mut sys, &cons).map(|_| ());
             mutating(before, r, soft_state(&sys), "acceleration-level step")
+        });
+        for order in [RattleOrder::Second, RattleOrder::Fourth] {
+            s.case(format!("Rattle::step {order:?} {label}"), || {
+                let (mut sys, cons) = hard_system(x1, v1);
+                let mut st = Rattle::new(1e-3, order, 1e-12, 20, KktSolver::Auto).unwrap();
+                let before = soft_state(&sys);
+                let r = st.step(&mut sys, &cons).map(|_| ());
+                mutating(before, r, soft_state(&sys), "RATTLE step")
+            });
+        }
+        s.case(format!("ProjectedStep::step {label}"), || {
+            let (mut sys, cons) = hard_system(x1, v1);
+            let mut st = ProjectedStep::new(
+                ImplicitEuler::new(
+                    1e-3,
+                    HessianMode::GaussNewton,
+                    LinearSolver::LaggedLdlt(constraint_soft::lagged::LaggedSettings::default()),
+                )
+                .unwrap(),
+                FastProjection::new(1e-9, 10, KktSolver::Auto).unwrap(),
+            );
+            let before = soft_state(&sys);
+            let r = st.step(&mut sys, &cons).map(|_| ());
+            mutating(before, r, soft_state(&sys), "projected step")
         });
         s.case(format!("FastProjection::project {label}"), || {
             let (mut sys, cons) = hard_system(x1, v1);
@@ -1292,6 +1390,30 @@ fn world_step(w: &mut World, h: f64, m: Method) -> Outcome {
 }
 
 fn articulated_cases(s: &mut Sweep) {
+    // World::set_compliance: bad values and an unknown joint leave the world unchanged;
+    // accepted ones are stepped by every method.
+    for &v in BAD.iter().chain(&[1e-12, 1.0]) {
+        s.case(format!("World::set_compliance alpha={v:e}"), || {
+            let mut w = pendulum();
+            let before = w.compliances().to_vec();
+            match w.set_compliance(0, v) {
+                Err(_) if w.compliances() == before.as_slice() => Outcome::Rejected,
+                Err(_) => Outcome::StateChanged("compliance".into()),
+                Ok(()) => {
+                    for m in methods() {
+                        if let Outcome::StateChanged(x) = world_step(&mut w, 1e-3, m) {
+                            return Outcome::StateChanged(x);
+                        }
+                    }
+                    Outcome::Accepted(world_state(&w))
+                }
+            }
+        });
+    }
+    s.case("World::set_compliance unknown joint", || {
+        let mut w = pendulum();
+        of(w.set_compliance(99, 1e-6))
+    });
     // RigidBody::new: mass, inertia, pose.
     let i = DMat3::from_diagonal(DVec3::splat(0.1));
     for &v in &BAD {
