@@ -16,6 +16,9 @@
 //! * [`articulated_stability`] classifies the articulated formulations on the ball
 //!   chain over time step × mass ratio, chain length, initial violation and joint
 //!   compliance, drawn by [`heatmap`].
+//! * [`chain_stability`] classifies the soft and Lagrange (particle) formulations on a
+//!   hanging particle chain over time step × stiffness (compliance), mass ratio, chain
+//!   length and initial violation, drawn the same way.
 //! * [`contact_stability`] classifies the rigid contact solvers on a box stack over
 //!   time step × stack height, top mass ratio, initial overlap and Baumgarte factor.
 //! * [`deps`] lists what each scene family compiles (`cargo tree`) and runs.
@@ -36,6 +39,7 @@
 
 pub mod articulated_report;
 pub mod articulated_stability;
+pub mod chain_stability;
 pub mod chart;
 pub mod contact_report;
 pub mod contact_stability;

@@ -359,6 +359,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let stab_secs = t0.elapsed().as_secs_f64();
     eprintln!("    articulated stability map done in {stab_secs:.1} s ({panics} panics)");
     let t0 = Instant::now();
+    let chain_panics = constraint_verify::chain_stability::section(&mut md, &out, quick)?;
+    let chain_secs = t0.elapsed().as_secs_f64();
+    eprintln!("    particle chain stability map done in {chain_secs:.1} s ({chain_panics} panics)");
+    let t0 = Instant::now();
     eprintln!("  dependency listing (cargo tree per scene family)");
     constraint_verify::deps::section(&mut md, &constraint_verify::articulated_report::root());
     let deps_secs = t0.elapsed().as_secs_f64();
@@ -379,6 +383,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     }
     if contact_panics > 0 {
         return Err(format!("contact stability map: {contact_panics} cell(s) panicked").into());
+    }
+    if chain_panics > 0 {
+        return Err(
+            format!("particle chain stability map: {chain_panics} cell(s) panicked").into(),
+        );
     }
     Ok(())
 }

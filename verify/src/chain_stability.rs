@@ -1,0 +1,1146 @@
+//! Stability map of the particle formulations (issue 6): a hanging particle chain —
+//! particle 0 pinned at the origin, `N` links of [`LINK`] m along −x, released at rest
+//! at `z = 0` (the scene of [`constraint_lagrange::scenes::chain`] at angle π/2) —
+//! stepped by each [`METHODS`] entry over pairs of axes: time step × stiffness
+//! (compliance), × tip mass ratio, × chain length and × initial violation. Each cell is
+//! classified by [`classify`] as stable, inaccurate or unstable; every cell runs under
+//! `catch_unwind` ([`crate::par::map_cells`]): a panic is its own class, counted, and must
+//! never happen. This is the particle counterpart of
+//! [`crate::articulated_stability`] (same classes, same layout).
+//!
+//! The formulations step a [`SoftSystem`]:
+//!
+//! * **soft springs**, `E = ½ k C²`, `C = |x_a − x_b| − ℓ`, integrated by symplectic
+//!   Euler (`v⁺ = v + h M⁻¹F(x)`, `x⁺ = x + h v⁺`) or the linearized backward Euler
+//!   `(M − h²∂F/∂x) v⁺ = M v + h F` (sparse LDLᵀ, projected Hessian);
+//! * **acceleration level** `[M Jᵀ; J 0][ẍ; λ] = [F; −J̇ẋ − k_x C − k_v Ċ]` with
+//!   critically damped Baumgarte gains `k_x = 1/τ²`, `k_v = 2/τ`, `τ = 5h`;
+//! * **velocity level** `[M Jᵀ; J 0][v; λ] = [M v₀ + hF; −C(x₀)/h]`;
+//! * **compliant velocity level** `[M Jᵀ; J −α/h²][v; λ] = [M v₀ + hF; −C(x₀)/h]`
+//!   with `α = 1/k` (`α = 0`: hard);
+//! * **velocity level + projection**: then Newton on `C(x) = 0` with
+//!   `(h² J M⁻¹ Jᵀ) δλ = C` (Goldenthal et al. 2007) and `v = (x − x₀)/h`;
+//! * **fast projection**: a symplectic Euler step without the links, then the same
+//!   projection ([`ProjectedStep`], Goldenthal et al.'s Algorithm 1);
+//! * **RATTLE** `v½ = v + (h/2)M⁻¹(F − Jᵀλ)`, `x' = x + h v½` on `C(x') = 0` (SHAKE),
+//!   `v' = v½ + (h/2)M⁻¹(F' − J'ᵀμ)` on `J(x')v' = 0`, and **RATTLE4** (Yoshida's triple
+//!   jump) ([`Rattle`]).
+//!
+//! Cells run in parallel over all cores; each run is single-threaded and deterministic
+//! (the sparse factorizations run sequentially), and the results are stored by cell
+//! index, so the tables do not depend on the scheduling (only the wall times do).
+
+use std::time::Instant;
+
+use constraint_core::{DVec3, Distance};
+use constraint_lagrange::{
+    AccelerationLevel, BaseStep, Baumgarte, Constraints, FastProjection, HardSet, KktSolver,
+    LagrangeError, ProjectedStep, Rattle, RattleOrder, VelocityLevel,
+};
+use constraint_soft::{
+    ConstraintSet, HessianMode, ImplicitEuler, Integrator, LinearSolver, SoftError, SoftSystem,
+    Softness, SymplecticEuler,
+};
+
+use crate::heatmap::{tick, Class, HeatMap, Panel};
+
+/// Link length of the chain (m).
+pub const LINK: f64 = 0.1;
+
+/// Mass of every particle but the tip (kg); the tip weighs `tip_ratio` times this.
+pub const MASS: f64 = 0.1;
+
+/// Gravity (m/s², along −z).
+pub const G: f64 = 9.81;
+
+/// Stable, hard links (`k = ∞`, `α = 0`): max link strain `| |x_a − x_b| − ℓ | / ℓ` over
+/// the second half of the run at most this (a length error of 1e-4 m on 0.1 m links).
+pub const STRAIN_TOL: f64 = 1e-3;
+
+/// Stable: max over the run of `|E(t) − E(0)| / E_s` at most this, with
+/// `E = ½ Σ m v² + Σ m g z (+ ½ k Σ C²` for springs and compliant links`)`, exactly
+/// conserved by the motion, and the scale `E_s = M g ℓ_c + ½ k Σ C(0)²` (`M`: the free
+/// particles' mass, `ℓ_c`: the chain's length; the second term, the energy stored by an
+/// initial stretch of springs, is 0 for hard links).
+pub const ENERGY_TOL: f64 = 1e-2;
+
+/// Springs and compliant links may stretch: the exact motion's strain is at most about
+/// a dynamic factor times the static strain of the top link, `W/(k ℓ)` (`W = M g`, the
+/// weight it carries). This is the factor (a pendulum released horizontally pulls with
+/// 3 `m g` at the bottom of its swing; the chain's whip more, near its light tip;
+/// measured: at most 5.4 times on the stable `h = 1e-5` cells of the full map).
+pub const DYNAMIC_FACTOR: f64 = 10.0;
+
+/// Springs of the mass-ratio, length and violation maps: `k = W/(LOAD_STRAIN · ℓ)`, so
+/// that the top link stretches statically by this strain whatever the chain's load (a
+/// stiff chain standing in for an inextensible one).
+pub const LOAD_STRAIN: f64 = 1e-4;
+
+/// Blow-up: a particle farther than this many allowed extents from the anchor (the
+/// chain stretched to its allowed strain, plus one link), or a non-finite energy.
+pub const BLOWUP_EXTENT: f64 = 10.0;
+
+/// The formulations, report labels.
+pub const METHODS: [&str; 9] = [
+    "soft springs, symplectic Euler",
+    "soft springs, implicit Euler",
+    "acceleration + Baumgarte (τ = 5h)",
+    "velocity (J v = −C/h)",
+    "compliant velocity (α = 1/k)",
+    "velocity + projection",
+    "fast projection (symplectic + projection)",
+    "RATTLE",
+    "RATTLE4 (Yoshida)",
+];
+
+/// How a formulation models the links.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Links {
+    /// Soft springs of stiffness `k` (no `k = ∞`: a soft set rejects it).
+    Springs,
+    /// Compliant constraints, `α = 1/k` (`k = ∞`: `α = 0`, hard).
+    Compliant,
+    /// Hard constraints: no stiffness parameter.
+    Hard,
+}
+
+/// How `METHODS[m]` models the links.
+pub fn links_of(m: usize) -> Links {
+    match m {
+        0 | 1 => Links::Springs,
+        4 => Links::Compliant,
+        _ => Links::Hard,
+    }
+}
+
+/// A cell's class.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Class3 {
+    /// Finite, bounded, strain within [`allowed_strain`] over the second half and energy
+    /// error ≤ [`ENERGY_TOL`].
+    Stable,
+    /// Finite and bounded, but strain or energy error above its threshold.
+    Inaccurate,
+    /// The step returned the typed divergence error (`LagrangeError::Diverged` or
+    /// `SoftError::Diverged`: non-finite or beyond 1e12).
+    Diverged,
+    /// Finite but a particle beyond the blow-up bound (counted as unstable).
+    BlowUp,
+    /// Another typed error (a singular or non-finite solve; counted as unstable).
+    Failed,
+    /// The step panicked (a bug: must never happen).
+    Panicked,
+}
+
+impl Class3 {
+    /// Every class, in legend order.
+    pub const ALL: [Class3; 6] = [
+        Class3::Stable,
+        Class3::Inaccurate,
+        Class3::Diverged,
+        Class3::BlowUp,
+        Class3::Failed,
+        Class3::Panicked,
+    ];
+
+    /// One-character cell for tables.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Class3::Stable => "✓",
+            Class3::Inaccurate => "~",
+            Class3::Diverged => "✗",
+            Class3::BlowUp => "↑",
+            Class3::Failed => "!",
+            Class3::Panicked => "P",
+        }
+    }
+
+    /// Whether the class counts as unstable.
+    pub fn unstable(self) -> bool {
+        !matches!(self, Class3::Stable | Class3::Inaccurate)
+    }
+
+    fn index(self) -> usize {
+        Class3::ALL.iter().position(|c| *c == self).unwrap_or(0)
+    }
+
+    /// The heat-map classes, in [`Class3::ALL`] order.
+    pub fn legend() -> Vec<Class> {
+        let c = |label: &str, color, symbol| Class {
+            label: label.into(),
+            color,
+            symbol,
+        };
+        vec![
+            c("stable", "#8fd18f", "✓"),
+            c("inaccurate (bounded)", "#f3d36b", "~"),
+            c("unstable: Diverged", "#e06666", "✗"),
+            c("unstable: blow-up", "#c0504d", "↑"),
+            c("unstable: other typed error", "#a64d79", "!"),
+            c("panic (must not happen)", "#222222", "P"),
+        ]
+    }
+}
+
+/// One cell's configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    /// Index into [`METHODS`].
+    pub method: usize,
+    /// Time step (s).
+    pub h: f64,
+    /// Links.
+    pub links: usize,
+    /// Tip mass ratio (the last particle weighs this times [`MASS`]).
+    pub tip_ratio: f64,
+    /// Initial stretch of every link, as a fraction of the link length.
+    pub violation: f64,
+    /// Link stiffness `k` (N/m) of springs and compliant links (`α = 1/k`);
+    /// `f64::INFINITY` for hard links.
+    pub stiffness: f64,
+    /// Simulated time asked for (s).
+    pub horizon: f64,
+    /// Most `links × steps` of the run (the horizon is cut to fit).
+    pub max_link_steps: f64,
+}
+
+/// What one cell measured.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CellResult {
+    /// The configuration.
+    pub cell: Cell,
+    /// The class.
+    pub class: Class3,
+    /// Steps taken (the last one that failed not counted).
+    pub steps: u64,
+    /// Simulated time covered (s).
+    pub simulated: f64,
+    /// Max link strain over the second half of the run; NaN if not reached.
+    pub strain: f64,
+    /// The strain a stable run may reach ([`allowed_strain`]).
+    pub allowed: f64,
+    /// Max `|E − E(0)| / E_s` over the run.
+    pub energy: f64,
+    /// Steps whose projection stopped at its iteration limit (projection methods).
+    pub unconverged: usize,
+    /// RATTLE sub-steps whose SHAKE iteration switched to Newton with the current
+    /// Jacobian.
+    pub fallbacks: usize,
+    /// Wall time (s).
+    pub seconds: f64,
+    /// The error or panic message, if any (one line).
+    pub message: String,
+}
+
+/// Weight carried by the top link, `W = g Σ_{i ≥ 1} m_i` (N).
+pub fn weight(links: usize, tip_ratio: f64) -> f64 {
+    G * MASS * (links.saturating_sub(1) as f64 + tip_ratio)
+}
+
+/// Load-scaled link stiffness, `k = W / (LOAD_STRAIN · ℓ)` (N/m): see [`LOAD_STRAIN`].
+pub fn load_stiffness(links: usize, tip_ratio: f64) -> f64 {
+    weight(links, tip_ratio) / (LOAD_STRAIN * LINK)
+}
+
+/// The strain a stable run may reach over the second half: [`STRAIN_TOL`] for hard
+/// links; for springs and compliant links (finite `k`) also the physical stretch,
+/// `DYNAMIC_FACTOR · W/(k ℓ) + δ √N` (the second term: the initial stretch energy
+/// `N · ½ k (δ ℓ)²`, which the undamped springs keep, gathered in one link).
+pub fn allowed_strain(cell: &Cell) -> f64 {
+    if cell.stiffness.is_finite() {
+        STRAIN_TOL
+            + DYNAMIC_FACTOR * weight(cell.links, cell.tip_ratio) / (cell.stiffness * LINK)
+            + cell.violation * (cell.links as f64).sqrt()
+    } else {
+        STRAIN_TOL
+    }
+}
+
+/// The links of an `links`-link chain, rest length [`LINK`].
+fn distances(links: usize) -> Result<Vec<Distance>, SoftError> {
+    (0..links)
+        .map(|i| {
+            Distance::new(i, i + 1, LINK).map_err(|error| SoftError::Constraint {
+                set: "links",
+                index: i,
+                error,
+            })
+        })
+        .collect()
+}
+
+/// The chain of `cell`: particle `i` at `x = −i (1 + δ) ℓ`, at rest, particle 0 pinned,
+/// the tip `tip_ratio` times heavier; the links as soft springs in the system, or as
+/// hard / compliant rows in the returned [`Constraints`], by [`links_of`].
+///
+/// # Errors
+/// Bad parameters (no links, non-positive mass or stiffness).
+pub fn scene(cell: &Cell) -> Result<(SoftSystem, Constraints), LagrangeError> {
+    let n = cell.links;
+    if n == 0 {
+        return Err(LagrangeError::InvalidParameter("links"));
+    }
+    let x: Vec<DVec3> = (0..=n)
+        .map(|i| DVec3::new(-(i as f64) * (1.0 + cell.violation) * LINK, 0.0, 0.0))
+        .collect();
+    let mut m = vec![MASS; n + 1];
+    m[n] *= cell.tip_ratio;
+    let mut sys = SoftSystem::new(x, m)?;
+    sys.pin(0)?;
+    let d = distances(n)?;
+    let mut cons = Constraints::new();
+    match links_of(cell.method) {
+        Links::Springs => sys.add_set(ConstraintSet::uniform(
+            "links",
+            d,
+            Softness::stiff(cell.stiffness),
+        )?)?,
+        Links::Compliant => {
+            let alpha = if cell.stiffness.is_finite() {
+                1.0 / cell.stiffness
+            } else {
+                0.0
+            };
+            cons.add(
+                HardSet::compliant("links", d, vec![alpha; n])
+                    .map_err(|_| LagrangeError::InvalidParameter("compliance"))?,
+            );
+        }
+        Links::Hard => cons.add(HardSet::hard("links", d)),
+    }
+    Ok((sys, cons))
+}
+
+/// Steps of a cell: `horizon / h` rounded, cut to `max_link_steps / links`, at least 1.
+pub fn steps(cell: &Cell) -> u64 {
+    let want = (cell.horizon / cell.h).round().max(1.0);
+    let cap = (cell.max_link_steps / cell.links as f64).floor().max(1.0);
+    want.min(cap) as u64
+}
+
+/// The KKT solver for `rows` rows: dense Schur complement up to 64 rows, sparse above.
+fn kkt_solver(rows: usize) -> KktSolver {
+    if rows <= 64 {
+        KktSolver::DenseSchur
+    } else {
+        KktSolver::SparseSchur
+    }
+}
+
+/// Newton projection of the projection methods: to strain 1e-10, at most 10 iterations.
+fn projection(rows: usize) -> Result<FastProjection, LagrangeError> {
+    FastProjection::new(1e-10, 10, kkt_solver(rows))
+}
+
+/// One formulation's stepper.
+enum Stepper {
+    Soft(Box<dyn Integrator>),
+    Acceleration(Box<AccelerationLevel>),
+    Velocity(Box<VelocityLevel>),
+    Projected(Box<ProjectedStep<SymplecticEuler>>),
+    Rattle(Box<Rattle>),
+}
+
+impl Stepper {
+    fn new(method: usize, h: f64, rows: usize) -> Result<Self, LagrangeError> {
+        let solver = kkt_solver(rows);
+        Ok(match method {
+            0 => Stepper::Soft(Box::new(SymplecticEuler::new(h)?)),
+            1 => Stepper::Soft(Box::new(ImplicitEuler::new(
+                h,
+                HessianMode::Projected,
+                LinearSolver::SparseLdlt,
+            )?)),
+            // Critically damped C̈ + k_v Ċ + k_x C = 0, time constant τ = 5h.
+            2 => Stepper::Acceleration(Box::new(AccelerationLevel::new(
+                h,
+                Baumgarte::critical(5.0 * h)?,
+                solver,
+            )?)),
+            3 | 4 => {
+                Stepper::Velocity(Box::new(VelocityLevel::new(h, BaseStep::Explicit, solver)?))
+            }
+            5 => {
+                let mut v = VelocityLevel::new(h, BaseStep::Explicit, solver)?;
+                v.projection = Some(projection(rows)?);
+                Stepper::Velocity(Box::new(v))
+            }
+            6 => Stepper::Projected(Box::new(ProjectedStep::new(
+                SymplecticEuler::new(h)?,
+                projection(rows)?,
+            ))),
+            // SHAKE to strain 1e-10 in at most 20 iterations per sub-step (as the articulated
+            // map's RATTLE4; a larger budget lets a failing SHAKE reach singular Schur
+            // complements, whose dense SVD fallback costs minutes on 1000 links).
+            7 => Stepper::Rattle(Box::new(Rattle::new(
+                h,
+                RattleOrder::Second,
+                1e-10,
+                20,
+                solver,
+            )?)),
+            _ => Stepper::Rattle(Box::new(Rattle::new(
+                h,
+                RattleOrder::Fourth,
+                1e-10,
+                20,
+                solver,
+            )?)),
+        })
+    }
+
+    /// One step: whether a projection stopped at its iteration limit, and the RATTLE
+    /// Newton fallbacks.
+    fn step(
+        &mut self,
+        sys: &mut SoftSystem,
+        cons: &Constraints,
+    ) -> Result<(bool, usize), LagrangeError> {
+        match self {
+            Stepper::Soft(s) => s.step(sys).map(|_| (false, 0)).map_err(LagrangeError::from),
+            Stepper::Acceleration(a) => a.step(sys, cons).map(|_| (false, 0)),
+            Stepper::Velocity(v) => {
+                v.step(sys, cons)?;
+                Ok((v.last_projection.is_some_and(|p| !p.converged), 0))
+            }
+            Stepper::Projected(p) => p.step(sys, cons).map(|st| (!st.converged, 0)),
+            Stepper::Rattle(r) => r.step(sys, cons).map(|st| (false, st.newton_fallbacks)),
+        }
+    }
+}
+
+/// Largest link strain `| |x_{i+1} − x_i| − ℓ | / ℓ` and the spring energy
+/// `½ k Σ C²` (0 for `k = ∞`).
+fn strain_and_energy(x: &[DVec3], k: f64) -> (f64, f64) {
+    let mut worst = 0.0f64;
+    let mut e = 0.0;
+    for w in x.windows(2) {
+        let c = (w[1] - w[0]).length() - LINK;
+        worst = if c.is_nan() {
+            f64::NAN
+        } else {
+            worst.max(c.abs() / LINK)
+        };
+        e += c * c;
+    }
+    (worst, if k.is_finite() { 0.5 * k * e } else { 0.0 })
+}
+
+/// Kinetic plus gravitational energy.
+fn mechanical(sys: &SoftSystem) -> f64 {
+    sys.x
+        .iter()
+        .zip(&sys.v)
+        .zip(sys.masses())
+        .map(|((x, v), m)| m * (0.5 * v.length_squared() + G * x.z))
+        .sum()
+}
+
+/// Runs one cell (no panic guard; see [`run_cell`]).
+pub fn classify(cell: &Cell) -> CellResult {
+    let t0 = Instant::now();
+    let n = steps(cell);
+    let allowed = allowed_strain(cell);
+    let mut r = CellResult {
+        cell: *cell,
+        class: Class3::Stable,
+        steps: 0,
+        simulated: 0.0,
+        strain: f64::NAN,
+        allowed,
+        energy: 0.0,
+        unconverged: 0,
+        fallbacks: 0,
+        seconds: 0.0,
+        message: String::new(),
+    };
+    let built = scene(cell).and_then(|(sys, cons)| {
+        Stepper::new(cell.method, cell.h, cell.links).map(|s| (sys, cons, s))
+    });
+    let (mut sys, cons, mut stepper) = match built {
+        Ok(b) => b,
+        Err(e) => {
+            r.class = Class3::Failed;
+            r.message = e.to_string();
+            r.seconds = t0.elapsed().as_secs_f64();
+            return r;
+        }
+    };
+    let k = cell.stiffness;
+    let length = cell.links as f64 * LINK;
+    let (_, e0) = strain_and_energy(&sys.x, k);
+    let scale = weight(cell.links, cell.tip_ratio) * length + e0;
+    let extent = length * (1.0 + allowed.max(cell.violation)) + LINK;
+    let mut strain = 0.0f64;
+    for step in 1..=n {
+        match stepper.step(&mut sys, &cons) {
+            Ok((unconverged, fallbacks)) => {
+                r.unconverged += usize::from(unconverged);
+                r.fallbacks += fallbacks;
+            }
+            Err(e) => {
+                r.class = if matches!(
+                    e,
+                    LagrangeError::Diverged { .. }
+                        | LagrangeError::Soft(SoftError::Diverged { .. })
+                ) {
+                    Class3::Diverged
+                } else {
+                    Class3::Failed
+                };
+                r.message = e.to_string().replace('\n', " ");
+                break;
+            }
+        }
+        r.steps = step;
+        let (s, es) = strain_and_energy(&sys.x, k);
+        let e = (mechanical(&sys) + es - e0).abs() / scale;
+        r.energy = r.energy.max(if e.is_finite() { e } else { f64::INFINITY });
+        let far = sys.x.iter().map(|x| x.length()).fold(0.0, f64::max);
+        if !(far <= BLOWUP_EXTENT * extent) || !r.energy.is_finite() {
+            r.class = Class3::BlowUp;
+            r.message = format!(
+                "blow-up at step {step}: max |x| = {far:.3e} m, energy measure {:.3e}",
+                r.energy
+            );
+            break;
+        }
+        if 2 * step >= n {
+            strain = if s.is_nan() { f64::NAN } else { strain.max(s) };
+            r.strain = strain;
+        }
+    }
+    r.simulated = r.steps as f64 * cell.h;
+    if r.class == Class3::Stable && (!(r.strain <= allowed) || !(r.energy <= ENERGY_TOL)) {
+        r.class = Class3::Inaccurate;
+    }
+    r.seconds = t0.elapsed().as_secs_f64();
+    r
+}
+
+/// The result of a cell whose run panicked.
+fn panicked(cell: &Cell, message: String) -> CellResult {
+    CellResult {
+        cell: *cell,
+        class: Class3::Panicked,
+        steps: 0,
+        simulated: 0.0,
+        strain: f64::NAN,
+        allowed: allowed_strain(cell),
+        energy: f64::NAN,
+        unconverged: 0,
+        fallbacks: 0,
+        seconds: 0.0,
+        message,
+    }
+}
+
+/// [`classify`] under `catch_unwind`: a panic becomes [`Class3::Panicked`].
+pub fn run_cell(cell: &Cell) -> CellResult {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| classify(cell)))
+        .unwrap_or_else(|p| panicked(cell, crate::par::panic_message(p.as_ref())))
+}
+
+/// Relative cost of a step per link, by method (measured on the 10- and 1000-link
+/// chains), for scheduling the longest cells first.
+const COST: [f64; 9] = [0.3, 3.0, 1.5, 1.0, 1.0, 2.5, 2.5, 3.0, 9.0];
+
+/// Runs `cells` on up to `threads` threads ([`crate::par::map_cells`], longest first);
+/// results in the order of `cells`.
+pub fn run_all(cells: &[Cell], threads: usize) -> Vec<CellResult> {
+    let cost = |c: &Cell| steps(c) as f64 * c.links as f64 * COST[c.method.min(COST.len() - 1)];
+    crate::par::map_cells("chain", cells, threads, cost, run_cell, panicked)
+}
+
+/// One pair of axes: time step × another.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    /// Link stiffness `k` (compliance `α = 1/k`), with `k = ∞` last.
+    Stiffness,
+    /// Tip mass ratio.
+    MassRatio,
+    /// Links.
+    Length,
+    /// Initial link stretch (fraction of the link length).
+    Violation,
+}
+
+impl Axis {
+    /// Every axis paired with the time step, in report order.
+    pub const ALL: [Axis; 4] = [
+        Axis::Stiffness,
+        Axis::MassRatio,
+        Axis::Length,
+        Axis::Violation,
+    ];
+
+    /// Axis label.
+    pub fn label(self) -> &'static str {
+        match self {
+            Axis::Stiffness => "link stiffness k (N/m), α = 1/k",
+            Axis::MassRatio => "tip mass ratio",
+            Axis::Length => "links",
+            Axis::Violation => "initial stretch / link length",
+        }
+    }
+
+    /// File stem of the chart.
+    pub fn stem(self) -> &'static str {
+        match self {
+            Axis::Stiffness => "stiffness",
+            Axis::MassRatio => "mass",
+            Axis::Length => "length",
+            Axis::Violation => "violation",
+        }
+    }
+}
+
+/// Tick label of an axis value (`∞` for infinite stiffness, `0` for no violation).
+pub fn value_tick(v: f64) -> String {
+    if v.is_infinite() {
+        "∞".into()
+    } else if v == 0.0 {
+        "0".into()
+    } else {
+        tick(v)
+    }
+}
+
+/// What one mode of the map runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    /// Time steps (s).
+    pub hs: Vec<f64>,
+    /// Finite link stiffnesses (N/m); the map adds `k = ∞` as its last row.
+    pub stiffnesses: Vec<f64>,
+    /// Tip mass ratios.
+    pub ratios: Vec<f64>,
+    /// Chain lengths (links).
+    pub lengths: Vec<usize>,
+    /// Initial stretches (fraction of the link length).
+    pub violations: Vec<f64>,
+    /// Links of the stiffness, mass-ratio and violation maps.
+    pub base_links: usize,
+    /// Simulated time per cell (s).
+    pub horizon: f64,
+    /// Cap on `links × steps` per cell (the long chains' horizon is cut to fit).
+    pub max_link_steps: f64,
+}
+
+impl Plan {
+    /// The quick (CI) or full plan.
+    pub fn new(quick: bool) -> Self {
+        if quick {
+            Self {
+                hs: vec![1e-4, 1e-3, 1e-2, 1.0 / 30.0],
+                stiffnesses: vec![1.0, 1e2, 1e4, 1e6, 1e8, 1e10, 1e12],
+                ratios: vec![1.0, 1e2, 1e4, 1e6],
+                lengths: vec![10, 100, 1000, 10_000],
+                violations: vec![0.0, 1e-3, 1e-2, 0.1, 0.5],
+                base_links: 10,
+                horizon: 1.0,
+                max_link_steps: 2e5,
+            }
+        } else {
+            Self {
+                hs: vec![1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 1.0 / 30.0],
+                stiffnesses: (0..=12).map(|e| 10f64.powi(e)).collect(),
+                ratios: (0..=6).map(|e| 10f64.powi(e)).collect(),
+                lengths: vec![10, 30, 100, 300, 1000, 3000, 10_000],
+                violations: vec![0.0, 1e-3, 1e-2, 0.1, 0.3, 0.5],
+                base_links: 10,
+                horizon: 1.0,
+                max_link_steps: 1e6,
+            }
+        }
+    }
+
+    /// Values along `axis`; the stiffness axis ends with `f64::INFINITY`.
+    pub fn values(&self, axis: Axis) -> Vec<f64> {
+        match axis {
+            Axis::Stiffness => {
+                let mut v = self.stiffnesses.clone();
+                v.push(f64::INFINITY);
+                v
+            }
+            Axis::MassRatio => self.ratios.clone(),
+            Axis::Length => self.lengths.iter().map(|&n| n as f64).collect(),
+            Axis::Violation => self.violations.clone(),
+        }
+    }
+
+    /// The grid of one map, in (method, value, step) order: `None` where the method
+    /// has no such value (hard links at finite `k`, springs at `k = ∞`). Off the
+    /// stiffness axis, springs and compliant links take [`load_stiffness`].
+    pub fn grid(&self, axis: Axis) -> Vec<Option<Cell>> {
+        let mut v = Vec::new();
+        for m in 0..METHODS.len() {
+            for &x in &self.values(axis) {
+                for &h in &self.hs {
+                    let mut c = Cell {
+                        method: m,
+                        h,
+                        links: self.base_links,
+                        tip_ratio: 1.0,
+                        violation: 0.0,
+                        stiffness: f64::INFINITY,
+                        horizon: self.horizon,
+                        max_link_steps: self.max_link_steps,
+                    };
+                    match axis {
+                        Axis::Stiffness => c.stiffness = x,
+                        Axis::MassRatio => c.tip_ratio = x,
+                        Axis::Length => c.links = x as usize,
+                        Axis::Violation => c.violation = x,
+                    }
+                    let links = links_of(m);
+                    if axis != Axis::Stiffness && links != Links::Hard {
+                        c.stiffness = load_stiffness(c.links, c.tip_ratio);
+                    }
+                    let applies = match (axis, links) {
+                        (Axis::Stiffness, Links::Springs) => c.stiffness.is_finite(),
+                        (Axis::Stiffness, Links::Hard) => c.stiffness.is_infinite(),
+                        _ => true,
+                    };
+                    if links == Links::Hard {
+                        c.stiffness = f64::INFINITY;
+                    }
+                    v.push(applies.then_some(c));
+                }
+            }
+        }
+        v
+    }
+}
+
+/// Runs the cells of a grid; `None` stays `None`.
+pub fn run_grid(grid: &[Option<Cell>], threads: usize) -> Vec<Option<CellResult>> {
+    let cells: Vec<Cell> = grid.iter().flatten().copied().collect();
+    let mut res = run_all(&cells, threads).into_iter();
+    grid.iter()
+        .map(|c| c.as_ref().and_then(|_| res.next()))
+        .collect()
+}
+
+/// The heat map of one axis pair from its results (in [`Plan::grid`] order).
+pub fn heat_map(plan: &Plan, axis: Axis, results: &[Option<CellResult>]) -> HeatMap {
+    let nv = plan.values(axis).len();
+    let nh = plan.hs.len();
+    let panels = METHODS
+        .iter()
+        .enumerate()
+        .map(|(m, name)| Panel {
+            title: (*name).into(),
+            cells: (0..nv)
+                .map(|v| {
+                    (0..nh)
+                        .map(|k| {
+                            results
+                                .get((m * nv + v) * nh + k)
+                                .and_then(|r| r.as_ref().map(|r| r.class.index()))
+                        })
+                        .collect()
+                })
+                .collect(),
+        })
+        .collect();
+    let stable = format!(
+        "Stable: link strain over the run's second half ≤ {STRAIN_TOL:e} (hard) or ≤ {STRAIN_TOL:e} + {DYNAMIC_FACTOR}·W/(kℓ) + δ√N (springs, compliant), and max |E − E(0)|/E_s ≤ {ENERGY_TOL:e}."
+    );
+    let note = match axis {
+        Axis::Stiffness => format!(
+            "Particle chain of {} links (0.1 m, 0.1 kg), released horizontal, {} s per cell. Hard formulations have no stiffness: one row, k = ∞ (blank elsewhere);\nsoft springs have no k = ∞ (blank); the compliant formulation runs α = 1/k and α = 0 (k = ∞). {stable}",
+            plan.base_links, plan.horizon
+        ),
+        Axis::Length => format!(
+            "Particle chain, 0.1 m links, released horizontal; {} s or at most {:.0e} link-steps per cell (long chains: shorter runs). Springs: k = W/({LOAD_STRAIN:e}·ℓ).\n{stable}",
+            plan.horizon, plan.max_link_steps
+        ),
+        _ => format!(
+            "Particle chain of {} links (0.1 m), released horizontal, {} s per cell. Springs and compliant links: k = W/({LOAD_STRAIN:e}·ℓ).\n{stable}",
+            plan.base_links, plan.horizon
+        ),
+    };
+    HeatMap {
+        title: format!("Particle chain stability: time step × {}", axis.label()),
+        x_label: "h (s)".into(),
+        y_label: axis.label().into(),
+        x_ticks: plan.hs.iter().map(|&h| tick(h)).collect(),
+        y_ticks: plan.values(axis).iter().map(|&v| value_tick(v)).collect(),
+        classes: Class3::legend(),
+        panels,
+        columns: 5,
+        note,
+    }
+}
+
+/// Counts of one method's cells over all maps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tally {
+    /// Stable cells.
+    pub stable: usize,
+    /// Inaccurate cells.
+    pub inaccurate: usize,
+    /// Unstable cells (diverged, blow-up, other typed error).
+    pub unstable: usize,
+    /// Panics.
+    pub panics: usize,
+    /// Inaccurate cells whose strain exceeds both [`WILD_STRAIN`] and the allowed strain
+    /// (bounded by the geometry only).
+    pub wild: usize,
+}
+
+/// Strain above which an inaccurate (bounded) cell is counted apart in the summary,
+/// when also above its [`allowed_strain`]: a link at least twice its rest length.
+pub const WILD_STRAIN: f64 = 1.0;
+
+/// Per-method tallies of every result.
+pub fn tally<'a>(results: impl IntoIterator<Item = &'a CellResult>) -> [Tally; METHODS.len()] {
+    let mut t = [Tally::default(); METHODS.len()];
+    for r in results {
+        let Some(t) = t.get_mut(r.cell.method) else {
+            continue;
+        };
+        match r.class {
+            Class3::Stable => t.stable += 1,
+            Class3::Inaccurate => {
+                t.inaccurate += 1;
+                t.wild += usize::from(r.strain > r.allowed.max(WILD_STRAIN));
+            }
+            Class3::Panicked => t.panics += 1,
+            _ => t.unstable += 1,
+        }
+    }
+    t
+}
+
+/// Writes the section (four heat maps `chain_stability_<axis>.svg`, tables, a summary
+/// and `chain_stability.csv`) and returns the panic count.
+///
+/// # Errors
+/// Writing a file.
+pub fn section(
+    md: &mut String,
+    out: &std::path::Path,
+    quick: bool,
+) -> Result<usize, Box<dyn std::error::Error>> {
+    use std::fmt::Write as _;
+    let plan = Plan::new(quick);
+    let threads = crate::par::threads();
+    let _ = writeln!(
+        md,
+        "\n## Stability map: particle chain (soft and Lagrange formulations)\n\n\
+         A hanging particle chain (the scene of `constraint_lagrange::scenes::chain`): particle 0 \
+         pinned at the origin, N links of 0.1 m along −x, 0.1 kg particles (the tip `ratio` times \
+         heavier), released at rest at z = 0, gravity 9.81 m/s². Nine formulations: soft springs \
+         (E = ½kC²) under symplectic Euler and under the linearized implicit Euler (sparse LDLᵀ, \
+         projected Hessian); the acceleration level with critically damped Baumgarte gains \
+         kx = 1/τ², kv = 2/τ, τ = 5h; the velocity level J v = −C/h; the compliant velocity level \
+         (compliance α = 1/k, block −α/h² in the KKT matrix; α = 0 is hard); the velocity level \
+         followed by Newton projection to strain 1e-10 (≤ 10 iterations, v = (x − x₀)/h); fast \
+         projection (a symplectic Euler step without the links, then the same projection; \
+         Goldenthal et al. 2007); RATTLE and RATTLE4 (Yoshida triple jump), SHAKE to strain 1e-10 \
+         in ≤ 20 iterations per sub-step (not converging is a typed error). KKT systems: dense \
+         Schur complement up to 64 rows, sparse Cholesky above. Maps: time step × link stiffness ({} links; the hard formulations have \
+         no stiffness parameter and appear once, at k = ∞; the springs have no k = ∞), × tip mass \
+         ratio, × chain length, × initial violation (every link stretched by a fraction δ of its \
+         length: particle i at x = −i(1 + δ)·0.1 m). Off the stiffness axis, springs and compliant \
+         links are stiffened with the load, k = W/({LOAD_STRAIN:e}·ℓ) (W = M g, the weight on the \
+         top link: static strain {LOAD_STRAIN:e}), so they stand in for a stiff chain.\n\n\
+         Classes (thresholds exact): **✓ stable**: every step finite, bounded, max link strain \
+         abs(‖xᵢ₊₁ − xᵢ‖ − ℓ)/ℓ over the second half of the run ≤ {STRAIN_TOL:e} for hard links \
+         (1e-4 m; the articulated map allows 1e-3 m) or, for springs and compliant links, ≤ \
+         {STRAIN_TOL:e} + {DYNAMIC_FACTOR}·W/(kℓ) + δ√N (the exact motion's stretch: {DYNAMIC_FACTOR} \
+         times the static strain of the top link, plus the initial stretch energy gathered in one \
+         link), and max over the run of |E(t) − E(0)|/E_s ≤ {ENERGY_TOL:e} (E = kinetic + \
+         gravitational + ½kΣC² for springs and compliant links, conserved by the exact motion; \
+         E_s = M g ℓ_c + ½kΣC(0)², M the free particles' mass, ℓ_c the chain's length); \
+         **~ inaccurate**: bounded but above either threshold; **✗ unstable**: the typed \
+         `Diverged` error (`LagrangeError` or `SoftError`: non-finite or beyond 1e12); **↑ \
+         unstable**: blow-up, a particle beyond {BLOWUP_EXTENT} × the allowed extent (the chain at \
+         its allowed strain, plus a link) from the anchor, or a non-finite energy; **! unstable**: \
+         another typed error; **P**: a panic (caught per cell by `catch_unwind`; must be 0). Each \
+         cell simulates {} s (long chains: at most {:.0e} link-steps, so fewer steps). Cells run \
+         on {threads} thread(s); each run is deterministic.\n",
+        plan.base_links,
+        plan.horizon,
+        plan.max_link_steps
+    );
+    let mut csv = String::from(
+        "axis,method,h,links,tip_ratio,violation,stiffness,class,steps,simulated_s,strain,strain_allowed,energy_rel,unconverged_projections,rattle_fallbacks,wall_s,message\n",
+    );
+    let mut all: Vec<(Axis, Vec<Option<CellResult>>)> = Vec::new();
+    for axis in Axis::ALL {
+        let t0 = Instant::now();
+        let grid = plan.grid(axis);
+        let count = grid.iter().flatten().count();
+        eprintln!(
+            "  chain stability: h × {}, {count} cells on {threads} thread(s)",
+            axis.label()
+        );
+        let res = run_grid(&grid, threads);
+        let secs = t0.elapsed().as_secs_f64();
+        eprintln!("    done in {secs:.1} s");
+        let stem = format!("chain_stability_{}", axis.stem());
+        std::fs::write(
+            out.join(format!("{stem}.svg")),
+            heat_map(&plan, axis, &res).to_svg(),
+        )?;
+        let _ = writeln!(
+            md,
+            "### Time step × {}\n\n![particle chain stability, h × {}]({stem}.svg)\n",
+            axis.label(),
+            axis.label()
+        );
+        let mut head = format!("| method | {} \\ h (s) |", axis.label());
+        let mut sep = String::from("|---|---|");
+        for h in &plan.hs {
+            let _ = write!(head, " {} |", tick(*h));
+            sep.push_str("---|");
+        }
+        let _ = writeln!(md, "{head}\n{sep}");
+        let vals = plan.values(axis);
+        let nh = plan.hs.len();
+        for (m, name) in METHODS.iter().enumerate() {
+            for (v, x) in vals.iter().enumerate() {
+                let row: Vec<Option<&str>> = (0..nh)
+                    .map(|k| {
+                        res.get((m * vals.len() + v) * nh + k)
+                            .and_then(|r| r.as_ref().map(|r| r.class.symbol()))
+                    })
+                    .collect();
+                if row.iter().all(Option::is_none) {
+                    continue;
+                }
+                let row: Vec<&str> = row.iter().map(|s| s.unwrap_or("—")).collect();
+                let mut label = value_tick(*x);
+                if axis != Axis::Stiffness && links_of(m) != Links::Hard {
+                    let k = load_stiffness(
+                        if axis == Axis::Length {
+                            *x as usize
+                        } else {
+                            plan.base_links
+                        },
+                        if axis == Axis::MassRatio { *x } else { 1.0 },
+                    );
+                    label = format!("{label} (k = {})", tick(k));
+                } else if axis == Axis::Stiffness && links_of(m) == Links::Hard {
+                    label = format!("{label} (no stiffness parameter)");
+                }
+                let _ = writeln!(md, "| {name} | {label} | {} |", row.join(" | "));
+            }
+        }
+        let _ = writeln!(md, "\n({count} cells, {secs:.1} s wall.)\n");
+        for r in res.iter().flatten() {
+            let c = &r.cell;
+            let _ = writeln!(
+                csv,
+                "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{:e},{},{},{:.4},{}",
+                axis.stem(),
+                METHODS[c.method].replace(',', ";"),
+                c.h,
+                c.links,
+                c.tip_ratio,
+                c.violation,
+                c.stiffness,
+                r.class,
+                r.steps,
+                r.simulated,
+                r.strain,
+                r.allowed,
+                r.energy,
+                r.unconverged,
+                r.fallbacks,
+                r.seconds,
+                r.message.replace(',', ";")
+            );
+        }
+        all.push((axis, res));
+    }
+    std::fs::write(out.join("chain_stability.csv"), csv)?;
+    let tallies = tally(all.iter().flat_map(|(_, r)| r.iter().flatten()));
+    // Summary: per method, counts and the largest step stable (and not unstable) on
+    // every row the method runs of each map.
+    let _ = writeln!(md, "### Summary per formulation\n");
+    let mut head = String::from(
+        "| method | ✓ | ~ | of which strain > 1 (beyond allowance) | unstable | panics |",
+    );
+    let mut sep = String::from("|---|---|---|---|---|---|");
+    for axis in Axis::ALL {
+        let _ = write!(
+            head,
+            " largest h stable / bounded on every {} |",
+            axis.label()
+        );
+        sep.push_str("---|");
+    }
+    let _ = writeln!(md, "{head}\n{sep}");
+    let nh = plan.hs.len();
+    for (m, name) in METHODS.iter().enumerate() {
+        let t = tallies[m];
+        let mut row = format!(
+            "| {name} | {} | {} | {} | {} | {} |",
+            t.stable, t.inaccurate, t.wild, t.unstable, t.panics
+        );
+        for (axis, res) in &all {
+            let nv = plan.values(*axis).len();
+            let largest = |ok: &dyn Fn(Class3) -> bool| {
+                (0..nh)
+                    .filter(|&k| {
+                        (0..nv).all(|v| {
+                            res.get((m * nv + v) * nh + k)
+                                .and_then(|r| r.as_ref())
+                                .is_none_or(|r| ok(r.class))
+                        })
+                    })
+                    .map(|k| plan.hs[k])
+                    .fold(None, |a: Option<f64>, h| Some(a.map_or(h, |a| a.max(h))))
+                    .map_or("none".to_string(), tick)
+            };
+            let _ = write!(
+                row,
+                " {} / {} |",
+                largest(&|c| c == Class3::Stable),
+                largest(&|c| !c.unstable())
+            );
+        }
+        let _ = writeln!(md, "{row}");
+    }
+    let panics: usize = tallies.iter().map(|t| t.panics).sum();
+    let unconverged: usize = all
+        .iter()
+        .flat_map(|(_, r)| r.iter().flatten())
+        .map(|r| r.unconverged)
+        .sum();
+    let fallbacks: usize = all
+        .iter()
+        .flat_map(|(_, r)| r.iter().flatten())
+        .map(|r| r.fallbacks)
+        .sum();
+    let _ = writeln!(
+        md,
+        "\nPanics: {panics} (of {} cells). Projection steps stopped at the iteration limit: \
+         {unconverged}; RATTLE sub-steps finished by Newton: {fallbacks}. Raw data: \
+         `chain_stability.csv` (class, steps, strain and its allowance, energy measure, \
+         unconverged projections, RATTLE Newton fallbacks, wall time and the error message per \
+         cell).\n\n\
+         Reading the maps: (1) the velocity level, Baumgarte and the projections cannot start \
+         from a violated state without turning the violation into velocity (δℓ/h, about δℓ/(5h) \
+         for Baumgarte) for at least a step, so on the violation map their energy test fails by \
+         construction — the strain column (second half of the run) says whether they recovered \
+         (RATTLE's velocity stage, J(x′)v′ = 0, removes that velocity within the step); \
+         (2) \"bounded\" only means within {BLOWUP_EXTENT} extents: an inaccurate cell with strain \
+         > {WILD_STRAIN} (and above its allowance) has links at least twice their length (counted \
+         in the summary) — with a \
+         heavy tip the light particles next to it feel a large tension whose transverse \
+         (geometric) stiffness the linearized formulations treat explicitly (J at the start of \
+         the step), so they whip unless h is small; the implicit soft step includes it (projected \
+         Hessian); (3) the compliant formulation's energy includes ½kΣC², so the O(h²) length \
+         drift it shares with the velocity level is stored energy in stiff links: at large k it \
+         fails the energy test where the hard row (α = 0, no stored energy) passes.\n",
+        all.iter()
+            .map(|(_, r)| r.iter().flatten().count())
+            .sum::<usize>()
+    );
+    Ok(panics)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cell(method: usize, h: f64) -> Cell {
+        let stiffness = if links_of(method) == Links::Hard {
+            f64::INFINITY
+        } else {
+            load_stiffness(3, 1.0)
+        };
+        Cell {
+            method,
+            h,
+            links: 3,
+            tip_ratio: 1.0,
+            violation: 0.0,
+            stiffness,
+            horizon: 0.05,
+            max_link_steps: 1e9,
+        }
+    }
+
+    #[test]
+    fn a_short_small_step_run_is_stable_for_every_method() {
+        for m in 0..METHODS.len() {
+            let r = run_cell(&cell(m, 1e-4));
+            assert_eq!(r.class, Class3::Stable, "{}: {r:?}", METHODS[m]);
+            assert_eq!(r.steps, 500);
+        }
+    }
+
+    #[test]
+    fn stretched_links_start_at_the_violation() {
+        for m in [0, 3] {
+            let c = Cell {
+                violation: 0.1,
+                ..cell(m, 1e-3)
+            };
+            let (sys, _) = scene(&c).unwrap();
+            let (s, _) = strain_and_energy(&sys.x, c.stiffness);
+            assert!((s - 0.1).abs() < 1e-12, "{s}");
+        }
+    }
+
+    #[test]
+    fn a_stiff_explicit_spring_is_a_typed_instability_not_a_panic() {
+        let c = Cell {
+            stiffness: 1e12,
+            ..cell(0, 1e-3)
+        };
+        let r = run_cell(&c);
+        assert!(r.class.unstable() && r.class != Class3::Panicked, "{r:?}");
+        assert!(r.steps < 50, "{r:?}");
+    }
+
+    #[test]
+    fn the_stiffness_map_runs_hard_links_once_and_springs_at_finite_k() {
+        let plan = Plan::new(true);
+        let grid = plan.grid(Axis::Stiffness);
+        let nv = plan.values(Axis::Stiffness).len();
+        let nh = plan.hs.len();
+        for m in 0..METHODS.len() {
+            let rows: Vec<bool> = (0..nv).map(|v| grid[(m * nv + v) * nh].is_some()).collect();
+            let expect: Vec<bool> = (0..nv)
+                .map(|v| match links_of(m) {
+                    Links::Springs => v + 1 < nv,
+                    Links::Compliant => true,
+                    Links::Hard => v + 1 == nv,
+                })
+                .collect();
+            assert_eq!(rows, expect, "{}", METHODS[m]);
+        }
+    }
+
+    #[test]
+    fn the_horizon_is_cut_to_the_link_step_budget() {
+        let c = Cell {
+            links: 1000,
+            max_link_steps: 5e4,
+            ..cell(3, 1e-4)
+        };
+        assert_eq!(steps(&c), 50);
+        assert_eq!(steps(&cell(3, 1.0)), 1);
+    }
+
+    #[test]
+    fn results_keep_the_cell_order_whatever_the_threads() {
+        let cells: Vec<Cell> = (0..METHODS.len()).map(|m| cell(m, 2e-3)).collect();
+        let a = run_all(&cells, 1);
+        let b = run_all(&cells, 3);
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!(x.cell, y.cell);
+            assert_eq!(x.class, y.class);
+            assert_eq!(x.steps, y.steps);
+            assert_eq!(x.strain.to_bits(), y.strain.to_bits());
+            assert_eq!(x.energy.to_bits(), y.energy.to_bits());
+        }
+    }
+}
