@@ -164,6 +164,11 @@ impl DeformableContact {
     }
 
     /// One step of `imp`'s size: implicit soft forces and contacts in one KKT system.
+    ///
+    /// # Errors
+    /// Soft assembly errors, KKT errors, and `Soft(Diverged)` for a non-finite or
+    /// exploding new state (beyond 1e12 m or m/s). The system is unchanged after any
+    /// error.
     pub fn step(
         &mut self,
         sys: &mut SoftSystem,
@@ -286,13 +291,39 @@ impl DeformableContact {
                 vn + vt * (1.0 - dv / speed)
             };
         }
-        for (i, vi) in v.iter().enumerate().take(n) {
-            if sys.pinned()[i] {
-                continue;
+        // The new state is built aside and committed only when every value is finite and
+        // bounded (the soft integrators' rule): a non-finite position written through
+        // the public `x`, or an exploding solve, is `Diverged` with the state unchanged.
+        let pinned = sys.pinned();
+        for (vi, &p) in v.iter_mut().zip(pinned) {
+            if p {
+                *vi = DVec3::ZERO;
             }
-            sys.x[i] += *vi * h;
+        }
+        let x_new: Vec<DVec3> = sys
+            .x
+            .iter()
+            .zip(&v)
+            .take(n)
+            .map(|(x, vi)| *x + *vi * h)
+            .collect();
+        const LIMIT: f64 = 1e12;
+        if let Some(particle) = x_new.iter().zip(&v).position(|(x, vi)| {
+            // `is_finite` first: glam's `max_element` drops a NaN x or y component.
+            !(x.is_finite()
+                && vi.is_finite()
+                && x.abs().max_element() < LIMIT
+                && vi.abs().max_element() < LIMIT)
+        }) {
+            return Err(DeformableError::Soft(
+                constraint_soft::SoftError::Diverged {
+                    step: sys.steps,
+                    particle,
+                },
+            ));
         }
         sys.set_velocities(&v).map_err(DeformableError::Soft)?;
+        sys.x.copy_from_slice(&x_new);
         Ok(stats)
     }
 }

@@ -92,7 +92,9 @@ impl FastProjection {
     /// `pinned` onto the constraints.
     ///
     /// # Errors
-    /// Index or KKT errors.
+    /// Index or KKT errors; `Kkt(Solve(NonFinite))` when a position is not finite (on
+    /// input, or after an update that overflowed). `x` may be partly updated after an
+    /// error.
     pub fn project(
         &mut self,
         mass: &[f64],
@@ -120,16 +122,18 @@ impl FastProjection {
                 st.initial = err;
             }
             st.r#final = err;
-            if err <= self.tolerance {
-                st.converged = true;
-                return Ok(st);
-            }
+            // Non-finite input positions (or an update that overflowed): an error, never
+            // an `Ok` with NaN positions. Checked before the tolerance: a NaN position
+            // that no constraint touches leaves `err` finite (fuzz crash particle_step
+            // "projection of unconstrained NaN positions").
             if !err.is_finite() || !x.iter().all(|p| p.is_finite()) {
-                // Non-finite input positions (or an update that overflowed): an error,
-                // never an `Ok` with NaN positions.
                 return Err(LagrangeError::Kkt(crate::kkt::KktError::Solve(
                     crate::solve::SolveError::NonFinite,
                 )));
+            }
+            if err <= self.tolerance {
+                st.converged = true;
+                return Ok(st);
             }
             if st.iterations == self.max_iterations {
                 return Ok(st);

@@ -337,7 +337,13 @@ impl Rattle {
             .dx
             .iter()
             .zip(&sys.x)
-            .position(|(v, x)| !(v.abs().max_element() < 1e12 && x.abs().max_element() < 1e12));
+            // `is_finite` first: glam's `max_element` drops a NaN x or y component.
+            .position(|(v, x)| {
+                !(v.is_finite()
+                    && x.is_finite()
+                    && v.abs().max_element() < 1e12
+                    && x.abs().max_element() < 1e12)
+            });
         if solved.is_err() || bad.is_some() {
             core::mem::swap(&mut sys.x, &mut self.x);
             core::mem::swap(&mut sys.v, &mut self.v);

@@ -51,7 +51,14 @@ pub(crate) fn commit(
     if let Some(p) = x_new
         .iter()
         .zip(v_new)
-        .position(|(x, v)| !(x.abs().max_element() < LIMIT && v.abs().max_element() < LIMIT))
+        // `is_finite` first: glam's `max_element` drops a NaN x or y component
+        // (`max(NaN, y) = y`), so the bound alone let `(NaN, 0, 0)` through.
+        .position(|(x, v)| {
+            !(x.is_finite()
+                && v.is_finite()
+                && x.abs().max_element() < LIMIT
+                && v.abs().max_element() < LIMIT)
+        })
     {
         return Err(LagrangeError::Diverged {
             step: sys.steps,

@@ -159,3 +159,100 @@ fn kkt_tiny_compliance_overflows_lambda() {
         lambda[0]
     );
 }
+
+/// Fuzz crash `particle_step` crash-dc02bef6 (cargo xtask fuzz): a NaN position written
+/// through the public `SoftSystem::x` went through `DeformableContact::step` (no
+/// colliders, implicit Euler, Gauss–Newton, sparse LDLᵀ) and came back `Ok` with the NaN
+/// still there; the step also wrote positions before the velocity check that could fail.
+/// Fixed: the new state is built aside and committed only when finite and bounded, else
+/// `Soft(Diverged)` with the state unchanged.
+#[test]
+fn deformable_step_with_nan_position_is_rejected() {
+    let mut sys = SoftSystem::new(vec![DVec3::ZERO], vec![2.82932772e-315]).unwrap();
+    sys.x[0] = DVec3::new(f64::NAN, 6.150994174457306e-304, 1.3906722225545867e-308);
+    sys.v[0] = DVec3::new(
+        2.9043552100789517e-144,
+        2.9043552100789517e-144,
+        2.904355210078967e-144,
+    );
+    let mut dc = DeformableContact::new(Vec::new(), DeformableSettings::default()).unwrap();
+    let mut imp =
+        ImplicitEuler::new(1e-3, HessianMode::GaussNewton, LinearSolver::SparseLdlt).unwrap();
+    let before = format!("{:?} {:?} {}", sys.x, sys.v, sys.steps);
+    for _ in 0..2 {
+        assert!(dc.step(&mut sys, &mut imp).is_err());
+        assert_eq!(format!("{:?} {:?} {}", sys.x, sys.v, sys.steps), before);
+    }
+}
+
+/// Fuzz crash `particle_step` crash-cbb5069e (bare `FastProjection::project`): with no constraint
+/// touching it, a NaN position left the largest relative violation at 0, so the
+/// projection returned `Ok` (converged) with the NaN in place. Fixed: positions are
+/// checked for finiteness before the tolerance; now `Kkt(Solve(NonFinite))`.
+#[test]
+fn projection_of_unconstrained_nan_positions_is_rejected() {
+    use constraint_lagrange::{Constraints, FastProjection, KktSolver};
+    let mut p = FastProjection::new(6.078577631456752e199, 14, KktSolver::Auto).unwrap();
+    let mut x = [DVec3::new(-2.9740338169555658e284, 3.288e-320, f64::NAN)];
+    let r = p.project(&[1.3029477597e-314], &[], &Constraints::new(), &mut x);
+    assert!(r.is_err(), "{r:?}");
+}
+
+/// Fuzz crash `particle_step` crash-63f1f2e0 (acceleration level, Baumgarte `k_x = 1e-9`):
+/// a position `(2.3e-106, NaN, −1.6e-219)` written through the public `x` was committed:
+/// the lagrange steps' divergence check `|x|.max_element() < 1e12` skips a NaN in the x or y
+/// component (glam's `max_element` is `if a > b { a } else { b }`). Fixed in the shared
+/// commit and in RATTLE's velocity check (`is_finite` first); every formulation now
+/// returns `Diverged` (or another typed error) and leaves the state unchanged.
+#[test]
+fn lagrange_steps_reject_nan_position_component() {
+    use constraint_lagrange::{
+        AccelerationLevel, BaseStep, Baumgarte, Constraints, HardSet, KktSolver, Rattle,
+        RattleOrder, VelocityLevel,
+    };
+    for axis in 0..3 {
+        let mut sys = SoftSystem::new(vec![DVec3::ZERO; 2], vec![1.0, 1.0]).unwrap();
+        let mut x = [2.3158748340166987e-106, 0.5, -1.64430875895095e-219];
+        x[axis] = f64::NAN;
+        sys.x[0] = DVec3::from_array(x);
+        sys.v[0] = DVec3::new(-3.28832457827217e-219, -3.28832457827217e-219, 7.96e-310);
+        let empty = Constraints::new();
+        // One spring on the other particle, so the KKT solves have a row.
+        let mut one = Constraints::new();
+        one.add(HardSet::hard(
+            "s",
+            vec![Distance {
+                points: [1, 1],
+                rest_length: 1.0,
+            }],
+        ));
+        for cons in [&empty, &one] {
+            let before = format!("{:?} {:?} {}", sys.x, sys.v, sys.steps);
+            let same = |sys: &SoftSystem| {
+                assert_eq!(
+                    format!("{:?} {:?} {}", sys.x, sys.v, sys.steps),
+                    before,
+                    "axis {axis}"
+                )
+            };
+            let b = Baumgarte {
+                kx: 1e-9,
+                kv: 3.918e-320,
+            };
+            let mut acc = AccelerationLevel::new(1e-3, b, KktSolver::Auto).unwrap();
+            assert!(
+                acc.step(&mut sys, cons).is_err(),
+                "acceleration, axis {axis}"
+            );
+            same(&sys);
+            let mut vel = VelocityLevel::new(1e-3, BaseStep::Explicit, KktSolver::Auto).unwrap();
+            assert!(vel.step(&mut sys, cons).is_err(), "velocity, axis {axis}");
+            same(&sys);
+            for order in [RattleOrder::Second, RattleOrder::Fourth] {
+                let mut r = Rattle::new(1e-3, order, 1e-9, 20, KktSolver::Auto).unwrap();
+                assert!(r.step(&mut sys, cons).is_err(), "{order:?}, axis {axis}");
+                same(&sys);
+            }
+        }
+    }
+}

@@ -1,6 +1,8 @@
 //! `cargo xtask fuzz [--seconds N] [TARGET...]`: runs every cargo-fuzz target of `fuzz/`
-//! (`mjcf_load`, `lcp_solvers`, `kkt_solvers`, `world_step`) for `N` seconds each
-//! (default 60), installing `cargo-fuzz` first when it is missing.
+//! (`mjcf_load`, `lcp_solvers`, `kkt_solvers`, `world_step`, `particle_step`) for `N`
+//! seconds each (default 60), installing `cargo-fuzz` first when it is missing.
+//! `particle_step` covers the particle crates: soft systems under every integrator, the
+//! lagrange formulations with hard/compliant sets, and the deformable contact step.
 //!
 //! Toolchain: `cargo +nightly fuzz run` when a nightly toolchain is installed (libFuzzer
 //! with AddressSanitizer, cargo-fuzz's default); otherwise the stable toolchain with
@@ -16,7 +18,13 @@
 use crate::run::root;
 use std::process::{Command, Stdio};
 
-const TARGETS: [&str; 4] = ["mjcf_load", "lcp_solvers", "kkt_solvers", "world_step"];
+const TARGETS: [&str; 5] = [
+    "mjcf_load",
+    "lcp_solvers",
+    "kkt_solvers",
+    "world_step",
+    "particle_step",
+];
 
 fn has(cmd: &mut Command) -> bool {
     cmd.stdout(Stdio::null())
