@@ -93,32 +93,13 @@ fuzz_target!(|inp: Input| {
     let mut ws = KktWorkspace::default();
     let mut x = vec![DVec3::ZERO; n];
     let mut lambda = vec![0.0; m];
-    if let Ok(stats) = solve_kkt(&p, solver, &mut ws, &mut x, &mut lambda) {
-        // Non-finite output on Ok from non-finite, zero or overflowing input is an open
-        // finding of the bad-input sweep (solve_kkt checks no finiteness); the target
-        // asserts finiteness for moderate inputs: |v| < 1e100, masses > 1e-100.
-        let moderate = |v: &f64| v.is_finite() && v.abs() < 1e100;
-        let sane = mass.iter().all(|m| moderate(m) && *m > 1e-100)
-            && compliance
-                .iter()
-                .all(|v| moderate(v) && (*v == 0.0 || *v > 1e-100))
-            && c.iter().all(moderate)
-            && b.iter().all(|v| v.to_array().iter().all(moderate))
-            && rows
-                .blocks()
-                .iter()
-                .all(|v| v.to_array().iter().all(moderate));
-        // Ill-scaled problems (J ~ 1e-132 with M ~ 1e43: the Schur complement underflows
-        // and λ overflows) still give non-finite Ok results, the same open finding, so
-        // the finiteness check is opt-in (FUZZ_KKT_STRICT=1) until solve_kkt checks its
-        // output; by default this target looks for panics.
-        let strict = std::env::var_os("FUZZ_KKT_STRICT").is_some();
-        if strict && sane && stats.converged {
-            assert!(x.iter().all(|v| v.is_finite()), "non-finite x on Ok");
-            assert!(
-                lambda.iter().all(|v| v.is_finite()),
-                "non-finite lambda on Ok"
-            );
-        }
+    if solve_kkt(&p, solver, &mut ws, &mut x, &mut lambda).is_ok() {
+        // `solve_kkt` checks its inputs and outputs for finiteness: an `Ok` is finite
+        // whatever the input (non-finite, zero, overflowing or ill-scaled).
+        assert!(x.iter().all(|v| v.is_finite()), "non-finite x on Ok");
+        assert!(
+            lambda.iter().all(|v| v.is_finite()),
+            "non-finite lambda on Ok"
+        );
     }
 });
