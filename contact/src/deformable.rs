@@ -324,6 +324,9 @@ impl DeformableContact {
         }
         sys.set_velocities(&v).map_err(DeformableError::Soft)?;
         sys.x.copy_from_slice(&x_new);
+        // Count the step, as the soft and Lagrange steppers do (the `step` of a later
+        // `Diverged` names it).
+        sys.steps += 1;
         Ok(stats)
     }
 }
