@@ -65,6 +65,8 @@ pub struct AccelerationLevel {
     /// The KKT solver.
     pub solver: KktSolver,
     ws: KktWorkspace,
+    /// The solver the last step's KKT solve used.
+    chosen: Option<KktSolver>,
     rows: ConstraintRows,
     zeros: Vec<f64>,
     c: Vec<f64>,
@@ -96,6 +98,7 @@ impl AccelerationLevel {
             velocity_term: true,
             solver,
             ws: KktWorkspace::default(),
+            chosen: None,
             rows: ConstraintRows::new(),
             zeros: Vec::new(),
             c: Vec::new(),
@@ -112,6 +115,12 @@ impl AccelerationLevel {
     /// The time step.
     pub fn time_step(&self) -> f64 {
         self.h
+    }
+
+    /// The KKT solver the last step used ([`KktStats::chosen`]: [`KktSolver::Auto`]
+    /// resolved); `None` before the first successful solve.
+    pub fn last_solver(&self) -> Option<KktSolver> {
+        self.chosen
     }
 
     /// Advances `sys` by one step under `cons`.
@@ -163,6 +172,7 @@ impl AccelerationLevel {
             c: &self.c,
         };
         let stats = solve_kkt(&p, self.solver, &mut self.ws, &mut self.a, &mut self.lambda)?;
+        self.chosen = stats.chosen;
         self.v_new.clear();
         self.v_new.extend((0..n).map(|i| {
             if sys.pinned()[i] {

@@ -153,6 +153,35 @@ pub enum KktSolver {
     },
 }
 
+impl KktSolver {
+    /// The solver a solve runs for a problem with `rows` rows and a diagonal (`true`)
+    /// or block `A`: [`KktSolver::Auto`] resolved by its rule, any other solver itself.
+    /// [`KktStats::chosen`] reports the same after a solve.
+    pub fn resolve(self, diagonal_mass: bool, rows: usize) -> KktSolver {
+        match self {
+            KktSolver::Auto if diagonal_mass && rows <= AUTO_DENSE_ROWS => KktSolver::DenseSchur,
+            #[cfg(feature = "sparse")]
+            KktSolver::Auto if diagonal_mass => KktSolver::SparseSchur,
+            KktSolver::Auto => KktSolver::Minres(IterSettings::default()),
+            s => s,
+        }
+    }
+
+    /// A short description of the solver, for reports' stage lists.
+    pub fn stage(&self) -> &'static str {
+        match self {
+            KktSolver::Auto => "KKT solver chosen at the solve (Auto)",
+            KktSolver::DenseSchur => "dense Schur complement (Cholesky, SVD if singular)",
+            #[cfg(feature = "sparse")]
+            KktSolver::SparseSchur => "sparse Schur complement (faer Cholesky)",
+            KktSolver::Minres(_) => "MINRES on the KKT matrix",
+            KktSolver::Gmres { .. } => "restarted GMRES on the KKT matrix",
+            KktSolver::Svd { .. } => "minimum-norm SVD of the Schur complement",
+            KktSolver::DampedLeastSquares { .. } => "damped least squares on the Schur complement",
+        }
+    }
+}
+
 /// Largest number of rows [`KktSolver::Auto`] hands to the dense Schur solve.
 pub const AUTO_DENSE_ROWS: usize = 300;
 
@@ -436,13 +465,7 @@ fn solve_kkt_unchecked(
     }
     let w = &mut ws.w;
     let diagonal = problem.mass.inverse_diagonal(w);
-    let solver = match solver {
-        KktSolver::Auto if diagonal && m <= AUTO_DENSE_ROWS => KktSolver::DenseSchur,
-        #[cfg(feature = "sparse")]
-        KktSolver::Auto if diagonal => KktSolver::SparseSchur,
-        KktSolver::Auto => KktSolver::Minres(IterSettings::default()),
-        s => s,
-    };
+    let solver = solver.resolve(diagonal, m);
     let mut stats = KktStats {
         chosen: Some(solver),
         iterations: 1,

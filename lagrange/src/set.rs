@@ -3,6 +3,7 @@
 
 use crate::rows::ConstraintRows;
 use alloc::boxed::Box;
+use alloc::string::String;
 use alloc::vec::Vec;
 use constraint_core::{Area, DVec3, Dihedral, Distance, PointConstraint, PointOnPlane, Volume};
 
@@ -115,6 +116,19 @@ pub trait RowSet: Send + Sync {
     fn name(&self) -> &'static str;
     /// Number of rows.
     fn rows(&self) -> usize;
+    /// What kind of constraint the set holds, for reports: the constraint type's short
+    /// name (`Distance`, `Area`, …) for a [`HardSet`]; `"custom"` unless an
+    /// implementation says otherwise.
+    fn kind(&self) -> &'static str {
+        "custom"
+    }
+    /// Whether some row is compliant (`α > 0`). The default collects the compliances
+    /// ([`RowSet::push_compliance`]); [`HardSet`] answers without allocating.
+    fn compliant(&self) -> bool {
+        let mut a = Vec::new();
+        self.push_compliance(&mut a);
+        a.iter().any(|&a| a > 0.0)
+    }
     /// Largest stencil index plus one (0 when empty).
     fn max_index(&self) -> usize;
     /// Appends every constraint's rows at positions `x`.
@@ -137,6 +151,16 @@ where
 
     fn rows(&self) -> usize {
         self.constraints.len() * R
+    }
+
+    fn kind(&self) -> &'static str {
+        let full = core::any::type_name::<C>();
+        let base = full.split('<').next().unwrap_or(full);
+        base.rsplit("::").next().unwrap_or(base)
+    }
+
+    fn compliant(&self) -> bool {
+        self.compliance.iter().any(|&a| a > 0.0)
     }
 
     fn max_index(&self) -> usize {
@@ -225,6 +249,25 @@ impl Constraints {
     /// The sets.
     pub fn sets(&self) -> impl Iterator<Item = &dyn RowSet> {
         self.sets.iter().map(|s| s.as_ref())
+    }
+
+    /// The sets a step assembles, for reports: one entry per set with rows,
+    /// `hard name: rows × Kind` or `compliant name: rows × Kind` (for example
+    /// `hard links: 5 × Distance`).
+    pub fn stages(&self) -> Vec<String> {
+        self.sets
+            .iter()
+            .filter(|s| s.rows() > 0)
+            .map(|s| {
+                let level = if s.compliant() { "compliant" } else { "hard" };
+                alloc::format!("{level} {}: {} × {}", s.name(), s.rows(), s.kind())
+            })
+            .collect()
+    }
+
+    /// Whether some row of some set is compliant (`α > 0`).
+    pub fn any_compliant(&self) -> bool {
+        self.sets.iter().any(|s| s.compliant())
     }
 
     /// Total number of rows.

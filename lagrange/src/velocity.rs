@@ -52,6 +52,8 @@ pub struct VelocityLevel {
     /// Statistics of the last projection, if any.
     pub last_projection: Option<ProjectionStats>,
     ws: KktWorkspace,
+    /// The solver the last step's KKT solve used.
+    chosen: Option<KktSolver>,
     rows: ConstraintRows,
     compliance: Vec<f64>,
     c: Vec<f64>,
@@ -83,6 +85,7 @@ impl VelocityLevel {
             projection: None,
             last_projection: None,
             ws: KktWorkspace::default(),
+            chosen: None,
             rows: ConstraintRows::new(),
             compliance: Vec::new(),
             c: Vec::new(),
@@ -97,6 +100,12 @@ impl VelocityLevel {
     /// The time step.
     pub fn time_step(&self) -> f64 {
         self.h
+    }
+
+    /// The KKT solver the last step used ([`KktStats::chosen`]: [`KktSolver::Auto`]
+    /// resolved); `None` before the first successful solve.
+    pub fn last_solver(&self) -> Option<KktSolver> {
+        self.chosen
     }
 
     /// Multipliers (impulses) of the last step, one per row.
@@ -183,6 +192,7 @@ impl VelocityLevel {
                 )?
             }
         };
+        self.chosen = stats.chosen;
         for (v, &p) in self.v_new.iter_mut().zip(sys.pinned()) {
             if p {
                 *v = DVec3::ZERO;

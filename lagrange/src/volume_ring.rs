@@ -117,6 +117,14 @@ impl RowSet for OneRingVolumes {
         "one-ring volumes"
     }
 
+    fn kind(&self) -> &'static str {
+        "one-ring volume"
+    }
+
+    fn compliant(&self) -> bool {
+        false
+    }
+
     fn rows(&self) -> usize {
         self.rings.len()
     }

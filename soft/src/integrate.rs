@@ -22,6 +22,12 @@ pub trait Integrator {
     /// # Errors
     /// [`SoftError::Diverged`] (state unchanged), or a solver error.
     fn step(&mut self, sys: &mut SoftSystem) -> Result<SolveStats, SoftError>;
+    /// Appends the run-time stages of a step, as configured (the force stages of the
+    /// system itself are [`SoftSystem::stages`]). Nothing unless an implementation says
+    /// otherwise.
+    fn stages(&self, out: &mut Vec<&'static str>) {
+        let _ = out;
+    }
 }
 
 /// Gravity must be finite (a NaN or infinite field would otherwise reach the solver).
@@ -95,6 +101,10 @@ impl SymplecticEuler {
 impl Integrator for SymplecticEuler {
     fn name(&self) -> String {
         "symplectic Euler".into()
+    }
+
+    fn stages(&self, out: &mut Vec<&'static str>) {
+        out.push("symplectic Euler (explicit forces)");
     }
 
     fn time_step(&self) -> f64 {
@@ -299,6 +309,22 @@ impl Integrator for ImplicitEuler {
             LinearSolver::LaggedLdlt(_) => "lagged LDLT",
         };
         format!("implicit Euler ({solver}, {:?})", self.mode)
+    }
+
+    fn stages(&self, out: &mut Vec<&'static str>) {
+        out.push("implicit Euler assembly (M − h∂F/∂v − h²∂F/∂x)");
+        out.push(match self.mode {
+            HessianMode::Exact => "exact Hessian",
+            HessianMode::GaussNewton => "Gauss–Newton Hessian",
+            HessianMode::Projected => "per-element projected Hessian",
+        });
+        out.push(match self.solver {
+            LinearSolver::ConjugateGradient(_) => "block-Jacobi CG",
+            #[cfg(feature = "faer")]
+            LinearSolver::SparseLdlt => "sparse LDLᵀ (faer)",
+            #[cfg(feature = "faer")]
+            LinearSolver::LaggedLdlt(_) => "lagged-LDLᵀ-preconditioned CG (faer)",
+        });
     }
 
     fn time_step(&self) -> f64 {

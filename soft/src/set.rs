@@ -74,6 +74,14 @@ impl<C: PointConstraint<N, R>, const N: usize, const R: usize> ConstraintSet<C, 
     }
 }
 
+/// The last path segment of a type's name, generic arguments dropped
+/// (`constraint_core::spring::Distance` → `Distance`).
+pub(crate) fn short_type_name<T: ?Sized>() -> &'static str {
+    let full = core::any::type_name::<T>();
+    let base = full.split('<').next().unwrap_or(full);
+    base.rsplit("::").next().unwrap_or(base)
+}
+
 /// What a [`SoftSystem`](crate::SoftSystem) needs from a set of soft constraints.
 pub trait ForceSet: Send + Sync {
     /// The set's name (for errors and reports).
@@ -86,6 +94,18 @@ pub trait ForceSet: Send + Sync {
     }
     /// Checks every stencil index against the number of particles.
     fn validate(&self, particles: usize) -> Result<(), SoftError>;
+    /// What kind of constraint the set holds, for reports: the constraint type's short
+    /// name (`Distance`, `Area`, `Volume`, …) for a [`ConstraintSet`]; `"custom"` unless
+    /// an implementation says otherwise.
+    fn kind(&self) -> &'static str {
+        "custom"
+    }
+    /// Whether some constraint of the set is damped (`c > 0`): the step then evaluates
+    /// damping forces and, in the implicit step, `∂F/∂v`. `false` unless an
+    /// implementation says otherwise.
+    fn damped(&self) -> bool {
+        false
+    }
     /// Calls `f` with each stencil.
     fn for_each_stencil(&self, f: &mut dyn FnMut(&[usize]));
     /// Records the value slots of each constraint's blocks in `pattern`.
@@ -118,6 +138,14 @@ where
 
     fn len(&self) -> usize {
         self.constraints.len()
+    }
+
+    fn kind(&self) -> &'static str {
+        short_type_name::<C>()
+    }
+
+    fn damped(&self) -> bool {
+        self.softness.iter().any(|s| s.damping > 0.0)
     }
 
     fn validate(&self, particles: usize) -> Result<(), SoftError> {

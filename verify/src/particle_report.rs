@@ -119,6 +119,46 @@ impl Stepper {
             Stepper::Rattle(s) => s.step(sys, cons).map(|_| ()),
         }
     }
+
+    fn stages(&self, cons: &Constraints) -> Vec<&'static str> {
+        match self {
+            Stepper::Acc(s) => s.stages(cons),
+            Stepper::Vel(s) => s.stages(cons),
+            Stepper::Soft(s) => {
+                let mut out = Vec::new();
+                s.stages(&mut out);
+                out
+            }
+            Stepper::Rattle(s) => s.stages(cons),
+        }
+    }
+}
+
+/// The run-time stages of chain formulation `method` (an index into [`CHAIN_METHODS`])
+/// observed over `steps` steps of `h` from the chart's initial state: the system's force
+/// stages, the hard sets, then the formulation's stages (with the KKT solver the steps
+/// used), in first-seen order; nothing for `steps = 0`.
+///
+/// # Errors
+/// Building the scene or the formulation, or a failed step.
+pub fn chain_stages(method: usize, h: f64, steps: usize) -> Result<Vec<String>, LagrangeError> {
+    let (mut sys, cons) = chain_scene(method)?;
+    let mut s = Stepper::new(method, h)?;
+    let mut out: Vec<String> = Vec::new();
+    for _ in 0..steps {
+        s.step(&mut sys, &cons)?;
+        let now = sys
+            .stages()
+            .into_iter()
+            .chain(cons.stages())
+            .chain(s.stages(&cons).into_iter().map(String::from));
+        for st in now {
+            if !out.contains(&st) {
+                out.push(st);
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// The chain (released at 1 rad) for `method`: hard links, or soft springs for the

@@ -37,6 +37,7 @@ use crate::tree::{JointTopo, TreeSolver};
 mod acceleration;
 mod projection;
 mod rattle;
+mod stages;
 mod velocity;
 
 /// Largest rotation of a body in one RATTLE drift (rad) before the step is redone at

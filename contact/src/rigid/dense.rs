@@ -40,8 +40,10 @@ impl ContactWorld {
     ) -> Result<(Vec<f64>, usize), ContactError> {
         let n = self.rows.len();
         if n == 0 {
+            self.path |= path::NO_ROWS;
             return Ok((Vec::new(), 0));
         }
+        self.path |= path::DENSE;
         let (a, q) = self.delassus();
         let mu: Vec<f64> = (0..self.contacts.len()).map(|c| self.mu(c)).collect();
         let s = self.settings;
@@ -51,6 +53,7 @@ impl ContactWorld {
             ..PgsSettings::default()
         };
         if solver == ContactSolver::Pgs && s.friction == FrictionModel::Boxed {
+            self.path |= path::BOXED_PGS;
             let lcp = Lcp::contact(a, q, &mu).map_err(ContactError::Lcp)?;
             let sol = pgs(&lcp, &pgs_settings, Some(&z0)).map_err(ContactError::Lcp)?;
             return Ok((sol.z, sol.iterations));
@@ -123,6 +126,11 @@ impl ContactWorld {
                     _ => pgs(&lcp, &pgs_settings, Some(&zn0)),
                 };
                 if result.is_ok() {
+                    self.path |= match which {
+                        ContactSolver::Lemke => path::NORMAL_LEMKE,
+                        ContactSolver::Newton => path::NORMAL_NEWTON,
+                        _ => path::NORMAL_PGS,
+                    };
                     break;
                 }
             }
@@ -155,6 +163,7 @@ impl ContactWorld {
                 ..PgsSettings::default()
             };
             let lcp = Lcp::boxed(att.clone(), qt.clone(), lo, hi).map_err(ContactError::Lcp)?;
+            self.path |= path::FRICTION_PGS;
             match pgs(&lcp, &friction_settings, Some(&zt0)) {
                 Ok(sol) => {
                     iterations += sol.iterations;
@@ -163,6 +172,7 @@ impl ContactWorld {
                     }
                 }
                 Err(LcpError::IterationLimit { .. }) => {
+                    self.path |= path::FRICTION_BUDGET;
                     let nt = tangent.len();
                     for _ in 0..10_000 {
                         for (k, &i) in tangent.iter().enumerate() {

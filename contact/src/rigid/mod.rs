@@ -41,6 +41,35 @@ use constraint_core::{DMat3, DVec3, Pose};
 use crate::geometry::{generate_contacts, Collider, Contact, GeometryError};
 mod dense;
 mod sequential;
+mod stages;
+
+/// Bits of [`ContactWorld`]'s record of the solver path its last step took.
+mod path {
+    /// A step has run.
+    pub const STEPPED: u16 = 1;
+    /// Matrix-free sequential impulses.
+    pub const SEQUENTIAL: u16 = 1 << 1;
+    /// Shock-propagation sweeps ran.
+    pub const SHOCK: u16 = 1 << 2;
+    /// The dense Delassus matrix was assembled.
+    pub const DENSE: u16 = 1 << 3;
+    /// PGS on the boxed LCP (friction in one problem).
+    pub const BOXED_PGS: u16 = 1 << 4;
+    /// A normal LCP accepted from Fischer–Burmeister Newton.
+    pub const NORMAL_NEWTON: u16 = 1 << 5;
+    /// A normal LCP accepted from Lemke.
+    pub const NORMAL_LEMKE: u16 = 1 << 6;
+    /// A normal LCP accepted from PGS.
+    pub const NORMAL_PGS: u16 = 1 << 7;
+    /// The boxed friction problem solved by PGS.
+    pub const FRICTION_PGS: u16 = 1 << 8;
+    /// The friction PGS ran out of sweeps; the sweep budget was kept.
+    pub const FRICTION_BUDGET: u16 = 1 << 9;
+    /// Split-impulse pseudo velocities were solved (some contact beyond the slop).
+    pub const SPLIT: u16 = 1 << 10;
+    /// No contact rows: nothing to solve.
+    pub const NO_ROWS: u16 = 1 << 11;
+}
 
 use crate::lcp::{
     fischer_newton, lemke, pgs, Lcp, LcpError, LemkeSettings, NewtonSettings, PgsSettings,
@@ -140,6 +169,8 @@ pub struct ContactStats {
     pub residual: f64,
     /// Deepest penetration before the step (m).
     pub max_penetration: f64,
+    /// The solver that ran ([`ContactSolver::Auto`] resolved by contact count).
+    pub solver: Option<ContactSolver>,
 }
 
 /// Why a contact world rejected input or a step failed.
@@ -216,6 +247,8 @@ pub struct ContactWorld {
     impulses: Vec<f64>,
     warm: BTreeMap<(usize, usize, u64), (f64, DVec3)>,
     steps: u64,
+    /// The solver path of the last step ([`path`] bits), for [`ContactWorld::stages`].
+    path: u16,
 }
 
 impl ContactWorld {
@@ -231,6 +264,7 @@ impl ContactWorld {
             impulses: Vec::new(),
             warm: BTreeMap::new(),
             steps: 0,
+            path: 0,
         }
     }
 
@@ -397,6 +431,8 @@ impl ContactWorld {
             ContactSolver::Auto => ContactSolver::SequentialImpulses,
             s => s,
         };
+        stats.solver = Some(solver);
+        self.path = path::STEPPED;
         let (z, iterations) = match solver {
             ContactSolver::SequentialImpulses => self.sequential_impulses(z0, &inv),
             _ => self.dense(solver, z0)?,
@@ -412,6 +448,9 @@ impl ContactWorld {
         self.store_warm(&z);
         self.impulses = z;
         let pseudo = if self.settings.split_impulse {
+            if self.rows.iter().any(|r| r.push != 0.0) {
+                self.path |= path::SPLIT;
+            }
             self.pseudo_velocities()
         } else {
             vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()]
