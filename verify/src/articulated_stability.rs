@@ -16,7 +16,8 @@ use std::time::Instant;
 use constraint_articulated::scenes::ball_chain;
 use constraint_articulated::{ArticulatedError, Method, World};
 
-use crate::heatmap::{tick, Class, HeatMap, Panel};
+use crate::heatmap::{tick, HeatMap};
+use crate::stability::{self, CellClass, StabilityMap};
 
 /// Link length of the ball chain (m).
 pub const LINK: f64 = 0.1;
@@ -79,73 +80,6 @@ pub fn method(k: usize, h: f64) -> Method {
     }
 }
 
-/// A cell's class.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Class3 {
-    /// Finite, bounded, separation ≤ [`SEPARATION_TOL`] and energy error ≤ [`ENERGY_TOL`].
-    Stable,
-    /// Finite and bounded, but separation or energy error above its threshold.
-    Inaccurate,
-    /// The step returned `ArticulatedError::Diverged`.
-    Diverged,
-    /// Finite but a body beyond the blow-up bound (counted as unstable).
-    BlowUp,
-    /// Another typed error (singular factorization, loop solve; counted as unstable).
-    Failed,
-    /// The step panicked (a bug: must never happen).
-    Panicked,
-}
-
-impl Class3 {
-    /// Every class, in legend order.
-    pub const ALL: [Class3; 6] = [
-        Class3::Stable,
-        Class3::Inaccurate,
-        Class3::Diverged,
-        Class3::BlowUp,
-        Class3::Failed,
-        Class3::Panicked,
-    ];
-
-    /// One-character cell for tables.
-    pub fn symbol(self) -> &'static str {
-        match self {
-            Class3::Stable => "✓",
-            Class3::Inaccurate => "~",
-            Class3::Diverged => "✗",
-            Class3::BlowUp => "↑",
-            Class3::Failed => "!",
-            Class3::Panicked => "P",
-        }
-    }
-
-    /// Whether the class counts as unstable.
-    pub fn unstable(self) -> bool {
-        !matches!(self, Class3::Stable | Class3::Inaccurate)
-    }
-
-    fn index(self) -> usize {
-        Class3::ALL.iter().position(|c| *c == self).unwrap_or(0)
-    }
-
-    /// The heat-map classes, in [`Class3::ALL`] order.
-    pub fn legend() -> Vec<Class> {
-        let c = |label: &str, color, symbol| Class {
-            label: label.into(),
-            color,
-            symbol,
-        };
-        vec![
-            c("stable", "#8fd18f", "✓"),
-            c("inaccurate (bounded)", "#f3d36b", "~"),
-            c("unstable: Diverged", "#e06666", "✗"),
-            c("unstable: blow-up", "#c0504d", "↑"),
-            c("unstable: other typed error", "#a64d79", "!"),
-            c("panic (must not happen)", "#222222", "P"),
-        ]
-    }
-}
-
 /// One cell's configuration.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cell {
@@ -172,8 +106,10 @@ pub struct Cell {
 pub struct CellResult {
     /// The configuration.
     pub cell: Cell,
-    /// The class.
-    pub class: Class3,
+    /// The class: stable when finite, bounded, with separation ≤ [`SEPARATION_TOL`] (hard
+    /// joints) and energy error ≤ [`ENERGY_TOL`]; diverged on `ArticulatedError::Diverged`;
+    /// failed on another typed error (singular factorization, loop solve).
+    pub class: CellClass,
     /// Steps taken (the last one that failed not counted).
     pub steps: u64,
     /// Simulated time covered (s).
@@ -235,7 +171,7 @@ pub fn classify(cell: &Cell) -> CellResult {
     let n = steps(cell);
     let mut r = CellResult {
         cell: *cell,
-        class: Class3::Stable,
+        class: CellClass::Stable,
         steps: 0,
         simulated: 0.0,
         separation: f64::NAN,
@@ -247,7 +183,7 @@ pub fn classify(cell: &Cell) -> CellResult {
     let mut w = match world(cell) {
         Ok(w) => w,
         Err(e) => {
-            r.class = Class3::Failed;
+            r.class = CellClass::Failed;
             r.message = e.to_string();
             return r;
         }
@@ -263,9 +199,9 @@ pub fn classify(cell: &Cell) -> CellResult {
             Ok(st) => r.fallbacks += st.fallbacks,
             Err(e) => {
                 r.class = if matches!(e, ArticulatedError::Diverged { .. }) {
-                    Class3::Diverged
+                    CellClass::Diverged
                 } else {
-                    Class3::Failed
+                    CellClass::Failed
                 };
                 r.message = e.to_string();
                 break;
@@ -282,7 +218,7 @@ pub fn classify(cell: &Cell) -> CellResult {
             .fold(0.0, f64::max);
         let spun = cell.compliance > 0.0 && !(kin <= KINETIC_BLOWUP * mass * 9.81 * extent);
         if !(far <= BLOWUP_EXTENT * extent) || !r.energy.is_finite() || spun {
-            r.class = Class3::BlowUp;
+            r.class = CellClass::BlowUp;
             r.message = format!(
                 "blow-up at step {k}: max |x| = {far:.3e} m, energy measure {:.3e}, kinetic {:.3e} J",
                 r.energy, kin
@@ -298,8 +234,8 @@ pub fn classify(cell: &Cell) -> CellResult {
     // A compliant joint's separation is its spring's stretch, not an error: only the
     // energy (elastic part included) judges those cells.
     let separated = cell.compliance == 0.0 && !(r.separation <= SEPARATION_TOL);
-    if r.class == Class3::Stable && (separated || !(r.energy <= ENERGY_TOL)) {
-        r.class = Class3::Inaccurate;
+    if r.class == CellClass::Stable && (separated || !(r.energy <= ENERGY_TOL)) {
+        r.class = CellClass::Inaccurate;
     }
     r.seconds = t0.elapsed().as_secs_f64();
     r
@@ -309,7 +245,7 @@ pub fn classify(cell: &Cell) -> CellResult {
 fn panicked(cell: &Cell, message: String) -> CellResult {
     CellResult {
         cell: *cell,
-        class: Class3::Panicked,
+        class: CellClass::Panicked,
         steps: 0,
         simulated: 0.0,
         separation: f64::NAN,
@@ -320,7 +256,7 @@ fn panicked(cell: &Cell, message: String) -> CellResult {
     }
 }
 
-/// [`classify`] under `catch_unwind`: a panic becomes [`Class3::Panicked`].
+/// [`classify`] under `catch_unwind`: a panic becomes [`CellClass::Panicked`].
 pub fn run_cell(cell: &Cell) -> CellResult {
     catch_unwind(AssertUnwindSafe(|| classify(cell)))
         .unwrap_or_else(|p| panicked(cell, crate::par::panic_message(p.as_ref())))
@@ -469,22 +405,6 @@ impl Plan {
 
 /// The heat map of one axis pair from its results (in [`Plan::cells`] order).
 pub fn heat_map(plan: &Plan, axis: Axis, results: &[CellResult]) -> HeatMap {
-    let nv = plan.values(axis).len();
-    let nh = plan.hs.len();
-    let panels = METHODS
-        .iter()
-        .enumerate()
-        .map(|(m, name)| Panel {
-            title: (*name).into(),
-            cells: (0..nv)
-                .map(|v| {
-                    (0..nh)
-                        .map(|k| results.get((m * nv + v) * nh + k).map(|r| r.class.index()))
-                        .collect()
-                })
-                .collect(),
-        })
-        .collect();
     let note = match axis {
         Axis::Compliance => format!(
             "Ball chain of {} links (0.1 m), every joint compliant (α; k = 1/α), released horizontal, {} s per cell.\nStable: max |E|/(M g ℓ) ≤ {ENERGY_TOL:e} with the joints' elastic energy (α = 0: also separation ≤ {SEPARATION_TOL:e} m).",
@@ -499,17 +419,153 @@ pub fn heat_map(plan: &Plan, axis: Axis, results: &[CellResult]) -> HeatMap {
             plan.base_links, plan.horizon
         ),
     };
-    HeatMap {
-        title: format!("Articulated stability: time step × {}", axis.label()),
-        x_label: "h (s)".into(),
-        y_label: axis.label().into(),
-        x_ticks: plan.hs.iter().map(|&h| tick(h)).collect(),
-        y_ticks: plan.values(axis).iter().map(|&v| tick(v)).collect(),
-        classes: Class3::legend(),
-        panels,
-        columns: 3,
+    stability::heat_map(
+        &plan.layout(axis),
+        format!("Articulated stability: time step × {}", axis.label()),
+        axis.label(),
+        plan.values(axis).iter().map(|&v| tick(v)).collect(),
+        3,
         note,
+        |i| results.get(i).map(|r| r.class),
+    )
+}
+
+impl StabilityMap for Plan {
+    type Axis = Axis;
+    type Result = CellResult;
+    const NAME: &'static str = "articulated";
+    const HEADING: &'static str = "Time step";
+    const ALT: &'static str = "articulated stability";
+    const SUMMARY: &'static str = "Summary per formulation";
+    const FIRST_COLUMN: &'static str = "method";
+    const CSV_HEADER: &'static str = "axis,method,h,links,tip_ratio,violation,compliance,class,steps,simulated_s,separation_m,energy_rel,fallbacks,wall_s,message\n";
+    const METHODS: &'static [&'static str] = &METHODS;
+    const AXES: &'static [Axis] = &Axis::ALL;
+
+    fn axis_label(axis: Axis) -> &'static str {
+        axis.label()
     }
+
+    fn axis_stem(axis: Axis) -> &'static str {
+        axis.stem()
+    }
+
+    fn hs(&self) -> &[f64] {
+        &self.hs
+    }
+
+    fn axis_values(&self, axis: Axis) -> Vec<f64> {
+        self.values(axis)
+    }
+
+    fn run(&self, axis: Axis, threads: usize, announce: &mut dyn FnMut(usize)) -> Vec<CellResult> {
+        let cells = self.cells(axis);
+        announce(cells.len());
+        run_all(&cells, threads)
+    }
+
+    fn heat_map(&self, axis: Axis, results: &[CellResult]) -> HeatMap {
+        heat_map(self, axis, results)
+    }
+
+    fn class(r: &CellResult) -> Option<CellClass> {
+        Some(r.class)
+    }
+
+    fn csv_row(axis: Axis, r: &CellResult) -> Option<String> {
+        let c = &r.cell;
+        Some(format!(
+            "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{},{:.4},{}",
+            axis.stem(),
+            METHODS[c.method],
+            c.h,
+            c.links,
+            c.tip_ratio,
+            c.violation,
+            c.compliance,
+            r.class,
+            r.steps,
+            r.simulated,
+            r.separation,
+            r.energy,
+            r.fallbacks,
+            r.seconds,
+            r.message.replace(',', ";")
+        ))
+    }
+}
+
+/// Writes the section (four heat maps `articulated_stability_<axis>.svg`, tables, a
+/// summary and `articulated_stability.csv`) and returns the panic count.
+///
+/// # Errors
+/// Writing a file.
+pub fn section(
+    md: &mut String,
+    out: &std::path::Path,
+    quick: bool,
+) -> Result<usize, Box<dyn std::error::Error>> {
+    use std::fmt::Write as _;
+    let plan = Plan::new(quick);
+    let threads = crate::par::threads();
+    let _ = writeln!(
+        md,
+        "\n## Stability map: articulated formulations\n\n\
+         The ball chain of `constraint_articulated::scenes::ball_chain` (0.1 m rods, 34 g, \
+         ball joints, hanging from the origin, released at rest along −x) stepped by five \
+         formulations over time step × tip mass ratio ({} links), time step × chain length, \
+         time step × initial violation (every joint stretched by a fraction of the link length: \
+         body i moved by (i + 1)·δ·0.1 m along −x), and time step × joint compliance α = 1/k \
+         (the stiffness axis: every joint made compliant by `World::set_compliance`, \
+         C(x) = −α λ_f, a spring of stiffness k = 1/α N/m on each of the three rows; α = 0 is the \
+         hard joint of the other maps). Methods: velocity level `Velocity {{ β: 1 }}`; \
+         velocity level + Newton projection to 1e-10 m (≤ 10 iterations); acceleration level with \
+         critically damped Baumgarte gains kx = 1/τ², kv = 2/τ, τ = 5h; RATTLE \
+         (`Method::default()`, SHAKE to 1e-12 m, falls back to the velocity level when its \
+         projection fails); RATTLE4 (Yoshida triple jump, 1e-12 m). Compliant joints: the two \
+         velocity-level methods take them implicitly in the compliant form \
+         [M Jᵀ; J −α/h²][v'; λ] = [M v + h f; −C/h] (backward Euler on the spring) and leave them \
+         out of the projection (so with every joint compliant, velocity + projection equals the \
+         velocity level); Baumgarte, RATTLE and RATTLE4 apply the explicit spring force \
+         −(1/α) Jᵀ C (symplectic Euler / Störmer–Verlet in the kicks, rows out of the KKT system \
+         and of SHAKE), stable only while h·√(k/m) stays small — RATTLE's fallback to the \
+         velocity level (when a body turns by more than 0.5 rad in a step) can rescue a step.\n\n\
+         Classes (thresholds exact): **✓ stable**: every step finite, bounded, max joint \
+         separation over the second half of the run ≤ {SEPARATION_TOL:e} m (1 % of the link) and \
+         max over the run of |E(t)|/(M g ℓ) ≤ {ENERGY_TOL:e} (E = kinetic + gravitational, exactly \
+         0 at the start and for the exact motion; M total mass, ℓ chain length); **~ inaccurate**: \
+         bounded but above either threshold; on the compliance map (α > 0) the separation \
+         threshold does not apply (a compliant joint's stretch is its spring's, about α × the \
+         force it carries) and E includes the joints' elastic energy Σ C²/(2α) — so at very stiff \
+         α the velocity level's own O(h²) position drift (the hard joint's separation, 1e-7 m at \
+         h = 1e-4 on this chain) counts as elastic energy C²/(2α) and such cells are inaccurate \
+         though bounded; **✗ unstable**: `ArticulatedError::Diverged` \
+         (non-finite or beyond 1e12); **↑ unstable**: blow-up, a body beyond {BLOWUP_EXTENT} × the \
+         initial extent (chain length with its stretch, plus a link, plus for α > 0 twice the \
+         chain's static stretch α g Σₖ (k + 1) mₖ) from the anchor, or a non-finite \
+         energy, or on the compliance map a kinetic energy above {KINETIC_BLOWUP:e} × M g × that \
+         extent (those cells start at rest without violation, so such energy is made by the \
+         integrator: an explicit stiff spring spins the links up while their centres stay in \
+         bounds); **! unstable**: another \
+         typed error; **P**: a panic (caught per cell by `catch_unwind`; must be 0). Each cell \
+         simulates {} s (long chains: at most {:.0e} link-steps, so fewer steps). Cells run on {threads} \
+         thread(s); each run is deterministic.\n",
+        plan.base_links,
+        plan.horizon,
+        plan.max_link_steps
+    );
+    let all = stability::write_maps(&plan, md, out, threads)?;
+    // Summary: per method, counts and the largest step stable (and not unstable) on
+    // every row of each map.
+    let total = stability::write_summary(&plan, md, &all, &[]);
+    let _ = writeln!(
+        md,
+        "\nPanics: {} (of {} cells). Raw data: `articulated_stability.csv` (class, steps, \
+         separation, energy measure, RATTLE fallbacks, wall time and the error message per cell).\n",
+        total.panics,
+        total.cells()
+    );
+    Ok(total.panics)
 }
 
 #[cfg(test)]
@@ -533,7 +589,7 @@ mod tests {
     fn a_short_small_step_run_is_stable_for_every_method() {
         for m in 0..METHODS.len() {
             let r = run_cell(&cell(m, 1e-3));
-            assert_eq!(r.class, Class3::Stable, "{}: {r:?}", METHODS[m]);
+            assert_eq!(r.class, CellClass::Stable, "{}: {r:?}", METHODS[m]);
             assert_eq!(r.steps, 50);
         }
     }
@@ -546,7 +602,7 @@ mod tests {
                 ..cell(m, 1e-4)
             };
             let r = run_cell(&c);
-            assert_eq!(r.class, Class3::Stable, "{}: {r:?}", METHODS[m]);
+            assert_eq!(r.class, CellClass::Stable, "{}: {r:?}", METHODS[m]);
             assert_eq!(r.fallbacks, 0);
         }
         let w = world(&Cell {
@@ -614,202 +670,4 @@ mod tests {
             assert_eq!(x.separation.to_bits(), y.separation.to_bits());
         }
     }
-}
-
-/// Counts of one method's cells over all maps.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Tally {
-    /// Stable cells.
-    pub stable: usize,
-    /// Inaccurate cells.
-    pub inaccurate: usize,
-    /// Unstable cells (diverged, blow-up, other typed error).
-    pub unstable: usize,
-    /// Panics.
-    pub panics: usize,
-}
-
-/// Writes the section (four heat maps `articulated_stability_<axis>.svg`, tables, a
-/// summary and `articulated_stability.csv`) and returns the panic count.
-///
-/// # Errors
-/// Writing a file.
-pub fn section(
-    md: &mut String,
-    out: &std::path::Path,
-    quick: bool,
-) -> Result<usize, Box<dyn std::error::Error>> {
-    use std::fmt::Write as _;
-    let plan = Plan::new(quick);
-    let threads = crate::par::threads();
-    let _ = writeln!(
-        md,
-        "\n## Stability map: articulated formulations\n\n\
-         The ball chain of `constraint_articulated::scenes::ball_chain` (0.1 m rods, 34 g, \
-         ball joints, hanging from the origin, released at rest along −x) stepped by five \
-         formulations over time step × tip mass ratio ({} links), time step × chain length, \
-         time step × initial violation (every joint stretched by a fraction of the link length: \
-         body i moved by (i + 1)·δ·0.1 m along −x), and time step × joint compliance α = 1/k \
-         (the stiffness axis: every joint made compliant by `World::set_compliance`, \
-         C(x) = −α λ_f, a spring of stiffness k = 1/α N/m on each of the three rows; α = 0 is the \
-         hard joint of the other maps). Methods: velocity level `Velocity {{ β: 1 }}`; \
-         velocity level + Newton projection to 1e-10 m (≤ 10 iterations); acceleration level with \
-         critically damped Baumgarte gains kx = 1/τ², kv = 2/τ, τ = 5h; RATTLE \
-         (`Method::default()`, SHAKE to 1e-12 m, falls back to the velocity level when its \
-         projection fails); RATTLE4 (Yoshida triple jump, 1e-12 m). Compliant joints: the two \
-         velocity-level methods take them implicitly in the compliant form \
-         [M Jᵀ; J −α/h²][v'; λ] = [M v + h f; −C/h] (backward Euler on the spring) and leave them \
-         out of the projection (so with every joint compliant, velocity + projection equals the \
-         velocity level); Baumgarte, RATTLE and RATTLE4 apply the explicit spring force \
-         −(1/α) Jᵀ C (symplectic Euler / Störmer–Verlet in the kicks, rows out of the KKT system \
-         and of SHAKE), stable only while h·√(k/m) stays small — RATTLE's fallback to the \
-         velocity level (when a body turns by more than 0.5 rad in a step) can rescue a step.\n\n\
-         Classes (thresholds exact): **✓ stable**: every step finite, bounded, max joint \
-         separation over the second half of the run ≤ {SEPARATION_TOL:e} m (1 % of the link) and \
-         max over the run of |E(t)|/(M g ℓ) ≤ {ENERGY_TOL:e} (E = kinetic + gravitational, exactly \
-         0 at the start and for the exact motion; M total mass, ℓ chain length); **~ inaccurate**: \
-         bounded but above either threshold; on the compliance map (α > 0) the separation \
-         threshold does not apply (a compliant joint's stretch is its spring's, about α × the \
-         force it carries) and E includes the joints' elastic energy Σ C²/(2α) — so at very stiff \
-         α the velocity level's own O(h²) position drift (the hard joint's separation, 1e-7 m at \
-         h = 1e-4 on this chain) counts as elastic energy C²/(2α) and such cells are inaccurate \
-         though bounded; **✗ unstable**: `ArticulatedError::Diverged` \
-         (non-finite or beyond 1e12); **↑ unstable**: blow-up, a body beyond {BLOWUP_EXTENT} × the \
-         initial extent (chain length with its stretch, plus a link, plus for α > 0 twice the \
-         chain's static stretch α g Σₖ (k + 1) mₖ) from the anchor, or a non-finite \
-         energy, or on the compliance map a kinetic energy above {KINETIC_BLOWUP:e} × M g × that \
-         extent (those cells start at rest without violation, so such energy is made by the \
-         integrator: an explicit stiff spring spins the links up while their centres stay in \
-         bounds); **! unstable**: another \
-         typed error; **P**: a panic (caught per cell by `catch_unwind`; must be 0). Each cell \
-         simulates {} s (long chains: at most {:.0e} link-steps, so fewer steps). Cells run on {threads} \
-         thread(s); each run is deterministic.\n",
-        plan.base_links,
-        plan.horizon,
-        plan.max_link_steps
-    );
-    let mut csv = String::from(
-        "axis,method,h,links,tip_ratio,violation,compliance,class,steps,simulated_s,separation_m,energy_rel,fallbacks,wall_s,message\n",
-    );
-    let mut tally = [Tally::default(); METHODS.len()];
-    let mut all: Vec<(Axis, Vec<CellResult>)> = Vec::new();
-    for axis in Axis::ALL {
-        let t0 = Instant::now();
-        let cells = plan.cells(axis);
-        eprintln!(
-            "  articulated stability: h × {}, {} cells on {threads} thread(s)",
-            axis.label(),
-            cells.len()
-        );
-        let res = run_all(&cells, threads);
-        let secs = t0.elapsed().as_secs_f64();
-        eprintln!("    done in {secs:.1} s");
-        let stem = format!("articulated_stability_{}", axis.stem());
-        std::fs::write(
-            out.join(format!("{stem}.svg")),
-            heat_map(&plan, axis, &res).to_svg(),
-        )?;
-        let _ = writeln!(
-            md,
-            "### Time step × {}\n\n![articulated stability, h × {}]({stem}.svg)\n",
-            axis.label(),
-            axis.label()
-        );
-        let mut head = format!("| method | {} \\ h (s) |", axis.label());
-        let mut sep = String::from("|---|---|");
-        for h in &plan.hs {
-            let _ = write!(head, " {} |", tick(*h));
-            sep.push_str("---|");
-        }
-        let _ = writeln!(md, "{head}\n{sep}");
-        let vals = plan.values(axis);
-        let nh = plan.hs.len();
-        for (m, name) in METHODS.iter().enumerate() {
-            for (v, x) in vals.iter().enumerate() {
-                let row: Vec<&str> = (0..nh)
-                    .map(|k| res[(m * vals.len() + v) * nh + k].class.symbol())
-                    .collect();
-                let _ = writeln!(md, "| {name} | {} | {} |", tick(*x), row.join(" | "));
-            }
-        }
-        let _ = writeln!(md, "\n({} cells, {secs:.1} s wall.)\n", res.len());
-        for r in &res {
-            let t = &mut tally[r.cell.method];
-            match r.class {
-                Class3::Stable => t.stable += 1,
-                Class3::Inaccurate => t.inaccurate += 1,
-                Class3::Panicked => t.panics += 1,
-                _ => t.unstable += 1,
-            }
-            let c = &r.cell;
-            let _ = writeln!(
-                csv,
-                "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{},{:.4},{}",
-                axis.stem(),
-                METHODS[c.method],
-                c.h,
-                c.links,
-                c.tip_ratio,
-                c.violation,
-                c.compliance,
-                r.class,
-                r.steps,
-                r.simulated,
-                r.separation,
-                r.energy,
-                r.fallbacks,
-                r.seconds,
-                r.message.replace(',', ";")
-            );
-        }
-        all.push((axis, res));
-    }
-    std::fs::write(out.join("articulated_stability.csv"), csv)?;
-    // Summary: per method, counts and the largest step stable (and not unstable) on
-    // every row of each map.
-    let _ = writeln!(md, "### Summary per formulation\n");
-    let mut head = String::from("| method | ✓ | ~ | unstable | panics |");
-    let mut sep = String::from("|---|---|---|---|---|");
-    for axis in Axis::ALL {
-        let _ = write!(
-            head,
-            " largest h stable / bounded on every {} |",
-            axis.label()
-        );
-        sep.push_str("---|");
-    }
-    let _ = writeln!(md, "{head}\n{sep}");
-    let nh = plan.hs.len();
-    for (m, name) in METHODS.iter().enumerate() {
-        let t = tally[m];
-        let mut row = format!(
-            "| {name} | {} | {} | {} | {} |",
-            t.stable, t.inaccurate, t.unstable, t.panics
-        );
-        for (axis, res) in &all {
-            let nv = plan.values(*axis).len();
-            let largest = |ok: &dyn Fn(Class3) -> bool| {
-                (0..nh)
-                    .filter(|&k| (0..nv).all(|v| ok(res[(m * nv + v) * nh + k].class)))
-                    .map(|k| plan.hs[k])
-                    .fold(None, |a: Option<f64>, h| Some(a.map_or(h, |a| a.max(h))))
-                    .map_or("none".to_string(), tick)
-            };
-            let _ = write!(
-                row,
-                " {} / {} |",
-                largest(&|c| c == Class3::Stable),
-                largest(&|c| !c.unstable())
-            );
-        }
-        let _ = writeln!(md, "{row}");
-    }
-    let panics: usize = tally.iter().map(|t| t.panics).sum();
-    let _ = writeln!(
-        md,
-        "\nPanics: {panics} (of {} cells). Raw data: `articulated_stability.csv` (class, steps, \
-         separation, energy measure, RATTLE fallbacks, wall time and the error message per cell).\n",
-        all.iter().map(|(_, r)| r.len()).sum::<usize>()
-    );
-    Ok(panics)
 }

@@ -6,7 +6,7 @@
 //! classified by [`classify`] as stable, inaccurate or unstable; every cell runs under
 //! `catch_unwind` ([`crate::par::map_cells`]): a panic is its own class, counted, and must
 //! never happen. This is the particle counterpart of
-//! [`crate::articulated_stability`] (same classes, same layout).
+//! [`crate::articulated_stability`] (same classes and layout: [`crate::stability`]).
 //!
 //! The formulations step a [`SoftSystem`]:
 //!
@@ -42,7 +42,8 @@ use constraint_soft::{
     Softness, SymplecticEuler,
 };
 
-use crate::heatmap::{tick, Class, HeatMap, Panel};
+use crate::heatmap::{tick, HeatMap};
+use crate::stability::{self, CellClass, StabilityMap};
 
 /// Link length of the chain (m).
 pub const LINK: f64 = 0.1;
@@ -113,75 +114,6 @@ pub fn links_of(m: usize) -> Links {
     }
 }
 
-/// A cell's class.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Class3 {
-    /// Finite, bounded, strain within [`allowed_strain`] over the second half and energy
-    /// error ≤ [`ENERGY_TOL`].
-    Stable,
-    /// Finite and bounded, but strain or energy error above its threshold.
-    Inaccurate,
-    /// The step returned the typed divergence error (`LagrangeError::Diverged` or
-    /// `SoftError::Diverged`: non-finite or beyond 1e12).
-    Diverged,
-    /// Finite but a particle beyond the blow-up bound (counted as unstable).
-    BlowUp,
-    /// Another typed error (a singular or non-finite solve; counted as unstable).
-    Failed,
-    /// The step panicked (a bug: must never happen).
-    Panicked,
-}
-
-impl Class3 {
-    /// Every class, in legend order.
-    pub const ALL: [Class3; 6] = [
-        Class3::Stable,
-        Class3::Inaccurate,
-        Class3::Diverged,
-        Class3::BlowUp,
-        Class3::Failed,
-        Class3::Panicked,
-    ];
-
-    /// One-character cell for tables.
-    pub fn symbol(self) -> &'static str {
-        match self {
-            Class3::Stable => "✓",
-            Class3::Inaccurate => "~",
-            Class3::Diverged => "✗",
-            Class3::BlowUp => "↑",
-            Class3::Failed => "!",
-            Class3::Panicked => "P",
-        }
-    }
-
-    /// Whether the class counts as unstable.
-    pub fn unstable(self) -> bool {
-        !matches!(self, Class3::Stable | Class3::Inaccurate)
-    }
-
-    fn index(self) -> usize {
-        Class3::ALL.iter().position(|c| *c == self).unwrap_or(0)
-    }
-
-    /// The heat-map classes, in [`Class3::ALL`] order.
-    pub fn legend() -> Vec<Class> {
-        let c = |label: &str, color, symbol| Class {
-            label: label.into(),
-            color,
-            symbol,
-        };
-        vec![
-            c("stable", "#8fd18f", "✓"),
-            c("inaccurate (bounded)", "#f3d36b", "~"),
-            c("unstable: Diverged", "#e06666", "✗"),
-            c("unstable: blow-up", "#c0504d", "↑"),
-            c("unstable: other typed error", "#a64d79", "!"),
-            c("panic (must not happen)", "#222222", "P"),
-        ]
-    }
-}
-
 /// One cell's configuration.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cell {
@@ -209,8 +141,11 @@ pub struct Cell {
 pub struct CellResult {
     /// The configuration.
     pub cell: Cell,
-    /// The class.
-    pub class: Class3,
+    /// The class: stable when finite, bounded, with the strain within [`allowed_strain`]
+    /// over the second half and energy error ≤ [`ENERGY_TOL`]; diverged on
+    /// `LagrangeError::Diverged` or `SoftError::Diverged`; failed on another typed error
+    /// (a singular or non-finite solve).
+    pub class: CellClass,
     /// Steps taken (the last one that failed not counted).
     pub steps: u64,
     /// Simulated time covered (s).
@@ -443,7 +378,7 @@ pub fn classify(cell: &Cell) -> CellResult {
     let allowed = allowed_strain(cell);
     let mut r = CellResult {
         cell: *cell,
-        class: Class3::Stable,
+        class: CellClass::Stable,
         steps: 0,
         simulated: 0.0,
         strain: f64::NAN,
@@ -460,7 +395,7 @@ pub fn classify(cell: &Cell) -> CellResult {
     let (mut sys, cons, mut stepper) = match built {
         Ok(b) => b,
         Err(e) => {
-            r.class = Class3::Failed;
+            r.class = CellClass::Failed;
             r.message = e.to_string();
             r.seconds = t0.elapsed().as_secs_f64();
             return r;
@@ -484,9 +419,9 @@ pub fn classify(cell: &Cell) -> CellResult {
                     LagrangeError::Diverged { .. }
                         | LagrangeError::Soft(SoftError::Diverged { .. })
                 ) {
-                    Class3::Diverged
+                    CellClass::Diverged
                 } else {
-                    Class3::Failed
+                    CellClass::Failed
                 };
                 r.message = e.to_string().replace('\n', " ");
                 break;
@@ -498,7 +433,7 @@ pub fn classify(cell: &Cell) -> CellResult {
         r.energy = r.energy.max(if e.is_finite() { e } else { f64::INFINITY });
         let far = sys.x.iter().map(|x| x.length()).fold(0.0, f64::max);
         if !(far <= BLOWUP_EXTENT * extent) || !r.energy.is_finite() {
-            r.class = Class3::BlowUp;
+            r.class = CellClass::BlowUp;
             r.message = format!(
                 "blow-up at step {step}: max |x| = {far:.3e} m, energy measure {:.3e}",
                 r.energy
@@ -511,8 +446,8 @@ pub fn classify(cell: &Cell) -> CellResult {
         }
     }
     r.simulated = r.steps as f64 * cell.h;
-    if r.class == Class3::Stable && (!(r.strain <= allowed) || !(r.energy <= ENERGY_TOL)) {
-        r.class = Class3::Inaccurate;
+    if r.class == CellClass::Stable && (!(r.strain <= allowed) || !(r.energy <= ENERGY_TOL)) {
+        r.class = CellClass::Inaccurate;
     }
     r.seconds = t0.elapsed().as_secs_f64();
     r
@@ -522,7 +457,7 @@ pub fn classify(cell: &Cell) -> CellResult {
 fn panicked(cell: &Cell, message: String) -> CellResult {
     CellResult {
         cell: *cell,
-        class: Class3::Panicked,
+        class: CellClass::Panicked,
         steps: 0,
         simulated: 0.0,
         strain: f64::NAN,
@@ -535,7 +470,7 @@ fn panicked(cell: &Cell, message: String) -> CellResult {
     }
 }
 
-/// [`classify`] under `catch_unwind`: a panic becomes [`Class3::Panicked`].
+/// [`classify`] under `catch_unwind`: a panic becomes [`CellClass::Panicked`].
 pub fn run_cell(cell: &Cell) -> CellResult {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| classify(cell)))
         .unwrap_or_else(|p| panicked(cell, crate::par::panic_message(p.as_ref())))
@@ -724,26 +659,6 @@ pub fn run_grid(grid: &[Option<Cell>], threads: usize) -> Vec<Option<CellResult>
 
 /// The heat map of one axis pair from its results (in [`Plan::grid`] order).
 pub fn heat_map(plan: &Plan, axis: Axis, results: &[Option<CellResult>]) -> HeatMap {
-    let nv = plan.values(axis).len();
-    let nh = plan.hs.len();
-    let panels = METHODS
-        .iter()
-        .enumerate()
-        .map(|(m, name)| Panel {
-            title: (*name).into(),
-            cells: (0..nv)
-                .map(|v| {
-                    (0..nh)
-                        .map(|k| {
-                            results
-                                .get((m * nv + v) * nh + k)
-                                .and_then(|r| r.as_ref().map(|r| r.class.index()))
-                        })
-                        .collect()
-                })
-                .collect(),
-        })
-        .collect();
     let stable = format!(
         "Stable: link strain over the run's second half ≤ {STRAIN_TOL:e} (hard) or ≤ {STRAIN_TOL:e} + {DYNAMIC_FACTOR}·W/(kℓ) + δ√N (springs, compliant), and max |E − E(0)|/E_s ≤ {ENERGY_TOL:e}."
     );
@@ -761,57 +676,127 @@ pub fn heat_map(plan: &Plan, axis: Axis, results: &[Option<CellResult>]) -> Heat
             plan.base_links, plan.horizon
         ),
     };
-    HeatMap {
-        title: format!("Particle chain stability: time step × {}", axis.label()),
-        x_label: "h (s)".into(),
-        y_label: axis.label().into(),
-        x_ticks: plan.hs.iter().map(|&h| tick(h)).collect(),
-        y_ticks: plan.values(axis).iter().map(|&v| value_tick(v)).collect(),
-        classes: Class3::legend(),
-        panels,
-        columns: 5,
+    stability::heat_map(
+        &plan.layout(axis),
+        format!("Particle chain stability: time step × {}", axis.label()),
+        axis.label(),
+        plan.values(axis).iter().map(|&v| value_tick(v)).collect(),
+        5,
         note,
-    }
+        |i| results.get(i).and_then(|r| r.as_ref().map(|r| r.class)),
+    )
 }
 
-/// Counts of one method's cells over all maps.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Tally {
-    /// Stable cells.
-    pub stable: usize,
-    /// Inaccurate cells.
-    pub inaccurate: usize,
-    /// Unstable cells (diverged, blow-up, other typed error).
-    pub unstable: usize,
-    /// Panics.
-    pub panics: usize,
-    /// Inaccurate cells whose strain exceeds both [`WILD_STRAIN`] and the allowed strain
-    /// (bounded by the geometry only).
-    pub wild: usize,
+impl StabilityMap for Plan {
+    type Axis = Axis;
+    type Result = Option<CellResult>;
+    const NAME: &'static str = "chain";
+    const HEADING: &'static str = "Time step";
+    const ALT: &'static str = "particle chain stability";
+    const SUMMARY: &'static str = "Summary per formulation";
+    const FIRST_COLUMN: &'static str = "method";
+    const CSV_HEADER: &'static str = "axis,method,h,links,tip_ratio,violation,stiffness,class,steps,simulated_s,strain,strain_allowed,energy_rel,unconverged_projections,rattle_fallbacks,wall_s,message\n";
+    const METHODS: &'static [&'static str] = &METHODS;
+    const AXES: &'static [Axis] = &Axis::ALL;
+
+    fn axis_label(axis: Axis) -> &'static str {
+        axis.label()
+    }
+
+    fn axis_stem(axis: Axis) -> &'static str {
+        axis.stem()
+    }
+
+    fn hs(&self) -> &[f64] {
+        &self.hs
+    }
+
+    fn axis_values(&self, axis: Axis) -> Vec<f64> {
+        self.values(axis)
+    }
+
+    fn run(
+        &self,
+        axis: Axis,
+        threads: usize,
+        announce: &mut dyn FnMut(usize),
+    ) -> Vec<Option<CellResult>> {
+        let grid = self.grid(axis);
+        announce(grid.iter().flatten().count());
+        run_grid(&grid, threads)
+    }
+
+    fn heat_map(&self, axis: Axis, results: &[Option<CellResult>]) -> HeatMap {
+        heat_map(self, axis, results)
+    }
+
+    fn class(r: &Option<CellResult>) -> Option<CellClass> {
+        r.as_ref().map(|r| r.class)
+    }
+
+    /// The value's tick; off the stiffness axis, springs and compliant links also show
+    /// their load stiffness, and on it the hard formulations say they have none.
+    fn row_label(&self, axis: Axis, method: usize, value: f64) -> String {
+        let label = value_tick(value);
+        if axis != Axis::Stiffness && links_of(method) != Links::Hard {
+            let k = load_stiffness(
+                if axis == Axis::Length {
+                    value as usize
+                } else {
+                    self.base_links
+                },
+                if axis == Axis::MassRatio { value } else { 1.0 },
+            );
+            format!("{label} (k = {})", tick(k))
+        } else if axis == Axis::Stiffness && links_of(method) == Links::Hard {
+            format!("{label} (no stiffness parameter)")
+        } else {
+            label
+        }
+    }
+
+    fn csv_row(axis: Axis, r: &Option<CellResult>) -> Option<String> {
+        let r = r.as_ref()?;
+        let c = &r.cell;
+        Some(format!(
+            "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{:e},{},{},{:.4},{}",
+            axis.stem(),
+            METHODS[c.method].replace(',', ";"),
+            c.h,
+            c.links,
+            c.tip_ratio,
+            c.violation,
+            c.stiffness,
+            r.class,
+            r.steps,
+            r.simulated,
+            r.strain,
+            r.allowed,
+            r.energy,
+            r.unconverged,
+            r.fallbacks,
+            r.seconds,
+            r.message.replace(',', ";")
+        ))
+    }
 }
 
 /// Strain above which an inaccurate (bounded) cell is counted apart in the summary,
 /// when also above its [`allowed_strain`]: a link at least twice its rest length.
 pub const WILD_STRAIN: f64 = 1.0;
 
-/// Per-method tallies of every result.
-pub fn tally<'a>(results: impl IntoIterator<Item = &'a CellResult>) -> [Tally; METHODS.len()] {
-    let mut t = [Tally::default(); METHODS.len()];
+/// Per method, the inaccurate results whose strain exceeds both [`WILD_STRAIN`] and the
+/// allowed strain (bounded by the geometry only; a column of the summary).
+pub fn wild<'a>(results: impl IntoIterator<Item = &'a CellResult>) -> [usize; METHODS.len()] {
+    let mut n = [0; METHODS.len()];
     for r in results {
-        let Some(t) = t.get_mut(r.cell.method) else {
-            continue;
-        };
-        match r.class {
-            Class3::Stable => t.stable += 1,
-            Class3::Inaccurate => {
-                t.inaccurate += 1;
-                t.wild += usize::from(r.strain > r.allowed.max(WILD_STRAIN));
-            }
-            Class3::Panicked => t.panics += 1,
-            _ => t.unstable += 1,
+        if let Some(n) = n.get_mut(r.cell.method) {
+            *n += usize::from(
+                r.class == CellClass::Inaccurate && r.strain > r.allowed.max(WILD_STRAIN),
+            );
         }
     }
-    t
+    n
 }
 
 /// Writes the section (four heat maps `chain_stability_<axis>.svg`, tables, a summary
@@ -866,157 +851,22 @@ pub fn section(
         plan.horizon,
         plan.max_link_steps
     );
-    let mut csv = String::from(
-        "axis,method,h,links,tip_ratio,violation,stiffness,class,steps,simulated_s,strain,strain_allowed,energy_rel,unconverged_projections,rattle_fallbacks,wall_s,message\n",
-    );
-    let mut all: Vec<(Axis, Vec<Option<CellResult>>)> = Vec::new();
-    for axis in Axis::ALL {
-        let t0 = Instant::now();
-        let grid = plan.grid(axis);
-        let count = grid.iter().flatten().count();
-        eprintln!(
-            "  chain stability: h × {}, {count} cells on {threads} thread(s)",
-            axis.label()
-        );
-        let res = run_grid(&grid, threads);
-        let secs = t0.elapsed().as_secs_f64();
-        eprintln!("    done in {secs:.1} s");
-        let stem = format!("chain_stability_{}", axis.stem());
-        std::fs::write(
-            out.join(format!("{stem}.svg")),
-            heat_map(&plan, axis, &res).to_svg(),
-        )?;
-        let _ = writeln!(
-            md,
-            "### Time step × {}\n\n![particle chain stability, h × {}]({stem}.svg)\n",
-            axis.label(),
-            axis.label()
-        );
-        let mut head = format!("| method | {} \\ h (s) |", axis.label());
-        let mut sep = String::from("|---|---|");
-        for h in &plan.hs {
-            let _ = write!(head, " {} |", tick(*h));
-            sep.push_str("---|");
-        }
-        let _ = writeln!(md, "{head}\n{sep}");
-        let vals = plan.values(axis);
-        let nh = plan.hs.len();
-        for (m, name) in METHODS.iter().enumerate() {
-            for (v, x) in vals.iter().enumerate() {
-                let row: Vec<Option<&str>> = (0..nh)
-                    .map(|k| {
-                        res.get((m * vals.len() + v) * nh + k)
-                            .and_then(|r| r.as_ref().map(|r| r.class.symbol()))
-                    })
-                    .collect();
-                if row.iter().all(Option::is_none) {
-                    continue;
-                }
-                let row: Vec<&str> = row.iter().map(|s| s.unwrap_or("—")).collect();
-                let mut label = value_tick(*x);
-                if axis != Axis::Stiffness && links_of(m) != Links::Hard {
-                    let k = load_stiffness(
-                        if axis == Axis::Length {
-                            *x as usize
-                        } else {
-                            plan.base_links
-                        },
-                        if axis == Axis::MassRatio { *x } else { 1.0 },
-                    );
-                    label = format!("{label} (k = {})", tick(k));
-                } else if axis == Axis::Stiffness && links_of(m) == Links::Hard {
-                    label = format!("{label} (no stiffness parameter)");
-                }
-                let _ = writeln!(md, "| {name} | {label} | {} |", row.join(" | "));
-            }
-        }
-        let _ = writeln!(md, "\n({count} cells, {secs:.1} s wall.)\n");
-        for r in res.iter().flatten() {
-            let c = &r.cell;
-            let _ = writeln!(
-                csv,
-                "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{:e},{},{},{:.4},{}",
-                axis.stem(),
-                METHODS[c.method].replace(',', ";"),
-                c.h,
-                c.links,
-                c.tip_ratio,
-                c.violation,
-                c.stiffness,
-                r.class,
-                r.steps,
-                r.simulated,
-                r.strain,
-                r.allowed,
-                r.energy,
-                r.unconverged,
-                r.fallbacks,
-                r.seconds,
-                r.message.replace(',', ";")
-            );
-        }
-        all.push((axis, res));
-    }
-    std::fs::write(out.join("chain_stability.csv"), csv)?;
-    let tallies = tally(all.iter().flat_map(|(_, r)| r.iter().flatten()));
+    let all = stability::write_maps(&plan, md, out, threads)?;
+    let results = || all.iter().flat_map(|(_, r)| r.iter().flatten());
     // Summary: per method, counts and the largest step stable (and not unstable) on
     // every row the method runs of each map.
-    let _ = writeln!(md, "### Summary per formulation\n");
-    let mut head = String::from(
-        "| method | ✓ | ~ | of which strain > 1 (beyond allowance) | unstable | panics |",
+    let total = stability::write_summary(
+        &plan,
+        md,
+        &all,
+        &[(
+            "of which strain > 1 (beyond allowance)",
+            wild(results()).to_vec(),
+        )],
     );
-    let mut sep = String::from("|---|---|---|---|---|---|");
-    for axis in Axis::ALL {
-        let _ = write!(
-            head,
-            " largest h stable / bounded on every {} |",
-            axis.label()
-        );
-        sep.push_str("---|");
-    }
-    let _ = writeln!(md, "{head}\n{sep}");
-    let nh = plan.hs.len();
-    for (m, name) in METHODS.iter().enumerate() {
-        let t = tallies[m];
-        let mut row = format!(
-            "| {name} | {} | {} | {} | {} | {} |",
-            t.stable, t.inaccurate, t.wild, t.unstable, t.panics
-        );
-        for (axis, res) in &all {
-            let nv = plan.values(*axis).len();
-            let largest = |ok: &dyn Fn(Class3) -> bool| {
-                (0..nh)
-                    .filter(|&k| {
-                        (0..nv).all(|v| {
-                            res.get((m * nv + v) * nh + k)
-                                .and_then(|r| r.as_ref())
-                                .is_none_or(|r| ok(r.class))
-                        })
-                    })
-                    .map(|k| plan.hs[k])
-                    .fold(None, |a: Option<f64>, h| Some(a.map_or(h, |a| a.max(h))))
-                    .map_or("none".to_string(), tick)
-            };
-            let _ = write!(
-                row,
-                " {} / {} |",
-                largest(&|c| c == Class3::Stable),
-                largest(&|c| !c.unstable())
-            );
-        }
-        let _ = writeln!(md, "{row}");
-    }
-    let panics: usize = tallies.iter().map(|t| t.panics).sum();
-    let unconverged: usize = all
-        .iter()
-        .flat_map(|(_, r)| r.iter().flatten())
-        .map(|r| r.unconverged)
-        .sum();
-    let fallbacks: usize = all
-        .iter()
-        .flat_map(|(_, r)| r.iter().flatten())
-        .map(|r| r.fallbacks)
-        .sum();
+    let panics = total.panics;
+    let unconverged: usize = results().map(|r| r.unconverged).sum();
+    let fallbacks: usize = results().map(|r| r.fallbacks).sum();
     let _ = writeln!(
         md,
         "\nPanics: {panics} (of {} cells). Projection steps stopped at the iteration limit: \
@@ -1038,9 +888,7 @@ pub fn section(
          Hessian); (3) the compliant formulation's energy includes ½kΣC², so the O(h²) length \
          drift it shares with the velocity level is stored energy in stiff links: at large k it \
          fails the energy test where the hard row (α = 0, no stored energy) passes.\n",
-        all.iter()
-            .map(|(_, r)| r.iter().flatten().count())
-            .sum::<usize>()
+        total.cells()
     );
     Ok(panics)
 }
@@ -1071,7 +919,7 @@ mod tests {
     fn a_short_small_step_run_is_stable_for_every_method() {
         for m in 0..METHODS.len() {
             let r = run_cell(&cell(m, 1e-4));
-            assert_eq!(r.class, Class3::Stable, "{}: {r:?}", METHODS[m]);
+            assert_eq!(r.class, CellClass::Stable, "{}: {r:?}", METHODS[m]);
             assert_eq!(r.steps, 500);
         }
     }
@@ -1096,7 +944,10 @@ mod tests {
             ..cell(0, 1e-3)
         };
         let r = run_cell(&c);
-        assert!(r.class.unstable() && r.class != Class3::Panicked, "{r:?}");
+        assert!(
+            r.class.unstable() && r.class != CellClass::Panicked,
+            "{r:?}"
+        );
         assert!(r.steps < 50, "{r:?}");
     }
 

@@ -19,7 +19,8 @@ use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld, Frict
 use constraint_contact::scenes::{add_box, ground};
 use constraint_core::DVec3;
 
-use crate::heatmap::{tick, Class, HeatMap, Panel};
+use crate::heatmap::{tick, HeatMap};
+use crate::stability::{self, CellClass, StabilityMap};
 
 /// Edge of the boxes (m); each is 1000 kg (density 1000), friction 0.5 on the boxes and
 /// the ground.
@@ -80,76 +81,6 @@ pub fn settings(k: usize, beta: f64) -> constraint_contact::rigid::ContactSettin
     s
 }
 
-/// A cell's class.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ContactClass {
-    /// Finite, bounded, drift ≤ [`DRIFT_TOL`] and penetration ≤ [`PENETRATION_TOL`].
-    Stable,
-    /// Finite and bounded, but drift or penetration above its threshold (or toppled).
-    Inaccurate,
-    /// The step returned `ContactError::Diverged`.
-    Diverged,
-    /// Finite but a box beyond the blow-up bound (counted as unstable).
-    BlowUp,
-    /// Another typed error (an LCP solver failing; counted as unstable).
-    Failed,
-    /// The step panicked (a bug: must never happen).
-    Panicked,
-}
-
-impl ContactClass {
-    /// Every class, in legend order.
-    pub const ALL: [ContactClass; 6] = [
-        ContactClass::Stable,
-        ContactClass::Inaccurate,
-        ContactClass::Diverged,
-        ContactClass::BlowUp,
-        ContactClass::Failed,
-        ContactClass::Panicked,
-    ];
-
-    /// One-character cell for tables.
-    pub fn symbol(self) -> &'static str {
-        match self {
-            ContactClass::Stable => "✓",
-            ContactClass::Inaccurate => "~",
-            ContactClass::Diverged => "✗",
-            ContactClass::BlowUp => "↑",
-            ContactClass::Failed => "!",
-            ContactClass::Panicked => "P",
-        }
-    }
-
-    /// Whether the class counts as unstable.
-    pub fn unstable(self) -> bool {
-        !matches!(self, ContactClass::Stable | ContactClass::Inaccurate)
-    }
-
-    fn index(self) -> usize {
-        ContactClass::ALL
-            .iter()
-            .position(|c| *c == self)
-            .unwrap_or(0)
-    }
-
-    /// The heat-map classes, in [`ContactClass::ALL`] order.
-    pub fn legend() -> Vec<Class> {
-        let c = |label: &str, color, symbol| Class {
-            label: label.into(),
-            color,
-            symbol,
-        };
-        vec![
-            c("stable", "#8fd18f", "✓"),
-            c("inaccurate (bounded)", "#f3d36b", "~"),
-            c("unstable: Diverged", "#e06666", "✗"),
-            c("unstable: blow-up", "#c0504d", "↑"),
-            c("unstable: other typed error", "#a64d79", "!"),
-            c("panic (must not happen)", "#222222", "P"),
-        ]
-    }
-}
-
 /// One cell's configuration.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cell {
@@ -177,8 +108,10 @@ pub struct Cell {
 pub struct CellResult {
     /// The configuration.
     pub cell: Cell,
-    /// The class.
-    pub class: ContactClass,
+    /// The class: stable when finite, bounded, with drift ≤ [`DRIFT_TOL`] and penetration ≤
+    /// [`PENETRATION_TOL`] (a toppled stack is inaccurate); diverged on
+    /// `ContactError::Diverged`; failed on another typed error (an LCP solver failing).
+    pub class: CellClass,
     /// Steps taken (the last one that failed not counted).
     pub steps: u64,
     /// Simulated time covered (s).
@@ -258,7 +191,7 @@ pub fn classify(cell: &Cell) -> CellResult {
     let n = steps(cell);
     let mut r = CellResult {
         cell: *cell,
-        class: ContactClass::Stable,
+        class: CellClass::Stable,
         steps: 0,
         simulated: 0.0,
         drift: f64::NAN,
@@ -272,7 +205,7 @@ pub fn classify(cell: &Cell) -> CellResult {
     let mut w = match world(cell) {
         Ok(w) => w,
         Err(e) => {
-            r.class = ContactClass::Failed;
+            r.class = CellClass::Failed;
             r.message = e.to_string();
             return r;
         }
@@ -284,9 +217,9 @@ pub fn classify(cell: &Cell) -> CellResult {
             Ok(s) => s,
             Err(e) => {
                 r.class = if matches!(e, ContactError::Diverged { .. }) {
-                    ContactClass::Diverged
+                    CellClass::Diverged
                 } else {
-                    ContactClass::Failed
+                    CellClass::Failed
                 };
                 r.message = e.to_string();
                 break;
@@ -297,7 +230,7 @@ pub fn classify(cell: &Cell) -> CellResult {
         r.residual = r.residual.max(stats.residual);
         let far = max_drift(&w);
         if !(far <= bound) || !w.energy().is_finite() {
-            r.class = ContactClass::BlowUp;
+            r.class = CellClass::BlowUp;
             r.message = format!("blow-up at step {k}: a box {far:.3e} m from rest");
             break;
         }
@@ -311,9 +244,9 @@ pub fn classify(cell: &Cell) -> CellResult {
     r.simulated = r.steps as f64 * cell.h;
     r.iterations = iters as f64 / r.steps.max(1) as f64;
     r.final_drift = max_drift(&w);
-    if r.class == ContactClass::Stable {
+    if r.class == CellClass::Stable {
         if !(r.drift <= DRIFT_TOL) || !(r.penetration <= PENETRATION_TOL) {
-            r.class = ContactClass::Inaccurate;
+            r.class = CellClass::Inaccurate;
         }
         if r.final_drift > TOPPLE {
             r.message = format!(
@@ -330,7 +263,7 @@ pub fn classify(cell: &Cell) -> CellResult {
 fn panicked(cell: &Cell, message: String) -> CellResult {
     CellResult {
         cell: *cell,
-        class: ContactClass::Panicked,
+        class: CellClass::Panicked,
         steps: 0,
         simulated: 0.0,
         drift: f64::NAN,
@@ -343,7 +276,7 @@ fn panicked(cell: &Cell, message: String) -> CellResult {
     }
 }
 
-/// [`classify`] under `catch_unwind`: a panic becomes [`ContactClass::Panicked`].
+/// [`classify`] under `catch_unwind`: a panic becomes [`CellClass::Panicked`].
 pub fn run_cell(cell: &Cell) -> CellResult {
     catch_unwind(AssertUnwindSafe(|| classify(cell)))
         .unwrap_or_else(|p| panicked(cell, crate::par::panic_message(p.as_ref())))
@@ -506,22 +439,6 @@ impl Plan {
 
 /// The heat map of one axis pair from its results (in [`Plan::cells`] order).
 pub fn heat_map(plan: &Plan, axis: Axis, results: &[CellResult]) -> HeatMap {
-    let nv = plan.values(axis).len();
-    let nh = plan.hs.len();
-    let panels = METHODS
-        .iter()
-        .enumerate()
-        .map(|(m, name)| Panel {
-            title: (*name).into(),
-            cells: (0..nv)
-                .map(|v| {
-                    (0..nh)
-                        .map(|k| results.get((m * nv + v) * nh + k).map(|r| r.class.index()))
-                        .collect()
-                })
-                .collect(),
-        })
-        .collect();
     let stable = format!(
         "Stable: over the run's second half every box within {DRIFT_TOL:e} m of rest and penetration ≤ {PENETRATION_TOL:e} m."
     );
@@ -539,30 +456,82 @@ pub fn heat_map(plan: &Plan, axis: Axis, results: &[CellResult]) -> HeatMap {
             plan.base_boxes, plan.horizon
         ),
     };
-    HeatMap {
-        title: format!("Contact stability: time step × {}", axis.label()),
-        x_label: "h (s)".into(),
-        y_label: axis.label().into(),
-        x_ticks: plan.hs.iter().map(|&h| tick(h)).collect(),
-        y_ticks: plan.values(axis).iter().map(|&v| tick(v)).collect(),
-        classes: ContactClass::legend(),
-        panels,
-        columns: 3,
+    stability::heat_map(
+        &plan.layout(axis),
+        format!("Contact stability: time step × {}", axis.label()),
+        axis.label(),
+        plan.values(axis).iter().map(|&v| tick(v)).collect(),
+        3,
         note,
-    }
+        |i| results.get(i).map(|r| r.class),
+    )
 }
 
-/// Counts of one method's cells over all maps.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Tally {
-    /// Stable cells.
-    pub stable: usize,
-    /// Inaccurate cells.
-    pub inaccurate: usize,
-    /// Unstable cells (diverged, blow-up, other typed error).
-    pub unstable: usize,
-    /// Panics.
-    pub panics: usize,
+impl StabilityMap for Plan {
+    type Axis = Axis;
+    type Result = CellResult;
+    const NAME: &'static str = "contact";
+    const HEADING: &'static str = "Contact: time step";
+    const ALT: &'static str = "contact stability";
+    const SUMMARY: &'static str = "Contact: summary per solver";
+    const FIRST_COLUMN: &'static str = "solver";
+    const CSV_HEADER: &'static str = "axis,method,h,boxes,top_ratio,violation,beta,class,steps,simulated_s,drift_m,penetration_m,final_drift_m,iterations_per_step,worst_residual,wall_s,message\n";
+    const METHODS: &'static [&'static str] = &METHODS;
+    const AXES: &'static [Axis] = &Axis::ALL;
+
+    fn axis_label(axis: Axis) -> &'static str {
+        axis.label()
+    }
+
+    fn axis_stem(axis: Axis) -> &'static str {
+        axis.stem()
+    }
+
+    fn hs(&self) -> &[f64] {
+        &self.hs
+    }
+
+    fn axis_values(&self, axis: Axis) -> Vec<f64> {
+        self.values(axis)
+    }
+
+    fn run(&self, axis: Axis, threads: usize, announce: &mut dyn FnMut(usize)) -> Vec<CellResult> {
+        let cells = self.cells(axis);
+        announce(cells.len());
+        run_all(&cells, threads)
+    }
+
+    fn heat_map(&self, axis: Axis, results: &[CellResult]) -> HeatMap {
+        heat_map(self, axis, results)
+    }
+
+    fn class(r: &CellResult) -> Option<CellClass> {
+        Some(r.class)
+    }
+
+    fn csv_row(axis: Axis, r: &CellResult) -> Option<String> {
+        let c = &r.cell;
+        Some(format!(
+            "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{:e},{:.1},{:e},{:.4},{}",
+            axis.stem(),
+            METHODS[c.method],
+            c.h,
+            c.boxes,
+            c.top_ratio,
+            c.violation,
+            c.beta,
+            r.class,
+            r.steps,
+            r.simulated,
+            r.drift,
+            r.penetration,
+            r.final_drift,
+            r.iterations,
+            r.residual,
+            r.seconds,
+            r.message.replace(',', ";")
+        ))
+    }
 }
 
 /// Writes the section (four heat maps `contact_stability_<axis>.svg`, tables, a
@@ -618,135 +587,17 @@ pub fn section(
          thread(s); each run is deterministic.\n",
         plan.base_boxes, plan.base_boxes, plan.beta_violation, plan.horizon, plan.max_box_steps
     );
-    let mut csv = String::from(
-        "axis,method,h,boxes,top_ratio,violation,beta,class,steps,simulated_s,drift_m,penetration_m,final_drift_m,iterations_per_step,worst_residual,wall_s,message\n",
-    );
-    let mut tally = [Tally::default(); METHODS.len()];
-    let mut all: Vec<(Axis, Vec<CellResult>)> = Vec::new();
-    for axis in Axis::ALL {
-        let t0 = Instant::now();
-        let cells = plan.cells(axis);
-        eprintln!(
-            "  contact stability: h × {}, {} cells on {threads} thread(s)",
-            axis.label(),
-            cells.len()
-        );
-        let res = run_all(&cells, threads);
-        let secs = t0.elapsed().as_secs_f64();
-        eprintln!("    done in {secs:.1} s");
-        let stem = format!("contact_stability_{}", axis.stem());
-        std::fs::write(
-            out.join(format!("{stem}.svg")),
-            heat_map(&plan, axis, &res).to_svg(),
-        )?;
-        let _ = writeln!(
-            md,
-            "### Contact: time step × {}\n\n![contact stability, h × {}]({stem}.svg)\n",
-            axis.label(),
-            axis.label()
-        );
-        let mut head = format!("| solver | {} \\ h (s) |", axis.label());
-        let mut sep = String::from("|---|---|");
-        for h in &plan.hs {
-            let _ = write!(head, " {} |", tick(*h));
-            sep.push_str("---|");
-        }
-        let _ = writeln!(md, "{head}\n{sep}");
-        let vals = plan.values(axis);
-        let nh = plan.hs.len();
-        for (m, name) in METHODS.iter().enumerate() {
-            for (v, x) in vals.iter().enumerate() {
-                let row: Vec<&str> = (0..nh)
-                    .map(|k| {
-                        res.get((m * vals.len() + v) * nh + k)
-                            .map_or(" ", |r| r.class.symbol())
-                    })
-                    .collect();
-                let _ = writeln!(md, "| {name} | {} | {} |", tick(*x), row.join(" | "));
-            }
-        }
-        let _ = writeln!(md, "\n({} cells, {secs:.1} s wall.)\n", res.len());
-        for r in &res {
-            let t = &mut tally[r.cell.method];
-            match r.class {
-                ContactClass::Stable => t.stable += 1,
-                ContactClass::Inaccurate => t.inaccurate += 1,
-                ContactClass::Panicked => t.panics += 1,
-                _ => t.unstable += 1,
-            }
-            let c = &r.cell;
-            let _ = writeln!(
-                csv,
-                "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{:e},{:.1},{:e},{:.4},{}",
-                axis.stem(),
-                METHODS[c.method],
-                c.h,
-                c.boxes,
-                c.top_ratio,
-                c.violation,
-                c.beta,
-                r.class,
-                r.steps,
-                r.simulated,
-                r.drift,
-                r.penetration,
-                r.final_drift,
-                r.iterations,
-                r.residual,
-                r.seconds,
-                r.message.replace(',', ";")
-            );
-        }
-        all.push((axis, res));
-    }
-    std::fs::write(out.join("contact_stability.csv"), csv)?;
-    let _ = writeln!(md, "### Contact: summary per solver\n");
-    let mut head = String::from("| solver | ✓ | ~ | unstable | panics |");
-    let mut sep = String::from("|---|---|---|---|---|");
-    for axis in Axis::ALL {
-        let _ = write!(
-            head,
-            " largest h stable / bounded on every {} |",
-            axis.label()
-        );
-        sep.push_str("---|");
-    }
-    let _ = writeln!(md, "{head}\n{sep}");
-    let nh = plan.hs.len();
-    for (m, name) in METHODS.iter().enumerate() {
-        let t = tally[m];
-        let mut row = format!(
-            "| {name} | {} | {} | {} | {} |",
-            t.stable, t.inaccurate, t.unstable, t.panics
-        );
-        for (axis, res) in &all {
-            let nv = plan.values(*axis).len();
-            let class = |v: usize, k: usize| res.get((m * nv + v) * nh + k).map(|r| r.class);
-            let largest = |ok: &dyn Fn(ContactClass) -> bool| {
-                (0..nh)
-                    .filter(|&k| (0..nv).all(|v| class(v, k).is_some_and(ok)))
-                    .map(|k| plan.hs[k])
-                    .fold(None, |a: Option<f64>, h| Some(a.map_or(h, |a| a.max(h))))
-                    .map_or("none".to_string(), tick)
-            };
-            let _ = write!(
-                row,
-                " {} / {} |",
-                largest(&|c| c == ContactClass::Stable),
-                largest(&|c| !c.unstable())
-            );
-        }
-        let _ = writeln!(md, "{row}");
-    }
-    let panics: usize = tally.iter().map(|t| t.panics).sum();
+    let all = stability::write_maps(&plan, md, out, threads)?;
+    let total = stability::write_summary(&plan, md, &all, &[]);
     let _ = writeln!(
         md,
-        "\nPanics: {panics} (of {} cells). Raw data: `contact_stability.csv` (class, steps, \
+        "\nPanics: {} (of {} cells). Raw data: `contact_stability.csv` (class, steps, \
          drift, penetration, final drift, solver iterations per step, worst LCP residual, wall \
          time and the error message per cell).\n",
-        all.iter().map(|(_, r)| r.len()).sum::<usize>()
+        total.panics,
+        total.cells()
     );
-    Ok(panics)
+    Ok(total.panics)
 }
 
 #[cfg(test)]
@@ -770,7 +621,7 @@ mod tests {
     fn a_short_small_step_run_is_stable_for_every_solver() {
         for m in 0..METHODS.len() {
             let r = run_cell(&cell(m, 1e-2));
-            assert_eq!(r.class, ContactClass::Stable, "{}: {r:?}", METHODS[m]);
+            assert_eq!(r.class, CellClass::Stable, "{}: {r:?}", METHODS[m]);
             assert_eq!(r.steps, 10);
         }
     }

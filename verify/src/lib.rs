@@ -21,6 +21,8 @@
 //!   length and initial violation, drawn the same way.
 //! * [`contact_stability`] classifies the rigid contact solvers on a box stack over
 //!   time step × stack height, top mass ratio, initial overlap and Baumgarte factor.
+//! * [`stability`] holds what those three maps share: the cell classes, the tally, and
+//!   the writer of a map section (heat maps, tables, CSV, summary).
 //! * [`deps`] lists what each scene family compiles (`cargo tree`) and runs.
 //! * [`html`] turns the Markdown report into one self-contained HTML page.
 //!
@@ -51,6 +53,7 @@ pub mod html;
 pub mod par;
 pub mod particle_report;
 pub mod scene;
+pub mod stability;
 pub mod sweeps;
 pub mod trajectory;
 

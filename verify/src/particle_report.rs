@@ -24,8 +24,11 @@ use constraint_soft::{
     Softness,
 };
 
-use crate::chart::{LogLogChart, Series};
-use crate::sweeps::{work_precision_of, Method, WorkPoint};
+use crate::chart::Series;
+use crate::sweeps::{
+    best_of, error_chart, series_by_method, work_precision_of, work_precision_table, Method,
+    WorkPoint,
+};
 
 /// Links of the chain.
 pub const LINKS: usize = 5;
@@ -206,13 +209,6 @@ fn chain_run(
     Ok((out, t0.elapsed().as_secs_f64()))
 }
 
-fn max_error(a: &[Vec<DVec3>], b: &[Vec<DVec3>]) -> f64 {
-    a.iter()
-        .zip(b)
-        .flat_map(|(p, q)| p.iter().zip(q).map(|(x, y)| (*x - *y).length()))
-        .fold(0.0, f64::max)
-}
-
 /// The chain sweep: every formulation at every `h` (each dividing `sample`), against
 /// RATTLE4 at `h_ref`.
 ///
@@ -229,31 +225,16 @@ pub fn chain_work_precision(
     let mut pts = Vec::new();
     for method in 0..CHAIN_METHODS.len() {
         for &h in hs {
-            let mut best = f64::INFINITY;
-            let mut res = None;
-            for _ in 0..repeats.max(1) {
-                match chain_run(method, h, duration, sample) {
-                    Ok((traj, secs)) => {
-                        best = best.min(secs);
-                        res = Some(Ok(traj));
-                    }
-                    Err(e) => {
-                        res = Some(Err(e));
-                        break;
-                    }
-                }
-            }
-            let (error, failure) = match res {
-                Some(Ok(t)) => (Some(max_error(&t, &reference)), None),
-                Some(Err(e)) => (None, Some(e.to_string())),
-                None => (None, Some("not run".into())),
-            };
+            // No outer error: a failing run, scene included, is the point's failure.
+            let m = best_of(repeats, &reference, || {
+                Ok::<_, LagrangeError>(chain_run(method, h, duration, sample))
+            })?;
             pts.push(ChainPoint {
                 method,
                 h,
-                cost: best / duration,
-                error,
-                failure,
+                cost: m.seconds / duration,
+                error: m.error,
+                failure: m.failure,
             });
         }
     }
@@ -310,25 +291,11 @@ pub fn section(md: &mut String, out: &Path, quick: bool) -> Result<(), Box<dyn s
          from rest. Error: max over particles and samples (every 1/30 s) of |x − x_ref|; x_ref: symplectic \
          Euler at h = {j_ref:.2e} s (16× below the smallest step)."
     );
-    let chart = LogLogChart {
-        title: "Jelly: error against run time".into(),
-        x_label: "run time per simulated second (s)".into(),
-        y_label: "max position error (m)".into(),
-        series: Method::ALL
-            .iter()
-            .map(|m| Series {
-                name: m.label(),
-                points: jpts
-                    .iter()
-                    .filter(|q| q.method == *m)
-                    .filter_map(|q| q.error.map(|e| (q.cost, e)))
-                    .collect(),
-            })
-            .collect(),
-        note: jnote.clone(),
-        log_x: true,
-        pareto: true,
-    };
+    let chart = error_chart(
+        "Jelly: error against run time".into(),
+        jnote.clone(),
+        series_by_method(&jpts),
+    );
     std::fs::write(out.join("jelly_work_precision.svg"), chart.to_svg())?;
     let _ = writeln!(
         md,
@@ -338,7 +305,8 @@ pub fn section(md: &mut String, out: &Path, quick: bool) -> Result<(), Box<dyn s
         md,
         "{jnote} Run time: wall clock, best of {repeats} run(s), one thread.\n"
     );
-    table(md, &mut csv, "jelly", jpts.iter().map(row_of_work));
+    work_precision_table(md, &mut csv, Some("jelly"), jpts.iter().map(WorkPoint::row));
+    let _ = writeln!(md);
 
     // Chain.
     let t0 = Instant::now();
@@ -356,11 +324,10 @@ pub fn section(md: &mut String, out: &Path, quick: bool) -> Result<(), Box<dyn s
          x_ref: RATTLE4 at h = {c_ref:.2e} s (4× below the smallest step; fourth order). The soft stand-in \
          replaces the hard links by springs of {K_SOFT:.0e} N/m (implicit Euler, projected Hessian, LDLᵀ)."
     );
-    let chart = LogLogChart {
-        title: "Particle chain: error against run time".into(),
-        x_label: "run time per simulated second (s)".into(),
-        y_label: "max position error (m)".into(),
-        series: (0..CHAIN_METHODS.len())
+    let chart = error_chart(
+        "Particle chain: error against run time".into(),
+        cnote.clone(),
+        (0..CHAIN_METHODS.len())
             .map(|m| Series {
                 name: CHAIN_METHODS[m].into(),
                 points: cpts
@@ -370,10 +337,7 @@ pub fn section(md: &mut String, out: &Path, quick: bool) -> Result<(), Box<dyn s
                     .collect(),
             })
             .collect(),
-        note: cnote.clone(),
-        log_x: true,
-        pareto: true,
-    };
+    );
     std::fs::write(out.join("chain_work_precision.svg"), chart.to_svg())?;
     let _ = writeln!(
         md,
@@ -383,10 +347,10 @@ pub fn section(md: &mut String, out: &Path, quick: bool) -> Result<(), Box<dyn s
         md,
         "{cnote} Run time: wall clock, best of {repeats} run(s), one thread.\n"
     );
-    table(
+    work_precision_table(
         md,
         &mut csv,
-        "chain",
+        Some("chain"),
         cpts.iter().map(|q| {
             (
                 CHAIN_METHODS[q.method].to_string(),
@@ -397,6 +361,7 @@ pub fn section(md: &mut String, out: &Path, quick: bool) -> Result<(), Box<dyn s
             )
         }),
     );
+    let _ = writeln!(md);
 
     // Summary.
     let _ = writeln!(
@@ -424,39 +389,6 @@ pub fn section(md: &mut String, out: &Path, quick: bool) -> Result<(), Box<dyn s
     let _ = writeln!(md);
     std::fs::write(out.join("particle_work_precision.csv"), csv)?;
     Ok(())
-}
-
-fn row_of_work(q: &WorkPoint) -> (String, f64, f64, Option<f64>, Option<String>) {
-    (q.method.label(), q.h, q.cost, q.error, q.failure.clone())
-}
-
-fn table(
-    md: &mut String,
-    csv: &mut String,
-    scene: &str,
-    rows: impl Iterator<Item = (String, f64, f64, Option<f64>, Option<String>)>,
-) {
-    let _ = writeln!(
-        md,
-        "| method | h (s) | run time / simulated s | max error (m) |\n|---|---|---|---|"
-    );
-    for (m, h, cost, err, fail) in rows {
-        let (e, c) = match err {
-            Some(e) => (format!("{e:.3e}"), format!("{cost:.3e}")),
-            None => (
-                format!("failed: {}", fail.clone().unwrap_or_default()),
-                "–".into(),
-            ),
-        };
-        let _ = writeln!(md, "| {m} | {h:.3e} | {c} | {e} |");
-        let _ = writeln!(
-            csv,
-            "{scene},{m},{h:e},{cost:e},{},{}",
-            err.map_or(String::new(), |e| format!("{e:e}")),
-            fail.unwrap_or_default().replace(',', ";")
-        );
-    }
-    let _ = writeln!(md);
 }
 
 #[cfg(test)]

@@ -1,12 +1,17 @@
 //! Sweeps over the soft crate's integrators: the stability map (stiffness × time step)
-//! and the work-precision diagram (error against run time) of the cloth scene.
+//! and the work-precision diagram (error against run time) of the cloth scene, and what
+//! the work-precision sections share: the best-of-repeats timing of a point
+//! ([`best_of`]), the chart ([`error_chart`]) and the table ([`work_precision_table`]).
 
 use constraint_core::DVec3;
 use constraint_soft::{
     CgSettings, Cloth, HessianMode, ImplicitEuler, Integrator, LinearSolver, SoftError, SoftSystem,
     Softness, SymplecticEuler,
 };
+use std::fmt::Write as _;
 use std::time::Instant;
+
+use crate::chart::{LogLogChart, Series};
 
 /// The integrator configurations compared everywhere.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -243,6 +248,19 @@ pub struct WorkPoint {
     pub failure: Option<String>,
 }
 
+impl WorkPoint {
+    /// The point as a row of [`work_precision_table`].
+    pub fn row(&self) -> (String, f64, f64, Option<f64>, Option<String>) {
+        (
+            self.method.label(),
+            self.h,
+            self.cost,
+            self.error,
+            self.failure.clone(),
+        )
+    }
+}
+
 /// Work-precision sweep of the cloth: every method at every `h`, error against
 /// symplectic Euler at `h_ref` (which must divide every `h` and `sample`).
 pub fn work_precision(
@@ -285,35 +303,133 @@ pub fn work_precision_of(
     let mut pts = Vec::new();
     for &method in methods {
         for &h in hs {
-            let mut best = f64::INFINITY;
-            let mut res = None;
-            for _ in 0..repeats.max(1) {
-                match trajectory(build()?, method, h, duration, sample) {
-                    Ok((traj, secs)) => {
-                        best = best.min(secs);
-                        res = Some(Ok(traj));
-                    }
-                    Err(e) => {
-                        res = Some(Err(e));
-                        break;
-                    }
-                }
-            }
-            let (error, failure) = match res {
-                Some(Ok(traj)) => (Some(max_error(&traj, &reference)), None),
-                Some(Err(e)) => (None, Some(e.to_string())),
-                None => (None, Some("not run".into())),
-            };
+            let m = best_of(repeats, &reference, || {
+                Ok(trajectory(build()?, method, h, duration, sample))
+            })?;
             pts.push(WorkPoint {
                 method,
                 h,
-                cost: best / duration,
-                error,
-                failure,
+                cost: m.seconds / duration,
+                error: m.error,
+                failure: m.failure,
             });
         }
     }
     Ok(pts)
+}
+
+/// One work-precision point measured by [`best_of`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measurement {
+    /// Best wall time of the runs (s; infinite if the first run failed).
+    pub seconds: f64,
+    /// Max position error of the last run against the reference (m); `None` if a run
+    /// failed.
+    pub error: Option<f64>,
+    /// The failure, if a run failed.
+    pub failure: Option<String>,
+}
+
+/// Runs one work-precision point `repeats` times (at least once) and keeps the best
+/// wall time: `run` returns a run's sampled positions and wall time, or the run's
+/// failure (recorded; no further repeats), inside an outer error that ends the sweep.
+/// The last run's positions are compared with `reference` ([`max_error`]).
+///
+/// # Errors
+/// The outer error of `run`, at once.
+pub fn best_of<E: std::fmt::Display, F>(
+    repeats: usize,
+    reference: &[Vec<DVec3>],
+    mut run: impl FnMut() -> Result<Result<(Vec<Vec<DVec3>>, f64), E>, F>,
+) -> Result<Measurement, F> {
+    let mut best = f64::INFINITY;
+    let mut res = None;
+    for _ in 0..repeats.max(1) {
+        match run()? {
+            Ok((traj, secs)) => {
+                best = best.min(secs);
+                res = Some(Ok(traj));
+            }
+            Err(e) => {
+                res = Some(Err(e));
+                break;
+            }
+        }
+    }
+    let (error, failure) = match res {
+        Some(Ok(traj)) => (Some(max_error(&traj, reference)), None),
+        Some(Err(e)) => (None, Some(e.to_string())),
+        None => (None, Some("not run".into())),
+    };
+    Ok(Measurement {
+        seconds: best,
+        error,
+        failure,
+    })
+}
+
+/// A work-precision chart: max position error against run time per simulated second
+/// (log–log), the Pareto front marked.
+pub fn error_chart(title: String, note: String, series: Vec<Series>) -> LogLogChart {
+    LogLogChart {
+        title,
+        x_label: "run time per simulated second (s)".into(),
+        y_label: "max position error (m)".into(),
+        series,
+        note,
+        log_x: true,
+        pareto: true,
+    }
+}
+
+/// One chart series per method of [`Method::ALL`]: `(cost, error)` of its points that ran.
+pub fn series_by_method(pts: &[WorkPoint]) -> Vec<Series> {
+    Method::ALL
+        .iter()
+        .map(|m| Series {
+            name: m.label(),
+            points: pts
+                .iter()
+                .filter(|q| q.method == *m)
+                .filter_map(|q| q.error.map(|e| (q.cost, e)))
+                .collect(),
+        })
+        .collect()
+}
+
+/// Writes a work-precision table to `md` (method, h, run time per simulated second, max
+/// error, or `failed: …` and `–`; no blank line after it) and its rows to `csv`
+/// (`[scene,]method,h,cost,error,failure`, commas in the failure as `;`). A row is
+/// `(method, h, cost, error, failure)`.
+pub fn work_precision_table(
+    md: &mut String,
+    csv: &mut String,
+    scene: Option<&str>,
+    rows: impl IntoIterator<Item = (String, f64, f64, Option<f64>, Option<String>)>,
+) {
+    let _ = writeln!(
+        md,
+        "| method | h (s) | run time / simulated s | max error (m) |\n|---|---|---|---|"
+    );
+    for (m, h, cost, err, fail) in rows {
+        let (e, c) = match err {
+            Some(e) => (format!("{e:.3e}"), format!("{cost:.3e}")),
+            None => (
+                format!("failed: {}", fail.clone().unwrap_or_default()),
+                "–".into(),
+            ),
+        };
+        let _ = writeln!(md, "| {m} | {h:.3e} | {c} | {e} |");
+        if let Some(scene) = scene {
+            let _ = write!(csv, "{scene},");
+        }
+        let _ = writeln!(
+            csv,
+            "{m},{h:e},{cost:e},{},{}",
+            err.map_or(String::new(), |e| format!("{e:e}")),
+            fail.unwrap_or_default().replace(',', ";")
+        );
+    }
 }
 
 /// Relative drift of linear and angular momentum over `duration`:

@@ -20,7 +20,8 @@
 
 use constraint_verify::chart::{LogLogChart, Series};
 use constraint_verify::sweeps::{
-    free_cloth, jelly_volume, momentum_drift, stability_sweep, work_precision, Method, Outcome,
+    error_chart, free_cloth, jelly_volume, momentum_drift, series_by_method, stability_sweep,
+    work_precision, work_precision_table, Method, Outcome, WorkPoint,
 };
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -183,25 +184,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         "Error: max over particles and samples (every 1/30 s, {} s) of |x − x_ref|; x_ref: symplectic Euler at h = {:.2e} s (16× below the smallest step).",
         p.wp_t, p.h_ref
     );
-    let chart = LogLogChart {
-        title: format!("Cloth {n}×{n}: error against run time", n = p.wp_n),
-        x_label: "run time per simulated second (s)".into(),
-        y_label: "max position error (m)".into(),
-        series: Method::ALL
-            .iter()
-            .map(|m| Series {
-                name: m.label(),
-                points: pts
-                    .iter()
-                    .filter(|q| q.method == *m)
-                    .filter_map(|q| q.error.map(|e| (q.cost, e)))
-                    .collect(),
-            })
-            .collect(),
-        note: note.clone(),
-        log_x: true,
-        pareto: true,
-    };
+    let chart = error_chart(
+        format!("Cloth {n}×{n}: error against run time", n = p.wp_n),
+        note.clone(),
+        series_by_method(&pts),
+    );
     std::fs::write(out.join("cloth_work_precision.svg"), chart.to_svg())?;
     let _ = writeln!(md, "## Work-precision: cloth\n");
     let _ = writeln!(md, "![cloth work-precision](cloth_work_precision.svg)\n");
@@ -212,38 +199,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
          which the symplectic reference keeps; the plateau ends only when hω√(ωT) ≪ 1.\n",
         p.repeats
     );
-    let _ = writeln!(
-        md,
-        "| method | h (s) | run time / simulated s | max error (m) |"
-    );
-    let _ = writeln!(md, "|---|---|---|---|");
     let mut csv = String::from("method,h,cost_s_per_s,error_m,failure\n");
-    for q in &pts {
-        let err = q.error.map_or_else(
-            || format!("failed: {}", q.failure.clone().unwrap_or_default()),
-            |e| format!("{e:.3e}"),
-        );
-        let cost = if q.error.is_some() {
-            format!("{:.3e}", q.cost)
-        } else {
-            "–".into()
-        };
-        let _ = writeln!(
-            md,
-            "| {} | {:.3e} | {cost} | {err} |",
-            q.method.label(),
-            q.h
-        );
-        let _ = writeln!(
-            csv,
-            "{},{:e},{:e},{},{}",
-            q.method.label(),
-            q.h,
-            q.cost,
-            q.error.map_or(String::new(), |e| format!("{e:e}")),
-            q.failure.clone().unwrap_or_default().replace(',', ";")
-        );
-    }
+    work_precision_table(&mut md, &mut csv, None, pts.iter().map(WorkPoint::row));
     std::fs::write(out.join("work_precision.csv"), csv)?;
 
     // Momentum.
