@@ -5,7 +5,7 @@
 //! 1000 kg/m³, friction 0.5, each resting exactly on the one below, on the ground plane
 //! `z = 0`) and [`constraint_contact::scenes::pyramid`] (rows of unit boxes in the x–z
 //! plane at 1.1 m pitch, `base − k` boxes at level `k`). [`Scene::world`] builds ours;
-//! [`rapier::RapierBoxes::from_world`] (feature `rapier`) turns that very world into
+//! `rapier::RapierBoxes::from_world` (feature `rapier`) turns that very world into
 //! rapier3d (f64) rigid bodies and colliders, so both engines start from identical poses.
 //!
 //! Accuracy ([`ContactRun`]) is measured on the box centres: the top box (highest at the

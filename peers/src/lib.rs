@@ -6,7 +6,7 @@
 //! from the world at the origin, laid out along `−x`, released at rest under
 //! `(0, 0, −9.81)`; the last link's mass and inertia are multiplied by `tip_ratio`.
 //!
-//! [`ours`] steps it with this library; [`rapier`] (feature `rapier`) builds the same
+//! [`ours`] steps it with this library; `rapier` (feature `rapier`) builds the same
 //! chain as rapier3d (f64) rigid bodies joined by spherical impulse joints. The criterion
 //! bench `benches/chain_peers.rs` times both and writes the accuracy figures that
 //! `cargo xtask bench` puts next to the times (MuJoCo's side runs through xtask).

@@ -295,7 +295,7 @@ fn table(rows: &[&str], body: &mut String) {
 }
 
 /// Inline Markdown: `code`, **bold**, *emphasis* / _emphasis_ (not inside words for
-/// `_`), [links](url), images (alt text only: charts are block-level), backslash
+/// `_`), `[links](url)`, images (alt text only: charts are block-level), backslash
 /// escapes; everything else escaped.
 pub fn inline(s: &str) -> String {
     let c: Vec<char> = s.chars().collect();

@@ -23,7 +23,8 @@
 //!   time step × stack height, top mass ratio, initial overlap and Baumgarte factor.
 //! * [`stability`] holds what those three maps share: the cell classes, the tally, and
 //!   the writer of a map section (heat maps, tables, CSV, summary).
-//! * [`deps`] lists what each scene family compiles (`cargo tree`) and runs.
+//! * [`deps`] lists, per scene, the crate and features it declares, what they compile
+//!   (`cargo tree`) and the stages its steps were seen to run.
 //! * [`html`] turns the Markdown report into one self-contained HTML page.
 //!
 //! The binary `verify-report` (run by `cargo xtask verify`) writes the sweeps to

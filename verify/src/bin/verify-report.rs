@@ -544,7 +544,10 @@ fn hard_sections(
         &[1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12]
     };
     let rows = constraint_verify::hard::jelly_hard_vs_soft(secs, ks);
-    let _ = writeln!(md, "![jelly volume error against run time](jelly_volume.svg)\n");
+    let _ = writeln!(
+        md,
+        "![jelly volume error against run time](jelly_volume.svg)\n"
+    );
     let _ = writeln!(md, "| volume treatment | max one-ring volume error | max sag (m) | ms / step |\n|---|---|---|---|");
     for r in &rows {
         let e = r.ring_error.map_or("failed".into(), |e| format!("{e:.2e}"));
@@ -568,7 +571,10 @@ fn hard_sections(
         y_label: "max |V − V₀| / V₀".into(),
         series: vec![
             series(true, "hard one-ring volumes (fast projection)"),
-            series(false, "soft per-tetrahedron volume springs (k as in the table)"),
+            series(
+                false,
+                "soft per-tetrahedron volume springs (k as in the table)",
+            ),
         ],
         note: format!(
             "Jelly 3×3×3, 100 N/m edge springs, top layer pinned, h = 1/60 s, {secs} s; \
