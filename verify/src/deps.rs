@@ -432,10 +432,9 @@ fn lagrange_scenes(out: &mut Vec<SceneStages>) {
     out.push(s);
 
     // The inextensible cloth: the three configurations of
-    // `hard::cloth_strain_vs_time` (n = 10, h = 1/60, lagged-LDLᵀ soft steps).
+    // `hard::cloth_strain_vs_time` (n = 10, h = 1/60, sparse-LDLᵀ soft steps).
     let mut s = SceneStages::new(SCENES[4].name, SCENES[4]);
     let (n, h) = (10, 1.0 / 60.0);
-    let lagged = || LinearSolver::LaggedLdlt(constraint_soft::lagged::LaggedSettings::default());
     let cloth = || {
         tilted_inextensible_cloth(n, crate::hard::K_SHEAR, 1.0)
             .and_then(|(sys, cons)| structural_links(n, &sys.x).map(|l| (sys, cons, l)))
@@ -450,7 +449,8 @@ fn lagrange_scenes(out: &mut Vec<SceneStages>) {
     };
     s.runs.push(run("fast projection", &|| {
         let (sys, cons, _) = cloth()?;
-        let imp = ImplicitEuler::new(h, HessianMode::GaussNewton, lagged()).map_err(str_err)?;
+        let imp = ImplicitEuler::new(h, HessianMode::GaussNewton, LinearSolver::SparseLdlt)
+            .map_err(str_err)?;
         let proj = FastProjection::new(1e-6, 100, KktSolver::SparseSchur).map_err(str_err)?;
         let mut step = ProjectedStep::new(imp, proj);
         Ok(particle_run("fast projection", sys, &cons, &mut step))
@@ -460,8 +460,8 @@ fn lagrange_scenes(out: &mut Vec<SceneStages>) {
         let set =
             ConstraintSet::uniform("structural", links, Softness::stiff(1e5)).map_err(str_err)?;
         sys.add_set(set).map_err(str_err)?;
-        let mut step =
-            ImplicitEuler::new(h, HessianMode::GaussNewton, lagged()).map_err(str_err)?;
+        let mut step = ImplicitEuler::new(h, HessianMode::GaussNewton, LinearSolver::SparseLdlt)
+            .map_err(str_err)?;
         let none = Constraints::new();
         Ok(particle_run(
             "soft springs (implicit)",

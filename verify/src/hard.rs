@@ -97,16 +97,9 @@ fn strain_of(links: &[constraint_core::Distance], x: &[constraint_core::DVec3]) 
         .fold(0.0, f64::max)
 }
 
-/// The soft step's solver in the cloth trade-off.
-fn lagged() -> LinearSolver {
-    LinearSolver::LaggedLdlt(constraint_soft::lagged::LaggedSettings::default())
-}
-
 /// The inextensible-cloth trade-off at `n × n`, `h = 1/60`, over `secs`:
 /// fast projection at each tolerance, stiff soft springs at each stiffness (implicit
-/// Euler; both soft steps solved by the lagged-factor PCG of
-/// [`constraint_soft::lagged`], which backs off to a fresh LDLᵀ per step when the
-/// factor goes stale), and compliant constraints at each compliance (velocity level).
+/// Euler, sparse LDLᵀ), and compliant constraints at each compliance (velocity level).
 pub fn cloth_strain_vs_time(
     n: usize,
     secs: f64,
@@ -124,7 +117,7 @@ pub fn cloth_strain_vs_time(
             let (mut sys, cons) = tilted_inextensible_cloth(n, K_SHEAR, tilt)?;
             let l = links(&sys.x)?;
             let mut step = ProjectedStep::new(
-                ImplicitEuler::new(h, HessianMode::GaussNewton, lagged())?,
+                ImplicitEuler::new(h, HessianMode::GaussNewton, LinearSolver::SparseLdlt)?,
                 FastProjection::new(tol, 100, KktSolver::SparseSchur)?,
             );
             let (mut s, mut it) = (0.0f64, 0usize);
@@ -158,7 +151,8 @@ pub fn cloth_strain_vs_time(
                 l.clone(),
                 Softness::stiff(k),
             )?)?;
-            let mut step = ImplicitEuler::new(h, HessianMode::GaussNewton, lagged())?;
+            let mut step =
+                ImplicitEuler::new(h, HessianMode::GaussNewton, LinearSolver::SparseLdlt)?;
             let mut s = 0.0f64;
             let t0 = Instant::now();
             for _ in 0..steps {

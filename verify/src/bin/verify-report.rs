@@ -480,9 +480,7 @@ fn hard_sections(
         "Cloth {n}×{n} hung by its top edge, released at 1 rad, h = 1/60 s, {secs} s; structural edges (rows, columns) \
          are either hard under Goldenthal's fast projection (after an implicit step with weak shear springs), \
          stiff springs in the implicit step, or compliant rows at velocity level (α = 0: hard). Max strain |L − L₀|/L₀ \
-         over the run against wall-clock time per step. The implicit soft steps solve with the lagged-factor \
-         PCG (`LinearSolver::LaggedLdlt`: an earlier step's LDLᵀ preconditions CG to 1e-8 and is refreshed \
-         when that pays). \
+         over the run against wall-clock time per step. \
          The linearized steps (implicit soft springs, velocity-level compliant or hard rows) extrapolate each \
          rotating link along its tangent, stretching it by about (hω)²/2 per step whatever the stiffness: \
          at h = 1/60 s their strain levels off near 0.15 for k ≥ 1e3 (it is 2.8e-4 at h = 1/240 s for k = 1e5). \
