@@ -174,6 +174,8 @@ pub struct World {
     rhs: Vec<f64>,
     mu: Vec<f64>,
     saved: Vec<RigidBody>,
+    /// The joint impulses at the start of the step (restored with `saved`).
+    saved_impulses: Vec<[f64; MAX_ROWS]>,
     /// Whether the velocity-level matrix gets the joints' geometric stiffness.
     pub geometric_stiffness: GeometricStiffness,
     /// Hard-row impulses `λ` of the last velocity solve, per joint.
@@ -199,6 +201,7 @@ impl World {
             rhs: Vec::new(),
             mu: Vec::new(),
             saved: Vec::new(),
+            saved_impulses: Vec::new(),
             geometric_stiffness: GeometricStiffness::default(),
             impulses: Vec::new(),
             momenta: Vec::new(),
@@ -419,12 +422,14 @@ impl World {
         }
         check_method(&method)?;
         self.ensure_solver();
+        // Saved into buffers kept across steps: no allocation once the sizes are known.
         self.saved.clone_from(&self.bodies);
+        self.saved_impulses.clone_from(&self.impulses);
         let result = self.step_inner(h, method);
         match result {
             Ok(stats) => {
                 if let Some(body) = self.first_bad_body() {
-                    self.bodies.clone_from(&self.saved);
+                    self.restore_start();
                     return Err(ArticulatedError::Diverged {
                         step: self.steps + 1,
                         body,
@@ -434,10 +439,16 @@ impl World {
                 Ok(stats)
             }
             Err(e) => {
-                self.bodies.clone_from(&self.saved);
+                self.restore_start();
                 Err(e)
             }
         }
+    }
+
+    /// Puts the bodies and joint impulses back as they were at the start of the step.
+    fn restore_start(&mut self) {
+        self.bodies.clone_from(&self.saved);
+        self.impulses.clone_from(&self.saved_impulses);
     }
 
     fn first_bad_body(&self) -> Option<usize> {
@@ -466,11 +477,10 @@ impl World {
                 tolerance,
                 max_iterations,
             } => {
-                let start = (self.bodies.clone(), self.impulses.clone());
                 let (it, ok) = self.rattle_step(h, tolerance, max_iterations)?;
                 stats.projection_iterations = it;
                 if !ok {
-                    self.fall_back(start, h, tolerance, max_iterations, &mut stats)?;
+                    self.fall_back(h, tolerance, max_iterations, &mut stats)?;
                 }
             }
             Method::Rattle4 {
@@ -479,12 +489,11 @@ impl World {
             } => {
                 let w1 = 1.0 / (2.0 - libm::cbrt(2.0));
                 let w0 = 1.0 - 2.0 * w1;
-                let start = (self.bodies.clone(), self.impulses.clone());
                 for w in [w1, w0, w1] {
                     let (it, ok) = self.rattle_step(w * h, tolerance, max_iterations)?;
                     stats.projection_iterations += it;
                     if !ok {
-                        self.fall_back(start.clone(), h, tolerance, max_iterations, &mut stats)?;
+                        self.fall_back(h, tolerance, max_iterations, &mut stats)?;
                         break;
                     }
                 }

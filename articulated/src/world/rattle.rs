@@ -8,19 +8,18 @@ use constraint_core::{DVec3, Pose};
 use super::*;
 
 impl World {
-    /// Restores `start` and redoes the step with the velocity level (with its geometric
+    /// Restores the start of the step and redoes it with the velocity level (with its geometric
     /// stiffness), then projects the positions back onto the joints (`tolerance`), so a
     /// fallback step keeps the joints as tight as a RATTLE step.
     pub(super) fn fall_back(
         &mut self,
-        start: (Vec<RigidBody>, Vec<[f64; MAX_ROWS]>),
         h: f64,
         tolerance: f64,
         max_iterations: usize,
         stats: &mut StepStats,
     ) -> Result<(), ArticulatedError> {
-        self.bodies = start.0;
-        self.impulses = start.1;
+        // Back to the start of the step (saved by `World::step`).
+        self.restore_start();
         stats.fallbacks += 1;
         self.velocity_solve(h, 1.0)?;
         stats.projection_iterations += self.project(tolerance, max_iterations, None)?;
