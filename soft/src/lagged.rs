@@ -36,7 +36,7 @@
 //! iterates, bit for bit.
 
 use crate::bsr::BlockMatrix;
-use crate::cg::SolveStats;
+use crate::cg::{PcgEnd, PcgWork, SolveStats};
 use crate::direct::SparseLdlt;
 use crate::error::SoftError;
 use constraint_core::DVec3;
@@ -111,10 +111,7 @@ pub struct LaggedLdlt {
     skip: u32,
     /// Length of the last back-off (0 after a PCG success).
     backoff: u32,
-    r: Vec<DVec3>,
-    z: Vec<DVec3>,
-    p: Vec<DVec3>,
-    ap: Vec<DVec3>,
+    work: PcgWork,
     /// Numeric factorizations done so far.
     pub factorizations: usize,
     /// Solves done so far.
@@ -134,10 +131,6 @@ impl core::fmt::Debug for LaggedLdlt {
     }
 }
 
-fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
-    a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
-}
-
 impl LaggedLdlt {
     /// Wraps an analysed (not necessarily factored) [`SparseLdlt`].
     pub fn new(ldlt: SparseLdlt) -> Self {
@@ -148,10 +141,7 @@ impl LaggedLdlt {
             steps: 0,
             skip: 0,
             backoff: 0,
-            r: Vec::new(),
-            z: Vec::new(),
-            p: Vec::new(),
-            ap: Vec::new(),
+            work: PcgWork::default(),
             factorizations: 0,
             solves: 0,
             iterations: 0,
@@ -179,7 +169,7 @@ impl LaggedLdlt {
         self.spent = factor_cost + 1.0 + pcg_iterations as f64;
         self.steps = 1;
         self.ldlt.solve_factored(b, x)?;
-        let residual = relative_residual(a, b, x, &mut self.ap);
+        let residual = relative_residual(a, b, x, self.work.scratch(b.len()));
         Ok(SolveStats {
             iterations: pcg_iterations + 1,
             residual,
@@ -206,9 +196,6 @@ impl LaggedLdlt {
             return Err(SoftError::LengthMismatch);
         }
         self.solves += 1;
-        for v in [&mut self.r, &mut self.z, &mut self.p, &mut self.ap] {
-            v.resize(n, DVec3::ZERO);
-        }
         if self.skip > 0 {
             self.skip -= 1;
             return self.direct(a, b, x, 0, settings.factor_cost);
@@ -216,56 +203,24 @@ impl LaggedLdlt {
         if self.refactor_next || !self.ldlt.is_factored() {
             return self.direct(a, b, x, 0, settings.factor_cost);
         }
-        let bnorm = dot(b, b).sqrt();
-        if bnorm == 0.0 {
-            x.fill(DVec3::ZERO);
-            return Ok(SolveStats {
-                iterations: 0,
-                residual: 0.0,
-                converged: true,
-            });
-        }
-        // Preconditioned CG (Hestenes & Stiefel 1952), z = A(t')⁻¹ r.
-        a.mul_vec(x, &mut self.ap);
-        for i in 0..n {
-            self.r[i] = b[i] - self.ap[i];
-        }
-        self.ldlt.solve_factored(&self.r, &mut self.z)?;
-        self.p.copy_from_slice(&self.z);
-        let mut rz = dot(&self.r, &self.z);
-        let mut res = dot(&self.r, &self.r).sqrt() / bnorm;
-        let mut it = 0;
-        while res > settings.tolerance {
-            let pap = if it == settings.max_iterations {
-                f64::NAN
-            } else {
-                a.mul_vec(&self.p, &mut self.ap);
-                dot(&self.p, &self.ap)
-            };
-            if !(pap > 0.0 && rz > 0.0) {
-                // Out of iterations, or an indefinite matrix or preconditioner (or
-                // NaN): factor the current A, and back off from PCG for a while.
-                self.iterations += it;
-                self.backoff = (self.backoff * 2).clamp(1, 64);
-                self.skip = self.backoff;
-                return self.direct(a, b, x, it, settings.factor_cost);
-            }
-            let alpha = rz / pap;
-            for i in 0..n {
-                x[i] += self.p[i] * alpha;
-                self.r[i] -= self.ap[i] * alpha;
-            }
-            self.ldlt.solve_factored(&self.r, &mut self.z)?;
-            let rz_new = dot(&self.r, &self.z);
-            let beta = rz_new / rz;
-            rz = rz_new;
-            for i in 0..n {
-                self.p[i] = self.z[i] + self.p[i] * beta;
-            }
-            res = dot(&self.r, &self.r).sqrt() / bnorm;
-            it += 1;
-        }
+        // Preconditioned CG with z = A(t')⁻¹ r (the held factor).
+        let ldlt = &mut self.ldlt;
+        let (end, it, res) = self.work.run(
+            a,
+            b,
+            x,
+            settings.tolerance,
+            settings.max_iterations,
+            &mut |r, z| ldlt.solve_factored(r, z),
+        )?;
         self.iterations += it;
+        if end != PcgEnd::Converged {
+            // Out of iterations, or an indefinite matrix or preconditioner (or NaN):
+            // factor the current A, and back off from PCG for a while.
+            self.backoff = (self.backoff * 2).clamp(1, 64);
+            self.skip = self.backoff;
+            return self.direct(a, b, x, it, settings.factor_cost);
+        }
         // Refresh when this step cost more than the average since the last refresh.
         self.refactor_next = it as f64 * f64::from(self.steps) > self.spent;
         self.spent += it as f64;
