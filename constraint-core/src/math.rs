@@ -60,6 +60,26 @@ pub fn lift_edge_hessian<const N: usize>(he: &[[DMat3; N]; N]) -> [[DMat3; N]; N
     h
 }
 
+/// The bound of every stepper's divergence watchdog: a coordinate whose magnitude
+/// reaches it, or that is not finite, makes the step a typed divergence error.
+pub const DIVERGENCE_LIMIT: f64 = 1e12;
+
+/// `true` when every component of `v` is finite and below [`DIVERGENCE_LIMIT`] in
+/// magnitude. Finiteness is tested first on purpose: glam's `max_element` drops a NaN
+/// component (`max(NaN, y) = y`), so the bound alone would let `(NaN, 0, 0)` through.
+#[inline]
+pub fn within_limit(v: DVec3) -> bool {
+    v.is_finite() && v.abs().max_element() < DIVERGENCE_LIMIT
+}
+
+/// The first index `i` where `a[i]` or `b[i]` is not [`within_limit`] (pairs up to the
+/// shorter slice), for the watchdogs over positions and velocities.
+pub fn first_out_of_limit(a: &[DVec3], b: &[DVec3]) -> Option<usize> {
+    a.iter()
+        .zip(b)
+        .position(|(a, b)| !(within_limit(*a) && within_limit(*b)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -77,5 +97,22 @@ mod tests {
         let b = DVec3::new(4.0, 5.0, 6.0);
         let c = DVec3::new(-1.0, 0.5, 2.0);
         assert!((outer(a, b) * c - a * b.dot(c)).length() < 1e-14);
+    }
+
+    #[test]
+    fn the_watchdog_bound_catches_nan_in_any_component() {
+        assert!(within_limit(DVec3::new(1.0, -2.0, 9.9e11)));
+        for k in 0..3 {
+            for bad in [f64::NAN, f64::INFINITY, -1e12] {
+                let mut a = [0.0; 3];
+                a[k] = bad;
+                assert!(!within_limit(DVec3::from_array(a)), "{k} {bad}");
+            }
+        }
+        let ok = [DVec3::ONE; 3];
+        let mut bad = ok;
+        bad[2].y = f64::NAN;
+        assert_eq!(first_out_of_limit(&ok, &ok), None);
+        assert_eq!(first_out_of_limit(&ok, &bad), Some(2));
     }
 }

@@ -307,14 +307,7 @@ impl DeformableContact {
             .take(n)
             .map(|(x, vi)| *x + *vi * h)
             .collect();
-        const LIMIT: f64 = 1e12;
-        if let Some(particle) = x_new.iter().zip(&v).position(|(x, vi)| {
-            // `is_finite` first: glam's `max_element` drops a NaN x or y component.
-            !(x.is_finite()
-                && vi.is_finite()
-                && x.abs().max_element() < LIMIT
-                && vi.abs().max_element() < LIMIT)
-        }) {
+        if let Some(particle) = constraint_core::math::first_out_of_limit(&x_new, &v) {
             return Err(DeformableError::Soft(
                 constraint_soft::SoftError::Diverged {
                     step: sys.steps,

@@ -333,17 +333,7 @@ impl Rattle {
         self.c.resize(m, 0.0);
         self.dx.copy_from_slice(&sys.v);
         let solved = self.solve(sys, false, true, st);
-        let bad = self
-            .dx
-            .iter()
-            .zip(&sys.x)
-            // `is_finite` first: glam's `max_element` drops a NaN x or y component.
-            .position(|(v, x)| {
-                !(v.is_finite()
-                    && x.is_finite()
-                    && v.abs().max_element() < 1e12
-                    && x.abs().max_element() < 1e12)
-            });
+        let bad = constraint_core::math::first_out_of_limit(&self.dx, &sys.x);
         if solved.is_err() || bad.is_some() {
             core::mem::swap(&mut sys.x, &mut self.x);
             core::mem::swap(&mut sys.v, &mut self.v);

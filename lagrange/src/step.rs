@@ -47,19 +47,7 @@ pub(crate) fn commit(
     x_new: &[DVec3],
     v_new: &[DVec3],
 ) -> Result<(), LagrangeError> {
-    const LIMIT: f64 = 1e12;
-    if let Some(p) = x_new
-        .iter()
-        .zip(v_new)
-        // `is_finite` first: glam's `max_element` drops a NaN x or y component
-        // (`max(NaN, y) = y`), so the bound alone let `(NaN, 0, 0)` through.
-        .position(|(x, v)| {
-            !(x.is_finite()
-                && v.is_finite()
-                && x.abs().max_element() < LIMIT
-                && v.abs().max_element() < LIMIT)
-        })
-    {
+    if let Some(p) = constraint_core::math::first_out_of_limit(x_new, v_new) {
         return Err(LagrangeError::Diverged {
             step: sys.steps,
             particle: p,

@@ -236,16 +236,7 @@ impl SoftSystem {
     /// Checks a candidate state; returns the first bad particle. "Bad" means non-finite
     /// or beyond `1e12` m (or m/s): an exploding state is reported before it overflows.
     pub(crate) fn first_bad(x: &[DVec3], v: &[DVec3]) -> Option<usize> {
-        const LIMIT: f64 = 1e12;
-        x.iter()
-            .zip(v)
-            // `is_finite` first: glam's `max_element` drops a NaN component.
-            .position(|(x, v)| {
-                !(x.is_finite()
-                    && v.is_finite()
-                    && x.abs().max_element() < LIMIT
-                    && v.abs().max_element() < LIMIT)
-            })
+        constraint_core::math::first_out_of_limit(x, v)
     }
 }
 

@@ -452,7 +452,7 @@ impl World {
     }
 
     fn first_bad_body(&self) -> Option<usize> {
-        let ok = |v: DVec3| v.is_finite() && v.abs().max_element() < 1e12;
+        let ok = constraint_core::math::within_limit;
         self.bodies
             .iter()
             .position(|b| !ok(b.pose.x) || !ok(b.v) || !ok(b.omega) || !b.pose.q.is_finite())

@@ -377,7 +377,7 @@ impl ContactWorld {
         let saved = self.bodies.clone();
         match self.step_inner(h) {
             Ok(stats) => {
-                let ok = |v: DVec3| v.is_finite() && v.abs().max_element() < 1e12;
+                let ok = constraint_core::math::within_limit;
                 if let Some(body) = self
                     .bodies
                     .iter()
