@@ -78,3 +78,12 @@ impl fmt::Display for ArticulatedError {
 }
 
 impl core::error::Error for ArticulatedError {}
+
+impl From<constraint_core::BodyError> for ArticulatedError {
+    fn from(e: constraint_core::BodyError) -> Self {
+        Self::InvalidBody {
+            body: e.body,
+            reason: e.reason,
+        }
+    }
+}

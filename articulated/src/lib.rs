@@ -18,16 +18,21 @@
 
 extern crate alloc;
 
-pub mod body;
+/// The rigid-body type (it lives in `constraint-core`, shared by every rigid crate).
+pub mod body {
+    pub use constraint_core::body::*;
+}
 pub mod error;
 pub mod joint;
 #[cfg(feature = "mjcf")]
 pub mod mjcf;
+#[cfg(all(feature = "mjcf", feature = "contact"))]
+pub mod mjcf_contact;
 pub mod scenes;
 pub mod tree;
 pub mod world;
 
-pub use body::RigidBody;
+pub use constraint_core::{BodyError, RigidBody};
 pub use error::ArticulatedError;
 pub use joint::{Joint, JointKind};
 #[cfg(feature = "mjcf")]

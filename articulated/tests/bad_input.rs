@@ -18,7 +18,7 @@ fn bodies_reject_bad_mass_inertia_and_pose() {
         assert!(
             matches!(
                 RigidBody::new(0, m, i, pose()),
-                Err(ArticulatedError::InvalidBody { .. })
+                Err(constraint_core::BodyError { body: 0, .. })
             ),
             "mass {m}"
         );
@@ -38,7 +38,7 @@ fn bodies_reject_bad_mass_inertia_and_pose() {
         assert!(
             matches!(
                 RigidBody::new(0, 1.0, c, pose()),
-                Err(ArticulatedError::InvalidBody { .. })
+                Err(constraint_core::BodyError { body: 0, .. })
             ),
             "{c:?}"
         );

@@ -50,7 +50,7 @@ fn energy_over_twenty_thousand_steps() {
         let w = ball_chain(10, 1.0).unwrap();
         w.bodies()
             .iter()
-            .map(|b| b.mass * 9.81 * 0.1 * 10.0)
+            .map(|b| b.mass() * 9.81 * 0.1 * 10.0)
             .sum::<f64>()
     };
     let mut rows = Vec::new();

@@ -19,6 +19,10 @@
 //! | [`dihedral`] | `C = θ(x) − θ₀` | bending, Bridson et al. 2003 |
 //! | [`plane`] | `C = nᵀx − d` | "Contacto mediante restricciones" (`d_i = nᵀ(p_i − p)`) |
 //!
+//! It also holds the rigid-body type every rigid crate shares, [`RigidBody`] (mass
+//! properties checked once and kept private; pose and twist plain data), and the body
+//! stencils of the joints ([`rigid`], [`joint`]).
+//!
 //! Everything else — soft energies `½kC²`, forces `−kC∇C`, force Jacobians, KKT rows —
 //! is derived generically from this trait in the other crates.
 //!
@@ -37,6 +41,7 @@
 #![deny(missing_docs)]
 
 pub mod area;
+pub mod body;
 pub mod constraint;
 pub mod dihedral;
 pub mod error;
@@ -49,6 +54,7 @@ pub mod spring;
 pub mod volume;
 
 pub use area::Area;
+pub use body::{BodyError, RigidBody};
 pub use constraint::{Curvature, Jacobian, PointConstraint};
 pub use dihedral::Dihedral;
 pub use error::ConstraintError;

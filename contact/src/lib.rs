@@ -10,7 +10,6 @@
 //! | [`lcp`] | the LCP type, its natural-map residual, and the solvers |
 //! | [`geometry`] | shapes, narrow phase (points, normals, depths, ids), broad phase |
 //! | `deformable` | (feature `deformable`) cloth and tetrahedral solids against static shapes, particle contact rows inside the soft crate's implicit step, active-set LCP |
-//! | `mjcf` | (feature `mjcf`) contact worlds from MJCF files: free bodies, collision geoms |
 //! | `rigid` | (feature `rigid`) rigid bodies in contact: the contact LCP per step, solved matrix-free or by the dense solvers, with friction, restitution, warm starting and shock propagation |
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
@@ -21,8 +20,6 @@ extern crate alloc;
 pub mod deformable;
 pub mod geometry;
 pub mod lcp;
-#[cfg(feature = "mjcf")]
-pub mod mjcf;
 #[cfg(feature = "rigid")]
 pub mod rigid;
 #[cfg(feature = "rigid")]

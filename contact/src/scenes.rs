@@ -1,7 +1,6 @@
 //! Contact scenes built in Rust (tests, benchmarks and the report).
 
-use constraint_articulated::RigidBody;
-use constraint_core::{DMat3, DQuat, DVec3, Pose};
+use constraint_core::{DMat3, DQuat, DVec3, Pose, RigidBody};
 
 use crate::geometry::{Collider, Shape};
 use crate::rigid::{ContactError, ContactWorld};

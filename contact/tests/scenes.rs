@@ -178,8 +178,8 @@ fn dense_solvers_agree_on_a_small_stack() {
 /// A ball with restitution e = 0.5 dropped from 1 m rebounds to about e² · 1 m.
 #[test]
 fn restitution_rebound_height() {
-    use constraint_articulated::RigidBody;
     use constraint_contact::geometry::{Collider, Shape};
+    use constraint_core::RigidBody;
     use constraint_core::{DMat3, DQuat, Pose};
     let mut w = ContactWorld::new(DVec3::new(0.0, 0.0, -9.81));
     let plane = Shape::plane(DVec3::Z, 0.0).unwrap();

@@ -16,8 +16,8 @@
 
 use std::path::{Path, PathBuf};
 
+use constraint_articulated::mjcf_contact::MjcfContactScene;
 use constraint_articulated::{Method, MjcfScene, World};
-use constraint_contact::mjcf::MjcfContactScene;
 use constraint_contact::rigid::ContactWorld;
 
 /// The velocity-level step (`β = 1`).

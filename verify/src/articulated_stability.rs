@@ -154,7 +154,7 @@ pub fn static_stretch(w: &World, alpha: f64) -> f64 {
         * w.bodies()
             .iter()
             .enumerate()
-            .map(|(k, b)| (k as f64 + 1.0) * b.mass)
+            .map(|(k, b)| (k as f64 + 1.0) * b.mass())
             .sum::<f64>()
 }
 
@@ -188,7 +188,7 @@ pub fn classify(cell: &Cell) -> CellResult {
             return r;
         }
     };
-    let mass: f64 = w.bodies().iter().map(|b| b.mass).sum();
+    let mass: f64 = w.bodies().iter().map(|b| b.mass()).sum();
     let length = cell.links as f64 * LINK;
     let scale = mass * 9.81 * length;
     let extent = length * (1.0 + cell.violation) + LINK + 2.0 * static_stretch(&w, cell.compliance);

@@ -132,7 +132,7 @@ pub fn contact_problem(name: &str, world: &ContactWorld, h: f64) -> Result<Conta
         .map_err(|e| format!("contact generation: {e:?}"))?;
     let inv: Vec<(f64, DMat3)> = bodies
         .iter()
-        .map(|b| (1.0 / b.mass, b.world_inv_inertia()))
+        .map(|b| (1.0 / b.mass(), b.world_inv_inertia()))
         .collect();
     let vfree: Vec<(DVec3, DVec3)> = bodies
         .iter()

@@ -2,8 +2,8 @@
 
 use std::path::Path;
 
+use constraint_articulated::mjcf_contact::MjcfContactScene;
 use constraint_articulated::{Method, MjcfScene};
-use constraint_contact::mjcf::MjcfContactScene;
 
 use crate::trajectory::Trajectory;
 

@@ -1345,8 +1345,8 @@ fn bad_methods(v: f64) -> Vec<Method> {
 fn world_state(w: &World) -> Vec<f64> {
     let mut out = Vec::new();
     for b in w.bodies() {
-        out.push(b.mass);
-        out.extend(b.inertia.to_cols_array());
+        out.push(b.mass());
+        out.extend(b.inertia().to_cols_array());
         out.extend(b.pose.x.to_array());
         out.extend(b.pose.q.to_array());
         out.extend(b.v.to_array());
@@ -1452,15 +1452,32 @@ fn articulated_cases(s: &mut Sweep) {
         b.pose.x = v;
         bad_bodies.push((format!("pose.x {label}"), b));
     }
+    // Mass properties are private: the only way to change them is checked, and a
+    // refusal leaves the body as it was.
     for &v in &BAD {
-        let mut b = body(1.0, DVec3::ZERO);
-        b.mass = v;
-        bad_bodies.push((format!("mass={v:e}"), b));
+        s.case(format!("RigidBody::set_mass_properties mass={v:e}"), || {
+            let mut b = body(1.0, DVec3::ZERO);
+            let before = b;
+            match b.set_mass_properties(0, v, before.inertia()) {
+                Ok(()) => Outcome::Accepted(vec![b.mass()]),
+                Err(_) if b == before => Outcome::Rejected,
+                Err(_) => Outcome::StateChanged("body".into()),
+            }
+        });
     }
     for (label, m) in bad_mats() {
-        let mut b = body(1.0, DVec3::ZERO);
-        b.inertia = m;
-        bad_bodies.push((format!("inertia {label}"), b));
+        s.case(
+            format!("RigidBody::set_mass_properties inertia {label}"),
+            || {
+                let mut b = body(1.0, DVec3::ZERO);
+                let before = b;
+                match b.set_mass_properties(0, 1.0, m) {
+                    Ok(()) => Outcome::Accepted(b.inertia().to_cols_array().to_vec()),
+                    Err(_) if b == before => Outcome::Rejected,
+                    Err(_) => Outcome::StateChanged("body".into()),
+                }
+            },
+        );
     }
     for (label, b) in bad_bodies {
         s.case(format!("World::add_body {label}"), || {
@@ -1614,7 +1631,8 @@ fn articulated_cases(s: &mut Sweep) {
                 format!("World::step mass={v:e} via bodies_mut {m:?}"),
                 || {
                     let mut w = pendulum();
-                    w.bodies_mut()[1].mass = v;
+                    // Refused by the checked setter; the world steps unchanged.
+                    let _ = w.bodies_mut()[1].set_mass_properties(1, v, DMat3::IDENTITY);
                     world_step(&mut w, 1e-3, m)
                 },
             );
@@ -2060,7 +2078,7 @@ fn contact_cases(s: &mut Sweep) {
         s.case(format!("ContactWorld::add_body mass={v:e}"), || {
             let mut w = contact_world();
             let mut b = body(1.0, DVec3::Z * 3.0);
-            b.mass = v;
+            let _ = b.set_mass_properties(0, v, DMat3::IDENTITY);
             let n = w.bodies().len();
             match w.add_body(b) {
                 Ok(_) => Outcome::Accepted(contact_state(&w)),

@@ -131,7 +131,7 @@ fn catalogue_state_hashes_are_deterministic_and_pinned() {
 /// steps: same hash twice, and pinned.
 #[test]
 fn contact_scene_hashes_are_deterministic_and_pinned() {
-    use constraint_contact::mjcf::MjcfContactScene;
+    use constraint_articulated::mjcf_contact::MjcfContactScene;
     let run = |scene: &str, key: Option<&str>| {
         let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("../scenes/{scene}.xml"));
         let mut s = MjcfContactScene::from_file(&path, key).unwrap();

@@ -347,7 +347,7 @@ pub fn markdown(res: &MjcfResults) -> String {
          after the timed window, from an untimed run of it; MuJoCo's tree joints cannot \
          separate (reduced coordinates), its four_bar loop closure is a soft `connect`."
             .to_string(),
-        "Ours, contact (`constraint_contact::mjcf::MjcfContactScene`): free bodies, hard \
+        "Ours, contact (`constraint_articulated::mjcf_contact::MjcfContactScene`): free bodies, hard \
          contact, default `ContactSettings` (`ContactSolver::Auto`: dense \
          Fischer–Burmeister Newton at these sizes). MuJoCo's contact is soft (`solref`, \
          `solimp`), so the two engines solve different problems on the same scene; the \

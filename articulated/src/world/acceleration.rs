@@ -42,7 +42,7 @@ impl World {
         let joints = self.joints.clone();
         self.body_rhs(|b, _, iw| {
             let w = b.omega;
-            (g * b.mass, -w.cross(*iw * w))
+            (g * b.mass(), -w.cross(*iw * w))
         });
         for (i, (f, t)) in damp.iter().enumerate() {
             let o = self.solver.body_offset(i);

@@ -220,7 +220,7 @@ impl World {
             });
         }
         // Re-validate (fields are public).
-        let mut checked = RigidBody::new(i, body.mass, body.inertia, body.pose)?;
+        let mut checked = RigidBody::new(i, body.mass(), body.inertia(), body.pose)?;
         checked.v = body.v;
         checked.omega = body.omega;
         checked.com = body.com;
@@ -327,7 +327,7 @@ impl World {
         let gravity: f64 = self
             .bodies
             .iter()
-            .map(|b| -b.mass * self.gravity.dot(b.pose.x))
+            .map(|b| -b.mass() * self.gravity.dot(b.pose.x))
             .sum();
         let elastic: f64 = self
             .joints
@@ -582,7 +582,7 @@ impl World {
             for (side, body) in [(0usize, *a), (1usize, Some(*b))] {
                 if let Some(i) = body {
                     let bd = &self.bodies[i];
-                    g += row[2 * side].length_squared() / bd.mass
+                    g += row[2 * side].length_squared() / bd.mass()
                         + row[2 * side + 1].dot(bd.world_inv_inertia() * row[2 * side + 1]);
                 }
             }
@@ -601,8 +601,8 @@ impl World {
         for (i, b) in self.bodies.iter().enumerate() {
             let o = solver.body_offset(i);
             let r = b.rotation();
-            let iw = r * b.inertia * r.transpose();
-            solver.set_body(i, b.mass, &iw);
+            let iw = r * b.inertia() * r.transpose();
+            solver.set_body(i, b.mass(), &iw);
             let (lin, ang) = f(b, &r, &iw);
             self.rhs[o..o + 3].copy_from_slice(&lin.to_array());
             self.rhs[o + 3..o + 6].copy_from_slice(&ang.to_array());

@@ -40,7 +40,7 @@ impl World {
         let hd = half.abs();
         // 1. Half kick with the constraint impulse that makes the drift land on the
         //    linearised manifold: [M Jᵀ; J −C][v½; λ] = [M v + (h/2) m g; −C(x)/h].
-        self.body_rhs(|b, _, iw| (b.v * b.mass + g * (b.mass * half), *iw * b.omega));
+        self.body_rhs(|b, _, iw| (b.v * b.mass() + g * (b.mass() * half), *iw * b.omega));
         // Compliant joints: half a kick of their spring force at x (Störmer–Verlet); their
         // rows are left out of the kicks and of SHAKE.
         self.add_spring_rhs(half);
@@ -141,7 +141,7 @@ impl World {
         }
         // 4. Half kick and the velocity constraint at the new configuration:
         //    [M Jᵀ; J −C][v'; μ] = [M v½ + (h/2) m g; 0], angular part L½.
-        self.body_rhs(|b, _, _| (b.v * b.mass + g * (b.mass * half), DVec3::ZERO));
+        self.body_rhs(|b, _, _| (b.v * b.mass() + g * (b.mass() * half), DVec3::ZERO));
         {
             let solver = &self.solver;
             for (i, l) in momenta.iter().enumerate() {

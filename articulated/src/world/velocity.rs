@@ -56,10 +56,10 @@ impl World {
         for (i, b) in self.bodies.iter().enumerate() {
             let iw = b.world_inertia();
             let w = b.gyroscopic_step(h);
-            let lin = b.v * b.mass + self.gravity * (b.mass * h);
+            let lin = b.v * b.mass() + self.gravity * (b.mass() * h);
             let ang = iw * w;
             for k in 0..3 {
-                m[6 * i + k][6 * i + k] = b.mass;
+                m[6 * i + k][6 * i + k] = b.mass();
                 for l in 0..3 {
                     m[6 * i + 3 + k][6 * i + 3 + l] = iw.col(l)[k];
                 }
@@ -106,7 +106,7 @@ impl World {
         let g = self.gravity;
         self.body_rhs(|b, r, iw| {
             let w = b.gyroscopic_step_with(r, h);
-            (b.v * b.mass + g * (b.mass * h), *iw * w)
+            (b.v * b.mass() + g * (b.mass() * h), *iw * w)
         });
         if self.geometric_stiffness != GeometricStiffness::Off
             && self.impulses.len() == self.joints.len()
@@ -147,7 +147,9 @@ impl World {
             let lam = &self.impulses[j];
             // Cheap bound first: |h Σ λ_r ∂²C_r| ≤ 2 h lever Σ|λ_r|.
             let bound = 2.0 * h * joint.lever() * lam.iter().map(|l| l.abs()).sum::<f64>();
-            let i_min = |b: Option<usize>| b.map_or(f64::INFINITY, |i| self.bodies[i].i_min);
+            let i_min = |b: Option<usize>| {
+                b.map_or(f64::INFINITY, |i| self.bodies[i].min_principal_inertia())
+            };
             if !(bound > threshold * i_min(joint.parent).min(i_min(Some(joint.child)))) {
                 continue;
             }
@@ -160,7 +162,7 @@ impl World {
                 // (hω)² of the stiffest rotational mode this term describes, against the
                 // body's smallest principal moment.
                 let t_max = crate::body::symmetric_eigenvalues(&tt)[2];
-                if t_max > threshold * self.bodies[i].i_min {
+                if t_max > threshold * self.bodies[i].min_principal_inertia() {
                     let xx = crate::body::psd_part(&(k.blocks[2 * side][2 * side] * h));
                     solver.add_body_blocks(i, &xx, &tt);
                 }

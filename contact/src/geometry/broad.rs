@@ -120,6 +120,21 @@ pub fn generate_contacts(
     margin: f64,
     out: &mut Vec<Contact>,
 ) -> Result<BroadStats, GeometryError> {
+    generate_contacts_filtered(colliders, body_poses, margin, |_, _| true, out)
+}
+
+/// [`generate_contacts`] with a pair filter: the narrow phase runs only on overlapping
+/// pairs `(i, j)` (collider indices, `i < j`) for which `keep(i, j)` holds — MuJoCo's
+/// `contype`/`conaffinity` test, a body against its joint parent, explicit exclusions.
+/// The filter is applied after the broad phase, so it never changes the order of the
+/// contacts that remain.
+pub fn generate_contacts_filtered(
+    colliders: &[Collider],
+    body_poses: &[Pose],
+    margin: f64,
+    keep: impl Fn(usize, usize) -> bool,
+    out: &mut Vec<Contact>,
+) -> Result<BroadStats, GeometryError> {
     out.clear();
     if !(margin >= 0.0) || !margin.is_finite() {
         return Err(GeometryError::BadMargin);
@@ -150,7 +165,7 @@ pub fn generate_contacts(
     let stats = sweep_and_prune(&aabbs, &mut pairs);
     for &(i, j) in &pairs {
         let (a, b) = (&colliders[i], &colliders[j]);
-        if a.body == b.body {
+        if a.body == b.body || !keep(i, j) {
             continue;
         }
         collide((i, j), a, &pose_of(a), b, &pose_of(b), margin, out);

@@ -12,7 +12,9 @@ pub mod contact;
 pub mod narrow;
 pub mod shape;
 
-pub use broad::{brute_force, generate_contacts, sweep_and_prune, BroadStats};
+pub use broad::{
+    brute_force, generate_contacts, generate_contacts_filtered, sweep_and_prune, BroadStats,
+};
 pub use contact::{Contact, ParticleContact};
 pub use narrow::{closest_point, closest_segments, collide, point_vs, Closest};
 pub use shape::{Aabb, Collider, GeometryError, Shape};

@@ -34,9 +34,8 @@ use alloc::vec;
 use alloc::vec::Vec;
 use core::fmt;
 
-use constraint_articulated::RigidBody;
 use constraint_core::rigid::rotate_by;
-use constraint_core::{DMat3, DVec3, Pose};
+use constraint_core::{BodyError, DMat3, DVec3, Pose, RigidBody};
 
 use crate::geometry::{generate_contacts, Collider, Contact, GeometryError};
 mod dense;
@@ -181,8 +180,11 @@ pub enum ContactError {
         /// The collider.
         collider: usize,
     },
-    /// A body was rejected (see the articulated crate's rules).
-    Body(constraint_articulated::ArticulatedError),
+    /// A body was rejected (see [`RigidBody::new`]'s rules).
+    Body(BodyError),
+    /// A scene file could not be turned into a world (the message names the element
+    /// and line).
+    Scene(alloc::string::String),
     /// Geometry rejected a collider, margin or pose.
     Geometry(GeometryError),
     /// The LCP solver failed (typed; never a wrong answer reported as success).
@@ -208,6 +210,7 @@ impl fmt::Display for ContactError {
         match self {
             Self::UnknownBody { collider } => write!(f, "collider {collider}: unknown body"),
             Self::Body(e) => write!(f, "{e}"),
+            Self::Scene(s) => write!(f, "scene: {s}"),
             Self::Geometry(e) => write!(f, "geometry: {e:?}"),
             Self::Lcp(e) => write!(f, "contact LCP: {e}"),
             Self::InvalidParameter { name, rule } => write!(f, "parameter {name}: {rule}"),
@@ -271,8 +274,8 @@ impl ContactWorld {
     /// Adds a body (re-validated); returns its index.
     pub fn add_body(&mut self, body: RigidBody) -> Result<usize, ContactError> {
         let i = self.bodies.len();
-        let mut b =
-            RigidBody::new(i, body.mass, body.inertia, body.pose).map_err(ContactError::Body)?;
+        let mut b = RigidBody::new(i, body.mass(), body.inertia(), body.pose)
+            .map_err(ContactError::Body)?;
         if !body.v.is_finite() || !body.omega.is_finite() {
             return Err(ContactError::InvalidParameter {
                 name: "velocity",
@@ -322,7 +325,7 @@ impl ContactWorld {
     pub fn energy(&self) -> f64 {
         self.bodies
             .iter()
-            .map(|b| b.kinetic_energy() - b.mass * self.gravity.dot(b.pose.x))
+            .map(|b| b.kinetic_energy() - b.mass() * self.gravity.dot(b.pose.x))
             .sum()
     }
 
@@ -415,7 +418,7 @@ impl ContactWorld {
         let inv: Vec<(f64, DMat3)> = self
             .bodies
             .iter()
-            .map(|b| (1.0 / b.mass, b.world_inv_inertia()))
+            .map(|b| (1.0 / b.mass(), b.world_inv_inertia()))
             .collect();
         for b in &mut self.bodies {
             b.omega = b.gyroscopic_step(h);

@@ -1,5 +1,5 @@
-//! Contact worlds from MJCF scene files (feature `mjcf`): free bodies with collision
-//! geoms, and static world geoms.
+//! Free-body contact worlds ([`ContactWorld`]) from MJCF scene files (features `mjcf`
+//! and `contact`): free bodies with collision geoms, and static world geoms.
 //!
 //! Every body must have a `free` joint (`<freejoint/>`): joints and contact in one world
 //! are not supported yet, and such a file is an error naming the body. Geoms map to
@@ -13,19 +13,19 @@ use alloc::format;
 use alloc::string::{String, ToString};
 use alloc::vec::Vec;
 
-use constraint_articulated::{MjcfScene, RigidBody};
-use constraint_core::{DQuat, DVec3, Pose};
+use constraint_contact::geometry::{Collider, Shape};
+use constraint_contact::rigid::{ContactError, ContactWorld};
+use constraint_core::{DQuat, DVec3, Pose, RigidBody};
 use constraint_mjcf::{JointKind, Model, Shape as MjShape};
 
-use crate::geometry::{Collider, Shape};
-use crate::rigid::{ContactError, ContactWorld};
+use crate::MjcfScene;
 
 fn q(a: [f64; 4]) -> DQuat {
     DQuat::from_xyzw(a[1], a[2], a[3], a[0]).normalize()
 }
 
 fn bad(s: String) -> ContactError {
-    ContactError::Body(constraint_articulated::ArticulatedError::Scene(s))
+    ContactError::Scene(s)
 }
 
 /// A contact world built from an MJCF model, with the model's body names and time step.
@@ -57,11 +57,11 @@ impl MjcfContactScene {
             }
         }
         // Bodies, masses and the keyframe state come from the articulated loader.
-        let scene = MjcfScene::new(model, key).map_err(ContactError::Body)?;
+        let scene = MjcfScene::new(model, key).map_err(|e| bad(e.to_string()))?;
         let mut world = ContactWorld::new(DVec3::from_array(model.gravity));
         let mut coms = Vec::new();
         for b in scene.world.bodies() {
-            let mut body = RigidBody::new(world.bodies().len(), b.mass, b.inertia, b.pose)
+            let mut body = RigidBody::new(world.bodies().len(), b.mass(), b.inertia(), b.pose)
                 .map_err(ContactError::Body)?;
             body.v = b.v;
             body.omega = b.omega;
@@ -74,7 +74,7 @@ impl MjcfContactScene {
                 if g.contype == 0 && g.conaffinity == 0 {
                     continue;
                 }
-                let where_ = |e: crate::geometry::GeometryError| {
+                let where_ = |e: constraint_contact::geometry::GeometryError| {
                     bad(format!("geom {:?} (line {}): {e:?}", g.name, g.line))
                 };
                 let shape = match g.shape {

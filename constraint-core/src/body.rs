@@ -5,19 +5,43 @@
 //! (DESIGN.md §5). The inertia tensor is stored about the centre of mass in the body
 //! frame, `I_world = R I Rᵀ`. `com` is the centre of mass in the body frame, kept only to
 //! report the body frame origin (MuJoCo's `xpos`) as `x − R com`.
+//!
+//! The mass properties are private and checked once ([`RigidBody::new`],
+//! [`RigidBody::set_mass_properties`]), so a body's cached inverse inertia can never
+//! disagree with its inertia; the state (`pose`, `v`, `omega`) is plain public data.
 
-use constraint_core::{DMat3, DQuat, DVec3, Pose};
+use core::fmt;
 
-use crate::error::ArticulatedError;
+use glam::{DMat3, DQuat, DVec3};
+
+use crate::rigid::Pose;
+
+/// Why a body was rejected: its index (in the order the caller numbers bodies) and the
+/// rule it broke.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BodyError {
+    /// Index of the body.
+    pub body: usize,
+    /// Which rule it broke.
+    pub reason: &'static str,
+}
+
+impl fmt::Display for BodyError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "body {}: {}", self.body, self.reason)
+    }
+}
+
+impl core::error::Error for BodyError {}
 
 /// A rigid body.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RigidBody {
     /// Mass (kg), positive and finite.
-    pub mass: f64,
+    mass: f64,
     /// Inertia about the centre of mass in the body frame (kg·m²), symmetric positive
     /// definite, principal moments satisfying the triangle inequality.
-    pub inertia: DMat3,
+    inertia: DMat3,
     /// Centre of mass and orientation.
     pub pose: Pose,
     /// Linear velocity of the centre of mass (world).
@@ -26,9 +50,9 @@ pub struct RigidBody {
     pub omega: DVec3,
     /// Centre of mass in the body frame (offset from the body frame origin).
     pub com: DVec3,
-    pub(crate) inv_inertia: DMat3,
+    inv_inertia: DMat3,
     /// Smallest principal moment.
-    pub(crate) i_min: f64,
+    i_min: f64,
 }
 
 /// Eigenvalues of a symmetric 3×3 matrix, ascending (closed form, Smith 1961).
@@ -93,7 +117,7 @@ pub fn psd_part(m: &DMat3) -> DMat3 {
         let lam = a[k][k];
         if lam > 0.0 {
             let e = DVec3::new(v[0][k], v[1][k], v[2][k]);
-            out += constraint_core::math::outer(e, e) * lam;
+            out += crate::math::outer(e, e) * lam;
         }
     }
     out
@@ -104,13 +128,8 @@ impl RigidBody {
     /// finite; inertia not finite, not symmetric, not positive definite, or violating the
     /// triangle inequality `I₁ ≤ I₂ + I₃` of principal moments (to 1e-9 relative);
     /// non-finite or non-unit (1e-6) pose.
-    pub fn new(
-        index: usize,
-        mass: f64,
-        inertia: DMat3,
-        pose: Pose,
-    ) -> Result<Self, ArticulatedError> {
-        let bad = |reason| ArticulatedError::InvalidBody {
+    pub fn new(index: usize, mass: f64, inertia: DMat3, pose: Pose) -> Result<Self, BodyError> {
+        let bad = |reason| BodyError {
             body: index,
             reason,
         };
@@ -159,6 +178,52 @@ impl RigidBody {
             inv_inertia,
             i_min: ev[0],
         })
+    }
+
+    /// Mass (kg).
+    #[inline]
+    pub fn mass(&self) -> f64 {
+        self.mass
+    }
+
+    /// Inverse mass (1/kg).
+    #[inline]
+    pub fn inv_mass(&self) -> f64 {
+        1.0 / self.mass
+    }
+
+    /// Inertia about the centre of mass in the body frame (kg·m²).
+    #[inline]
+    pub fn inertia(&self) -> DMat3 {
+        self.inertia
+    }
+
+    /// Inverse of [`Self::inertia`] (body frame).
+    #[inline]
+    pub fn inv_inertia(&self) -> DMat3 {
+        self.inv_inertia
+    }
+
+    /// Smallest principal moment of inertia (kg·m²).
+    #[inline]
+    pub fn min_principal_inertia(&self) -> f64 {
+        self.i_min
+    }
+
+    /// Replaces the mass and inertia, checked by the rules of [`Self::new`] (the body
+    /// is left unchanged on error); pose and velocities are kept.
+    pub fn set_mass_properties(
+        &mut self,
+        index: usize,
+        mass: f64,
+        inertia: DMat3,
+    ) -> Result<(), BodyError> {
+        let checked = Self::new(index, mass, inertia, self.pose)?;
+        self.mass = checked.mass;
+        self.inertia = checked.inertia;
+        self.inv_inertia = checked.inv_inertia;
+        self.i_min = checked.i_min;
+        Ok(())
     }
 
     /// The same body with the given velocities (checked finite by the world).
@@ -225,8 +290,7 @@ impl RigidBody {
         let w = r.transpose() * self.omega;
         let iw = self.inertia * w;
         let f = w.cross(iw) * h;
-        let jac = self.inertia
-            + (constraint_core::math::skew(w) * self.inertia - constraint_core::math::skew(iw)) * h;
+        let jac = self.inertia + (crate::math::skew(w) * self.inertia - crate::math::skew(iw)) * h;
         let det = jac.determinant();
         if !(det.abs() > 0.0) || !det.is_finite() {
             return self.omega;
