@@ -756,3 +756,250 @@ pub fn main(args: &[String]) -> Result<(), String> {
         _ => Err(USAGE.into()),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_pinned_list_is_both_suites_with_the_templates_replaced() {
+        let count = |s: &str| MODELS.iter().filter(|(x, _)| *x == s).count();
+        assert_eq!(count("gymnasium"), 14);
+        assert_eq!(count("dm_control"), 19);
+        assert_eq!(count("gymnasium") + count("dm_control"), MODELS.len());
+        for (i, a) in MODELS.iter().enumerate() {
+            assert!(!MODELS[..i].contains(a), "{a:?} twice");
+            assert!(
+                !a.1.is_empty() && !a.1.contains(['/', '\\', '.']),
+                "{a:?} is not a file stem"
+            );
+        }
+        for generated in ["lqr_2_1", "swimmer6"] {
+            assert!(MODELS.contains(&("dm_control", generated)));
+        }
+        for template in ["lqr", "swimmer"] {
+            assert!(!MODELS.contains(&("dm_control", template)));
+        }
+        // The generated files are what the extraction script writes.
+        assert!(EXTRACT.contains("\"lqr_2_1\": make_lqr("));
+        assert!(EXTRACT.contains("\"swimmer6\": make_swimmer("));
+    }
+
+    #[test]
+    fn missing_names_exactly_the_absent_files() {
+        let dir = root().join("target/xtask/test-models-missing");
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(missing(&dir).len(), MODELS.len());
+        for (s, n) in MODELS.iter().step_by(2) {
+            let p = model_path(&dir, s, n);
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(&p, "<mujoco/>").unwrap();
+        }
+        let gone = missing(&dir);
+        assert_eq!(gone.len(), MODELS.len() / 2);
+        for (i, (s, n)) in MODELS.iter().enumerate() {
+            assert_eq!(gone.contains(&model_path(&dir, s, n)), i % 2 == 1);
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn mujoco_rows_are_read_by_column_name() {
+        // Columns in another order than the script writes them, a failed load, a
+        // diverged run.
+        let text = "#mujoco_version\t9.9.9\n\
+            max_ncon\tus_per_step\tsteps\ttimestep\tnu\tnv\tnq\tnjnt\tnbody\tstatus\tname\n\
+            4\t23.5\t500\t0.01\t8\t14\t15\t9\t14\tok\tgymnasium/ant\n\
+            -\t-\t-\t-\t-\t-\t-\t-\t-\tload failed: XML Error\tdm_control/x\n\
+            0\t1.5\t10\t0.5\t0\t1\t1\t1\t2\tdiverged (MuJoCo warning mjWARN_BADQACC)\ty\n";
+        let (v, rows) = parse_mujoco(text).unwrap();
+        assert_eq!(v.as_deref(), Some("9.9.9"));
+        assert_eq!(rows.len(), 3);
+        let ant = &rows[0];
+        assert_eq!(ant.name, "gymnasium/ant");
+        assert_eq!(
+            (ant.nbody, ant.njnt, ant.nq, ant.nv, ant.nu),
+            (Some(14), Some(9), Some(15), Some(14), Some(8))
+        );
+        assert_eq!(ant.timestep.as_deref(), Some("0.01"));
+        assert_eq!(
+            (ant.steps, ant.us_per_step, ant.max_ncon),
+            (Some(500), Some(23.5), Some(4))
+        );
+        assert_eq!(rows[1].status, "load failed: XML Error");
+        assert_eq!(
+            rows[1],
+            Mujoco {
+                name: "dm_control/x".into(),
+                status: rows[1].status.clone(),
+                ..Mujoco::default()
+            }
+        );
+        assert!(rows[2].status.starts_with("diverged"));
+
+        let header =
+            "name\tstatus\tnbody\tnjnt\tnq\tnv\tnu\ttimestep\tsteps\tus_per_step\tmax_ncon\n";
+        for (bad, want) in [
+            ("", "no header"),
+            ("name\tstatus\n", "no column"),
+            ("a\tok\t1\t1\t1\t1\t1\t0.1\t1\t1\n", "fields"),
+            ("a\tok\tx\t1\t1\t1\t1\t0.1\t1\t1\t1\n", "not a count"),
+            ("a\tok\t1\t1\t1\t1\t1\t0\t1\t1\t1\n", "time step"),
+            ("a\tok\t1\t1\t1\t1\t1\t0.1\t1\tNaN\t1\n", "not a time"),
+        ] {
+            let text = if want == "no header" || want == "no column" {
+                bad.to_string()
+            } else {
+                format!("{header}{bad}")
+            };
+            let e = parse_mujoco(&text).expect_err(bad);
+            assert!(e.contains(want), "{bad:?}: {want:?} not in {e:?}");
+        }
+    }
+
+    #[test]
+    fn our_time_per_step_and_reason_come_from_the_binarys_lines() {
+        let ok = "simulate: wrote 2 rows to a.csv (0.012 s stepping, 4.80 µs/step)\n";
+        assert_eq!(parse_stepping(ok, Some(2500)), Some(4.8));
+        // Without --dt the binary prints only seconds: divided by the steps.
+        let secs = "simulate: wrote 2 rows to a.csv (0.500 s stepping)\n";
+        assert_eq!(parse_stepping(secs, Some(1000)), Some(500.0));
+        assert_eq!(parse_stepping(secs, None), None);
+        assert_eq!(parse_stepping("garbage\n", Some(10)), None);
+        assert_eq!(
+            reason(
+                "\nsimulate: scene: line 3: element <include> is not supported here\nmore\n",
+                ""
+            ),
+            "scene: line 3: element <include> is not supported here"
+        );
+        assert_eq!(reason("", "  only stdout  "), "only stdout");
+        assert_eq!(reason("", ""), "no output");
+    }
+
+    /// Splits one CSV line (RFC 4180, no line breaks inside fields).
+    fn split_csv(line: &str) -> Vec<String> {
+        let (mut out, mut cur, mut quoted, mut chars) =
+            (Vec::new(), String::new(), false, line.chars().peekable());
+        while let Some(c) = chars.next() {
+            match (c, quoted) {
+                ('"', true) if chars.peek() == Some(&'"') => {
+                    cur.push('"');
+                    chars.next();
+                }
+                ('"', _) => quoted = !quoted,
+                (',', false) => out.push(std::mem::take(&mut cur)),
+                (c, _) => cur.push(c),
+            }
+        }
+        out.push(cur);
+        out
+    }
+
+    fn rows() -> Vec<Row> {
+        let mj = |name: &str, us: Option<f64>| Mujoco {
+            name: name.into(),
+            status: "ok".into(),
+            nbody: Some(3),
+            timestep: Some("0.01".into()),
+            steps: Some(500),
+            us_per_step: us,
+            ..Mujoco::default()
+        };
+        vec![
+            Row {
+                suite: "gymnasium".into(),
+                name: "b_first".into(),
+                mujoco: mj("gymnasium/b_first", Some(10.0)),
+                ours: Ours {
+                    loads: true,
+                    error: None,
+                    us_per_step: Some(5.0),
+                },
+            },
+            Row {
+                suite: "dm_control".into(),
+                name: "a_second".into(),
+                mujoco: mj("dm_control/a_second", Some(2.0)),
+                ours: Ours {
+                    loads: false,
+                    error: Some("scene: bad \"x\", a|b, c".into()),
+                    us_per_step: None,
+                },
+            },
+            Row {
+                suite: "dm_control".into(),
+                name: "c_third".into(),
+                mujoco: Mujoco {
+                    status: "load failed: nope".into(),
+                    ..Mujoco::default()
+                },
+                ours: Ours {
+                    loads: true,
+                    error: Some("diverged".into()),
+                    us_per_step: None,
+                },
+            },
+        ]
+    }
+
+    #[test]
+    fn the_table_keeps_the_order_and_every_row_has_every_cell() {
+        let rows = rows();
+        let md = markdown(&rows, Some("4.0.0"), 5.0);
+        let cells = |l: &str| l.replace("\\|", "").matches('|').count();
+        let table: Vec<&str> = md.lines().filter(|l| l.starts_with('|')).collect();
+        assert_eq!(table.len(), 2 + rows.len());
+        for l in &table {
+            assert_eq!(cells(l), cells(table[0]), "{l}");
+        }
+        for (r, l) in rows.iter().zip(&table[2..]) {
+            assert!(
+                l.starts_with(&format!("| {} | {} |", r.name, r.suite)),
+                "{l}"
+            );
+        }
+        // Ratio only where both engines have a time: ours 5 µs against MuJoCo's 10 µs.
+        assert!(table[2].ends_with("| 5.00 | 0.500 |"), "{}", table[2]);
+        assert!(table[3].ends_with("| – | – |"), "{}", table[3]);
+        assert!(table[3].contains("no: scene: bad"));
+        assert!(table[4].contains("yes; failed: diverged"));
+        assert!(table[4].contains("load failed: nope"));
+        assert!(md.contains("MuJoCo 4.0.0") && md.contains("ours loads 2, runs 1"));
+    }
+
+    #[test]
+    fn the_csv_has_the_same_rows_and_quotes_what_needs_it() {
+        let rows = rows();
+        let text = csv(&rows);
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 1 + rows.len());
+        let header = split_csv(lines[0]);
+        for (r, l) in rows.iter().zip(&lines[1..]) {
+            let f = split_csv(l);
+            assert_eq!(f.len(), header.len(), "{l}");
+            let field = |name: &str| &f[header.iter().position(|h| h == name).unwrap()];
+            assert_eq!(field("model"), &r.name);
+            assert_eq!(field("ours_error"), r.ours.error.as_deref().unwrap_or(""));
+            assert_eq!(field("ours_loads"), &r.ours.loads.to_string());
+        }
+        let f = split_csv(lines[1]);
+        assert_eq!(f.last().map(String::as_str), Some("0.5000"));
+        assert_eq!(csv_field("plain"), "plain");
+    }
+
+    #[test]
+    fn run_arguments() {
+        let args = |s: &str| s.split_whitespace().map(String::from).collect::<Vec<_>>();
+        let a = parse_run_args(&args("--quick --out x")).unwrap();
+        assert!(a.quick);
+        assert_eq!(a.out, PathBuf::from("x"));
+        assert!(!parse_run_args(&[]).unwrap().quick);
+        assert!(parse_run_args(&args("--out"))
+            .unwrap_err()
+            .contains("needs"));
+        assert!(parse_run_args(&args("--slow"))
+            .unwrap_err()
+            .contains("unknown"));
+    }
+}
