@@ -22,8 +22,8 @@ import statistics
 import sys
 import time
 
-COLUMNS = ["name", "status", "nbody", "njnt", "nq", "nv", "nu", "timestep", "steps",
-           "us_per_step", "max_ncon"]
+COLUMNS = ["name", "status", "nbody", "njnt", "nq", "nv", "nu", "timestep", "integrator",
+           "steps", "us_per_step", "max_ncon"]
 
 
 def fail(msg):
@@ -55,7 +55,8 @@ def measure(path, duration, repeats):
     dt = float(m.opt.timestep)
     nstep = max(1, int(round(duration / dt)))
     row.update(nbody=m.nbody, njnt=m.njnt, nq=m.nq, nv=m.nv, nu=m.nu,
-               timestep=repr(dt), steps=nstep)
+               timestep=repr(dt), steps=nstep,
+               integrator=mujoco.mjtIntegrator(int(m.opt.integrator)).name.removeprefix("mjINT_"))
 
     d = mujoco.MjData(m)
     mujoco.mj_resetData(m, d)

@@ -215,6 +215,8 @@ pub struct Mujoco {
     pub nu: Option<usize>,
     /// As Python's repr wrote it, passed on to our binary as is.
     pub timestep: Option<String>,
+    /// MuJoCo's name without `mjINT_`: `EULER`, `RK4`, `IMPLICITFAST`, …
+    pub integrator: Option<String>,
     pub steps: Option<u64>,
     pub us_per_step: Option<f64>,
     pub max_ncon: Option<usize>,
@@ -254,6 +256,7 @@ pub fn parse_mujoco(text: &str) -> Result<(Option<String>, Vec<Mujoco>), String>
         "steps",
         "us_per_step",
         "max_ncon",
+        "integrator",
     ]
     .iter()
     .map(|c| col(c))
@@ -304,6 +307,7 @@ pub fn parse_mujoco(text: &str) -> Result<(Option<String>, Vec<Mujoco>), String>
             steps: num(8)?.map(|s| s as u64),
             us_per_step: us,
             max_ncon: num(10)?,
+            integrator: get(11).map(str::to_string),
         });
     }
     Ok((version, rows))
@@ -517,20 +521,24 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64) -> String {
     );
     let _ = writeln!(
         md,
-        "| model | suite | nbody | njnt | nu | timestep (s) | contacts (MuJoCo) | MuJoCo µs/step | ours: loads? / reason | ours µs/step | ours / MuJoCo |"
+        "| model | suite | nbody | njnt | nu | timestep (s) | integrator | contacts (MuJoCo) | MuJoCo µs/step | ours: loads? / reason | ours µs/step | ours / MuJoCo |"
     );
-    let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|---|---:|---:|");
+    let _ = writeln!(
+        md,
+        "|---|---|---:|---:|---:|---:|---|---:|---:|---|---:|---:|"
+    );
     for r in rows {
         let m = &r.mujoco;
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             cell(&r.name),
             r.suite,
             opt(&m.nbody),
             opt(&m.njnt),
             opt(&m.nu),
             opt(&m.timestep),
+            opt(&m.integrator),
             opt(&m.max_ncon),
             cell(&mujoco_cell(m)),
             cell(&ours_status(&r.ours)),
@@ -545,7 +553,18 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64) -> String {
         .count();
     let _ = writeln!(
         md,
-        "\n{} models; ours loads {loaded}, runs {ran} to the end.",
+        "\n{} models; ours loads {loaded}, runs {ran} to the end.\n\n\
+         - `lqr_2_1` and `swimmer6` are generated from dm_control's `lqr.xml` and \
+         `swimmer.xml` templates the way `lqr.py` and `swimmer.py` do (lqr's joint \
+         stiffnesses: the draws of `numpy.random.RandomState(0)`; dm_control draws new ones \
+         on every load). The other files are used as shipped: dm_control's task code \
+         edits some of them before loading, not done here: dog (floor size; removes ball, \
+         walls), quadruped (floor size; removes walls, ball, the terrain height field and \
+         the rangefinders unless a task uses them), manipulator (ball or peg), stacker \
+         (number of boxes).\n\
+         - MuJoCo's times are one median of 3 short rollouts; on a shared machine expect \
+         tens of per cent between runs. Models on RK4 (most gymnasium ones, acrobot, \
+         cartpole) pay four evaluations per step.",
         rows.len()
     );
     md
@@ -560,7 +579,7 @@ pub fn csv_field(s: &str) -> String {
     }
 }
 
-pub const CSV_HEADER: &str = "model,suite,nbody,njnt,nq,nv,nu,timestep,steps,max_ncon,\
+pub const CSV_HEADER: &str = "model,suite,nbody,njnt,nq,nv,nu,timestep,integrator,steps,max_ncon,\
 mujoco_status,mujoco_us_per_step,ours_loads,ours_error,ours_us_per_step,ratio";
 
 /// `target/models/models.csv`: the same data, empty fields where there is none.
@@ -582,6 +601,7 @@ pub fn csv(rows: &[Row]) -> String {
             e(m.nv.map(|v| v.to_string())),
             e(m.nu.map(|v| v.to_string())),
             e(m.timestep.clone()),
+            e(m.integrator.clone()),
             e(m.steps.map(|v| v.to_string())),
             e(m.max_ncon.map(|v| v.to_string())),
             m.status.clone(),
@@ -808,10 +828,10 @@ mod tests {
         // Columns in another order than the script writes them, a failed load, a
         // diverged run.
         let text = "#mujoco_version\t9.9.9\n\
-            max_ncon\tus_per_step\tsteps\ttimestep\tnu\tnv\tnq\tnjnt\tnbody\tstatus\tname\n\
-            4\t23.5\t500\t0.01\t8\t14\t15\t9\t14\tok\tgymnasium/ant\n\
-            -\t-\t-\t-\t-\t-\t-\t-\t-\tload failed: XML Error\tdm_control/x\n\
-            0\t1.5\t10\t0.5\t0\t1\t1\t1\t2\tdiverged (MuJoCo warning mjWARN_BADQACC)\ty\n";
+            integrator\tmax_ncon\tus_per_step\tsteps\ttimestep\tnu\tnv\tnq\tnjnt\tnbody\tstatus\tname\n\
+            RK4\t4\t23.5\t500\t0.01\t8\t14\t15\t9\t14\tok\tgymnasium/ant\n\
+            -\t-\t-\t-\t-\t-\t-\t-\t-\t-\tload failed: XML Error\tdm_control/x\n\
+            EULER\t0\t1.5\t10\t0.5\t0\t1\t1\t1\t2\tdiverged (MuJoCo warning mjWARN_BADQACC)\ty\n";
         let (v, rows) = parse_mujoco(text).unwrap();
         assert_eq!(v.as_deref(), Some("9.9.9"));
         assert_eq!(rows.len(), 3);
@@ -826,6 +846,8 @@ mod tests {
             (ant.steps, ant.us_per_step, ant.max_ncon),
             (Some(500), Some(23.5), Some(4))
         );
+        assert_eq!(ant.integrator.as_deref(), Some("RK4"));
+        assert_eq!(rows[2].integrator.as_deref(), Some("EULER"));
         assert_eq!(rows[1].status, "load failed: XML Error");
         assert_eq!(
             rows[1],
@@ -838,14 +860,14 @@ mod tests {
         assert!(rows[2].status.starts_with("diverged"));
 
         let header =
-            "name\tstatus\tnbody\tnjnt\tnq\tnv\tnu\ttimestep\tsteps\tus_per_step\tmax_ncon\n";
+            "name\tstatus\tnbody\tnjnt\tnq\tnv\tnu\ttimestep\tsteps\tus_per_step\tmax_ncon\tintegrator\n";
         for (bad, want) in [
             ("", "no header"),
             ("name\tstatus\n", "no column"),
-            ("a\tok\t1\t1\t1\t1\t1\t0.1\t1\t1\n", "fields"),
-            ("a\tok\tx\t1\t1\t1\t1\t0.1\t1\t1\t1\n", "not a count"),
-            ("a\tok\t1\t1\t1\t1\t1\t0\t1\t1\t1\n", "time step"),
-            ("a\tok\t1\t1\t1\t1\t1\t0.1\t1\tNaN\t1\n", "not a time"),
+            ("a\tok\t1\t1\t1\t1\t1\t0.1\t1\t1\t1\n", "fields"),
+            ("a\tok\tx\t1\t1\t1\t1\t0.1\t1\t1\t1\tRK4\n", "not a count"),
+            ("a\tok\t1\t1\t1\t1\t1\t0\t1\t1\t1\tRK4\n", "time step"),
+            ("a\tok\t1\t1\t1\t1\t1\t0.1\t1\tNaN\t1\tRK4\n", "not a time"),
         ] {
             let text = if want == "no header" || want == "no column" {
                 bad.to_string()
