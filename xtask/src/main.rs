@@ -8,6 +8,7 @@
 //! | `mujoco SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--integrator euler\|implicitfast\|rk4] --out FILE.csv [--timing FILE.json]` | runs an MJCF scene in MuJoCo (virtual environment with a pinned `mujoco` from PyPI in `target/mujoco-venv`, made on first use) and writes the trajectory file of DESIGN.md section 6; `--timing` adds seconds per step in MuJoCo's C loop |
 //! | `simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--method M] --out FILE.csv` | runs an MJCF scene with this library (the `simulate` binary of `constraint-verify`, release build) and writes the same trajectory file; one-line error and non-zero exit on any failure, divergence included |
 //! | `compare A.csv B.csv` | max COM position, orientation and body-origin error between two trajectory files, with time and body |
+//! | `models fetch \| list \| run [--quick] [--out DIR]` | the gymnasium 1.4.0 and dm_control 1.0.50 MJCF models (pinned wheels from PyPI, extracted into `target/models/`, dm_control's `lqr_2_1` and `swimmer6` generated): `run` times a passive run of each in MuJoCo (`mujoco.rollout`) and in the `simulate` binary and writes `target/models/models.md` and `models.csv`; `list` prints the 33 pinned files |
 //!
 //! One file per command, as in glam's `tools/ci`. Standard library only, so the task
 //! runner itself builds in seconds (MuJoCo runs through Python, never at build time).
@@ -17,6 +18,7 @@ mod bench_cloth;
 mod bench_mjcf;
 mod compare;
 mod fuzz;
+mod models;
 mod mujoco;
 mod no_std;
 mod run;
@@ -45,7 +47,14 @@ commands:
   compare A.csv B.csv
                      max COM, orientation and body-origin error between two trajectory files
   fuzz [--seconds N] [TARGET...]
-                     run the cargo-fuzz targets of fuzz/ for N seconds each (default 60)";
+                     run the cargo-fuzz targets of fuzz/ for N seconds each (default 60)
+  models fetch       download the pinned gymnasium and dm_control wheels (PyPI, no dependencies)
+                     and extract their 33 MJCF models into target/models/ (once; stamp file)
+  models list        fetch, then print the pinned models with their paths
+  models run [--quick] [--out DIR]
+                     fetch, then every model in MuJoCo (passive, mujoco.rollout) and in our
+                     simulate binary for 5 s (--quick: 0.5 s): models.md and models.csv in DIR
+                     (default target/models/)";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -57,6 +66,7 @@ fn main() -> ExitCode {
         Some("compare") => compare::main(&args[1..]),
         Some("fuzz") => fuzz::main(&args[1..]),
         Some("simulate") => simulate::main(&args[1..]),
+        Some("models") => models::main(&args[1..]),
         Some("-h" | "--help" | "help") | None => {
             println!("{USAGE}");
             Ok(())

@@ -122,7 +122,7 @@ fn venv_python() -> PathBuf {
 }
 
 /// The last non-empty line of a process's stderr (or stdout), for one-line reasons.
-fn last_line(out: &std::process::Output) -> String {
+pub fn last_line(out: &std::process::Output) -> String {
     let err = String::from_utf8_lossy(&out.stderr);
     let std = String::from_utf8_lossy(&out.stdout);
     err.lines()
