@@ -18,6 +18,7 @@
 //! | [`lemke()`] | complementary pivoting (Baraff 1994), lexicographic anti-cycling, warm start from a basis, pivot limit; standard LCP |
 //! | [`pgs()`] | projected Gauss–Seidel with over-relaxation and warm start (Erleben 2007, Catto); standard, boxed and frictional |
 //! | [`fischer_newton()`] | Fischer–Burmeister semismooth Newton with Armijo line search; standard LCP, high accuracy |
+//! | [`solve_rows()`] | one-sided, friction and boxed rows together: staggered projections (Kaufman et al. 2008) over the three, or one boxed PGS |
 //!
 //! Every solver checks the natural-map residual of its answer against its tolerance
 //! before returning `Ok`; the empty problem (`n = 0`) is solved trivially.
@@ -27,8 +28,10 @@ pub mod lemke;
 pub mod newton;
 pub mod pgs;
 pub mod problem;
+pub mod staggered;
 
 pub use lemke::{lemke, LemkeSettings};
 pub use newton::{fischer_newton, NewtonSettings};
 pub use pgs::{pgs, PgsSettings};
 pub use problem::{Lcp, LcpError, LcpSolution};
+pub use staggered::{solve_rows, Coupling, RowBound, RowMethod, RowSettings, RowStats};

@@ -70,9 +70,7 @@ mod path {
     pub const NO_ROWS: u16 = 1 << 11;
 }
 
-use crate::lcp::{
-    fischer_newton, lemke, pgs, Lcp, LcpError, LemkeSettings, NewtonSettings, PgsSettings,
-};
+use crate::lcp::{solve_rows, Coupling, LcpError, RowBound, RowMethod, RowSettings};
 
 /// Which solver handles the contact LCP.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,0 +1,286 @@
+//! One solve for every kind of one-sided and boxed row a step produces: contact normals
+//! and joint limits (`z ≥ 0`, `w ≥ 0`, `z w = 0`), Coulomb friction (`|z_t| ≤ μ z_n`)
+//! and fixed boxes (joint dry friction, `|z| ≤ f h`), on a dense Delassus matrix
+//! `A = J K⁻¹ Jᵀ` (Otaduy 2010, "Contacto mediante restricciones"; `K⁻¹` is `M⁻¹` for
+//! free bodies or the joint-constrained inverse of a tree).
+//!
+//! Lemke and the Fischer–Burmeister Newton method take standard LCPs only, so the rows
+//! that are not one-sided go by Kaufman et al.'s staggered projections (2008): the
+//! standard LCP of the one-sided rows with the other impulses fixed, then the boxed
+//! problem of the other rows with the one-sided impulses fixed, alternated; projected
+//! Gauss–Seidel can also take the whole boxed problem in one go.
+
+use alloc::vec::Vec;
+
+use super::{fischer_newton, lemke, pgs, Lcp, LcpError, LemkeSettings, NewtonSettings, PgsSettings};
+
+/// The bound of one row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RowBound {
+    /// One-sided: `z ≥ 0`, `w ≥ 0`, `z w = 0` (contact normal, joint limit).
+    Unilateral,
+    /// Coulomb friction tied to the one-sided row `normal`: `|z| ≤ mu z_normal`.
+    Friction {
+        /// Index of the normal row.
+        normal: usize,
+        /// Friction coefficient `μ ≥ 0`.
+        mu: f64,
+    },
+    /// A fixed box `lo ≤ z ≤ hi` (joint dry friction `±f h`).
+    Boxed {
+        /// Lower bound.
+        lo: f64,
+        /// Upper bound.
+        hi: f64,
+    },
+}
+
+/// The method for the one-sided part (and for the whole problem with `Boxed`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RowMethod {
+    /// Projected Gauss–Seidel.
+    Pgs,
+    /// Lemke's pivoting.
+    Lemke,
+    /// Fischer–Burmeister Newton.
+    Newton,
+}
+
+/// How the non-one-sided rows couple with the one-sided ones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coupling {
+    /// One boxed LCP with the friction bounds moving with the normal impulses (PGS only).
+    Boxed,
+    /// Staggered projections, `sweeps` normal/friction alternations.
+    Staggered {
+        /// Alternations.
+        sweeps: usize,
+    },
+}
+
+/// Settings of [`solve_rows`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RowSettings {
+    /// The requested method (the others are tried in turn when it fails).
+    pub method: RowMethod,
+    /// The coupling of friction and boxes with the one-sided rows.
+    pub coupling: Coupling,
+    /// Residual tolerance of the one-sided solve.
+    pub tolerance: f64,
+    /// Iteration cap of a PGS solve of the one-sided or the whole boxed problem.
+    pub pgs_iterations: usize,
+    /// Residual tolerance of the friction PGS.
+    pub friction_tolerance: f64,
+    /// Sweeps of the friction PGS (and of its last-budget fallback).
+    pub friction_iterations: usize,
+}
+
+impl Default for RowSettings {
+    fn default() -> Self {
+        Self {
+            method: RowMethod::Newton,
+            coupling: Coupling::Staggered { sweeps: 2 },
+            tolerance: 1e-10,
+            pgs_iterations: 10_000,
+            friction_tolerance: 1e-8,
+            friction_iterations: 10_000,
+        }
+    }
+}
+
+/// What [`solve_rows`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RowStats {
+    /// Iterations over all solves (sweeps, pivots, Newton steps).
+    pub iterations: usize,
+    /// The method whose one-sided answer was accepted last (`None`: no one-sided rows
+    /// or the boxed PGS).
+    pub accepted: Option<RowMethod>,
+    /// The whole problem went to one boxed PGS.
+    pub boxed_pgs: bool,
+    /// A friction PGS ran.
+    pub friction_pgs: bool,
+    /// A friction PGS ran out of sweeps and its last budget of sweeps was kept.
+    pub friction_budget: bool,
+}
+
+/// Solves `w = A z + q` with the row bounds `bounds` (`A` dense row-major `n × n`),
+/// starting from `z` (warm start; overwritten with the answer). Every accepted answer
+/// passed its solver's residual check; a failure of every one-sided solver is the last
+/// error.
+pub fn solve_rows(
+    a: &[f64],
+    q: &[f64],
+    bounds: &[RowBound],
+    settings: &RowSettings,
+    z: &mut [f64],
+) -> Result<RowStats, LcpError> {
+    let n = q.len();
+    let mut stats = RowStats::default();
+    if n == 0 {
+        return Ok(stats);
+    }
+    let pgs_settings = PgsSettings {
+        tolerance: settings.tolerance,
+        max_iterations: settings.pgs_iterations,
+        ..PgsSettings::default()
+    };
+    if settings.method == RowMethod::Pgs && settings.coupling == Coupling::Boxed {
+        stats.boxed_pgs = true;
+        let mut lo = Vec::with_capacity(n);
+        let mut hi = Vec::with_capacity(n);
+        let mut links = Vec::with_capacity(n);
+        for b in bounds {
+            let (l, h, link) = match *b {
+                RowBound::Unilateral => (0.0, f64::INFINITY, None),
+                RowBound::Friction { normal, mu } => {
+                    (f64::NEG_INFINITY, f64::INFINITY, Some((normal, mu)))
+                }
+                RowBound::Boxed { lo, hi } => (lo, hi, None),
+            };
+            lo.push(l);
+            hi.push(h);
+            links.push(link);
+        }
+        let lcp = Lcp::boxed(a.to_vec(), q.to_vec(), lo, hi)?.with_friction(links)?;
+        let sol = pgs(&lcp, &pgs_settings, Some(z))?;
+        z.copy_from_slice(&sol.z);
+        stats.iterations = sol.iterations;
+        return Ok(stats);
+    }
+    let sweeps = match settings.coupling {
+        Coupling::Staggered { sweeps } => sweeps.max(1),
+        Coupling::Boxed => 1,
+    };
+    let normal: Vec<usize> = (0..n)
+        .filter(|&i| bounds[i] == RowBound::Unilateral)
+        .collect();
+    let tangent: Vec<usize> = (0..n)
+        .filter(|&i| bounds[i] != RowBound::Unilateral)
+        .collect();
+    let sub = |rows: &[usize], cols: &[usize]| -> Vec<f64> {
+        let mut m = Vec::with_capacity(rows.len() * cols.len());
+        for &i in rows {
+            for &j in cols {
+                m.push(a[i * n + j]);
+            }
+        }
+        m
+    };
+    let ann = sub(&normal, &normal);
+    let att = sub(&tangent, &tangent);
+    // Friction rows with μ = 0 and boxes of zero width take no impulse: with none
+    // left, one normal solve is the answer.
+    let inert = |b: &RowBound| match *b {
+        RowBound::Friction { mu, .. } => mu == 0.0,
+        RowBound::Boxed { lo, hi } => lo == 0.0 && hi == 0.0,
+        RowBound::Unilateral => true,
+    };
+    let frictionless = bounds.iter().all(inert);
+    let bound = |i: usize, z: &[f64]| match bounds[i] {
+        RowBound::Friction { normal, mu } => {
+            let m = mu * z[normal];
+            (-m, m)
+        }
+        RowBound::Boxed { lo, hi } => (lo, hi),
+        RowBound::Unilateral => (0.0, f64::INFINITY),
+    };
+    let lemke_settings = LemkeSettings {
+        tolerance: settings.tolerance,
+        ..LemkeSettings::default()
+    };
+    let newton_settings = NewtonSettings {
+        tolerance: settings.tolerance,
+        max_iterations: 200,
+        ..NewtonSettings::default()
+    };
+    for _ in 0..sweeps {
+        if !normal.is_empty() {
+            // The one-sided LCP with the other impulses fixed.
+            let qn: Vec<f64> = normal
+                .iter()
+                .map(|&i| q[i] + tangent.iter().map(|&j| a[i * n + j] * z[j]).sum::<f64>())
+                .collect();
+            let lcp = Lcp::new(ann.clone(), qn)?;
+            let zn0: Vec<f64> = normal.iter().map(|&i| z[i]).collect();
+            // The requested solver first; where it fails (Newton stalls and Lemke loses
+            // accuracy on the semi-definite Delassus matrix of coplanar contact points),
+            // the others in turn, so a step fails only when all three do.
+            let order = match settings.method {
+                RowMethod::Lemke => [RowMethod::Lemke, RowMethod::Newton, RowMethod::Pgs],
+                RowMethod::Newton => [RowMethod::Newton, RowMethod::Lemke, RowMethod::Pgs],
+                RowMethod::Pgs => [RowMethod::Pgs, RowMethod::Newton, RowMethod::Lemke],
+            };
+            let mut result = Err(LcpError::BadSettings("no solver ran"));
+            for which in order {
+                result = match which {
+                    RowMethod::Lemke => lemke(&lcp, &lemke_settings, None),
+                    RowMethod::Newton => fischer_newton(&lcp, &newton_settings, Some(&zn0)),
+                    RowMethod::Pgs => pgs(&lcp, &pgs_settings, Some(&zn0)),
+                };
+                if result.is_ok() {
+                    stats.accepted = Some(which);
+                    break;
+                }
+            }
+            let sol = result?;
+            stats.iterations += sol.iterations;
+            for (k, &i) in normal.iter().enumerate() {
+                // The solvers return z ≥ 0 up to round-off; clamp so the friction bounds
+                // ±μ z_n stay ordered.
+                z[i] = sol.z[k].max(0.0);
+            }
+        }
+        if frictionless {
+            break;
+        }
+        // The boxed problem of the other rows with the one-sided impulses fixed: PGS on
+        // its dense block. The block is only semi-definite when a face touches at four
+        // coplanar points, where PGS can converge slowly; when it runs out of sweeps, a
+        // last budget of sweeps from the warm start is kept instead of failing.
+        let qt: Vec<f64> = tangent
+            .iter()
+            .map(|&i| q[i] + normal.iter().map(|&j| a[i * n + j] * z[j]).sum::<f64>())
+            .collect();
+        let lo: Vec<f64> = tangent.iter().map(|&i| bound(i, z).0).collect();
+        let hi: Vec<f64> = tangent.iter().map(|&i| bound(i, z).1).collect();
+        let zt0: Vec<f64> = tangent.iter().map(|&i| z[i]).collect();
+        let friction_settings = PgsSettings {
+            tolerance: settings.friction_tolerance,
+            max_iterations: settings.friction_iterations,
+            ..PgsSettings::default()
+        };
+        let lcp = Lcp::boxed(att.clone(), qt.clone(), lo, hi)?;
+        stats.friction_pgs = true;
+        match pgs(&lcp, &friction_settings, Some(&zt0)) {
+            Ok(sol) => {
+                stats.iterations += sol.iterations;
+                for (k, &i) in tangent.iter().enumerate() {
+                    z[i] = sol.z[k];
+                }
+            }
+            Err(LcpError::IterationLimit { .. }) => {
+                stats.friction_budget = true;
+                let nt = tangent.len();
+                for _ in 0..settings.friction_iterations {
+                    for (k, &i) in tangent.iter().enumerate() {
+                        let d = att[k * nt + k];
+                        if !(d > 0.0) {
+                            continue;
+                        }
+                        let mut w = qt[k];
+                        for (l, &j) in tangent.iter().enumerate() {
+                            w += att[k * nt + l] * z[j];
+                        }
+                        let (lo, hi) = bound(i, z);
+                        // `min`/`max`, not `clamp`: NaN bounds must not panic.
+                        z[i] = (z[i] - w / d).min(hi).max(lo);
+                    }
+                    stats.iterations += 1;
+                }
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(stats)
+}
