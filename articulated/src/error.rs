@@ -53,6 +53,24 @@ pub enum ArticulatedError {
     LoopSolve,
     /// The scene file could not be turned into a world.
     Scene(alloc::string::String),
+    /// The complementarity problem of the one-sided rows (limits, contacts) could not be
+    /// solved by any of its solvers (the state was left as before the step).
+    Unilateral(constraint_contact::lcp::LcpError),
+    /// A collider was rejected by the contact crate's geometry checks (`collider` is
+    /// `usize::MAX` when contact generation failed for the scene as a whole).
+    Geometry {
+        /// Index of the collider.
+        collider: usize,
+        /// The geometry error.
+        error: constraint_contact::geometry::GeometryError,
+    },
+    /// A collider was invalid (unknown body).
+    InvalidCollider {
+        /// Index of the collider.
+        collider: usize,
+        /// Which rule it broke.
+        reason: &'static str,
+    },
 }
 
 impl fmt::Display for ArticulatedError {
@@ -73,6 +91,11 @@ impl fmt::Display for ArticulatedError {
             }
             Self::LoopSolve => f.write_str("loop-closure system could not be solved"),
             Self::Scene(s) => write!(f, "scene: {s}"),
+            Self::Unilateral(e) => write!(f, "limits and contacts: {e}"),
+            Self::Geometry { collider, error } => write!(f, "collider {collider}: {error:?}"),
+            Self::InvalidCollider { collider, reason } => {
+                write!(f, "collider {collider}: {reason}")
+            }
         }
     }
 }

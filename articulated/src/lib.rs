@@ -37,4 +37,8 @@ pub use error::ArticulatedError;
 pub use joint::{Joint, JointKind};
 #[cfg(feature = "mjcf")]
 pub use mjcf::MjcfScene;
-pub use world::{GeometricStiffness, Method, StepStats, World};
+#[cfg(feature = "contact")]
+pub use world::CollisionFilter;
+pub use world::{
+    GeometricStiffness, Method, RowSource, StepStats, UnilateralSettings, UnilateralStats, World,
+};

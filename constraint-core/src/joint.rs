@@ -200,6 +200,8 @@ pub struct Hinge {
     n: [DVec3; 2],
     u_b: DVec3,
     u_a: DVec3,
+    /// `n[0]` at the rest pose, in body `b`'s frame: the zero of [`Hinge::angle`].
+    m_b: DVec3,
 }
 
 impl Hinge {
@@ -228,7 +230,27 @@ impl Hinge {
             n,
             u_b: b.dir_to_local(u),
             u_a: a.dir_to_local(u),
+            m_b: b.dir_to_local(a.q * n[0]),
         })
+    }
+
+    /// The joint angle `θ` of body `b` about the axis relative to body `a`, zero at the
+    /// rest poses the hinge was built at, positive counter-clockwise about the axis, in
+    /// `(−π, π]`: with `n` fixed in `a` and `m` (equal to `n` at rest) fixed in `b`,
+    /// `θ = atan2(u · (n × m), n · m)`. Its rate is `u · (ω_b − ω_a)` while the hinge
+    /// rows hold, so the Jacobian row of a limit `θ − θ_lo ≥ 0` is
+    /// [`Hinge::angle_row`].
+    pub fn angle(&self, a: &Pose, b: &Pose) -> f64 {
+        let n = a.q * self.n[0];
+        let m = b.q * self.m_b;
+        let u = b.q * self.u_b;
+        libm::atan2(u.dot(n.cross(m)), n.dot(m))
+    }
+
+    /// The Jacobian row `[0, −u, 0, u]` of [`Hinge::angle`] (`u` the axis in the world).
+    pub fn angle_row(&self, b: &Pose) -> [DVec3; 4] {
+        let u = b.q * self.u_b;
+        [DVec3::ZERO, -u, DVec3::ZERO, u]
     }
 
     /// The hinge axis in body `a`'s frame.

@@ -35,14 +35,26 @@ use crate::joint::{Joint, JointKind, MAX_ROWS};
 use crate::tree::{JointTopo, TreeSolver};
 
 mod acceleration;
+#[cfg(feature = "contact")]
+mod contact;
 mod projection;
 mod rattle;
 mod stages;
+mod unilateral;
 mod velocity;
+
+#[cfg(feature = "contact")]
+pub use contact::CollisionFilter;
+pub use unilateral::{RowSource, UnilateralSettings, UnilateralStats};
 
 /// Largest rotation of a body in one RATTLE drift (rad) before the step is redone at
 /// the velocity level.
 const MAX_TURN: f64 = 0.5;
+
+/// A contact's impulses kept for the next step: its key (collider pair, feature id),
+/// normal impulse and friction impulse as a world vector.
+#[cfg(feature = "contact")]
+type WarmContact = ((usize, usize, u64), (f64, DVec3));
 
 /// Loop-closure rows of one assembly: `(a, b, row)`, compliance, right-hand side.
 type LoopRows = (Vec<(Option<usize>, usize, [DVec3; 4])>, Vec<f64>, Vec<f64>);
@@ -158,6 +170,10 @@ pub struct StepStats {
     /// of a stiff mode, e.g. a heavy-tip chain at a large step) and were redone with the
     /// velocity level (which has geometric stiffness).
     pub fallbacks: usize,
+    /// Steps of a RATTLE or acceleration-level method taken instead at the velocity level
+    /// (with projection for RATTLE) because one-sided rows (limits, contacts) were present:
+    /// those methods are not defined across a complementarity event.
+    pub unilateral_fallbacks: usize,
 }
 
 /// Bodies, joints, gravity and the solver's reusable storage.
@@ -186,6 +202,46 @@ pub struct World {
     proj_base: Vec<(Pose, DVec3, DVec3)>,
     /// Positional compliance `α ≥ 0` per joint (0: hard).
     compliance: Vec<f64>,
+    /// Limits per joint.
+    limits: Vec<Option<[f64; 2]>>,
+    /// Settings of the one-sided rows (limits, contacts).
+    pub unilateral: UnilateralSettings,
+    /// What the one-sided rows did in the last step.
+    ustats: UnilateralStats,
+    /// One-sided rows of the current step (scratch kept across steps).
+    urows: Vec<unilateral::URow>,
+    /// Their impulses.
+    uz: Vec<f64>,
+    /// `Y = H⁻¹ Gᵀ`, column per row (scratch).
+    ucols: Vec<f64>,
+    /// The Delassus matrix `G Y` (scratch).
+    udel: Vec<f64>,
+    /// `q = G x_free − bias` (scratch).
+    uq: Vec<f64>,
+    /// Loop multipliers of the column solves (scratch).
+    umu: Vec<f64>,
+    /// Zero loop right-hand side (scratch).
+    uzero: Vec<f64>,
+    /// The loop rows of the last assembly.
+    last_loops: LoopRows,
+    /// Colliders (feature `contact`).
+    #[cfg(feature = "contact")]
+    colliders: Vec<constraint_contact::geometry::Collider>,
+    #[cfg(feature = "contact")]
+    filters: Vec<CollisionFilter>,
+    /// Excluded body pairs, sorted (`usize::MAX`: the world).
+    #[cfg(feature = "contact")]
+    excluded: Vec<(usize, usize)>,
+    #[cfg(feature = "contact")]
+    contacts: Vec<constraint_contact::geometry::Contact>,
+    /// Contact impulses of the last step by contact key, sorted (warm start).
+    #[cfg(feature = "contact")]
+    warm: Vec<WarmContact>,
+    #[cfg(feature = "contact")]
+    poses: Vec<Pose>,
+    /// Approach speed above which restitution applies (m/s; feature `contact`).
+    #[cfg(feature = "contact")]
+    pub restitution_threshold: f64,
 }
 
 impl World {
@@ -207,6 +263,31 @@ impl World {
             momenta: Vec::new(),
             proj_base: Vec::new(),
             compliance: Vec::new(),
+            limits: Vec::new(),
+            unilateral: UnilateralSettings::default(),
+            ustats: UnilateralStats::default(),
+            urows: Vec::new(),
+            uz: Vec::new(),
+            ucols: Vec::new(),
+            udel: Vec::new(),
+            uq: Vec::new(),
+            umu: Vec::new(),
+            uzero: Vec::new(),
+            last_loops: (Vec::new(), Vec::new(), Vec::new()),
+            #[cfg(feature = "contact")]
+            colliders: Vec::new(),
+            #[cfg(feature = "contact")]
+            filters: Vec::new(),
+            #[cfg(feature = "contact")]
+            excluded: Vec::new(),
+            #[cfg(feature = "contact")]
+            contacts: Vec::new(),
+            #[cfg(feature = "contact")]
+            warm: Vec::new(),
+            #[cfg(feature = "contact")]
+            poses: Vec::new(),
+            #[cfg(feature = "contact")]
+            restitution_threshold: 0.5,
         }
     }
 
@@ -246,6 +327,7 @@ impl World {
         }
         self.joints.push(joint);
         self.compliance.push(0.0);
+        self.limits.push(None);
         self.solver_stale = true;
         Ok(j)
     }
@@ -445,6 +527,17 @@ impl World {
         }
     }
 
+    /// The one-sided rows of this step, at its start: joint limits, then contacts.
+    fn collect_unilateral_rows(&mut self, h: f64) -> Result<(), ArticulatedError> {
+        self.urows.clear();
+        self.ustats = UnilateralStats::default();
+        self.push_limit_rows(h);
+        #[cfg(feature = "contact")]
+        self.push_contact_rows(h)?;
+        let _ = h;
+        Ok(())
+    }
+
     /// Puts the bodies and joint impulses back as they were at the start of the step.
     fn restore_start(&mut self) {
         self.bodies.clone_from(&self.saved);
@@ -460,6 +553,32 @@ impl World {
 
     fn step_inner(&mut self, h: f64, method: Method) -> Result<StepStats, ArticulatedError> {
         let mut stats = StepStats::default();
+        self.collect_unilateral_rows(h)?;
+        if !self.urows.is_empty() {
+            // RATTLE and the acceleration level are not defined across a complementarity
+            // event: the step goes to the velocity level (projected for RATTLE).
+            match method {
+                Method::Rattle {
+                    tolerance,
+                    max_iterations,
+                }
+                | Method::Rattle4 {
+                    tolerance,
+                    max_iterations,
+                } => {
+                    stats.unilateral_fallbacks = 1;
+                    self.velocity_solve(h, 1.0)?;
+                    stats.projection_iterations = self.project(tolerance, max_iterations, None)?;
+                    return Ok(stats);
+                }
+                Method::Acceleration { .. } => {
+                    stats.unilateral_fallbacks = 1;
+                    self.velocity_solve(h, 1.0)?;
+                    return Ok(stats);
+                }
+                _ => {}
+            }
+        }
         match method {
             Method::Velocity { beta } => self.velocity_solve(h, beta)?,
             Method::VelocityProjected {
@@ -569,7 +688,9 @@ impl World {
     fn solve(&mut self, loops: LoopRows) -> Result<(), ArticulatedError> {
         let solver = &mut self.solver;
         solver.factor()?;
-        self.solve_factored(&loops)
+        let out = self.solve_factored(&loops);
+        self.last_loops = loops;
+        out
     }
 
     /// Solves with the factor already in the solver (loop rows as assembled with it).

@@ -13,6 +13,16 @@ impl World {
     /// `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`, then `x' = x + h v'`.
     pub(super) fn velocity_solve(&mut self, h: f64, beta: f64) -> Result<(), ArticulatedError> {
         self.velocity_system_solve(h, beta)?;
+        if !self.urows.is_empty() {
+            // One-sided rows through the factored joint system: x' = x_free + Y z.
+            let loops = core::mem::take(&mut self.last_loops);
+            let out = self.solve_unilateral(&loops);
+            self.last_loops = loops;
+            out?;
+            self.store_impulses();
+            #[cfg(feature = "contact")]
+            self.store_warm_contacts();
+        }
         for i in 0..self.bodies.len() {
             let (v, w) = self.body_solution(i);
             let b = &mut self.bodies[i];

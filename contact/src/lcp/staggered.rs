@@ -12,7 +12,9 @@
 
 use alloc::vec::Vec;
 
-use super::{fischer_newton, lemke, pgs, Lcp, LcpError, LemkeSettings, NewtonSettings, PgsSettings};
+use super::{
+    fischer_newton, lemke, pgs, Lcp, LcpError, LemkeSettings, NewtonSettings, PgsSettings,
+};
 
 /// The bound of one row.
 #[derive(Clone, Copy, Debug, PartialEq)]

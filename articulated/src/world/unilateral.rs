@@ -1,0 +1,372 @@
+//! One-sided and boxed rows solved together with the joints: joint limits, contact
+//! normals and Coulomb friction (Otaduy 2010, "Contacto mediante restricciones": a
+//! limit and a contact are the same object, `C(x) ≥ 0`, `λ ≥ 0`, `λ C = 0`).
+//!
+//! The bilateral joint rows keep Baraff's tree factorization of
+//! `H = [M Jᵀ; J −C]`. Adding impulses `z` along one-sided rows `G` (each acting on at
+//! most two bodies) to the velocity-level system gives `H x' = b + Gᵀ z`, so
+//!
+//! ```text
+//! x' = x_free + Y z,    Y = H⁻¹ Gᵀ    (one tree solve per row, O(n) each),
+//! w  = G x' − bias = (G x_free − bias) + (G Y) z = q + A z,
+//! ```
+//!
+//! where `A = G Y = G K⁻¹ Gᵀ` is the Delassus matrix of the rows *through the joints*
+//! (`K⁻¹`, the body block of `H⁻¹`, is the inverse mass of the constrained tree). The
+//! complementarity problem `w ≥ 0, z ≥ 0, wᵀz = 0` (friction and dry-friction rows
+//! boxed) goes to [`constraint_contact::lcp::solve_rows`]; then `x' = x_free + Y z`
+//! updates the body velocities *and* the joint impulses, so every row holds in the same
+//! solve. Loop joints enter through the same Schur complement as in the plain solve.
+//!
+//! Rows at the velocity level: a limit or contact with value `C ≥ 0` at the start of the
+//! step asks for `G v' ≥ −C/h` (speculative: it may close the gap within the step, no
+//! further), one with `C < 0` (violated beyond the slop) for `G v' ≥ β (−C − slop)/h`.
+
+use alloc::vec::Vec;
+
+use constraint_contact::lcp::{solve_rows, RowBound, RowSettings, RowStats};
+use constraint_core::DVec3;
+
+use super::*;
+
+/// Settings of the one-sided rows (limits and contacts).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UnilateralSettings {
+    /// The complementarity solver (method, friction coupling, tolerances).
+    pub solver: RowSettings,
+    /// Baumgarte factor `β ∈ [0, 1]` for violation beyond `slop`.
+    pub baumgarte: f64,
+    /// Violation allowed without correction (m for contacts and slide limits, rad for
+    /// hinge limits).
+    pub slop: f64,
+    /// Rows whose value `C` is below `margin` plus the distance the row's current rate
+    /// covers in one step are added (speculative rows); contacts use it as the narrow
+    /// phase's margin.
+    pub margin: f64,
+}
+
+impl Default for UnilateralSettings {
+    fn default() -> Self {
+        Self {
+            solver: RowSettings::default(),
+            baumgarte: 0.2,
+            slop: 1e-4,
+            margin: 0.02,
+        }
+    }
+}
+
+/// Where a one-sided row comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RowSource {
+    /// The lower (`θ − lo ≥ 0`) or upper (`hi − θ ≥ 0`) limit of a joint.
+    Limit {
+        /// The joint.
+        joint: usize,
+        /// The upper limit (else the lower).
+        upper: bool,
+    },
+    /// Contact point `contact` of the last step: its normal (`axis = 0`) or one of its
+    /// two friction directions.
+    Contact {
+        /// Index into [`World::contacts`].
+        contact: usize,
+        /// 0: normal, 1 and 2: tangents.
+        axis: u8,
+    },
+}
+
+/// One row: bodies, Jacobian `[v_a, ω_a, v_b, ω_b]`, target and bound.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct URow {
+    pub a: Option<usize>,
+    pub b: Option<usize>,
+    pub j: [DVec3; 4],
+    /// `w = G v' − bias`.
+    pub bias: f64,
+    pub bound: RowBound,
+    pub source: RowSource,
+}
+
+/// What the one-sided rows did in the last step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UnilateralStats {
+    /// One-sided and boxed rows solved (limits, contact normals and tangents).
+    pub rows: usize,
+    /// Limit rows among them.
+    pub limit_rows: usize,
+    /// Contact points.
+    pub contacts: usize,
+    /// What the complementarity solver did.
+    pub solver: RowStats,
+    /// Natural-map residual of the row problem at the returned impulses.
+    pub residual: f64,
+    /// Deepest contact penetration at the start of the step (m).
+    pub max_penetration: f64,
+}
+
+impl World {
+    /// Sets the limits `lower ≤ q ≤ upper` of hinge (angle, rad, zero at the pose the
+    /// joint was built at) or prismatic joint `joint` (displacement, m); one-sided rows
+    /// solved with the joints and contacts. Errors: unknown joint, a joint kind other
+    /// than hinge or prismatic, NaN bounds or `lower > upper`; infinite bounds are
+    /// allowed (one side only).
+    pub fn set_limit(
+        &mut self,
+        joint: usize,
+        lower: f64,
+        upper: f64,
+    ) -> Result<(), ArticulatedError> {
+        let bad = |reason| ArticulatedError::InvalidJoint { joint, reason };
+        let Some(j) = self.joints.get(joint) else {
+            return Err(bad("unknown joint"));
+        };
+        if !matches!(j.kind, JointKind::Hinge(_) | JointKind::Prismatic(_)) {
+            return Err(bad("limits apply to hinge and prismatic joints only"));
+        }
+        if lower.is_nan() || upper.is_nan() || lower > upper {
+            return Err(bad("limits need lower <= upper (no NaN)"));
+        }
+        if lower == f64::INFINITY || upper == f64::NEG_INFINITY {
+            return Err(bad("limits must leave some range"));
+        }
+        self.limits[joint] = Some([lower, upper]);
+        Ok(())
+    }
+
+    /// Removes the limits of `joint` (no effect on an unknown joint).
+    pub fn clear_limit(&mut self, joint: usize) {
+        if let Some(l) = self.limits.get_mut(joint) {
+            *l = None;
+        }
+    }
+
+    /// The joints' limits, in joint order (`None`: unlimited).
+    pub fn limits(&self) -> &[Option<[f64; 2]>] {
+        &self.limits
+    }
+
+    /// The joint coordinate a limit acts on: the hinge angle (rad) or the prismatic
+    /// displacement (m); `None` for other joints.
+    pub fn joint_position(&self, joint: usize) -> Option<f64> {
+        let j = self.joints.get(joint)?;
+        let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
+        match &j.kind {
+            JointKind::Hinge(c) => Some(c.angle(&a, &b)),
+            JointKind::Prismatic(c) => Some(c.displacement(&a, &b)),
+            _ => None,
+        }
+    }
+
+    /// What the one-sided rows did in the last step.
+    pub fn unilateral_stats(&self) -> UnilateralStats {
+        self.ustats
+    }
+
+    /// The impulses of the one-sided rows of the last step with their sources (N·s, or
+    /// N·m·s for hinge limits).
+    pub fn row_impulses(&self) -> impl Iterator<Item = (RowSource, f64)> + '_ {
+        self.urows.iter().zip(&self.uz).map(|(r, z)| (r.source, *z))
+    }
+
+    /// The limit rows at the current state (velocities `v` before the solve).
+    pub(super) fn push_limit_rows(&mut self, h: f64) {
+        let s = self.unilateral;
+        for (ji, joint) in self.joints.iter().enumerate() {
+            let Some([lo, hi]) = self.limits[ji] else {
+                continue;
+            };
+            let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
+            let b = self.bodies[joint.child].pose;
+            let (q, row) = match &joint.kind {
+                JointKind::Hinge(c) => (c.angle(&a, &b), c.angle_row(&b)),
+                JointKind::Prismatic(c) => (c.displacement(&a, &b), c.displacement_row(&a, &b)),
+                _ => continue,
+            };
+            let tw = |i: Option<usize>| {
+                i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
+                    (self.bodies[i].v, self.bodies[i].omega)
+                })
+            };
+            let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
+            let rate = row[0].dot(va) + row[1].dot(wa) + row[2].dot(vb) + row[3].dot(wb);
+            for (upper, c, sign) in [(false, q - lo, 1.0), (true, hi - q, -1.0)] {
+                if !(c < s.margin + (rate * h).abs()) {
+                    continue;
+                }
+                let j = row.map(|r| r * sign);
+                self.urows.push(URow {
+                    a: joint.parent,
+                    b: Some(joint.child),
+                    j,
+                    bias: row_bias(c, h, &s),
+                    bound: RowBound::Unilateral,
+                    source: RowSource::Limit { joint: ji, upper },
+                });
+            }
+        }
+    }
+
+    /// Solves the one-sided rows against the factored joint system whose solution
+    /// (`x_free`) is in `self.rhs`, and adds `Y z` to it. `loops` are the loop rows the
+    /// factor was assembled with.
+    pub(super) fn solve_unilateral(&mut self, loops: &LoopRows) -> Result<(), ArticulatedError> {
+        let m = self.urows.len();
+        self.ustats.rows = m;
+        self.ustats.limit_rows = self
+            .urows
+            .iter()
+            .filter(|r| matches!(r.source, RowSource::Limit { .. }))
+            .count();
+        self.uz.clear();
+        self.uz.resize(m, 0.0);
+        if m == 0 {
+            return Ok(());
+        }
+        let size = self.solver.size;
+        // Y = H⁻¹ Gᵀ, one tree solve (with the loop closure) per row.
+        let mut ycols = core::mem::take(&mut self.ucols);
+        ycols.clear();
+        ycols.resize(m * size, 0.0);
+        let mut mu = core::mem::take(&mut self.umu);
+        let zero_rhs = core::mem::take(&mut self.uzero);
+        let mut zero_rhs = zero_rhs;
+        zero_rhs.clear();
+        zero_rhs.resize(loops.2.len(), 0.0);
+        let free_scale = self.loop_free_scale(loops);
+        for (k, r) in self.urows.iter().enumerate() {
+            let col = &mut ycols[k * size..(k + 1) * size];
+            scatter(&self.solver, col, r, 1.0);
+            self.solver
+                .solve_with_loops(col, &loops.0, &loops.1, &zero_rhs, free_scale, &mut mu)?;
+        }
+        // A = G Y, q = G x_free − bias.
+        let mut a = core::mem::take(&mut self.udel);
+        a.clear();
+        a.resize(m * m, 0.0);
+        let mut q = core::mem::take(&mut self.uq);
+        q.clear();
+        for (i, ri) in self.urows.iter().enumerate() {
+            for k in 0..m {
+                a[i * m + k] = gather(&self.solver, &ycols[k * size..(k + 1) * size], ri);
+            }
+            q.push(gather(&self.solver, &self.rhs, ri) - ri.bias);
+        }
+        // Symmetrise the round-off (A is symmetric in exact arithmetic).
+        for i in 0..m {
+            for k in i + 1..m {
+                let s = 0.5 * (a[i * m + k] + a[k * m + i]);
+                a[i * m + k] = s;
+                a[k * m + i] = s;
+            }
+        }
+        let bounds: Vec<RowBound> = self.urows.iter().map(|r| r.bound).collect();
+        let mut z = core::mem::take(&mut self.uz);
+        self.warm_unilateral(&mut z);
+        let settings: RowSettings = self.unilateral.solver;
+        let result = solve_rows(&a, &q, &bounds, &settings, &mut z);
+        let outcome = match result {
+            Ok(stats) => {
+                self.ustats.solver = stats;
+                // x' = x_free + Y z.
+                for (k, zk) in z.iter().enumerate() {
+                    if *zk != 0.0 {
+                        let col = &ycols[k * size..(k + 1) * size];
+                        for (x, y) in self.rhs.iter_mut().zip(col) {
+                            *x += zk * y;
+                        }
+                    }
+                }
+                self.ustats.residual = row_residual(&a, &q, &bounds, &z);
+                Ok(())
+            }
+            Err(e) => Err(ArticulatedError::Unilateral(e)),
+        };
+        self.uz = z;
+        self.ucols = ycols;
+        self.udel = a;
+        self.uq = q;
+        self.umu = mu;
+        self.uzero = zero_rhs;
+        outcome
+    }
+
+    /// `max g M⁻¹ gᵀ` of the loop rows (their scale without the tree).
+    pub(super) fn loop_free_scale(&self, loops: &LoopRows) -> f64 {
+        let mut free_scale: f64 = 0.0;
+        for (a, b, row) in &loops.0 {
+            let mut g = 0.0;
+            for (side, body) in [(0usize, *a), (1usize, Some(*b))] {
+                if let Some(i) = body {
+                    let bd = &self.bodies[i];
+                    g += row[2 * side].length_squared() / bd.mass()
+                        + row[2 * side + 1].dot(bd.world_inv_inertia() * row[2 * side + 1]);
+                }
+            }
+            free_scale = free_scale.max(g);
+        }
+        free_scale
+    }
+
+    /// Warm start: the contact impulses of the previous step matched by contact key;
+    /// limits from zero.
+    fn warm_unilateral(&self, z: &mut [f64]) {
+        #[cfg(feature = "contact")]
+        self.warm_contacts(z);
+        #[cfg(not(feature = "contact"))]
+        let _ = z;
+    }
+}
+
+/// The target of a one-sided row of value `c` at the velocity level.
+pub(super) fn row_bias(c: f64, h: f64, s: &UnilateralSettings) -> f64 {
+    if c >= 0.0 {
+        -c / h
+    } else if -c > s.slop {
+        s.baumgarte * (-c - s.slop) / h
+    } else {
+        0.0
+    }
+}
+
+/// `x += s · Gᵀ` on the row's bodies' unknowns.
+fn scatter(solver: &crate::tree::TreeSolver, x: &mut [f64], r: &URow, s: f64) {
+    for (side, body) in [(0usize, r.a), (1usize, r.b)] {
+        let Some(body) = body else { continue };
+        let o = solver.body_offset(body);
+        for c in 0..3 {
+            x[o + c] += s * r.j[2 * side][c];
+            x[o + 3 + c] += s * r.j[2 * side + 1][c];
+        }
+    }
+}
+
+/// `G x` on the row's bodies' unknowns.
+fn gather(solver: &crate::tree::TreeSolver, x: &[f64], r: &URow) -> f64 {
+    let mut s = 0.0;
+    for (side, body) in [(0usize, r.a), (1usize, r.b)] {
+        let Some(body) = body else { continue };
+        let o = solver.body_offset(body);
+        s += r.j[2 * side].dot(DVec3::new(x[o], x[o + 1], x[o + 2]))
+            + r.j[2 * side + 1].dot(DVec3::new(x[o + 3], x[o + 4], x[o + 5]));
+    }
+    s
+}
+
+/// Natural-map residual `|z − mid(lo, z − w, hi)|∞ / max(1, |q|∞)` of the row problem.
+fn row_residual(a: &[f64], q: &[f64], bounds: &[RowBound], z: &[f64]) -> f64 {
+    let m = q.len();
+    let scale = q.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+    let mut worst: f64 = 0.0;
+    for i in 0..m {
+        let w: f64 = q[i] + (0..m).map(|k| a[i * m + k] * z[k]).sum::<f64>();
+        let (lo, hi) = match bounds[i] {
+            RowBound::Unilateral => (0.0, f64::INFINITY),
+            RowBound::Friction { normal, mu } => (-mu * z[normal], mu * z[normal]),
+            RowBound::Boxed { lo, hi } => (lo, hi),
+        };
+        let p = (z[i] - w).min(hi).max(lo);
+        worst = worst.max((z[i] - p).abs());
+    }
+    worst / scale
+}

@@ -1,0 +1,279 @@
+//! One world: joints, joint limits and contacts solved together (feature `contact`).
+//! Every tolerance carries the value measured when it was set.
+
+use constraint_articulated::scenes::chain_on_floor;
+use constraint_articulated::{Joint, JointKind, Method, RigidBody, RowSource, World};
+use constraint_contact::geometry::{Collider, Shape};
+use constraint_core::{DMat3, DQuat, DVec3, Hinge, Pose, Prismatic};
+
+const VELOCITY: Method = Method::Velocity { beta: 1.0 };
+const PROJECTED: Method = Method::VelocityProjected {
+    beta: 1.0,
+    tolerance: 1e-10,
+    max_iterations: 20,
+    correct_velocity: false,
+};
+
+/// A 1 kg bob on a massless-looking rod: a hinge about `y` through the origin, the bob
+/// 1 m below, with angular velocity `w0` about `y`.
+fn pendulum(w0: f64) -> World {
+    let mut w = World::new(DVec3::new(0.0, 0.0, -9.81));
+    let pose = Pose {
+        x: DVec3::new(0.0, 0.0, -1.0),
+        q: DQuat::IDENTITY,
+    };
+    // Rigid rotation about the hinge: v = ω × r with r from the pivot to the bob.
+    let body = RigidBody::new(0, 1.0, DMat3::IDENTITY * 1e-3, pose)
+        .unwrap()
+        .with_velocity(
+            DVec3::new(0.0, w0, 0.0).cross(DVec3::new(0.0, 0.0, -1.0)),
+            DVec3::new(0.0, w0, 0.0),
+        );
+    w.add_body(body).unwrap();
+    let hinge = Hinge::from_world(&Pose::IDENTITY, &pose, DVec3::ZERO, DVec3::Y).unwrap();
+    w.add_joint(Joint {
+        parent: None,
+        child: 0,
+        kind: JointKind::Hinge(hinge),
+        damping: 0.0,
+    })
+    .unwrap();
+    w
+}
+
+/// A hinge pendulum thrown at 6 rad/s against limits at ±0.5 rad: the angle never
+/// leaves the range by more than the solver tolerance, the limit impulse is one-sided,
+/// each impact step loses energy (inelastic), and after the first impact the pendulum
+/// swings between the stops with at most the energy of a bob at rest at a stop.
+#[test]
+fn hinge_limit_hit_at_speed() {
+    for method in [VELOCITY, PROJECTED] {
+        let mut w = pendulum(6.0);
+        w.set_limit(0, -0.5, 0.5).unwrap();
+        let h = 1e-3;
+        let total = |w: &World| w.energy().0 + w.energy().1;
+        let mut worst_excess: f64 = 0.0;
+        let mut worst_impact_gain = f64::NEG_INFINITY;
+        let mut hits = 0;
+        let mut after_first_hit = f64::NEG_INFINITY;
+        let mut first_hit = None;
+        for step in 0..5000 {
+            let e_before = total(&w);
+            w.step(h, method).unwrap();
+            let q = w.joint_position(0).unwrap();
+            worst_excess = worst_excess.max(q.abs() - 0.5);
+            let mut pushed = false;
+            for (src, z) in w.row_impulses() {
+                assert!(matches!(src, RowSource::Limit { joint: 0, .. }));
+                // Measured: the smallest impulse is −1e-17 (round-off of z ≥ 0).
+                assert!(z >= -1e-12, "limit impulse {z} < 0");
+                pushed |= z > 1e-6;
+            }
+            if pushed {
+                hits += 1;
+                worst_impact_gain = worst_impact_gain.max(total(&w) - e_before);
+                first_hit.get_or_insert(step);
+            }
+            // A speculative row lets the bob arrive at the stop with the speed that
+            // closes the gap in the step; the next step's row stops it. Count from then.
+            if first_hit.is_some_and(|f| step > f + 1) {
+                after_first_hit = after_first_hit.max(total(&w));
+            }
+        }
+        // Energy of the bob at rest at a stop, potential zero at the pivot.
+        let at_stop = -9.81 * 0.5f64.cos();
+        println!(
+            "{method:?}: worst excess {worst_excess:.2e} rad, {hits} impact steps, worst energy change on one {worst_impact_gain:.2e} J, energy after the first impact ≤ {after_first_hit:.6} J (at a stop {at_stop:.6} J)"
+        );
+        // Measured (velocity and projected): excess ≤ 3e-14 rad (the speculative row
+        // lands on the limit); every impact step loses ≥ 1e-3 J.
+        assert!(worst_excess < 1e-9, "limit exceeded by {worst_excess}");
+        assert!(hits > 0, "the limit never acted");
+        assert!(
+            worst_impact_gain < 0.0,
+            "an impact gained {worst_impact_gain} J"
+        );
+        // Measured: at most 2e-3 J above the bob at rest at a stop (the velocity level's
+        // symplectic-Euler energy oscillation).
+        assert!(
+            after_first_hit < at_stop + 1e-2,
+            "{after_first_hit} vs {at_stop}"
+        );
+    }
+}
+
+/// A box on a horizontal slider pushed into its stops: the displacement stays within
+/// `[−0.2, 0.3]`.
+#[test]
+fn prismatic_limits_hold() {
+    let mut w = World::new(DVec3::ZERO);
+    let pose = Pose::IDENTITY;
+    let body = RigidBody::new(0, 2.0, DMat3::IDENTITY, pose)
+        .unwrap()
+        .with_velocity(DVec3::new(1.5, 0.0, 0.0), DVec3::ZERO);
+    w.add_body(body).unwrap();
+    let slider = Prismatic::from_world(&Pose::IDENTITY, &pose, DVec3::ZERO, DVec3::X).unwrap();
+    w.add_joint(Joint {
+        parent: None,
+        child: 0,
+        kind: JointKind::Prismatic(slider),
+        damping: 0.0,
+    })
+    .unwrap();
+    w.set_limit(0, -0.2, 0.3).unwrap();
+    let mut lo: f64 = 0.0;
+    let mut hi: f64 = 0.0;
+    for _ in 0..2000 {
+        w.step(1e-3, VELOCITY).unwrap();
+        let q = w.joint_position(0).unwrap();
+        lo = lo.min(q);
+        hi = hi.max(q);
+    }
+    println!("slider range reached [{lo:.12}, {hi:.12}]");
+    // Measured: hi = 0.3 to 1e-16; the inelastic stop leaves the box at the upper stop.
+    assert!(hi <= 0.3 + 1e-9 && lo >= -0.2 - 1e-9, "[{lo}, {hi}]");
+    assert!((hi - 0.3).abs() < 1e-6, "never reached the stop: {hi}");
+}
+
+/// Limits are validated: kinds, order, NaN.
+#[test]
+fn limits_reject_bad_input() {
+    let mut w = pendulum(0.0);
+    assert!(w.set_limit(0, 0.5, -0.5).is_err());
+    assert!(w.set_limit(0, f64::NAN, 0.5).is_err());
+    assert!(w.set_limit(3, -0.5, 0.5).is_err());
+    assert!(w.set_limit(0, f64::NEG_INFINITY, 0.5).is_ok());
+}
+
+/// A 10-link chain dropped 5 cm onto the floor: after 2 s it lies on it (penetration
+/// within the slop plus the Baumgarte residue, every link at rest), with its ball joints
+/// at the projection tolerance, and the complementarity problem solved to its tolerance
+/// at every step.
+#[test]
+fn chain_falls_onto_the_floor() {
+    let mut w = chain_on_floor(10, 0.06, 0.5).unwrap();
+    let h = 1e-3;
+    let (k0, p0) = w.energy();
+    let mut worst_residual: f64 = 0.0;
+    let mut worst_sep: f64 = 0.0;
+    let mut first_contact = None;
+    for step in 0..2000 {
+        w.step(h, PROJECTED).unwrap();
+        let s = w.unilateral_stats();
+        worst_residual = worst_residual.max(s.residual);
+        worst_sep = worst_sep.max(w.max_separation());
+        if first_contact.is_none() && s.contacts > 0 {
+            first_contact = Some(step);
+        }
+    }
+    let (k1, p1) = w.energy();
+    let lowest = w
+        .bodies()
+        .iter()
+        .map(|b| b.pose.x.z)
+        .fold(f64::INFINITY, f64::min);
+    let highest = w
+        .bodies()
+        .iter()
+        .map(|b| b.pose.x.z)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let s = w.unilateral_stats();
+    println!(
+        "chain: first contact row at step {first_contact:?}, residual ≤ {worst_residual:.1e}, joints ≤ {worst_sep:.1e} m, link axes z ∈ [{lowest:.6}, {highest:.6}], penetration {:.1e} m, energy {:.5} -> {:.5} J (kinetic {k1:.1e})",
+        s.max_penetration,
+        k0 + p0,
+        k1 + p1
+    );
+    // Measured: residual ≤ 1e-11; joints ≤ 1e-10 m (the projection tolerance).
+    assert!(worst_residual < 1e-8, "LCP residual {worst_residual}");
+    assert!(worst_sep < 1e-9, "joint separation {worst_sep}");
+    // Resting on the floor: link axes at the radius 0.01 m within 1 mm.
+    // Measured: z ∈ [0.00990, 0.01000], penetration 1.0e-4 m (the slop).
+    assert!((lowest - 0.01).abs() < 1e-3 && (highest - 0.01).abs() < 1e-3);
+    assert!(
+        s.max_penetration < 1e-3,
+        "penetration {}",
+        s.max_penetration
+    );
+    // Inelastic impact: energy lost; at rest after 2 s (measured kinetic 1e-9 J).
+    assert!(k1 + p1 < k0 + p0, "energy grew");
+    assert!(k1 < 1e-5, "still moving: {k1}");
+}
+
+/// A box on the floor at rest stays at rest with its weight carried by the contacts
+/// (the normal impulses sum to `m g h`), and friction holds it on a 20° slope with
+/// `μ = 0.5 > tan 20°`.
+#[test]
+fn box_rests_and_friction_holds_on_a_slope() {
+    let slope = 20f64.to_radians();
+    let n = DVec3::new(-slope.sin(), 0.0, slope.cos());
+    let mut w = World::new(DVec3::new(0.0, 0.0, -9.81));
+    w.add_collider(
+        Collider::new(
+            None,
+            Shape::plane(n, 0.0).unwrap(),
+            Pose::IDENTITY,
+            0.5,
+            0.0,
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    let q = DQuat::from_rotation_y(-slope);
+    let half = DVec3::splat(0.1);
+    let pose = Pose { x: n * 0.1, q };
+    let m = 1.0;
+    let i = m * (0.2f64 * 0.2 + 0.2 * 0.2) / 12.0;
+    let b = w
+        .add_body(RigidBody::new(0, m, DMat3::IDENTITY * i, pose).unwrap())
+        .unwrap();
+    w.add_collider(Collider::simple(Some(b), Shape::cuboid(half).unwrap()).unwrap())
+        .unwrap();
+    let h = 1e-3;
+    for _ in 0..1000 {
+        w.step(h, VELOCITY).unwrap();
+    }
+    let x = w.bodies()[0].pose.x;
+    let drift = (x - n * 0.1).length();
+    let normal: f64 = w
+        .row_impulses()
+        .filter(|(s, _)| matches!(s, RowSource::Contact { axis: 0, .. }))
+        .map(|(_, z)| z)
+        .sum();
+    let weight_n = m * 9.81 * slope.cos() * h;
+    println!(
+        "box on slope: drift {drift:.2e} m, normal impulse {normal:.6e} vs m g cos θ h {weight_n:.6e}"
+    );
+    // Measured: drift 1.0e-4 m (the slop the box sinks into), impulse equal to 1e-9.
+    assert!(drift < 5e-4, "slid or sank: {drift}");
+    assert!((normal - weight_n).abs() < 1e-6 * weight_n.max(1e-3) + 1e-9);
+}
+
+/// RATTLE on a step with one-sided rows is taken at the velocity level with projection
+/// (counted), and without rows it is RATTLE, unchanged.
+#[test]
+fn rattle_with_unilateral_rows_is_a_projected_velocity_step() {
+    let mut w = pendulum(6.0);
+    w.set_limit(0, -0.5, 0.5).unwrap();
+    let rattle = Method::default();
+    let mut fallbacks = 0;
+    let mut worst_excess: f64 = 0.0;
+    for _ in 0..2000 {
+        let s = w.step(1e-3, rattle).unwrap();
+        fallbacks += s.unilateral_fallbacks;
+        worst_excess = worst_excess.max(w.joint_position(0).unwrap().abs() - 0.5);
+    }
+    println!("rattle: {fallbacks} velocity-level steps of 2000, excess {worst_excess:.1e}");
+    assert!(fallbacks > 0 && fallbacks < 2000);
+    assert!(worst_excess < 1e-9);
+    // No limit: identical to a world that never had one.
+    let mut a = pendulum(2.0);
+    let mut b = pendulum(2.0);
+    b.set_limit(0, -3.0, 3.0).unwrap();
+    b.clear_limit(0);
+    for _ in 0..500 {
+        assert_eq!(a.step(1e-3, rattle).unwrap().unilateral_fallbacks, 0);
+        b.step(1e-3, rattle).unwrap();
+    }
+    assert_eq!(a.bodies(), b.bodies());
+}
