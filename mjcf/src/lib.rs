@@ -90,6 +90,7 @@
 //! masses or sizes, nesting deeper than [`MAX_DEPTH`] are all typed [`MjcfError`]s.
 #![deny(missing_docs)]
 
+mod actuator;
 mod attrs;
 mod defaults;
 mod elements;
@@ -100,26 +101,43 @@ mod math;
 pub mod model;
 mod orientation;
 mod parse;
+mod xml;
 
 use std::path::Path;
 
 pub use error::MjcfError;
-pub use model::{Body, BodyState, Connect, Geom, Joint, JointKind, Keyframe, Model, Shape};
+pub use model::{
+    Actuator, ActuatorKind, Assets, Body, BodyState, Connect, ContactExclude, ContactPair,
+    Custom, Geom, Joint, JointEquality, JointKind, Keyframe, Marker, Model, Options, Primitive,
+    Sensor, Shape, Site, Tendon, TendonEquality, Transmission, Weld,
+};
 
 /// Deepest element nesting accepted (the `mujoco` root is level 1).
 pub const MAX_DEPTH: usize = 1000;
 
-/// Loads a model from MJCF text.
+/// Loads a model from MJCF text. An `<include>` is an [`MjcfError::Include`] error
+/// (there is no directory to resolve it against): use [`load_str_with_dir`] or
+/// [`load_file`].
 pub fn load_str(xml: &str) -> Result<Model, MjcfError> {
-    parse::load(xml)
+    parse::load(xml, None)
 }
 
-/// Loads a model from an MJCF file. `include` is not supported (an error like any other
-/// unsupported element).
+/// Loads a model from MJCF text whose `<include file="...">` paths are relative to
+/// `dir`.
+pub fn load_str_with_dir(xml: &str, dir: &Path) -> Result<Model, MjcfError> {
+    parse::load(xml, Some(dir))
+}
+
+/// Loads a model from an MJCF file, following `include`s relative to the including
+/// file's directory.
 pub fn load_file(path: &Path) -> Result<Model, MjcfError> {
     let text = std::fs::read_to_string(path).map_err(|e| MjcfError::Io {
         path: path.to_path_buf(),
         message: e.to_string(),
     })?;
-    load_str(&text)
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    parse::load(&text, Some(&dir))
 }
