@@ -43,6 +43,43 @@ fn load_every_model_in_dir() {
                     m.initial_state(Some(&k.name)).expect("keyframe state");
                 }
                 if print_mass {
+                    // A deterministic pose and velocity: qpos0 + 0.3 sin(1.7k + 0.4),
+                    // qvel 0.5 cos(1.3k + 0.2) (quaternions normalised by body_states).
+                    let mut qpos = m.qpos0();
+                    for (k, q) in qpos.iter_mut().enumerate() {
+                        *q += 0.3 * (1.7 * k as f64 + 0.4).sin();
+                    }
+                    let qvel: Vec<f64> = (0..m.nv())
+                        .map(|k| 0.5 * (1.3 * k as f64 + 0.2).cos())
+                        .collect();
+                    for (i, a) in m.actuators.iter().enumerate() {
+                        println!(
+                            "ACT {file} {i} {:e} {:e} {:e} {:e} {} {:e} {:e} {} {:e} {:e} {:e}",
+                            a.gain, a.bias[0], a.bias[1], a.bias[2], a.ctrllimited as u8,
+                            a.ctrlrange[0], a.ctrlrange[1], a.forcelimited as u8,
+                            a.forcerange[0], a.forcerange[1], a.gear[0]
+                        );
+                    }
+                    for (i, j) in m.joints.iter().enumerate() {
+                        println!(
+                            "JNT {file} {i} {} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e}",
+                            j.limited as u8, j.range[0], j.range[1], j.armature, j.damping,
+                            j.stiffness, j.frictionloss, j.springref, j.reference
+                        );
+                    }
+                    let states = m.body_states(&qpos, &qvel).expect("states");
+                    for (b, s) in m.bodies.iter().zip(&states) {
+                        let v: Vec<String> = s
+                            .pos
+                            .iter()
+                            .chain(&s.quat)
+                            .chain(&s.com)
+                            .chain(&s.vel)
+                            .chain(&s.omega)
+                            .map(|x| format!("{x:.17e}"))
+                            .collect();
+                        println!("STATE {file} {} {}", b.name, v.join(" "));
+                    }
                     for b in &m.bodies {
                         let t = b.inertia;
                         println!(
