@@ -272,7 +272,10 @@ impl ActuatorSpec {
                     .copied()
                     .ok_or_else(|| a.unknown("tendon"))?;
                 let tendon = &model.tendons[t];
-                (Transmission::Tendon(t), tendon.limited.then_some(tendon.range))
+                (
+                    Transmission::Tendon(t),
+                    tendon.limited.then_some(tendon.range),
+                )
             }
             (None, None) => return Err(el.invalid("actuator needs a joint or tendon target")),
         };

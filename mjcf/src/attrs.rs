@@ -206,7 +206,10 @@ impl Attr {
 
     /// A signed integer.
     pub fn integer(&self) -> Result<i32, MjcfError> {
-        self.value.trim().parse::<i32>().map_err(|_| self.bad_number())
+        self.value
+            .trim()
+            .parse::<i32>()
+            .map_err(|_| self.bad_number())
     }
 
     /// `true`, `false` or `auto` (MuJoCo's `limited` tri-state): `None` for `auto`.

@@ -182,7 +182,9 @@ impl JointSpec {
         };
         if limited {
             if range[0] >= range[1] && self.kind != JointKind::Ball {
-                return Err(limit_err("range[0] should be smaller than range[1] in joint"));
+                return Err(limit_err(
+                    "range[0] should be smaller than range[1] in joint",
+                ));
             }
             if range[0] != 0.0 && self.kind == JointKind::Ball {
                 return Err(limit_err("range[0] should be 0 in ball joint"));

@@ -107,9 +107,9 @@ use std::path::Path;
 
 pub use error::MjcfError;
 pub use model::{
-    Actuator, ActuatorKind, Assets, Body, BodyState, Connect, ContactExclude, ContactPair,
-    Custom, Geom, Joint, JointEquality, JointKind, Keyframe, Marker, Model, Options, Primitive,
-    Sensor, Shape, Site, Tendon, TendonEquality, Transmission, Weld,
+    Actuator, ActuatorKind, Assets, Body, BodyState, Connect, ContactExclude, ContactPair, Custom,
+    Geom, Joint, JointEquality, JointKind, Keyframe, Marker, Model, Options, Primitive, Sensor,
+    Shape, Site, Tendon, TendonEquality, Transmission, Weld,
 };
 
 /// Deepest element nesting accepted (the `mujoco` root is level 1).
@@ -119,13 +119,13 @@ pub const MAX_DEPTH: usize = 1000;
 /// (there is no directory to resolve it against): use [`load_str_with_dir`] or
 /// [`load_file`].
 pub fn load_str(xml: &str) -> Result<Model, MjcfError> {
-    parse::load(xml, None)
+    parse::load(xml, None, None)
 }
 
 /// Loads a model from MJCF text whose `<include file="...">` paths are relative to
 /// `dir`.
 pub fn load_str_with_dir(xml: &str, dir: &Path) -> Result<Model, MjcfError> {
-    parse::load(xml, Some(dir))
+    parse::load(xml, Some(dir), None)
 }
 
 /// Loads a model from an MJCF file, following `include`s relative to the including
@@ -139,5 +139,5 @@ pub fn load_file(path: &Path) -> Result<Model, MjcfError> {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => std::path::PathBuf::from("."),
     };
-    parse::load(&text, Some(&dir))
+    parse::load(&text, Some(&dir), Some(path))
 }

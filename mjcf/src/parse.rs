@@ -68,9 +68,14 @@ const SOLVER_ONLY_OPTIONS: [&str; 16] = [
     "sleep_tolerance",
 ];
 
-/// Parses and compiles a document; `dir` is the base directory for `include`.
-pub(crate) fn load(text: &str, dir: Option<&Path>) -> Result<Model, MjcfError> {
-    let root = xml::read(text, dir)?;
+/// Parses and compiles a document; `dir` is the base directory for `include`, `main`
+/// the main file's path when there is one.
+pub(crate) fn load(
+    text: &str,
+    dir: Option<&Path>,
+    main: Option<&Path>,
+) -> Result<Model, MjcfError> {
+    let root = xml::read(text, dir, main)?;
     if root.name() != "mujoco" {
         return Err(root.el.unsupported());
     }
@@ -374,7 +379,8 @@ impl Loader {
                         return Err(a.feature(format!("compiler {}", a.name)));
                     }
                 }
-                "discardvisual" | "strippath" | "usethread" | "saveinertial" | "exactmeshinertia" => {
+                "discardvisual" | "strippath" | "usethread" | "saveinertial"
+                | "exactmeshinertia" => {
                     a.boolean()?;
                 }
                 "meshdir" | "texturedir" | "assetdir" | "fitaabb" | "maxhullvert" => {}
@@ -1048,10 +1054,11 @@ impl Loader {
             let mut limited: Option<bool> = None;
             let mut range = [0.0; 2];
             let mut springlength = [-1.0, -1.0];
-            let attrs = self.defaults.classes[class]
-                .tendon
-                .iter()
-                .chain(el.attrs.iter().filter(|a| a.name != "name" && a.name != "class"));
+            let attrs = self.defaults.classes[class].tendon.iter().chain(
+                el.attrs
+                    .iter()
+                    .filter(|a| a.name != "name" && a.name != "class"),
+            );
             for a in attrs {
                 match a.name.as_str() {
                     "stiffness" => {
@@ -1269,9 +1276,7 @@ impl Loader {
                             self.model.joints[j].kind,
                             JointKind::Hinge | JointKind::Slide
                         ) {
-                            return Err(
-                                el.invalid("only hinge and slide joints can be coupled")
-                            );
+                            return Err(el.invalid("only hinge and slide joints can be coupled"));
                         }
                     }
                     self.model.joint_equalities.push(JointEquality {

@@ -48,11 +48,18 @@ struct Reader {
     count: usize,
 }
 
-/// Parses `text` (the main file when `file` is `None`) and expands its includes
-/// relative to `dir`.
-pub(crate) fn read(text: &str, dir: Option<&Path>) -> Result<XNode, MjcfError> {
+/// Parses the main text and expands its includes relative to `dir`; `main` is the
+/// main file's path when it came from one (so that including it again is a cycle).
+pub(crate) fn read(
+    text: &str,
+    dir: Option<&Path>,
+    main: Option<&Path>,
+) -> Result<XNode, MjcfError> {
     let mut reader = Reader {
-        chain: Vec::new(),
+        chain: main
+            .and_then(|p| std::fs::canonicalize(p).ok())
+            .into_iter()
+            .collect(),
         count: 0,
     };
     reader.document(text, None, dir, 1)
@@ -155,7 +162,10 @@ impl Reader {
         if root.name() != "mujoco" {
             return Err(err(
                 path,
-                format!("the included file's root is <{}>, not <mujoco>", root.name()),
+                format!(
+                    "the included file's root is <{}>, not <mujoco>",
+                    root.name()
+                ),
             ));
         }
         root.el.only(&["model"])?;

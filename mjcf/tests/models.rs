@@ -55,16 +55,31 @@ fn load_every_model_in_dir() {
                     for (i, a) in m.actuators.iter().enumerate() {
                         println!(
                             "ACT {file} {i} {:e} {:e} {:e} {:e} {} {:e} {:e} {} {:e} {:e} {:e}",
-                            a.gain, a.bias[0], a.bias[1], a.bias[2], a.ctrllimited as u8,
-                            a.ctrlrange[0], a.ctrlrange[1], a.forcelimited as u8,
-                            a.forcerange[0], a.forcerange[1], a.gear[0]
+                            a.gain,
+                            a.bias[0],
+                            a.bias[1],
+                            a.bias[2],
+                            a.ctrllimited as u8,
+                            a.ctrlrange[0],
+                            a.ctrlrange[1],
+                            a.forcelimited as u8,
+                            a.forcerange[0],
+                            a.forcerange[1],
+                            a.gear[0]
                         );
                     }
                     for (i, j) in m.joints.iter().enumerate() {
                         println!(
                             "JNT {file} {i} {} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e}",
-                            j.limited as u8, j.range[0], j.range[1], j.armature, j.damping,
-                            j.stiffness, j.frictionloss, j.springref, j.reference
+                            j.limited as u8,
+                            j.range[0],
+                            j.range[1],
+                            j.armature,
+                            j.damping,
+                            j.stiffness,
+                            j.frictionloss,
+                            j.springref,
+                            j.reference
                         );
                     }
                     let states = m.body_states(&qpos, &qvel).expect("states");
