@@ -36,7 +36,7 @@ pub enum MjcfError {
         line: u32,
     },
     /// An attribute outside the supported subset, or one whose value would change the
-    /// dynamics in a way the subset does not model (for example a non-zero `armature`).
+    /// dynamics in a way the subset does not model (for example `gainprm` on a `motor`).
     UnsupportedAttribute {
         /// Element name.
         element: String,
@@ -82,7 +82,7 @@ pub enum MjcfError {
     },
     /// An element whose attributes are fine one by one but not together, or whose
     /// compiled result is not physical (inertia violating the triangle inequality, a
-    /// moving body without mass, two joints on one body, ...).
+    /// moving body without mass, a free joint beside another joint, ...).
     Invalid {
         /// Element name.
         element: String,

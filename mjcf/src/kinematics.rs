@@ -1,11 +1,14 @@
 //! From MuJoCo's generalized coordinates to maximal coordinates: positions as in
 //! `mj_kinematics`, velocities as in `mj_comVel`.
 //!
-//! Generalized coordinates, per joint in [`Model::joints`] order (`qpos_adr`, `dof_adr`):
-//! - hinge: angle (rad) about the joint axis through the anchor; rate (rad/s);
-//! - slide: displacement (m) along the axis; rate (m/s);
-//! - ball: quaternion `[w, x, y, z]` of the child relative to its parent's frame, about
-//!   the anchor; angular velocity (rad/s) in the **child body's** frame;
+//! Generalized coordinates, per joint in [`Model::joints`] order (`qpos_adr`, `dof_adr`).
+//! The joints of one body are applied in order, each about its own anchor and axis in the
+//! frame the previous ones left:
+//! - hinge: angle (rad) about the joint axis through the anchor, measured from `ref`
+//!   (the body turns by `q − ref`); rate (rad/s);
+//! - slide: displacement (m) along the axis, from `ref`; rate (m/s);
+//! - ball: quaternion `[w, x, y, z]` of the child relative to the frame before it, about
+//!   the anchor; angular velocity (rad/s) in the **child body's** final frame;
 //! - free: world position of the body frame origin and orientation quaternion; linear
 //!   velocity of the body frame origin in **world** coordinates, then angular velocity
 //!   in the **body** frame (MuJoCo's `cdof` for free joints).
