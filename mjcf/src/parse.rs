@@ -663,6 +663,18 @@ impl Loader {
         if body_joints.len() > 1 && body_joints.iter().any(|j| j.kind == JointKind::Free) {
             return Err(el.invalid("free joint can only appear by itself"));
         }
+        // MuJoCo: a body has at most 6 degrees of freedom.
+        let dofs: usize = body_joints
+            .iter()
+            .map(|j| match j.kind {
+                JointKind::Hinge | JointKind::Slide => 1,
+                JointKind::Ball => 3,
+                JointKind::Free => 6,
+            })
+            .sum();
+        if dofs > 6 {
+            return Err(el.invalid("more than 6 dofs in body"));
+        }
         for m in markers {
             self.marker(m, Some(index))?;
         }
