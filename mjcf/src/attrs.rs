@@ -1,7 +1,24 @@
 //! Attribute values: numbers, vectors, keywords, with errors that name element,
 //! attribute and line.
 
+use std::path::PathBuf;
+use std::sync::Arc;
+
 use crate::error::MjcfError;
+
+/// The included file an element comes from (`None`: the main text).
+pub(crate) type FileRef = Option<Arc<PathBuf>>;
+
+/// Wraps an error from an included file in [`MjcfError::InFile`].
+pub(crate) fn in_file(file: &FileRef, e: MjcfError) -> MjcfError {
+    match file {
+        Some(f) => MjcfError::InFile {
+            file: f.as_ref().clone(),
+            error: Box::new(e),
+        },
+        None => e,
+    }
+}
 
 /// One attribute as written, with where it was written.
 #[derive(Clone, Debug)]
@@ -14,6 +31,8 @@ pub(crate) struct Attr {
     pub value: String,
     /// 1-based line of the attribute.
     pub line: u32,
+    /// Included file the attribute comes from.
+    pub file: FileRef,
 }
 
 /// One element's name, line and attributes.
@@ -25,11 +44,17 @@ pub(crate) struct Element {
     pub line: u32,
     /// Attributes in document order.
     pub attrs: Vec<Attr>,
+    /// Included file the element comes from.
+    pub file: FileRef,
 }
 
 impl Element {
     /// Reads a tree node.
-    pub fn from_node(doc: &roxmltree::Document<'_>, node: roxmltree::Node<'_, '_>) -> Element {
+    pub fn from_node(
+        doc: &roxmltree::Document<'_>,
+        node: roxmltree::Node<'_, '_>,
+        file: &FileRef,
+    ) -> Element {
         let name = node.tag_name().name().to_string();
         let line = line_at(doc, node.range().start);
         let attrs = node
@@ -39,9 +64,15 @@ impl Element {
                 name: a.name().to_string(),
                 value: a.value().to_string(),
                 line: line_at(doc, a.range().start),
+                file: file.clone(),
             })
             .collect();
-        Element { name, line, attrs }
+        Element {
+            name,
+            line,
+            attrs,
+            file: file.clone(),
+        }
     }
 
     /// The attribute `name`, if present.
@@ -51,10 +82,12 @@ impl Element {
 
     /// The attribute `name`, or [`MjcfError::MissingAttribute`].
     pub fn require(&self, name: &str) -> Result<&Attr, MjcfError> {
-        self.get(name).ok_or_else(|| MjcfError::MissingAttribute {
-            element: self.name.clone(),
-            attribute: name.to_string(),
-            line: self.line,
+        self.get(name).ok_or_else(|| {
+            self.wrap(MjcfError::MissingAttribute {
+                element: self.name.clone(),
+                attribute: name.to_string(),
+                line: self.line,
+            })
         })
     }
 
@@ -72,19 +105,33 @@ impl Element {
 
     /// [`MjcfError::Invalid`] for this element.
     pub fn invalid(&self, reason: impl Into<String>) -> MjcfError {
-        MjcfError::Invalid {
+        self.wrap(MjcfError::Invalid {
             element: self.name.clone(),
             line: self.line,
             reason: reason.into(),
-        }
+        })
     }
 
     /// [`MjcfError::Unsupported`] for this element.
     pub fn unsupported(&self) -> MjcfError {
-        MjcfError::Unsupported {
+        self.wrap(MjcfError::Unsupported {
             element: self.name.clone(),
             line: self.line,
-        }
+        })
+    }
+
+    /// [`MjcfError::UnsupportedFeature`] for this element.
+    pub fn feature(&self, what: impl Into<String>) -> MjcfError {
+        self.wrap(MjcfError::UnsupportedFeature {
+            element: self.name.clone(),
+            line: self.line,
+            feature: what.into(),
+        })
+    }
+
+    /// Wraps an error about this element when it comes from an included file.
+    pub fn wrap(&self, e: MjcfError) -> MjcfError {
+        in_file(&self.file, e)
     }
 }
 
@@ -96,31 +143,78 @@ pub(crate) fn line_at(doc: &roxmltree::Document<'_>, pos: usize) -> u32 {
 impl Attr {
     /// [`MjcfError::UnsupportedAttribute`] for this attribute.
     pub fn unsupported(&self) -> MjcfError {
-        MjcfError::UnsupportedAttribute {
-            element: self.element.clone(),
-            attribute: self.name.clone(),
-            line: self.line,
-        }
+        in_file(
+            &self.file,
+            MjcfError::UnsupportedAttribute {
+                element: self.element.clone(),
+                attribute: self.name.clone(),
+                line: self.line,
+            },
+        )
     }
 
     /// [`MjcfError::BadValue`] for this attribute.
     pub fn bad(&self, reason: impl Into<String>) -> MjcfError {
-        MjcfError::BadValue {
-            element: self.element.clone(),
-            attribute: self.name.clone(),
-            value: self.value.clone(),
-            line: self.line,
-            reason: reason.into(),
-        }
+        in_file(
+            &self.file,
+            MjcfError::BadValue {
+                element: self.element.clone(),
+                attribute: self.name.clone(),
+                value: self.value.clone(),
+                line: self.line,
+                reason: reason.into(),
+            },
+        )
+    }
+
+    /// [`MjcfError::UnsupportedFeature`] named by this attribute.
+    pub fn feature(&self, what: impl Into<String>) -> MjcfError {
+        in_file(
+            &self.file,
+            MjcfError::UnsupportedFeature {
+                element: self.element.clone(),
+                line: self.line,
+                feature: what.into(),
+            },
+        )
+    }
+
+    /// [`MjcfError::UnknownObject`]: this attribute names a `kind` that does not exist.
+    pub fn unknown(&self, kind: &'static str) -> MjcfError {
+        in_file(
+            &self.file,
+            MjcfError::UnknownObject {
+                element: self.element.clone(),
+                kind,
+                name: self.value.clone(),
+                line: self.line,
+            },
+        )
     }
 
     fn bad_number(&self) -> MjcfError {
-        MjcfError::BadNumber {
-            element: self.element.clone(),
-            attribute: self.name.clone(),
-            value: self.value.clone(),
-            line: self.line,
-        }
+        in_file(
+            &self.file,
+            MjcfError::BadNumber {
+                element: self.element.clone(),
+                attribute: self.name.clone(),
+                value: self.value.clone(),
+                line: self.line,
+            },
+        )
+    }
+
+    /// A signed integer.
+    pub fn integer(&self) -> Result<i32, MjcfError> {
+        self.value
+            .trim()
+            .parse::<i32>()
+            .map_err(|_| self.bad_number())
+    }
+
+    /// `true`, `false` or `auto` (MuJoCo's `limited` tri-state): `None` for `auto`.
+    pub fn tristate(&self) -> Result<Option<bool>, MjcfError> {
+        self.keyword(&[("false", Some(false)), ("true", Some(true)), ("auto", None)])
     }
 
     /// All whitespace-separated finite numbers.
@@ -177,15 +271,6 @@ impl Attr {
             return Err(self.bad("must be positive"));
         }
         Ok(x)
-    }
-
-    /// Accepted only when the value is zero (an attribute whose non-zero value would
-    /// change the dynamics beyond the subset).
-    pub fn zero_only(&self) -> Result<(), MjcfError> {
-        if self.scalar()? != 0.0 {
-            return Err(self.unsupported());
-        }
-        Ok(())
     }
 
     /// A non-negative integer.

@@ -9,8 +9,9 @@
 
 use std::collections::BTreeMap;
 
-use crate::attrs::{Attr, Element};
+use crate::attrs::Attr;
 use crate::error::MjcfError;
+use crate::xml::XNode;
 
 /// One class with its inherited attributes.
 #[derive(Clone, Debug, Default)]
@@ -19,6 +20,14 @@ pub(crate) struct Class {
     pub joint: Vec<Attr>,
     /// Geom attributes, ancestors first.
     pub geom: Vec<Attr>,
+    /// Actuator defaults, ancestors first: the shortcut element (`motor`, `position`,
+    /// `velocity`, `general`) and its attributes. MuJoCo applies each shortcut to the
+    /// one default actuator of the class, in order.
+    pub actuator: Vec<(String, Vec<Attr>)>,
+    /// Tendon attributes, ancestors first.
+    pub tendon: Vec<Attr>,
+    /// Equality attributes, ancestors first.
+    pub equality: Vec<Attr>,
 }
 
 /// All classes; index 0 is the top-level class.
@@ -30,8 +39,10 @@ pub(crate) struct Defaults {
     seen_top: bool,
 }
 
-/// Elements inside `default` that only style visual or ignored elements.
-const IGNORED: [&str; 5] = ["site", "camera", "light", "material", "mesh"];
+/// Elements inside `default` that only style visual or data-only elements.
+const IGNORED: [&str; 6] = ["site", "camera", "light", "material", "mesh", "pair"];
+/// Actuator shortcuts accepted in `default` (and in `actuator`).
+pub(crate) const ACTUATORS: [&str; 4] = ["general", "motor", "position", "velocity"];
 
 impl Defaults {
     /// Only the (empty) top-level class `main`.
@@ -52,23 +63,26 @@ impl Defaults {
 
     /// The class an element names in `attr` (`class` or `childclass`).
     pub fn lookup(&self, attr: &Attr) -> Result<usize, MjcfError> {
-        self.find(attr.value.trim())
-            .ok_or_else(|| MjcfError::UnknownClass {
-                element: attr.element.clone(),
-                class: attr.value.clone(),
-                line: attr.line,
-            })
+        self.find(attr.value.trim()).ok_or_else(|| {
+            crate::attrs::in_file(
+                &attr.file,
+                MjcfError::UnknownClass {
+                    element: attr.element.clone(),
+                    class: attr.value.clone(),
+                    line: attr.line,
+                },
+            )
+        })
     }
 
     /// Reads one top-level `<default>` with its nested classes. `check` validates the
     /// finished class (so a bad value in an unused class is still an error).
     pub fn parse(
         &mut self,
-        doc: &roxmltree::Document<'_>,
-        top: roxmltree::Node<'_, '_>,
+        top: &XNode,
         check: &dyn Fn(&Class) -> Result<(), MjcfError>,
     ) -> Result<(), MjcfError> {
-        let el = Element::from_node(doc, top);
+        let el = &top.el;
         if self.seen_top {
             return Err(el.invalid("only one top-level <default> is allowed"));
         }
@@ -80,12 +94,22 @@ impl Defaults {
         let mut stack = vec![(top, 0usize)];
         while let Some((node, index)) = stack.pop() {
             let mut nested = Vec::new();
-            for child in node.children().filter(|n| n.is_element()) {
-                let ce = Element::from_node(doc, child);
+            for child in node.elements() {
+                let ce = &child.el;
+                let leaf = || -> Result<Vec<Attr>, MjcfError> {
+                    if let Some(c) = child.elements().next() {
+                        return Err(c.el.unsupported());
+                    }
+                    Ok(ce.attrs.clone())
+                };
+                let class = &mut self.classes[index];
                 match ce.name.as_str() {
                     "default" => nested.push(child),
-                    "joint" => self.classes[index].joint.extend(ce.attrs),
-                    "geom" => self.classes[index].geom.extend(ce.attrs),
+                    "joint" => class.joint.extend(leaf()?),
+                    "geom" => class.geom.extend(leaf()?),
+                    "tendon" => class.tendon.extend(leaf()?),
+                    "equality" => class.equality.extend(leaf()?),
+                    n if ACTUATORS.contains(&n) => class.actuator.push((n.to_string(), leaf()?)),
                     n if IGNORED.contains(&n) => {}
                     _ => return Err(ce.unsupported()),
                 }
@@ -93,7 +117,7 @@ impl Defaults {
             check(&self.classes[index])?;
             let mut created = Vec::new();
             for child in nested {
-                let ce = Element::from_node(doc, child);
+                let ce = &child.el;
                 ce.only(&["class"])?;
                 let name = ce.require("class")?.value.trim().to_string();
                 if self.names.contains_key(&name) {

@@ -5,7 +5,7 @@ use crate::attrs::{Attr, Element};
 use crate::error::MjcfError;
 use crate::inertia;
 use crate::math::{self, normalize3, Q, V3};
-use crate::model::{JointKind, Shape};
+use crate::model::{JointKind, Primitive, Shape};
 use crate::orientation::{self, AngleConvention, Orientation};
 
 /// `limited`: MuJoCo's tri-state.
@@ -26,6 +26,11 @@ pub(crate) struct JointSpec {
     damping: f64,
     limited: (Limited, Option<Attr>),
     range: Option<([f64; 2], Attr)>,
+    armature: f64,
+    stiffness: f64,
+    springref: f64,
+    frictionloss: f64,
+    reference: f64,
 }
 
 impl Default for JointSpec {
@@ -38,6 +43,11 @@ impl Default for JointSpec {
             damping: 0.0,
             limited: (Limited::Auto, None),
             range: None,
+            armature: 0.0,
+            stiffness: 0.0,
+            springref: 0.0,
+            frictionloss: 0.0,
+            reference: 0.0,
         }
     }
 }
@@ -48,10 +58,46 @@ pub(crate) struct JointData {
     pub pos: V3,
     pub axis: V3,
     pub damping: f64,
+    pub limited: bool,
+    pub range: [f64; 2],
+    pub armature: f64,
+    pub stiffness: f64,
+    pub springref: f64,
+    pub frictionloss: f64,
+    pub reference: f64,
 }
 
-/// Attributes accepted and ignored on `joint` (visual only).
-const JOINT_IGNORED: [&str; 1] = ["group"];
+/// Attributes accepted and ignored on `joint`: visual, user data, and the softness of
+/// MuJoCo's limit and friction constraints (reported in `Model::warnings`).
+const JOINT_IGNORED: [&str; 9] = [
+    "group",
+    "user",
+    "solreflimit",
+    "solimplimit",
+    "solreffriction",
+    "solimpfriction",
+    "margin",
+    "actuatorfrcrange",
+    "actuatorfrclimited",
+];
+
+/// Attributes that tune MuJoCo's soft constraints: present anywhere, they earn one
+/// warning (the library's constraints are hard).
+pub(crate) const SOFTNESS_ATTRS: [&str; 13] = [
+    "solref",
+    "solimp",
+    "solreflimit",
+    "solimplimit",
+    "solreffriction",
+    "solimpfriction",
+    "margin",
+    "gap",
+    "priority",
+    "solmix",
+    "o_solref",
+    "o_solimp",
+    "o_margin",
+];
 
 impl JointSpec {
     /// Applies one attribute (`name` and `class` are the caller's).
@@ -71,7 +117,23 @@ impl JointSpec {
                 self.axis_attr = Some(a.clone());
             }
             "damping" => self.damping = a.non_negative()?,
-            "armature" | "stiffness" | "frictionloss" | "ref" | "springref" => a.zero_only()?,
+            "armature" => self.armature = a.non_negative()?,
+            "stiffness" => self.stiffness = a.non_negative()?,
+            "frictionloss" => self.frictionloss = a.non_negative()?,
+            "ref" => self.reference = a.scalar()?,
+            "springref" => self.springref = a.scalar()?,
+            // Stiffness and damping set from the mass matrix at compile time.
+            "springdamper" => {
+                let v: [f64; 2] = a.exact()?;
+                if v != [0.0, 0.0] {
+                    return Err(a.feature("joint springdamper"));
+                }
+            }
+            "actuatorgravcomp" => {
+                if a.boolean()? {
+                    return Err(a.feature("actuatorgravcomp"));
+                }
+            }
             "limited" => {
                 let l = a.keyword(&[
                     ("false", Limited::False),
@@ -87,20 +149,55 @@ impl JointSpec {
         Ok(())
     }
 
-    /// Checks and normalises.
-    pub fn finish(&self, el: &Element) -> Result<JointData, MjcfError> {
-        // Joint limits change the dynamics: only unlimited joints are in the subset.
-        match &self.limited {
-            (Limited::True, Some(a)) => return Err(a.unsupported()),
-            (Limited::Auto, _) => {
-                if let Some((r, a)) = &self.range {
-                    if r[0] < r[1] {
-                        return Err(a.unsupported());
-                    }
-                }
+    /// Checks and normalises (`mjCJoint::Compile`): limits resolved with `autolimits`,
+    /// angles of hinge (range, ref, springref) and ball (range) converted to radians.
+    pub fn finish(
+        &self,
+        el: &Element,
+        conv: AngleConvention,
+        autolimits: bool,
+    ) -> Result<JointData, MjcfError> {
+        let mut range = self.range.as_ref().map_or([0.0; 2], |(r, _)| *r);
+        let limit_err = |reason: &str| match (&self.range, &self.limited.1) {
+            (Some((_, a)), _) => a.bad(reason),
+            (None, Some(a)) => a.bad(reason),
+            (None, None) => el.invalid(reason),
+        };
+        let limited = match (self.kind, self.limited.0) {
+            (JointKind::Free, Limited::True) => {
+                return Err(limit_err("limits should not be defined in free joint"))
             }
-            _ => {}
+            (JointKind::Free, _) => false,
+            (_, Limited::True) => true,
+            (_, Limited::False) => false,
+            (_, Limited::Auto) => {
+                let hasrange = !(range[0] == 0.0 && range[1] == 0.0);
+                if !autolimits && hasrange {
+                    return Err(limit_err(
+                        "joint has `range` but not `limited`: set compiler autolimits=\"true\" or give `limited`",
+                    ));
+                }
+                range[0] < range[1]
+            }
+        };
+        if limited {
+            if range[0] >= range[1] && self.kind != JointKind::Ball {
+                return Err(limit_err(
+                    "range[0] should be smaller than range[1] in joint",
+                ));
+            }
+            if range[0] != 0.0 && self.kind == JointKind::Ball {
+                return Err(limit_err("range[0] should be 0 in ball joint"));
+            }
+            if matches!(self.kind, JointKind::Hinge | JointKind::Ball) {
+                range = [conv.radians(range[0]), conv.radians(range[1])];
+            }
         }
+        let (reference, springref) = if self.kind == JointKind::Hinge {
+            (conv.radians(self.reference), conv.radians(self.springref))
+        } else {
+            (self.reference, self.springref)
+        };
         let axis = match self.kind {
             JointKind::Hinge | JointKind::Slide => {
                 let mut axis = self.axis;
@@ -125,6 +222,13 @@ impl JointSpec {
             pos,
             axis,
             damping: self.damping,
+            limited,
+            range,
+            armature: self.armature,
+            stiffness: self.stiffness,
+            springref,
+            frictionloss: self.frictionloss,
+            reference,
         })
     }
 }
@@ -136,6 +240,10 @@ enum GeomType {
     Sphere,
     Box,
     Capsule,
+    Cylinder,
+    Ellipsoid,
+    /// `mesh`, `sdf`, `hfield`: recognised, refused in `finish`.
+    Unsupported,
 }
 
 /// A geom's attributes after defaults (MuJoCo `mjs_defaultGeom`).
@@ -152,6 +260,20 @@ pub(crate) struct GeomSpec {
     mass: Option<f64>,
     contype: u32,
     conaffinity: u32,
+    type_attr: Option<Attr>,
+    mesh: Option<Attr>,
+    hfield: Option<Attr>,
+    condim: u32,
+    priority: i32,
+    margin: f64,
+    gap: f64,
+    solref: [f64; 2],
+    solimp: [f64; 5],
+    solmix: f64,
+    rgba: [f64; 4],
+    material: String,
+    group: i32,
+    user: Vec<f64>,
 }
 
 impl Default for GeomSpec {
@@ -168,6 +290,20 @@ impl Default for GeomSpec {
             mass: None,
             contype: 1,
             conaffinity: 1,
+            type_attr: None,
+            mesh: None,
+            hfield: None,
+            condim: 3,
+            priority: 0,
+            margin: 0.0,
+            gap: 0.0,
+            solref: [0.02, 1.0],
+            solimp: [0.9, 0.95, 0.001, 0.5, 2.0],
+            solmix: 1.0,
+            rgba: [0.5, 0.5, 0.5, 1.0],
+            material: String::new(),
+            group: 0,
+            user: Vec::new(),
         }
     }
 }
@@ -175,6 +311,18 @@ impl Default for GeomSpec {
 /// The compiled geom (without name and owner).
 pub(crate) struct GeomData {
     pub shape: Shape,
+    pub primitive: Primitive,
+    pub condim: u32,
+    pub priority: i32,
+    pub margin: f64,
+    pub gap: f64,
+    pub solref: [f64; 2],
+    pub solimp: [f64; 5],
+    pub solmix: f64,
+    pub rgba: [f64; 4],
+    pub material: String,
+    pub group: i32,
+    pub user: Vec<f64>,
     pub pos: V3,
     pub quat: Q,
     pub friction: V3,
@@ -187,12 +335,9 @@ pub(crate) struct GeomData {
     pub inertia: V3,
 }
 
-/// Attributes accepted and ignored on `geom` (visual only).
-/// Visual attributes, and `solref` / `solimp` / `margin` / `gap`, which only set how soft
-/// MuJoCo's contact is (this library's contact is hard, with its own speculative margin).
-const GEOM_IGNORED: [&str; 7] = [
-    "rgba", "material", "group", "solref", "solimp", "margin", "gap",
-];
+/// Attributes accepted and ignored on `geom`: fluid-model shape (MuJoCo's default
+/// `fluidshape="none"` ignores the geom in the inertia-box fluid model) and mesh fitting.
+const GEOM_IGNORED: [&str; 3] = ["fluidshape", "fluidcoef", "fitscale"];
 
 impl GeomSpec {
     /// Applies one attribute (`name` and `class` are the caller's).
@@ -204,8 +349,31 @@ impl GeomSpec {
                     ("sphere", GeomType::Sphere),
                     ("box", GeomType::Box),
                     ("capsule", GeomType::Capsule),
-                ])?
+                    ("cylinder", GeomType::Cylinder),
+                    ("ellipsoid", GeomType::Ellipsoid),
+                    ("mesh", GeomType::Unsupported),
+                    ("sdf", GeomType::Unsupported),
+                    ("hfield", GeomType::Unsupported),
+                ])?;
+                self.type_attr = Some(a.clone());
             }
+            "mesh" => self.mesh = Some(a.clone()),
+            "hfield" => self.hfield = Some(a.clone()),
+            "shellinertia" => {
+                if a.boolean()? {
+                    return Err(a.feature("shell inertia"));
+                }
+            }
+            "priority" => self.priority = a.integer()?,
+            "margin" => self.margin = a.non_negative()?,
+            "gap" => self.gap = a.non_negative()?,
+            "solref" => a.partial(&mut self.solref)?,
+            "solimp" => a.partial(&mut self.solimp)?,
+            "solmix" => self.solmix = a.non_negative()?,
+            "rgba" => a.partial(&mut self.rgba)?,
+            "material" => self.material = a.value.trim().to_string(),
+            "group" => self.group = a.integer()?,
+            "user" => self.user = a.numbers()?,
             "size" => {
                 a.partial(&mut self.size)?;
                 self.size_attr = Some(a.clone());
@@ -235,9 +403,11 @@ impl GeomSpec {
             "contype" => self.contype = a.unsigned()?,
             "conaffinity" => self.conaffinity = a.unsigned()?,
             "condim" => {
-                if a.unsigned()? != 3 {
-                    return Err(a.unsupported());
+                let c = a.unsigned()?;
+                if ![1, 3, 4, 6].contains(&c) {
+                    return Err(a.bad("condim must be 1, 3, 4 or 6"));
                 }
+                self.condim = c;
             }
             n if GEOM_IGNORED.contains(&n) => {}
             _ => return Err(a.unsupported()),
@@ -247,10 +417,25 @@ impl GeomSpec {
 
     /// Shape, frame, mass and inertia, as `mjCGeom::Compile` computes them.
     pub fn finish(&self, el: &Element, conv: AngleConvention) -> Result<GeomData, MjcfError> {
+        // Meshes and height fields (a geom naming a mesh is a mesh geom, or is fitted
+        // to one: both need the mesh).
+        if let Some(a) = &self.mesh {
+            return Err(a.feature("mesh geom"));
+        }
+        if let Some(a) = &self.hfield {
+            return Err(a.feature("hfield geom"));
+        }
+        if self.kind == GeomType::Unsupported {
+            let t = self.type_attr.as_ref().map_or("", |a| a.value.trim());
+            return Err(el.feature(format!("{t} geom")));
+        }
         let mut size = self.size;
         let (pos, quat) = if let Some((ft, at)) = &self.fromto {
-            if !matches!(self.kind, GeomType::Capsule | GeomType::Box) {
-                return Err(at.bad("fromto requires a capsule or box geom"));
+            if !matches!(
+                self.kind,
+                GeomType::Capsule | GeomType::Box | GeomType::Cylinder | GeomType::Ellipsoid
+            ) {
+                return Err(at.bad("fromto requires capsule, cylinder, box or ellipsoid"));
             }
             if self.pos != [0.0; 3] {
                 return Err(el.invalid("both pos and fromto defined in geom"));
@@ -262,7 +447,7 @@ impl GeomSpec {
             if size[1] < math::EPS {
                 return Err(at.bad("fromto points too close"));
             }
-            if self.kind == GeomType::Box {
+            if matches!(self.kind, GeomType::Box | GeomType::Ellipsoid) {
                 size[2] = size[1];
                 size[1] = size[0];
             }
@@ -280,10 +465,10 @@ impl GeomSpec {
             (self.pos, quat)
         };
         let needed = match self.kind {
-            GeomType::Plane => 0,
+            GeomType::Plane | GeomType::Unsupported => 0,
             GeomType::Sphere => 1,
-            GeomType::Capsule => 2,
-            GeomType::Box => 3,
+            GeomType::Capsule | GeomType::Cylinder => 2,
+            GeomType::Box | GeomType::Ellipsoid => 3,
         };
         let size_error = |i: usize| {
             let reason = format!("size {} must be positive", i + 1);
@@ -300,16 +485,41 @@ impl GeomSpec {
                 return Err(size_error(i));
             }
         }
-        let shape = match self.kind {
-            GeomType::Plane => Shape::Plane,
-            GeomType::Sphere => Shape::Sphere { radius: size[0] },
-            GeomType::Box => Shape::Box { half: size },
-            GeomType::Capsule => Shape::Capsule {
+        let primitive = match self.kind {
+            GeomType::Plane | GeomType::Unsupported => Primitive::Plane { size },
+            GeomType::Sphere => Primitive::Sphere { radius: size[0] },
+            GeomType::Box => Primitive::Box { half: size },
+            GeomType::Capsule => Primitive::Capsule {
                 radius: size[0],
                 half_length: size[1],
             },
+            GeomType::Cylinder => Primitive::Cylinder {
+                radius: size[0],
+                half_length: size[1],
+            },
+            GeomType::Ellipsoid => Primitive::Ellipsoid { radii: size },
         };
-        let volume = inertia::volume(&shape);
+        let shape = match primitive {
+            Primitive::Plane { .. } => Shape::Plane,
+            Primitive::Sphere { radius } => Shape::Sphere { radius },
+            Primitive::Box { half } => Shape::Box { half },
+            Primitive::Capsule {
+                radius,
+                half_length,
+            } => Shape::Capsule {
+                radius,
+                half_length,
+            },
+            // Bounding boxes (documented on `Geom::shape`).
+            Primitive::Cylinder {
+                radius,
+                half_length,
+            } => Shape::Box {
+                half: [radius, radius, half_length],
+            },
+            Primitive::Ellipsoid { radii } => Shape::Box { half: radii },
+        };
+        let volume = inertia::volume(&primitive);
         let mut density = self.density;
         let mut mass = 0.0;
         match self.mass {
@@ -325,12 +535,24 @@ impl GeomSpec {
         if !mass.is_finite() || !density.is_finite() {
             return Err(el.invalid("geom mass or density overflows"));
         }
-        let inertia = inertia::principal(&shape, mass);
+        let inertia = inertia::principal(&primitive, mass);
         if inertia.iter().any(|x| !x.is_finite()) {
             return Err(el.invalid("geom inertia overflows"));
         }
         Ok(GeomData {
             shape,
+            primitive,
+            condim: self.condim,
+            priority: self.priority,
+            margin: self.margin,
+            gap: self.gap,
+            solref: self.solref,
+            solimp: self.solimp,
+            solmix: self.solmix,
+            rgba: self.rgba,
+            material: self.material.clone(),
+            group: self.group,
+            user: self.user.clone(),
             pos,
             quat,
             friction: self.friction,

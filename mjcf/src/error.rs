@@ -36,7 +36,7 @@ pub enum MjcfError {
         line: u32,
     },
     /// An attribute outside the supported subset, or one whose value would change the
-    /// dynamics in a way the subset does not model (for example a non-zero `armature`).
+    /// dynamics in a way the subset does not model (for example `gainprm` on a `motor`).
     UnsupportedAttribute {
         /// Element name.
         element: String,
@@ -82,7 +82,7 @@ pub enum MjcfError {
     },
     /// An element whose attributes are fine one by one but not together, or whose
     /// compiled result is not physical (inertia violating the triangle inequality, a
-    /// moving body without mass, two joints on one body, ...).
+    /// moving body without mass, a free joint beside another joint, ...).
     Invalid {
         /// Element name.
         element: String,
@@ -108,6 +108,46 @@ pub enum MjcfError {
         name: String,
         /// 1-based line.
         line: u32,
+    },
+    /// A joint, tendon, site or other named object (in an actuator, tendon, equality or
+    /// contact element) that does not exist.
+    UnknownObject {
+        /// Element name.
+        element: String,
+        /// What kind of object was looked up (`"joint"`, `"tendon"`, ...).
+        kind: &'static str,
+        /// The name as written.
+        name: String,
+        /// 1-based line.
+        line: u32,
+    },
+    /// A MuJoCo feature this loader recognises but does not model (meshes, height
+    /// fields, spatial tendons, frames, actuator dynamics, ...).
+    UnsupportedFeature {
+        /// Element name.
+        element: String,
+        /// 1-based line.
+        line: u32,
+        /// What is not supported, e.g. `"spatial tendon"`.
+        feature: String,
+    },
+    /// An `<include>` that cannot be followed: missing file, cycle, no base directory,
+    /// or an included file whose root is not `<mujoco>`.
+    Include {
+        /// The included file as resolved (or as written when it cannot be resolved).
+        file: PathBuf,
+        /// 1-based line of the `<include>` element in the including file.
+        line: u32,
+        /// What is wrong.
+        reason: String,
+    },
+    /// An error inside an included file: `file` is that file, `error` carries the element
+    /// and the line within it.
+    InFile {
+        /// The included file.
+        file: PathBuf,
+        /// The error, with lines counted in `file`.
+        error: Box<MjcfError>,
     },
     /// [`crate::Model::keyframe`] or [`crate::Model::initial_state`] with a name no
     /// keyframe has.
@@ -202,6 +242,24 @@ impl fmt::Display for MjcfError {
                 f,
                 "line {line}: <{element}> refers to body \"{name}\", which does not exist"
             ),
+            MjcfError::UnknownObject {
+                element,
+                kind,
+                name,
+                line,
+            } => write!(
+                f,
+                "line {line}: <{element}> refers to {kind} \"{name}\", which does not exist"
+            ),
+            MjcfError::UnsupportedFeature {
+                element,
+                line,
+                feature,
+            } => write!(f, "line {line}: <{element}>: unsupported: {feature}"),
+            MjcfError::Include { file, line, reason } => {
+                write!(f, "line {line}: <include file=\"{}\">: {reason}", file.display())
+            }
+            MjcfError::InFile { file, error } => write!(f, "in {}: {error}", file.display()),
             MjcfError::UnknownKeyframe(name) => write!(f, "no keyframe named \"{name}\""),
             MjcfError::StateLength {
                 what,

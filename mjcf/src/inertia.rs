@@ -2,16 +2,21 @@
 //! `mjCBody::InertiaFromGeom`), for solid ("volume") geoms.
 
 use crate::math::{self, M3, Q, V3};
-use crate::model::Shape;
+use crate::model::Primitive;
 
 /// Volume of a shape (planes have none).
-pub fn volume(shape: &Shape) -> f64 {
+pub fn volume(shape: &Primitive) -> f64 {
     use std::f64::consts::PI;
     match *shape {
-        Shape::Plane => 0.0,
-        Shape::Sphere { radius } => 4.0 * PI * radius * radius * radius / 3.0,
-        Shape::Box { half } => 8.0 * half[0] * half[1] * half[2],
-        Shape::Capsule {
+        Primitive::Plane { .. } => 0.0,
+        Primitive::Sphere { radius } => 4.0 * PI * radius * radius * radius / 3.0,
+        Primitive::Box { half } => 8.0 * half[0] * half[1] * half[2],
+        Primitive::Cylinder {
+            radius,
+            half_length,
+        } => PI * radius * radius * 2.0 * half_length,
+        Primitive::Ellipsoid { radii } => 4.0 * PI * radii[0] * radii[1] * radii[2] / 3.0,
+        Primitive::Capsule {
             radius,
             half_length,
         } => {
@@ -29,12 +34,30 @@ pub fn volume(shape: &Shape) -> f64 {
 /// - capsule: a cylinder of height `h = 2·half_length` plus two hemispheres, the mass
 ///   split by volume (`m_s = m·4r/(4r + 3h)`): `I_xx = m_c (3r² + h²)/12 + 2/5 m_s r² +
 ///   m_s h (3r + 2h)/8`, `I_zz = m_c r²/2 + 2/5 m_s r²` (MuJoCo's formula, which places
-///   each hemisphere's mass at its centroid `3r/8` beyond the cylinder end).
-pub fn principal(shape: &Shape, mass: f64) -> V3 {
+///   each hemisphere's mass at its centroid `3r/8` beyond the cylinder end);
+/// - cylinder (height `h`): `I_xx = m (3r² + h²)/12`, `I_zz = m r²/2`;
+/// - ellipsoid (semi-axes `a, b, c`): `m/5 (b² + c²)` and cyclic.
+pub fn principal(shape: &Primitive, mass: f64) -> V3 {
     match *shape {
-        Shape::Plane => [0.0; 3],
-        Shape::Sphere { radius } => [2.0 * mass * radius * radius / 5.0; 3],
-        Shape::Box { half } => {
+        Primitive::Plane { .. } => [0.0; 3],
+        Primitive::Sphere { radius } => [2.0 * mass * radius * radius / 5.0; 3],
+        Primitive::Cylinder {
+            radius,
+            half_length,
+        } => {
+            let h = 2.0 * half_length;
+            let x = mass * (3.0 * radius * radius + h * h) / 12.0;
+            [x, x, mass * radius * radius / 2.0]
+        }
+        Primitive::Ellipsoid { radii } => {
+            let [a, b, c] = radii;
+            [
+                mass * (b * b + c * c) / 5.0,
+                mass * (a * a + c * c) / 5.0,
+                mass * (a * a + b * b) / 5.0,
+            ]
+        }
+        Primitive::Box { half } => {
             let [a, b, c] = half;
             [
                 mass * (b * b + c * c) / 3.0,
@@ -42,7 +65,7 @@ pub fn principal(shape: &Shape, mass: f64) -> V3 {
                 mass * (a * a + b * b) / 3.0,
             ]
         }
-        Shape::Capsule {
+        Primitive::Capsule {
             radius,
             half_length,
         } => {

@@ -1,11 +1,14 @@
 //! From MuJoCo's generalized coordinates to maximal coordinates: positions as in
 //! `mj_kinematics`, velocities as in `mj_comVel`.
 //!
-//! Generalized coordinates, per joint in [`Model::joints`] order (`qpos_adr`, `dof_adr`):
-//! - hinge: angle (rad) about the joint axis through the anchor; rate (rad/s);
-//! - slide: displacement (m) along the axis; rate (m/s);
-//! - ball: quaternion `[w, x, y, z]` of the child relative to its parent's frame, about
-//!   the anchor; angular velocity (rad/s) in the **child body's** frame;
+//! Generalized coordinates, per joint in [`Model::joints`] order (`qpos_adr`, `dof_adr`).
+//! The joints of one body are applied in order, each about its own anchor and axis in the
+//! frame the previous ones left:
+//! - hinge: angle (rad) about the joint axis through the anchor, measured from `ref`
+//!   (the body turns by `q − ref`); rate (rad/s);
+//! - slide: displacement (m) along the axis, from `ref`; rate (m/s);
+//! - ball: quaternion `[w, x, y, z]` of the child relative to the frame before it, about
+//!   the anchor; angular velocity (rad/s) in the **child body's** final frame;
 //! - free: world position of the body frame origin and orientation quaternion; linear
 //!   velocity of the body frame origin in **world** coordinates, then angular velocity
 //!   in the **body** frame (MuJoCo's `cdof` for free joints).
@@ -15,7 +18,7 @@
 
 use crate::error::MjcfError;
 use crate::math::{self, Q, V3};
-use crate::model::{BodyState, JointKind, Keyframe, Model};
+use crate::model::{BodyState, Joint, JointKind, Keyframe, Model};
 
 impl Model {
     /// Number of generalized positions (hinge, slide 1; ball 4; free 7).
@@ -28,8 +31,8 @@ impl Model {
         self.joints.iter().map(|j| dof_len(j.kind)).sum()
     }
 
-    /// MuJoCo's `qpos0`: hinge and slide 0, ball identity, free joint at the body's
-    /// default pose.
+    /// MuJoCo's `qpos0`: hinge and slide at their `ref` ([`Joint::reference`]), ball
+    /// identity, free joint at the body's default pose.
     pub fn qpos0(&self) -> Vec<f64> {
         let mut q = vec![0.0; self.nq()];
         for j in &self.joints {
@@ -37,6 +40,7 @@ impl Model {
             // (`get_mut` keeps a hand-built model with bad addresses from panicking;
             // `body_states` reports those.)
             match (j.kind, q.get_mut(a..a.saturating_add(qpos_len(j.kind)))) {
+                (JointKind::Hinge | JointKind::Slide, Some(s)) => s[0] = j.reference,
                 (JointKind::Ball, Some(s)) => s[0] = 1.0,
                 (JointKind::Free, Some(s)) => {
                     if let Some(b) = self.bodies.get(j.body) {
@@ -82,10 +86,10 @@ impl Model {
         check_vector("qpos", qpos, self.nq())?;
         check_vector("qvel", qvel, self.nv())?;
         self.check_joints()?;
-        let mut joint_of = vec![None; self.bodies.len()];
+        let mut joints_of: Vec<Vec<&Joint>> = vec![Vec::new(); self.bodies.len()];
         for j in &self.joints {
-            if let Some(slot) = joint_of.get_mut(j.body) {
-                *slot = Some(j);
+            if let Some(slot) = joints_of.get_mut(j.body) {
+                slot.push(j);
             }
         }
         // World pose and twist (angular velocity, velocity of the body frame origin).
@@ -119,10 +123,10 @@ impl Model {
 
             let mut xpos;
             let mut xquat;
-            let mut omega;
-            let mut vel;
-            match joint_of[i] {
-                Some(j) if j.kind == JointKind::Free => {
+            let omega;
+            let vel;
+            match joints_of[i].as_slice() {
+                [j] if j.kind == JointKind::Free => {
                     let a = j.qpos_adr;
                     let d = j.dof_adr;
                     xpos = [qpos[a], qpos[a + 1], qpos[a + 2]];
@@ -130,26 +134,25 @@ impl Model {
                     vel = [qvel[d], qvel[d + 1], qvel[d + 2]];
                     omega = math::rotate(xquat, [qvel[d + 3], qvel[d + 4], qvel[d + 5]]);
                 }
-                joint => {
+                joints => {
+                    // mj_kinematics: each joint in order, about its own anchor and axis
+                    // in the frame the previous joints left.
                     xpos = math::add(ppos, math::rotate(pquat, local_pos));
                     xquat = math::mul_quat(pquat, local_quat);
-                    omega = pomega;
-                    vel = math::add(pvel, math::cross(pomega, math::sub(xpos, ppos)));
-                    if let Some(j) = joint {
+                    // Per joint: its world anchor and axis at its stage (MuJoCo's
+                    // xanchor, xaxis).
+                    let mut stages = Vec::with_capacity(joints.len());
+                    for j in joints {
                         let a = j.qpos_adr;
-                        let d = j.dof_adr;
                         let xaxis = math::rotate(xquat, j.axis);
                         let xanchor = math::add(math::rotate(xquat, j.pos), xpos);
                         match j.kind {
                             JointKind::Slide => {
-                                xpos = math::add(xpos, math::scale(xaxis, qpos[a]));
-                                // The parent's velocity, taken where the body now is.
-                                vel = math::add(pvel, math::cross(pomega, math::sub(xpos, ppos)));
-                                vel = math::add(vel, math::scale(xaxis, qvel[d]));
+                                xpos = math::add(xpos, math::scale(xaxis, qpos[a] - j.reference));
                             }
                             JointKind::Hinge | JointKind::Ball => {
                                 let qloc = if j.kind == JointKind::Hinge {
-                                    math::axis_angle(j.axis, qpos[a])
+                                    math::axis_angle(j.axis, qpos[a] - j.reference)
                                 } else {
                                     math::normalize4([
                                         qpos[a],
@@ -160,22 +163,36 @@ impl Model {
                                 };
                                 xquat = math::mul_quat(xquat, qloc);
                                 xpos = math::sub(xanchor, math::rotate(xquat, j.pos));
+                            }
+                            // Rejected by check_joints (a free joint must be alone).
+                            JointKind::Free => {}
+                        }
+                        stages.push((j, xanchor, xaxis));
+                    }
+                    // mj_comVel: the parent's twist carried to the body origin, plus each
+                    // dof's motion (hinge about its anchor and axis, slide along its
+                    // axis, ball about its anchor along the body's final axes).
+                    let final_quat = math::normalize4(xquat);
+                    let mut w = pomega;
+                    let mut v = math::add(pvel, math::cross(pomega, math::sub(xpos, ppos)));
+                    for (j, xanchor, xaxis) in stages {
+                        let d = j.dof_adr;
+                        match j.kind {
+                            JointKind::Slide => v = math::add(v, math::scale(xaxis, qvel[d])),
+                            JointKind::Hinge | JointKind::Ball => {
                                 let rel = if j.kind == JointKind::Hinge {
                                     math::scale(xaxis, qvel[d])
                                 } else {
-                                    math::rotate(
-                                        math::normalize4(xquat),
-                                        [qvel[d], qvel[d + 1], qvel[d + 2]],
-                                    )
+                                    math::rotate(final_quat, [qvel[d], qvel[d + 1], qvel[d + 2]])
                                 };
-                                // The parent's velocity, taken where the body now is.
-                                vel = math::add(pvel, math::cross(pomega, math::sub(xpos, ppos)));
-                                vel = math::add(vel, math::cross(rel, math::sub(xpos, xanchor)));
-                                omega = math::add(omega, rel);
+                                v = math::add(v, math::cross(rel, math::sub(xpos, xanchor)));
+                                w = math::add(w, rel);
                             }
                             JointKind::Free => {}
                         }
                     }
+                    omega = w;
+                    vel = v;
                 }
             }
             xquat = math::normalize4(xquat);
@@ -207,7 +224,7 @@ impl Model {
     /// true for a loaded model; checked for hand-built ones).
     fn check_joints(&self) -> Result<(), MjcfError> {
         let (nq, nv) = (self.nq(), self.nv());
-        let mut owner = vec![false; self.bodies.len()];
+        let mut owner = vec![0usize; self.bodies.len()];
         for j in &self.joints {
             let bad = |reason: &str| MjcfError::Invalid {
                 element: "joint".into(),
@@ -221,8 +238,16 @@ impl Model {
             }
             match owner.get_mut(j.body) {
                 None => return Err(bad("body index out of range")),
-                Some(true) => return Err(bad("a body may hold one joint")),
-                Some(o) => *o = true,
+                Some(n) => *n += 1,
+            }
+        }
+        for j in &self.joints {
+            if j.kind == JointKind::Free && owner[j.body] > 1 {
+                return Err(MjcfError::Invalid {
+                    element: "joint".into(),
+                    line: j.line,
+                    reason: format!("joint \"{}\": free joint can only appear by itself", j.name),
+                });
             }
         }
         Ok(())

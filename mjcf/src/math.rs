@@ -228,6 +228,49 @@ pub fn sym_eigenvalues(m: &M3) -> V3 {
     e
 }
 
+/// Eigenvalues (any order) and eigenvectors (the columns of the returned matrix) of a
+/// symmetric 3×3 matrix, by cyclic Jacobi.
+pub fn sym_eigen(m: &M3) -> (V3, M3) {
+    let mut a = *m;
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _sweep in 0..50 {
+        let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+        let diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+        if !(off > 1e-40 * diag) {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if a[p][q] == 0.0 {
+                continue;
+            }
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let t = if theta == 0.0 { 1.0 } else { t };
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            let mut j = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+            j[p][p] = c;
+            j[q][q] = c;
+            j[p][q] = s;
+            j[q][p] = -s;
+            a = mat_mul(&transpose(&j), &mat_mul(&a, &j));
+            v = mat_mul(&v, &j);
+        }
+    }
+    ([a[0][0], a[1][1], a[2][2]], v)
+}
+
+/// `V diag(e) Vᵀ`.
+pub fn from_eigen(e: V3, v: &M3) -> M3 {
+    let mut out = [[0.0; 3]; 3];
+    for (i, row) in out.iter_mut().enumerate() {
+        for (j, x) in row.iter_mut().enumerate() {
+            *x = v[i][0] * e[0] * v[j][0] + v[i][1] * e[1] * v[j][1] + v[i][2] * e[2] * v[j][2];
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,20 +1,24 @@
 //! The document walk: sections in MuJoCo's order of effect (`compiler`, `option`,
-//! `default`, `worldbody`, `equality`, `keyframe`), bodies depth-first in document order
-//! without recursion.
+//! `default`, `asset`, `worldbody`, `contact`, `tendon`, `equality`, `actuator`,
+//! `sensor`, `keyframe`, `custom`), bodies depth-first in document order without
+//! recursion.
 
 use std::collections::BTreeMap;
+use std::path::Path;
 
-use roxmltree::{Document, Node};
-
-use crate::attrs::{line_at, Element};
-use crate::defaults::{Class, Defaults};
-use crate::elements::{GeomSpec, JointSpec};
+use crate::actuator::ActuatorSpec;
+use crate::attrs::{Attr, Element};
+use crate::defaults::{Class, Defaults, ACTUATORS};
+use crate::elements::{GeomSpec, JointSpec, SOFTNESS_ATTRS};
 use crate::error::MjcfError;
 use crate::inertia::{self, GeomMass};
 use crate::math::{self, M3, Q, V3};
-use crate::model::{Body, Connect, Geom, Joint, JointKind, Keyframe, Model};
+use crate::model::{
+    Assets, Body, Connect, ContactExclude, ContactPair, Custom, Geom, Joint, JointEquality,
+    JointKind, Keyframe, Marker, Model, Options, Sensor, Site, Tendon, TendonEquality, Weld,
+};
 use crate::orientation::{self, AngleConvention};
-use crate::MAX_DEPTH;
+use crate::xml::{self, XNode};
 
 /// `compiler inertiafromgeom`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,64 +28,69 @@ enum FromGeom {
     Auto,
 }
 
-/// Top-level sections skipped whole: they hold nothing that changes the dynamics of the
-/// subset (visual settings, memory sizes, statistics, textures and materials).
-const IGNORED_SECTIONS: [&str; 4] = ["size", "visual", "statistic", "asset"];
-/// Body children accepted and ignored: massless, collision-free markers and visuals.
-const IGNORED_IN_BODY: [&str; 3] = ["site", "camera", "light"];
-/// `option` attributes that only steer MuJoCo's solver, accepted and ignored.
-const SOLVER_ONLY_OPTIONS: [&str; 7] = [
-    // `cone`: MuJoCo's friction cone shape; this library's contact uses the pyramidal
-    // Coulomb cone whatever the file says.
-    "cone",
-    "solver",
-    "iterations",
-    "ls_iterations",
-    "tolerance",
-    "ls_tolerance",
+/// Top-level sections accepted and not stored: rendering settings, memory sizes,
+/// statistics used for visualisation.
+const IGNORED_SECTIONS: [&str; 3] = ["size", "visual", "statistic"];
+/// Every top-level section the loader reads.
+const SECTIONS: [&str; 13] = [
+    "compiler",
+    "option",
+    "default",
+    "asset",
+    "worldbody",
+    "contact",
+    "tendon",
+    "equality",
+    "actuator",
+    "sensor",
+    "keyframe",
+    "custom",
+    "extension",
+];
+/// `option` attributes that only steer MuJoCo's solver or collision detection,
+/// accepted and ignored.
+const SOLVER_ONLY_OPTIONS: [&str; 16] = [
     "jacobian",
+    "tolerance",
+    "ls_iterations",
+    "ls_tolerance",
+    "noslip_tolerance",
+    "ccd_iterations",
+    "ccd_tolerance",
+    "sdf_iterations",
+    "sdf_initpoints",
+    "apirate",
+    "actuatorgroupdisable",
+    "o_margin",
+    "o_solref",
+    "o_solimp",
+    "o_friction",
+    "sleep_tolerance",
 ];
 
-/// Parses and compiles a document.
-pub(crate) fn load(xml: &str) -> Result<Model, MjcfError> {
-    let options = roxmltree::ParsingOptions {
-        allow_dtd: false,
-        ..Default::default()
-    };
-    let doc = Document::parse_with_options(xml, options).map_err(|e| MjcfError::Xml {
-        line: e.pos().row,
-        message: e.to_string(),
-    })?;
-    check_depth(&doc)?;
-    let root = doc.root_element();
-    let el = Element::from_node(&doc, root);
-    if el.name != "mujoco" {
-        return Err(el.unsupported());
+/// Parses and compiles a document; `dir` is the base directory for `include`, `main`
+/// the main file's path when there is one.
+pub(crate) fn load(
+    text: &str,
+    dir: Option<&Path>,
+    main: Option<&Path>,
+) -> Result<Model, MjcfError> {
+    let root = xml::read(text, dir, main)?;
+    if root.name() != "mujoco" {
+        return Err(root.el.unsupported());
     }
-    el.only(&["model"])?;
-    let mut loader = Loader::new(&doc);
-    let sections: Vec<Node<'_, '_>> = root.children().filter(|n| n.is_element()).collect();
-    for s in &sections {
-        let name = s.tag_name().name();
-        let known = [
-            "compiler",
-            "option",
-            "default",
-            "worldbody",
-            "equality",
-            "keyframe",
-        ];
-        if !known.contains(&name) && !IGNORED_SECTIONS.contains(&name) {
-            return Err(Element::from_node(&doc, *s).unsupported());
+    root.el.only(&["model"])?;
+    let mut loader = Loader::new();
+    for s in root.elements() {
+        let name = s.name();
+        if name == "extension" {
+            return Err(s.el.feature("extension (plugins)"));
+        }
+        if !SECTIONS.contains(&name) && !IGNORED_SECTIONS.contains(&name) {
+            return Err(s.el.unsupported());
         }
     }
-    let of = |name: &'static str| {
-        sections
-            .iter()
-            .filter(move |n| n.tag_name().name() == name)
-            .copied()
-            .collect::<Vec<_>>()
-    };
+    let of = |name: &'static str| root.elements().filter(move |n| n.name() == name);
     for n in of("compiler") {
         loader.compiler(n)?;
     }
@@ -89,6 +98,7 @@ pub(crate) fn load(xml: &str) -> Result<Model, MjcfError> {
         loader.option(n)?;
     }
     for n in of("default") {
+        let (conv, autolimits) = (loader.conv, loader.autolimits);
         let check = |c: &Class| -> Result<(), MjcfError> {
             let mut j = JointSpec::default();
             for a in &c.joint {
@@ -98,44 +108,71 @@ pub(crate) fn load(xml: &str) -> Result<Model, MjcfError> {
             for a in &c.geom {
                 g.apply(a)?;
             }
+            let mut act = ActuatorSpec::default();
+            for (kind, attrs) in &c.actuator {
+                act.apply(kind, attrs, conv, autolimits)?;
+            }
             Ok(())
         };
-        loader.defaults.parse(&doc, n, &check)?;
+        loader.defaults.parse(n, &check)?;
+    }
+    for n in of("asset") {
+        loader.asset(n)?;
     }
     for n in of("worldbody") {
         loader.worldbody(n)?;
     }
     loader.check_moving_masses()?;
+    loader.total_mass();
+    for n in of("contact") {
+        loader.contact(n)?;
+    }
+    for n in of("tendon") {
+        loader.tendon(n)?;
+    }
     for n in of("equality") {
         loader.equality(n)?;
+    }
+    for n in of("actuator") {
+        loader.actuators(n)?;
+    }
+    for n in of("sensor") {
+        loader.sensors(n)?;
     }
     for n in of("keyframe") {
         loader.keyframes(n)?;
     }
+    for n in of("custom") {
+        loader.custom(n)?;
+    }
     if loader.gravity_disabled {
         loader.model.gravity = [0.0; 3];
+    }
+    let mut soft = Vec::new();
+    collect_softness(&root, &mut soft);
+    if !soft.is_empty() {
+        loader.model.warnings.push(format!(
+            "not modelled: hard constraints ({}) are used instead of MuJoCo's soft ones",
+            soft.join("/")
+        ));
     }
     Ok(loader.model)
 }
 
-/// Refuses element nesting deeper than [`MAX_DEPTH`] (iteratively, so hostile nesting
-/// cannot exhaust the stack here or later).
-fn check_depth(doc: &Document<'_>) -> Result<(), MjcfError> {
-    let mut stack = vec![(doc.root_element(), 1usize)];
-    while let Some((node, depth)) = stack.pop() {
-        if depth > MAX_DEPTH {
-            return Err(MjcfError::TooDeep {
-                line: line_at(doc, node.range().start),
-                limit: MAX_DEPTH,
-            });
+/// Names of the soft-constraint attributes used anywhere in the tree (iteratively).
+fn collect_softness(root: &XNode, out: &mut Vec<&'static str>) {
+    let mut stack = vec![root];
+    while let Some(n) = stack.pop() {
+        for a in &n.el.attrs {
+            if let Some(s) = SOFTNESS_ATTRS.iter().find(|s| **s == a.name) {
+                if !out.contains(s) {
+                    out.push(s);
+                }
+            }
         }
-        stack.extend(
-            node.children()
-                .filter(|n| n.is_element())
-                .map(|n| (n, depth + 1)),
-        );
+        stack.extend(n.elements());
     }
-    Ok(())
+    out.sort_by_key(|s| SOFTNESS_ATTRS.iter().position(|x| x == s));
 }
 
 /// What the walk keeps per body beyond [`Body`].
@@ -144,11 +181,13 @@ struct BodyExtra {
     children: Vec<usize>,
     /// Mass and principal inertias are all `≥ mjMINVAL`.
     massive: bool,
+    /// The `<body>` element (for errors found later).
+    el: Element,
 }
 
 /// A body waiting on the walk's stack.
-struct Pending<'a, 'input> {
-    node: Node<'a, 'input>,
+struct Pending<'a> {
+    node: &'a XNode,
     parent: Option<usize>,
     class: usize,
     pos: V3,
@@ -156,10 +195,14 @@ struct Pending<'a, 'input> {
     parent_static: bool,
 }
 
-struct Loader<'a, 'input> {
-    doc: &'a Document<'input>,
+struct Loader {
     conv: AngleConvention,
     from_geom: FromGeom,
+    autolimits: bool,
+    boundmass: f64,
+    boundinertia: f64,
+    settotalmass: f64,
+    inertia_groups: [i32; 2],
     gravity_disabled: bool,
     defaults: Defaults,
     model: Model,
@@ -167,7 +210,10 @@ struct Loader<'a, 'input> {
     body_names: BTreeMap<String, usize>,
     joint_names: BTreeMap<String, usize>,
     geom_names: BTreeMap<String, usize>,
-    connect_names: BTreeMap<String, usize>,
+    site_names: BTreeMap<String, usize>,
+    tendon_names: BTreeMap<String, usize>,
+    actuator_names: BTreeMap<String, usize>,
+    equality_names: BTreeMap<String, usize>,
     key_names: BTreeMap<String, usize>,
     nq: usize,
     nv: usize,
@@ -196,12 +242,41 @@ fn name_or(el: &Element, prefix: &str, index: usize) -> String {
     }
 }
 
-impl<'a, 'input> Loader<'a, 'input> {
-    fn new(doc: &'a Document<'input>) -> Self {
+fn name_of(el: &Element) -> String {
+    el.get("name")
+        .map_or_else(String::new, |a| a.value.trim().to_string())
+}
+
+/// Element children of a node that must have none.
+fn no_children(node: &XNode) -> Result<(), MjcfError> {
+    match node.elements().next() {
+        Some(c) => Err(c.el.unsupported()),
+        None => Ok(()),
+    }
+}
+
+/// Looks a name up in `names` (`kind` for the error).
+fn lookup(
+    names: &BTreeMap<String, usize>,
+    a: &Attr,
+    kind: &'static str,
+) -> Result<usize, MjcfError> {
+    names
+        .get(a.value.trim())
+        .copied()
+        .ok_or_else(|| a.unknown(kind))
+}
+
+impl Loader {
+    fn new() -> Self {
         Loader {
-            doc,
             conv: AngleConvention::default(),
             from_geom: FromGeom::Auto,
+            autolimits: true,
+            boundmass: 0.0,
+            boundinertia: 0.0,
+            settotalmass: -1.0,
+            inertia_groups: [0, 5],
             gravity_disabled: false,
             defaults: Defaults::new(),
             model: Model {
@@ -214,33 +289,55 @@ impl<'a, 'input> Loader<'a, 'input> {
                 geoms: Vec::new(),
                 connects: Vec::new(),
                 keyframes: Vec::new(),
+                actuators: Vec::new(),
+                tendons: Vec::new(),
+                joint_equalities: Vec::new(),
+                tendon_equalities: Vec::new(),
+                welds: Vec::new(),
+                contact_excludes: Vec::new(),
+                contact_pairs: Vec::new(),
+                sites: Vec::new(),
+                cameras: Vec::new(),
+                lights: Vec::new(),
+                sensors: Vec::new(),
+                custom: Vec::new(),
+                assets: Assets::default(),
+                options: Options::default(),
+                warnings: Vec::new(),
             },
             extra: Vec::new(),
             body_names: BTreeMap::new(),
             joint_names: BTreeMap::new(),
             geom_names: BTreeMap::new(),
-            connect_names: BTreeMap::new(),
+            site_names: BTreeMap::new(),
+            tendon_names: BTreeMap::new(),
+            actuator_names: BTreeMap::new(),
+            equality_names: BTreeMap::new(),
             key_names: BTreeMap::new(),
             nq: 0,
             nv: 0,
         }
     }
 
-    fn element(&self, node: Node<'_, '_>) -> Element {
-        Element::from_node(self.doc, node)
-    }
-
-    /// Child elements of a node that must have none.
-    fn no_children(&self, node: Node<'_, '_>) -> Result<(), MjcfError> {
-        match node.children().find(|n| n.is_element()) {
-            Some(c) => Err(self.element(c).unsupported()),
-            None => Ok(()),
+    /// A body attribute naming a body (`world` or absent: `None`).
+    fn body_ref(&self, el: &Element, attr: &str) -> Result<Option<usize>, MjcfError> {
+        match el.get(attr) {
+            None => Ok(None),
+            Some(a) if a.value.trim() == "world" => Ok(None),
+            Some(a) => match self.body_names.get(a.value.trim()) {
+                Some(i) => Ok(Some(*i)),
+                None => Err(el.wrap(MjcfError::UnknownBody {
+                    element: el.name.clone(),
+                    name: a.value.clone(),
+                    line: a.line,
+                })),
+            },
         }
     }
 
-    fn compiler(&mut self, node: Node<'_, '_>) -> Result<(), MjcfError> {
-        let el = self.element(node);
-        self.no_children(node)?;
+    fn compiler(&mut self, node: &XNode) -> Result<(), MjcfError> {
+        let el = &node.el;
+        no_children(node)?;
         for a in &el.attrs {
             match a.name.as_str() {
                 "angle" => self.conv.degree = a.keyword(&[("degree", true), ("radian", false)])?,
@@ -258,20 +355,44 @@ impl<'a, 'input> Loader<'a, 'input> {
                     }
                     self.conv.seq = [b[0], b[1], b[2]];
                 }
-                // Limits are outside the subset (a limited joint is an error), so
-                // autolimits cannot matter; asset settings only serve ignored assets.
-                "autolimits" | "discardvisual" => {
+                "autolimits" => self.autolimits = a.boolean()?,
+                "boundmass" => self.boundmass = a.non_negative()?,
+                "boundinertia" => self.boundinertia = a.non_negative()?,
+                "settotalmass" => self.settotalmass = a.scalar()?,
+                "inertiagrouprange" => {
+                    let [lo, hi] = a.exact::<2>()?;
+                    if lo.fract() != 0.0 || hi.fract() != 0.0 {
+                        return Err(a.bad("must be two integers"));
+                    }
+                    self.inertia_groups = [lo as i32, hi as i32];
+                }
+                // MuJoCo 4 knows only local coordinates.
+                "coordinate" => {
+                    if a.keyword(&[("local", true), ("global", false)])? {
+                    } else {
+                        return Err(a.feature("coordinate=\"global\" (removed from MuJoCo)"));
+                    }
+                }
+                // These change bodies or frames in ways the data does not follow.
+                "fusestatic" | "alignfree" | "balanceinertia" => {
+                    if a.boolean()? {
+                        return Err(a.feature(format!("compiler {}", a.name)));
+                    }
+                }
+                "discardvisual" | "strippath" | "usethread" | "saveinertial"
+                | "exactmeshinertia" => {
                     a.boolean()?;
                 }
-                "meshdir" | "texturedir" | "assetdir" => {}
+                "meshdir" | "texturedir" | "assetdir" | "fitaabb" | "maxhullvert" => {}
                 _ => return Err(a.unsupported()),
             }
         }
         Ok(())
     }
 
-    fn option(&mut self, node: Node<'_, '_>) -> Result<(), MjcfError> {
-        let el = self.element(node);
+    fn option(&mut self, node: &XNode) -> Result<(), MjcfError> {
+        let el = &node.el;
+        let opts = &mut self.model.options;
         for a in &el.attrs {
             match a.name.as_str() {
                 "timestep" => self.model.timestep = a.positive()?,
@@ -285,43 +406,94 @@ impl<'a, 'input> Loader<'a, 'input> {
                     ])?;
                     self.model.integrator = v.to_string();
                 }
+                "density" => opts.density = a.non_negative()?,
+                "viscosity" => opts.viscosity = a.non_negative()?,
+                "wind" => opts.wind = a.exact()?,
+                "magnetic" => opts.magnetic = a.exact()?,
+                "cone" => {
+                    opts.cone = a
+                        .keyword(&[("pyramidal", "pyramidal"), ("elliptic", "elliptic")])?
+                        .to_string()
+                }
+                "impratio" => opts.impratio = a.positive()?,
+                "noslip_iterations" => opts.noslip_iterations = a.unsigned()?,
+                "iterations" => opts.iterations = a.unsigned()?,
+                "solver" => {
+                    opts.solver = a
+                        .keyword(&[("PGS", "PGS"), ("CG", "CG"), ("Newton", "Newton")])?
+                        .to_string()
+                }
                 n if SOLVER_ONLY_OPTIONS.contains(&n) => {}
                 _ => return Err(a.unsupported()),
             }
         }
-        for child in node.children().filter(|n| n.is_element()) {
-            let ce = self.element(child);
+        for child in node.elements() {
+            let ce = &child.el;
             if ce.name != "flag" {
                 return Err(ce.unsupported());
             }
-            self.no_children(child)?;
+            no_children(child)?;
             for a in &ce.attrs {
                 let enabled = a.keyword(&[("enable", true), ("disable", false)])?;
                 match a.name.as_str() {
                     "contact" => self.model.contact_disabled = !enabled,
                     "gravity" => self.gravity_disabled = !enabled,
-                    // Only bookkeeping or solver start: no effect on the dynamics.
-                    "energy" | "warmstart" => {}
-                    _ => return Err(a.unsupported()),
+                    _ => {}
                 }
+                self.model.options.flags.push((a.name.clone(), enabled));
             }
         }
         Ok(())
     }
 
-    fn worldbody(&mut self, node: Node<'a, 'input>) -> Result<(), MjcfError> {
-        let el = self.element(node);
-        el.only(&[])?;
+    /// Asset names; the assets themselves are not loaded.
+    fn asset(&mut self, node: &XNode) -> Result<(), MjcfError> {
+        node.el.only(&[])?;
+        for child in node.elements() {
+            let el = &child.el;
+            let name = name_of(el);
+            let assets = &mut self.model.assets;
+            match el.name.as_str() {
+                "texture" => {
+                    if !name.is_empty() {
+                        assets.textures.push(name)
+                    }
+                }
+                "material" => assets.materials.push(name),
+                "mesh" => {
+                    let n = if name.is_empty() {
+                        el.get("file").map_or_else(String::new, |f| {
+                            let p = Path::new(f.value.trim());
+                            p.file_stem()
+                                .map(|s| s.to_string_lossy().into_owned())
+                                .unwrap_or_default()
+                        })
+                    } else {
+                        name
+                    };
+                    assets.meshes.push(n)
+                }
+                "hfield" => assets.hfields.push(name),
+                "skin" => assets.skins.push(name),
+                _ => return Err(el.unsupported()),
+            }
+        }
+        Ok(())
+    }
+
+    fn worldbody(&mut self, node: &XNode) -> Result<(), MjcfError> {
+        node.el.only(&[])?;
         let mut stack = Vec::new();
         let mut bodies = Vec::new();
-        for child in node.children().filter(|n| n.is_element()) {
-            let ce = self.element(child);
+        for child in node.elements() {
+            let ce = &child.el;
             match ce.name.as_str() {
                 "body" => bodies.push(child),
                 "geom" => {
                     self.geom(child, None, 0)?;
                 }
-                n if IGNORED_IN_BODY.contains(&n) => {}
+                "site" | "camera" | "light" => self.marker(child, None)?,
+                "frame" => return Err(ce.feature("frame")),
                 _ => return Err(ce.unsupported()),
             }
         }
@@ -341,6 +513,54 @@ impl<'a, 'input> Loader<'a, 'input> {
         Ok(())
     }
 
+    /// `site`, `camera`, `light`: kept as data (their defaults are not applied).
+    fn marker(&mut self, node: &XNode, body: Option<usize>) -> Result<(), MjcfError> {
+        let el = &node.el;
+        if let Some(a) = el.get("class") {
+            self.defaults.lookup(a)?;
+        }
+        match el.name.as_str() {
+            "site" => {
+                let mut size = [0.005; 3];
+                if let Some(a) = el.get("size") {
+                    a.partial(&mut size)?;
+                }
+                let pos = match el.get("pos") {
+                    Some(a) => a.exact()?,
+                    None => [0.0; 3],
+                };
+                let quat = match orientation::read(el)? {
+                    Some((o, a)) => orientation::resolve(&o, &a, self.conv)?,
+                    None => math::QUAT_ID,
+                };
+                let index = self.model.sites.len();
+                register(&mut self.site_names, el, index)?;
+                self.model.sites.push(Site {
+                    name: name_or(el, "site", index),
+                    body,
+                    kind: el
+                        .get("type")
+                        .map_or_else(|| "sphere".to_string(), |a| a.value.trim().to_string()),
+                    size,
+                    pos,
+                    quat,
+                    line: el.line,
+                });
+            }
+            "camera" => self.model.cameras.push(Marker {
+                name: name_of(el),
+                body,
+                line: el.line,
+            }),
+            _ => self.model.lights.push(Marker {
+                name: name_of(el),
+                body,
+                line: el.line,
+            }),
+        }
+        Ok(())
+    }
+
     fn class_of(&self, el: &Element, inherited: usize) -> Result<usize, MjcfError> {
         match el.get("class") {
             Some(a) => self.defaults.lookup(a),
@@ -348,12 +568,8 @@ impl<'a, 'input> Loader<'a, 'input> {
         }
     }
 
-    fn body(
-        &mut self,
-        p: Pending<'a, 'input>,
-        stack: &mut Vec<Pending<'a, 'input>>,
-    ) -> Result<(), MjcfError> {
-        let el = self.element(p.node);
+    fn body<'a>(&mut self, p: Pending<'a>, stack: &mut Vec<Pending<'a>>) -> Result<(), MjcfError> {
+        let el = &p.node.el;
         el.only(&[
             "name",
             "pos",
@@ -363,7 +579,20 @@ impl<'a, 'input> Loader<'a, 'input> {
             "xyaxes",
             "zaxis",
             "childclass",
+            "user",
+            "mocap",
+            "gravcomp",
         ])?;
+        if let Some(a) = el.get("mocap") {
+            if a.boolean()? {
+                return Err(a.feature("mocap body"));
+            }
+        }
+        if let Some(a) = el.get("gravcomp") {
+            if a.scalar()? != 0.0 {
+                return Err(a.feature("gravity compensation"));
+            }
+        }
         let class = match el.get("childclass") {
             Some(a) => self.defaults.lookup(a)?,
             None => p.class,
@@ -372,7 +601,7 @@ impl<'a, 'input> Loader<'a, 'input> {
             Some(a) => a.exact()?,
             None => [0.0; 3],
         };
-        let local_quat = match orientation::read(&el)? {
+        let local_quat = match orientation::read(el)? {
             Some((o, a)) => orientation::resolve(&o, &a, self.conv)?,
             None => math::QUAT_ID,
         };
@@ -385,34 +614,29 @@ impl<'a, 'input> Loader<'a, 'input> {
         if el.get("name").map(|a| a.value.trim() == "world") == Some(true) {
             return Err(el.invalid("the name \"world\" is reserved for the world body"));
         }
-        register(&mut self.body_names, &el, index)?;
+        register(&mut self.body_names, el, index)?;
 
         let mut inertials = Vec::new();
         let mut joints = Vec::new();
         let mut geoms = Vec::new();
         let mut children = Vec::new();
-        for child in p.node.children().filter(|n| n.is_element()) {
-            match child.tag_name().name() {
+        let mut markers = Vec::new();
+        for child in p.node.elements() {
+            match child.name() {
                 "inertial" => inertials.push(child),
                 "joint" | "freejoint" => joints.push(child),
                 "geom" => geoms.push(child),
                 "body" => children.push(child),
-                n if IGNORED_IN_BODY.contains(&n) => {}
-                _ => return Err(self.element(child).unsupported()),
+                "site" | "camera" | "light" => markers.push(child),
+                "frame" => return Err(child.el.feature("frame")),
+                _ => return Err(child.el.unsupported()),
             }
         }
         if let Some(second) = inertials.get(1) {
-            return Err(self
-                .element(*second)
-                .invalid("a body may hold one inertial"));
-        }
-        // One joint per body in this subset (each joint is one constraint between a body
-        // and its parent).
-        if let Some(second) = joints.get(1) {
-            return Err(self.element(*second).unsupported());
+            return Err(second.el.invalid("a body may hold one inertial"));
         }
         self.model.bodies.push(Body {
-            name: name_or(&el, "body", index),
+            name: name_or(el, "body", index),
             parent: p.parent,
             pos,
             quat,
@@ -425,26 +649,48 @@ impl<'a, 'input> Loader<'a, 'input> {
             has_joint: !joints.is_empty(),
             children: Vec::new(),
             massive: false,
+            el: el.clone(),
         });
         if let Some(parent) = p.parent {
             self.extra[parent].children.push(index);
         }
-        if let Some(j) = joints.first() {
-            self.joint(*j, index, class, p.parent)?;
+        let first_joint = self.model.joints.len();
+        for j in &joints {
+            self.joint(j, index, class, p.parent)?;
+        }
+        // MuJoCo: a free joint can only appear by itself.
+        let body_joints = &self.model.joints[first_joint..];
+        if body_joints.len() > 1 && body_joints.iter().any(|j| j.kind == JointKind::Free) {
+            return Err(el.invalid("free joint can only appear by itself"));
+        }
+        // MuJoCo: a body has at most 6 degrees of freedom.
+        let dofs: usize = body_joints
+            .iter()
+            .map(|j| match j.kind {
+                JointKind::Hinge | JointKind::Slide => 1,
+                JointKind::Ball => 3,
+                JointKind::Free => 6,
+            })
+            .sum();
+        if dofs > 6 {
+            return Err(el.invalid("more than 6 dofs in body"));
+        }
+        for m in markers {
+            self.marker(m, Some(index))?;
         }
         let is_static = p.parent_static && joints.is_empty();
         let mut masses = Vec::new();
         for g in geoms {
-            let (data, is_plane) = self.geom(g, Some(index), class)?;
+            let (data, is_plane, group) = self.geom(g, Some(index), class)?;
             if is_plane && !is_static {
-                return Err(self
-                    .element(g)
-                    .invalid("plane only allowed in static bodies"));
+                return Err(g.el.invalid("plane only allowed in static bodies"));
             }
-            masses.push(data);
+            if group >= self.inertia_groups[0] && group <= self.inertia_groups[1] {
+                masses.push(data);
+            }
         }
         let explicit = match inertials.first() {
-            Some(n) => Some(self.inertial(*n)?),
+            Some(n) => Some(self.inertial(n)?),
             None => None,
         };
         let use_geoms = match self.from_geom {
@@ -457,13 +703,24 @@ impl<'a, 'input> Loader<'a, 'input> {
         } else {
             None
         };
-        let (mass, com, tensor) = match (from_geoms, explicit) {
+        let (mut mass, com, mut tensor) = match (from_geoms, explicit) {
             (Some(m), _) => m,
             (None, Some(m)) => m,
             (None, None) => (0.0, [0.0; 3], [[0.0; 3]; 3]),
         };
         if !mass.is_finite() || tensor.iter().flatten().any(|x| !x.is_finite()) {
             return Err(el.invalid("mass or inertia overflows"));
+        }
+        // compiler boundmass / boundinertia: lower bounds on mass and principal inertias.
+        mass = mass.max(self.boundmass);
+        if self.boundinertia > 0.0 {
+            let (e, v) = math::sym_eigen(&tensor);
+            let bounded = [
+                e[0].max(self.boundinertia),
+                e[1].max(self.boundinertia),
+                e[2].max(self.boundinertia),
+            ];
+            tensor = math::from_eigen(bounded, &v);
         }
         let eig = math::sym_eigenvalues(&tensor);
         let scale = eig[0].abs();
@@ -494,13 +751,13 @@ impl<'a, 'input> Loader<'a, 'input> {
 
     fn joint(
         &mut self,
-        node: Node<'_, '_>,
+        node: &XNode,
         body: usize,
         class: usize,
         parent: Option<usize>,
     ) -> Result<(), MjcfError> {
-        let el = self.element(node);
-        self.no_children(node)?;
+        let el = &node.el;
+        no_children(node)?;
         let mut spec = JointSpec::default();
         if el.name == "freejoint" {
             // `freejoint` takes no defaults.
@@ -510,14 +767,15 @@ impl<'a, 'input> Loader<'a, 'input> {
                     return Err(a.unsupported());
                 }
             }
-            spec.apply(&crate::attrs::Attr {
+            spec.apply(&Attr {
                 element: el.name.clone(),
                 name: "type".into(),
                 value: "free".into(),
                 line: el.line,
+                file: el.file.clone(),
             })?;
         } else {
-            let class = self.class_of(&el, class)?;
+            let class = self.class_of(el, class)?;
             for a in &self.defaults.classes[class].joint {
                 spec.apply(a)?;
             }
@@ -529,24 +787,31 @@ impl<'a, 'input> Loader<'a, 'input> {
                 spec.apply(a)?;
             }
         }
-        let data = spec.finish(&el)?;
+        let data = spec.finish(el, self.conv, self.autolimits)?;
         if data.kind == JointKind::Free && parent.is_some() {
             return Err(el.invalid("free joint can only be used on top level"));
         }
         let index = self.model.joints.len();
-        register(&mut self.joint_names, &el, index)?;
+        register(&mut self.joint_names, el, index)?;
         let (nq, nv) = match data.kind {
             JointKind::Hinge | JointKind::Slide => (1, 1),
             JointKind::Ball => (4, 3),
             JointKind::Free => (7, 6),
         };
         self.model.joints.push(Joint {
-            name: name_or(&el, "joint", index),
+            name: name_or(el, "joint", index),
             kind: data.kind,
             body,
             pos: data.pos,
             axis: data.axis,
             damping: data.damping,
+            limited: data.limited,
+            range: data.range,
+            armature: data.armature,
+            stiffness: data.stiffness,
+            springref: data.springref,
+            frictionloss: data.frictionloss,
+            reference: data.reference,
             qpos_adr: self.nq,
             dof_adr: self.nv,
             line: el.line,
@@ -556,22 +821,22 @@ impl<'a, 'input> Loader<'a, 'input> {
         Ok(())
     }
 
-    /// Compiles a geom into the model; returns its mass properties and whether it is a
-    /// plane.
+    /// Compiles a geom into the model; returns its mass properties, whether it is a
+    /// plane, and its group.
     fn geom(
         &mut self,
-        node: Node<'_, '_>,
+        node: &XNode,
         body: Option<usize>,
         class: usize,
-    ) -> Result<(GeomMass, bool), MjcfError> {
-        let el = self.element(node);
-        self.no_children(node)?;
-        let class = self.class_of(&el, class)?;
+    ) -> Result<(GeomMass, bool, i32), MjcfError> {
+        let el = &node.el;
+        no_children(node)?;
+        let class = self.class_of(el, class)?;
         let mut spec = GeomSpec::default();
         for a in &self.defaults.classes[class].geom {
             spec.apply(a)?;
         }
-        orientation::read(&el)?;
+        orientation::read(el)?;
         for a in el
             .attrs
             .iter()
@@ -579,14 +844,28 @@ impl<'a, 'input> Loader<'a, 'input> {
         {
             spec.apply(a)?;
         }
-        let data = spec.finish(&el, self.conv)?;
+        let data = spec.finish(el, self.conv)?;
         let index = self.model.geoms.len();
-        register(&mut self.geom_names, &el, index)?;
+        register(&mut self.geom_names, el, index)?;
         let is_plane = matches!(data.shape, crate::model::Shape::Plane);
+        let group = data.group;
         self.model.geoms.push(Geom {
-            name: name_or(&el, "geom", index),
+            name: name_or(el, "geom", index),
             body,
             shape: data.shape,
+            primitive: data.primitive,
+            mass: data.mass,
+            condim: data.condim,
+            priority: data.priority,
+            margin: data.margin,
+            gap: data.gap,
+            solref: data.solref,
+            solimp: data.solimp,
+            solmix: data.solmix,
+            rgba: data.rgba,
+            material: data.material,
+            group: data.group,
+            user: data.user,
             pos: data.pos,
             quat: data.quat,
             friction: data.friction,
@@ -603,13 +882,14 @@ impl<'a, 'input> Loader<'a, 'input> {
                 inertia: data.inertia,
             },
             is_plane,
+            group,
         ))
     }
 
     /// `inertial`: mass, centre of mass and inertia tensor in the body frame.
-    fn inertial(&self, node: Node<'_, '_>) -> Result<(f64, V3, M3), MjcfError> {
-        let el = self.element(node);
-        self.no_children(node)?;
+    fn inertial(&self, node: &XNode) -> Result<(f64, V3, M3), MjcfError> {
+        let el = &node.el;
+        no_children(node)?;
         el.only(&[
             "pos",
             "quat",
@@ -623,7 +903,7 @@ impl<'a, 'input> Loader<'a, 'input> {
         ])?;
         let pos: V3 = el.require("pos")?.exact()?;
         let mass = el.require("mass")?.non_negative()?;
-        let orient = orientation::read(&el)?;
+        let orient = orientation::read(el)?;
         let diag = match el.get("diaginertia") {
             Some(a) => {
                 let d: V3 = a.exact()?;
@@ -687,90 +967,438 @@ impl<'a, 'input> Loader<'a, 'input> {
             }
             if !ok {
                 let body = &self.model.bodies[i];
-                return Err(MjcfError::Invalid {
-                    element: "body".into(),
-                    line: body.line,
-                    reason: format!(
-                        "mass and inertia of moving body \"{}\" must be at least 1e-15",
-                        body.name
-                    ),
-                });
+                return Err(e.el.invalid(format!(
+                    "mass and inertia of moving body \"{}\" must be at least 1e-15",
+                    body.name
+                )));
             }
         }
         Ok(())
     }
 
-    fn equality(&mut self, node: Node<'_, '_>) -> Result<(), MjcfError> {
-        self.element(node).only(&[])?;
-        for child in node.children().filter(|n| n.is_element()) {
-            let el = self.element(child);
-            if el.name != "connect" {
-                return Err(el.unsupported());
-            }
-            self.no_children(child)?;
-            // `solref`/`solimp` only tune how soft MuJoCo's connect is; here a connect is a
-            // hard constraint, so they are accepted and ignored (documented in lib.rs).
-            el.only(&[
-                "name", "body1", "body2", "anchor", "active", "solref", "solimp",
-            ])?;
-            if let Some(a) = el.get("active") {
-                if !a.boolean()? {
-                    return Err(a.unsupported());
+    /// `compiler settotalmass` (`mj_setTotalmass`): every mass and inertia scaled so the
+    /// masses sum to the value.
+    fn total_mass(&mut self) {
+        if !(self.settotalmass > 0.0) {
+            return;
+        }
+        let total: f64 = self.model.bodies.iter().map(|b| b.mass).sum();
+        let scale = math::MINVAL.max(self.settotalmass / math::MINVAL.max(total));
+        for b in &mut self.model.bodies {
+            b.mass *= scale;
+            for row in &mut b.inertia {
+                for x in row.iter_mut() {
+                    *x *= scale;
                 }
             }
-            let body = |attr: &str| -> Result<Option<usize>, MjcfError> {
-                match el.get(attr) {
-                    None => Ok(None),
-                    Some(a) if a.value.trim() == "world" => Ok(None),
-                    Some(a) => match self.body_names.get(a.value.trim()) {
-                        Some(i) => Ok(Some(*i)),
-                        None => Err(MjcfError::UnknownBody {
-                            element: el.name.clone(),
-                            name: a.value.clone(),
-                            line: a.line,
-                        }),
-                    },
+        }
+    }
+
+    fn contact(&mut self, node: &XNode) -> Result<(), MjcfError> {
+        node.el.only(&[])?;
+        for child in node.elements() {
+            let el = &child.el;
+            no_children(child)?;
+            match el.name.as_str() {
+                "exclude" => {
+                    el.only(&["name", "body1", "body2"])?;
+                    el.require("body1")?;
+                    el.require("body2")?;
+                    let body1 = self.body_ref(el, "body1")?;
+                    let body2 = self.body_ref(el, "body2")?;
+                    self.model.contact_excludes.push(ContactExclude {
+                        name: name_of(el),
+                        body1,
+                        body2,
+                        line: el.line,
+                    });
+                }
+                "pair" => {
+                    if let Some(a) = el.get("class") {
+                        self.defaults.lookup(a)?;
+                    }
+                    let geom1 = lookup(&self.geom_names, el.require("geom1")?, "geom")?;
+                    let geom2 = lookup(&self.geom_names, el.require("geom2")?, "geom")?;
+                    let mut condim = 3;
+                    let mut friction = [1.0, 1.0, 0.005, 0.0001, 0.0001];
+                    for a in &el.attrs {
+                        match a.name.as_str() {
+                            "condim" => {
+                                condim = a.unsigned()?;
+                                if ![1, 3, 4, 6].contains(&condim) {
+                                    return Err(a.bad("condim must be 1, 3, 4 or 6"));
+                                }
+                            }
+                            "friction" => a.partial(&mut friction)?,
+                            "name" | "class" | "geom1" | "geom2" | "solref" | "solreffriction"
+                            | "solimp" | "margin" | "gap" => {}
+                            _ => return Err(a.unsupported()),
+                        }
+                    }
+                    self.model.contact_pairs.push(ContactPair {
+                        name: name_of(el),
+                        geom1,
+                        geom2,
+                        condim,
+                        friction,
+                        line: el.line,
+                    });
+                }
+                _ => return Err(el.unsupported()),
+            }
+        }
+        Ok(())
+    }
+
+    fn tendon(&mut self, node: &XNode) -> Result<(), MjcfError> {
+        node.el.only(&[])?;
+        for child in node.elements() {
+            let el = &child.el;
+            match el.name.as_str() {
+                "fixed" => {}
+                "spatial" => return Err(el.feature("spatial tendon")),
+                _ => return Err(el.unsupported()),
+            }
+            let class = self.class_of(el, 0)?;
+            let mut stiffness = 0.0;
+            let mut damping = 0.0;
+            let mut frictionloss = 0.0;
+            let mut limited: Option<bool> = None;
+            let mut range = [0.0; 2];
+            let mut springlength = [-1.0, -1.0];
+            let attrs = self.defaults.classes[class].tendon.iter().chain(
+                el.attrs
+                    .iter()
+                    .filter(|a| a.name != "name" && a.name != "class"),
+            );
+            for a in attrs {
+                match a.name.as_str() {
+                    "stiffness" => {
+                        let mut v = [0.0; 4];
+                        a.partial(&mut v)?;
+                        if v[1..] != [0.0; 3] {
+                            return Err(a.feature("polynomial tendon stiffness"));
+                        }
+                        if v[0] < 0.0 {
+                            return Err(a.bad("must not be negative"));
+                        }
+                        stiffness = v[0];
+                    }
+                    "damping" => {
+                        let mut v = [0.0; 4];
+                        a.partial(&mut v)?;
+                        if v[1..] != [0.0; 3] {
+                            return Err(a.feature("polynomial tendon damping"));
+                        }
+                        if v[0] < 0.0 {
+                            return Err(a.bad("must not be negative"));
+                        }
+                        damping = v[0];
+                    }
+                    "frictionloss" => frictionloss = a.non_negative()?,
+                    "limited" => limited = a.tristate()?,
+                    "range" => range = a.exact()?,
+                    "springlength" => {
+                        let v = a.numbers()?;
+                        match v.as_slice() {
+                            [x] => springlength = [*x, *x],
+                            [x, y] => springlength = [*x, *y],
+                            _ => return Err(a.bad("expected 1 or 2 numbers")),
+                        }
+                    }
+                    "group" | "width" | "material" | "rgba" | "margin" | "user" | "solreflimit"
+                    | "solimplimit" | "solreffriction" | "solimpfriction" | "armature"
+                    | "actuatorfrclimited" | "actuatorfrcrange" => {}
+                    _ => return Err(a.unsupported()),
+                }
+            }
+            let hasrange = !(range[0] == 0.0 && range[1] == 0.0);
+            let limited = match limited {
+                Some(l) => l,
+                None => {
+                    if !self.autolimits && hasrange {
+                        return Err(el.invalid(
+                            "tendon has `range` but not `limited`: set compiler autolimits=\"true\" or give `limited`",
+                        ));
+                    }
+                    range[0] < range[1]
                 }
             };
-            el.require("body1")?;
-            let body1 = body("body1")?;
-            let body2 = body("body2")?;
-            let anchor: V3 = el.require("anchor")?.exact()?;
-            let pose = |b: Option<usize>| match b {
-                Some(i) => (self.model.bodies[i].pos, self.model.bodies[i].quat),
-                None => ([0.0; 3], math::QUAT_ID),
-            };
-            let (p1, q1) = pose(body1);
-            let (p2, q2) = pose(body2);
-            let world = math::add(p1, math::rotate(q1, anchor));
-            let anchor2 = math::rotate(math::conj(q2), math::sub(world, p2));
-            if anchor2.iter().any(|x| !x.is_finite()) {
-                return Err(el.invalid("anchor overflows"));
+            if limited && range[0] >= range[1] {
+                return Err(el.invalid("range[0] should be smaller than range[1] in tendon"));
             }
-            let index = self.model.connects.len();
-            register(&mut self.connect_names, &el, index)?;
-            self.model.connects.push(Connect {
-                name: name_or(&el, "connect", index),
-                body1,
-                body2,
-                anchor,
-                anchor2,
+            let mut joints = Vec::new();
+            for j in child.elements() {
+                let je = &j.el;
+                if je.name != "joint" {
+                    return Err(je.unsupported());
+                }
+                no_children(j)?;
+                je.only(&["joint", "coef"])?;
+                let joint = lookup(&self.joint_names, je.require("joint")?, "joint")?;
+                if !matches!(
+                    self.model.joints[joint].kind,
+                    JointKind::Hinge | JointKind::Slide
+                ) {
+                    return Err(je.invalid("fixed tendon joints must be hinge or slide"));
+                }
+                let coef = je.require("coef")?.scalar()?;
+                joints.push((joint, coef));
+            }
+            if joints.is_empty() {
+                return Err(el.invalid("fixed tendon needs at least one joint"));
+            }
+            let index = self.model.tendons.len();
+            register(&mut self.tendon_names, el, index)?;
+            self.model.tendons.push(Tendon {
+                name: name_or(el, "tendon", index),
+                joints,
+                stiffness,
+                damping,
+                frictionloss,
+                limited,
+                range,
+                springlength,
                 line: el.line,
             });
         }
         Ok(())
     }
 
-    fn keyframes(&mut self, node: Node<'_, '_>) -> Result<(), MjcfError> {
-        self.element(node).only(&[])?;
+    fn equality(&mut self, node: &XNode) -> Result<(), MjcfError> {
+        node.el.only(&[])?;
+        for child in node.elements() {
+            let el = &child.el;
+            no_children(child)?;
+            let class = self.class_of(el, 0)?;
+            // `active` from the class, then the element; `solref` / `solimp` tune the
+            // softness of MuJoCo's equality constraints and are ignored (warning).
+            let mut active = true;
+            for a in self.defaults.classes[class]
+                .equality
+                .iter()
+                .chain(el.attrs.iter())
+            {
+                match a.name.as_str() {
+                    "active" => active = a.boolean()?,
+                    "solref" | "solimp" => {
+                        a.numbers()?;
+                    }
+                    _ => {}
+                }
+            }
+            let common = ["name", "class", "active", "solref", "solimp"];
+            let allowed = |extra: &[&'static str]| -> Vec<&'static str> {
+                common.iter().chain(extra.iter()).copied().collect()
+            };
+            let index = self.model.connects.len()
+                + self.model.joint_equalities.len()
+                + self.model.tendon_equalities.len()
+                + self.model.welds.len();
+            register(&mut self.equality_names, el, index)?;
+            let polycoef = |el: &Element| -> Result<[f64; 5], MjcfError> {
+                let mut p = [0.0, 1.0, 0.0, 0.0, 0.0];
+                if let Some(a) = el.get("polycoef") {
+                    a.partial(&mut p)?;
+                }
+                Ok(p)
+            };
+            match el.name.as_str() {
+                "connect" => {
+                    el.only(&allowed(&["body1", "body2", "anchor"]))?;
+                    if let Some(a) = el.get("site1") {
+                        return Err(a.unsupported());
+                    }
+                    if !active {
+                        let a = el.get("active").unwrap_or(&el.attrs[0]);
+                        return Err(a.unsupported());
+                    }
+                    el.require("body1")?;
+                    let body1 = self.body_ref(el, "body1")?;
+                    let body2 = self.body_ref(el, "body2")?;
+                    let anchor: V3 = el.require("anchor")?.exact()?;
+                    let pose = |b: Option<usize>| match b {
+                        Some(i) => (self.model.bodies[i].pos, self.model.bodies[i].quat),
+                        None => ([0.0; 3], math::QUAT_ID),
+                    };
+                    let (p1, q1) = pose(body1);
+                    let (p2, q2) = pose(body2);
+                    let world = math::add(p1, math::rotate(q1, anchor));
+                    let anchor2 = math::rotate(math::conj(q2), math::sub(world, p2));
+                    if anchor2.iter().any(|x| !x.is_finite()) {
+                        return Err(el.invalid("anchor overflows"));
+                    }
+                    let n = self.model.connects.len();
+                    self.model.connects.push(Connect {
+                        name: name_or(el, "connect", n),
+                        body1,
+                        body2,
+                        anchor,
+                        anchor2,
+                        line: el.line,
+                    });
+                }
+                "weld" => {
+                    el.only(&allowed(&[
+                        "body1",
+                        "body2",
+                        "anchor",
+                        "relpose",
+                        "torquescale",
+                    ]))?;
+                    el.require("body1")?;
+                    let body1 = self.body_ref(el, "body1")?;
+                    let body2 = self.body_ref(el, "body2")?;
+                    let anchor = match el.get("anchor") {
+                        Some(a) => a.exact()?,
+                        None => [0.0; 3],
+                    };
+                    let relpose = match el.get("relpose") {
+                        Some(a) => {
+                            let r: [f64; 7] = a.exact()?;
+                            // MuJoCo: a zero quaternion means "keep the default pose".
+                            (r[3..] != [0.0; 4]).then_some(r)
+                        }
+                        None => None,
+                    };
+                    let torquescale = match el.get("torquescale") {
+                        Some(a) => a.scalar()?,
+                        None => 1.0,
+                    };
+                    self.model.welds.push(Weld {
+                        name: name_or(el, "equality", index),
+                        body1,
+                        body2,
+                        anchor,
+                        relpose,
+                        torquescale,
+                        active,
+                        line: el.line,
+                    });
+                }
+                "joint" => {
+                    el.only(&allowed(&["joint1", "joint2", "polycoef"]))?;
+                    let joint1 = lookup(&self.joint_names, el.require("joint1")?, "joint")?;
+                    let joint2 = match el.get("joint2") {
+                        Some(a) => Some(lookup(&self.joint_names, a, "joint")?),
+                        None => None,
+                    };
+                    for j in std::iter::once(joint1).chain(joint2) {
+                        if !matches!(
+                            self.model.joints[j].kind,
+                            JointKind::Hinge | JointKind::Slide
+                        ) {
+                            return Err(el.invalid("only hinge and slide joints can be coupled"));
+                        }
+                    }
+                    self.model.joint_equalities.push(JointEquality {
+                        name: name_or(el, "equality", index),
+                        joint1,
+                        joint2,
+                        polycoef: polycoef(el)?,
+                        active,
+                        line: el.line,
+                    });
+                }
+                "tendon" => {
+                    el.only(&allowed(&["tendon1", "tendon2", "polycoef"]))?;
+                    let tendon1 = lookup(&self.tendon_names, el.require("tendon1")?, "tendon")?;
+                    let tendon2 = match el.get("tendon2") {
+                        Some(a) => Some(lookup(&self.tendon_names, a, "tendon")?),
+                        None => None,
+                    };
+                    self.model.tendon_equalities.push(TendonEquality {
+                        name: name_or(el, "equality", index),
+                        tendon1,
+                        tendon2,
+                        polycoef: polycoef(el)?,
+                        active,
+                        line: el.line,
+                    });
+                }
+                _ => return Err(el.unsupported()),
+            }
+        }
+        Ok(())
+    }
+
+    fn actuators(&mut self, node: &XNode) -> Result<(), MjcfError> {
+        node.el.only(&[])?;
+        for child in node.elements() {
+            let el = &child.el;
+            if !ACTUATORS.contains(&el.name.as_str()) {
+                return Err(match el.name.as_str() {
+                    "intvelocity" | "damper" | "cylinder" | "muscle" | "adhesion" | "plugin"
+                    | "pid" | "orientation" | "dcmotor" => {
+                        el.feature(format!("actuator <{}>", el.name))
+                    }
+                    _ => el.unsupported(),
+                });
+            }
+            no_children(child)?;
+            let class = self.class_of(el, 0)?;
+            let mut spec = ActuatorSpec::default();
+            for (kind, attrs) in &self.defaults.classes[class].actuator {
+                spec.apply(kind, attrs, self.conv, self.autolimits)?;
+            }
+            let own: Vec<Attr> = el
+                .attrs
+                .iter()
+                .filter(|a| a.name != "name" && a.name != "class")
+                .cloned()
+                .collect();
+            spec.apply(&el.name, &own, self.conv, self.autolimits)?;
+            let index = self.model.actuators.len();
+            let act = spec.finish(
+                el,
+                name_or(el, "actuator", index),
+                &self.joint_names,
+                &self.tendon_names,
+                &self.model,
+                self.autolimits,
+            )?;
+            register(&mut self.actuator_names, el, index)?;
+            self.model.actuators.push(act);
+        }
+        Ok(())
+    }
+
+    /// Sensors: name, type and the object they read, as written.
+    fn sensors(&mut self, node: &XNode) -> Result<(), MjcfError> {
+        node.el.only(&[])?;
+        const NOT_TARGET: [&str; 8] = [
+            "name", "class", "noise", "cutoff", "user", "nsample", "interp", "delay",
+        ];
+        for child in node.elements() {
+            let el = &child.el;
+            if el.name == "plugin" {
+                return Err(el.feature("sensor plugin"));
+            }
+            let target = el
+                .attrs
+                .iter()
+                .find(|a| !NOT_TARGET.contains(&a.name.as_str()))
+                .map_or_else(String::new, |a| a.value.trim().to_string());
+            self.model.sensors.push(Sensor {
+                name: name_of(el),
+                kind: el.name.clone(),
+                target,
+                line: el.line,
+            });
+        }
+        Ok(())
+    }
+
+    fn keyframes(&mut self, node: &XNode) -> Result<(), MjcfError> {
+        node.el.only(&[])?;
         let qpos0 = self.model.qpos0();
-        for child in node.children().filter(|n| n.is_element()) {
-            let el = self.element(child);
+        for child in node.elements() {
+            let el = &child.el;
             if el.name != "key" {
                 return Err(el.unsupported());
             }
-            self.no_children(child)?;
-            el.only(&["name", "time", "qpos", "qvel"])?;
+            no_children(child)?;
+            el.only(&["name", "time", "qpos", "qvel", "ctrl", "act"])?;
             let time = match el.get("time") {
                 Some(a) => a.scalar()?,
                 None => 0.0,
@@ -794,6 +1422,9 @@ impl<'a, 'input> Loader<'a, 'input> {
             };
             let mut qpos = read("qpos", &qpos0)?;
             let qvel = read("qvel", &vec![0.0; self.nv])?;
+            let ctrl = read("ctrl", &vec![0.0; self.model.actuators.len()])?;
+            // No actuator has activation state (dyntype none only).
+            read("act", &[])?;
             // MuJoCo normalises the quaternions of ball and free joints in key_qpos (a
             // zero quaternion becomes the identity).
             for j in &self.model.joints {
@@ -806,14 +1437,77 @@ impl<'a, 'input> Loader<'a, 'input> {
                 qpos[a..a + 4].copy_from_slice(&q);
             }
             let index = self.model.keyframes.len();
-            register(&mut self.key_names, &el, index)?;
+            register(&mut self.key_names, el, index)?;
             self.model.keyframes.push(Keyframe {
-                name: name_or(&el, "key", index),
+                name: name_or(el, "key", index),
                 time,
                 qpos,
                 qvel,
+                ctrl,
                 line: el.line,
             });
+        }
+        Ok(())
+    }
+
+    /// `custom`: `numeric` (zero-padded to `size`), `text`, `tuple`.
+    fn custom(&mut self, node: &XNode) -> Result<(), MjcfError> {
+        node.el.only(&[])?;
+        for child in node.elements() {
+            let el = &child.el;
+            let name = el.require("name")?.value.trim().to_string();
+            let mut entry = Custom {
+                name,
+                kind: el.name.clone(),
+                data: Vec::new(),
+                text: String::new(),
+            };
+            match el.name.as_str() {
+                "numeric" => {
+                    no_children(child)?;
+                    el.only(&["name", "size", "data"])?;
+                    let data = match el.get("data") {
+                        Some(a) => a.numbers()?,
+                        None => Vec::new(),
+                    };
+                    let size = match el.get("size") {
+                        Some(a) => a.unsigned()? as usize,
+                        None => data.len(),
+                    };
+                    if size < data.len() || size > 1 << 20 {
+                        return Err(el.invalid("numeric size smaller than its data or too large"));
+                    }
+                    entry.data = data;
+                    entry.data.resize(size, 0.0);
+                }
+                "text" => {
+                    no_children(child)?;
+                    el.only(&["name", "data"])?;
+                    entry.text = el.require("data")?.value.clone();
+                }
+                "tuple" => {
+                    el.only(&["name"])?;
+                    let mut objs = Vec::new();
+                    for e in child.elements() {
+                        let ee = &e.el;
+                        if ee.name != "element" {
+                            return Err(ee.unsupported());
+                        }
+                        no_children(e)?;
+                        ee.only(&["objtype", "objname", "prm"])?;
+                        let t = ee.require("objtype")?.value.trim().to_string();
+                        let n = ee.require("objname")?.value.trim().to_string();
+                        objs.push(format!("{t}:{n}"));
+                        entry.data.push(match ee.get("prm") {
+                            Some(a) => a.scalar()?,
+                            None => 0.0,
+                        });
+                    }
+                    entry.text = objs.join(" ");
+                }
+                _ => return Err(el.unsupported()),
+            }
+            self.model.custom.push(entry);
         }
         Ok(())
     }
