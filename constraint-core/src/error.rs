@@ -24,6 +24,9 @@ pub enum ConstraintError {
     IndexOutOfBounds,
     /// A rigid-body orientation quaternion was not of unit length (to within 1e-6).
     NonUnitQuaternion,
+    /// The axes of a compound joint are dependent (two parallel hinges, three coplanar
+    /// hinges, dependent slides) or more than three of a kind.
+    DependentAxes,
 }
 
 impl fmt::Display for ConstraintError {
@@ -38,6 +41,7 @@ impl fmt::Display for ConstraintError {
             Self::RepeatedIndex => "a point appears twice in the stencil",
             Self::IndexOutOfBounds => "a stencil index is out of bounds of the rest positions",
             Self::NonUnitQuaternion => "orientation quaternion is not of unit length",
+            Self::DependentAxes => "compound joint axes are dependent (parallel hinges, coplanar hinges or dependent slides)",
         };
         f.write_str(s)
     }

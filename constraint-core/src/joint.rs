@@ -52,7 +52,7 @@ fn axis_frame(a: &Pose, axis: DVec3) -> Result<(DVec3, [DVec3; 2]), ConstraintEr
     Ok((u, [a.dir_to_local(n1), a.dir_to_local(n2)]))
 }
 
-fn unit(axis: DVec3) -> Result<DVec3, ConstraintError> {
+pub(crate) fn unit(axis: DVec3) -> Result<DVec3, ConstraintError> {
     if !axis.is_finite() {
         return Err(ConstraintError::NonFinite);
     }
@@ -65,14 +65,14 @@ fn unit(axis: DVec3) -> Result<DVec3, ConstraintError> {
 
 /// Spherical rows `C = p_a − p_b`: value, Jacobian rows, and their curvature.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Point {
-    r_a: DVec3,
-    r_b: DVec3,
+pub(crate) struct Point {
+    pub(crate) r_a: DVec3,
+    pub(crate) r_b: DVec3,
 }
 
 impl Point {
     /// The anchor `anchor` (world) in both bodies' frames, after checking the rest poses.
-    fn from_world(a: &Pose, b: &Pose, anchor: DVec3) -> Result<Self, ConstraintError> {
+    pub(crate) fn from_world(a: &Pose, b: &Pose, anchor: DVec3) -> Result<Self, ConstraintError> {
         pose_ok(a)?;
         pose_ok(b)?;
         finite(&[anchor])?;
@@ -82,7 +82,7 @@ impl Point {
         })
     }
 
-    fn sep(&self, a: &Pose, b: &Pose) -> FrameExpr {
+    pub(crate) fn sep(&self, a: &Pose, b: &Pose) -> FrameExpr {
         FrameExpr::separation(a, self.r_a, b, self.r_b)
     }
     fn value(&self, a: &Pose, b: &Pose) -> DVec3 {
@@ -103,7 +103,7 @@ impl Point {
 
 /// The three orientation rows `(R_a e₁)·(R_b f₂)`, `(R_a e₂)·(R_b f₃)`, `(R_a e₃)·(R_b f₁)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Orientation {
+pub(crate) struct Orientation {
     e: [DVec3; 3],
     f: [DVec3; 3],
 }
@@ -111,7 +111,7 @@ struct Orientation {
 const PAIRS: [(usize, usize); 3] = [(0, 1), (1, 2), (2, 0)];
 
 impl Orientation {
-    fn from_world(a: &Pose, b: &Pose) -> Self {
+    pub(crate) fn from_world(a: &Pose, b: &Pose) -> Self {
         let basis = [DVec3::X, DVec3::Y, DVec3::Z];
         Self {
             e: basis.map(|d| a.dir_to_local(d)),
@@ -125,14 +125,14 @@ impl Orientation {
             FrameExpr::dir_b(b, self.f[j]),
         )
     }
-    fn rows(&self, a: &Pose, b: &Pose, value: &mut [f64], rows: &mut [[DVec3; 4]]) {
+    pub(crate) fn rows(&self, a: &Pose, b: &Pose, value: &mut [f64], rows: &mut [[DVec3; 4]]) {
         for k in 0..3 {
             let (ea, fb) = self.exprs(a, b, k);
             value[k] = ea.value.dot(fb.value);
             rows[k] = dot_grad(&ea, &fb);
         }
     }
-    fn curvature(&self, a: &Pose, b: &Pose, w: &[f64], h: &mut TwistCurvature) {
+    pub(crate) fn curvature(&self, a: &Pose, b: &Pose, w: &[f64], h: &mut TwistCurvature) {
         for k in 0..3 {
             let (ea, fb) = self.exprs(a, b, k);
             add_dot_hessian(&ea, &fb, w[k], h);

@@ -42,6 +42,7 @@
 
 pub mod area;
 pub mod body;
+pub mod compound;
 pub mod constraint;
 pub mod dihedral;
 pub mod error;
@@ -55,6 +56,7 @@ pub mod volume;
 
 pub use area::Area;
 pub use body::{BodyError, RigidBody};
+pub use compound::Compound;
 pub use constraint::{Curvature, Jacobian, PointConstraint};
 pub use dihedral::Dihedral;
 pub use error::ConstraintError;

@@ -289,3 +289,131 @@ fn hinge_angle_and_its_row() {
     assert!(worst_angle < 1e-12, "{worst_angle}");
     assert!(worst_grad < 1e-7, "{worst_grad}");
 }
+
+/// Compound joints (slides first, then hinges through one anchor, as MuJoCo composes
+/// the joints of one body): every composition the loader builds, derivatives against
+/// finite differences like the other joints (gates in `run`). Measured: gradient
+/// 4.5e-10 … 1.2e-8 (two hinges), curvature 4.2e-8 … 7.9e-8.
+#[test]
+fn compound_derivatives() {
+    use constraint_core::Compound;
+    // (slides, hinges): planar root (2 + 1), slide + hinge, two and three hinges, two
+    // slides, three slides + one hinge.
+    let shapes: [(usize, usize); 6] = [(2, 1), (1, 1), (0, 2), (0, 3), (2, 0), (3, 1)];
+    for (seed, (ns, nh)) in shapes.into_iter().enumerate() {
+        let name = format!("compound {ns} slides + {nh} hinges");
+        run(&name, 40 + seed as u64, move |a, b, anchor, axis, rng| {
+            let mut slides = vec![];
+            for _ in 0..ns {
+                slides.push(rng.unit_vector());
+            }
+            let mut hinges = vec![axis];
+            for _ in 1..nh {
+                hinges.push(rng.unit_vector());
+            }
+            hinges.truncate(nh);
+            let j = Compound::from_world(a, b, anchor, &slides, &hinges).unwrap();
+            Box::new(move |a, b, rng| check(&j, a, b, rng))
+        });
+    }
+}
+
+/// Compound joint coordinates: bodies placed by MuJoCo's composition
+/// `B = A R_off J₁(q₁) ⋯ J_k(q_k)` (slides move the anchor along parent-fixed axes,
+/// hinges turn about the anchor) from known `q` give back `q` from
+/// `Compound::coordinates`, and the rate rows `Compound::dof_rows` are the
+/// central-difference derivatives of the coordinates along random twists that keep the
+/// joint (motions `q(t)` composed the same way).
+#[test]
+fn compound_coordinates_and_rates() {
+    use constraint_core::compound::MAX_DOF;
+    use constraint_core::Compound;
+    let mut rng = Rng::new(91);
+    let shapes: [(usize, usize); 6] = [(2, 1), (1, 1), (0, 1), (0, 2), (0, 3), (2, 0)];
+    let (mut worst_q, mut worst_rate): (f64, f64) = (0.0, 0.0);
+    for case in 0..600 {
+        let (ns, nh) = shapes[case % shapes.len()];
+        let a0 = Pose {
+            x: rng.in_box(DVec3::ZERO, 1.0),
+            q: quat(&mut rng),
+        };
+        let b0 = Pose {
+            x: rng.in_box(DVec3::ZERO, 1.0),
+            q: quat(&mut rng),
+        };
+        let anchor = rng.in_box(DVec3::ZERO, 1.0);
+        let slides: Vec<DVec3> = (0..ns).map(|_| rng.unit_vector()).collect();
+        let hinges: Vec<DVec3> = (0..nh).map(|_| rng.unit_vector()).collect();
+        let j = Compound::from_world(&a0, &b0, anchor, &slides, &hinges).unwrap();
+        // The parent moves rigidly; b follows by the composition at q.
+        let a = Pose {
+            x: a0.x + rng.in_box(DVec3::ZERO, 0.5),
+            q: quat(&mut rng),
+        };
+        let place = |q: &[f64; MAX_DOF]| {
+            // In a's frame at rest: anchor p, b's orientation R_off = A₀ᵀB₀.
+            let r_off = a0.q.conjugate() * b0.q;
+            let p_a = a0.q.conjugate() * (anchor - a0.x);
+            let com_b = b0.q.conjugate() * (b0.x - anchor); // b's COM from the anchor, b frame
+            let mut shift = DVec3::ZERO;
+            for k in 0..ns {
+                shift += (r_off * slides[k].normalize()) * q[k];
+            }
+            let mut rot = r_off;
+            for k in 0..nh {
+                rot = rot * DQuat::from_axis_angle(hinges[k].normalize(), q[ns + k]);
+            }
+            let bq = (a.q * rot).normalize();
+            Pose {
+                x: a.x + a.q * (p_a + shift) + bq * com_b,
+                q: bq,
+            }
+        };
+        let mut q = [0.0; MAX_DOF];
+        for k in 0..ns {
+            q[k] = rng.uniform(-0.5, 0.5);
+        }
+        for k in 0..nh {
+            q[ns + k] = rng.uniform(-1.0, 1.0);
+        }
+        let b = place(&q);
+        let got = j.coordinates(&a, &b, &q);
+        for k in 0..ns + nh {
+            worst_q = worst_q.max((got[k] - q[k]).abs());
+        }
+        // A motion that keeps the joint: q(t) = q + t q̇, parent fixed.
+        let mut qd = [0.0; MAX_DOF];
+        for k in 0..ns + nh {
+            qd[k] = rng.uniform(-1.0, 1.0);
+        }
+        let h = 1e-6;
+        let at = |t: f64| {
+            let mut qt = q;
+            for k in 0..ns + nh {
+                qt[k] += t * qd[k];
+            }
+            place(&qt)
+        };
+        let (bp, bm) = (at(h), at(-h));
+        // The twist of b along the motion (central differences).
+        let v = (bp.x - bm.x) / (2.0 * h);
+        // Small rotation: the vector part of exp(θ/2) is θ/2 to O(θ³) (to_axis_angle's
+        // acos loses the angle near the identity).
+        let mut dq = (bp.q * bm.q.conjugate()).normalize();
+        if dq.w < 0.0 {
+            dq = -dq;
+        }
+        let w = DVec3::new(dq.x, dq.y, dq.z) * (2.0 / (2.0 * h));
+        let rows = j.dof_rows(&a, &b, &got);
+        for k in 0..ns + nh {
+            let rate = rows[k][2].dot(v) + rows[k][3].dot(w);
+            worst_rate = worst_rate.max((rate - qd[k]).abs());
+        }
+    }
+    println!(
+        "compound coordinates: worst |q − q*| {worst_q:.1e}, worst rate error {worst_rate:.1e}"
+    );
+    // Measured: coordinates 2.2e-14, rates 1.9e-9 (central differences at h = 1e-6).
+    assert!(worst_q < 1e-10, "{worst_q}");
+    assert!(worst_rate < 1e-6, "{worst_rate}");
+}
