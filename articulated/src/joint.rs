@@ -8,14 +8,19 @@
 //! `−d J_dᵀ J_d v'`; keeping it on the joint keeps the KKT graph a tree (a damping
 //! force between two bodies would couple their mass blocks directly).
 
+use constraint_core::compound::MAX_DOF;
 use constraint_core::{
-    BodyConstraint, DVec3, DistanceJoint, Fixed, Hinge, Pose, Prismatic, Spherical, TwistCurvature,
+    BodyConstraint, Compound, DVec3, DistanceJoint, Fixed, Hinge, Pose, Prismatic, Spherical,
+    TwistCurvature,
 };
 
 /// Largest number of rows a joint contributes (hard plus damping).
 pub const MAX_ROWS: usize = 6;
 
 /// The constraint a joint enforces.
+// The compound joint is the largest variant (about 400 bytes); joints live once in the
+// world's array, so plain `Copy` data is worth more than the bytes a `Box` would save.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum JointKind {
     /// Ball joint, 3 rows (damping: 3 rows on the relative angular velocity).
@@ -28,7 +33,15 @@ pub enum JointKind {
     Fixed(Fixed),
     /// Rod between two points, 1 row (damping: 1 row along the rod).
     Distance(DistanceJoint),
+    /// Slides then hinges composed in one body as MuJoCo composes them, `6 − dof` rows
+    /// (damping: one row per degree of freedom, on its rate `q̇_k`, with the
+    /// per-dof coefficient `dof_damping[k]` plus [`Joint::damping`]).
+    Compound(Compound, DofDamping),
 }
+
+/// Per-degree-of-freedom viscous damping of a [`JointKind::Compound`] (slides then
+/// hinges, as the compound's coordinates), `≥ 0`.
+pub type DofDamping = [f64; MAX_DOF];
 
 /// A joint between `parent` (`None` = the world) and `child`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -92,6 +105,7 @@ impl Joint {
             JointKind::Prismatic(c) => (c.anchor_a(), c.anchor_b()),
             JointKind::Fixed(c) => (c.anchor_a(), c.anchor_b()),
             JointKind::Distance(c) => (c.anchor_a(), c.anchor_b()),
+            JointKind::Compound(c, _) => (c.anchor_a(), c.anchor_b()),
         };
         let arm = a.length().max(b.length());
         match self.kind {
@@ -107,11 +121,25 @@ impl Joint {
             JointKind::Hinge(_) | JointKind::Prismatic(_) => 5,
             JointKind::Fixed(_) => 6,
             JointKind::Distance(_) => 1,
+            JointKind::Compound(c, _) => c.rows(),
+        }
+    }
+
+    /// Damping coefficient of degree of freedom `k` (compound joints: per dof plus
+    /// [`Self::damping`]; others: [`Self::damping`]).
+    pub fn dof_damping(&self, k: usize) -> f64 {
+        match &self.kind {
+            JointKind::Compound(_, d) => self.damping + d.get(k).copied().unwrap_or(0.0),
+            _ => self.damping,
         }
     }
 
     /// Number of damping rows (0 when `damping == 0`).
     pub fn damping_rows(&self) -> usize {
+        if let JointKind::Compound(c, d) = &self.kind {
+            let any = self.damping > 0.0 || d[..c.dof()].iter().any(|v| *v > 0.0);
+            return if any { c.dof() } else { 0 };
+        }
         if !(self.damping > 0.0) {
             return 0;
         }
@@ -119,11 +147,31 @@ impl Joint {
             JointKind::Spherical(_) => 3,
             JointKind::Hinge(_) | JointKind::Prismatic(_) | JointKind::Distance(_) => 1,
             JointKind::Fixed(_) => 0,
+            JointKind::Compound(..) => 0,
         }
     }
 
-    /// Value and Jacobian of the hard rows, then (when `with_damping`) the damping rows.
+    /// Number of rate rows the joint has when any of its coordinates is damped or has
+    /// armature: one per degree of freedom (3 for a ball joint, the rod rate for a
+    /// distance joint, none for a weld).
+    pub fn rate_rows(&self) -> usize {
+        match &self.kind {
+            JointKind::Spherical(_) => 3,
+            JointKind::Hinge(_) | JointKind::Prismatic(_) | JointKind::Distance(_) => 1,
+            JointKind::Fixed(_) => 0,
+            JointKind::Compound(c, _) => c.dof(),
+        }
+    }
+
+    /// Value and Jacobian of the hard rows, then (when `with_damping` and the joint is
+    /// damped) the damping rows.
     pub(crate) fn rows(&self, a: &Pose, b: &Pose, with_damping: bool) -> JointRows {
+        self.rows_with(a, b, with_damping && self.damping_rows() > 0)
+    }
+
+    /// Value and Jacobian of the hard rows, then (when `rates`) the rate rows of every
+    /// degree of freedom ([`Self::rate_rows`]).
+    pub(crate) fn rows_with(&self, a: &Pose, b: &Pose, rates: bool) -> JointRows {
         let mut out = JointRows::new();
         match &self.kind {
             JointKind::Spherical(c) => out.push_hard(c.jacobian(a, b)),
@@ -131,8 +179,17 @@ impl Joint {
             JointKind::Prismatic(c) => out.push_hard(c.jacobian(a, b)),
             JointKind::Fixed(c) => out.push_hard(c.jacobian(a, b)),
             JointKind::Distance(c) => out.push_hard(c.jacobian(a, b)),
+            JointKind::Compound(c, _) => {
+                let j = c.jacobian6(a, b);
+                for r in 0..c.rows() {
+                    out.value[r] = j.value[r];
+                    out.rows[r] = j.rows[r];
+                }
+                out.n = c.rows();
+                out.n_hard = out.n;
+            }
         }
-        if with_damping && self.damping_rows() > 0 {
+        if rates {
             match &self.kind {
                 JointKind::Spherical(_) => {
                     for e in [DVec3::X, DVec3::Y, DVec3::Z] {
@@ -149,6 +206,13 @@ impl Joint {
                     out.push_rate(r);
                 }
                 JointKind::Fixed(_) => {}
+                JointKind::Compound(c, _) => {
+                    let q = c.coordinates(a, b, &[0.0; MAX_DOF]);
+                    let rows = c.dof_rows(a, b, &q);
+                    for row in rows.iter().take(c.dof()) {
+                        out.push_rate(*row);
+                    }
+                }
             }
         }
         out
@@ -163,6 +227,10 @@ impl Joint {
             JointKind::Prismatic(c) => v[..5].copy_from_slice(&c.value(a, b)),
             JointKind::Fixed(c) => v[..6].copy_from_slice(&c.value(a, b)),
             JointKind::Distance(c) => v[..1].copy_from_slice(&c.value(a, b)),
+            JointKind::Compound(c, _) => {
+                let n = c.rows();
+                v[..n].copy_from_slice(&c.jacobian6(a, b).value[..n]);
+            }
         }
         v
     }
@@ -172,9 +240,13 @@ impl Joint {
     /// for a prismatic joint, `|C|` for a distance joint.
     pub fn separation(&self, a: &Pose, b: &Pose) -> f64 {
         let v = self.value(a, b);
-        match self.kind {
+        match &self.kind {
             JointKind::Prismatic(_) => libm::sqrt(v[0] * v[0] + v[1] * v[1]),
             JointKind::Distance(_) => v[0].abs(),
+            JointKind::Compound(c, _) => {
+                let n = c.translation_rows();
+                libm::sqrt(v[..n].iter().map(|x| x * x).sum::<f64>())
+            }
             _ => libm::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]),
         }
     }
@@ -187,6 +259,7 @@ impl Joint {
             JointKind::Prismatic(c) => c.curvature(a, b, &[w[0], w[1], w[2], w[3], w[4]]),
             JointKind::Fixed(c) => c.curvature(a, b, w),
             JointKind::Distance(c) => c.curvature(a, b, &[w[0]]),
+            JointKind::Compound(c, _) => c.curvature6(a, b, w),
         }
     }
 }

@@ -34,11 +34,12 @@ pub mod world;
 
 pub use constraint_core::{BodyError, RigidBody};
 pub use error::ArticulatedError;
-pub use joint::{Joint, JointKind};
+pub use joint::{DofDamping, Joint, JointKind};
 #[cfg(feature = "mjcf")]
 pub use mjcf::MjcfScene;
 #[cfg(feature = "contact")]
 pub use world::CollisionFilter;
 pub use world::{
-    GeometricStiffness, Method, RowSource, StepStats, UnilateralSettings, UnilateralStats, World,
+    Actuator, DofSpring, GeometricStiffness, Method, RowSource, StepStats, UnilateralSettings,
+    UnilateralStats, World,
 };

@@ -23,13 +23,14 @@
 use alloc::string::{String, ToString};
 use alloc::vec::Vec;
 
-use constraint_core::{DMat3, DQuat, DVec3, Fixed, Hinge, Pose, Prismatic, Spherical};
-use constraint_mjcf::{JointKind as MjKind, Model};
+use constraint_core::compound::MAX_DOF;
+use constraint_core::{Compound, DMat3, DQuat, DVec3, Fixed, Hinge, Pose, Prismatic, Spherical};
+use constraint_mjcf::{JointKind as MjKind, Model, Transmission};
 
 use crate::body::RigidBody;
 use crate::error::ArticulatedError;
 use crate::joint::{Joint, JointKind};
-use crate::world::World;
+use crate::world::{Actuator, DofSpring, World};
 
 /// A world built from an MJCF model, with the model's names and time step.
 #[derive(Clone, Debug)]
@@ -41,8 +42,14 @@ pub struct MjcfScene {
     /// `option timestep`.
     pub timestep: f64,
     /// Geoms that would collide in MuJoCo (`contype`/`conaffinity` non-zero and contact
-    /// not disabled); this crate does not simulate contact.
+    /// not disabled); with the `contact` feature they are the world's colliders.
     pub collision_geoms: usize,
+    /// Actuator names, in actuator order (the world's actuator indices).
+    pub actuator_names: Vec<String>,
+    /// What the file asks for that is read but not modelled (one line each): the
+    /// loader's warnings (contact softness) and this adapter's (condim 4 and 6 taken as
+    /// 3).
+    pub warnings: Vec<String>,
 }
 
 fn v3(a: [f64; 3]) -> DVec3 {
@@ -63,6 +70,8 @@ impl MjcfScene {
     pub fn new(model: &Model, key: Option<&str>) -> Result<Self, ArticulatedError> {
         let states = model.initial_state(key).map_err(scene_err)?;
         let mut world = World::new(v3(model.gravity));
+        #[allow(unused_mut)]
+        let mut warnings = model.warnings.clone();
         // Bodies at the default pose first: joints are defined there.
         let mut default_poses = Vec::with_capacity(model.bodies.len());
         for (i, b) in model.bodies.iter().enumerate() {
@@ -80,24 +89,31 @@ impl MjcfScene {
             world.add_body(body)?;
         }
         let pose_of = |b: Option<usize>| b.map_or(Pose::IDENTITY, |i| default_poses[i]);
-        let mut joint_of = alloc::vec![None; model.bodies.len()];
-        for j in &model.joints {
-            if let Some(slot) = joint_of.get_mut(j.body) {
-                *slot = Some(j);
+        reject_unsupported(model)?;
+        // The MuJoCo joints of each body, in document order.
+        let mut joints_of: Vec<Vec<usize>> = alloc::vec![Vec::new(); model.bodies.len()];
+        for (k, j) in model.joints.iter().enumerate() {
+            if let Some(slot) = joints_of.get_mut(j.body) {
+                slot.push(k);
             }
         }
+        // Where each MuJoCo joint ended up: (world joint, its degree of freedom).
+        let mut placed: Vec<Option<(usize, usize)>> = alloc::vec![None; model.joints.len()];
         for (i, b) in model.bodies.iter().enumerate() {
             let pa = pose_of(b.parent);
             let pb = default_poses[i];
             let origin = v3(b.pos);
             let r = quat(b.quat);
             let wrap = |e| scene_err(format!("body {:?} (line {}): {e}", b.name, b.line));
-            let (kind, damping) = match joint_of[i] {
-                None => (
+            let js: Vec<&constraint_mjcf::Joint> =
+                joints_of[i].iter().map(|&k| &model.joints[k]).collect();
+            let (kind, damping) = match js.as_slice() {
+                [] => (
                     JointKind::Fixed(Fixed::from_world(&pa, &pb, origin).map_err(wrap)?),
                     0.0,
                 ),
-                Some(j) => {
+                [j] if j.kind == MjKind::Free => continue,
+                [j] => {
                     let anchor = origin + r * v3(j.pos);
                     let axis = r * v3(j.axis);
                     let kind = match j.kind {
@@ -105,23 +121,129 @@ impl MjcfScene {
                         MjKind::Hinge => JointKind::Hinge(
                             Hinge::from_world(&pa, &pb, anchor, axis).map_err(wrap)?,
                         ),
-                        MjKind::Ball => JointKind::Spherical(
-                            Spherical::from_world(&pa, &pb, anchor).map_err(wrap)?,
-                        ),
+                        MjKind::Ball => {
+                            if j.limited {
+                                return Err(scene_err(format!(
+                                    "joint {:?} (line {}): ball joint limits are not supported (a cone limit is not a one-dimensional row)",
+                                    j.name, j.line
+                                )));
+                            }
+                            JointKind::Spherical(
+                                Spherical::from_world(&pa, &pb, anchor).map_err(wrap)?,
+                            )
+                        }
                         MjKind::Slide => JointKind::Prismatic(
                             Prismatic::from_world(&pa, &pb, anchor, axis).map_err(wrap)?,
                         ),
                     };
                     (kind, j.damping)
                 }
+                many => {
+                    // Slides first, then hinges through one anchor (MuJoCo's order).
+                    let first_hinge = many
+                        .iter()
+                        .position(|j| j.kind == MjKind::Hinge)
+                        .unwrap_or(many.len());
+                    let shape_ok = many[..first_hinge].iter().all(|j| j.kind == MjKind::Slide)
+                        && many[first_hinge..].iter().all(|j| j.kind == MjKind::Hinge);
+                    let hinge_pos = many.get(first_hinge).map(|j| v3(j.pos));
+                    let shared = many[first_hinge..]
+                        .iter()
+                        .all(|j| hinge_pos.is_some_and(|p| (v3(j.pos) - p).length() <= 1e-9));
+                    if !shape_ok || !shared {
+                        return Err(scene_err(format!(
+                            "body {:?} (line {}): this combination of joints is not supported (slides first, then hinges through one point)",
+                            b.name, b.line
+                        )));
+                    }
+                    let slides: Vec<DVec3> =
+                        many[..first_hinge].iter().map(|j| v3(j.axis)).collect();
+                    let hinges: Vec<DVec3> =
+                        many[first_hinge..].iter().map(|j| v3(j.axis)).collect();
+                    let anchor = origin + r * hinge_pos.unwrap_or(DVec3::ZERO);
+                    let c =
+                        Compound::from_world(&pa, &pb, anchor, &slides, &hinges).map_err(wrap)?;
+                    let mut d = [0.0; MAX_DOF];
+                    for (k, j) in many.iter().enumerate() {
+                        d[k] = j.damping;
+                    }
+                    (JointKind::Compound(c, d), 0.0)
+                }
             };
-            world.add_joint(Joint {
+            let wj = world.add_joint(Joint {
                 parent: b.parent,
                 child: i,
                 kind,
                 damping,
             })?;
+            for (dof, &k) in joints_of[i].iter().enumerate() {
+                placed[k] = Some((wj, dof));
+            }
         }
+        // Limits, springs (MuJoCo's coordinate is ours plus `ref`).
+        for (k, j) in model.joints.iter().enumerate() {
+            let Some((wj, dof)) = placed[k] else {
+                continue;
+            };
+            let at = |e: ArticulatedError| {
+                scene_err(format!("joint {:?} (line {}): {e}", j.name, j.line))
+            };
+            if j.limited && matches!(j.kind, MjKind::Hinge | MjKind::Slide) {
+                world
+                    .set_dof_limit(wj, dof, j.range[0] - j.reference, j.range[1] - j.reference)
+                    .map_err(at)?;
+            }
+            if j.armature > 0.0 {
+                let n = if j.kind == MjKind::Ball { 3 } else { 1 };
+                for d in 0..n {
+                    world.set_armature(wj, dof + d, j.armature).map_err(at)?;
+                }
+            }
+            if j.stiffness > 0.0 && matches!(j.kind, MjKind::Hinge | MjKind::Slide) {
+                world
+                    .add_dof_spring(DofSpring {
+                        joint: wj,
+                        dof,
+                        stiffness: j.stiffness,
+                        reference: j.springref - j.reference,
+                    })
+                    .map_err(at)?;
+            }
+        }
+        // Actuators on joints (MuJoCo's general form; `length = gear q` in MuJoCo's
+        // coordinate, ours plus `ref`, folded into the constant bias).
+        for a in &model.actuators {
+            let at = |e: String| scene_err(format!("actuator {:?} (line {}): {e}", a.name, a.line));
+            let k = match a.target {
+                Transmission::Joint(k) => k,
+                Transmission::Tendon(_) => {
+                    return Err(at("tendon transmissions are not supported".into()))
+                }
+            };
+            let j = &model.joints[k];
+            let Some((wj, dof)) =
+                placed[k].filter(|_| matches!(j.kind, MjKind::Hinge | MjKind::Slide))
+            else {
+                return Err(at("only hinge and slide joints can be actuated".into()));
+            };
+            let gear = a.gear[0];
+            world
+                .add_actuator(Actuator {
+                    joint: wj,
+                    dof,
+                    gear,
+                    gain: a.gain,
+                    bias: [
+                        a.bias[0] + a.bias[1] * gear * j.reference,
+                        a.bias[1],
+                        a.bias[2],
+                    ],
+                    ctrl_range: a.ctrllimited.then_some(a.ctrlrange),
+                    force_range: a.forcelimited.then_some(a.forcerange),
+                })
+                .map_err(|e| at(e.to_string()))?;
+        }
+        let actuator_names = model.actuators.iter().map(|a| a.name.clone()).collect();
         for c in &model.connects {
             let p1 = pose_of(c.body1);
             let p2 = pose_of(c.body2);
@@ -189,11 +311,17 @@ impl MjcfScene {
                 .filter(|g| g.contype != 0 || g.conaffinity != 0)
                 .count()
         };
+        #[cfg(feature = "contact")]
+        if !model.contact_disabled {
+            add_colliders(model, &mut world, &mut warnings)?;
+        }
         Ok(Self {
             world,
             body_names: model.bodies.iter().map(|b| b.name.clone()).collect(),
             timestep: model.timestep,
             collision_geoms,
+            actuator_names,
+            warnings,
         })
     }
 
@@ -202,4 +330,167 @@ impl MjcfScene {
         let model = constraint_mjcf::load_file(path).map_err(scene_err)?;
         Self::new(&model, key)
     }
+}
+
+/// Elements the world does not model yet: a typed error naming the element and line
+/// (never a silently different model).
+fn reject_unsupported(model: &Model) -> Result<(), ArticulatedError> {
+    let no = |what: &str, name: &str, line: u32| {
+        Err(scene_err(format!(
+            "line {line}: {what} {name:?} is not supported by the world yet"
+        )))
+    };
+    if let Some(t) = model.tendons.first() {
+        return no("fixed tendon", &t.name, t.line);
+    }
+    if let Some(e) = model.joint_equalities.iter().find(|e| e.active) {
+        return no("equality joint", &e.name, e.line);
+    }
+    if let Some(e) = model.tendon_equalities.iter().find(|e| e.active) {
+        return no("equality tendon", &e.name, e.line);
+    }
+    if let Some(e) = model.welds.iter().find(|e| e.active) {
+        return no("equality weld", &e.name, e.line);
+    }
+    if let Some(p) = model.contact_pairs.first() {
+        return no("contact pair", &p.name, p.line);
+    }
+    for j in &model.joints {
+        if j.frictionloss != 0.0 {
+            return no("joint frictionloss on", &j.name, j.line);
+        }
+        if j.stiffness != 0.0 && !matches!(j.kind, MjKind::Hinge | MjKind::Slide) {
+            return no("stiffness of a ball or free joint", &j.name, j.line);
+        }
+    }
+    let o = &model.options;
+    if o.density != 0.0 || o.viscosity != 0.0 {
+        return Err(scene_err(
+            "option density/viscosity: fluid drag is not supported by the world yet",
+        ));
+    }
+    Ok(())
+}
+
+/// The geoms as colliders of the world (feature `contact`), with MuJoCo's pair filter:
+/// `contype`/`conaffinity`, `contact/exclude`, and the parent filter on *weld bodies*
+/// (a body with no joint moves with its parent): geoms of one weld body never touch,
+/// nor those of a weld body and its parent weld body unless the parent is the world.
+#[cfg(feature = "contact")]
+fn add_colliders(
+    model: &Model,
+    world: &mut World,
+    warnings: &mut Vec<String>,
+) -> Result<(), ArticulatedError> {
+    use constraint_contact::geometry::{Collider, Shape};
+    use constraint_mjcf::Primitive;
+
+    use crate::world::CollisionFilter;
+    let nb = model.bodies.len();
+    let has_joint: Vec<bool> = (0..nb)
+        .map(|i| model.joints.iter().any(|j| j.body == i))
+        .collect();
+    // weld[i]: the body whose joint moves body i (None: the world).
+    let mut weld: Vec<Option<usize>> = alloc::vec![None; nb];
+    for i in 0..nb {
+        weld[i] = if has_joint[i] {
+            Some(i)
+        } else {
+            model.bodies[i].parent.and_then(|p| weld[p])
+        };
+    }
+    let weld_parent =
+        |w: Option<usize>| w.and_then(|i| model.bodies[i].parent).and_then(|p| weld[p]);
+    let mut condim_warned = false;
+    for g in &model.geoms {
+        if g.contype == 0 && g.conaffinity == 0 {
+            continue;
+        }
+        let at = |what: String| scene_err(format!("geom {:?} (line {}): {what}", g.name, g.line));
+        let geometry = |e: constraint_contact::geometry::GeometryError| at(format!("{e:?}"));
+        let q = quat(g.quat);
+        let shape = match g.primitive {
+            Primitive::Plane { .. } => {
+                if g.body.is_some_and(|b| weld[b].is_some()) {
+                    return Err(at("planes must be static (world) geoms".into()));
+                }
+                let n = q * DVec3::Z;
+                // A plane on a static body: its world pose at the default pose.
+                let (pos, nq) = match g.body {
+                    None => (v3(g.pos), q),
+                    Some(b) => {
+                        let bq = quat(model.bodies[b].quat);
+                        (v3(model.bodies[b].pos) + bq * v3(g.pos), bq * q)
+                    }
+                };
+                let n = if g.body.is_some() { nq * DVec3::Z } else { n };
+                Shape::plane(n, n.dot(pos)).map_err(geometry)?
+            }
+            Primitive::Sphere { radius } => Shape::sphere(radius).map_err(geometry)?,
+            Primitive::Box { half } => Shape::cuboid(v3(half)).map_err(geometry)?,
+            Primitive::Capsule {
+                radius,
+                half_length,
+            } => Shape::capsule(radius, half_length).map_err(geometry)?,
+            Primitive::Cylinder { .. } => {
+                return Err(at("cylinder collision is not supported (no cylinder shape in the contact crate yet)".into()))
+            }
+            Primitive::Ellipsoid { .. } => {
+                return Err(at("ellipsoid collision is not supported (no ellipsoid shape in the contact crate yet)".into()))
+            }
+        };
+        let friction = match g.condim {
+            1 => 0.0,
+            3 => g.friction[0],
+            _ => {
+                if !condim_warned {
+                    warnings.push(format!(
+                        "geom {:?} (line {}): condim {} taken as 3 (torsional and rolling friction not modelled)",
+                        g.name, g.line, g.condim
+                    ));
+                    condim_warned = true;
+                }
+                g.friction[0]
+            }
+        };
+        // Collider pose relative to its body's centre of mass, in the body frame; world
+        // geoms (and planes) in the world.
+        let (body, local) = match (g.body, g.primitive) {
+            (_, Primitive::Plane { .. }) => (None, Pose::IDENTITY),
+            (None, _) => (None, Pose { x: v3(g.pos), q }),
+            (Some(b), _) => (
+                Some(b),
+                Pose {
+                    x: v3(g.pos) - v3(model.bodies[b].com),
+                    q,
+                },
+            ),
+        };
+        let c = Collider::new(body, shape, local, friction, 0.0).map_err(geometry)?;
+        world.add_collider_filtered(
+            c,
+            CollisionFilter {
+                contype: g.contype,
+                conaffinity: g.conaffinity,
+            },
+        )?;
+    }
+    // Weld-body filtering and explicit exclusions as excluded body pairs.
+    let all: Vec<Option<usize>> = core::iter::once(None).chain((0..nb).map(Some)).collect();
+    let weld_of = |b: Option<usize>| b.and_then(|i| weld[i]);
+    for (x, &a) in all.iter().enumerate() {
+        for &b in &all[x + 1..] {
+            let (wa, wb) = (weld_of(a), weld_of(b));
+            let same = wa == wb;
+            let parent =
+                (wa.is_some() && wb.is_some()) && (weld_parent(wa) == wb || weld_parent(wb) == wa);
+            if same || parent {
+                world.exclude_pair(a, b)?;
+            }
+        }
+    }
+    for e in &model.contact_excludes {
+        world.exclude_pair(e.body1, e.body2)?;
+    }
+    Ok(())
 }

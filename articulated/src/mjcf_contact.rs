@@ -77,6 +77,16 @@ impl MjcfContactScene {
                 let where_ = |e: constraint_contact::geometry::GeometryError| {
                     bad(format!("geom {:?} (line {}): {e:?}", g.name, g.line))
                 };
+                if matches!(
+                    g.primitive,
+                    constraint_mjcf::Primitive::Cylinder { .. }
+                        | constraint_mjcf::Primitive::Ellipsoid { .. }
+                ) {
+                    return Err(bad(format!(
+                        "geom {:?} (line {}): cylinder and ellipsoid collision is not supported",
+                        g.name, g.line
+                    )));
+                }
                 let shape = match g.shape {
                     MjShape::Plane => {
                         if g.body.is_some() {

@@ -344,7 +344,7 @@ impl Compound {
             let mut w = [DVec3::ZERO; 3];
             for k in 0..nh {
                 w[k] = m * self.axes[k];
-                m = m * DQuat::from_axis_angle(self.axes[k], q[ns + k]);
+                m *= DQuat::from_axis_angle(self.axes[k], q[ns + k]);
             }
             let mut c = [DVec3::ZERO; 3];
             dual_basis(&w[..nh], &mut c[..nh]);

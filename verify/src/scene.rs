@@ -101,10 +101,20 @@ pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> 
             .geoms
             .iter()
             .any(|g| g.contype != 0 || g.conaffinity != 0);
-    if collides {
+    // Free bodies only: the free-body contact world (sequential impulses, shock
+    // propagation, split impulses). Everything else — joints with or without contact —
+    // runs in the one jointed world with its colliders.
+    let all_free = (0..model.bodies.len()).all(|i| {
+        let mut js = model.joints.iter().filter(|j| j.body == i);
+        matches!((js.next(), js.next()), (Some(j), None) if j.kind == constraint_mjcf::JointKind::Free)
+    });
+    if collides && all_free {
         return run_contact(&model, opts);
     }
     let mut scene = MjcfScene::new(&model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
     let h = opts.dt.unwrap_or(scene.timestep);
     let steps = step_count(h, opts)?;
     let m = method(&opts.method, h)?;
@@ -146,7 +156,7 @@ fn step_count(h: f64, opts: &RunOptions) -> Result<u64, String> {
     Ok(steps)
 }
 
-/// A scene with collision geoms: free bodies in a [`ContactWorld`] (the contact crate's
+/// A scene of free bodies with collision geoms, in a [`ContactWorld`] (the contact crate's
 /// defaults; `--method` is ignored). The trailing `C_max` column holds the deepest
 /// penetration before each step.
 fn run_contact(

@@ -361,7 +361,7 @@ fn compound_coordinates_and_rates() {
             }
             let mut rot = r_off;
             for k in 0..nh {
-                rot = rot * DQuat::from_axis_angle(hinges[k].normalize(), q[ns + k]);
+                rot *= DQuat::from_axis_angle(hinges[k].normalize(), q[ns + k]);
             }
             let bq = (a.q * rot).normalize();
             Pose {

@@ -29,7 +29,7 @@ impl World {
             let twist = self.twist(joint);
             for r in rows.n_hard..rows.n {
                 let rate: f64 = (0..4).map(|k| rows.rows[r][k].dot(twist[k])).sum();
-                let s = -joint.damping * rate;
+                let s = -joint.dof_damping(r - rows.n_hard) * rate;
                 if let Some(p) = joint.parent {
                     damp[p].0 += rows.rows[r][0] * s;
                     damp[p].1 += rows.rows[r][1] * s;
@@ -44,6 +44,12 @@ impl World {
             let w = b.omega;
             (g * b.mass(), -w.cross(*iw * w))
         });
+        if let Some(w) = self.dof_wrenches() {
+            for (d, e) in damp.iter_mut().zip(w) {
+                d.0 += e.0;
+                d.1 += e.1;
+            }
+        }
         for (i, (f, t)) in damp.iter().enumerate() {
             let o = self.solver.body_offset(i);
             for c in 0..3 {

@@ -35,6 +35,7 @@ use crate::joint::{Joint, JointKind, MAX_ROWS};
 use crate::tree::{JointTopo, TreeSolver};
 
 mod acceleration;
+mod actuator;
 #[cfg(feature = "contact")]
 mod contact;
 mod projection;
@@ -43,6 +44,7 @@ mod stages;
 mod unilateral;
 mod velocity;
 
+pub use actuator::{Actuator, DofSpring};
 #[cfg(feature = "contact")]
 pub use contact::CollisionFilter;
 pub use unilateral::{RowSource, UnilateralSettings, UnilateralStats};
@@ -202,8 +204,15 @@ pub struct World {
     proj_base: Vec<(Pose, DVec3, DVec3)>,
     /// Positional compliance `α ≥ 0` per joint (0: hard).
     compliance: Vec<f64>,
-    /// Limits per joint.
-    limits: Vec<Option<[f64; 2]>>,
+    /// Armature (rotor inertia on the coordinate) per joint and degree of freedom.
+    armature: Vec<[f64; constraint_core::compound::MAX_DOF]>,
+    /// Actuators and their controls.
+    actuators: Vec<Actuator>,
+    ctrl: Vec<f64>,
+    /// Joint springs.
+    springs: Vec<DofSpring>,
+    /// Limits per joint and degree of freedom.
+    limits: Vec<[Option<[f64; 2]>; constraint_core::compound::MAX_DOF]>,
     /// Settings of the one-sided rows (limits, contacts).
     pub unilateral: UnilateralSettings,
     /// What the one-sided rows did in the last step.
@@ -264,6 +273,10 @@ impl World {
             proj_base: Vec::new(),
             compliance: Vec::new(),
             limits: Vec::new(),
+            armature: Vec::new(),
+            actuators: Vec::new(),
+            ctrl: Vec::new(),
+            springs: Vec::new(),
             unilateral: UnilateralSettings::default(),
             ustats: UnilateralStats::default(),
             urows: Vec::new(),
@@ -325,9 +338,16 @@ impl World {
         if !(joint.damping >= 0.0) || !joint.damping.is_finite() {
             return Err(bad("damping must be finite and non-negative"));
         }
+        if let JointKind::Compound(_, d) = &joint.kind {
+            if d.iter().any(|v| !(*v >= 0.0) || !v.is_finite()) {
+                return Err(bad("damping must be finite and non-negative"));
+            }
+        }
         self.joints.push(joint);
         self.compliance.push(0.0);
-        self.limits.push(None);
+        self.limits.push([None; constraint_core::compound::MAX_DOF]);
+        self.armature
+            .push([0.0; constraint_core::compound::MAX_DOF]);
         self.solver_stale = true;
         Ok(j)
     }
@@ -405,7 +425,8 @@ impl World {
     /// Kinetic energy, and potential energy: gravitational plus the compliant joints'
     /// elastic `Σ C²/(2α)`: `(Σ ½mv² + ½ωᵀIω, −Σ m g·x + Σ C²/(2α))`.
     pub fn energy(&self) -> (f64, f64) {
-        let kin = self.bodies.iter().map(|b| b.kinetic_energy()).sum();
+        let kin =
+            self.bodies.iter().map(|b| b.kinetic_energy()).sum::<f64>() + self.armature_energy();
         let gravity: f64 = self
             .bodies
             .iter()
@@ -421,7 +442,7 @@ impl World {
                 c[..j.hard_rows()].iter().map(|v| v * v).sum::<f64>() / (2.0 * a)
             })
             .sum();
-        (kin, gravity + elastic)
+        (kin, gravity + elastic + self.spring_energy())
     }
 
     /// The compliant joints' explicit spring forces `−(1/α) Jᵀ C` per body, `(force,
@@ -476,12 +497,88 @@ impl World {
     fn topo(&self, with_damping: bool) -> Vec<JointTopo> {
         self.joints
             .iter()
-            .map(|j| JointTopo {
+            .enumerate()
+            .map(|(ji, j)| JointTopo {
                 a: j.parent,
                 b: j.child,
-                rows: j.hard_rows() + if with_damping { j.damping_rows() } else { 0 },
+                rows: j.hard_rows()
+                    + if with_damping {
+                        self.passive_rows_of(ji)
+                    } else {
+                        0
+                    },
             })
             .collect()
+    }
+
+    /// Sets the armature `I_a ≥ 0` (rotor inertia, kg·m² or kg) of degree of freedom
+    /// `dof` of `joint` (0 for a hinge or slide; 0…2 for a ball joint's relative
+    /// rotation axes; a compound joint's coordinates in order): the kinetic energy
+    /// `½ I_a q̇²` on the coordinate's rate, taken implicitly in the velocity-level
+    /// methods and in RATTLE's kicks (see [`World::step`]); the acceleration level
+    /// ignores it. Errors: unknown joint or degree of freedom, negative or non-finite
+    /// value.
+    pub fn set_armature(
+        &mut self,
+        joint: usize,
+        dof: usize,
+        armature: f64,
+    ) -> Result<(), ArticulatedError> {
+        let bad = |reason| ArticulatedError::InvalidJoint { joint, reason };
+        let Some(j) = self.joints.get(joint) else {
+            return Err(bad("unknown joint"));
+        };
+        if dof >= j.rate_rows() {
+            return Err(bad("the joint has no such degree of freedom"));
+        }
+        if !(armature >= 0.0) || !armature.is_finite() {
+            return Err(bad("armature must be finite and non-negative"));
+        }
+        self.armature[joint][dof] = armature;
+        self.solver_stale = true;
+        Ok(())
+    }
+
+    /// Armature per joint and degree of freedom.
+    pub fn armatures(&self) -> &[[f64; constraint_core::compound::MAX_DOF]] {
+        &self.armature
+    }
+
+    /// Kinetic energy of the armatures, `Σ ½ I_a q̇²`.
+    fn armature_energy(&self) -> f64 {
+        let mut e = 0.0;
+        for (ji, joint) in self.joints.iter().enumerate() {
+            if !self.armature[ji].iter().any(|v| *v > 0.0) {
+                continue;
+            }
+            let rows = joint.rows_with(
+                &self.pose(joint.parent),
+                &self.pose(Some(joint.child)),
+                true,
+            );
+            let tw = self.twist(joint);
+            for r in rows.n_hard..rows.n {
+                let g = rows.rows[r];
+                let rate: f64 = (0..4).map(|s| g[s].dot(tw[s])).sum();
+                e += 0.5 * self.armature[ji][r - rows.n_hard] * rate * rate;
+            }
+        }
+        e
+    }
+
+    /// Rate rows of joint `j` in the velocity-level system: one per degree of freedom
+    /// when it is damped or has armature, else none.
+    fn passive_rows_of(&self, ji: usize) -> usize {
+        let j = &self.joints[ji];
+        let armed = self
+            .armature
+            .get(ji)
+            .is_some_and(|a| a.iter().any(|v| *v > 0.0));
+        if j.damping_rows() > 0 || armed {
+            j.rate_rows()
+        } else {
+            0
+        }
     }
 
     fn ensure_solver(&mut self) {
@@ -637,19 +734,56 @@ impl World {
         for (j, joint) in self.joints.iter().enumerate() {
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
-            let mut rows = joint.rows(&a, &b, with_damping);
+            let passive = {
+                let armed = self.armature[j].iter().any(|v| *v > 0.0);
+                if joint.damping_rows() > 0 || armed {
+                    joint.rate_rows()
+                } else {
+                    0
+                }
+            };
+            let mut rows = joint.rows_with(&a, &b, with_damping && passive > 0);
             let mut comp = [0.0; MAX_ROWS];
+            // Rate rows: damping d and armature I_a on the coordinate rate q̇ = G v,
+            // `(M + (I_a + h d) GᵀG) v' = M v + h f + I_a GᵀG v`: the row
+            // `G v' − λ/(I_a + h d) = I_a/(I_a + h d) · G v` (implicit, so a large
+            // armature or damping is stable).
+            let mut rate_rhs = [0.0; MAX_ROWS];
             for r in rows.n_hard..rows.n {
-                comp[r] = 1.0 / (h * joint.damping);
+                let k = r - rows.n_hard;
+                let d = joint.dof_damping(k);
+                let arm = self.armature[j][k];
+                let s = arm + h * d;
+                if s > 0.0 {
+                    comp[r] = 1.0 / s;
+                    if arm > 0.0 {
+                        let tw = |i: Option<usize>| {
+                            i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
+                                (self.bodies[i].v, self.bodies[i].omega)
+                            })
+                        };
+                        let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
+                        let g = rows.rows[r];
+                        let rate = g[0].dot(va) + g[1].dot(wa) + g[2].dot(vb) + g[3].dot(wb);
+                        rate_rhs[r] = arm / s * rate;
+                    }
+                } else {
+                    // An undamped, armature-free dof of a joint whose other dofs have some.
+                    rows.rows[r] = [DVec3::ZERO; 4];
+                    comp[r] = 1.0;
+                }
             }
-            // In the topology every joint has its damping rows; without damping they get
+            // In the topology every joint has its rate rows; without damping they get
             // infinite compliance, i.e. a decoupled row with λ = 0.
-            let n_topo = joint.hard_rows() + joint.damping_rows();
+            let n_topo = joint.hard_rows() + passive;
             for r in rows.n..n_topo {
                 comp[r] = 1.0;
             }
             let mut rhs = [0.0; MAX_ROWS];
             joint_rhs(j, joint, &rows, &mut rhs[..rows.n]);
+            for r in rows.n_hard..rows.n {
+                rhs[r] += rate_rhs[r];
+            }
             let alpha = self.compliance.get(j).copied().unwrap_or(0.0);
             if alpha > 0.0 {
                 for r in 0..rows.n_hard {
@@ -752,6 +886,7 @@ impl World {
             Some(JointKind::Prismatic(_)) => "prismatic",
             Some(JointKind::Fixed(_)) => "fixed",
             Some(JointKind::Distance(_)) => "distance",
+            Some(JointKind::Compound(..)) => "compound",
             None => "none",
         }
     }

@@ -44,6 +44,7 @@ impl World {
         // Compliant joints: half a kick of their spring force at x (Störmer–Verlet); their
         // rows are left out of the kicks and of SHAKE.
         self.add_spring_rhs(half);
+        self.add_dof_forces(half);
         let loops = self.assemble(hd, true, Soft::Free, |_, _, rows, rhs| {
             for r in 0..rows.n_hard {
                 rhs[r] = -rows.value[r] / h;
@@ -88,6 +89,9 @@ impl World {
         //    corrections are δ = −M₀⁻¹J₀ᵀ(J₀M₀⁻¹J₀ᵀ)⁻¹ C(x') with the factor of step 1
         //    (a chord iteration: linear convergence at rate O(h)); δ/h enters the
         //    half-step velocities and I₀ δθ/h the angular momenta.
+        let passive: Vec<usize> = (0..self.joints.len())
+            .map(|j| self.passive_rows_of(j))
+            .collect();
         let mut iterations = 0;
         let mut final_err = 0.0;
         for it in 0..=max_iterations {
@@ -115,7 +119,7 @@ impl World {
                     }
                     None => {
                         loop_rhs.extend(c[..n].iter().map(|v| -v));
-                        loop_rhs.extend(core::iter::repeat_n(0.0, joint.damping_rows()));
+                        loop_rhs.extend(core::iter::repeat_n(0.0, passive[j]));
                     }
                 }
             }
@@ -150,6 +154,7 @@ impl World {
             }
         }
         self.add_spring_rhs(half);
+        self.add_dof_forces(half);
         let loops = self.assemble(hd, true, Soft::Free, |_, _, _, _| {});
         self.solve(loops)?;
         // Whole-step impulses (both kicks), for the geometric stiffness of a later

@@ -25,6 +25,7 @@
 use alloc::vec::Vec;
 
 use constraint_contact::lcp::{solve_rows, RowBound, RowSettings, RowStats};
+use constraint_core::compound::MAX_DOF;
 use constraint_core::DVec3;
 
 use super::*;
@@ -63,6 +64,8 @@ pub enum RowSource {
     Limit {
         /// The joint.
         joint: usize,
+        /// Its degree of freedom (0 for hinges and prismatic joints).
+        dof: usize,
         /// The upper limit (else the lower).
         upper: bool,
     },
@@ -117,12 +120,36 @@ impl World {
         lower: f64,
         upper: f64,
     ) -> Result<(), ArticulatedError> {
+        self.set_dof_limit(joint, 0, lower, upper)
+    }
+
+    /// Sets the limits of degree of freedom `dof` of `joint`: `0` for a hinge or a
+    /// prismatic joint, `0 … dof − 1` of a compound joint (slides then hinges, the
+    /// order of [`constraint_core::Compound::coordinates`]). Errors as
+    /// [`Self::set_limit`], and a `dof` the joint does not have.
+    pub fn set_dof_limit(
+        &mut self,
+        joint: usize,
+        dof: usize,
+        lower: f64,
+        upper: f64,
+    ) -> Result<(), ArticulatedError> {
         let bad = |reason| ArticulatedError::InvalidJoint { joint, reason };
         let Some(j) = self.joints.get(joint) else {
             return Err(bad("unknown joint"));
         };
-        if !matches!(j.kind, JointKind::Hinge(_) | JointKind::Prismatic(_)) {
-            return Err(bad("limits apply to hinge and prismatic joints only"));
+        let dofs = match &j.kind {
+            JointKind::Hinge(_) | JointKind::Prismatic(_) => 1,
+            JointKind::Compound(c, _) => c.dof(),
+            _ => 0,
+        };
+        if dofs == 0 {
+            return Err(bad(
+                "limits apply to hinge, prismatic and compound joints only",
+            ));
+        }
+        if dof >= dofs {
+            return Err(bad("the joint has no such degree of freedom"));
         }
         if lower.is_nan() || upper.is_nan() || lower > upper {
             return Err(bad("limits need lower <= upper (no NaN)"));
@@ -130,30 +157,47 @@ impl World {
         if lower == f64::INFINITY || upper == f64::NEG_INFINITY {
             return Err(bad("limits must leave some range"));
         }
-        self.limits[joint] = Some([lower, upper]);
+        self.limits[joint][dof] = Some([lower, upper]);
         Ok(())
     }
 
-    /// Removes the limits of `joint` (no effect on an unknown joint).
+    /// Removes the limits of every degree of freedom of `joint` (no effect on an
+    /// unknown joint).
     pub fn clear_limit(&mut self, joint: usize) {
         if let Some(l) = self.limits.get_mut(joint) {
-            *l = None;
+            *l = [None; MAX_DOF];
         }
     }
 
-    /// The joints' limits, in joint order (`None`: unlimited).
-    pub fn limits(&self) -> &[Option<[f64; 2]>] {
+    /// The joints' limits per degree of freedom, in joint order (`None`: unlimited).
+    pub fn limits(&self) -> &[[Option<[f64; 2]>; MAX_DOF]] {
         &self.limits
     }
 
-    /// The joint coordinate a limit acts on: the hinge angle (rad) or the prismatic
-    /// displacement (m); `None` for other joints.
+    /// The coordinate of the first degree of freedom of `joint`: the hinge angle (rad),
+    /// the prismatic displacement (m), a compound joint's first coordinate; `None` for
+    /// other joints.
     pub fn joint_position(&self, joint: usize) -> Option<f64> {
+        self.joint_coordinates(joint).map(|(q, _)| q[0])
+    }
+
+    /// The coordinates of `joint` and how many there are: hinge angle, prismatic
+    /// displacement, or a compound joint's coordinates (slides in m, then hinges in
+    /// rad); `None` for joints without coordinates (spherical, fixed, distance).
+    pub fn joint_coordinates(&self, joint: usize) -> Option<([f64; MAX_DOF], usize)> {
         let j = self.joints.get(joint)?;
         let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
+        let mut q = [0.0; MAX_DOF];
         match &j.kind {
-            JointKind::Hinge(c) => Some(c.angle(&a, &b)),
-            JointKind::Prismatic(c) => Some(c.displacement(&a, &b)),
+            JointKind::Hinge(c) => {
+                q[0] = c.angle(&a, &b);
+                Some((q, 1))
+            }
+            JointKind::Prismatic(c) => {
+                q[0] = c.displacement(&a, &b);
+                Some((q, 1))
+            }
+            JointKind::Compound(c, _) => Some((c.coordinates(&a, &b, &q), c.dof())),
             _ => None,
         }
     }
@@ -173,36 +217,58 @@ impl World {
     pub(super) fn push_limit_rows(&mut self, h: f64) {
         let s = self.unilateral;
         for (ji, joint) in self.joints.iter().enumerate() {
-            let Some([lo, hi]) = self.limits[ji] else {
+            if self.limits[ji].iter().all(|l| l.is_none()) {
                 continue;
-            };
+            }
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
-            let (q, row) = match &joint.kind {
-                JointKind::Hinge(c) => (c.angle(&a, &b), c.angle_row(&b)),
-                JointKind::Prismatic(c) => (c.displacement(&a, &b), c.displacement_row(&a, &b)),
-                _ => continue,
-            };
-            let tw = |i: Option<usize>| {
-                i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
-                    (self.bodies[i].v, self.bodies[i].omega)
-                })
-            };
-            let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
-            let rate = row[0].dot(va) + row[1].dot(wa) + row[2].dot(vb) + row[3].dot(wb);
-            for (upper, c, sign) in [(false, q - lo, 1.0), (true, hi - q, -1.0)] {
-                if !(c < s.margin + (rate * h).abs()) {
-                    continue;
+            let mut qs = [0.0; MAX_DOF];
+            let mut rows = [[DVec3::ZERO; 4]; MAX_DOF];
+            match &joint.kind {
+                JointKind::Hinge(c) => {
+                    qs[0] = c.angle(&a, &b);
+                    rows[0] = c.angle_row(&b);
                 }
-                let j = row.map(|r| r * sign);
-                self.urows.push(URow {
-                    a: joint.parent,
-                    b: Some(joint.child),
-                    j,
-                    bias: row_bias(c, h, &s),
-                    bound: RowBound::Unilateral,
-                    source: RowSource::Limit { joint: ji, upper },
-                });
+                JointKind::Prismatic(c) => {
+                    qs[0] = c.displacement(&a, &b);
+                    rows[0] = c.displacement_row(&a, &b);
+                }
+                JointKind::Compound(c, _) => {
+                    qs = c.coordinates(&a, &b, &qs);
+                    rows = c.dof_rows(&a, &b, &qs);
+                }
+                _ => continue,
+            }
+            for dof in 0..MAX_DOF {
+                let Some([lo, hi]) = self.limits[ji][dof] else {
+                    continue;
+                };
+                let (q, row) = (qs[dof], rows[dof]);
+                let tw = |i: Option<usize>| {
+                    i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
+                        (self.bodies[i].v, self.bodies[i].omega)
+                    })
+                };
+                let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
+                let rate = row[0].dot(va) + row[1].dot(wa) + row[2].dot(vb) + row[3].dot(wb);
+                for (upper, c, sign) in [(false, q - lo, 1.0), (true, hi - q, -1.0)] {
+                    if !(c < s.margin + (rate * h).abs()) {
+                        continue;
+                    }
+                    let j = row.map(|r| r * sign);
+                    self.urows.push(URow {
+                        a: joint.parent,
+                        b: Some(joint.child),
+                        j,
+                        bias: row_bias(c, h, &s),
+                        bound: RowBound::Unilateral,
+                        source: RowSource::Limit {
+                            joint: ji,
+                            dof,
+                            upper,
+                        },
+                    });
+                }
             }
         }
     }
@@ -264,7 +330,7 @@ impl World {
         let mut z = core::mem::take(&mut self.uz);
         self.warm_unilateral(&mut z);
         let settings: RowSettings = self.unilateral.solver;
-        let result = solve_rows(&a, &q, &bounds, &settings, &mut z);
+        let result = solve_movable(&a, &q, &bounds, &settings, &mut z);
         let outcome = match result {
             Ok(stats) => {
                 self.ustats.solver = stats;
@@ -369,4 +435,65 @@ fn row_residual(a: &[f64], q: &[f64], bounds: &[RowBound], z: &[f64]) -> f64 {
         worst = worst.max((z[i] - p).abs());
     }
     worst / scale
+}
+
+/// [`solve_rows`] on the rows the joints let move: a row whose Delassus diagonal
+/// `G K⁻¹ Gᵀ` is zero (below `1e-12` of the largest) cannot change its rate — a
+/// friction direction across a planar joint's plane, a contact on a welded body — so
+/// its impulse does nothing and is undetermined; it gets `z = 0` and leaves the problem
+/// (with the friction rows of such a normal).
+fn solve_movable(
+    a: &[f64],
+    q: &[f64],
+    bounds: &[RowBound],
+    settings: &RowSettings,
+    z: &mut [f64],
+) -> Result<RowStats, constraint_contact::lcp::LcpError> {
+    let m = q.len();
+    let scale = (0..m).map(|i| a[i * m + i]).fold(0.0f64, f64::max);
+    let movable = |i: usize| a[i * m + i] > 1e-12 * scale;
+    let keep: Vec<bool> = (0..m)
+        .map(|i| {
+            movable(i)
+                && match bounds[i] {
+                    RowBound::Friction { normal, .. } => movable(normal),
+                    _ => true,
+                }
+        })
+        .collect();
+    if keep.iter().all(|k| *k) {
+        return solve_rows(a, q, bounds, settings, z);
+    }
+    let idx: Vec<usize> = (0..m).filter(|&i| keep[i]).collect();
+    let mut pos = alloc::vec![usize::MAX; m];
+    for (k, &i) in idx.iter().enumerate() {
+        pos[i] = k;
+    }
+    let n = idx.len();
+    let mut ac = Vec::with_capacity(n * n);
+    for &i in &idx {
+        for &j in &idx {
+            ac.push(a[i * m + j]);
+        }
+    }
+    let qc: Vec<f64> = idx.iter().map(|&i| q[i]).collect();
+    let bc: Vec<RowBound> = idx
+        .iter()
+        .map(|&i| match bounds[i] {
+            RowBound::Friction { normal, mu } => RowBound::Friction {
+                normal: pos[normal],
+                mu,
+            },
+            b => b,
+        })
+        .collect();
+    let mut zc: Vec<f64> = idx.iter().map(|&i| z[i]).collect();
+    let stats = solve_rows(&ac, &qc, &bc, settings, &mut zc)?;
+    for v in z.iter_mut() {
+        *v = 0.0;
+    }
+    for (k, &i) in idx.iter().enumerate() {
+        z[i] = zc[k];
+    }
+    Ok(stats)
 }

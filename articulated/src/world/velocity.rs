@@ -58,7 +58,8 @@ impl World {
         let rows: usize = self
             .joints
             .iter()
-            .map(|j| j.hard_rows() + j.damping_rows())
+            .enumerate()
+            .map(|(ji, j)| j.hard_rows() + self.passive_rows_of(ji))
             .sum();
         let n = 6 * nb + rows;
         let mut m = vec![vec![0.0; n]; n];
@@ -78,10 +79,11 @@ impl World {
             }
         }
         let mut r0 = 6 * nb;
-        for (joint, &alpha) in self.joints.iter().zip(&self.compliance) {
+        for (ji, (joint, &alpha)) in self.joints.iter().zip(&self.compliance).enumerate() {
             let a = self.pose(joint.parent);
             let b = self.pose(Some(joint.child));
-            let jr = joint.rows(&a, &b, true);
+            let jr = joint.rows_with(&a, &b, self.passive_rows_of(ji) > 0);
+            let tw = self.twist(joint);
             for r in 0..jr.n {
                 let row = r0 + r;
                 for (side, body) in [(0usize, joint.parent), (1usize, Some(joint.child))] {
@@ -95,7 +97,25 @@ impl World {
                     }
                 }
                 if r >= jr.n_hard {
-                    m[row][row] = -1.0 / (h * joint.damping);
+                    let k = r - jr.n_hard;
+                    let s = self.armature[ji][k] + h * joint.dof_damping(k);
+                    if s > 0.0 {
+                        m[row][row] = -1.0 / s;
+                        let g = jr.rows[r];
+                        let rate: f64 = (0..4).map(|q| g[q].dot(tw[q])).sum();
+                        rhs[row] = self.armature[ji][k] / s * rate;
+                    } else {
+                        // A decoupled row (λ = 0): zero Jacobian, unit compliance.
+                        for (side, body) in [(0usize, joint.parent), (1usize, Some(joint.child))] {
+                            let Some(body) = body else { continue };
+                            for c in 0..6 {
+                                m[row][6 * body + c] = 0.0;
+                                m[6 * body + c][row] = 0.0;
+                            }
+                            let _ = side;
+                        }
+                        m[row][row] = -1.0;
+                    }
                 } else {
                     rhs[row] = -beta * jr.value[r] / h;
                     if alpha > 0.0 {
@@ -118,6 +138,7 @@ impl World {
             let w = b.gyroscopic_step_with(r, h);
             (b.v * b.mass() + g * (b.mass() * h), *iw * w)
         });
+        self.add_dof_forces(h);
         if self.geometric_stiffness != GeometricStiffness::Off
             && self.impulses.len() == self.joints.len()
         {
