@@ -283,6 +283,14 @@ impl MjcfScene {
                 damping: 0.0,
             })?;
         }
+        // The keyframe's controls (MuJoCo's `mj_resetDataKeyframe` sets them too).
+        if let Some(k) = key.and_then(|k| model.keyframes.iter().find(|f| f.name == k)) {
+            for (i, &u) in k.ctrl.iter().enumerate() {
+                world.set_ctrl(i, u).map_err(|e| {
+                    scene_err(format!("keyframe {:?} (line {}) ctrl: {e}", k.name, k.line))
+                })?;
+            }
+        }
         // The keyframe's state.
         for (b, s) in world.bodies_mut().iter_mut().zip(&states) {
             b.pose = Pose {
