@@ -119,8 +119,7 @@ mod imp {
             times.push(first);
         } else {
             let start = Instant::now();
-            while times.len() < 400
-                && (times.len() < 5 || start.elapsed().as_secs_f64() < budget_s)
+            while times.len() < 400 && (times.len() < 5 || start.elapsed().as_secs_f64() < budget_s)
             {
                 let t = Instant::now();
                 step(&mut w, m);
@@ -190,7 +189,12 @@ mod imp {
                 let _ = r.steps;
             }
         }
-        let names = ["free velocity", "free projected", "floor velocity", "floor projected"];
+        let names = [
+            "free velocity",
+            "free projected",
+            "floor velocity",
+            "floor projected",
+        ];
         for (k, name) in names.iter().enumerate() {
             if pts[k].len() >= 2 {
                 println!(

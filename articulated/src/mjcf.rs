@@ -30,7 +30,7 @@ use constraint_mjcf::{JointKind as MjKind, Model, Transmission};
 use crate::body::RigidBody;
 use crate::error::ArticulatedError;
 use crate::joint::{Joint, JointKind};
-use crate::world::{Actuator, DofSpring, World};
+use crate::world::{Actuator, DofSpring, Target, Tendon, World};
 
 /// A world built from an MJCF model, with the model's names and time step.
 #[derive(Clone, Debug)]
@@ -193,6 +193,17 @@ impl MjcfScene {
                     .set_dof_limit(wj, dof, j.range[0] - j.reference, j.range[1] - j.reference)
                     .map_err(at)?;
             }
+            if j.frictionloss > 0.0 {
+                if !matches!(j.kind, MjKind::Hinge | MjKind::Slide) {
+                    return Err(scene_err(format!(
+                        "joint {:?} (line {}): frictionloss on a ball joint is not supported",
+                        j.name, j.line
+                    )));
+                }
+                world
+                    .set_frictionloss(wj, dof, j.frictionloss)
+                    .map_err(at)?;
+            }
             if j.armature > 0.0 {
                 let n = if j.kind == MjKind::Ball { 3 } else { 1 };
                 for d in 0..n {
@@ -210,34 +221,72 @@ impl MjcfScene {
                     .map_err(at)?;
             }
         }
-        // Actuators on joints (MuJoCo's general form; `length = gear q` in MuJoCo's
-        // coordinate, ours plus `ref`, folded into the constant bias).
+        // Fixed tendons: MuJoCo's length is over its coordinates, ours plus `ref`; the
+        // default spring length (−1) is the length at qpos0, where ours are all zero.
+        let mut tendon_ref = Vec::with_capacity(model.tendons.len());
+        for t in &model.tendons {
+            let at = |e: String| scene_err(format!("tendon {:?} (line {}): {e}", t.name, t.line));
+            if t.limited {
+                return Err(at("tendon limits are not supported by the world yet".into()));
+            }
+            if t.frictionloss != 0.0 {
+                return Err(at(
+                    "tendon frictionloss is not supported by the world yet".into()
+                ));
+            }
+            let mut terms = Vec::with_capacity(t.joints.len());
+            let mut offset = 0.0;
+            for &(k, c) in &t.joints {
+                let j = &model.joints[k];
+                let Some((wj, dof)) =
+                    placed[k].filter(|_| matches!(j.kind, MjKind::Hinge | MjKind::Slide))
+                else {
+                    return Err(at(format!(
+                        "joint {:?}: only hinge and slide joints can be in a fixed tendon",
+                        j.name
+                    )));
+                };
+                terms.push((wj, dof, c));
+                offset += c * j.reference;
+            }
+            let rest_length = if t.springlength[0] < 0.0 {
+                0.0
+            } else {
+                t.springlength[0] - offset
+            };
+            world
+                .add_tendon(Tendon {
+                    terms,
+                    stiffness: t.stiffness,
+                    damping: t.damping,
+                    rest_length,
+                })
+                .map_err(|e| at(e.to_string()))?;
+            tendon_ref.push(offset);
+        }
+        // Actuators (MuJoCo's general form; `length = gear q` over MuJoCo's coordinate,
+        // ours plus `ref`, folded into the constant bias).
         for a in &model.actuators {
             let at = |e: String| scene_err(format!("actuator {:?} (line {}): {e}", a.name, a.line));
-            let k = match a.target {
-                Transmission::Joint(k) => k,
-                Transmission::Tendon(_) => {
-                    return Err(at("tendon transmissions are not supported".into()))
+            let (target, offset) = match a.target {
+                Transmission::Joint(k) => {
+                    let j = &model.joints[k];
+                    let Some((wj, dof)) =
+                        placed[k].filter(|_| matches!(j.kind, MjKind::Hinge | MjKind::Slide))
+                    else {
+                        return Err(at("only hinge and slide joints can be actuated".into()));
+                    };
+                    (Target::Dof { joint: wj, dof }, j.reference)
                 }
-            };
-            let j = &model.joints[k];
-            let Some((wj, dof)) =
-                placed[k].filter(|_| matches!(j.kind, MjKind::Hinge | MjKind::Slide))
-            else {
-                return Err(at("only hinge and slide joints can be actuated".into()));
+                Transmission::Tendon(t) => (Target::Tendon(t), tendon_ref[t]),
             };
             let gear = a.gear[0];
             world
                 .add_actuator(Actuator {
-                    joint: wj,
-                    dof,
+                    target,
                     gear,
                     gain: a.gain,
-                    bias: [
-                        a.bias[0] + a.bias[1] * gear * j.reference,
-                        a.bias[1],
-                        a.bias[2],
-                    ],
+                    bias: [a.bias[0] + a.bias[1] * gear * offset, a.bias[1], a.bias[2]],
                     ctrl_range: a.ctrllimited.then_some(a.ctrlrange),
                     force_range: a.forcelimited.then_some(a.forcerange),
                 })
@@ -348,9 +397,6 @@ fn reject_unsupported(model: &Model) -> Result<(), ArticulatedError> {
             "line {line}: {what} {name:?} is not supported by the world yet"
         )))
     };
-    if let Some(t) = model.tendons.first() {
-        return no("fixed tendon", &t.name, t.line);
-    }
     if let Some(e) = model.joint_equalities.iter().find(|e| e.active) {
         return no("equality joint", &e.name, e.line);
     }
@@ -364,9 +410,6 @@ fn reject_unsupported(model: &Model) -> Result<(), ArticulatedError> {
         return no("contact pair", &p.name, p.line);
     }
     for j in &model.joints {
-        if j.frictionloss != 0.0 {
-            return no("joint frictionloss on", &j.name, j.line);
-        }
         if j.stiffness != 0.0 && !matches!(j.kind, MjKind::Hinge | MjKind::Slide) {
             return no("stiffness of a ball or free joint", &j.name, j.line);
         }

@@ -17,18 +17,47 @@
 //!
 //! (`g` the gear). Damping stays implicit in the joint's damping rows.
 
+use alloc::vec::Vec;
+
 use constraint_core::compound::MAX_DOF;
 use constraint_core::DVec3;
 
 use super::*;
 
-/// One actuator on a joint degree of freedom, in MuJoCo's general form.
+/// What an actuator drives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// Degree of freedom `dof` of `joint` (0 for hinges and slides).
+    Dof {
+        /// The joint.
+        joint: usize,
+        /// Its degree of freedom.
+        dof: usize,
+    },
+    /// A fixed tendon ([`World::add_tendon`]).
+    Tendon(usize),
+}
+
+/// A fixed tendon (MuJoCo's `tendon/fixed`): the length `L = Σ c_i q_i` over joint
+/// coordinates, with a spring `−k (L − L₀)` and viscous damping `−d L̇`, both as
+/// generalized forces `c_i τ` on its coordinates (explicit).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tendon {
+    /// `(joint, dof, coefficient)` terms.
+    pub terms: alloc::vec::Vec<(usize, usize, f64)>,
+    /// Stiffness `k ≥ 0`.
+    pub stiffness: f64,
+    /// Damping `d ≥ 0`.
+    pub damping: f64,
+    /// Rest length `L₀` of the spring.
+    pub rest_length: f64,
+}
+
+/// One actuator on a joint degree of freedom or a tendon, in MuJoCo's general form.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Actuator {
-    /// The joint it drives.
-    pub joint: usize,
-    /// The joint's degree of freedom (0 for hinges and slides).
-    pub dof: usize,
+    /// What it drives.
+    pub target: Target,
     /// Gear `g` (MuJoCo's `gear[0]`); zero is allowed and gives no force.
     pub gear: f64,
     /// Gain on the control (`gainprm[0]`; `kp` for `position`, `kv` for `velocity`).
@@ -77,9 +106,13 @@ impl World {
             name: "actuator",
             rule,
         };
-        if a.dof >= self.dofs_of(a.joint) {
+        let ok = match a.target {
+            Target::Dof { joint, dof } => dof < self.dofs_of(joint),
+            Target::Tendon(t) => t < self.tendons.len(),
+        };
+        if !ok {
             return Err(bad(
-                "must drive an existing hinge, slide or compound degree of freedom",
+                "must drive an existing hinge, slide or compound degree of freedom, or a tendon",
             ));
         }
         if !a.gear.is_finite() || !a.gain.is_finite() || a.bias.iter().any(|b| !b.is_finite()) {
@@ -146,93 +179,170 @@ impl World {
         &self.springs
     }
 
-    /// Potential energy of the joint springs, `Σ ½ k (q − q_ref)²`.
-    pub fn spring_energy(&self) -> f64 {
-        self.springs
+    /// Adds a fixed tendon; returns its index. Errors: unknown joint or degree of
+    /// freedom, non-finite coefficient, negative or non-finite stiffness or damping,
+    /// non-finite rest length.
+    pub fn add_tendon(&mut self, t: Tendon) -> Result<usize, ArticulatedError> {
+        let bad = |rule| ArticulatedError::InvalidParameter {
+            name: "tendon",
+            rule,
+        };
+        if t.terms
             .iter()
-            .map(|s| {
-                let q = self
-                    .joint_coordinates(s.joint)
-                    .map_or(0.0, |(q, _)| q[s.dof]);
-                0.5 * s.stiffness * (q - s.reference) * (q - s.reference)
-            })
-            .sum()
+            .any(|&(j, d, c)| d >= self.dofs_of(j) || !c.is_finite())
+        {
+            return Err(bad(
+                "terms must name existing degrees of freedom with finite coefficients",
+            ));
+        }
+        if !(t.stiffness >= 0.0)
+            || !(t.damping >= 0.0)
+            || !t.stiffness.is_finite()
+            || !t.damping.is_finite()
+            || !t.rest_length.is_finite()
+        {
+            return Err(bad(
+                "stiffness and damping finite and >= 0, rest length finite",
+            ));
+        }
+        self.tendons.push(t);
+        Ok(self.tendons.len() - 1)
     }
 
-    /// The generalized force on each degree of freedom of `joint` at the current state
-    /// (actuators and springs), with the rate rows; `None` when nothing acts on it.
-    fn dof_forces(&self, joint: usize) -> Option<([f64; MAX_DOF], [[DVec3; 4]; MAX_DOF])> {
-        let acts = self.actuators.iter().any(|a| a.joint == joint);
-        let springs = self.springs.iter().any(|s| s.joint == joint);
-        if !acts && !springs {
+    /// The tendons.
+    pub fn tendons(&self) -> &[Tendon] {
+        &self.tendons
+    }
+
+    /// Potential energy of the joint and tendon springs, `Σ ½ k (q − q_ref)²`.
+    pub fn spring_energy(&self) -> f64 {
+        if self.springs.is_empty() && self.tendons.iter().all(|t| t.stiffness == 0.0) {
+            return 0.0;
+        }
+        let coords = self.coordinate_table();
+        let q = |j: usize, d: usize| coords[j].as_ref().map_or(0.0, |c| c.0[d]);
+        let joints: f64 = self
+            .springs
+            .iter()
+            .map(|s| {
+                let e = q(s.joint, s.dof) - s.reference;
+                0.5 * s.stiffness * e * e
+            })
+            .sum();
+        let tendons: f64 = self
+            .tendons
+            .iter()
+            .map(|t| {
+                let l: f64 = t.terms.iter().map(|&(j, d, c)| c * q(j, d)).sum();
+                0.5 * t.stiffness * (l - t.rest_length) * (l - t.rest_length)
+            })
+            .sum();
+        joints + tendons
+    }
+
+    /// Coordinates, rates and rate rows of every joint that has coordinates.
+    fn coordinate_table(&self) -> Vec<Option<DofState>> {
+        (0..self.joints.len())
+            .map(|ji| {
+                let j = &self.joints[ji];
+                let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
+                let mut q = [0.0; MAX_DOF];
+                let mut rows = [[DVec3::ZERO; 4]; MAX_DOF];
+                match &j.kind {
+                    JointKind::Hinge(c) => {
+                        q[0] = c.angle(&a, &b);
+                        rows[0] = c.angle_row(&b);
+                    }
+                    JointKind::Prismatic(c) => {
+                        q[0] = c.displacement(&a, &b);
+                        rows[0] = c.displacement_row(&a, &b);
+                    }
+                    JointKind::Compound(c, _) => {
+                        q = c.coordinates(&a, &b, &q);
+                        rows = c.dof_rows(&a, &b, &q);
+                    }
+                    _ => return None,
+                }
+                let tw = self.twist(j);
+                let mut qd = [0.0; MAX_DOF];
+                for k in 0..MAX_DOF {
+                    qd[k] = (0..4).map(|s| rows[k][s].dot(tw[s])).sum();
+                }
+                Some((q, qd, rows))
+            })
+            .collect()
+    }
+
+    /// The generalized force on every degree of freedom at the current state
+    /// (actuators, joint springs, tendons), with the coordinate table; `None` when
+    /// nothing acts.
+    fn generalized_forces(&self) -> Option<GeneralizedForces> {
+        if self.actuators.is_empty() && self.springs.is_empty() && self.tendons.is_empty() {
             return None;
         }
-        let j = &self.joints[joint];
-        let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
-        let (q, rows) = match &j.kind {
-            JointKind::Hinge(c) => {
-                let mut q = [0.0; MAX_DOF];
-                let mut r = [[DVec3::ZERO; 4]; MAX_DOF];
-                q[0] = c.angle(&a, &b);
-                r[0] = c.angle_row(&b);
-                (q, r)
-            }
-            JointKind::Prismatic(c) => {
-                let mut q = [0.0; MAX_DOF];
-                let mut r = [[DVec3::ZERO; 4]; MAX_DOF];
-                q[0] = c.displacement(&a, &b);
-                r[0] = c.displacement_row(&a, &b);
-                (q, r)
-            }
-            JointKind::Compound(c, _) => {
-                let q = c.coordinates(&a, &b, &[0.0; MAX_DOF]);
-                (q, c.dof_rows(&a, &b, &q))
-            }
-            _ => return None,
+        let coords = self.coordinate_table();
+        let q = |j: usize, d: usize| coords[j].as_ref().map_or((0.0, 0.0), |c| (c.0[d], c.1[d]));
+        let mut tau = alloc::vec![[0.0; MAX_DOF]; self.joints.len()];
+        let tendon_state = |t: &Tendon| {
+            t.terms.iter().fold((0.0, 0.0), |(l, ld), &(j, d, c)| {
+                let (qj, qdj) = q(j, d);
+                (l + c * qj, ld + c * qdj)
+            })
         };
-        let tw = self.twist(j);
-        let mut tau = [0.0; MAX_DOF];
-        for act in self.actuators.iter().zip(&self.ctrl) {
-            let (act, &u) = act;
-            if act.joint != joint {
-                continue;
-            }
-            let k = act.dof;
-            let qd: f64 = (0..4).map(|s| rows[k][s].dot(tw[s])).sum();
+        for (act, &u) in self.actuators.iter().zip(&self.ctrl) {
+            let (len, vel) = match act.target {
+                Target::Dof { joint, dof } => q(joint, dof),
+                Target::Tendon(t) => tendon_state(&self.tendons[t]),
+            };
             let u = act.ctrl_range.map_or(u, |[lo, hi]| u.min(hi).max(lo));
             let mut s = act.gain * u
                 + act.bias[0]
-                + act.bias[1] * act.gear * q[k]
-                + act.bias[2] * act.gear * qd;
+                + act.bias[1] * act.gear * len
+                + act.bias[2] * act.gear * vel;
             if let Some([lo, hi]) = act.force_range {
                 s = s.min(hi).max(lo);
             }
-            tau[k] += act.gear * s;
-        }
-        for s in &self.springs {
-            if s.joint == joint {
-                tau[s.dof] -= s.stiffness * (q[s.dof] - s.reference);
+            match act.target {
+                Target::Dof { joint, dof } => tau[joint][dof] += act.gear * s,
+                Target::Tendon(t) => {
+                    for &(j, d, c) in &self.tendons[t].terms {
+                        tau[j][d] += act.gear * s * c;
+                    }
+                }
             }
         }
-        Some((tau, rows))
+        for s in &self.springs {
+            tau[s.joint][s.dof] -= s.stiffness * (q(s.joint, s.dof).0 - s.reference);
+        }
+        for t in &self.tendons {
+            if t.stiffness == 0.0 && t.damping == 0.0 {
+                continue;
+            }
+            let (l, ld) = tendon_state(t);
+            let f = -t.stiffness * (l - t.rest_length) - t.damping * ld;
+            for &(j, d, c) in &t.terms {
+                tau[j][d] += c * f;
+            }
+        }
+        Some((tau, coords))
     }
 
-    /// Adds `scale · Σ_k G_kᵀ τ_k` (the actuator and spring impulses over `scale`
-    /// seconds) to the bodies' right-hand side.
+    /// Adds `scale · Σ_k G_kᵀ τ_k` (the actuator, spring and tendon impulses over
+    /// `scale` seconds) to the bodies' right-hand side.
     pub(super) fn add_dof_forces(&mut self, scale: f64) {
-        if self.actuators.is_empty() && self.springs.is_empty() {
+        let Some((tau, coords)) = self.generalized_forces() else {
             return;
-        }
+        };
         for ji in 0..self.joints.len() {
-            let Some((tau, rows)) = self.dof_forces(ji) else {
+            let Some((_, _, rows)) = &coords[ji] else {
                 continue;
             };
             let (parent, child) = (self.joints[ji].parent, self.joints[ji].child);
             for k in 0..MAX_DOF {
-                if tau[k] == 0.0 {
+                if tau[ji][k] == 0.0 {
                     continue;
                 }
-                let s = tau[k] * scale;
+                let s = tau[ji][k] * scale;
                 for (side, body) in [(0usize, parent), (1usize, Some(child))] {
                     let Some(i) = body else { continue };
                     let o = self.solver.body_offset(i);
@@ -245,27 +355,32 @@ impl World {
         }
     }
 
-    /// The actuator and spring forces per body `(force, torque)` at the current state
-    /// (for the acceleration level, which applies forces, not impulses).
+    /// The actuator, spring and tendon forces per body `(force, torque)` at the current
+    /// state (for the acceleration level, which applies forces, not impulses).
     pub(super) fn dof_wrenches(&self) -> Option<Vec<(DVec3, DVec3)>> {
-        if self.actuators.is_empty() && self.springs.is_empty() {
-            return None;
-        }
+        let (tau, coords) = self.generalized_forces()?;
         let mut f = alloc::vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()];
         for ji in 0..self.joints.len() {
-            let Some((tau, rows)) = self.dof_forces(ji) else {
+            let Some((_, _, rows)) = &coords[ji] else {
                 continue;
             };
             let (parent, child) = (self.joints[ji].parent, self.joints[ji].child);
             for k in 0..MAX_DOF {
+                let t = tau[ji][k];
                 if let Some(p) = parent {
-                    f[p].0 += rows[k][0] * tau[k];
-                    f[p].1 += rows[k][1] * tau[k];
+                    f[p].0 += rows[k][0] * t;
+                    f[p].1 += rows[k][1] * t;
                 }
-                f[child].0 += rows[k][2] * tau[k];
-                f[child].1 += rows[k][3] * tau[k];
+                f[child].0 += rows[k][2] * t;
+                f[child].1 += rows[k][3] * t;
             }
         }
         Some(f)
     }
 }
+
+/// A joint's coordinates, their rates and the rate rows.
+type DofState = ([f64; MAX_DOF], [f64; MAX_DOF], [[DVec3; 4]; MAX_DOF]);
+
+/// Per joint, the force on each degree of freedom; and the coordinate table.
+type GeneralizedForces = (Vec<[f64; MAX_DOF]>, Vec<Option<DofState>>);

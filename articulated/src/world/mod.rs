@@ -33,6 +33,7 @@ use crate::body::RigidBody;
 use crate::error::ArticulatedError;
 use crate::joint::{Joint, JointKind, MAX_ROWS};
 use crate::tree::{JointTopo, TreeSolver};
+use constraint_core::compound::MAX_DOF;
 
 mod acceleration;
 mod actuator;
@@ -44,7 +45,7 @@ mod stages;
 mod unilateral;
 mod velocity;
 
-pub use actuator::{Actuator, DofSpring};
+pub use actuator::{Actuator, DofSpring, Target, Tendon};
 #[cfg(feature = "contact")]
 pub use contact::CollisionFilter;
 pub use unilateral::{RowSource, UnilateralSettings, UnilateralStats};
@@ -204,6 +205,8 @@ pub struct World {
     proj_base: Vec<(Pose, DVec3, DVec3)>,
     /// Positional compliance `α ≥ 0` per joint (0: hard).
     compliance: Vec<f64>,
+    /// Dry friction per joint and degree of freedom.
+    frictionloss: Vec<[f64; constraint_core::compound::MAX_DOF]>,
     /// Armature (rotor inertia on the coordinate) per joint and degree of freedom.
     armature: Vec<[f64; constraint_core::compound::MAX_DOF]>,
     /// Actuators and their controls.
@@ -211,6 +214,8 @@ pub struct World {
     ctrl: Vec<f64>,
     /// Joint springs.
     springs: Vec<DofSpring>,
+    /// Fixed tendons.
+    tendons: Vec<Tendon>,
     /// Limits per joint and degree of freedom.
     limits: Vec<[Option<[f64; 2]>; constraint_core::compound::MAX_DOF]>,
     /// Settings of the one-sided rows (limits, contacts).
@@ -273,10 +278,12 @@ impl World {
             proj_base: Vec::new(),
             compliance: Vec::new(),
             limits: Vec::new(),
+            frictionloss: Vec::new(),
             armature: Vec::new(),
             actuators: Vec::new(),
             ctrl: Vec::new(),
             springs: Vec::new(),
+            tendons: Vec::new(),
             unilateral: UnilateralSettings::default(),
             ustats: UnilateralStats::default(),
             urows: Vec::new(),
@@ -346,8 +353,8 @@ impl World {
         self.joints.push(joint);
         self.compliance.push(0.0);
         self.limits.push([None; constraint_core::compound::MAX_DOF]);
-        self.armature
-            .push([0.0; constraint_core::compound::MAX_DOF]);
+        self.armature.push([0.0; MAX_DOF]);
+        self.frictionloss.push([0.0; MAX_DOF]);
         self.solver_stale = true;
         Ok(j)
     }

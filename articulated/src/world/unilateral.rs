@@ -69,6 +69,13 @@ pub enum RowSource {
         /// The upper limit (else the lower).
         upper: bool,
     },
+    /// The dry friction (MuJoCo's `frictionloss`) of a joint's degree of freedom.
+    DryFriction {
+        /// The joint.
+        joint: usize,
+        /// Its degree of freedom.
+        dof: usize,
+    },
     /// Contact point `contact` of the last step: its normal (`axis = 0`) or one of its
     /// two friction directions.
     Contact {
@@ -161,6 +168,35 @@ impl World {
         Ok(())
     }
 
+    /// Sets the dry friction `f ≥ 0` (N·m or N; MuJoCo's `frictionloss`) of degree of
+    /// freedom `dof` of `joint`: a boxed row on the coordinate's rate, `|λ| ≤ f h`,
+    /// solved with the limits and contacts. Errors: unknown joint or degree of freedom
+    /// (hinge, prismatic and compound joints have them), negative or non-finite `f`.
+    pub fn set_frictionloss(
+        &mut self,
+        joint: usize,
+        dof: usize,
+        f: f64,
+    ) -> Result<(), ArticulatedError> {
+        let bad = |reason| ArticulatedError::InvalidJoint { joint, reason };
+        let Some(j) = self.joints.get(joint) else {
+            return Err(bad("unknown joint"));
+        };
+        let dofs = match &j.kind {
+            JointKind::Hinge(_) | JointKind::Prismatic(_) => 1,
+            JointKind::Compound(c, _) => c.dof(),
+            _ => 0,
+        };
+        if dof >= dofs {
+            return Err(bad("the joint has no such degree of freedom"));
+        }
+        if !(f >= 0.0) || !f.is_finite() {
+            return Err(bad("frictionloss must be finite and non-negative"));
+        }
+        self.frictionloss[joint][dof] = f;
+        Ok(())
+    }
+
     /// Removes the limits of every degree of freedom of `joint` (no effect on an
     /// unknown joint).
     pub fn clear_limit(&mut self, joint: usize) {
@@ -217,7 +253,8 @@ impl World {
     pub(super) fn push_limit_rows(&mut self, h: f64) {
         let s = self.unilateral;
         for (ji, joint) in self.joints.iter().enumerate() {
-            if self.limits[ji].iter().all(|l| l.is_none()) {
+            let dry = &self.frictionloss[ji];
+            if self.limits[ji].iter().all(|l| l.is_none()) && dry.iter().all(|f| *f == 0.0) {
                 continue;
             }
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
@@ -238,6 +275,24 @@ impl World {
                     rows = c.dof_rows(&a, &b, &qs);
                 }
                 _ => continue,
+            }
+            // Dry friction: a boxed row on the coordinate's rate, |z| ≤ f h (MuJoCo's
+            // frictionloss), target rate 0.
+            for dof in 0..MAX_DOF {
+                let f = dry[dof];
+                if f > 0.0 {
+                    self.urows.push(URow {
+                        a: joint.parent,
+                        b: Some(joint.child),
+                        j: rows[dof],
+                        bias: 0.0,
+                        bound: RowBound::Boxed {
+                            lo: -f * h,
+                            hi: f * h,
+                        },
+                        source: RowSource::DryFriction { joint: ji, dof },
+                    });
+                }
             }
             for dof in 0..MAX_DOF {
                 let Some([lo, hi]) = self.limits[ji][dof] else {
