@@ -221,6 +221,15 @@ impl MjcfScene {
                     .map_err(at)?;
             }
         }
+        // Fluid drag (MuJoCo's inertia-box model).
+        let o = &model.options;
+        if o.density > 0.0 || o.viscosity > 0.0 {
+            world.set_fluid(Some(crate::world::Fluid {
+                density: o.density,
+                viscosity: o.viscosity,
+                wind: v3(o.wind),
+            }))?;
+        }
         // Fixed tendons: MuJoCo's length is over its coordinates, ours plus `ref`; the
         // default spring length (−1) is the length at qpos0, where ours are all zero.
         let mut tendon_ref = Vec::with_capacity(model.tendons.len());
@@ -413,12 +422,6 @@ fn reject_unsupported(model: &Model) -> Result<(), ArticulatedError> {
         if j.stiffness != 0.0 && !matches!(j.kind, MjKind::Hinge | MjKind::Slide) {
             return no("stiffness of a ball or free joint", &j.name, j.line);
         }
-    }
-    let o = &model.options;
-    if o.density != 0.0 || o.viscosity != 0.0 {
-        return Err(scene_err(
-            "option density/viscosity: fluid drag is not supported by the world yet",
-        ));
     }
     Ok(())
 }

@@ -75,9 +75,10 @@ pub fn symmetric_eigenvalues(a: &DMat3) -> [f64; 3] {
     [e3, e2, e1]
 }
 
-/// The positive semi-definite part of a symmetric 3×3 matrix (negative eigenvalues set
-/// to zero), by cyclic Jacobi rotations.
-pub fn psd_part(m: &DMat3) -> DMat3 {
+/// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations:
+/// eigenvalues (unsorted) and the matrix whose columns are the unit eigenvectors, with
+/// `m = V diag(λ) Vᵀ`.
+pub fn symmetric_eigen(m: &DMat3) -> ([f64; 3], DMat3) {
     let mut a = m.to_cols_array_2d(); // a[col][row], symmetric
     let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     for _ in 0..8 {
@@ -112,12 +113,23 @@ pub fn psd_part(m: &DMat3) -> DMat3 {
             }
         }
     }
+    let vecs = DMat3::from_cols(
+        DVec3::new(v[0][0], v[1][0], v[2][0]),
+        DVec3::new(v[0][1], v[1][1], v[2][1]),
+        DVec3::new(v[0][2], v[1][2], v[2][2]),
+    );
+    ([a[0][0], a[1][1], a[2][2]], vecs)
+}
+
+/// The positive semi-definite part of a symmetric 3×3 matrix (negative eigenvalues set
+/// to zero), by cyclic Jacobi rotations ([`symmetric_eigen`]).
+pub fn psd_part(m: &DMat3) -> DMat3 {
+    let (lam, v) = symmetric_eigen(m);
     let mut out = DMat3::ZERO;
     for k in 0..3 {
-        let lam = a[k][k];
-        if lam > 0.0 {
-            let e = DVec3::new(v[0][k], v[1][k], v[2][k]);
-            out += crate::math::outer(e, e) * lam;
+        if lam[k] > 0.0 {
+            let e = v.col(k);
+            out += crate::math::outer(e, e) * lam[k];
         }
     }
     out

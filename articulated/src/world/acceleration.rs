@@ -50,6 +50,7 @@ impl World {
                 d.1 += e.1;
             }
         }
+        self.add_fluid_rhs(1.0);
         for (i, (f, t)) in damp.iter().enumerate() {
             let o = self.solver.body_offset(i);
             for c in 0..3 {

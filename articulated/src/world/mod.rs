@@ -39,6 +39,7 @@ mod acceleration;
 mod actuator;
 #[cfg(feature = "contact")]
 mod contact;
+mod fluid;
 mod projection;
 mod rattle;
 mod stages;
@@ -48,6 +49,7 @@ mod velocity;
 pub use actuator::{Actuator, DofSpring, Target, Tendon};
 #[cfg(feature = "contact")]
 pub use contact::CollisionFilter;
+pub use fluid::Fluid;
 pub use unilateral::{RowSource, UnilateralSettings, UnilateralStats};
 
 /// Largest rotation of a body in one RATTLE drift (rad) before the step is redone at
@@ -216,6 +218,10 @@ pub struct World {
     springs: Vec<DofSpring>,
     /// Fixed tendons.
     tendons: Vec<Tendon>,
+    /// The medium (fluid drag), if any.
+    fluid: Option<Fluid>,
+    /// Per body: principal axes (body frame) and inertia-box half-sizes.
+    fluid_boxes: Vec<(DMat3, DVec3)>,
     /// Limits per joint and degree of freedom.
     limits: Vec<[Option<[f64; 2]>; constraint_core::compound::MAX_DOF]>,
     /// Settings of the one-sided rows (limits, contacts).
@@ -284,6 +290,8 @@ impl World {
             ctrl: Vec::new(),
             springs: Vec::new(),
             tendons: Vec::new(),
+            fluid: None,
+            fluid_boxes: Vec::new(),
             unilateral: UnilateralSettings::default(),
             ustats: UnilateralStats::default(),
             urows: Vec::new(),

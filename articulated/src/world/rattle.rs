@@ -45,6 +45,7 @@ impl World {
         // rows are left out of the kicks and of SHAKE.
         self.add_spring_rhs(half);
         self.add_dof_forces(half);
+        self.add_fluid_rhs(half);
         let loops = self.assemble(hd, true, Soft::Free, |_, _, rows, rhs| {
             for r in 0..rows.n_hard {
                 rhs[r] = -rows.value[r] / h;
@@ -155,6 +156,7 @@ impl World {
         }
         self.add_spring_rhs(half);
         self.add_dof_forces(half);
+        self.add_fluid_rhs(half);
         let loops = self.assemble(hd, true, Soft::Free, |_, _, _, _| {});
         self.solve(loops)?;
         // Whole-step impulses (both kicks), for the geometric stiffness of a later

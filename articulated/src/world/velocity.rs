@@ -139,6 +139,7 @@ impl World {
             (b.v * b.mass() + g * (b.mass() * h), *iw * w)
         });
         self.add_dof_forces(h);
+        self.add_fluid_rhs(h);
         if self.geometric_stiffness != GeometricStiffness::Off
             && self.impulses.len() == self.joints.len()
         {
