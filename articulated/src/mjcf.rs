@@ -456,6 +456,7 @@ fn add_colliders(
     let weld_parent =
         |w: Option<usize>| w.and_then(|i| model.bodies[i].parent).and_then(|p| weld[p]);
     let mut condim_warned = false;
+    let mut shape_warned = false;
     for g in &model.geoms {
         if g.contype == 0 && g.conaffinity == 0 {
             continue;
@@ -463,6 +464,7 @@ fn add_colliders(
         let at = |what: String| scene_err(format!("geom {:?} (line {}): {what}", g.name, g.line));
         let geometry = |e: constraint_contact::geometry::GeometryError| at(format!("{e:?}"));
         let q = quat(g.quat);
+        let mut ellipsoid_turn = DQuat::IDENTITY;
         let shape = match g.primitive {
             Primitive::Plane { .. } => {
                 if g.body.is_some_and(|b| weld[b].is_some()) {
@@ -486,13 +488,43 @@ fn add_colliders(
                 radius,
                 half_length,
             } => Shape::capsule(radius, half_length).map_err(geometry)?,
-            Primitive::Cylinder { .. } => {
-                return Err(at("cylinder collision is not supported (no cylinder shape in the contact crate yet)".into()))
+            // The contact crate has no cylinder or ellipsoid: documented fallbacks, one
+            // warning per file (mass and inertia stay exact, from the loader).
+            Primitive::Cylinder {
+                radius,
+                half_length,
+            } => {
+                if !shape_warned {
+                    warnings.push(format!(
+                        "geom {:?} (line {}): cylinders collide as capsules of the same radius and length (rounded rims)",
+                        g.name, g.line
+                    ));
+                    shape_warned = true;
+                }
+                Shape::capsule(radius, (half_length - radius).max(0.0)).map_err(geometry)?
             }
-            Primitive::Ellipsoid { .. } => {
-                return Err(at("ellipsoid collision is not supported (no ellipsoid shape in the contact crate yet)".into()))
+            Primitive::Ellipsoid { radii } => {
+                if !shape_warned {
+                    warnings.push(format!(
+                        "geom {:?} (line {}): ellipsoids collide as the capsule along their longest axis with the larger other radius",
+                        g.name, g.line
+                    ));
+                    shape_warned = true;
+                }
+                let k = (0..3).fold(0, |m, i| if radii[i] > radii[m] { i } else { m });
+                let r = (0..3)
+                    .filter(|&i| i != k)
+                    .map(|i| radii[i])
+                    .fold(0.0, f64::max);
+                ellipsoid_turn = match k {
+                    0 => DQuat::from_rotation_y(core::f64::consts::FRAC_PI_2),
+                    1 => DQuat::from_rotation_x(-core::f64::consts::FRAC_PI_2),
+                    _ => DQuat::IDENTITY,
+                };
+                Shape::capsule(r, (radii[k] - r).max(0.0)).map_err(geometry)?
             }
         };
+        let q = q * ellipsoid_turn;
         let friction = match g.condim {
             1 => 0.0,
             3 => g.friction[0],
