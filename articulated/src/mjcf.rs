@@ -544,6 +544,18 @@ fn add_colliders(
         let (body, local) = match (g.body, g.primitive) {
             (_, Primitive::Plane { .. }) => (None, Pose::IDENTITY),
             (None, _) => (None, Pose { x: v3(g.pos), q }),
+            // A body welded to the world is static in MuJoCo: its geoms are world geoms
+            // at their default pose (and never tested against each other).
+            (Some(b), _) if weld[b].is_none() => {
+                let bq = quat(model.bodies[b].quat);
+                (
+                    None,
+                    Pose {
+                        x: v3(model.bodies[b].pos) + bq * v3(g.pos),
+                        q: bq * q,
+                    },
+                )
+            }
             (Some(b), _) => (
                 Some(b),
                 Pose {
@@ -561,17 +573,18 @@ fn add_colliders(
             },
         )?;
     }
-    // Weld-body filtering and explicit exclusions as excluded body pairs.
-    let all: Vec<Option<usize>> = core::iter::once(None).chain((0..nb).map(Some)).collect();
-    let weld_of = |b: Option<usize>| b.and_then(|i| weld[i]);
-    for (x, &a) in all.iter().enumerate() {
-        for &b in &all[x + 1..] {
-            let (wa, wb) = (weld_of(a), weld_of(b));
+    // Weld-body filtering as excluded body pairs, over the moving bodies that carry
+    // colliders (static ones became world colliders above).
+    let mut moving: Vec<usize> = world.colliders().iter().filter_map(|c| c.body).collect();
+    moving.sort_unstable();
+    moving.dedup();
+    for (x, &a) in moving.iter().enumerate() {
+        for &b in &moving[x + 1..] {
+            let (wa, wb) = (weld[a], weld[b]);
             let same = wa == wb;
-            let parent =
-                (wa.is_some() && wb.is_some()) && (weld_parent(wa) == wb || weld_parent(wb) == wa);
+            let parent = weld_parent(wa) == wb || weld_parent(wb) == wa;
             if same || parent {
-                world.exclude_pair(a, b)?;
+                world.exclude_pair(Some(a), Some(b))?;
             }
         }
     }

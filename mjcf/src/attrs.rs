@@ -135,9 +135,31 @@ impl Element {
     }
 }
 
-/// 1-based line of a byte offset.
+/// 1-based line of a byte offset: a binary search in the document's line starts,
+/// computed once per document (roxmltree's own `text_pos_at` rescans from the start
+/// every call, which made a file of 100k elements take minutes).
 pub(crate) fn line_at(doc: &roxmltree::Document<'_>, pos: usize) -> u32 {
-    doc.text_pos_at(pos).row
+    thread_local! {
+        static LINES: std::cell::RefCell<(usize, usize, Vec<usize>)> =
+            const { std::cell::RefCell::new((0, 0, Vec::new())) };
+    }
+    let text = doc.input_text();
+    let key = (text.as_ptr() as usize, text.len());
+    LINES.with(|cell| {
+        let mut c = cell.borrow_mut();
+        if (c.0, c.1) != key {
+            c.2.clear();
+            c.2.push(0);
+            c.2.extend(text.match_indices('\n').map(|(i, _)| i + 1));
+            c.0 = key.0;
+            c.1 = key.1;
+        }
+        let line = match c.2.binary_search(&pos) {
+            Ok(i) => i + 1,
+            Err(i) => i,
+        };
+        u32::try_from(line).unwrap_or(u32::MAX)
+    })
 }
 
 impl Attr {

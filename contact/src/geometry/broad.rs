@@ -58,7 +58,20 @@ fn sweep_axis(aabbs: &[Aabb]) -> usize {
 /// are handled (they overlap everything they span); boxes with NaN bounds overlap
 /// nothing.
 pub fn sweep_and_prune(aabbs: &[Aabb], out: &mut Vec<(usize, usize)>) -> BroadStats {
+    sweep_and_prune_masked(aabbs, &[], out)
+}
+
+/// [`sweep_and_prune`] that leaves out pairs of two boxes marked static
+/// (`is_static[i]`; a shorter mask marks the rest dynamic): a scene with many static
+/// shapes on top of each other never lists their pairs. The overlap tests are counted
+/// as in [`sweep_and_prune`].
+pub fn sweep_and_prune_masked(
+    aabbs: &[Aabb],
+    is_static: &[bool],
+    out: &mut Vec<(usize, usize)>,
+) -> BroadStats {
     out.clear();
+    let fixed = |i: usize| is_static.get(i).copied().unwrap_or(false);
     let axis = sweep_axis(aabbs);
     let mut order: Vec<usize> = (0..aabbs.len()).collect();
     order.sort_unstable_by(|&i, &j| {
@@ -74,6 +87,9 @@ pub fn sweep_and_prune(aabbs: &[Aabb], out: &mut Vec<(usize, usize)>) -> BroadSt
                 break;
             }
             tests += 1;
+            if fixed(i) && fixed(j) {
+                continue;
+            }
             if aabbs[i].overlaps(&aabbs[j]) {
                 out.push(if i < j { (i, j) } else { (j, i) });
             }
@@ -161,8 +177,9 @@ pub fn generate_contacts_filtered(
         }
         aabbs.push(c.aabb(&pose_of(c), 0.5 * margin));
     }
+    let is_static: Vec<bool> = colliders.iter().map(|c| c.body.is_none()).collect();
     let mut pairs = Vec::new();
-    let stats = sweep_and_prune(&aabbs, &mut pairs);
+    let stats = sweep_and_prune_masked(&aabbs, &is_static, &mut pairs);
     for &(i, j) in &pairs {
         let (a, b) = (&colliders[i], &colliders[j]);
         if a.body == b.body || !keep(i, j) {

@@ -13,7 +13,8 @@ pub mod narrow;
 pub mod shape;
 
 pub use broad::{
-    brute_force, generate_contacts, generate_contacts_filtered, sweep_and_prune, BroadStats,
+    brute_force, generate_contacts, generate_contacts_filtered, sweep_and_prune,
+    sweep_and_prune_masked, BroadStats,
 };
 pub use contact::{Contact, ParticleContact};
 pub use narrow::{closest_point, closest_segments, collide, point_vs, Closest};
