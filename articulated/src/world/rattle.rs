@@ -29,7 +29,8 @@
 //! * RATTLE puts gravity and springs in `B` with the damping, so a joint damped far
 //!   past the step (`h d/I ≫ 1`) relaxes inside `B` to its creep rate `v = A⁻¹ f`
 //!   before the drift, as in the physics, instead of drifting over `h` with the
-//!   undamped `h/2` gravity kick (`z/2` times too fast). Without damping `B_τ` is the
+//!   undamped gravity kick (`tests/rattle_damping.rs`, `h d/I = 100`: the rate within
+//!   0.65 % of the creep rate, against 9× too fast under RATTLE4). Without damping `B_τ` is the
 //!   exact constant-force kick and the split is RATTLE again (the constraint impulses
 //!   of the kicks are fixed by SHAKE and by `J v' = 0` whatever the split of the force).
 //! * RATTLE4 keeps gravity and springs inside the triple jump so that its error tends
@@ -40,7 +41,7 @@
 //!   code damped the negative step positively (`|h|/2` per kick), so damping acted over
 //!   `(2w₁ + |w₀|) h ≈ 4.4 h` per step. The price: RATTLE4 is stable for any `h d/I`
 //!   but, like any split with the gravity kick before the drift, creeps too fast when
-//!   `h d/I ≫ 1` — use RATTLE there.
+//!   `h d/I ≫ 1` (above) — use RATTLE there.
 //! * An L-stable `D` rather than a time-symmetric one: a rational `R` with
 //!   `R(z) R(−z) = 1` has `|R(∞)| = 1`, so under the trapezoidal rule a heavily damped
 //!   joint would keep its rate, `R(z/2)² → 1`, instead of stopping. The exact
