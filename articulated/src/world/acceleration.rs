@@ -71,7 +71,7 @@ impl World {
         let pose_of = |b: Option<usize>| b.map_or(Pose::IDENTITY, |i| bodies[i].pose);
         // Compliant joints: explicit spring forces, rows out of the system.
         self.add_spring_rhs(1.0);
-        let loops = self.assemble(h, false, Soft::Free, |j, _, rows, rhs| {
+        let loops = self.assemble(h, Rates::None, Soft::Free, |j, _, rows, rhs| {
             let joint = &joints[j];
             let u = twist_of(joint);
             let (a, b) = (pose_of(joint.parent), pose_of(Some(joint.child)));

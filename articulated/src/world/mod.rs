@@ -64,6 +64,17 @@ type WarmContact = ((usize, usize, u64), (f64, DVec3));
 /// Loop-closure rows of one assembly: `(a, b, row)`, compliance, right-hand side.
 type LoopRows = (Vec<(Option<usize>, usize, [DVec3; 4])>, Vec<f64>, Vec<f64>);
 
+/// Which rate rows (one per degree of freedom) an assembly gives the joints.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Rates {
+    /// None (acceleration level, projection).
+    None,
+    /// Armature only (the inertia of the coordinates; RATTLE's conservative kicks).
+    Armature,
+    /// Damping and armature (the velocity level, damping operators).
+    Full,
+}
+
 /// How an assembly treats the hard rows of compliant joints (`α > 0`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Soft {
@@ -105,7 +116,9 @@ pub enum Method {
     /// half-step velocities) and the velocity constraints `J v = 0` at the end of the
     /// step. Rotations drift with the world angular momentum `L = I ω` held fixed and
     /// the implicit-midpoint angular velocity `ω* = I(q_{1/2})⁻¹ L`, so the step is
-    /// time-symmetric and second order; damping rows act over each half kick.
+    /// time-symmetric and second order; joint damping is split off (Strang splitting,
+    /// an L-stable damping flow over `h/2` on each side; `rattle.rs`), so damped joints
+    /// stay second order.
     Rattle {
         /// Position tolerance of the SHAKE projection (m).
         tolerance: f64,
@@ -720,13 +733,28 @@ impl World {
             } => {
                 let w1 = 1.0 / (2.0 - libm::cbrt(2.0));
                 let w0 = 1.0 - 2.0 * w1;
+                // Damping stays outside the triple jump (rattle.rs):
+                // D_{h/2} ∘ C_{w₁h} ∘ C_{w₀h} ∘ C_{w₁h} ∘ D_{h/2}.
+                let damped = self.joints.iter().any(|j| j.damping_rows() > 0);
+                if damped {
+                    self.damp(0.5 * h, false)?;
+                }
+                let mut fell_back = false;
                 for w in [w1, w0, w1] {
-                    let (it, ok) = self.rattle_step(w * h, tolerance, max_iterations)?;
+                    let (it, ok) = if damped {
+                        self.conservative_step(w * h, tolerance, max_iterations, true)?
+                    } else {
+                        self.rattle_step(w * h, tolerance, max_iterations)?
+                    };
                     stats.projection_iterations += it;
                     if !ok {
                         self.fall_back(h, tolerance, max_iterations, &mut stats)?;
+                        fell_back = true;
                         break;
                     }
+                }
+                if damped && !fell_back {
+                    self.damp(0.5 * h, false)?;
                 }
             }
         }
@@ -738,7 +766,7 @@ impl World {
     fn assemble(
         &mut self,
         h: f64,
-        with_damping: bool,
+        rates: Rates,
         soft: Soft,
         mut joint_rhs: impl FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]),
     ) -> LoopRows {
@@ -749,15 +777,18 @@ impl World {
         for (j, joint) in self.joints.iter().enumerate() {
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
-            let passive = {
-                let armed = self.armature[j].iter().any(|v| *v > 0.0);
-                if joint.damping_rows() > 0 || armed {
-                    joint.rate_rows()
-                } else {
-                    0
-                }
+            let armed = self.armature[j].iter().any(|v| *v > 0.0);
+            let passive = if joint.damping_rows() > 0 || armed {
+                joint.rate_rows()
+            } else {
+                0
             };
-            let mut rows = joint.rows_with(&a, &b, with_damping && passive > 0);
+            let with_rates = match rates {
+                Rates::None => false,
+                Rates::Armature => armed,
+                Rates::Full => passive > 0,
+            };
+            let mut rows = joint.rows_with(&a, &b, with_rates);
             let mut comp = [0.0; MAX_ROWS];
             // Rate rows: damping d and armature I_a on the coordinate rate q̇ = G v,
             // `(M + (I_a + h d) GᵀG) v' = M v + h f + I_a GᵀG v`: the row
@@ -766,7 +797,11 @@ impl World {
             let mut rate_rhs = [0.0; MAX_ROWS];
             for r in rows.n_hard..rows.n {
                 let k = r - rows.n_hard;
-                let d = joint.dof_damping(k);
+                let d = if rates == Rates::Full {
+                    joint.dof_damping(k)
+                } else {
+                    0.0
+                };
                 let arm = self.armature[j][k];
                 let s = arm + h * d;
                 if s > 0.0 {
@@ -832,6 +867,35 @@ impl World {
             }
         }
         (loop_rows, loop_c, loop_rhs)
+    }
+
+    /// Writes the armature rows' right-hand side `I_a/(I_a + s d) · G v` for the body
+    /// twists `twists` into the tree rows (after a `Rates::Full` assembly at `s`), for a
+    /// second solve with the same factor (loop joints' armature is not supported there).
+    pub(super) fn armature_rhs(&mut self, s: f64, twists: &[(DVec3, DVec3)]) {
+        for (j, joint) in self.joints.iter().enumerate() {
+            if !self.armature[j].iter().any(|v| *v > 0.0) {
+                continue;
+            }
+            let Some(o) = self.solver.joint_offset(j) else {
+                continue;
+            };
+            let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
+            let b = self.bodies[joint.child].pose;
+            let rows = joint.rows_with(&a, &b, true);
+            let tw = |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| twists[i]);
+            let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
+            for r in rows.n_hard..rows.n {
+                let k = r - rows.n_hard;
+                let arm = self.armature[j][k];
+                let tot = arm + s * joint.dof_damping(k);
+                if arm > 0.0 && tot > 0.0 {
+                    let g = rows.rows[r];
+                    let rate = g[0].dot(va) + g[1].dot(wa) + g[2].dot(vb) + g[3].dot(wb);
+                    self.rhs[o + r] = arm / tot * rate;
+                }
+            }
+        }
     }
 
     fn solve(&mut self, loops: LoopRows) -> Result<(), ArticulatedError> {

@@ -22,7 +22,7 @@ impl World {
                 return Ok(it);
             }
             self.body_rhs(|_, _, _| (DVec3::ZERO, DVec3::ZERO));
-            let loops = self.assemble(1.0, false, Soft::Free, |_, _, rows, rhs| {
+            let loops = self.assemble(1.0, Rates::None, Soft::Free, |_, _, rows, rhs| {
                 for r in 0..rows.n_hard {
                     rhs[r] = -rows.value[r];
                 }

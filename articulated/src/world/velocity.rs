@@ -145,7 +145,7 @@ impl World {
         {
             self.add_geometric_stiffness(h);
         }
-        let loops = self.assemble(h, true, Soft::Implicit, |_, _, rows, rhs| {
+        let loops = self.assemble(h, Rates::Full, Soft::Implicit, |_, _, rows, rhs| {
             for r in 0..rows.n_hard {
                 rhs[r] = -beta * rows.value[r] / h;
             }
