@@ -19,6 +19,12 @@ use constraint_core::{DMat3, DVec3};
 
 use super::*;
 
+/// `x⁴` (no `powi` without `std`).
+fn p4(x: f64) -> f64 {
+    let x2 = x * x;
+    x2 * x2
+}
+
 /// The medium of [`World::fluid`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fluid {
@@ -110,7 +116,7 @@ impl World {
             let (j, k) = ((i + 1) % 3, (i + 2) % 3);
             let (vi, wi) = (v[i], w[i]);
             fl[i] = -2.0 * rho * rr[j] * rr[k] * vi.abs() * vi - 6.0 * beta * pi * req * vi;
-            tl[i] = -0.5 * rho * rr[i] * (rr[j].powi(4) + rr[k].powi(4)) * wi.abs() * wi
+            tl[i] = -0.5 * rho * rr[i] * (p4(rr[j]) + p4(rr[k])) * wi.abs() * wi
                 - 8.0 * beta * pi * req * req * req * wi;
         }
         (frame * DVec3::from_array(fl), frame * DVec3::from_array(tl))
