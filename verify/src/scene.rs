@@ -112,9 +112,7 @@ pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> 
         return run_contact(&model, opts);
     }
     let mut scene = MjcfScene::new(&model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
-    for w in &scene.warnings {
-        eprintln!("warning: {w}");
-    }
+    warn_once(&scene.warnings);
     let h = opts.dt.unwrap_or(scene.timestep);
     let steps = step_count(h, opts)?;
     let m = method(&opts.method, h)?;
@@ -187,4 +185,20 @@ fn run_contact(
     }
     stepping += start.elapsed().as_secs_f64();
     Ok((traj, stepping))
+}
+
+/// Prints each distinct loader warning once per process (a sweep runs the same file
+/// many times).
+fn warn_once(warnings: &[String]) {
+    use std::collections::BTreeSet;
+    use std::sync::Mutex;
+    static SEEN: Mutex<BTreeSet<String>> = Mutex::new(BTreeSet::new());
+    let Ok(mut seen) = SEEN.lock() else {
+        return;
+    };
+    for w in warnings {
+        if seen.insert(w.clone()) {
+            eprintln!("warning: {w}");
+        }
+    }
 }

@@ -1389,6 +1389,215 @@ fn world_step(w: &mut World, h: f64, m: Method) -> Outcome {
     mutating(before, r, world_state(w), "world step")
 }
 
+/// The one world's new entry points (issue 12): limits, armature, dry friction, joint
+/// springs, tendons, actuators and controls, fluid, compound joints, colliders. Bad values
+/// are refused with the world unchanged; accepted ones are stepped by every method.
+fn one_world_cases(s: &mut Sweep) {
+    use constraint_articulated::{Actuator, DofSpring, Fluid, Target, Tendon};
+    use constraint_core::Compound;
+    let step_all = |mut w: World| {
+        for m in methods() {
+            if let Outcome::StateChanged(x) = world_step(&mut w, 1e-3, m) {
+                return Outcome::StateChanged(x);
+            }
+        }
+        Outcome::Accepted(world_state(&w))
+    };
+    let pairs: Vec<(f64, f64)> = BAD
+        .iter()
+        .map(|&v| (v, 1.0))
+        .chain(BAD.iter().map(|&v| (-1.0, v)))
+        .chain([
+            (0.5, -0.5),
+            (-0.3, 0.3),
+            (0.0, 0.0),
+            (f64::NEG_INFINITY, 0.2),
+        ])
+        .collect();
+    for (lo, hi) in pairs {
+        s.case(format!("World::set_limit [{lo:e}, {hi:e}]"), || {
+            let mut w = pendulum();
+            let before = w.limits().to_vec();
+            match w.set_limit(1, lo, hi) {
+                Err(_) if w.limits() == before.as_slice() => Outcome::Rejected,
+                Err(_) => Outcome::StateChanged("limits".into()),
+                Ok(()) => step_all(w),
+            }
+        });
+    }
+    s.case("World::set_limit on a ball joint", || {
+        of(pendulum().set_limit(0, -1.0, 1.0))
+    });
+    s.case("World::set_limit unknown joint", || {
+        of(pendulum().set_limit(9, -1.0, 1.0))
+    });
+    s.case("World::set_dof_limit dof 3 of a hinge", || {
+        of(pendulum().set_dof_limit(1, 3, -1.0, 1.0))
+    });
+    for &v in BAD.iter().chain(&[1e-3, 10.0]) {
+        s.case(format!("World::set_armature {v:e}"), || {
+            let mut w = pendulum();
+            match w.set_armature(1, 0, v) {
+                Err(_) => Outcome::Rejected,
+                Ok(()) => step_all(w),
+            }
+        });
+        s.case(format!("World::set_frictionloss {v:e}"), || {
+            let mut w = pendulum();
+            match w.set_frictionloss(1, 0, v) {
+                Err(_) => Outcome::Rejected,
+                Ok(()) => step_all(w),
+            }
+        });
+        s.case(format!("World::add_dof_spring stiffness {v:e}"), || {
+            let mut w = pendulum();
+            let spring = DofSpring {
+                joint: 1,
+                dof: 0,
+                stiffness: v,
+                reference: 0.1,
+            };
+            match w.add_dof_spring(spring) {
+                Err(_) => Outcome::Rejected,
+                Ok(()) => step_all(w),
+            }
+        });
+        s.case(format!("World::add_tendon coefficient {v:e}"), || {
+            let mut w = pendulum();
+            let t = Tendon {
+                terms: vec![(1, 0, v)],
+                stiffness: 1.0,
+                damping: 0.1,
+                rest_length: 0.0,
+            };
+            match w.add_tendon(t) {
+                Err(_) => Outcome::Rejected,
+                Ok(_) => step_all(w),
+            }
+        });
+        s.case(format!("World::set_fluid density {v:e}"), || {
+            let mut w = pendulum();
+            let f = Fluid {
+                density: v,
+                viscosity: 0.1,
+                wind: DVec3::ZERO,
+            };
+            match w.set_fluid(Some(f)) {
+                Err(_) => Outcome::Rejected,
+                Ok(()) => step_all(w),
+            }
+        });
+        for (what, gear, gain, ctrl) in [
+            ("gear", v, 1.0, 0.5),
+            ("gain", 1.0, v, 0.5),
+            ("ctrl", 1.0, 1.0, v),
+        ] {
+            s.case(format!("World::add_actuator {what} {v:e}"), || {
+                let mut w = pendulum();
+                let a = Actuator {
+                    target: Target::Dof { joint: 1, dof: 0 },
+                    gear,
+                    gain,
+                    bias: [0.0, -2.0, -0.1],
+                    ctrl_range: Some([-1.0, 1.0]),
+                    force_range: None,
+                };
+                let Ok(i) = w.add_actuator(a) else {
+                    return Outcome::Rejected;
+                };
+                if w.set_ctrl(i, ctrl).is_err() {
+                    return Outcome::Rejected;
+                }
+                step_all(w)
+            });
+        }
+    }
+    s.case("World::add_actuator on a ball joint", || {
+        let a = Actuator {
+            target: Target::Dof { joint: 0, dof: 0 },
+            gear: 1.0,
+            gain: 1.0,
+            bias: [0.0; 3],
+            ctrl_range: None,
+            force_range: None,
+        };
+        of(pendulum().add_actuator(a))
+    });
+    s.case("World::add_actuator ctrl range NaN", || {
+        let a = Actuator {
+            target: Target::Dof { joint: 1, dof: 0 },
+            gear: 1.0,
+            gain: 1.0,
+            bias: [0.0; 3],
+            ctrl_range: Some([f64::NAN, 1.0]),
+            force_range: None,
+        };
+        of(pendulum().add_actuator(a))
+    });
+    s.case("World::set_ctrl with no actuators", || {
+        of(pendulum().set_ctrl(0, 1.0))
+    });
+    s.case("World::add_actuator unknown tendon", || {
+        let a = Actuator {
+            target: Target::Tendon(3),
+            gear: 1.0,
+            gain: 1.0,
+            bias: [0.0; 3],
+            ctrl_range: None,
+            force_range: None,
+        };
+        of(pendulum().add_actuator(a))
+    });
+    // Compound joints: parallel and coplanar hinges, dependent and non-finite axes.
+    let (a, b) = (
+        Pose::IDENTITY,
+        Pose {
+            x: DVec3::new(0.0, 0.0, -1.0),
+            q: DQuat::IDENTITY,
+        },
+    );
+    let sets: [(&str, Vec<DVec3>, Vec<DVec3>); 6] = [
+        ("parallel hinges", vec![], vec![DVec3::X, DVec3::X * 2.0]),
+        (
+            "coplanar hinges",
+            vec![],
+            vec![DVec3::X, DVec3::Y, DVec3::new(1.0, 1.0, 0.0)],
+        ),
+        ("dependent slides", vec![DVec3::X, DVec3::X], vec![DVec3::Z]),
+        ("NaN hinge", vec![], vec![DVec3::new(f64::NAN, 0.0, 0.0)]),
+        ("zero slide", vec![DVec3::ZERO], vec![DVec3::Y]),
+        (
+            "four hinges",
+            vec![],
+            vec![DVec3::X, DVec3::Y, DVec3::Z, DVec3::X],
+        ),
+    ];
+    for (what, slides, hinges) in sets {
+        s.case(format!("Compound::from_world {what}"), || {
+            of(Compound::from_world(&a, &b, DVec3::ZERO, &slides, &hinges))
+        });
+    }
+    // Colliders on the jointed world: unknown body, bad shape; contact steps.
+    s.case("World::add_collider unknown body", || {
+        let c = Collider::simple(Some(7), Shape::sphere(0.1).unwrap()).unwrap();
+        of(pendulum().add_collider(c))
+    });
+    s.case("World with a floor and colliders, stepped", || {
+        let mut w = pendulum();
+        let floor = Collider::simple(None, Shape::plane(DVec3::Z, -1.2).unwrap()).unwrap();
+        if w.add_collider(floor).is_err() {
+            return Outcome::Rejected;
+        }
+        for i in 0..2 {
+            let c = Collider::simple(Some(i), Shape::sphere(0.3).unwrap()).unwrap();
+            if w.add_collider(c).is_err() {
+                return Outcome::Rejected;
+            }
+        }
+        step_all(w)
+    });
+}
+
 fn articulated_cases(s: &mut Sweep) {
     // World::set_compliance: bad values and an unknown joint leave the world unchanged;
     // accepted ones are stepped by every method.
@@ -2567,6 +2776,7 @@ fn bad_input_sweep() {
     soft_cases(&mut s);
     lagrange_cases(&mut s);
     articulated_cases(&mut s);
+    one_world_cases(&mut s);
     contact_cases(&mut s);
     mjcf_cases(&mut s);
     let _ = std::panic::take_hook();

@@ -801,3 +801,74 @@ fn contact_builtin_hashes_are_deterministic_and_pinned() {
     ));
     check("contact", CONTACT_PINNED, scenes);
 }
+
+/// Issue 12's scenes in the one world: compound joints, armature, springs, actuators,
+/// fluid drag, damped RATTLE; and a chain dropped on the floor (joints and contacts in
+/// one solve). Same hash twice, and pinned (`PRINT_STATE_HASHES=1` prints them).
+#[test]
+fn one_world_hashes_are_deterministic_and_pinned() {
+    const ONE_WORLD: [&str; 5] = [
+        "planar_leg",
+        "two_hinge_pendulum",
+        "actuated",
+        "fluid_drag",
+        "pendulum_damped",
+    ];
+    let print = std::env::var("PRINT_STATE_HASHES").is_ok();
+    let mut got: Vec<(String, u64)> = Vec::new();
+    for scene in ONE_WORLD {
+        for (name, m) in methods() {
+            let a = run(scene, m);
+            assert_eq!(a, run(scene, m), "{scene} {name}: two runs differ");
+            got.push((format!("{scene} {name}"), a));
+        }
+    }
+    let floor = || {
+        let mut w = constraint_articulated::scenes::chain_on_floor(10, 0.06, 0.5).unwrap();
+        let m = Method::VelocityProjected {
+            beta: 1.0,
+            tolerance: 1e-10,
+            max_iterations: 20,
+            correct_velocity: false,
+        };
+        for _ in 0..400 {
+            w.step(1e-3, m).unwrap();
+        }
+        state_hash(&w)
+    };
+    let a = floor();
+    assert_eq!(a, floor(), "chain on floor: two runs differ");
+    got.push(("chain_on_floor projected".into(), a));
+    if print {
+        for (name, h) in &got {
+            println!("(\"{name}\", {h:#018x}),");
+        }
+    }
+    let mut mismatches = Vec::new();
+    for ((name, h), (pname, pinned)) in got.iter().zip(ONE_WORLD_PINNED) {
+        assert_eq!(name, pname);
+        if h != pinned {
+            mismatches.push(format!("{name}: {h:#018x} (pinned {pinned:#018x})"));
+        }
+    }
+    assert_eq!(got.len(), ONE_WORLD_PINNED.len());
+    assert!(
+        mismatches.is_empty(),
+        "state hashes changed:\n{}",
+        mismatches.join("\n")
+    );
+}
+
+const ONE_WORLD_PINNED: &[(&str, u64)] = &[
+    ("planar_leg rattle", 0xca789af4a2ec4f74),
+    ("planar_leg velocity", 0x44b7a1dc936554c3),
+    ("two_hinge_pendulum rattle", 0x1e9e12759f1c59fa),
+    ("two_hinge_pendulum velocity", 0x03c25baad3e181ae),
+    ("actuated rattle", 0x95f47108a4c6dd05),
+    ("actuated velocity", 0xd1aac43e062e542e),
+    ("fluid_drag rattle", 0x3fa2620ecfb22006),
+    ("fluid_drag velocity", 0xa777ff894a4fbccb),
+    ("pendulum_damped rattle", 0x910fbf2258a2a255),
+    ("pendulum_damped velocity", 0x64170de2124e5743),
+    ("chain_on_floor projected", 0x683a14074bf369ea),
+];
