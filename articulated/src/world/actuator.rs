@@ -89,7 +89,9 @@ fn range_ok(r: Option<[f64; 2]>) -> bool {
 }
 
 impl World {
-    fn dofs_of(&self, joint: usize) -> usize {
+    /// Degrees of freedom with a coordinate: 1 for hinges and slides, a compound
+    /// joint's count, 0 otherwise (and for an unknown joint).
+    pub(super) fn dofs_of(&self, joint: usize) -> usize {
         match self.joints.get(joint).map(|j| &j.kind) {
             Some(JointKind::Hinge(_)) | Some(JointKind::Prismatic(_)) => 1,
             Some(JointKind::Compound(c, _)) => c.dof(),
@@ -244,26 +246,8 @@ impl World {
     fn coordinate_table(&self) -> Vec<Option<DofState>> {
         (0..self.joints.len())
             .map(|ji| {
-                let j = &self.joints[ji];
-                let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
-                let mut q = [0.0; MAX_DOF];
-                let mut rows = [[DVec3::ZERO; 4]; MAX_DOF];
-                match &j.kind {
-                    JointKind::Hinge(c) => {
-                        q[0] = c.angle(&a, &b);
-                        rows[0] = c.angle_row(&b);
-                    }
-                    JointKind::Prismatic(c) => {
-                        q[0] = c.displacement(&a, &b);
-                        rows[0] = c.displacement_row(&a, &b);
-                    }
-                    JointKind::Compound(c, _) => {
-                        q = c.coordinates(&a, &b, &q);
-                        rows = c.dof_rows(&a, &b, &q);
-                    }
-                    _ => return None,
-                }
-                let tw = self.twist(j);
+                let (q, rows) = self.coordinates_and_rows(ji)?;
+                let tw = self.twist(&self.joints[ji]);
                 let mut qd = [0.0; MAX_DOF];
                 for k in 0..MAX_DOF {
                     qd[k] = (0..4).map(|s| rows[k][s].dot(tw[s])).sum();
@@ -271,6 +255,35 @@ impl World {
                 Some((q, qd, rows))
             })
             .collect()
+    }
+
+    /// The coordinates of joint `ji` and the rows of their rates (hinge angle and its
+    /// row, prismatic displacement and its row, a compound joint's coordinates and
+    /// rows); `None` for joints without coordinates.
+    pub(super) fn coordinates_and_rows(
+        &self,
+        ji: usize,
+    ) -> Option<([f64; MAX_DOF], [[DVec3; 4]; MAX_DOF])> {
+        let j = &self.joints[ji];
+        let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
+        let mut q = [0.0; MAX_DOF];
+        let mut rows = [[DVec3::ZERO; 4]; MAX_DOF];
+        match &j.kind {
+            JointKind::Hinge(c) => {
+                q[0] = c.angle(&a, &b);
+                rows[0] = c.angle_row(&b);
+            }
+            JointKind::Prismatic(c) => {
+                q[0] = c.displacement(&a, &b);
+                rows[0] = c.displacement_row(&a, &b);
+            }
+            JointKind::Compound(c, _) => {
+                q = c.coordinates(&a, &b, &q);
+                rows = c.dof_rows(&a, &b, &q);
+            }
+            _ => return None,
+        }
+        Some((q, rows))
     }
 
     /// The generalized force on every degree of freedom at the current state

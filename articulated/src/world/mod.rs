@@ -908,20 +908,9 @@ impl World {
 
     /// Solves with the factor already in the solver (loop rows as assembled with it).
     fn solve_factored(&mut self, loops: &LoopRows) -> Result<(), ArticulatedError> {
+        let free_scale = self.loop_free_scale(loops);
         let solver = &mut self.solver;
         let (rows, c, r) = loops;
-        let mut free_scale: f64 = 0.0;
-        for (a, b, row) in rows {
-            let mut g = 0.0;
-            for (side, body) in [(0usize, *a), (1usize, Some(*b))] {
-                if let Some(i) = body {
-                    let bd = &self.bodies[i];
-                    g += row[2 * side].length_squared() / bd.mass()
-                        + row[2 * side + 1].dot(bd.world_inv_inertia() * row[2 * side + 1]);
-                }
-            }
-            free_scale = free_scale.max(g);
-        }
         solver.solve_with_loops(&mut self.rhs, rows, c, r, free_scale, &mut self.mu)
     }
 

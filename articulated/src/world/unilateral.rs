@@ -142,14 +142,10 @@ impl World {
         upper: f64,
     ) -> Result<(), ArticulatedError> {
         let bad = |reason| ArticulatedError::InvalidJoint { joint, reason };
-        let Some(j) = self.joints.get(joint) else {
+        if joint >= self.joints.len() {
             return Err(bad("unknown joint"));
-        };
-        let dofs = match &j.kind {
-            JointKind::Hinge(_) | JointKind::Prismatic(_) => 1,
-            JointKind::Compound(c, _) => c.dof(),
-            _ => 0,
-        };
+        }
+        let dofs = self.dofs_of(joint);
         if dofs == 0 {
             return Err(bad(
                 "limits apply to hinge, prismatic and compound joints only",
@@ -179,14 +175,10 @@ impl World {
         f: f64,
     ) -> Result<(), ArticulatedError> {
         let bad = |reason| ArticulatedError::InvalidJoint { joint, reason };
-        let Some(j) = self.joints.get(joint) else {
+        if joint >= self.joints.len() {
             return Err(bad("unknown joint"));
-        };
-        let dofs = match &j.kind {
-            JointKind::Hinge(_) | JointKind::Prismatic(_) => 1,
-            JointKind::Compound(c, _) => c.dof(),
-            _ => 0,
-        };
+        }
+        let dofs = self.dofs_of(joint);
         if dof >= dofs {
             return Err(bad("the joint has no such degree of freedom"));
         }
@@ -221,21 +213,11 @@ impl World {
     /// displacement, or a compound joint's coordinates (slides in m, then hinges in
     /// rad); `None` for joints without coordinates (spherical, fixed, distance).
     pub fn joint_coordinates(&self, joint: usize) -> Option<([f64; MAX_DOF], usize)> {
-        let j = self.joints.get(joint)?;
-        let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
-        let mut q = [0.0; MAX_DOF];
-        match &j.kind {
-            JointKind::Hinge(c) => {
-                q[0] = c.angle(&a, &b);
-                Some((q, 1))
-            }
-            JointKind::Prismatic(c) => {
-                q[0] = c.displacement(&a, &b);
-                Some((q, 1))
-            }
-            JointKind::Compound(c, _) => Some((c.coordinates(&a, &b, &q), c.dof())),
-            _ => None,
+        if joint >= self.joints.len() {
+            return None;
         }
+        let (q, _) = self.coordinates_and_rows(joint)?;
+        Some((q, self.dofs_of(joint)))
     }
 
     /// What the one-sided rows did in the last step.
@@ -257,25 +239,9 @@ impl World {
             if self.limits[ji].iter().all(|l| l.is_none()) && dry.iter().all(|f| *f == 0.0) {
                 continue;
             }
-            let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
-            let b = self.bodies[joint.child].pose;
-            let mut qs = [0.0; MAX_DOF];
-            let mut rows = [[DVec3::ZERO; 4]; MAX_DOF];
-            match &joint.kind {
-                JointKind::Hinge(c) => {
-                    qs[0] = c.angle(&a, &b);
-                    rows[0] = c.angle_row(&b);
-                }
-                JointKind::Prismatic(c) => {
-                    qs[0] = c.displacement(&a, &b);
-                    rows[0] = c.displacement_row(&a, &b);
-                }
-                JointKind::Compound(c, _) => {
-                    qs = c.coordinates(&a, &b, &qs);
-                    rows = c.dof_rows(&a, &b, &qs);
-                }
-                _ => continue,
-            }
+            let Some((qs, rows)) = self.coordinates_and_rows(ji) else {
+                continue;
+            };
             // Dry friction: a boxed row on the coordinate's rate, |z| ≤ f h (MuJoCo's
             // frictionloss), target rate 0.
             for dof in 0..MAX_DOF {
