@@ -19,6 +19,7 @@ the wall seconds per step (best of a few repeats).
 """
 
 import argparse
+import bisect
 import json
 import math
 import sys
@@ -53,7 +54,40 @@ def parse_args(argv):
     p.add_argument("--integrator", choices=sorted(INTEGRATORS))
     p.add_argument("--out", required=True)
     p.add_argument("--timing")
+    p.add_argument("--qpos", help="initial qpos, comma-separated (front of the vector)")
+    p.add_argument("--qvel", help="initial qvel, comma-separated (front of the vector)")
+    p.add_argument("--ctrl", help="control CSV: t,<actuator>..., each row held until the next")
     return p.parse_args(argv)
+
+
+def read_controls(path, model):
+    """(times, rows) of a control CSV; rows are lists of (actuator id, value)."""
+    with open(path) as f:
+        lines = [l.strip() for l in f if l.strip()]
+    if not lines:
+        fail(f"{path}: empty control file")
+    cols = [c.strip() for c in lines[0].split(",")]
+    if cols[0] != "t":
+        fail(f"{path}: the first column must be t")
+    ids = []
+    for c in cols[1:]:
+        i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, c)
+        if i < 0:
+            fail(f"{path}: column {c!r} is not an actuator of the model")
+        ids.append(i)
+    times, rows = [], []
+    for n, line in enumerate(lines[1:], start=2):
+        try:
+            vals = [float(x) for x in line.split(",")]
+        except ValueError:
+            fail(f"{path} line {n}: not a number")
+        if len(vals) != len(cols) or not all(math.isfinite(v) for v in vals):
+            fail(f"{path} line {n}: {len(vals)} finite fields expected {len(cols)}")
+        if times and not vals[0] > times[-1]:
+            fail(f"{path} line {n}: times must increase")
+        times.append(vals[0])
+        rows.append(list(zip(ids, vals[1:])))
+    return times, rows
 
 
 def body_names(model):
@@ -114,6 +148,16 @@ def main(argv):
         if key < 0:
             fail(f"no keyframe named {a.keyframe!r} in {a.scene}")
         mujoco.mj_resetDataKeyframe(model, data, key)
+    for name, vec, size in (("qpos", a.qpos, model.nq), ("qvel", a.qvel, model.nv)):
+        if vec is None:
+            continue
+        vals = [float(x) for x in vec.split(",")]
+        if len(vals) > size or not all(math.isfinite(v) for v in vals):
+            fail(f"--{name}: {len(vals)} finite values, the model has {size}")
+        getattr(data, name)[: len(vals)] = vals
+    if a.qpos is not None:
+        mujoco.mj_normalizeQuat(model, data.qpos)
+    controls = read_controls(a.ctrl, model) if a.ctrl else None
     # The initial state, before any step, for the timing rollout.
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state0 = np.empty(mujoco.mj_stateSize(model, spec))
@@ -129,7 +173,18 @@ def main(argv):
         done = 0
         while done < steps:
             n = min(a.every, steps - done)
-            mujoco.mj_step(model, data, nstep=n)
+            if controls is None:
+                mujoco.mj_step(model, data, nstep=n)
+            else:
+                # Zero-order hold: before each step, the row in force at its start time.
+                times, rows = controls
+                for k in range(n):
+                    t = (done + k) * dt
+                    j = bisect.bisect_right(times, t + 1e-12) - 1
+                    if j >= 0:
+                        for i, u in rows[j]:
+                            data.ctrl[i] = u
+                    mujoco.mj_step(model, data)
             done += n
             if n == a.every:
                 mujoco.mj_forward(model, data)

@@ -350,24 +350,7 @@ impl MjcfScene {
             }
         }
         // The keyframe's state.
-        for (b, s) in world.bodies_mut().iter_mut().zip(&states) {
-            b.pose = Pose {
-                x: v3(s.com),
-                q: quat(s.quat),
-            };
-            b.v = v3(s.vel);
-            b.omega = v3(s.omega);
-        }
-        if let Some(i) = world
-            .bodies()
-            .iter()
-            .position(|b| !b.pose.x.is_finite() || !b.v.is_finite() || !b.omega.is_finite())
-        {
-            return Err(ArticulatedError::InvalidBody {
-                body: i,
-                reason: "keyframe state is not finite",
-            });
-        }
+        set_body_states(&mut world, &states)?;
         let collision_geoms = if model.contact_disabled {
             0
         } else {
@@ -389,6 +372,35 @@ impl MjcfScene {
             actuator_names,
             warnings,
         })
+    }
+
+    /// Puts the world in MuJoCo's generalized state `qpos`, `qvel` of `model` (the model
+    /// this scene was built from): the values given fill the front, the rest is `qpos0`
+    /// and zero, as MuJoCo compiles a keyframe; ball and free quaternions are
+    /// normalised. Errors: more values than `nq`/`nv`, non-finite values or states.
+    pub fn set_generalized(
+        &mut self,
+        model: &Model,
+        qpos: &[f64],
+        qvel: &[f64],
+    ) -> Result<(), ArticulatedError> {
+        let (nq, nv) = (model.nq(), model.nv());
+        if qpos.len() > nq || qvel.len() > nv {
+            return Err(scene_err(format!(
+                "qpos/qvel: {} and {} values given, the model has nq = {nq}, nv = {nv}",
+                qpos.len(),
+                qvel.len()
+            )));
+        }
+        if qpos.iter().chain(qvel).any(|v| !v.is_finite()) {
+            return Err(scene_err("qpos/qvel: values must be finite"));
+        }
+        let mut q = model.qpos0();
+        q[..qpos.len()].copy_from_slice(qpos);
+        let mut v = alloc::vec![0.0; nv];
+        v[..qvel.len()].copy_from_slice(qvel);
+        let states = model.body_states(&q, &v).map_err(scene_err)?;
+        set_body_states(&mut self.world, &states)
     }
 
     /// Loads `path` and builds its world (see [`Self::new`]).
@@ -590,6 +602,34 @@ fn add_colliders(
     }
     for e in &model.contact_excludes {
         world.exclude_pair(e.body1, e.body2)?;
+    }
+    Ok(())
+}
+
+/// The bodies at maximal-coordinate states from the loader (keyframes, `qpos`/`qvel`).
+fn set_body_states(
+    world: &mut World,
+    states: &[constraint_mjcf::BodyState],
+) -> Result<(), ArticulatedError> {
+    let before: Vec<RigidBody> = world.bodies().to_vec();
+    for (b, s) in world.bodies_mut().iter_mut().zip(states) {
+        b.pose = Pose {
+            x: v3(s.com),
+            q: quat(s.quat),
+        };
+        b.v = v3(s.vel);
+        b.omega = v3(s.omega);
+    }
+    if let Some(i) = world
+        .bodies()
+        .iter()
+        .position(|b| !b.pose.x.is_finite() || !b.v.is_finite() || !b.omega.is_finite())
+    {
+        world.bodies_mut().copy_from_slice(&before);
+        return Err(ArticulatedError::InvalidBody {
+            body: i,
+            reason: "initial state is not finite",
+        });
     }
     Ok(())
 }

@@ -185,6 +185,7 @@ pub fn measure(scene: &str, method: &'static str, dt: f64, reference: &Trajector
         duration: HORIZON,
         every: sample_every(dt, interval),
         method: method.into(),
+        ..RunOptions::default()
     };
     let path = root().join(format!("scenes/{scene}.xml"));
     let outcome = (|| {

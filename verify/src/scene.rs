@@ -89,6 +89,113 @@ pub struct RunOptions {
     pub every: usize,
     /// Method name (see [`METHODS`]).
     pub method: String,
+    /// Initial `qpos` in MuJoCo's generalized coordinates (after the keyframe; missing
+    /// values are `qpos0`).
+    pub qpos: Option<Vec<f64>>,
+    /// Initial `qvel` (missing values zero).
+    pub qvel: Option<Vec<f64>>,
+    /// Control file: CSV with columns `t, <actuator name>...`, zero-order hold.
+    pub ctrl: Option<std::path::PathBuf>,
+}
+
+impl Default for RunOptions {
+    /// No keyframe, the file's step, zero duration, every step, RATTLE, no state or
+    /// control overrides.
+    fn default() -> Self {
+        Self {
+            keyframe: None,
+            dt: None,
+            duration: 0.0,
+            every: 1,
+            method: "rattle".into(),
+            qpos: None,
+            qvel: None,
+            ctrl: None,
+        }
+    }
+}
+
+/// A control sequence: times (increasing) and, per row, the controls of the named
+/// actuators (`(actuator index, value)`), held until the next row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Controls {
+    /// Row times (s), strictly increasing.
+    pub t: Vec<f64>,
+    /// Per row, `(actuator, value)` for every column.
+    pub rows: Vec<Vec<(usize, f64)>>,
+}
+
+impl Controls {
+    /// Parses a control CSV (`t,<actuator>...` header, one row per change) against the
+    /// scene's actuator names. Errors name the line: a missing `t` column, an unknown
+    /// or repeated actuator, a wrong number of fields, a non-number or non-finite value,
+    /// times not strictly increasing.
+    pub fn parse(text: &str, actuators: &[String]) -> Result<Self, String> {
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty());
+        let (_, header) = lines.next().ok_or("ctrl file: empty")?;
+        let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+        if cols.first() != Some(&"t") {
+            return Err("ctrl file: the first column must be t".into());
+        }
+        let mut index = Vec::with_capacity(cols.len() - 1);
+        for c in &cols[1..] {
+            let Some(i) = actuators.iter().position(|a| a == c) else {
+                return Err(format!(
+                    "ctrl file: column {c:?} is not an actuator of the scene"
+                ));
+            };
+            if index.contains(&i) {
+                return Err(format!("ctrl file: column {c:?} appears twice"));
+            }
+            index.push(i);
+        }
+        let mut out = Controls {
+            t: Vec::new(),
+            rows: Vec::new(),
+        };
+        for (n, line) in lines {
+            let f: Vec<&str> = line.split(',').map(str::trim).collect();
+            if f.len() != cols.len() {
+                return Err(format!(
+                    "ctrl file line {}: {} fields, the header has {}",
+                    n + 1,
+                    f.len(),
+                    cols.len()
+                ));
+            }
+            let mut vals = Vec::with_capacity(f.len());
+            for x in &f {
+                let v: f64 = x
+                    .parse()
+                    .map_err(|_| format!("ctrl file line {}: not a number: {x:?}", n + 1))?;
+                if !v.is_finite() {
+                    return Err(format!("ctrl file line {}: non-finite value", n + 1));
+                }
+                vals.push(v);
+            }
+            if out.t.last().is_some_and(|&p| !(vals[0] > p)) {
+                return Err(format!("ctrl file line {}: times must increase", n + 1));
+            }
+            out.t.push(vals[0]);
+            out.rows.push(
+                index
+                    .iter()
+                    .copied()
+                    .zip(vals[1..].iter().copied())
+                    .collect(),
+            );
+        }
+        Ok(out)
+    }
+
+    /// The row in force at time `t` (the last with `t_row ≤ t`), if any.
+    pub fn at(&self, t: f64) -> Option<&[(usize, f64)]> {
+        let k = self.t.partition_point(|&r| r <= t + 1e-12);
+        k.checked_sub(1).map(|k| self.rows[k].as_slice())
+    }
 }
 
 /// Loads `path`, runs it and returns the trajectory (first row at `t = 0`, times exact
@@ -113,6 +220,23 @@ pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> 
     }
     let mut scene = MjcfScene::new(&model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
     warn_once(&scene.warnings);
+    if opts.qpos.is_some() || opts.qvel.is_some() {
+        let q = opts.qpos.as_deref().unwrap_or(&[]);
+        let v = opts.qvel.as_deref().unwrap_or(&[]);
+        if opts.keyframe.is_some() {
+            return Err("--qpos/--qvel and --keyframe: give one initial state".into());
+        }
+        scene
+            .set_generalized(&model, q, v)
+            .map_err(|e| e.to_string())?;
+    }
+    let controls = match &opts.ctrl {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+            Some(Controls::parse(&text, &scene.actuator_names)?)
+        }
+        None => None,
+    };
     let h = opts.dt.unwrap_or(scene.timestep);
     let steps = step_count(h, opts)?;
     let m = method(&opts.method, h)?;
@@ -122,6 +246,11 @@ pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> 
     let mut start = std::time::Instant::now();
     let mut stepping = 0.0;
     for i in 1..=steps {
+        if let Some(row) = controls.as_ref().and_then(|c| c.at((i - 1) as f64 * h)) {
+            for &(a, u) in row {
+                scene.world.set_ctrl(a, u).map_err(|e| e.to_string())?;
+            }
+        }
         scene.world.step(h, m).map_err(|e| e.to_string())?;
         if i % opts.every as u64 == 0 {
             stepping += start.elapsed().as_secs_f64();

@@ -25,6 +25,7 @@ fn last(scene: &str, key: Option<&str>, column: &str) -> (f64, f64) {
         duration: 2.0,
         every: 20,
         method: "rattle".into(),
+        ..RunOptions::default()
     };
     let (ours, _) = run(&root().join(format!("scenes/{scene}.xml")), &opts).unwrap();
     let c = compare(&ours, &reference).unwrap();

@@ -184,6 +184,9 @@ fn bad_options_fail_with_one_line() {
     let out = d.join("out.csv");
     let o = out.to_string_lossy().to_string();
     let missing = d.join("missing.xml").to_string_lossy().to_string();
+    let bad_ctrl_path = d.join("bad_ctrl.csv");
+    std::fs::write(&bad_ctrl_path, "t,no_such_actuator\n0,1\n").expect("write ctrl");
+    let bad_ctrl = bad_ctrl_path.to_string_lossy().to_string();
     let cases: Vec<(&str, Vec<&str>)> = vec![
         ("no arguments", vec![]),
         ("missing duration", vec![&s, "--out", &o]),
@@ -237,6 +240,40 @@ fn bad_options_fail_with_one_line() {
             vec![&s, "--duration", "1", "--frobnicate", "--out", &o],
         ),
         ("two scenes", vec![&s, &s, "--duration", "1", "--out", &o]),
+        (
+            "qpos too long",
+            vec![&s, "--duration", "0.1", "--qpos", "1,2,3", "--out", &o],
+        ),
+        (
+            "qpos NaN",
+            vec![&s, "--duration", "0.1", "--qpos", "nan", "--out", &o],
+        ),
+        (
+            "qvel not a number",
+            vec![&s, "--duration", "0.1", "--qvel", "x", "--out", &o],
+        ),
+        (
+            "qpos with a keyframe",
+            vec![
+                &s,
+                "--duration",
+                "0.1",
+                "--qpos",
+                "0.5",
+                "--keyframe",
+                "start",
+                "--out",
+                &o,
+            ],
+        ),
+        (
+            "missing control file",
+            vec![&s, "--duration", "0.1", "--ctrl", &missing, "--out", &o],
+        ),
+        (
+            "control file with wrong columns",
+            vec![&s, "--duration", "0.1", "--ctrl", &bad_ctrl, "--out", &o],
+        ),
         (
             "unwritable output",
             vec![

@@ -224,6 +224,7 @@ fn mujoco_chains(p: &mut Peers) {
             integrator: Some("euler".into()),
             out: dir.join(format!("ball_chain{n}.csv")),
             timing: Some(timing.clone()),
+            ..RunOptions::default()
         });
         let text = res.and_then(|()| {
             std::fs::read_to_string(&timing).map_err(|e| format!("{}: {e}", timing.display()))

@@ -211,6 +211,7 @@ fn mujoco_scenes(res: &mut MjcfResults) {
             integrator: Some("euler".into()),
             out: dir.join(format!("{}.csv", r.scene)),
             timing: Some(timing.clone()),
+            ..RunOptions::default()
         })
         .and_then(|()| {
             std::fs::read_to_string(&timing).map_err(|e| format!("{}: {e}", timing.display()))

@@ -36,6 +36,11 @@ pub struct RunOptions {
     pub integrator: Option<String>,
     pub out: PathBuf,
     pub timing: Option<PathBuf>,
+    /// Initial `qpos` / `qvel` (comma-separated, MuJoCo's order; after the keyframe).
+    pub qpos: Option<String>,
+    pub qvel: Option<String>,
+    /// Control CSV `t,<actuator>...` (zero-order hold), as `simulate --ctrl`.
+    pub ctrl: Option<PathBuf>,
 }
 
 /// A committed reference export: `scenes/reference/<scene>.csv`, MuJoCo RK4 from
@@ -105,6 +110,7 @@ impl Reference {
             integrator: Some("rk4".into()),
             out,
             timing: None,
+            ..RunOptions::default()
         }
     }
 }
@@ -228,6 +234,15 @@ pub fn run(o: &RunOptions) -> Result<(), String> {
     if let Some(k) = &o.keyframe {
         cmd.args(["--keyframe", k]);
     }
+    if let Some(q) = &o.qpos {
+        cmd.args(["--qpos", q]);
+    }
+    if let Some(v) = &o.qvel {
+        cmd.args(["--qvel", v]);
+    }
+    if let Some(c) = &o.ctrl {
+        cmd.arg("--ctrl").arg(c);
+    }
     if let Some(dt) = &o.dt {
         cmd.args(["--dt", dt]);
     }
@@ -279,6 +294,9 @@ pub fn parse_args(args: &[String]) -> Result<RunOptions, String> {
         };
         match a.as_str() {
             "--keyframe" => o.keyframe = Some(value("--keyframe")?),
+            "--qpos" => o.qpos = Some(value("--qpos")?),
+            "--qvel" => o.qvel = Some(value("--qvel")?),
+            "--ctrl" => o.ctrl = Some(PathBuf::from(value("--ctrl")?)),
             "--dt" => o.dt = Some(positive("--dt", &value("--dt")?)?),
             "--duration" => {
                 let v = value("--duration")?;

@@ -1,4 +1,5 @@
-//! `simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--method M]
+//! `simulate SCENE.xml [--keyframe NAME | --qpos V,.. --qvel V,..] [--ctrl FILE.csv]
+//! [--dt DT] --duration T [--every K] [--method M]
 //! --out FILE.csv` — runs an MJCF scene with this library and writes the trajectory
 //! (DESIGN.md §6). `cargo xtask simulate` calls this. Exit status 1 with a one-line
 //! reason on any error.
@@ -12,11 +13,17 @@ fn parse(args: &[String]) -> Result<(PathBuf, RunOptions, PathBuf), String> {
     let mut scene = None;
     let mut out = None;
     let mut opts = RunOptions {
-        keyframe: None,
-        dt: None,
         duration: f64::NAN,
-        every: 1,
-        method: "rattle".into(),
+        ..RunOptions::default()
+    };
+    let list = |s: String, name: &str| -> Result<Vec<f64>, String> {
+        s.split(',')
+            .map(|x| {
+                x.trim()
+                    .parse::<f64>()
+                    .map_err(|_| format!("{name}: not a number: {x:?}"))
+            })
+            .collect()
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -36,6 +43,9 @@ fn parse(args: &[String]) -> Result<(PathBuf, RunOptions, PathBuf), String> {
                     .map_err(|_| format!("--every: not a positive integer: {v:?}"))?;
             }
             "--method" => opts.method = val("--method")?,
+            "--qpos" => opts.qpos = Some(list(val("--qpos")?, "--qpos")?),
+            "--qvel" => opts.qvel = Some(list(val("--qvel")?, "--qvel")?),
+            "--ctrl" => opts.ctrl = Some(PathBuf::from(val("--ctrl")?)),
             "--out" => out = Some(PathBuf::from(val("--out")?)),
             s if s.starts_with("--") => return Err(format!("unknown option {s}")),
             s => {
@@ -56,7 +66,9 @@ fn parse(args: &[String]) -> Result<(PathBuf, RunOptions, PathBuf), String> {
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.iter().any(|a| a == "-h" || a == "--help") {
-        println!("usage: simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--method M] --out FILE.csv");
+        println!("usage: simulate SCENE.xml [--keyframe NAME | --qpos V,V,... --qvel V,V,...] [--ctrl FILE.csv] [--dt DT] --duration T [--every K] [--method M] --out FILE.csv");
+        println!("  --qpos, --qvel  initial state in MuJoCo's generalized coordinates (missing values: qpos0, 0)");
+        println!("  --ctrl FILE     controls: CSV `t,<actuator>...`, each row held until the next");
         for (n, d) in METHODS {
             println!("  --method {n:<13} {d}");
         }
