@@ -9,15 +9,12 @@
 //! |---|---|
 //! | [`lcp`] | the LCP type, its natural-map residual, and the solvers |
 //! | [`geometry`] | shapes, narrow phase (points, normals, depths, ids), broad phase |
-//! | `deformable` | (feature `deformable`) cloth and tetrahedral solids against static shapes, particle contact rows inside the soft crate's implicit step, active-set LCP |
 //! | `rigid` | (feature `rigid`) rigid bodies in contact: the contact LCP per step, solved matrix-free or by the dense solvers, with friction, restitution, warm starting and shock propagation |
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
 
 extern crate alloc;
 
-#[cfg(feature = "deformable")]
-pub mod deformable;
 pub mod geometry;
 pub mod lcp;
 #[cfg(feature = "rigid")]

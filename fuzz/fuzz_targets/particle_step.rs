@@ -15,7 +15,7 @@
 #![no_main]
 
 use arbitrary::Arbitrary;
-use constraint_contact::deformable::{DeformableContact, DeformableSettings};
+use constraint_lagrange::deformable::{DeformableContact, DeformableSettings};
 use constraint_contact::geometry::{Collider, Shape};
 use constraint_core::{Area, DQuat, DVec3, Dihedral, Distance, PointOnPlane, Pose, Volume};
 use constraint_lagrange::solve::IterSettings;

@@ -33,6 +33,8 @@ extern crate alloc;
 
 #[cfg(feature = "std")]
 pub mod acceleration;
+#[cfg(feature = "deformable")]
+pub mod deformable;
 #[cfg(feature = "std")]
 pub mod error;
 pub mod kkt;

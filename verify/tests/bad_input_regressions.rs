@@ -3,10 +3,10 @@
 //! leave the state unchanged.
 
 use constraint_articulated::RigidBody;
-use constraint_contact::deformable::{DeformableContact, DeformableSettings};
 use constraint_contact::geometry::{Collider, Shape};
 use constraint_contact::rigid::{ContactSolver, ContactWorld};
 use constraint_core::{DMat3, DQuat, DVec3, Distance, Pose};
+use constraint_lagrange::deformable::{DeformableContact, DeformableSettings};
 use constraint_soft::{
     ConstraintSet, HessianMode, ImplicitEuler, LinearSolver, SoftSystem, Softness,
 };

@@ -11,7 +11,6 @@
 //! `bad-input sweep: N cases, P panics, F non-finite` (read by `cargo xtask verify`).
 
 use constraint_articulated::{Joint, JointKind, Method, MjcfScene, RigidBody, World};
-use constraint_contact::deformable::{DeformableContact, DeformableSettings};
 use constraint_contact::geometry::{Collider, Shape};
 use constraint_contact::lcp::{
     fischer_newton, lemke, pgs, Lcp, LemkeSettings, NewtonSettings, PgsSettings,
@@ -21,6 +20,7 @@ use constraint_core::{
     Area, DMat3, DQuat, DVec3, Dihedral, Distance, DistanceJoint, Fixed, Hinge, PointOnPlane, Pose,
     Prismatic, Spherical, Volume,
 };
+use constraint_lagrange::deformable::{DeformableContact, DeformableSettings};
 use constraint_lagrange::solve::{
     damped_solve, gmres, lu_solve, min_norm_solve, minres, Cholesky, DenseMatrix, GmresWork,
     IterSettings, Ldlt, Lu, MinresWork, SvdSolver,

@@ -705,11 +705,11 @@ const CONTACT_PINNED: &[(&str, u64)] = &[
 /// the ground.
 #[test]
 fn contact_builtin_hashes_are_deterministic_and_pinned() {
-    use constraint_contact::deformable::{DeformableContact, DeformableSettings};
     use constraint_contact::geometry::{Collider, Shape};
     use constraint_contact::rigid::{ContactSolver, ContactWorld, FrictionModel};
     use constraint_contact::scenes::{box_stack, pyramid, sphere_drop};
     use constraint_core::{DQuat, Pose};
+    use constraint_lagrange::deformable::{DeformableContact, DeformableSettings};
     use constraint_soft::{
         Cloth, ClothPins, HessianMode, ImplicitEuler, Jelly, JellyPins, LinearSolver,
     };

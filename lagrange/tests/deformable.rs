@@ -1,9 +1,9 @@
 //! Cloth and a tetrahedral jelly against static shapes, contacts solved inside the
 //! implicit soft step (issue 5, "Deformables"), measured values beside tolerances.
 
-use constraint_contact::deformable::{DeformableContact, DeformableSettings};
 use constraint_contact::geometry::{Collider, Shape};
 use constraint_core::{DQuat, DVec3, Pose};
+use constraint_lagrange::deformable::{DeformableContact, DeformableSettings};
 use constraint_soft::{
     Cloth, ClothPins, HessianMode, ImplicitEuler, Jelly, JellyPins, LinearSolver,
 };

@@ -24,13 +24,11 @@
 use alloc::vec;
 use alloc::vec::Vec;
 
+use crate::{solve_kkt, ConstraintRows, KktProblem, KktSolver, KktWorkspace, MassMatrix};
 use constraint_core::{DVec3, Pose};
-use constraint_lagrange::{
-    solve_kkt, ConstraintRows, KktProblem, KktSolver, KktWorkspace, MassMatrix,
-};
 use constraint_soft::{ImplicitEuler, Integrator, SoftSystem};
 
-use crate::geometry::{point_vs, Collider};
+use constraint_contact::geometry::{point_vs, Collider};
 
 /// Settings of the deformable contact step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,7 +76,7 @@ pub enum DeformableError {
     /// The soft step failed (assembly or divergence).
     Soft(constraint_soft::SoftError),
     /// The KKT solve failed.
-    Kkt(constraint_lagrange::KktError),
+    Kkt(crate::KktError),
     /// A parameter was out of range.
     InvalidParameter {
         /// Name.
