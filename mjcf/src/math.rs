@@ -198,32 +198,7 @@ pub fn rotate_diag(q: Q, d: V3) -> M3 {
 /// Eigenvalues of a symmetric 3×3 matrix, descending (cyclic Jacobi; exact enough for
 /// the physical-validity checks it serves).
 pub fn sym_eigenvalues(m: &M3) -> V3 {
-    let mut a = *m;
-    for _sweep in 0..50 {
-        let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-        let diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
-        if !(off > 1e-40 * diag) {
-            break;
-        }
-        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
-            if a[p][q] == 0.0 {
-                continue;
-            }
-            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-            let t = if theta == 0.0 { 1.0 } else { t };
-            let c = 1.0 / (t * t + 1.0).sqrt();
-            let s = t * c;
-            // a <- Jᵀ a J with the Givens rotation J in the (p, q) plane.
-            let mut j = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-            j[p][p] = c;
-            j[q][q] = c;
-            j[p][q] = s;
-            j[q][p] = -s;
-            a = mat_mul(&transpose(&j), &mat_mul(&a, &j));
-        }
-    }
-    let mut e = [a[0][0], a[1][1], a[2][2]];
+    let (mut e, _) = sym_eigen(m);
     e.sort_by(|x, y| y.total_cmp(x));
     e
 }

@@ -221,7 +221,8 @@ impl World {
         if self.springs.is_empty() && self.tendons.iter().all(|t| t.stiffness == 0.0) {
             return 0.0;
         }
-        let coords = self.coordinate_table();
+        let mut coords = Vec::new();
+        self.coordinate_table(&mut coords);
         let q = |j: usize, d: usize| coords[j].as_ref().map_or(0.0, |c| c.0[d]);
         let joints: f64 = self
             .springs
@@ -242,19 +243,19 @@ impl World {
         joints + tendons
     }
 
-    /// Coordinates, rates and rate rows of every joint that has coordinates.
-    fn coordinate_table(&self) -> Vec<Option<DofState>> {
-        (0..self.joints.len())
-            .map(|ji| {
-                let (q, rows) = self.coordinates_and_rows(ji)?;
-                let tw = self.twist(&self.joints[ji]);
-                let mut qd = [0.0; MAX_DOF];
-                for k in 0..MAX_DOF {
-                    qd[k] = (0..4).map(|s| rows[k][s].dot(tw[s])).sum();
-                }
-                Some((q, qd, rows))
-            })
-            .collect()
+    /// Coordinates, rates and rate rows of every joint that has coordinates (`None`
+    /// for the others), into `out` (cleared first).
+    fn coordinate_table(&self, out: &mut Vec<Option<DofState>>) {
+        out.clear();
+        out.extend((0..self.joints.len()).map(|ji| {
+            let (q, rows) = self.coordinates_and_rows(ji)?;
+            let tw = self.twist(&self.joints[ji]);
+            let mut qd = [0.0; MAX_DOF];
+            for k in 0..MAX_DOF {
+                qd[k] = (0..4).map(|s| rows[k][s].dot(tw[s])).sum();
+            }
+            Some((q, qd, rows))
+        }));
     }
 
     /// The coordinates of joint `ji` and the rows of their rates (hinge angle and its
@@ -287,15 +288,21 @@ impl World {
     }
 
     /// The generalized force on every degree of freedom at the current state
-    /// (actuators, joint springs, tendons), with the coordinate table; `None` when
-    /// nothing acts.
-    fn generalized_forces(&self) -> Option<GeneralizedForces> {
+    /// (actuators, joint springs, tendons) into `tau`, with the coordinate table into
+    /// `coords` (both reused buffers); `false` when nothing acts.
+    fn generalized_forces(
+        &self,
+        tau: &mut Vec<[f64; MAX_DOF]>,
+        coords: &mut Vec<Option<DofState>>,
+    ) -> bool {
         if self.actuators.is_empty() && self.springs.is_empty() && self.tendons.is_empty() {
-            return None;
+            return false;
         }
-        let coords = self.coordinate_table();
+        self.coordinate_table(coords);
+        let coords = &*coords;
         let q = |j: usize, d: usize| coords[j].as_ref().map_or((0.0, 0.0), |c| (c.0[d], c.1[d]));
-        let mut tau = alloc::vec![[0.0; MAX_DOF]; self.joints.len()];
+        tau.clear();
+        tau.resize(self.joints.len(), [0.0; MAX_DOF]);
         let tendon_state = |t: &Tendon| {
             t.terms.iter().fold((0.0, 0.0), |(l, ld), &(j, d, c)| {
                 let (qj, qdj) = q(j, d);
@@ -337,15 +344,27 @@ impl World {
                 tau[j][d] += c * f;
             }
         }
-        Some((tau, coords))
+        true
     }
 
     /// Adds `scale · Σ_k G_kᵀ τ_k` (the actuator, spring and tendon impulses over
     /// `scale` seconds) to the bodies' right-hand side.
     pub(super) fn add_dof_forces(&mut self, scale: f64) {
-        let Some((tau, coords)) = self.generalized_forces() else {
-            return;
-        };
+        let mut tau = core::mem::take(&mut self.dof_tau);
+        let mut coords = core::mem::take(&mut self.dof_table);
+        if self.generalized_forces(&mut tau, &mut coords) {
+            self.apply_dof_impulses(&tau, &coords, scale);
+        }
+        self.dof_tau = tau;
+        self.dof_table = coords;
+    }
+
+    fn apply_dof_impulses(
+        &mut self,
+        tau: &[[f64; MAX_DOF]],
+        coords: &[Option<DofState>],
+        scale: f64,
+    ) {
         for ji in 0..self.joints.len() {
             let Some((_, _, rows)) = &coords[ji] else {
                 continue;
@@ -371,7 +390,10 @@ impl World {
     /// The actuator, spring and tendon forces per body `(force, torque)` at the current
     /// state (for the acceleration level, which applies forces, not impulses).
     pub(super) fn dof_wrenches(&self) -> Option<Vec<(DVec3, DVec3)>> {
-        let (tau, coords) = self.generalized_forces()?;
+        let (mut tau, mut coords) = (Vec::new(), Vec::new());
+        if !self.generalized_forces(&mut tau, &mut coords) {
+            return None;
+        }
         let mut f = alloc::vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()];
         for ji in 0..self.joints.len() {
             let Some((_, _, rows)) = &coords[ji] else {
@@ -393,7 +415,4 @@ impl World {
 }
 
 /// A joint's coordinates, their rates and the rate rows.
-type DofState = ([f64; MAX_DOF], [f64; MAX_DOF], [[DVec3; 4]; MAX_DOF]);
-
-/// Per joint, the force on each degree of freedom; and the coordinate table.
-type GeneralizedForces = (Vec<[f64; MAX_DOF]>, Vec<Option<DofState>>);
+pub(super) type DofState = ([f64; MAX_DOF], [f64; MAX_DOF], [[DVec3; 4]; MAX_DOF]);

@@ -255,6 +255,12 @@ pub struct World {
     umu: Vec<f64>,
     /// Zero loop right-hand side (scratch).
     uzero: Vec<f64>,
+    /// The rows' bounds (scratch).
+    ubounds: Vec<constraint_contact::lcp::RowBound>,
+    /// Per joint, the generalized forces on its coordinates, and the coordinate table
+    /// (scratch of the actuator, spring and tendon forces).
+    dof_tau: Vec<[f64; MAX_DOF]>,
+    dof_table: Vec<Option<actuator::DofState>>,
     /// The loop rows of the last assembly.
     last_loops: LoopRows,
     /// Colliders (feature `contact`).
@@ -314,6 +320,9 @@ impl World {
             uq: Vec::new(),
             umu: Vec::new(),
             uzero: Vec::new(),
+            ubounds: Vec::new(),
+            dof_tau: Vec::new(),
+            dof_table: Vec::new(),
             last_loops: (Vec::new(), Vec::new(), Vec::new()),
             #[cfg(feature = "contact")]
             colliders: Vec::new(),

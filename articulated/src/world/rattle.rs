@@ -284,9 +284,14 @@ impl World {
         //    corrections are δ = −M₀⁻¹J₀ᵀ(J₀M₀⁻¹J₀ᵀ)⁻¹ C(x') with the factor of step 1
         //    (a chord iteration: linear convergence at rate O(h)); δ/h enters the
         //    half-step velocities and I₀ δθ/h the angular momenta.
-        let passive: Vec<usize> = (0..self.joints.len())
-            .map(|j| self.passive_rows_of(j))
-            .collect();
+        // Rate-row counts of the loop joints' rows (no allocation without loops).
+        let passive: Vec<usize> = if self.solver.loops.is_empty() {
+            Vec::new()
+        } else {
+            (0..self.joints.len())
+                .map(|j| self.passive_rows_of(j))
+                .collect()
+        };
         let mut iterations = 0;
         let mut final_err = 0.0;
         for it in 0..=max_iterations {

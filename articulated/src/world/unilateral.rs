@@ -274,13 +274,8 @@ impl World {
                     continue;
                 };
                 let (q, row) = (qs[dof], rows[dof]);
-                let tw = |i: Option<usize>| {
-                    i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
-                        (self.bodies[i].v, self.bodies[i].omega)
-                    })
-                };
-                let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
-                let rate = row[0].dot(va) + row[1].dot(wa) + row[2].dot(vb) + row[3].dot(wb);
+                let tw = self.twist(joint);
+                let rate: f64 = (0..4).map(|s| row[s].dot(tw[s])).sum();
                 for (upper, c, sign) in [(false, q - lo, 1.0), (true, hi - q, -1.0)] {
                     if !(c < s.margin + (rate * h).abs()) {
                         continue;
@@ -356,7 +351,9 @@ impl World {
                 a[k * m + i] = s;
             }
         }
-        let bounds: Vec<RowBound> = self.urows.iter().map(|r| r.bound).collect();
+        let mut bounds = core::mem::take(&mut self.ubounds);
+        bounds.clear();
+        bounds.extend(self.urows.iter().map(|r| r.bound));
         let mut z = core::mem::take(&mut self.uz);
         self.warm_unilateral(&mut z);
         let settings: RowSettings = self.unilateral.solver;
@@ -384,6 +381,7 @@ impl World {
         self.uq = q;
         self.umu = mu;
         self.uzero = zero_rhs;
+        self.ubounds = bounds;
         outcome
     }
 

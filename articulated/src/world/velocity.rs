@@ -106,13 +106,11 @@ impl World {
                         rhs[row] = self.armature[ji][k] / s * rate;
                     } else {
                         // A decoupled row (λ = 0): zero Jacobian, unit compliance.
-                        for (side, body) in [(0usize, joint.parent), (1usize, Some(joint.child))] {
-                            let Some(body) = body else { continue };
+                        for body in [joint.parent, Some(joint.child)].into_iter().flatten() {
                             for c in 0..6 {
                                 m[row][6 * body + c] = 0.0;
                                 m[6 * body + c][row] = 0.0;
                             }
-                            let _ = side;
                         }
                         m[row][row] = -1.0;
                     }
