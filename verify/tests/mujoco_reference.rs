@@ -140,8 +140,9 @@ fn rattle_orders_against_mujoco_rk4() {
 /// at one point (universal joint) with damping and armature; a motor-driven slider and a
 /// hinge held by position and velocity actuators. The velocity level is first order
 /// like MuJoCo's Euler (its error at `dt = 1e-3` is within a few per cent of Euler's)
-/// and RATTLE below MuJoCo Euler's error at the same step (second order where no
-/// velocity-dependent force is explicit).
+/// and RATTLE below MuJoCo Euler's error at the same step, second order: halving the
+/// step divides its error by at least 3.5 (velocity-dependent forces — velocity
+/// actuators, fluid drag — are in RATTLE's damping flow, see `world/rattle.rs`).
 /// `(scene, velocity-level COM error at dt = 1e-3 over 1 s, MuJoCo Euler's over 2 s
 /// from scenes/reference/README.md, RATTLE's over 2 s)`.
 fn check_new(scene: &str, velocity_1s: f64, euler_2s: f64, rattle_2s: f64) {
@@ -153,6 +154,14 @@ fn check_new(scene: &str, velocity_1s: f64, euler_2s: f64, rattle_2s: f64) {
     );
     assert!(r.com.0 <= 1.5 * rattle_2s, "{scene}: RATTLE {:e}", r.com.0);
     assert!(r.com.0 < euler_2s, "{scene}: RATTLE not below MuJoCo Euler");
+    let half = against_reference(scene, "rattle", 5e-4, 2.0).com.0;
+    // Measured ratios: planar_leg 4.00, two_hinge_pendulum 3.74, actuated 4.00,
+    // fluid_drag 4.01.
+    assert!(
+        r.com.0 / half >= 3.5,
+        "{scene}: RATTLE error ratio {} for a 2x smaller step",
+        r.com.0 / half
+    );
 }
 
 #[test]
@@ -170,9 +179,10 @@ fn two_hinges_at_one_point_match_mujoco_rk4() {
 
 #[test]
 fn actuators_match_mujoco_rk4() {
-    // Measured: RATTLE 2.13e-4 m over 2 s, Euler 1.12e-3. RATTLE is first order here
-    // (1.06e-4 at dt = 5e-4): the velocity actuator's force is explicit in its kicks.
-    check_new("actuated", VEL_ACTUATED, 1.12e-3, 2.13e-4);
+    // Measured: RATTLE 2.42e-6 m over 2 s (6.05e-7 at dt = 5e-4), Euler 1.12e-3; RATTLE4
+    // 7.94e-7 (1.99e-7: second order, the velocity actuator's split-off flow). Before the
+    // velocity actuator moved out of the kicks RATTLE erred 2.13e-4 m, first order.
+    check_new("actuated", VEL_ACTUATED, 1.12e-3, 2.42e-6);
 }
 
 // Velocity level at dt = 1e-3 over 1 s, measured; the 4× smaller step gives 4.00× less
@@ -184,9 +194,10 @@ const VEL_ACTUATED: f64 = 1.115e-3;
 #[test]
 fn fluid_drag_matches_mujoco_rk4() {
     // MuJoCo's inertia-box fluid model on a free box with wind. Measured over 2 s at
-    // dt = 1e-3: RATTLE 6.11e-4 m, velocity level 2.39e-3, MuJoCo Euler 2.43e-3. RATTLE
-    // is first order here (3.05e-4 at dt = 5e-4): the drag is explicit in its kicks.
-    check_new("fluid_drag", VEL_FLUID, 2.43e-3, 6.11e-4);
+    // dt = 1e-3: RATTLE 4.65e-7 m (1.16e-7 at dt = 5e-4), RATTLE4 4.39e-7, velocity level
+    // 2.39e-3, MuJoCo Euler 2.43e-3. With the drag explicit in the kicks RATTLE erred
+    // 6.11e-4 m, first order.
+    check_new("fluid_drag", VEL_FLUID, 2.43e-3, 4.65e-7);
 }
 
 // Measured 1.873e-3 m over 1 s; ratio 4.00 for a 4× smaller step.
@@ -196,12 +207,12 @@ const VEL_FLUID: f64 = 1.873e-3;
 /// motor, servo and velocity actuator of `scenes/actuated.xml` from an initial state
 /// given in MuJoCo's generalized coordinates (`--qpos`, `--qvel`), against MuJoCo RK4 fed
 /// the same file. Measured over 2 s at dt = 1e-3: velocity level 2.19e-3 m (MuJoCo Euler
-/// 2.20e-3), RATTLE 4.81e-4 m.
+/// 2.20e-3), RATTLE 6.68e-6 m (4.81e-4 with the velocity actuator in its kicks).
 #[test]
 fn control_file_and_initial_state_replay_in_both_engines() {
     let path = root().join("scenes/reference/actuated_ctrl.csv");
     let reference = Trajectory::parse(&std::fs::read_to_string(path).unwrap()).unwrap();
-    for (method, measured) in [("velocity", 2.19e-3), ("rattle", 4.81e-4)] {
+    for (method, measured) in [("velocity", 2.19e-3), ("rattle", 6.68e-6)] {
         let opts = RunOptions {
             dt: Some(1e-3),
             duration: 2.0,
