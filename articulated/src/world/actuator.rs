@@ -424,29 +424,34 @@ impl World {
     }
 
     /// The actuator, spring and tendon forces per body `(force, torque)` at the current
-    /// state (for the acceleration level, which applies forces, not impulses).
-    pub(super) fn dof_wrenches(&self) -> Option<Vec<(DVec3, DVec3)>> {
-        let (mut tau, mut coords) = (Vec::new(), Vec::new());
-        if !self.generalized_forces(&mut tau, &mut coords, ForcePart::Full) {
-            return None;
-        }
-        let mut f = alloc::vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()];
-        for ji in 0..self.joints.len() {
-            let Some((_, _, rows)) = &coords[ji] else {
-                continue;
-            };
-            let (parent, child) = (self.joints[ji].parent, self.joints[ji].child);
-            for k in 0..MAX_DOF {
-                let t = tau[ji][k];
-                if let Some(p) = parent {
-                    f[p].0 += rows[k][0] * t;
-                    f[p].1 += rows[k][1] * t;
+    /// state into `f` (resized to the bodies; for the acceleration level, which applies
+    /// forces, not impulses). Returns false, leaving `f` untouched, when there are none.
+    pub(super) fn dof_wrenches(&mut self, f: &mut Vec<(DVec3, DVec3)>) -> bool {
+        let mut tau = core::mem::take(&mut self.dof_tau);
+        let mut coords = core::mem::take(&mut self.dof_table);
+        let any = self.generalized_forces(&mut tau, &mut coords, ForcePart::Full);
+        if any {
+            f.clear();
+            f.resize(self.bodies.len(), (DVec3::ZERO, DVec3::ZERO));
+            for ji in 0..self.joints.len() {
+                let Some((_, _, rows)) = &coords[ji] else {
+                    continue;
+                };
+                let (parent, child) = (self.joints[ji].parent, self.joints[ji].child);
+                for k in 0..MAX_DOF {
+                    let t = tau[ji][k];
+                    if let Some(p) = parent {
+                        f[p].0 += rows[k][0] * t;
+                        f[p].1 += rows[k][1] * t;
+                    }
+                    f[child].0 += rows[k][2] * t;
+                    f[child].1 += rows[k][3] * t;
                 }
-                f[child].0 += rows[k][2] * t;
-                f[child].1 += rows[k][3] * t;
             }
         }
-        Some(f)
+        self.dof_tau = tau;
+        self.dof_table = coords;
+        any
     }
 }
 

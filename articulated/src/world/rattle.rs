@@ -70,6 +70,24 @@ use super::actuator::ForcePart;
 
 use super::*;
 
+/// Buffers RATTLE reuses from step to step (no allocation once they have grown to the
+/// world's size).
+#[derive(Clone, Debug, Default)]
+pub(super) struct Scratch {
+    /// Joint impulses of the first kick.
+    first_kick: Vec<[f64; MAX_ROWS]>,
+    /// Body poses at the start of the drift.
+    start: Vec<Pose>,
+    /// Armature rows: joint, its rows at the start, the carried coordinate rates.
+    arm: Vec<(usize, crate::joint::JointRows, [f64; MAX_ROWS])>,
+    /// The damping flow's second-stage twists `v + (1 + √2)(v₁ − v)`.
+    stage: Vec<(DVec3, DVec3)>,
+    /// The damping flow's first-stage twists `v₁` (with velocity-dependent forces).
+    v1: Vec<(DVec3, DVec3)>,
+    /// Rate-row counts of the joints (with loop joints only).
+    passive: Vec<usize>,
+}
+
 impl World {
     /// Restores the start of the step and redoes it with the velocity level (with its geometric
     /// stiffness), then projects the positions back onto the joints (`tolerance`), so a
@@ -180,23 +198,22 @@ impl World {
             self.add_fluid_rhs(s);
         }
         let loops = self.assemble(s, Rates::Full, Soft::Free, |_, _, _, _| {});
-        let loops_2 = loops.clone();
         self.solve(loops)?;
+        // The same rows for the second solve (kept by `solve`; taken, not cloned).
+        let loops_2 = core::mem::take(&mut self.last_loops);
         // Stage 2: v' = BE_{γτ}(v + c (v₁ − v)), same factor; all row right-hand sides 0.
-        let v1: Vec<(DVec3, DVec3)> = if explicit {
-            (0..self.bodies.len())
-                .map(|i| self.body_solution(i))
-                .collect()
-        } else {
-            Vec::new()
-        };
-        let stage: Vec<(DVec3, DVec3)> = (0..self.bodies.len())
-            .map(|i| {
-                let (v1, w1) = self.body_solution(i);
-                let b = &self.bodies[i];
-                (b.v + (v1 - b.v) * c, b.omega + (w1 - b.omega) * c)
-            })
-            .collect();
+        let mut v1 = core::mem::take(&mut self.rattle.v1);
+        v1.clear();
+        if explicit {
+            v1.extend((0..self.bodies.len()).map(|i| self.body_solution(i)));
+        }
+        let mut stage = core::mem::take(&mut self.rattle.stage);
+        stage.clear();
+        stage.extend((0..self.bodies.len()).map(|i| {
+            let (v1, w1) = self.body_solution(i);
+            let b = &self.bodies[i];
+            (b.v + (v1 - b.v) * c, b.omega + (w1 - b.omega) * c)
+        }));
         let size = self.solver.size;
         self.rhs.clear();
         self.rhs.resize(size, 0.0);
@@ -230,7 +247,6 @@ impl World {
                     core::mem::swap(&mut b.omega, w);
                 }
             };
-            let mut v1 = v1;
             swap(&mut self.bodies, &mut v1);
             self.add_dof_forces_part(w_v1, part);
             self.add_fluid_rhs(w_v1);
@@ -240,7 +256,11 @@ impl World {
             self.add_fluid_rhs(s);
         }
         self.armature_rhs(s, &stage);
-        self.solve_factored(&loops_2)?;
+        self.rattle.stage = stage;
+        self.rattle.v1 = v1;
+        let solved = self.solve_factored(&loops_2);
+        self.last_loops = loops_2;
+        solved?;
         for i in 0..self.bodies.len() {
             let (v, w) = self.body_solution(i);
             self.bodies[i].v = v;
@@ -288,15 +308,21 @@ impl World {
                 rhs[r] = -rows.value[r] / h;
             }
         });
-        let loops_n = loops.clone();
         self.solve(loops)?;
+        // The loop rows of this factor, for SHAKE's solves (their right-hand side is
+        // rewritten each iteration).
+        let mut loops_n = core::mem::take(&mut self.last_loops);
         self.store_impulses();
-        let first_kick = self.impulses.clone();
-        let start: Vec<Pose> = self.bodies.iter().map(|b| b.pose).collect();
+        let mut first_kick = core::mem::take(&mut self.rattle.first_kick);
+        first_kick.clone_from(&self.impulses);
+        let mut start = core::mem::take(&mut self.rattle.start);
+        start.clear();
+        start.extend(self.bodies.iter().map(|b| b.pose));
         // Armature: the coordinate rates at the half step, `G(x₀) v½`, carried to the
         // second kick like the angular momenta (with SHAKE's corrections), so that its
         // rows close on `I_a q̇' = I_a q̇½ + …` (time-symmetric, second order).
-        let mut arm: Vec<(usize, crate::joint::JointRows, [f64; MAX_ROWS])> = Vec::new();
+        let mut arm = core::mem::take(&mut self.rattle.arm);
+        arm.clear();
         for (j, joint) in self.joints.iter().enumerate() {
             if !self.armature[j].iter().any(|v| *v > 0.0) || self.solver.joint_offset(j).is_none() {
                 continue;
@@ -342,6 +368,9 @@ impl World {
         // back to the velocity level.
         if !(max_turn <= MAX_TURN) {
             self.momenta = momenta;
+            self.rattle.first_kick = first_kick;
+            self.rattle.start = start;
+            self.rattle.arm = arm;
             return Ok((0, false));
         }
         // 3. SHAKE: the constraint impulse of the first kick acts along J(x₀)ᵀ, so the
@@ -349,18 +378,17 @@ impl World {
         //    (a chord iteration: linear convergence at rate O(h)); δ/h enters the
         //    half-step velocities and I₀ δθ/h the angular momenta.
         // Rate-row counts of the loop joints' rows (no allocation without loops).
-        let passive: Vec<usize> = if self.solver.loops.is_empty() {
-            Vec::new()
-        } else {
-            (0..self.joints.len())
-                .map(|j| self.passive_rows_of(j))
-                .collect()
-        };
+        let mut passive = core::mem::take(&mut self.rattle.passive);
+        passive.clear();
+        if !self.solver.loops.is_empty() {
+            passive.extend((0..self.joints.len()).map(|j| self.passive_rows_of(j)));
+        }
         let mut iterations = 0;
         let mut final_err = 0.0;
         for it in 0..=max_iterations {
             let mut err: f64 = 0.0;
-            let mut loop_rhs = Vec::new();
+            let loop_rhs = &mut loops_n.2;
+            loop_rhs.clear();
             let size = self.solver.size;
             self.rhs.clear();
             self.rhs.resize(size, 0.0);
@@ -392,9 +420,7 @@ impl World {
             if err <= tolerance || it == max_iterations || !err.is_finite() {
                 break;
             }
-            let mut rows = loops_n.clone();
-            rows.2 = loop_rhs;
-            self.solve_factored(&rows)?;
+            self.solve_factored(&loops_n)?;
             for i in 0..self.bodies.len() {
                 let (dx, dth) = self.body_solution(i);
                 let b = &mut self.bodies[i];
@@ -465,6 +491,11 @@ impl World {
             self.bodies[i].omega = w;
         }
         self.momenta = momenta;
+        self.rattle.first_kick = first_kick;
+        self.rattle.start = start;
+        self.rattle.arm = arm;
+        self.rattle.passive = passive;
+        self.recycle_loops(loops_n);
         Ok((iterations, final_err <= (1e3 * tolerance).max(1e-9)))
     }
 }
