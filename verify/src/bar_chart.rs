@@ -22,8 +22,8 @@ pub struct BarChart {
 }
 
 const W: f64 = 760.0;
-const L: f64 = 190.0;
-const R: f64 = 150.0;
+const L: f64 = 230.0;
+const R: f64 = 130.0;
 const T: f64 = 40.0;
 const BAR: f64 = 7.0;
 const GAP: f64 = 6.0;

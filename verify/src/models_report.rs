@@ -325,7 +325,7 @@ pub fn section(lines: &[CaseLine], how: &str) -> (String, Vec<(String, String)>)
         x_label: "largest centre-of-mass error over the run (m, log)".into(),
         categories: smooth.iter().map(|m| m.key.clone()).collect(),
         series: [
-            ("ours (default method)", "smooth_ours_com"),
+            ("ours", "smooth_ours_com"),
             ("MuJoCo Euler", "smooth_euler_com"),
         ]
         .iter()
@@ -340,7 +340,7 @@ pub fn section(lines: &[CaseLine], how: &str) -> (String, Vec<(String, String)>)
         })
         .collect(),
         reference: None,
-        note: "Both at the file's step, from the perturbed state, zero control.".into(),
+        note: "Ours (default method) and MuJoCo Euler both at the file's step, from the perturbed state, zero control.".into(),
     };
     let _ = writeln!(md, "![Real models: time ratio]({TIME_CHART})\n");
     let _ = writeln!(md, "![Smooth models: trajectory error]({SMOOTH_CHART})\n");
