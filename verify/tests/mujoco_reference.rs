@@ -239,7 +239,15 @@ fn control_files_are_checked() {
     assert_eq!(ok.at(0.49), Some(&[(1, 1.0), (0, 2.0)][..]));
     assert_eq!(ok.at(0.5), Some(&[(1, 3.0), (0, 4.0)][..]));
     assert_eq!(ok.at(-0.1), None);
+    // `#k` addresses actuator k (how an unnamed actuator is written).
+    let by_index = Controls::parse("t,#1,#0\n0,1,2\n", &names).unwrap();
+    assert_eq!(by_index.at(0.0), Some(&[(1, 1.0), (0, 2.0)][..]));
+    let unnamed = vec![String::new(), String::new()];
+    let u = Controls::parse("t,#1\n0,5\n", &unnamed).unwrap();
+    assert_eq!(u.at(1.0), Some(&[(1, 5.0)][..]));
     for (text, what) in [
+        ("t,#2\n0,1\n", "not an actuator"),
+        ("t,#0,push\n0,1,2\n", "appears twice"),
         ("", "empty"),
         ("x,push\n0,1\n", "first column must be t"),
         ("t,pull\n0,1\n", "not an actuator"),

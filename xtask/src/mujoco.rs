@@ -234,11 +234,12 @@ pub fn run(o: &RunOptions) -> Result<(), String> {
     if let Some(k) = &o.keyframe {
         cmd.args(["--keyframe", k]);
     }
+    // `--flag=value`: a value that starts with a minus sign is not an option to argparse.
     if let Some(q) = &o.qpos {
-        cmd.args(["--qpos", q]);
+        cmd.arg(format!("--qpos={q}"));
     }
     if let Some(v) = &o.qvel {
-        cmd.args(["--qvel", v]);
+        cmd.arg(format!("--qvel={v}"));
     }
     if let Some(c) = &o.ctrl {
         cmd.arg("--ctrl").arg(c);
