@@ -148,6 +148,7 @@ impl World {
                 rhs[r] = -beta * rows.value[r] / h;
             }
         });
+        self.load_equalities(|c| -beta * c / h);
         self.solve(loops)?;
         self.store_impulses();
         Ok(())
