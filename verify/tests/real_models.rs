@@ -106,3 +106,55 @@ fn real_models_run_passive_and_stay_sane() {
     println!("{ran} models ran");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// dm_control's `manipulator` and `stacker` (issue 13): a tendon equality couples the
+/// fingers (`coupling`), with contact, actuators (zero control) and joint limits. Each
+/// runs 5 s from `qpos0` at the velocity level and with the default method (RATTLE,
+/// whose equality steps are taken at the velocity level with projection), and reports
+/// time per step, the worst equality violation, joint separation and the final
+/// penetration. Run with
+/// `cargo test --release -p constraint-verify --test real_models -- --ignored equality --nocapture`.
+#[test]
+#[ignore = "needs the models fetched by `cargo xtask models fetch`"]
+fn manipulator_and_stacker_hold_their_equalities() {
+    let dir = models_dir().join("dm_control");
+    println!("| model | method | steps | us/step | max equality violation | max joint separation (m) | final penetration (m) | equality fallbacks |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|");
+    for name in ["manipulator", "stacker"] {
+        let path = dir.join(format!("{name}.xml"));
+        let scene = MjcfScene::from_file(&path, None)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert_eq!(scene.world.equalities().len(), 1, "{name}");
+        for (label, method) in [
+            ("velocity", Method::Velocity { beta: 1.0 }),
+            ("default", Method::default()),
+        ] {
+            let mut w = scene.world.clone();
+            let h = scene.timestep;
+            let steps = (5.0 / h).round() as usize;
+            let (mut eq, mut sep, mut fallbacks) = (0.0f64, 0.0f64, 0usize);
+            let start = std::time::Instant::now();
+            for i in 0..steps {
+                let s = w
+                    .step(h, method)
+                    .unwrap_or_else(|e| panic!("{name} {label} step {i}: {e}"));
+                fallbacks += s.equality_fallbacks;
+                eq = eq.max(w.max_equality_violation());
+                sep = sep.max(w.max_separation());
+            }
+            let us = start.elapsed().as_secs_f64() / steps as f64 * 1e6;
+            let pen = w.unilateral_stats().max_penetration;
+            println!("| {name} | {label} | {steps} | {us:.0} | {eq:.1e} | {sep:.1e} | {pen:.1e} | {fallbacks} |");
+            assert!(
+                w.bodies().iter().all(|b| b.pose.x.is_finite() && b.v.is_finite()),
+                "{name} {label}: non-finite"
+            );
+            // Measured (both models, both methods): equality 3.2e-16 (the coupling is
+            // linear in two hinges on one body), separation ≤ 4.7e-6 m (manipulator,
+            // velocity level; 5.4e-14 projected), final penetration ≤ 1.0e-5 m.
+            assert!(eq <= 1e-10, "{name} {label}: equality violation {eq:e}");
+            assert!(sep <= 1e-5, "{name} {label}: joint separation {sep:e}");
+            assert!(pen <= 1e-4, "{name} {label}: final penetration {pen:e}");
+        }
+    }
+}
