@@ -257,8 +257,7 @@ fn coupled_pendulums_match_mujoco_rk4() {
     use constraint_articulated::{Method, MjcfScene};
     check("coupled_pendulums", 1.37e-3);
     let mut scene =
-        MjcfScene::from_file(&root().join("scenes/coupled_pendulums.xml"), Some("start"))
-            .unwrap();
+        MjcfScene::from_file(&root().join("scenes/coupled_pendulums.xml"), Some("start")).unwrap();
     assert_eq!(scene.world.equalities().len(), 2);
     let mut worst: f64 = 0.0;
     for _ in 0..2000 {

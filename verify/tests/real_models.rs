@@ -122,8 +122,8 @@ fn manipulator_and_stacker_hold_their_equalities() {
     println!("|---|---|---:|---:|---:|---:|---:|---:|");
     for name in ["manipulator", "stacker"] {
         let path = dir.join(format!("{name}.xml"));
-        let scene = MjcfScene::from_file(&path, None)
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let scene =
+            MjcfScene::from_file(&path, None).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         assert_eq!(scene.world.equalities().len(), 1, "{name}");
         for (label, method) in [
             ("velocity", Method::Velocity { beta: 1.0 }),
@@ -146,7 +146,9 @@ fn manipulator_and_stacker_hold_their_equalities() {
             let pen = w.unilateral_stats().max_penetration;
             println!("| {name} | {label} | {steps} | {us:.0} | {eq:.1e} | {sep:.1e} | {pen:.1e} | {fallbacks} |");
             assert!(
-                w.bodies().iter().all(|b| b.pose.x.is_finite() && b.v.is_finite()),
+                w.bodies()
+                    .iter()
+                    .all(|b| b.pose.x.is_finite() && b.v.is_finite()),
                 "{name} {label}: non-finite"
             );
             // Measured (both models, both methods): equality 3.2e-16 (the coupling is
