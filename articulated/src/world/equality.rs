@@ -757,6 +757,40 @@ mod tests {
         assert!(pushed > 0.1, "upper-limit impulse {pushed}");
     }
 
+    /// A one-sided row and an equality in the same solve: pendulum b's hinge limited,
+    /// pendulum a coupled to it, so the limit's impulse must reach a through the
+    /// equality (the column correction `y ← y − Y_E S⁺ E y`).
+    #[test]
+    fn limits_act_through_the_equalities() {
+        let xml = COUPLED.replace(
+            r#"<joint name="hb" axis="0 1 0"/>"#,
+            r#"<joint name="hb" axis="0 1 0" range="-0.7 0.2"/>"#,
+        );
+        let model = constraint_mjcf::load_str(&xml).expect("model");
+        let mut w = MjcfScene::new(&model, Some("start")).expect("scene").world;
+        let m = Method::Velocity { beta: 1.0 };
+        let (mut c, mut qb_max, mut qa_min, mut hits): (f64, f64, f64, usize) = (0.0, -1.0, 1.0, 0);
+        for _ in 0..2000 {
+            w.step(1e-3, m).expect("step");
+            c = c.max(w.max_equality_violation());
+            qb_max = qb_max.max(w.joint_position(1).unwrap());
+            qa_min = qa_min.min(w.joint_position(0).unwrap());
+            hits += w
+                .row_impulses()
+                .filter(|(s, z)| matches!(s, RowSource::Limit { joint: 1, .. }) && *z > 0.0)
+                .count();
+        }
+        assert!(hits > 0, "the limit was never hit");
+        // measured 0 rad while the limit holds hb at 0.2 (2 steps with an impulse)
+        assert!(c < 1e-12, "|C| {c:e}");
+        // measured 0.2 + 4e-17 (speculative limit row), so qa ≥ −0.2
+        assert!(qb_max <= 0.2 + 1e-9, "qb max {qb_max}");
+        assert!(qa_min >= -0.2 - 1e-9, "qa min {qa_min}");
+        println!(
+            "limit through equality: hits {hits}, |C| {c:e}, qb max {qb_max}, qa min {qa_min}"
+        );
+    }
+
     #[test]
     fn bad_equalities_and_ranges_are_typed_errors() {
         let (_, mut w) = coupled();
