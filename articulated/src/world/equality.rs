@@ -171,6 +171,9 @@ pub(crate) struct EqRows {
     nu: Vec<f64>,
     /// Tree size of `cols`.
     size: usize,
+    /// Zero loop right-hand side and loop multipliers of the column solves (scratch).
+    zero: Vec<f64>,
+    mu: Vec<f64>,
 }
 
 impl EqRows {
@@ -391,14 +394,14 @@ impl World {
         eq.size = size;
         eq.cols.clear();
         eq.cols.resize(k * size, 0.0);
-        let zero = alloc::vec![0.0; loops.2.len()];
+        eq.zero.clear();
+        eq.zero.resize(loops.2.len(), 0.0);
         let free_scale = self.loop_free_scale(loops);
-        let mut mu = Vec::new();
         for r in 0..k {
             let col = &mut eq.cols[r * size..(r + 1) * size];
             eq.spans.scatter(&self.solver, col, r, 1.0);
             self.solver
-                .solve_with_loops(col, &loops.0, &loops.1, &zero, free_scale, &mut mu)?;
+                .solve_with_loops(col, &loops.0, &loops.1, &eq.zero, free_scale, &mut eq.mu)?;
         }
         let mut s = DenseMatrix::from_fn(k, k, |i, j| {
             eq.spans
