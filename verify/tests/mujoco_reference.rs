@@ -250,12 +250,25 @@ fn control_files_are_checked() {
 /// floor softens the rows to solref 2e-3, by 2.6e-7 m over 1 s, so the softness is
 /// negligible here): ours, velocity level, 1.34e-3 m at 1e-3 and 3.35e-4 m at 2.5e-4
 /// over 1 s (first order, ratio 4.00); MuJoCo's Euler at 1e-3 errs by 1.34e-3 m
-/// (1.338e-3). Our equality violation over 2 s at 1e-3: 4.5e-10 (the velocity level's
+/// (1.338e-3); RATTLE 1.11e-6 m, RATTLE4 2.6e-9 m at 1e-3. Our equality violation over 2 s at 1e-3: 4.5e-10 (the velocity level's
 /// residue on `follow`, whose row turns with body b).
 #[test]
 fn coupled_pendulums_match_mujoco_rk4() {
     use constraint_articulated::{Method, MjcfScene};
-    check("coupled_pendulums", 1.37e-3);
+    check("coupled_pendulums", 1.34e-3);
+    // RATTLE takes the rows in its kicks and SHAKE: second order (measured 1.11e-6 m
+    // at 1e-3, 2.78e-7 at 5e-4, ratio 4.00), RATTLE4 at MuJoCo's own floor (2.6e-9 m;
+    // MuJoCo RK4 at 1e-3 errs by 2.6e-7 m).
+    let r = against_reference("coupled_pendulums", "rattle", 1e-3, 1.0);
+    let r2 = against_reference("coupled_pendulums", "rattle", 5e-4, 1.0);
+    assert!(r.com.0 <= 1.5 * 1.11e-6, "RATTLE {:e}", r.com.0);
+    assert!(
+        r.com.0 / r2.com.0 >= 3.5,
+        "RATTLE ratio {}",
+        r.com.0 / r2.com.0
+    );
+    let r4 = against_reference("coupled_pendulums", "rattle4", 1e-3, 1.0);
+    assert!(r4.com.0 <= 1.5 * 2.62e-9, "RATTLE4 {:e}", r4.com.0);
     let mut scene =
         MjcfScene::from_file(&root().join("scenes/coupled_pendulums.xml"), Some("start")).unwrap();
     assert_eq!(scene.world.equalities().len(), 2);

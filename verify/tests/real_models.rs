@@ -110,7 +110,8 @@ fn real_models_run_passive_and_stay_sane() {
 /// dm_control's `manipulator` and `stacker` (issue 13): a tendon equality couples the
 /// fingers (`coupling`), with contact, actuators (zero control) and joint limits. Each
 /// runs 5 s from `qpos0` at the velocity level and with the default method (RATTLE,
-/// whose equality steps are taken at the velocity level with projection), passive and
+/// whose steps with contact or limit rows run at the velocity level with projection),
+/// passive and
 /// with the grasp motor closing (velocity level) or opening (default), and reports
 /// time per step, the worst equality violation, joint separation and the final
 /// penetration. Run with
@@ -169,7 +170,7 @@ fn manipulator_and_stacker_hold_their_equalities() {
             );
             // Measured (both models, all four runs): equality ≤ 5.0e-16 (the coupling
             // is linear in two hinges on one body), separation ≤ 4.7e-6 m (manipulator,
-            // velocity level; 5.4e-14 projected), final penetration ≤ 1.0e-5 m; the
+            // velocity level; 1.0e-12 default), final penetration ≤ 3.4e-5 m; the
             // grasp motor moves its tendon by 0.644 (closing) and 0.175 (opening).
             assert!(eq <= 1e-10, "{name} {label}: equality violation {eq:e}");
             assert!(sep <= 1e-5, "{name} {label}: joint separation {sep:e}");

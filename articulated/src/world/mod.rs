@@ -194,9 +194,9 @@ pub struct StepStats {
     /// (with projection for RATTLE) because one-sided rows (limits, contacts) were present:
     /// those methods are not defined across a complementarity event.
     pub unilateral_fallbacks: usize,
-    /// Steps of a RATTLE or acceleration-level method taken instead at the velocity level
-    /// (with projection for RATTLE) because equality rows ([`World::add_equality`]) were
-    /// present: those methods' own stages do not take the rows (`equality.rs`).
+    /// Steps of the acceleration-level method taken instead at the velocity level
+    /// because equality rows ([`World::add_equality`]) were present (its stages do not
+    /// take the rows, `equality.rs`; RATTLE and RATTLE4 do).
     pub equality_fallbacks: usize,
 }
 
@@ -708,7 +708,8 @@ impl World {
         let mut stats = StepStats::default();
         self.collect_unilateral_rows(h)?;
         let equalities = !self.equalities.is_empty();
-        if !self.urows.is_empty() || equalities {
+        let acceleration = matches!(method, Method::Acceleration { .. });
+        if !self.urows.is_empty() || (equalities && acceleration) {
             // RATTLE and the acceleration level are not defined across a complementarity
             // event: the step goes to the velocity level (projected for RATTLE).
             match method {
@@ -720,8 +721,7 @@ impl World {
                     tolerance,
                     max_iterations,
                 } => {
-                    stats.unilateral_fallbacks = usize::from(!self.urows.is_empty());
-                    stats.equality_fallbacks = usize::from(equalities);
+                    stats.unilateral_fallbacks = 1;
                     self.velocity_solve(h, 1.0)?;
                     stats.projection_iterations = self.project(tolerance, max_iterations, None)?;
                     return Ok(stats);

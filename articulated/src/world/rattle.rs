@@ -155,6 +155,8 @@ impl World {
             self.add_fluid_rhs(s);
         }
         let loops = self.assemble(s, Rates::Full, Soft::Free, |_, _, _, _| {});
+        // Equality rows hold their rate (`E v = 0`) through the damping flow.
+        self.load_equalities(|_| 0.0);
         let loops_2 = loops.clone();
         self.solve(loops)?;
         // Stage 2: v' = BE_{γτ}(v + c (v₁ − v)), same factor; all row right-hand sides 0.
@@ -224,6 +226,9 @@ impl World {
                 rhs[r] = -rows.value[r] / h;
             }
         });
+        // Equality rows as the joints: `−C/h` in the kick, `−C` in SHAKE (with the
+        // start-of-step Jacobian), `0` in the final velocity projection.
+        self.load_equalities(|c| -c / h);
         let loops_n = loops.clone();
         self.solve(loops)?;
         self.store_impulses();
@@ -323,6 +328,7 @@ impl World {
                     }
                 }
             }
+            err = err.max(self.refresh_equality_rhs(|c| -c));
             iterations = it;
             final_err = err;
             if err <= tolerance || it == max_iterations || !err.is_finite() {
@@ -373,6 +379,7 @@ impl World {
             self.add_fluid_rhs(half);
         }
         let loops = self.assemble(hd, Rates::Armature, Soft::Free, |_, _, _, _| {});
+        self.load_equalities(|_| 0.0);
         for (j, rows, rate) in &arm {
             if let Some(o) = self.solver.joint_offset(*j) {
                 for r in rows.n_hard..rows.n {

@@ -16,8 +16,8 @@ impl World {
     ///   with the implicit-midpoint `ω` (RATTLE);
     /// * Baraff's tree factorization of the KKT matrix, always; the loop-closure Schur
     ///   complement only when some joint closes a loop;
-    /// * the equality rows' complement only when [`World::add_equality`] was used (a
-    ///   RATTLE or acceleration-level step then runs at the velocity level);
+    /// * the equality rows' complement only when [`World::add_equality`] was used (an
+    ///   acceleration-level step then runs at the velocity level);
     /// * damping rows (implicit) or damping forces (explicit, acceleration level) only
     ///   when some joint is damped;
     /// * compliant joints only when some [`World::compliances`] entry is `> 0`:
