@@ -13,6 +13,7 @@
 //! | `slide` | [`Prismatic`] along the axis, damping on the sliding rate |
 //! | `free` / `freejoint` | no constraint |
 //! | no joint | [`Fixed`] weld to the parent (or the world) |
+//! | several joints | [`Compound`]: slides, then hinges whose lines meet in one point (up to three) or two hinges alone on skew lines ([`Compound::from_lines`]) |
 //! | `equality/connect` | [`Spherical`] between `body1` and `body2` at the anchor |
 //! | `equality/joint`, `equality/tendon` | a hard [`Equality`] row (`solref`/`solimp` not modelled) |
 //! | tendon `range` (`limited`) | two one-sided rows, [`World::set_tendon_range`] |
@@ -26,7 +27,9 @@ use alloc::string::{String, ToString};
 use alloc::vec::Vec;
 
 use constraint_core::compound::MAX_DOF;
-use constraint_core::{Compound, DMat3, DQuat, DVec3, Fixed, Hinge, Pose, Prismatic, Spherical};
+use constraint_core::{
+    Compound, ConstraintError, DMat3, DQuat, DVec3, Fixed, Hinge, Pose, Prismatic, Spherical,
+};
 use constraint_mjcf::{JointKind as MjKind, Model, Transmission};
 
 use crate::body::RigidBody;
@@ -152,19 +155,34 @@ impl MjcfScene {
                     let shared = many[first_hinge..]
                         .iter()
                         .all(|j| hinge_pos.is_some_and(|p| (v3(j.pos) - p).length() <= 1e-9));
-                    if !shape_ok || !shared {
-                        return Err(scene_err(format!(
-                            "body {:?} (line {}): this combination of joints is not supported (slides first, then hinges through one point)",
+                    let unsupported = || {
+                        scene_err(format!(
+                            "body {:?} (line {}): this combination of joints is not supported (slides first, then hinges whose lines meet in one point, or two hinges alone on skew lines)",
                             b.name, b.line
-                        )));
+                        ))
+                    };
+                    if !shape_ok {
+                        return Err(unsupported());
                     }
                     let slides: Vec<DVec3> =
                         many[..first_hinge].iter().map(|j| v3(j.axis)).collect();
                     let hinges: Vec<DVec3> =
                         many[first_hinge..].iter().map(|j| v3(j.axis)).collect();
-                    let anchor = origin + r * hinge_pos.unwrap_or(DVec3::ZERO);
-                    let c =
-                        Compound::from_world(&pa, &pb, anchor, &slides, &hinges).map_err(wrap)?;
+                    let c = if shared {
+                        let anchor = origin + r * hinge_pos.unwrap_or(DVec3::ZERO);
+                        Compound::from_world(&pa, &pb, anchor, &slides, &hinges).map_err(wrap)?
+                    } else {
+                        // Hinges at different `pos`: their lines (world point, axis in
+                        // the body frame) decide the form.
+                        let lines: Vec<(DVec3, DVec3)> = many[first_hinge..]
+                            .iter()
+                            .map(|j| (origin + r * v3(j.pos), v3(j.axis)))
+                            .collect();
+                        Compound::from_lines(&pa, &pb, &slides, &lines).map_err(|e| match e {
+                            ConstraintError::HingesNotConcurrent => unsupported(),
+                            e => wrap(e),
+                        })?
+                    };
                     let mut d = [0.0; MAX_DOF];
                     for (k, j) in many.iter().enumerate() {
                         d[k] = j.damping;

@@ -1650,6 +1650,46 @@ fn one_world_cases(s: &mut Sweep) {
             of(Compound::from_world(&a, &b, DVec3::ZERO, &slides, &hinges))
         });
     }
+    // Hinges as lines: non-finite points, parallel lines apart, skew lines with slides,
+    // three skew lines, huge points.
+    let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    type Lines = Vec<(DVec3, DVec3)>;
+    let line_sets: [(&str, Vec<DVec3>, Lines); 5] = [
+        (
+            "NaN point",
+            vec![],
+            vec![(DVec3::ZERO, DVec3::X), (p(f64::NAN, 0.0, 0.0), DVec3::Y)],
+        ),
+        (
+            "parallel lines apart",
+            vec![],
+            vec![(DVec3::ZERO, DVec3::X), (p(0.0, 0.1, 0.0), DVec3::X)],
+        ),
+        (
+            "slide then skew lines",
+            vec![DVec3::Z],
+            vec![(DVec3::ZERO, DVec3::X), (p(0.0, 0.0, 0.1), DVec3::Y)],
+        ),
+        (
+            "three skew lines",
+            vec![],
+            vec![
+                (DVec3::ZERO, DVec3::X),
+                (p(0.0, 0.0, 0.1), DVec3::Y),
+                (p(0.2, 0.0, 0.0), DVec3::Z),
+            ],
+        ),
+        (
+            "huge points",
+            vec![],
+            vec![(DVec3::ZERO, DVec3::X), (p(0.0, 0.0, 1e300), DVec3::Y)],
+        ),
+    ];
+    for (what, slides, lines) in line_sets {
+        s.case(format!("Compound::from_lines {what}"), || {
+            of(Compound::from_lines(&a, &b, &slides, &lines))
+        });
+    }
     // Colliders on the jointed world: unknown body, bad shape; contact steps.
     s.case("World::add_collider unknown body", || {
         let c = Collider::simple(Some(7), Shape::sphere(0.1).unwrap()).unwrap();

@@ -222,6 +222,11 @@ pub struct World {
     impulses: Vec<[f64; MAX_ROWS]>,
     /// Per-body angular momenta (RATTLE scratch).
     momenta: Vec<DVec3>,
+    /// RATTLE scratch: the first kick's joint impulses, the poses at the start of the
+    /// drift, the armature rows' carried rates, and the damping flow's stage twists.
+    rattle: rattle::Scratch,
+    /// Acceleration-level scratch.
+    accel: acceleration::Scratch,
     /// Per-body state at the start of a projection iteration (scratch).
     proj_base: Vec<(Pose, DVec3, DVec3)>,
     /// Positional compliance `α ≥ 0` per joint (0: hard).
@@ -277,6 +282,8 @@ pub struct World {
     dof_table: Vec<Option<actuator::DofState>>,
     /// The loop rows of the last assembly.
     last_loops: LoopRows,
+    /// Spare loop-row buffers (RATTLE keeps a second set; no allocation across steps).
+    spare_loops: LoopRows,
     /// Colliders (feature `contact`).
     #[cfg(feature = "contact")]
     colliders: Vec<constraint_contact::geometry::Collider>,
@@ -314,6 +321,8 @@ impl World {
             geometric_stiffness: GeometricStiffness::default(),
             impulses: Vec::new(),
             momenta: Vec::new(),
+            rattle: rattle::Scratch::default(),
+            accel: acceleration::Scratch::default(),
             proj_base: Vec::new(),
             compliance: Vec::new(),
             limits: Vec::new(),
@@ -342,6 +351,7 @@ impl World {
             dof_tau: Vec::new(),
             dof_table: Vec::new(),
             last_loops: (Vec::new(), Vec::new(), Vec::new()),
+            spare_loops: (Vec::new(), Vec::new(), Vec::new()),
             #[cfg(feature = "contact")]
             colliders: Vec::new(),
             #[cfg(feature = "contact")]
@@ -803,10 +813,15 @@ impl World {
     ) -> LoopRows {
         // Equality rows take part only in the solves of assemblies that load them.
         self.eq.active = false;
+        // The loop rows' buffers of the last assembly (and of RATTLE's spare), reused.
+        let (mut loop_rows, mut loop_c, mut loop_rhs) = core::mem::take(&mut self.last_loops);
+        if loop_rows.capacity() == 0 {
+            (loop_rows, loop_c, loop_rhs) = core::mem::take(&mut self.spare_loops);
+        }
+        loop_rows.clear();
+        loop_c.clear();
+        loop_rhs.clear();
         let solver = &mut self.solver;
-        let mut loop_rows = Vec::new();
-        let mut loop_c = Vec::new();
-        let mut loop_rhs = Vec::new();
         for (j, joint) in self.joints.iter().enumerate() {
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
@@ -928,6 +943,15 @@ impl World {
                     self.rhs[o + r] = arm / tot * rate;
                 }
             }
+        }
+    }
+
+    /// Keeps `loops`' buffers for a later assembly.
+    pub(super) fn recycle_loops(&mut self, loops: LoopRows) {
+        if self.last_loops.0.capacity() == 0 {
+            self.last_loops = loops;
+        } else {
+            self.spare_loops = loops;
         }
     }
 
