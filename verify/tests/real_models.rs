@@ -168,9 +168,9 @@ fn manipulator_and_stacker_hold_their_equalities() {
                     .all(|b| b.pose.x.is_finite() && b.v.is_finite()),
                 "{name} {label}: non-finite"
             );
-            // Measured (both models, all four runs): equality ≤ 5.0e-16 (the coupling
-            // is linear in two hinges on one body), separation ≤ 4.7e-6 m (manipulator,
-            // velocity level; 1.0e-12 default), final penetration ≤ 3.4e-5 m; the
+            // Measured (both models, all four runs): equality ≤ 4.4e-16 (the coupling
+            // is linear in two hinges on one body), separation ≤ 4.8e-6 m (manipulator,
+            // velocity level; 1.2e-13 default), final penetration ≤ 9.8e-8 m; the
             // grasp motor moves its tendon by 0.644 (closing) and 0.175 (opening).
             assert!(eq <= 1e-10, "{name} {label}: equality violation {eq:e}");
             assert!(sep <= 1e-5, "{name} {label}: joint separation {sep:e}");
