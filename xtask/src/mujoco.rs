@@ -53,7 +53,7 @@ pub struct Reference {
 }
 
 /// The committed references (scenes/reference/README.md gives their error figures).
-pub const REFERENCES: [Reference; 7] = [
+pub const REFERENCES: [Reference; 8] = [
     Reference {
         scene: "pendulum",
         dt: "1e-5",
@@ -95,6 +95,12 @@ pub const REFERENCES: [Reference; 7] = [
         dt: "1e-4",
         duration: "1",
         every: 1000,
+    },
+    Reference {
+        scene: "coupled_pendulums",
+        dt: "1e-4",
+        duration: "2",
+        every: 100,
     },
 ];
 

@@ -39,6 +39,7 @@ mod acceleration;
 mod actuator;
 #[cfg(feature = "contact")]
 mod contact;
+mod equality;
 mod fluid;
 mod projection;
 mod rattle;
@@ -49,6 +50,7 @@ mod velocity;
 pub use actuator::{Actuator, DofSpring, Target, Tendon};
 #[cfg(feature = "contact")]
 pub use contact::CollisionFilter;
+pub use equality::{Equality, Terms};
 pub use fluid::Fluid;
 pub use unilateral::{RowSource, UnilateralSettings, UnilateralStats};
 
@@ -192,6 +194,10 @@ pub struct StepStats {
     /// (with projection for RATTLE) because one-sided rows (limits, contacts) were present:
     /// those methods are not defined across a complementarity event.
     pub unilateral_fallbacks: usize,
+    /// Steps of the acceleration-level method taken instead at the velocity level
+    /// because equality rows ([`World::add_equality`]) were present (its stages do not
+    /// take the rows, `equality.rs`; RATTLE and RATTLE4 do).
+    pub equality_fallbacks: usize,
 }
 
 /// Bodies, joints, gravity and the solver's reusable storage.
@@ -236,6 +242,14 @@ pub struct World {
     springs: Vec<DofSpring>,
     /// Fixed tendons.
     tendons: Vec<Tendon>,
+    /// Length limits per tendon (shorter than `tendons` when the last have none).
+    tendon_ranges: Vec<Option<[f64; 2]>>,
+    /// Equality rows over coordinates.
+    equalities: Vec<Equality>,
+    /// The equality rows of the current assembly and their complement (scratch).
+    eq: equality::EqRows,
+    /// The tendon-limit rows' segments, one range per tendon (scratch).
+    tendon_spans: equality::Spans,
     /// The medium (fluid drag), if any.
     fluid: Option<Fluid>,
     /// Per body: principal axes (body frame) and inertia-box half-sizes.
@@ -318,6 +332,10 @@ impl World {
             ctrl: Vec::new(),
             springs: Vec::new(),
             tendons: Vec::new(),
+            tendon_ranges: Vec::new(),
+            equalities: Vec::new(),
+            eq: equality::EqRows::default(),
+            tendon_spans: equality::Spans::default(),
             fluid: None,
             fluid_boxes: Vec::new(),
             unilateral: UnilateralSettings::default(),
@@ -676,6 +694,7 @@ impl World {
         self.urows.clear();
         self.ustats = UnilateralStats::default();
         self.push_limit_rows(h);
+        self.push_tendon_limit_rows(h);
         #[cfg(feature = "contact")]
         self.push_contact_rows(h)?;
         let _ = h;
@@ -698,7 +717,9 @@ impl World {
     fn step_inner(&mut self, h: f64, method: Method) -> Result<StepStats, ArticulatedError> {
         let mut stats = StepStats::default();
         self.collect_unilateral_rows(h)?;
-        if !self.urows.is_empty() {
+        let equalities = !self.equalities.is_empty();
+        let acceleration = matches!(method, Method::Acceleration { .. });
+        if !self.urows.is_empty() || (equalities && acceleration) {
             // RATTLE and the acceleration level are not defined across a complementarity
             // event: the step goes to the velocity level (projected for RATTLE).
             match method {
@@ -716,7 +737,8 @@ impl World {
                     return Ok(stats);
                 }
                 Method::Acceleration { .. } => {
-                    stats.unilateral_fallbacks = 1;
+                    stats.unilateral_fallbacks = usize::from(!self.urows.is_empty());
+                    stats.equality_fallbacks = usize::from(equalities);
                     self.velocity_solve(h, 1.0)?;
                     return Ok(stats);
                 }
@@ -789,6 +811,8 @@ impl World {
         soft: Soft,
         mut joint_rhs: impl FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]),
     ) -> LoopRows {
+        // Equality rows take part only in the solves of assemblies that load them.
+        self.eq.active = false;
         // The loop rows' buffers of the last assembly (and of RATTLE's spare), reused.
         let (mut loop_rows, mut loop_c, mut loop_rhs) = core::mem::take(&mut self.last_loops);
         if loop_rows.capacity() == 0 {
@@ -944,7 +968,11 @@ impl World {
         let free_scale = self.loop_free_scale(loops);
         let solver = &mut self.solver;
         let (rows, c, r) = loops;
-        solver.solve_with_loops(&mut self.rhs, rows, c, r, free_scale, &mut self.mu)
+        solver.solve_with_loops(&mut self.rhs, rows, c, r, free_scale, &mut self.mu)?;
+        if self.eq.active {
+            self.solve_equalities(loops)?;
+        }
+        Ok(())
     }
 
     /// Loads every body's mass block `diag(m) ⊕ R I Rᵀ` into the solver and its

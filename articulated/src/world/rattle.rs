@@ -198,6 +198,8 @@ impl World {
             self.add_fluid_rhs(s);
         }
         let loops = self.assemble(s, Rates::Full, Soft::Free, |_, _, _, _| {});
+        // Equality rows hold their rate (`E v = 0`) through the damping flow.
+        self.load_equalities(|_| 0.0);
         self.solve(loops)?;
         // The same rows for the second solve (kept by `solve`; taken, not cloned).
         let loops_2 = core::mem::take(&mut self.last_loops);
@@ -308,6 +310,9 @@ impl World {
                 rhs[r] = -rows.value[r] / h;
             }
         });
+        // Equality rows as the joints: `−C/h` in the kick, `−C` in SHAKE (with the
+        // start-of-step Jacobian), `0` in the final velocity projection.
+        self.load_equalities(|c| -c / h);
         self.solve(loops)?;
         // The loop rows of this factor, for SHAKE's solves (their right-hand side is
         // rewritten each iteration).
@@ -415,6 +420,7 @@ impl World {
                     }
                 }
             }
+            err = err.max(self.refresh_equality_rhs(|c| -c));
             iterations = it;
             final_err = err;
             if err <= tolerance || it == max_iterations || !err.is_finite() {
@@ -467,6 +473,7 @@ impl World {
             }
         }
         let loops = self.assemble(hd, Rates::Armature, Soft::Free, |_, _, _, _| {});
+        self.load_equalities(|_| 0.0);
         for (j, rows, rate) in &arm {
             if let Some(o) = self.solver.joint_offset(*j) {
                 for r in rows.n_hard..rows.n {

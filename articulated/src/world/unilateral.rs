@@ -92,6 +92,14 @@ pub enum RowSource {
         /// Its degree of freedom.
         dof: usize,
     },
+    /// The lower (`L − lo ≥ 0`) or upper (`hi − L ≥ 0`) length limit of a fixed tendon
+    /// ([`World::set_tendon_range`]).
+    TendonLimit {
+        /// The tendon.
+        tendon: usize,
+        /// The upper limit (else the lower).
+        upper: bool,
+    },
     /// Contact point `contact` of the last step: its normal (`axis = 0`) or one of its
     /// two friction directions.
     Contact {
@@ -314,7 +322,12 @@ impl World {
         self.ustats.limit_rows = self
             .urows
             .iter()
-            .filter(|r| matches!(r.source, RowSource::Limit { .. }))
+            .filter(|r| {
+                matches!(
+                    r.source,
+                    RowSource::Limit { .. } | RowSource::TendonLimit { .. }
+                )
+            })
             .count();
         self.uz.clear();
         self.uz.resize(m, 0.0);
@@ -334,9 +347,11 @@ impl World {
         let free_scale = self.loop_free_scale(loops);
         for (k, r) in self.urows.iter().enumerate() {
             let col = &mut ycols[k * size..(k + 1) * size];
-            scatter(&self.solver, col, r, 1.0);
+            scatter(&self.solver, &self.tendon_spans, col, r, 1.0);
             self.solver
                 .solve_with_loops(col, &loops.0, &loops.1, &zero_rhs, free_scale, &mut mu)?;
+            // Through the equality rows too (equality.rs).
+            self.eq.correct(&self.solver, col);
         }
         // A = G Y, q = G x_free − bias.
         let mut a = core::mem::take(&mut self.udel);
@@ -346,9 +361,10 @@ impl World {
         q.clear();
         for (i, ri) in self.urows.iter().enumerate() {
             for k in 0..m {
-                a[i * m + k] = gather(&self.solver, &ycols[k * size..(k + 1) * size], ri);
+                let col = &ycols[k * size..(k + 1) * size];
+                a[i * m + k] = gather(&self.solver, &self.tendon_spans, col, ri);
             }
-            q.push(gather(&self.solver, &self.rhs, ri) - ri.bias);
+            q.push(gather(&self.solver, &self.tendon_spans, &self.rhs, ri) - ri.bias);
         }
         // Symmetrise the round-off (A is symmetric in exact arithmetic).
         for i in 0..m {
@@ -430,8 +446,19 @@ pub(super) fn row_bias(c: f64, h: f64, s: &UnilateralSettings) -> f64 {
     }
 }
 
-/// `x += s · Gᵀ` on the row's bodies' unknowns.
-fn scatter(solver: &crate::tree::TreeSolver, x: &mut [f64], r: &URow, s: f64) {
+/// `x += s · Gᵀ` on the row's bodies' unknowns (a tendon limit's on its segments).
+fn scatter(
+    solver: &crate::tree::TreeSolver,
+    spans: &super::equality::Spans,
+    x: &mut [f64],
+    r: &URow,
+    s: f64,
+) {
+    if let RowSource::TendonLimit { tendon, upper } = r.source {
+        let sign = if upper { -1.0 } else { 1.0 };
+        spans.scatter(solver, x, tendon, sign * s);
+        return;
+    }
     for (side, body) in [(0usize, r.a), (1usize, r.b)] {
         let Some(body) = body else { continue };
         let o = solver.body_offset(body);
@@ -442,8 +469,17 @@ fn scatter(solver: &crate::tree::TreeSolver, x: &mut [f64], r: &URow, s: f64) {
     }
 }
 
-/// `G x` on the row's bodies' unknowns.
-fn gather(solver: &crate::tree::TreeSolver, x: &[f64], r: &URow) -> f64 {
+/// `G x` on the row's bodies' unknowns (a tendon limit's on its segments).
+fn gather(
+    solver: &crate::tree::TreeSolver,
+    spans: &super::equality::Spans,
+    x: &[f64],
+    r: &URow,
+) -> f64 {
+    if let RowSource::TendonLimit { tendon, upper } = r.source {
+        let sign = if upper { -1.0 } else { 1.0 };
+        return sign * spans.gather(solver, x, tendon);
+    }
     let mut s = 0.0;
     for (side, body) in [(0usize, r.a), (1usize, r.b)] {
         let Some(body) = body else { continue };

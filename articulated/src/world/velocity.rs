@@ -52,7 +52,8 @@ impl World {
     /// The velocity-level KKT system of [`Self::velocity_twists`] as one dense matrix
     /// (all joints' rows, loop joints included, damping rows with compliance
     /// `1/(h d)`, compliant joints' hard rows with `α/h²`): unknowns `[v₀, ω₀, v₁, ω₁, …, λ]`. A reference for tests and for
-    /// tiny systems; `O(n²)` memory.
+    /// tiny systems; `O(n²)` memory. Equality rows ([`World::add_equality`]) are not in
+    /// it (they are not joint rows; [`Self::velocity_twists`] does enforce them).
     pub fn dense_velocity_system(&self, h: f64, beta: f64) -> (Vec<Vec<f64>>, Vec<f64>) {
         let nb = self.bodies.len();
         let rows: usize = self
@@ -148,6 +149,7 @@ impl World {
                 rhs[r] = -beta * rows.value[r] / h;
             }
         });
+        self.load_equalities(|c| -beta * c / h);
         self.solve(loops)?;
         self.store_impulses();
         Ok(())
