@@ -17,6 +17,7 @@
 //! | `equality/connect` | [`Spherical`] between `body1` and `body2` at the anchor |
 //! | `equality/joint`, `equality/tendon` | a hard [`Equality`] row (`solref`/`solimp` not modelled) |
 //! | tendon `range` (`limited`) | two one-sided rows, [`World::set_tendon_range`] |
+//! | `option/flag` `constraint`, `limit`, `equality`, `frictionloss`, `contact` `="disable"` | those rows left out (`constraint`: all of them), as in MuJoCo |
 //!
 //! The initial state is the keyframe's (MuJoCo's generalized `qpos`/`qvel` converted to
 //! body poses and twists by the loader), or the default pose at rest. Geoms only
@@ -208,12 +209,15 @@ impl MjcfScene {
             let at = |e: ArticulatedError| {
                 scene_err(format!("joint {:?} (line {}): {e}", j.name, j.line))
             };
-            if j.limited && matches!(j.kind, MjKind::Hinge | MjKind::Slide) {
+            if j.limited
+                && matches!(j.kind, MjKind::Hinge | MjKind::Slide)
+                && !model.options.disabled("limit")
+            {
                 world
                     .set_dof_limit(wj, dof, j.range[0] - j.reference, j.range[1] - j.reference)
                     .map_err(at)?;
             }
-            if j.frictionloss > 0.0 {
+            if j.frictionloss > 0.0 && !model.options.disabled("frictionloss") {
                 if !matches!(j.kind, MjKind::Hinge | MjKind::Slide) {
                     return Err(scene_err(format!(
                         "joint {:?} (line {}): frictionloss on a ball joint is not supported",
@@ -288,7 +292,7 @@ impl MjcfScene {
                     rest_length,
                 })
                 .map_err(|e| at(e.to_string()))?;
-            if t.limited {
+            if t.limited && !model.options.disabled("limit") {
                 // MuJoCo's length is ours plus `Σ c ref`.
                 let wt = world.tendons().len() - 1;
                 world
@@ -297,7 +301,9 @@ impl MjcfScene {
             }
             tendon_ref.push(offset);
         }
-        add_equalities(model, &mut world, &placed, &mut warnings)?;
+        if !model.options.disabled("equality") {
+            add_equalities(model, &mut world, &placed, &mut warnings)?;
+        }
         // Actuators (MuJoCo's general form; `length = gear q` over MuJoCo's coordinate,
         // ours plus `ref`, folded into the constant bias).
         for a in &model.actuators {

@@ -354,3 +354,57 @@ fn ragdoll_lands_and_comes_to_rest() {
         assert!((torso_z - 0.1).abs() < 2e-3, "torso at {torso_z}");
     }
 }
+
+/// `option/flag constraint="disable"` (dm_control's acrobot, fish, lqr) leaves out every
+/// constraint kind MuJoCo leaves out: joint limits, dry friction, contacts; `limit` and
+/// `frictionloss` one kind each. A pendulum with dry friction thrown past its limit, and
+/// a ball dropped on the floor: with the flags the rows are not there.
+#[test]
+fn constraint_flags_leave_rows_out() {
+    let xml = |flag: &str| {
+        format!(
+            r#"<mujoco>
+  <option timestep="0.001">{flag}</option>
+  <worldbody>
+    <geom type="plane" size="5 5 0.1"/>
+    <body name="arm" pos="0 0 1">
+      <joint name="j" type="hinge" axis="0 1 0" range="-30 30" frictionloss="0.01"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.02"/>
+    </body>
+    <body name="ball" pos="1 0 0.1">
+      <freejoint/>
+      <geom type="sphere" size="0.05"/>
+    </body>
+  </worldbody>
+  <keyframe><key name="start" qpos="0  1 0 0.1 1 0 0 0" qvel="8  0 0 0 0 0 0"/></keyframe>
+</mujoco>"#
+        )
+    };
+    let run = |flag: &str| {
+        let model = constraint_mjcf::load_str(&xml(flag)).unwrap();
+        let mut w = constraint_articulated::MjcfScene::new(&model, Some("start"))
+            .unwrap()
+            .world;
+        let (mut limit_rows, mut contacts, mut dry) = (0, 0, 0);
+        for _ in 0..400 {
+            w.step(1e-3, VELOCITY).unwrap();
+            let s = w.unilateral_stats();
+            limit_rows = limit_rows.max(s.limit_rows);
+            contacts = contacts.max(s.contacts);
+            dry = dry.max(
+                w.row_impulses()
+                    .filter(|(r, _)| matches!(r, RowSource::DryFriction { .. }))
+                    .count(),
+            );
+        }
+        (limit_rows, contacts, dry)
+    };
+    // Measured: (2, 1, 1) with every kind on: the limit rows, the floor, dry friction.
+    let all = run("");
+    assert!(all.0 > 0 && all.1 > 0 && all.2 > 0, "{all:?}");
+    assert_eq!(run(r#"<flag constraint="disable"/>"#), (0, 0, 0));
+    let no_limit = run(r#"<flag limit="disable"/>"#);
+    assert!(no_limit.0 == 0 && no_limit.2 > 0, "{no_limit:?}");
+    let no_dry = run(r#"<flag frictionloss="disable"/>"#);
+    assert!(no_dry.0 > 0 && no_dry.2 == 0, "{no_dry:?}");
+}

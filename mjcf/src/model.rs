@@ -12,7 +12,7 @@ pub struct Model {
     pub gravity: [f64; 3],
     /// `option integrator` as written (`Euler`, `implicitfast`, `RK4`, ...), default `Euler`.
     pub integrator: String,
-    /// `option/flag contact="disable"` seen.
+    /// `option/flag contact="disable"` (or `constraint="disable"`) seen.
     pub contact_disabled: bool,
     /// Bodies in document order, world body excluded.
     pub bodies: Vec<Body>,
@@ -80,6 +80,18 @@ pub struct Options {
     pub iterations: u32,
     /// Every `flag` attribute as written: name and `true` for `enable`.
     pub flags: Vec<(String, bool)>,
+}
+
+impl Options {
+    /// Whether `option/flag` turns `name` off (the last `flag` element naming it wins);
+    /// `constraint="disable"` turns off every constraint kind (`contact`, `limit`,
+    /// `equality`, `frictionloss`), as in MuJoCo.
+    pub fn disabled(&self, name: &str) -> bool {
+        let last = |n: &str| self.flags.iter().rev().find(|(f, _)| f == n).map(|f| f.1);
+        let constraint_off = last("constraint") == Some(false);
+        let kind = matches!(name, "contact" | "limit" | "equality" | "frictionloss");
+        last(name) == Some(false) || (kind && constraint_off)
+    }
 }
 
 impl Default for Options {

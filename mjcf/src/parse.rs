@@ -437,6 +437,8 @@ impl Loader {
                 let enabled = a.keyword(&[("enable", true), ("disable", false)])?;
                 match a.name.as_str() {
                     "contact" => self.model.contact_disabled = !enabled,
+                    // Every constraint off, contacts included.
+                    "constraint" if !enabled => self.model.contact_disabled = true,
                     "gravity" => self.gravity_disabled = !enabled,
                     _ => {}
                 }
