@@ -44,6 +44,11 @@ pub struct UnilateralSettings {
     /// covers in one step are added (speculative rows); contacts use it as the narrow
     /// phase's margin.
     pub margin: f64,
+    /// Solve the rows that keep the joint tree a tree (limits and dry friction of tree
+    /// joints, contacts with the static world) by the active set inside the tree factor
+    /// (`O(n)` per iteration, [`super::active_set`]); steps with other rows, or whose
+    /// set does not settle, use the dense Delassus path. `false`: always the dense path.
+    pub sparse: bool,
 }
 
 impl Default for UnilateralSettings {
@@ -62,6 +67,7 @@ impl Default for UnilateralSettings {
             baumgarte: 0.2,
             slop: 1e-4,
             margin: 0.02,
+            sparse: true,
         }
     }
 }
@@ -122,6 +128,13 @@ pub struct UnilateralStats {
     pub residual: f64,
     /// Deepest contact penetration at the start of the step (m).
     pub max_penetration: f64,
+    /// The rows were solved by the active set in the tree factor (else the dense path).
+    pub sparse: bool,
+    /// Iterations of the active set (each one `O(n)` factor and solve).
+    pub active_set_iterations: usize,
+    /// The active set was tried and the step went to the dense path (rows that do not
+    /// keep the tree, loop joints, a set that did not settle).
+    pub dense_fallback: bool,
 }
 
 impl World {

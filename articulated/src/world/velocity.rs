@@ -12,8 +12,29 @@ use super::*;
 impl World {
     /// `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`, then `x' = x + h v'`.
     pub(super) fn velocity_solve(&mut self, h: f64, beta: f64) -> Result<(), ArticulatedError> {
-        self.velocity_system_solve(h, beta)?;
-        if !self.urows.is_empty() {
+        if !self.urows.is_empty() && self.unilateral.sparse {
+            // The one-sided rows in the tree factor by an active set; the dense path
+            // where that does not apply or does not settle.
+            let loops = self.velocity_assemble(h, beta);
+            if loops.0.is_empty() && self.solve_unilateral_sparse() {
+                self.last_loops = loops;
+            } else {
+                self.ustats.dense_fallback = true;
+                self.solve(loops)?;
+                self.store_impulses();
+                let loops = core::mem::take(&mut self.last_loops);
+                let out = self.solve_unilateral(&loops);
+                self.last_loops = loops;
+                out?;
+                self.remember_dense_statuses();
+            }
+            self.store_impulses();
+            #[cfg(feature = "contact")]
+            self.store_warm_contacts();
+        } else {
+            self.velocity_system_solve(h, beta)?;
+        }
+        if !self.urows.is_empty() && !self.unilateral.sparse {
             // One-sided rows through the factored joint system: x' = x_free + Y z.
             let loops = core::mem::take(&mut self.last_loops);
             let out = self.solve_unilateral(&loops);
@@ -131,6 +152,15 @@ impl World {
         h: f64,
         beta: f64,
     ) -> Result<(), ArticulatedError> {
+        let loops = self.velocity_assemble(h, beta);
+        self.solve(loops)?;
+        self.store_impulses();
+        Ok(())
+    }
+
+    /// Loads the velocity-level system (bodies, joints, forces) into the solver and
+    /// `self.rhs` without factoring it; returns the loop rows.
+    fn velocity_assemble(&mut self, h: f64, beta: f64) -> LoopRows {
         let g = self.gravity;
         self.body_rhs(|b, r, iw| {
             let w = b.gyroscopic_step_with(r, h);
@@ -143,14 +173,11 @@ impl World {
         {
             self.add_geometric_stiffness(h);
         }
-        let loops = self.assemble(h, Rates::Full, Soft::Implicit, |_, _, rows, rhs| {
+        self.assemble(h, Rates::Full, Soft::Implicit, |_, _, rows, rhs| {
             for r in 0..rows.n_hard {
                 rhs[r] = -beta * rows.value[r] / h;
             }
-        });
-        self.solve(loops)?;
-        self.store_impulses();
-        Ok(())
+        })
     }
 
     /// Geometric stiffness (Andrews, Teichmann and Kry 2017, "Geometric stiffness for
