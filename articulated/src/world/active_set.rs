@@ -178,7 +178,6 @@ impl World {
                     match r.bound {
                         RowBound::Unilateral if r.bias >= 0.0 => RowStatus::Active,
                         RowBound::Unilateral => RowStatus::Inactive,
-                        RowBound::Friction { normal, mu } if mu > 0.0 => st.status[normal],
                         RowBound::Friction { .. } => RowStatus::Inactive,
                         RowBound::Boxed { .. } => RowStatus::Active,
                     },
@@ -292,7 +291,8 @@ impl World {
                                 RowStatus::Active if z < lo - tz => RowStatus::Lo,
                                 RowStatus::Hi if w > tol_w => RowStatus::Active,
                                 RowStatus::Lo if w < -tol_w => RowStatus::Active,
-                                RowStatus::Inactive => RowStatus::Active,
+                                // z = 0 inside the bounds holds while w = 0.
+                                RowStatus::Inactive if w.abs() > tol_w => RowStatus::Active,
                                 s => {
                                     // A bound that moved with its normal.
                                     let target = match s {
