@@ -299,3 +299,48 @@ fn pinned_floor_trajectory_moves_at_round_off() {
     println!("pinned floor trajectory: max position difference {dx:.2e} m");
     assert!(dx <= 1e-9, "dx {dx:e}"); // measured 1.54e-13 m
 }
+
+/// Two free spheres stacked on the floor: the sphere–sphere contact is between two
+/// bodies, which the tree factor cannot take, so the step goes to the dense path
+/// (counted in the statistics) and the trajectory is bit for bit the dense path's.
+#[test]
+fn body_body_contact_falls_back_bit_identically() {
+    use constraint_contact::geometry::{Collider, Shape};
+    let build = |sparse: bool| {
+        let mut w = World::new(DVec3::new(0.0, 0.0, -9.81));
+        w.unilateral.sparse = sparse;
+        let floor = Shape::plane(DVec3::Z, 0.0).unwrap();
+        w.add_collider(Collider::new(None, floor, Pose::IDENTITY, 0.5, 0.0).unwrap())
+            .unwrap();
+        for (i, z) in [0.1, 0.3].into_iter().enumerate() {
+            let pose = Pose {
+                x: DVec3::new(0.01 * i as f64, 0.0, z),
+                q: DQuat::IDENTITY,
+            };
+            let b = w
+                .add_body(RigidBody::new(i, 1.0, DMat3::IDENTITY * 4e-3, pose).unwrap())
+                .unwrap();
+            let ball = Shape::sphere(0.1).unwrap();
+            w.add_collider(Collider::new(Some(b), ball, Pose::IDENTITY, 0.5, 0.0).unwrap())
+                .unwrap();
+        }
+        w
+    };
+    let (mut a, mut b) = (build(true), build(false));
+    let mut fallbacks = 0;
+    for _ in 0..300 {
+        a.step(H, VELOCITY).unwrap();
+        b.step(H, VELOCITY).unwrap();
+        let s = a.unilateral_stats();
+        if s.rows > 0 {
+            assert!(!s.sparse && s.dense_fallback);
+            fallbacks += 1;
+        }
+    }
+    println!("body-body fallbacks {fallbacks}");
+    assert!(fallbacks >= 250, "fallbacks {fallbacks}"); // measured 300
+    for (x, y) in a.bodies().iter().zip(b.bodies()) {
+        assert_eq!(x.pose.x, y.pose.x);
+        assert_eq!(x.v, y.v);
+    }
+}
