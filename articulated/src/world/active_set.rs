@@ -34,6 +34,8 @@ use alloc::vec::Vec;
 
 use constraint_contact::lcp::RowBound;
 use constraint_core::DVec3;
+use constraint_lagrange::solve::svd::SvdSolver;
+use constraint_lagrange::solve::DenseMatrix;
 
 use super::unilateral::{RowSource, URow};
 use super::*;
@@ -42,6 +44,9 @@ use crate::tree_rows::{ExtraRow, RowTree};
 
 /// Iterations of the active set before the step goes to the dense path.
 pub const MAX_ITERATIONS: usize = 20;
+
+/// Most rows with dropped pivots solved by their Schur complement in one iteration.
+const MAX_DROPPED: usize = 48;
 
 /// A row's state in the active set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,6 +80,10 @@ pub(super) struct ActiveSet {
     map: Vec<usize>,
     /// The augmented unknowns.
     x: Vec<f64>,
+    /// Active rows whose pivot the factor dropped (indices into `map`) and their
+    /// columns `H_A⁻¹ Gᵀ`.
+    dropped: Vec<usize>,
+    ycols: Vec<f64>,
     /// The last step's rows in their order: key, status, impulse.
     warm: Vec<(RowKey, RowStatus, f64)>,
     /// `warm`'s indices sorted by key (built on the first lookup that misses the
@@ -237,6 +246,10 @@ impl World {
                 st.x[f.row_position(k)] = self.urows[i].bias;
             }
             f.solve(&self.solver, &mut st.x);
+            if !self.dropped_rows_schur(st) {
+                return false;
+            }
+            let f = &st.factor;
             let mut zmax: f64 = 0.0;
             for (k, &i) in st.map.iter().enumerate() {
                 st.z[i] = -st.x[f.row_position(k)];
@@ -248,12 +261,12 @@ impl World {
             for r in &self.urows {
                 st.w.push(gather(f, &st.x, r) - r.bias);
             }
-            // Dependent rows (dropped pivots, z = 0) hold only if the rows they depend
-            // on imply it: a one-sided one that does not cannot be mended here; a boxed
-            // or friction one slides, to the bound against its rate.
+            // Rows dependent on the others (the Schur complement's truncated directions)
+            // hold only if the others imply it: a one-sided one that does not cannot be
+            // mended here; a boxed or friction one slides, to the bound against its rate.
             let mut changed = false;
             for (k, &i) in st.map.iter().enumerate() {
-                if f.dropped(f.row_position(k)) {
+                if !st.dropped.is_empty() && st.dropped.contains(&k) {
                     let w = st.w[i];
                     match self.urows[i].bound {
                         RowBound::Unilateral if w < -tol_w => return false,
@@ -340,6 +353,97 @@ impl World {
         }
         self.ustats.residual = worst / bias_scale;
         remember(st, &self.uz);
+        true
+    }
+
+    /// The active rows whose pivot the tree factor dropped: a row of a node beyond the
+    /// rank its child's unknowns give it (a foot's contacts under its hinge, more rows
+    /// than the foot has freedoms) is not dependent in the whole system, only in the
+    /// subtree below it. They are solved as loop rows are ([`crate::tree`]): with
+    /// `Y = H_A⁻¹ G_Dᵀ` (one solve of the factor without them per row),
+    /// `(G_D Y) ζ_D = G_D x_A − bias_D` by SVD for the minimum-norm `ζ_D` (singular
+    /// values below `1e-10 ×` the rows' scale without joints, `max g M⁻¹ gᵀ`, are
+    /// truncated: those directions are dependent and keep `ζ = 0`), then
+    /// `x = x_A − Y ζ_D`. `false` when the small solve fails or too many rows dropped
+    /// (more than [`MAX_DROPPED`]: the dense path is as cheap).
+    fn dropped_rows_schur(&self, st: &mut ActiveSet) -> bool {
+        st.dropped.clear();
+        let f = &st.factor;
+        for k in 0..st.map.len() {
+            if f.dropped(f.row_position(k)) {
+                st.dropped.push(k);
+            }
+        }
+        let d = st.dropped.len();
+        if d == 0 {
+            return true;
+        }
+        if d > MAX_DROPPED {
+            return false;
+        }
+        let size = f.size;
+        st.ycols.clear();
+        st.ycols.resize(d * size, 0.0);
+        let mut free_scale: f64 = 0.0;
+        for (c, &k) in st.dropped.iter().enumerate() {
+            let r = &self.urows[st.map[k]];
+            let col = &mut st.ycols[c * size..(c + 1) * size];
+            scatter(f, col, r, 1.0);
+            f.solve(&self.solver, col);
+            let mut g = 0.0;
+            for (side, body) in [(0usize, r.a), (1usize, r.b)] {
+                if let Some(i) = body {
+                    let b = &self.bodies[i];
+                    g += r.j[2 * side].length_squared() / b.mass()
+                        + r.j[2 * side + 1].dot(b.world_inv_inertia() * r.j[2 * side + 1]);
+                }
+            }
+            free_scale = free_scale.max(g);
+        }
+        let row = |a: usize| &self.urows[st.map[st.dropped[a]]];
+        let s = DenseMatrix::from_fn(d, d, |a, b| {
+            let y = &st.ycols[b * size..(b + 1) * size];
+            0.5 * (gather(f, y, row(a)) + {
+                let ya = &st.ycols[a * size..(a + 1) * size];
+                gather(f, ya, row(b))
+            })
+        });
+        let rhs: Vec<f64> = (0..d)
+            .map(|a| gather(f, &st.x, row(a)) - row(a).bias)
+            .collect();
+        if !s.is_finite() || rhs.iter().any(|v| !v.is_finite()) {
+            return false;
+        }
+        let Ok(svd) = SvdSolver::new(&s, 1e-10) else {
+            return false;
+        };
+        let smax = svd.singular_values().first().copied().unwrap_or(0.0);
+        let floor = 1e-10 * free_scale;
+        let mut zeta = alloc::vec![0.0; d];
+        if smax > floor {
+            let svd = if floor > 1e-10 * smax {
+                match SvdSolver::new(&s, floor / smax) {
+                    Ok(v) => v,
+                    Err(_) => return false,
+                }
+            } else {
+                svd
+            };
+            if svd.solve_min_norm(&rhs, &mut zeta).is_err() {
+                return false;
+            }
+        }
+        for (c, z) in zeta.iter().enumerate() {
+            if *z != 0.0 {
+                let col = &st.ycols[c * size..(c + 1) * size];
+                for (x, y) in st.x.iter_mut().zip(col) {
+                    *x -= z * y;
+                }
+            }
+        }
+        for (c, &k) in st.dropped.iter().enumerate() {
+            st.x[f.row_position(k)] = zeta[c];
+        }
         true
     }
 
