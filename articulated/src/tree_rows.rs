@@ -24,12 +24,13 @@
 //! extra rows, and the node block `D_k` is factored `LDLᵀ` without pivoting in that
 //! order, so the extra rows are eliminated after the rows they share a node with: the
 //! pivot of a contact row is `−G D⁻¹ Gᵀ` through the joint above it (negative definite,
-//! as a joint's), and an extra row that depends on the joints (a contact of a link
-//! whose motion the joints and the other contacts already fix) has a zero pivot there
-//! and is dropped (`ζ = 0`), as the dependent rows of a joint are: the joints stay
-//! hard and the one-sided rows give way, as in the dense path where they are solved on
-//! the joint-constrained Delassus matrix. No fill-in appears: eliminating a node still
-//! touches only its parent. Node blocks have any size (`base + extra` rows), held in
+//! as a joint's). An extra row whose pivot is zero is dropped (`ζ = 0`, the factor is
+//! that of the system without it): either it depends on the rows before it, or — the
+//! usual case — the node has more rows than its child subtree has freedoms (a foot's
+//! contacts under its hinge), so it is dependent only within the subtree; the caller
+//! solves the dropped rows by their small Schur complement (`world/active_set.rs`).
+//! The joints' base rows come first, so they stay hard. No fill-in appears:
+//! eliminating a node still touches only its parent. Node blocks have any size (`base + extra` rows), held in
 //! flat arenas reused across steps.
 //!
 //! Tolerances: a base pivot is dropped below `1e-12 ×` the largest base diagonal of its

@@ -24,6 +24,10 @@
 //! row identity (limit: joint, degree of freedom, side; contact: collider pair and
 //! feature id, axis).
 //!
+//! Active rows whose pivot the factor drops (more rows at a node than its subtree has
+//! freedoms) are solved by their Schur complement after each factor solve, as loop
+//! rows are; rows still unsatisfied after it are dependent and checked by value.
+//!
 //! Eligible rows keep the tree a tree ([`crate::tree_rows`]): limits and dry friction
 //! of tree joints, contacts with the static world. A step with another row (a
 //! body–body contact, a row of a loop joint), with loop joints, or whose set does not
