@@ -250,7 +250,7 @@ impl World {
                 st.x[f.row_position(k)] = self.urows[i].bias;
             }
             f.solve(&self.solver, &mut st.x);
-            if !self.dropped_rows_schur(st) {
+            if !self.dropped_rows_schur(st, tol_w) {
                 return false;
             }
             let f = &st.factor;
@@ -368,9 +368,10 @@ impl World {
     /// `(G_D Y) ζ_D = G_D x_A − bias_D` by SVD for the minimum-norm `ζ_D` (singular
     /// values below `1e-10 ×` the rows' scale without joints, `max g M⁻¹ gᵀ`, are
     /// truncated: those directions are dependent and keep `ζ = 0`), then
-    /// `x = x_A − Y ζ_D`. `false` when the small solve fails or too many rows dropped
+    /// `x = x_A − Y ζ_D`; skipped when the other rows already hold every dropped one
+    /// (`|w| ≤ tol_w`). `false` when the small solve fails or too many rows dropped
     /// (more than [`MAX_DROPPED`]: the dense path is as cheap).
-    fn dropped_rows_schur(&self, st: &mut ActiveSet) -> bool {
+    fn dropped_rows_schur(&self, st: &mut ActiveSet, tol_w: f64) -> bool {
         st.dropped.clear();
         let f = &st.factor;
         for k in 0..st.map.len() {
@@ -379,7 +380,12 @@ impl World {
             }
         }
         let d = st.dropped.len();
-        if d == 0 {
+        // Rows the others already hold (|w| ≤ tol) need nothing more.
+        let held = st.dropped.iter().all(|&k| {
+            let r = &self.urows[st.map[k]];
+            (gather(f, &st.x, r) - r.bias).abs() <= tol_w
+        });
+        if held {
             return true;
         }
         if d > MAX_DROPPED {
