@@ -71,6 +71,10 @@ def read_controls(path, model):
         fail(f"{path}: the first column must be t")
     ids = []
     for c in cols[1:]:
+        # `#k`: the actuator of index k (0-based), for actuators without a name.
+        if c.startswith("#") and c[1:].isdigit() and int(c[1:]) < model.nu:
+            ids.append(int(c[1:]))
+            continue
         i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, c)
         if i < 0:
             fail(f"{path}: column {c!r} is not an actuator of the model")

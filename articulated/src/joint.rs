@@ -97,7 +97,8 @@ impl JointRows {
 impl Joint {
     /// A bound on the scale of the joint's curvature per unit multiplier: the longer of
     /// the two anchor lever arms (m), plus 1 for joints with orientation rows (dot
-    /// products of unit vectors), so that `|Σ λ_r ∂²C_r| ≤ 2 lever Σ|λ_r|`.
+    /// products of unit vectors), so that `|Σ λ_r ∂²C_r| ≤ 2 lever Σ|λ_r|`; a compound
+    /// joint on skew hinge lines `δ` apart adds `(1 + arm)²/δ`.
     pub fn lever(&self) -> f64 {
         let (a, b) = match &self.kind {
             JointKind::Spherical(c) => (c.anchor_a(), c.anchor_b()),
@@ -108,6 +109,13 @@ impl Joint {
             JointKind::Compound(c, _) => (c.anchor_a(), c.anchor_b()),
         };
         let arm = a.length().max(b.length());
+        // Hinges on skew lines: the distance row (d·d − δ²)/(2δ) curves as
+        // (JᵀJ + H_d[d])/δ, |JᵀJ| ≤ 2(1 + arm)².
+        if let JointKind::Compound(c, _) = &self.kind {
+            if let Some(delta) = c.skew_distance() {
+                return arm + 1.0 + (1.0 + arm) * (1.0 + arm) / delta;
+            }
+        }
         match self.kind {
             JointKind::Spherical(_) | JointKind::Distance(_) => arm,
             _ => arm + 1.0,

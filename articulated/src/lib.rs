@@ -41,6 +41,6 @@ pub use mjcf::MjcfScene;
 #[cfg(feature = "contact")]
 pub use world::CollisionFilter;
 pub use world::{
-    Actuator, DofSpring, Fluid, GeometricStiffness, Method, RowSource, StepStats, Target, Tendon,
-    UnilateralSettings, UnilateralStats, World,
+    Actuator, DofSpring, Equality, Fluid, GeometricStiffness, Method, RowSource, StepStats, Target,
+    Tendon, Terms, UnilateralSettings, UnilateralStats, World,
 };

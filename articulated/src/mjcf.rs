@@ -13,7 +13,10 @@
 //! | `slide` | [`Prismatic`] along the axis, damping on the sliding rate |
 //! | `free` / `freejoint` | no constraint |
 //! | no joint | [`Fixed`] weld to the parent (or the world) |
+//! | several joints | [`Compound`]: slides, then hinges whose lines meet in one point (up to three) or two hinges alone on skew lines ([`Compound::from_lines`]) |
 //! | `equality/connect` | [`Spherical`] between `body1` and `body2` at the anchor |
+//! | `equality/joint`, `equality/tendon` | a hard [`Equality`] row (`solref`/`solimp` not modelled) |
+//! | tendon `range` (`limited`) | two one-sided rows, [`World::set_tendon_range`] |
 //!
 //! The initial state is the keyframe's (MuJoCo's generalized `qpos`/`qvel` converted to
 //! body poses and twists by the loader), or the default pose at rest. Geoms only
@@ -24,13 +27,15 @@ use alloc::string::{String, ToString};
 use alloc::vec::Vec;
 
 use constraint_core::compound::MAX_DOF;
-use constraint_core::{Compound, DMat3, DQuat, DVec3, Fixed, Hinge, Pose, Prismatic, Spherical};
+use constraint_core::{
+    Compound, ConstraintError, DMat3, DQuat, DVec3, Fixed, Hinge, Pose, Prismatic, Spherical,
+};
 use constraint_mjcf::{JointKind as MjKind, Model, Transmission};
 
 use crate::body::RigidBody;
 use crate::error::ArticulatedError;
 use crate::joint::{Joint, JointKind};
-use crate::world::{Actuator, DofSpring, Target, Tendon, World};
+use crate::world::{Actuator, DofSpring, Equality, Target, Tendon, World};
 
 /// A world built from an MJCF model, with the model's names and time step.
 #[derive(Clone, Debug)]
@@ -150,19 +155,34 @@ impl MjcfScene {
                     let shared = many[first_hinge..]
                         .iter()
                         .all(|j| hinge_pos.is_some_and(|p| (v3(j.pos) - p).length() <= 1e-9));
-                    if !shape_ok || !shared {
-                        return Err(scene_err(format!(
-                            "body {:?} (line {}): this combination of joints is not supported (slides first, then hinges through one point)",
+                    let unsupported = || {
+                        scene_err(format!(
+                            "body {:?} (line {}): this combination of joints is not supported (slides first, then hinges whose lines meet in one point, or two hinges alone on skew lines)",
                             b.name, b.line
-                        )));
+                        ))
+                    };
+                    if !shape_ok {
+                        return Err(unsupported());
                     }
                     let slides: Vec<DVec3> =
                         many[..first_hinge].iter().map(|j| v3(j.axis)).collect();
                     let hinges: Vec<DVec3> =
                         many[first_hinge..].iter().map(|j| v3(j.axis)).collect();
-                    let anchor = origin + r * hinge_pos.unwrap_or(DVec3::ZERO);
-                    let c =
-                        Compound::from_world(&pa, &pb, anchor, &slides, &hinges).map_err(wrap)?;
+                    let c = if shared {
+                        let anchor = origin + r * hinge_pos.unwrap_or(DVec3::ZERO);
+                        Compound::from_world(&pa, &pb, anchor, &slides, &hinges).map_err(wrap)?
+                    } else {
+                        // Hinges at different `pos`: their lines (world point, axis in
+                        // the body frame) decide the form.
+                        let lines: Vec<(DVec3, DVec3)> = many[first_hinge..]
+                            .iter()
+                            .map(|j| (origin + r * v3(j.pos), v3(j.axis)))
+                            .collect();
+                        Compound::from_lines(&pa, &pb, &slides, &lines).map_err(|e| match e {
+                            ConstraintError::HingesNotConcurrent => unsupported(),
+                            e => wrap(e),
+                        })?
+                    };
                     let mut d = [0.0; MAX_DOF];
                     for (k, j) in many.iter().enumerate() {
                         d[k] = j.damping;
@@ -235,9 +255,6 @@ impl MjcfScene {
         let mut tendon_ref = Vec::with_capacity(model.tendons.len());
         for t in &model.tendons {
             let at = |e: String| scene_err(format!("tendon {:?} (line {}): {e}", t.name, t.line));
-            if t.limited {
-                return Err(at("tendon limits are not supported by the world yet".into()));
-            }
             if t.frictionloss != 0.0 {
                 return Err(at(
                     "tendon frictionloss is not supported by the world yet".into()
@@ -271,8 +288,16 @@ impl MjcfScene {
                     rest_length,
                 })
                 .map_err(|e| at(e.to_string()))?;
+            if t.limited {
+                // MuJoCo's length is ours plus `Σ c ref`.
+                let wt = world.tendons().len() - 1;
+                world
+                    .set_tendon_range(wt, t.range[0] - offset, t.range[1] - offset)
+                    .map_err(|e| at(e.to_string()))?;
+            }
             tendon_ref.push(offset);
         }
+        add_equalities(model, &mut world, &placed, &mut warnings)?;
         // Actuators (MuJoCo's general form; `length = gear q` over MuJoCo's coordinate,
         // ours plus `ref`, folded into the constant bias).
         for a in &model.actuators {
@@ -410,6 +435,93 @@ impl MjcfScene {
     }
 }
 
+/// The active `equality/joint` and `equality/tendon` elements as hard [`Equality`] rows:
+/// `q₁ − q₁₀ = P(q₂ − q₂₀)` over MuJoCo's coordinates, which are ours plus `ref`
+/// (`q₀ = ref`), so `q₁ = P(q₂)` over ours; tendon lengths likewise (`L − L₀` is ours,
+/// zero at `qpos0`). Errors name the element and its line: `joint1 == joint2` (or
+/// `tendon1 == tendon2`), a joint that is not a hinge or slide, a tendon with no
+/// joints, a non-finite `polycoef`. Inactive elements are left out (MuJoCo starts them
+/// disabled).
+fn add_equalities(
+    model: &Model,
+    world: &mut World,
+    placed: &[Option<(usize, usize)>],
+    warnings: &mut Vec<String>,
+) -> Result<(), ArticulatedError> {
+    let err = |what: &str, name: &str, line: u32, e: &dyn core::fmt::Display| {
+        scene_err(format!("equality {what} {name:?} (line {line}): {e}"))
+    };
+    let coordinate = |k: usize| {
+        placed[k]
+            .filter(|_| matches!(model.joints[k].kind, MjKind::Hinge | MjKind::Slide))
+            .map(|(wj, dof)| alloc::vec![(wj, dof, 1.0)])
+    };
+    let mut count = 0;
+    for e in model.joint_equalities.iter().filter(|e| e.active) {
+        let at = |m: &dyn core::fmt::Display| err("joint", &e.name, e.line, m);
+        if e.joint2 == Some(e.joint1) {
+            return Err(at(&"joint1 and joint2 are the same joint"));
+        }
+        let side = |k: usize| {
+            coordinate(k).ok_or_else(|| {
+                at(&format!(
+                    "joint {:?}: only hinge and slide joints can be coupled",
+                    model.joints[k].name
+                ))
+            })
+        };
+        let first = side(e.joint1)?;
+        let second = match e.joint2 {
+            Some(k) => side(k)?,
+            None => Vec::new(),
+        };
+        world
+            .add_equality(Equality {
+                first,
+                second,
+                polycoef: e.polycoef,
+            })
+            .map_err(|x| at(&x))?;
+        count += 1;
+    }
+    for e in model.tendon_equalities.iter().filter(|e| e.active) {
+        let at = |m: &dyn core::fmt::Display| err("tendon", &e.name, e.line, m);
+        if e.tendon2 == Some(e.tendon1) {
+            return Err(at(&"tendon1 and tendon2 are the same tendon"));
+        }
+        let side = |t: usize| {
+            let terms = world.tendons().get(t).map(|t| t.terms.clone());
+            match terms {
+                Some(terms) if !terms.is_empty() => Ok(terms),
+                _ => Err(at(&format!(
+                    "tendon {:?} has no joints",
+                    model.tendons.get(t).map_or("?", |t| t.name.as_str())
+                ))),
+            }
+        };
+        let first = side(e.tendon1)?;
+        let second = match e.tendon2 {
+            Some(t) => side(t)?,
+            None => Vec::new(),
+        };
+        world
+            .add_equality(Equality {
+                first,
+                second,
+                polycoef: e.polycoef,
+            })
+            .map_err(|x| at(&x))?;
+        count += 1;
+    }
+    // One warning per file: the loader's when the file tunes solref/solimp, else this.
+    if count > 0 && !warnings.iter().any(|w| w.contains("solref")) {
+        warnings.push(format!(
+            "{count} equality row(s) enforced as hard constraints (MuJoCo's solref/solimp softness is not modelled)"
+        ));
+    }
+    Ok(())
+}
+
 /// Elements the world does not model yet: a typed error naming the element and line
 /// (never a silently different model).
 fn reject_unsupported(model: &Model) -> Result<(), ArticulatedError> {
@@ -418,12 +530,6 @@ fn reject_unsupported(model: &Model) -> Result<(), ArticulatedError> {
             "line {line}: {what} {name:?} is not supported by the world yet"
         )))
     };
-    if let Some(e) = model.joint_equalities.iter().find(|e| e.active) {
-        return no("equality joint", &e.name, e.line);
-    }
-    if let Some(e) = model.tendon_equalities.iter().find(|e| e.active) {
-        return no("equality tendon", &e.name, e.line);
-    }
     if let Some(e) = model.welds.iter().find(|e| e.active) {
         return no("equality weld", &e.name, e.line);
     }

@@ -18,6 +18,19 @@
 //!   `(R_a n_k) · (R_b e₁) = 0`, `n_h = 2`: one row `(R_a e₁) · (R_b e₂) = e₁ · e₂`
 //!   (a universal joint), `n_h = 3`: none (a ball joint).
 //!
+//! The hinges need not share their MuJoCo `pos`: what matters is their lines. When the
+//! lines pass through one point (the least-squares point of the lines,
+//! [`Compound::from_lines`]) that point is the anchor. Two hinges alone on **skew** lines
+//! (an offset universal joint, dm_control humanoid's ankle) compose as
+//! `B = Rot(L₁, q₁) Rot(L₂, q₂) B₀`: `L₁` is fixed in `a` (nothing moves it), `L₂` in
+//! `b` (a rotation leaves its own line in place). With `P₁` (on `L₁`, in `a`) and `p₂`
+//! (on `L₂`, in `b`) the feet of their common perpendicular at rest, `A₁` and `a₂` the
+//! axes, `d = (x_b + R_b p₂) − (x_a + R_a P₁)` and `δ = |d|` at rest, the motion keeps
+//! `d ⊥ L₁`, `d ⊥ L₂`, `|d| = δ` and the angle between the lines: four rows
+//! `(R_a A₁)·d`, `d·(R_b a₂)`, `(d·d − δ²)/(2δ)`, `(R_a A₁)·(R_b a₂) − A₁·a₂` (the
+//! first three in metres, the third scaled to a unit gradient). The relative rotation is
+//! the universal joint's, so the coordinates and rate rows are the same.
+//!
 //! Every row is a dot product of [`crate::frame_expr`] vectors, so value, Jacobian and
 //! curvature come from the same derivation as the other joints (and are checked the
 //! same way). [`Compound::coordinates`] recovers MuJoCo's `qpos` of the composed joints
@@ -55,7 +68,15 @@ pub struct Compound {
     orient: Orientation,
     /// The rest relative rotation `R_off = A₀ᵀ B₀`.
     rel0: DQuat,
+    /// Two hinges on skew lines: the rest distance `δ > 0` between them (then
+    /// `point.r_a` is the foot `P₁` on the first line, in `a`, and `point.r_b` the foot
+    /// `p₂` on the second, in `b`); `None` for hinges through one anchor.
+    skew: Option<f64>,
 }
+
+/// Relative tolerance on the lines meeting in one point (of the spread of the points
+/// given on them).
+pub const CONCURRENT_TOL: f64 = 1e-9;
 
 /// Orthonormal complement of independent unit vectors `v[..n]` (Gram–Schmidt), or `None`
 /// when they are dependent.
@@ -211,7 +232,102 @@ impl Compound {
             c0: axes[0].dot(axes[1]),
             orient: Orientation::from_world(a, b),
             rel0,
+            skew: None,
         })
+    }
+
+    /// A compound joint whose hinges are given as lines: `hinges[k] = (x_k, e_k)` with
+    /// `x_k` a world point on the line at rest and `e_k` the axis in `b`'s frame
+    /// (MuJoCo's `pos` and `axis`, `pos` taken to the world). When every `x_k` is the same
+    /// point this is [`Self::from_world`] at it (bit for bit). Otherwise the anchor is
+    /// the least-squares point of the lines, `p = (Σ (I − u_k u_kᵀ))⁻¹ Σ (I − u_k u_kᵀ)
+    /// x_k` (`u_k = R_b e_k`), accepted when every line passes within
+    /// [`CONCURRENT_TOL`] × `max_k |x_k − x_1|` of it; failing that, two hinges without
+    /// slides make an offset universal joint (module documentation). No hinges: the
+    /// anchor is `b`'s centre. Errors: as [`Self::from_world`], and
+    /// [`ConstraintError::HingesNotConcurrent`] for lines that meet in no point (more
+    /// than two hinges, or slides before them).
+    pub fn from_lines(
+        a: &Pose,
+        b: &Pose,
+        slides: &[DVec3],
+        hinges: &[(DVec3, DVec3)],
+    ) -> Result<Self, ConstraintError> {
+        if hinges.len() > 3 {
+            return Err(ConstraintError::DependentAxes);
+        }
+        let mut axes = [DVec3::ZERO; 3];
+        for (k, (x, e)) in hinges.iter().enumerate() {
+            if !x.is_finite() {
+                return Err(ConstraintError::NonFinite);
+            }
+            axes[k] = *e;
+        }
+        let axes = &axes[..hinges.len()];
+        let Some(&(x1, _)) = hinges.first() else {
+            return Self::from_world(a, b, b.x, slides, &[]);
+        };
+        if hinges.iter().all(|(x, _)| *x == x1) {
+            return Self::from_world(a, b, x1, slides, axes);
+        }
+        // Validates poses and axes (parallel or coplanar hinges) before the geometry.
+        let base = Self::from_world(a, b, x1, slides, axes)?;
+        let mut m = glam::DMat3::ZERO;
+        let mut rhs = DVec3::ZERO;
+        let mut u = [DVec3::ZERO; 3];
+        let mut spread: f64 = 0.0;
+        for (k, (x, e)) in hinges.iter().enumerate() {
+            u[k] = b.q * unit(*e)?;
+            let p = glam::DMat3::IDENTITY - crate::math::outer(u[k], u[k]);
+            m += p;
+            rhs += p * *x;
+            spread = spread.max((*x - x1).length());
+        }
+        let det = m.determinant();
+        if !(det.abs() > 1e-12) || !(spread.is_finite()) {
+            return Err(ConstraintError::DependentAxes);
+        }
+        let p = m.inverse() * rhs;
+        let miss = hinges
+            .iter()
+            .zip(&u)
+            .map(|((x, _), u)| {
+                let r = p - *x;
+                (r - *u * u.dot(r)).length()
+            })
+            .fold(0.0, f64::max);
+        if miss <= CONCURRENT_TOL * spread {
+            return Self::from_world(a, b, p, slides, axes);
+        }
+        if !slides.is_empty() || hinges.len() != 2 {
+            return Err(ConstraintError::HingesNotConcurrent);
+        }
+        // Feet of the common perpendicular: (P₂ − P₁) ⊥ u₁, u₂.
+        let (x2, w0) = (hinges[1].0, x1 - hinges[1].0);
+        let k = u[0].dot(u[1]);
+        let (dd, ee) = (u[0].dot(w0), u[1].dot(w0));
+        let den = 1.0 - k * k;
+        let p1 = x1 + u[0] * ((k * ee - dd) / den);
+        let p2 = x2 + u[1] * ((ee - k * dd) / den);
+        let point = Point {
+            r_a: a.to_local(p1),
+            r_b: b.to_local(p2),
+        };
+        let delta = point.sep(a, b).value.length();
+        if !(delta > 0.0) || !delta.is_finite() {
+            return Err(ConstraintError::HingesNotConcurrent);
+        }
+        Ok(Self {
+            point,
+            skew: Some(delta),
+            ..base
+        })
+    }
+
+    /// The rest distance between the two hinge lines of an offset universal joint
+    /// ([`Self::from_lines`]); `None` when the hinges share one anchor.
+    pub fn skew_distance(&self) -> Option<f64> {
+        self.skew
     }
 
     /// Number of slides.
@@ -234,18 +350,19 @@ impl Compound {
         MAX_DOF - self.dof()
     }
 
-    /// Anchor in body `a`'s frame.
+    /// Anchor in body `a`'s frame (hinges on skew lines: the foot `P₁` on the first).
     pub fn anchor_a(&self) -> DVec3 {
         self.point.r_a
     }
 
-    /// Anchor in body `b`'s frame.
+    /// Anchor in body `b`'s frame (hinges on skew lines: the foot `p₂` on the second).
     pub fn anchor_b(&self) -> DVec3 {
         self.point.r_b
     }
 
     /// Whether the joint has translation rows (fewer than three slides); their values
-    /// are the first [`Self::translation_rows`] entries of the value.
+    /// are the first [`Self::translation_rows`] entries of the value (hinges on skew
+    /// lines: the three rows in metres, `d ⊥ L₁`, `d ⊥ L₂`, `|d| = δ`).
     pub fn translation_rows(&self) -> usize {
         3 - self.n_slides
     }
@@ -363,6 +480,20 @@ impl Compound {
         };
         let mut r = 0;
         let d = self.point.sep(a, b);
+        if let Some(delta) = self.skew {
+            let ea = FrameExpr::dir_a(a, self.e1_a);
+            let eb = FrameExpr::dir_b(b, self.axes[1]);
+            let s = 0.5 / delta;
+            j.value[0] = ea.value.dot(d.value);
+            j.rows[0] = dot_grad(&ea, &d);
+            j.value[1] = d.value.dot(eb.value);
+            j.rows[1] = dot_grad(&d, &eb);
+            j.value[2] = (d.value.dot(d.value) - delta * delta) * s;
+            j.rows[2] = dot_grad(&d, &d).map(|g| g * s);
+            j.value[3] = ea.value.dot(eb.value) - self.c0;
+            j.rows[3] = dot_grad(&ea, &eb);
+            return j;
+        }
         for k in 0..3 - self.n_slides {
             let na = FrameExpr::dir_a(a, self.normals[k]);
             j.value[r] = na.value.dot(d.value);
@@ -398,6 +529,15 @@ impl Compound {
         let mut h = TwistCurvature::ZERO;
         let mut r = 0;
         let d = self.point.sep(a, b);
+        if let Some(delta) = self.skew {
+            let ea = FrameExpr::dir_a(a, self.e1_a);
+            let eb = FrameExpr::dir_b(b, self.axes[1]);
+            add_dot_hessian(&ea, &d, w[0], &mut h);
+            add_dot_hessian(&d, &eb, w[1], &mut h);
+            add_dot_hessian(&d, &d, w[2] * 0.5 / delta, &mut h);
+            add_dot_hessian(&ea, &eb, w[3], &mut h);
+            return h;
+        }
         for k in 0..3 - self.n_slides {
             add_dot_hessian(&FrameExpr::dir_a(a, self.normals[k]), &d, w[r], &mut h);
             r += 1;

@@ -27,6 +27,10 @@ pub enum ConstraintError {
     /// The axes of a compound joint are dependent (two parallel hinges, three coplanar
     /// hinges, dependent slides) or more than three of a kind.
     DependentAxes,
+    /// The hinge lines of a compound joint neither pass through one point nor are two
+    /// hinges alone (an offset universal joint): MuJoCo's composition of them is not one
+    /// of the forms [`crate::Compound`] holds.
+    HingesNotConcurrent,
 }
 
 impl fmt::Display for ConstraintError {
@@ -42,6 +46,7 @@ impl fmt::Display for ConstraintError {
             Self::IndexOutOfBounds => "a stencil index is out of bounds of the rest positions",
             Self::NonUnitQuaternion => "orientation quaternion is not of unit length",
             Self::DependentAxes => "compound joint axes are dependent (parallel hinges, coplanar hinges or dependent slides)",
+            Self::HingesNotConcurrent => "compound joint hinge lines do not meet in one point (only two hinges alone may be on skew lines)",
         };
         f.write_str(s)
     }

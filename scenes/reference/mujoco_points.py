@@ -4,7 +4,7 @@
 
 Run from the repository root with the pinned MuJoCo 4.0.0 virtual environment that
 `cargo xtask mujoco` creates under target/ (run any `cargo xtask mujoco` command once
-first). For each scene (default: all seven) × integrator (euler, implicitfast, rk4) × dt
+first). For each scene (default: all twelve) × integrator (euler, implicitfast, rk4) × dt
 (4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4, 1e-4) it
 
 1. runs the scene from keyframe `start` over 1 s with `mj_step` and compares it with the
@@ -37,7 +37,8 @@ from mujoco import rollout
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCENES = ["pendulum", "double_pendulum", "spherical_pendulum", "four_bar", "chain20",
-          "chain20_heavy", "chain100"]
+          "chain20_heavy", "chain100", "planar_leg", "two_hinge_pendulum", "pendulum_damped",
+          "actuated", "fluid_drag"]
 INTEGRATORS = [("euler", mujoco.mjtIntegrator.mjINT_EULER),
                ("implicitfast", mujoco.mjtIntegrator.mjINT_IMPLICITFAST),
                ("rk4", mujoco.mjtIntegrator.mjINT_RK4)]

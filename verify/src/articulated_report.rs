@@ -22,8 +22,11 @@ use crate::chart::{pareto_front, LogLogChart, Series};
 use crate::scene::{self, RunOptions};
 use crate::trajectory::{compare, Trajectory};
 
-/// Every MJCF scene with a committed reference, in report order.
-pub const SCENES: [&str; 7] = [
+/// Every MJCF scene with a committed reference, in report order: the seven joint-only
+/// scenes, then the one world's smooth scenes (a planar root with a hinged leg, two hinges
+/// in one body, a damped hinge, a motor-driven prismatic joint at zero control, fluid
+/// drag).
+pub const SCENES: [&str; 12] = [
     "pendulum",
     "double_pendulum",
     "spherical_pendulum",
@@ -31,6 +34,11 @@ pub const SCENES: [&str; 7] = [
     "chain20",
     "chain20_heavy",
     "chain100",
+    "planar_leg",
+    "two_hinge_pendulum",
+    "pendulum_damped",
+    "actuated",
+    "fluid_drag",
 ];
 
 /// Our methods on the work-precision charts: every name of [`scene::METHODS`] except

@@ -42,6 +42,7 @@
 
 pub mod articulated_report;
 pub mod articulated_stability;
+pub mod bar_chart;
 pub mod chain_stability;
 pub mod chart;
 pub mod contact_report;
@@ -51,6 +52,7 @@ pub mod fd;
 pub mod hard;
 pub mod heatmap;
 pub mod html;
+pub mod models_report;
 pub mod par;
 pub mod particle_report;
 pub mod scene;

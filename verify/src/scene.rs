@@ -127,7 +127,8 @@ pub struct Controls {
 
 impl Controls {
     /// Parses a control CSV (`t,<actuator>...` header, one row per change) against the
-    /// scene's actuator names. Errors name the line: a missing `t` column, an unknown
+    /// scene's actuator names; a column `#k` is the actuator of index `k` (MuJoCo's
+    /// order; how an actuator without a name is addressed). Errors name the line: a missing `t` column, an unknown
     /// or repeated actuator, a wrong number of fields, a non-number or non-finite value,
     /// times not strictly increasing.
     pub fn parse(text: &str, actuators: &[String]) -> Result<Self, String> {
@@ -142,7 +143,12 @@ impl Controls {
         }
         let mut index = Vec::with_capacity(cols.len() - 1);
         for c in &cols[1..] {
-            let Some(i) = actuators.iter().position(|a| a == c) else {
+            // `#k`: the actuator of index k (0-based), for actuators without a name.
+            let by_index = c
+                .strip_prefix('#')
+                .and_then(|k| k.parse::<usize>().ok())
+                .filter(|&k| k < actuators.len());
+            let Some(i) = by_index.or_else(|| actuators.iter().position(|a| a == c)) else {
                 return Err(format!(
                     "ctrl file: column {c:?} is not an actuator of the scene"
                 ));
@@ -198,10 +204,107 @@ impl Controls {
     }
 }
 
+/// Figures of a whole run, gathered after every step outside the timed part
+/// (`simulate --summary`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Summary {
+    /// Steps taken.
+    pub steps: u64,
+    /// The step (s).
+    pub dt: f64,
+    /// Wall time spent stepping (s).
+    pub seconds_stepping: f64,
+    /// Every body's position, velocity and angular velocity finite at the end.
+    pub finite: bool,
+    /// Largest joint separation at any step, `max_t World::max_separation` (m).
+    pub max_joint_separation: f64,
+    /// Deepest contact penetration at the start of any step (m).
+    pub max_penetration: f64,
+    /// Deepest penetration over the second half of the run, once settled (m).
+    pub settled_penetration: f64,
+    /// Total energy `E_kin + E_pot` at the start (J).
+    pub energy_initial: f64,
+    /// `max_t (E(t) − E(0))`, zero if the energy never rose above its start (J).
+    pub max_energy_increase: f64,
+    /// Total energy at the end (J).
+    pub energy_final: f64,
+    /// Most contact points at any step.
+    pub max_contacts: usize,
+    /// Time (s) of the first state with a contact (the start of the first step that
+    /// found one); `None`: no contact.
+    pub first_contact_time: Option<f64>,
+    /// Height (z, m) of the first body's origin at the end (the root of a walker).
+    pub root_height: f64,
+    /// Actuators and collision geoms of the world (energy may only fall without the
+    /// first, and without the second unless contacts push bodies apart).
+    pub actuators: usize,
+    /// Colliders of the world.
+    pub colliders: usize,
+}
+
+impl Summary {
+    /// One flat JSON object (numbers in shortest round-trip form; a non-finite number
+    /// is written as `null`).
+    pub fn to_json(&self) -> String {
+        let num = |v: f64| {
+            if v.is_finite() {
+                format!("{v:?}")
+            } else {
+                "null".to_string()
+            }
+        };
+        let per_step = if self.steps > 0 {
+            self.seconds_stepping / self.steps as f64 * 1e6
+        } else {
+            f64::NAN
+        };
+        format!(
+            "{{\"steps\":{},\"dt\":{},\"seconds_stepping\":{},\"us_per_step\":{},\"finite\":{},\
+             \"max_joint_separation\":{},\"max_penetration\":{},\"settled_penetration\":{},\
+             \"energy_initial\":{},\"max_energy_increase\":{},\"energy_final\":{},\
+             \"max_contacts\":{},\"first_contact_time\":{},\"root_height\":{},\
+             \"actuators\":{},\"colliders\":{}}}",
+            self.steps,
+            num(self.dt),
+            num(self.seconds_stepping),
+            num(per_step),
+            self.finite,
+            num(self.max_joint_separation),
+            num(self.max_penetration),
+            num(self.settled_penetration),
+            num(self.energy_initial),
+            num(self.max_energy_increase),
+            num(self.energy_final),
+            self.max_contacts,
+            num(self.first_contact_time.unwrap_or(f64::NAN)),
+            num(self.root_height),
+            self.actuators,
+            self.colliders
+        )
+    }
+}
+
 /// Loads `path`, runs it and returns the trajectory (first row at `t = 0`, times exact
 /// multiples of the step) and the wall time spent stepping (s). Any error, including
 /// divergence, is one line of text.
 pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> {
+    run_inner(path, opts, false).map(|(t, s, _)| (t, s))
+}
+
+/// [`run`], and the run's [`Summary`] (its figures are gathered after every step with
+/// the clock paused, so the time per step is the same as [`run`]'s).
+pub fn run_with_summary(
+    path: &Path,
+    opts: &RunOptions,
+) -> Result<(Trajectory, f64, Summary), String> {
+    run_inner(path, opts, true)
+}
+
+fn run_inner(
+    path: &Path,
+    opts: &RunOptions,
+    collect: bool,
+) -> Result<(Trajectory, f64, Summary), String> {
     let model = constraint_mjcf::load_file(path).map_err(|e| format!("scene: {e}"))?;
     let collides = !model.contact_disabled
         && model
@@ -216,7 +319,7 @@ pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> 
         matches!((js.next(), js.next()), (Some(j), None) if j.kind == constraint_mjcf::JointKind::Free)
     });
     if collides && all_free {
-        return run_contact(&model, opts);
+        return run_contact(&model, opts, collect);
     }
     let mut scene = MjcfScene::new(&model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
     warn_once(&scene.warnings);
@@ -242,7 +345,22 @@ pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> 
     let m = method(&opts.method, h)?;
     let mut traj = Trajectory::for_bodies(&scene.body_names);
     traj.push(0.0, &scene.world);
-    // Only the steps are timed: the clock pauses while a row is recorded.
+    let total = |w: &constraint_articulated::World| {
+        let (k, p) = w.energy();
+        k + p
+    };
+    let e0 = total(&scene.world);
+    let mut sum = Summary {
+        dt: h,
+        energy_initial: e0,
+        energy_final: e0,
+        max_joint_separation: scene.world.max_separation(),
+        actuators: scene.world.actuators().len(),
+        colliders: scene.world.colliders().len(),
+        ..Summary::default()
+    };
+    // Only the steps are timed: the clock pauses while a row is recorded or the summary
+    // gathered.
     let mut start = std::time::Instant::now();
     let mut stepping = 0.0;
     for i in 1..=steps {
@@ -252,14 +370,44 @@ pub fn run(path: &Path, opts: &RunOptions) -> Result<(Trajectory, f64), String> 
             }
         }
         scene.world.step(h, m).map_err(|e| e.to_string())?;
-        if i % opts.every as u64 == 0 {
+        let record = i % opts.every as u64 == 0;
+        if record || collect {
             stepping += start.elapsed().as_secs_f64();
-            traj.push(i as f64 * h, &scene.world);
+            if collect {
+                let w = &scene.world;
+                let st = w.unilateral_stats();
+                sum.max_joint_separation = sum.max_joint_separation.max(w.max_separation());
+                sum.max_penetration = sum.max_penetration.max(st.max_penetration);
+                if 2 * i > steps {
+                    sum.settled_penetration = sum.settled_penetration.max(st.max_penetration);
+                }
+                sum.max_contacts = sum.max_contacts.max(st.contacts);
+                if st.contacts > 0 && sum.first_contact_time.is_none() {
+                    sum.first_contact_time = Some((i - 1) as f64 * h);
+                }
+                sum.energy_final = total(w);
+                sum.max_energy_increase = sum.max_energy_increase.max(sum.energy_final - e0);
+            }
+            if record {
+                traj.push(i as f64 * h, &scene.world);
+            }
             start = std::time::Instant::now();
         }
     }
     stepping += start.elapsed().as_secs_f64();
-    Ok((traj, stepping))
+    sum.steps = steps;
+    sum.seconds_stepping = stepping;
+    sum.finite = scene
+        .world
+        .bodies()
+        .iter()
+        .all(|b| b.pose.x.is_finite() && b.v.is_finite() && b.omega.is_finite());
+    sum.root_height = scene
+        .world
+        .bodies()
+        .first()
+        .map_or(f64::NAN, |b| b.origin().z);
+    Ok((traj, stepping, sum))
 }
 
 /// The number of steps of `h` in `opts.duration`, after checking the run options.
@@ -289,7 +437,8 @@ fn step_count(h: f64, opts: &RunOptions) -> Result<u64, String> {
 fn run_contact(
     model: &constraint_mjcf::Model,
     opts: &RunOptions,
-) -> Result<(Trajectory, f64), String> {
+    collect: bool,
+) -> Result<(Trajectory, f64, Summary), String> {
     let mut scene =
         MjcfContactScene::new(model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
     let h = opts.dt.unwrap_or(scene.timestep);
@@ -301,19 +450,50 @@ fn run_contact(
     let mut traj = Trajectory::for_bodies(&scene.body_names);
     let (k, p) = energy(&scene.world);
     traj.push_bodies(0.0, scene.world.bodies(), k, p, 0.0);
+    let e0 = k + p;
+    let mut sum = Summary {
+        dt: h,
+        energy_initial: e0,
+        energy_final: e0,
+        colliders: model.geoms.len(),
+        ..Summary::default()
+    };
     let mut start = std::time::Instant::now();
     let mut stepping = 0.0;
     for i in 1..=steps {
         let st = scene.world.step(h).map_err(|e| e.to_string())?;
-        if i % opts.every as u64 == 0 {
+        let record = i % opts.every as u64 == 0;
+        if record || collect {
             stepping += start.elapsed().as_secs_f64();
             let (k, p) = energy(&scene.world);
-            traj.push_bodies(i as f64 * h, scene.world.bodies(), k, p, st.max_penetration);
+            if collect {
+                sum.max_penetration = sum.max_penetration.max(st.max_penetration);
+                if 2 * i > steps {
+                    sum.settled_penetration = sum.settled_penetration.max(st.max_penetration);
+                }
+                sum.energy_final = k + p;
+                sum.max_energy_increase = sum.max_energy_increase.max(k + p - e0);
+            }
+            if record {
+                traj.push_bodies(i as f64 * h, scene.world.bodies(), k, p, st.max_penetration);
+            }
             start = std::time::Instant::now();
         }
     }
     stepping += start.elapsed().as_secs_f64();
-    Ok((traj, stepping))
+    sum.steps = steps;
+    sum.seconds_stepping = stepping;
+    sum.finite = scene
+        .world
+        .bodies()
+        .iter()
+        .all(|b| b.pose.x.is_finite() && b.v.is_finite() && b.omega.is_finite());
+    sum.root_height = scene
+        .world
+        .bodies()
+        .first()
+        .map_or(f64::NAN, |b| b.origin().z);
+    Ok((traj, stepping, sum))
 }
 
 /// Prints each distinct loader warning once per process (a sweep runs the same file

@@ -1393,7 +1393,7 @@ fn world_step(w: &mut World, h: f64, m: Method) -> Outcome {
 /// springs, tendons, actuators and controls, fluid, compound joints, colliders. Bad values
 /// are refused with the world unchanged; accepted ones are stepped by every method.
 fn one_world_cases(s: &mut Sweep) {
-    use constraint_articulated::{Actuator, DofSpring, Fluid, Target, Tendon};
+    use constraint_articulated::{Actuator, DofSpring, Equality, Fluid, Target, Tendon};
     use constraint_core::Compound;
     let step_all = |mut w: World| {
         for m in methods() {
@@ -1475,6 +1475,36 @@ fn one_world_cases(s: &mut Sweep) {
                 Ok(_) => step_all(w),
             }
         });
+        s.case(format!("World::add_equality polycoef {v:e}"), || {
+            let mut w = pendulum();
+            let e = Equality {
+                first: vec![(1, 0, 1.0)],
+                second: vec![],
+                polycoef: [v, 0.0, 0.0, 0.0, 0.0],
+            };
+            match w.add_equality(e) {
+                Err(_) if w.equalities().is_empty() => Outcome::Rejected,
+                Err(_) => Outcome::StateChanged("equalities".into()),
+                Ok(_) => step_all(w),
+            }
+        });
+        s.case(format!("World::set_tendon_range [{v:e}, 1]"), || {
+            let mut w = pendulum();
+            let t = Tendon {
+                terms: vec![(1, 0, 1.0)],
+                stiffness: 0.0,
+                damping: 0.0,
+                rest_length: 0.0,
+            };
+            if w.add_tendon(t).is_err() {
+                return Outcome::StateChanged("valid tendon rejected".into());
+            }
+            match w.set_tendon_range(0, v, 1.0) {
+                Err(_) if w.tendon_ranges().iter().all(|r| r.is_none()) => Outcome::Rejected,
+                Err(_) => Outcome::StateChanged("tendon ranges".into()),
+                Ok(()) => step_all(w),
+            }
+        });
         s.case(format!("World::set_fluid density {v:e}"), || {
             let mut w = pendulum();
             let f = Fluid {
@@ -1537,6 +1567,49 @@ fn one_world_cases(s: &mut Sweep) {
     s.case("World::set_ctrl with no actuators", || {
         of(pendulum().set_ctrl(0, 1.0))
     });
+    s.case("World::add_equality unknown joint", || {
+        of(pendulum().add_equality(Equality {
+            first: vec![(7, 0, 1.0)],
+            second: vec![],
+            polycoef: [0.0; 5],
+        }))
+    });
+    s.case("World::add_equality on a ball joint", || {
+        of(pendulum().add_equality(Equality {
+            first: vec![(0, 0, 1.0)],
+            second: vec![],
+            polycoef: [0.0; 5],
+        }))
+    });
+    s.case("World::add_equality no terms", || {
+        of(pendulum().add_equality(Equality {
+            first: vec![],
+            second: vec![(1, 0, 1.0)],
+            polycoef: [0.0; 5],
+        }))
+    });
+    s.case("World::add_equality a joint coupled to itself", || {
+        of(pendulum().add_equality(Equality {
+            first: vec![(1, 0, 1.0)],
+            second: vec![(1, 0, 1.0)],
+            polycoef: [0.0, -1.0, 0.0, 0.0, 0.0],
+        }))
+    });
+    s.case("World::set_tendon_range unknown tendon", || {
+        of(pendulum().set_tendon_range(3, -1.0, 1.0))
+    });
+    s.case("World::add_equality and a tendon range, stepped", || {
+        let mut w = pendulum();
+        let e = Equality {
+            first: vec![(1, 0, 1.0)],
+            second: vec![],
+            polycoef: [0.2, 0.0, 0.0, 0.0, 0.0],
+        };
+        if w.add_equality(e).is_err() {
+            return Outcome::StateChanged("valid equality rejected".into());
+        }
+        step_all(w)
+    });
     s.case("World::add_actuator unknown tendon", || {
         let a = Actuator {
             target: Target::Tendon(3),
@@ -1575,6 +1648,46 @@ fn one_world_cases(s: &mut Sweep) {
     for (what, slides, hinges) in sets {
         s.case(format!("Compound::from_world {what}"), || {
             of(Compound::from_world(&a, &b, DVec3::ZERO, &slides, &hinges))
+        });
+    }
+    // Hinges as lines: non-finite points, parallel lines apart, skew lines with slides,
+    // three skew lines, huge points.
+    let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    type Lines = Vec<(DVec3, DVec3)>;
+    let line_sets: [(&str, Vec<DVec3>, Lines); 5] = [
+        (
+            "NaN point",
+            vec![],
+            vec![(DVec3::ZERO, DVec3::X), (p(f64::NAN, 0.0, 0.0), DVec3::Y)],
+        ),
+        (
+            "parallel lines apart",
+            vec![],
+            vec![(DVec3::ZERO, DVec3::X), (p(0.0, 0.1, 0.0), DVec3::X)],
+        ),
+        (
+            "slide then skew lines",
+            vec![DVec3::Z],
+            vec![(DVec3::ZERO, DVec3::X), (p(0.0, 0.0, 0.1), DVec3::Y)],
+        ),
+        (
+            "three skew lines",
+            vec![],
+            vec![
+                (DVec3::ZERO, DVec3::X),
+                (p(0.0, 0.0, 0.1), DVec3::Y),
+                (p(0.2, 0.0, 0.0), DVec3::Z),
+            ],
+        ),
+        (
+            "huge points",
+            vec![],
+            vec![(DVec3::ZERO, DVec3::X), (p(0.0, 0.0, 1e300), DVec3::Y)],
+        ),
+    ];
+    for (what, slides, lines) in line_sets {
+        s.case(format!("Compound::from_lines {what}"), || {
+            of(Compound::from_lines(&a, &b, &slides, &lines))
         });
     }
     // Colliders on the jointed world: unknown body, bad shape; contact steps.
@@ -2730,6 +2843,31 @@ fn mjcf_cases(s: &mut Sweep) {
                 "<mujoco><option timestep=\"1{}\"/></mujoco>",
                 "0".repeat(100_000)
             ),
+        ),
+        (
+            "equality joint polycoef NaN",
+            "<mujoco><worldbody><body><joint name=\"a\"/><geom size=\"0.1\"/></body><body><joint name=\"b\"/><geom size=\"0.1\"/></body></worldbody><equality><joint joint1=\"a\" joint2=\"b\" polycoef=\"0 NaN\"/></equality></mujoco>"
+                .into(),
+        ),
+        (
+            "equality tendon unknown tendon",
+            "<mujoco><worldbody><body><joint name=\"a\"/><geom size=\"0.1\"/></body></worldbody><tendon><fixed name=\"t\"><joint joint=\"a\"/></fixed></tendon><equality><tendon tendon1=\"nope\"/></equality></mujoco>"
+                .into(),
+        ),
+        (
+            "equality joint on a free joint",
+            "<mujoco><worldbody><body><joint name=\"a\"/><geom size=\"0.1\"/></body><body><freejoint name=\"f\"/><geom size=\"0.1\"/></body></worldbody><equality><joint joint1=\"a\" joint2=\"f\"/></equality></mujoco>"
+                .into(),
+        ),
+        (
+            "equality joint coupled to itself",
+            "<mujoco><worldbody><body><joint name=\"a\"/><geom size=\"0.1\"/></body></worldbody><equality><joint joint1=\"a\" joint2=\"a\"/></equality></mujoco>"
+                .into(),
+        ),
+        (
+            "tendon range lo > hi",
+            "<mujoco><worldbody><body><joint name=\"a\"/><geom size=\"0.1\"/></body></worldbody><tendon><fixed range=\"1 -1\" limited=\"true\"><joint joint=\"a\"/></fixed></tendon></mujoco>"
+                .into(),
         ),
         (
             "deep body nesting 5000",

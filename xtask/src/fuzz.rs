@@ -1,6 +1,9 @@
 //! `cargo xtask fuzz [--seconds N] [TARGET...]`: runs every cargo-fuzz target of `fuzz/`
-//! (`mjcf_load`, `lcp_solvers`, `kkt_solvers`, `world_step`, `particle_step`) for `N`
-//! seconds each (default 60), installing `cargo-fuzz` first when it is missing.
+//! (`mjcf_load`, `lcp_solvers`, `kkt_solvers`, `world_step`, `one_world`, `particle_step`)
+//! for `N` seconds each (default 60), installing `cargo-fuzz` first when it is missing.
+//! `one_world` covers the one rigid world's newer entry points: compound joints, limits,
+//! dry friction, armature, springs, tendons, actuators, controls, fluid and colliders on
+//! jointed bodies.
 //! `particle_step` covers the particle crates: soft systems under every integrator, the
 //! lagrange formulations with hard/compliant sets, and the deformable contact step.
 //!
@@ -18,11 +21,12 @@
 use crate::run::root;
 use std::process::{Command, Stdio};
 
-const TARGETS: [&str; 5] = [
+const TARGETS: [&str; 6] = [
     "mjcf_load",
     "lcp_solvers",
     "kkt_solvers",
     "world_step",
+    "one_world",
     "particle_step",
 ];
 

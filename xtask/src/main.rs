@@ -19,6 +19,7 @@ mod bench_mjcf;
 mod compare;
 mod fuzz;
 mod models;
+mod models_checks;
 mod mujoco;
 mod no_std;
 mod run;

@@ -17,7 +17,11 @@
 //! `models.md` and `models.csv` to `--out` (default `target/models/`) and prints the table.
 
 use crate::bench::fmt_ratio;
-use crate::mujoco::{ensure_venv, last_line, MUJOCO_VERSION};
+use crate::models_checks::{
+    checks, energy_checked, fatal, parse_summary, smooth_error, Summary, ENERGY_REL_TOL, JOINT_TOL,
+    PENETRATION_TOL,
+};
+use crate::mujoco::{ensure_venv, last_line, RunOptions as MjRun, MUJOCO_VERSION};
 use crate::run::{cargo, root};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -73,6 +77,8 @@ pub const MODELS: [(&str, &str); 33] = [
 /// Simulated seconds of a run (`--quick`: [`QUICK_SECONDS`]).
 pub const SECONDS: f64 = 5.0;
 pub const QUICK_SECONDS: f64 = 0.5;
+/// Simulated seconds of the controlled case (`--quick`: [`QUICK_SECONDS`]).
+pub const CTRL_SECONDS: f64 = 2.0;
 /// Our binary is stopped after this many wall seconds per model (quick: a tenth).
 const OURS_TIMEOUT_S: u64 = 300;
 
@@ -220,6 +226,21 @@ pub struct Mujoco {
     pub steps: Option<u64>,
     pub us_per_step: Option<f64>,
     pub max_ncon: Option<usize>,
+    /// `passive` (qpos0, zero control), `perturbed` (the seeded state in `qpos`/`qvel`,
+    /// zero control) or `controlled` (qpos0, the control file `ctrl`); a TSV without the
+    /// column is all `passive`.
+    pub case: String,
+    /// Most joint and tendon limit rows active at any step.
+    pub max_nlimit: Option<usize>,
+    /// Time (s) of the first state with a contact; `None`: none.
+    pub first_contact: Option<f64>,
+    /// Height of the first body's origin at the end (m).
+    pub root_z: Option<f64>,
+    /// The initial state of the case (comma-separated, MuJoCo's order), as written.
+    pub qpos: Option<String>,
+    pub qvel: Option<String>,
+    /// The control CSV of the case.
+    pub ctrl: Option<String>,
 }
 
 /// Parses the script's TSV: an optional `#mujoco_version\tV` line, a header, rows;
@@ -261,6 +282,25 @@ pub fn parse_mujoco(text: &str) -> Result<(Option<String>, Vec<Mujoco>), String>
     .iter()
     .map(|c| col(c))
     .collect::<Result<_, _>>()?;
+    let opt_col = |name: &str| header.iter().position(|h| *h == name);
+    let extra: Vec<Option<usize>> = [
+        "case",
+        "max_nlimit",
+        "qpos",
+        "qvel",
+        "ctrl",
+        "first_contact",
+        "root_z",
+    ]
+    .iter()
+    .map(|c| opt_col(c))
+    .collect();
+    let real = |v: &str, i: usize| -> Result<f64, String> {
+        v.parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or(format!("line {}: {v:?} is not a number", i + 1))
+    };
     let mut rows = Vec::new();
     for (i, line) in lines {
         let f: Vec<&str> = line.split('\t').collect();
@@ -273,14 +313,12 @@ pub fn parse_mujoco(text: &str) -> Result<(Option<String>, Vec<Mujoco>), String>
             ));
         }
         let get = |k: usize| Some(f[cols[k]]).filter(|v| *v != "-");
-        let num = |k: usize| -> Result<Option<usize>, String> {
-            get(k)
-                .map(|v| {
-                    v.parse()
-                        .map_err(|_| format!("line {}: {v:?} is not a count", i + 1))
-                })
-                .transpose()
+        let get_x = |k: usize| extra[k].map(|c| f[c]).filter(|v| *v != "-");
+        let count = |v: &str| -> Result<usize, String> {
+            v.parse()
+                .map_err(|_| format!("line {}: {v:?} is not a count", i + 1))
         };
+        let num = |k: usize| get(k).map(count).transpose();
         let us = get(9)
             .map(|v| {
                 v.parse::<f64>()
@@ -295,6 +333,10 @@ pub fn parse_mujoco(text: &str) -> Result<(Option<String>, Vec<Mujoco>), String>
                 _ => Err(format!("line {}: {v:?} is not a time step", i + 1)),
             })
             .transpose()?;
+        let case = get_x(0).unwrap_or("passive").to_string();
+        if !CASES.contains(&case.as_str()) {
+            return Err(format!("line {}: unknown case {case:?}", i + 1));
+        }
         rows.push(Mujoco {
             name: f[cols[0]].to_string(),
             status: f[cols[1]].to_string(),
@@ -308,12 +350,22 @@ pub fn parse_mujoco(text: &str) -> Result<(Option<String>, Vec<Mujoco>), String>
             us_per_step: us,
             max_ncon: num(10)?,
             integrator: get(11).map(str::to_string),
+            case,
+            max_nlimit: get_x(1).map(count).transpose()?,
+            qpos: get_x(2).map(str::to_string),
+            qvel: get_x(3).map(str::to_string),
+            ctrl: get_x(4).map(str::to_string),
+            first_contact: get_x(5).map(|v| real(v, i)).transpose()?,
+            root_z: get_x(6).map(|v| real(v, i)).transpose()?,
         });
     }
     Ok((version, rows))
 }
 
-/// Our side of one model.
+/// The cases of one model, in table order (see `xtask/models/mujoco_models.py`).
+pub const CASES: [&str; 3] = ["passive", "perturbed", "controlled"];
+
+/// Our side of one case.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Ours {
     /// A zero-duration run succeeded (the file loads and the scene builds).
@@ -321,6 +373,10 @@ pub struct Ours {
     /// `None`: ran the whole window; otherwise the binary's one-line reason.
     pub error: Option<String>,
     pub us_per_step: Option<f64>,
+    /// The run's figures (`simulate --summary`), when it finished.
+    pub summary: Option<Summary>,
+    /// The binary panicked (exit status 101 or a panic message).
+    pub panicked: bool,
 }
 
 /// Our binary's µs per step from its success line: `… (S s stepping, U µs/step)`, or the
@@ -344,21 +400,49 @@ pub fn parse_stepping(stderr: &str, steps: Option<u64>) -> Option<f64> {
     steps.filter(|&s| s > 0).map(|s| secs / s as f64 * 1e6)
 }
 
-/// The reason in a failed run's output: the first non-empty line of stderr (then stdout),
-/// without the binary's `simulate: ` prefix.
+/// The reason in a failed run's output: the first non-empty line of stderr (then stdout)
+/// that is not a loader warning, without the binary's `simulate: ` prefix; a panic is
+/// named by its message line.
 pub fn reason(stderr: &str, stdout: &str) -> String {
-    stderr
-        .lines()
-        .chain(stdout.lines())
-        .map(str::trim)
-        .find(|l| !l.is_empty())
+    let lines = || {
+        stderr
+            .lines()
+            .chain(stdout.lines())
+            .map(str::trim)
+            .filter(|l| !l.is_empty())
+    };
+    if let Some(p) = lines().find(|l| l.contains("panicked at")) {
+        return p.to_string();
+    }
+    lines()
+        .find(|l| !l.starts_with("warning: "))
+        .or_else(|| lines().next())
         .map_or("no output".to_string(), |l| {
             l.strip_prefix("simulate: ").unwrap_or(l).to_string()
         })
 }
 
-/// Runs `cmd` with a wall-clock limit; returns (success, stdout, stderr) or why not.
-fn run_limited(cmd: &mut Command, limit: Duration) -> Result<(bool, String, String), String> {
+/// What a finished child process left: exit code (`None`: killed by a signal), stdout,
+/// stderr.
+struct Finished {
+    code: Option<i32>,
+    out: String,
+    err: String,
+}
+
+impl Finished {
+    fn ok(&self) -> bool {
+        self.code == Some(0)
+    }
+
+    /// Rust's panic exit status, or a panic message.
+    fn panicked(&self) -> bool {
+        self.code == Some(101) || self.err.contains("panicked at")
+    }
+}
+
+/// Runs `cmd` with a wall-clock limit; returns what it left, or why not.
+fn run_limited(cmd: &mut Command, limit: Duration) -> Result<Finished, String> {
     let mut child = cmd
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -385,93 +469,200 @@ fn run_limited(cmd: &mut Command, limit: Duration) -> Result<(bool, String, Stri
                 let _ = child.wait();
                 return Err(format!("stopped after {} s (time limit)", limit.as_secs()));
             }
-            Ok(None) => std::thread::sleep(Duration::from_millis(20)),
+            Ok(None) => std::thread::sleep(Duration::from_millis(5)),
             Err(e) => return Err(format!("waiting for it: {e}")),
         }
     };
-    let (out, err) = (
-        out.join().unwrap_or_default(),
-        err.join().unwrap_or_default(),
-    );
-    Ok((status.success(), out, err))
+    Ok(Finished {
+        code: status.code(),
+        out: out.join().unwrap_or_default(),
+        err: err.join().unwrap_or_default(),
+    })
 }
 
-/// Our binary on one model: a zero-duration run (loads?), then `steps` steps of `dt`.
-fn ours(
+/// Does the file load in our binary (a zero-duration run)? `Err`: the reason, and whether
+/// it panicked.
+fn loads(bin: &Path, xml: &Path, out: &Path, limit: Duration) -> Result<(), (String, bool)> {
+    let mut c = Command::new(bin);
+    c.arg(xml).args(["--duration", "0", "--out"]).arg(out);
+    match run_limited(&mut c, limit) {
+        Ok(f) if f.ok() => Ok(()),
+        Ok(f) => Err((reason(&f.err, &f.out), f.panicked())),
+        Err(e) => Err((e, false)),
+    }
+}
+
+/// One case of a model that loads, in our binary: MuJoCo's step and step count (the
+/// file's step and `seconds` without them), its initial state and control file, a
+/// trajectory row every `every` steps (0: only the last) into `out`, the summary into
+/// `out` with `.json`; run `repeats` times, the median time per step.
+#[allow(clippy::too_many_arguments)]
+fn ours_case(
     bin: &Path,
     xml: &Path,
-    mj: Option<&Mujoco>,
+    mj: &Mujoco,
     seconds: f64,
+    every: u64,
+    repeats: usize,
     out: &Path,
     limit: Duration,
 ) -> Ours {
-    let base = |duration: &str, every: u64| {
-        let mut c = Command::new(bin);
-        c.arg(xml).args([
-            "--duration",
-            duration,
-            "--every",
-            &every.to_string(),
-            "--out",
-        ]);
-        c.arg(out);
-        c
-    };
-    match run_limited(&mut base("0", 1), limit) {
-        Ok((true, _, _)) => {}
-        Ok((false, o, e)) => {
-            return Ours {
-                error: Some(reason(&e, &o)),
-                ..Ours::default()
-            }
-        }
-        Err(e) => {
-            return Ours {
-                error: Some(e),
-                ..Ours::default()
-            }
-        }
-    }
-    // The same steps as MuJoCo (its time step, its count); without MuJoCo, the file's.
-    let (dt, steps) = match mj.and_then(|m| m.timestep.clone().zip(m.steps)) {
-        Some((dt, n)) => (Some(dt), Some(n)),
-        None => (None, None),
-    };
-    let mut cmd = match (&dt, steps) {
+    let summary = out.with_extension("json");
+    let _ = std::fs::remove_file(&summary);
+    let mut c = Command::new(bin);
+    c.arg(xml);
+    let steps = match (&mj.timestep, mj.steps) {
         (Some(dt), Some(n)) => {
             let h: f64 = dt.parse().unwrap_or(f64::NAN);
-            let mut c = base(&format!("{}", n as f64 * h), n.max(1));
-            c.args(["--dt", dt]);
-            c
+            c.args(["--dt", dt, "--duration", &format!("{}", n as f64 * h)]);
+            Some(n)
         }
-        _ => base(&format!("{seconds}"), 1_000_000_000),
+        _ => {
+            c.args(["--duration", &format!("{seconds}")]);
+            None
+        }
     };
-    match run_limited(&mut cmd, limit) {
-        Ok((true, _, e)) => Ours {
+    let every = if every == 0 {
+        steps.unwrap_or(1_000_000_000).max(1)
+    } else {
+        every
+    };
+    c.args(["--every", &every.to_string()]);
+    if let Some(q) = &mj.qpos {
+        c.args(["--qpos", q]);
+    }
+    if let Some(v) = &mj.qvel {
+        c.args(["--qvel", v]);
+    }
+    if let Some(u) = &mj.ctrl {
+        c.args(["--ctrl", u]);
+    }
+    c.arg("--summary").arg(&summary).arg("--out").arg(out);
+    let first = ours_run(&mut c, &summary, steps, limit);
+    // Further runs of a case that finished only time it again (the same bits: the step
+    // is deterministic); the time per step is the median, as MuJoCo's.
+    let mut times: Vec<f64> = first.us_per_step.into_iter().collect();
+    for _ in 1..repeats.max(1) {
+        if first.error.is_some() {
+            break;
+        }
+        if let Some(t) = ours_run(&mut c, &summary, steps, limit).us_per_step {
+            times.push(t);
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    Ours {
+        us_per_step: times.get(times.len() / 2).copied(),
+        ..first
+    }
+}
+
+/// One run of our binary for [`ours_case`].
+fn ours_run(c: &mut Command, summary: &Path, steps: Option<u64>, limit: Duration) -> Ours {
+    match run_limited(c, limit) {
+        Ok(f) if f.ok() => {
+            let sum = std::fs::read_to_string(summary)
+                .map_err(|e| format!("{}: {e}", summary.display()))
+                .and_then(|t| parse_summary(&t));
+            match sum {
+                Ok(s) => Ours {
+                    loads: true,
+                    error: None,
+                    us_per_step: s.us_per_step.or_else(|| parse_stepping(&f.err, steps)),
+                    summary: Some(s),
+                    panicked: false,
+                },
+                Err(e) => Ours {
+                    loads: true,
+                    error: Some(e),
+                    ..Ours::default()
+                },
+            }
+        }
+        Ok(f) => Ours {
             loads: true,
-            error: None,
-            us_per_step: parse_stepping(&e, steps),
-        },
-        Ok((false, o, e)) => Ours {
-            loads: true,
-            error: Some(reason(&e, &o)),
-            us_per_step: None,
+            error: Some(reason(&f.err, &f.out)),
+            panicked: f.panicked(),
+            ..Ours::default()
         },
         Err(e) => Ours {
             loads: true,
             error: Some(e),
-            us_per_step: None,
+            ..Ours::default()
         },
     }
 }
 
-/// One line of the table.
+/// One case of one model: both engines.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Case {
+    pub mujoco: Mujoco,
+    pub ours: Ours,
+}
+
+impl Case {
+    /// The checks this case fails (empty: passes, or did not run).
+    pub fn failed_checks(&self) -> Vec<String> {
+        self.ours
+            .summary
+            .as_ref()
+            .map_or_else(Vec::new, |s| checks(&self.mujoco.case, s))
+    }
+
+    /// A regression that fails the run (see [`fatal`]).
+    pub fn fatal(&self) -> bool {
+        fatal(
+            self.ours.loads,
+            self.ours.panicked,
+            self.ours.error.as_deref(),
+            self.ours.summary.as_ref(),
+        )
+    }
+}
+
+/// The smooth-model comparison: centre-of-mass error (m) against MuJoCo RK4 at a tenth
+/// of the file's step, ours at the file's step and MuJoCo Euler at the file's step.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Smooth {
+    pub ours: Option<f64>,
+    pub euler: Option<f64>,
+    /// Why a figure is missing.
+    pub note: Option<String>,
+}
+
+/// One model: its cases (passive first), and the smooth comparison where it applies.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Row {
     pub suite: String,
     pub name: String,
-    pub mujoco: Mujoco,
-    pub ours: Ours,
+    pub cases: Vec<Case>,
+    pub smooth: Option<Smooth>,
+}
+
+impl Row {
+    /// The passive case (every model has one, if only to say why it did not load).
+    pub fn passive(&self) -> Case {
+        self.case("passive").cloned().unwrap_or_default()
+    }
+
+    pub fn case(&self, name: &str) -> Option<&Case> {
+        self.cases.iter().find(|c| c.mujoco.case == name)
+    }
+
+    pub fn loads(&self) -> bool {
+        self.cases.iter().any(|c| c.ours.loads)
+    }
+}
+
+/// A smooth model: MuJoCo's perturbed passive run met no contact and no limit, and
+/// ours none either.
+pub fn is_smooth(row: &Row) -> bool {
+    row.case("perturbed").is_some_and(|c| {
+        c.mujoco.status == "ok"
+            && c.mujoco.max_ncon == Some(0)
+            && c.mujoco.max_nlimit == Some(0)
+            && c.ours.summary.as_ref().is_some_and(|s| s.max_contacts == 0)
+    })
 }
 
 fn opt<T: ToString>(v: &Option<T>) -> String {
@@ -480,6 +671,18 @@ fn opt<T: ToString>(v: &Option<T>) -> String {
 
 fn us(v: Option<f64>) -> String {
     v.map_or("–".into(), |t| format!("{t:.2}"))
+}
+
+fn secs(v: Option<f64>) -> String {
+    v.map_or("–".into(), |t| format!("{t:.3}"))
+}
+
+fn height(v: Option<f64>) -> String {
+    v.map_or("–".into(), |t| format!("{t:.4}"))
+}
+
+fn sci(v: Option<f64>) -> String {
+    v.map_or("–".into(), |t| format!("{t:.1e}"))
 }
 
 /// A table cell: no pipes or line breaks.
@@ -491,6 +694,7 @@ fn cell(s: &str) -> String {
 fn ours_status(o: &Ours) -> String {
     match (o.loads, &o.error) {
         (true, None) => "yes, ran".into(),
+        (true, Some(e)) if o.panicked => format!("yes; PANIC: {e}"),
         (true, Some(e)) => format!("yes; failed: {e}"),
         (false, Some(e)) => format!("no: {e}"),
         (false, None) => "no".into(),
@@ -505,33 +709,57 @@ fn mujoco_cell(m: &Mujoco) -> String {
     }
 }
 
+/// The checks cell of a case: `ok`, what failed, or why it did not run.
+fn checks_cell(c: &Case) -> String {
+    match (&c.ours.summary, &c.ours.error) {
+        (Some(_), _) => {
+            let f = c.failed_checks();
+            if f.is_empty() {
+                "ok".into()
+            } else {
+                f.join("; ")
+            }
+        }
+        (None, Some(_)) if c.ours.loads => "did not finish".into(),
+        _ => "–".into(),
+    }
+}
+
 /// `target/models/models.md`.
-pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64) -> String {
+pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64, ctrl_seconds: f64) -> String {
     let mut md = String::new();
     let _ = writeln!(
         md,
         "# MuJoCo models: MuJoCo against this library\n\n\
-         gymnasium {GYMNASIUM_VERSION} and dm_control {DM_CONTROL_VERSION} models, MuJoCo {}. \
-         A passive run of {seconds} s from the default pose with zero control at the file's \
-         time step. MuJoCo: `mujoco.rollout` (its C loop, one thread), median of 3; counts \
-         are MuJoCo's (nbody includes the world body); contacts: most at any step of that \
-         run. Ours: the `simulate` binary (release); \"loads\" means a zero-length run \
-         succeeded, the reason is its one-line error. Ratio below 1: this library is faster.\n",
+         gymnasium {GYMNASIUM_VERSION} and dm_control {DM_CONTROL_VERSION} models, MuJoCo {}, \
+         at the file's time step. Cases: **passive** {seconds} s from the default pose with \
+         zero control; **perturbed** {seconds} s, zero control, from qpos0 plus a seeded \
+         perturbation (hinges ±0.2 rad, slides ±0.02 m, inside their ranges; those dofs' \
+         velocities ±0.2), the same state given to both engines with `--qpos/--qvel`; \
+         **controlled** {ctrl_seconds} s from qpos0 under one seeded control sequence (a new \
+         value every 0.05 s, uniform in ctrlrange; `target/models/work/*.ctrl.csv`). \
+         MuJoCo: `mujoco.rollout` (its C loop, one thread), median of the repeats; counts \
+         are MuJoCo's (nbody includes the world body); contacts and limits: most at any step \
+         of the perturbed run. Ours: the `simulate` binary (release, default method); \
+         \"loads\" means a zero-length run succeeded, the reason is its one-line error. \
+         Ratio below 1: this library is faster.\n",
         version.unwrap_or("?")
     );
     let _ = writeln!(
         md,
-        "| model | suite | nbody | njnt | nu | timestep (s) | integrator | contacts (MuJoCo) | MuJoCo µs/step | ours: loads? / reason | ours µs/step | ours / MuJoCo |"
+        "| model | suite | nbody | njnt | nu | timestep (s) | integrator | contacts / limits (MuJoCo) | MuJoCo µs/step | ours: loads? / reason | ours µs/step | ours / MuJoCo |"
     );
     let _ = writeln!(
         md,
         "|---|---|---:|---:|---:|---:|---|---:|---:|---|---:|---:|"
     );
     for r in rows {
-        let m = &r.mujoco;
+        let c = r.passive();
+        let m = &c.mujoco;
+        let p = r.case("perturbed").map(|c| &c.mujoco);
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} |",
             cell(&r.name),
             r.suite,
             opt(&m.nbody),
@@ -539,21 +767,102 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64) -> String {
             opt(&m.nu),
             opt(&m.timestep),
             opt(&m.integrator),
-            opt(&m.max_ncon),
+            opt(&p.and_then(|p| p.max_ncon)),
+            opt(&p.and_then(|p| p.max_nlimit)),
             cell(&mujoco_cell(m)),
-            cell(&ours_status(&r.ours)),
-            us(r.ours.us_per_step),
-            fmt_ratio(r.ours.us_per_step, m.us_per_step),
+            cell(&ours_status(&c.ours)),
+            us(c.ours.us_per_step),
+            fmt_ratio(c.ours.us_per_step, m.us_per_step),
         );
     }
-    let loaded = rows.iter().filter(|r| r.ours.loads).count();
-    let ran = rows
-        .iter()
-        .filter(|r| r.ours.loads && r.ours.error.is_none())
-        .count();
     let _ = writeln!(
         md,
-        "\n{} models; ours loads {loaded}, runs {ran} to the end.\n\n\
+        "\n## Checks (ours)\n\n\
+         Per case: worst joint separation at any step (tolerance {JOINT_TOL:.0e} m), deepest \
+         penetration over the second half of the run (settled; {PENETRATION_TOL:.0e} m), most \
+         contacts, largest rise of the total energy above its start (checked, within \
+         {ENERGY_REL_TOL:.0e}·(1 + |E₀|), on the runs without control and without contact), \
+         time of the first contact and height of the first (root) body at the end in both \
+         engines (what both must agree on when their contacts differ: MuJoCo's are soft, \
+         ours hard), time per step against MuJoCo's on the same case.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| model | case | ours: ran? | ours µs/step | MuJoCo µs/step | ours / MuJoCo | joints (m) | settled penetration (m) | contacts | first contact (s), ours / MuJoCo | root z at the end (m), ours / MuJoCo | energy rise (J) | checks |"
+    );
+    let _ = writeln!(
+        md,
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+    );
+    for r in rows.iter().filter(|r| r.loads()) {
+        for c in &r.cases {
+            let s = c.ours.summary.as_ref();
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} / {} | {} / {} | {} | {} |",
+                cell(&format!("{}/{}", r.suite, r.name)),
+                c.mujoco.case,
+                cell(&ours_status(&c.ours)),
+                us(c.ours.us_per_step),
+                cell(&mujoco_cell(&c.mujoco)),
+                fmt_ratio(c.ours.us_per_step, c.mujoco.us_per_step),
+                sci(s.map(|s| s.max_joint_separation)),
+                sci(s.map(|s| s.settled_penetration)),
+                opt(&s.map(|s| s.max_contacts)),
+                secs(s.and_then(|s| s.first_contact_time)),
+                secs(c.mujoco.first_contact),
+                height(s.and_then(|s| s.root_height)),
+                height(c.mujoco.root_z),
+                sci(s.map(|s| s.max_energy_increase)),
+                cell(&checks_cell(c)),
+            );
+        }
+    }
+    let smooth: Vec<&Row> = rows.iter().filter(|r| r.smooth.is_some()).collect();
+    let _ = writeln!(
+        md,
+        "\n## Smooth models: trajectory error\n\n\
+         The models whose perturbed passive run meets no contact and no limit (in MuJoCo and \
+         here): largest centre-of-mass error over the run (m, every step of the file's step \
+         compared) against MuJoCo RK4 at a tenth of the file's step, from the perturbed \
+         state. Ours (default method) and MuJoCo Euler both at the file's step.\n\n\
+         | model | timestep (s) | ours (m) | MuJoCo Euler (m) | ours / Euler | note |\n\
+         |---|---:|---:|---:|---:|---|"
+    );
+    for r in &smooth {
+        let Some(s) = &r.smooth else { continue };
+        let _ = writeln!(
+            md,
+            "| {}/{} | {} | {} | {} | {} | {} |",
+            r.suite,
+            cell(&r.name),
+            opt(&r.passive().mujoco.timestep),
+            sci(s.ours),
+            sci(s.euler),
+            fmt_ratio(s.ours, s.euler),
+            cell(s.note.as_deref().unwrap_or(""))
+        );
+    }
+    let loaded = rows.iter().filter(|r| r.loads()).count();
+    let ran = rows
+        .iter()
+        .filter(|r| r.loads() && r.cases.iter().all(|c| c.ours.error.is_none()))
+        .count();
+    let clean = rows
+        .iter()
+        .filter(|r| {
+            r.loads()
+                && r.cases
+                    .iter()
+                    .all(|c| c.ours.summary.is_some() && c.failed_checks().is_empty())
+        })
+        .count();
+    let fatal: Vec<String> = fatal_cases(rows);
+    let _ = writeln!(
+        md,
+        "\n{} models; ours loads {loaded}, runs every case to the end on {ran}, passes every \
+         check on {clean}; {} smooth; {} regressions (a panic, or a loaded model that \
+         diverges){}.\n\n\
          - `lqr_2_1` and `swimmer6` are generated from dm_control's `lqr.xml` and \
          `swimmer.xml` templates the way `lqr.py` and `swimmer.py` do (lqr's joint \
          stiffnesses: the draws of `numpy.random.RandomState(0)`; dm_control draws new ones \
@@ -562,12 +871,34 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64) -> String {
          walls), quadruped (floor size; removes walls, ball, the terrain height field and \
          the rangefinders unless a task uses them), manipulator (ball or peg), stacker \
          (number of boxes).\n\
-         - MuJoCo's times are one median of 3 short rollouts; on a shared machine expect \
+         - MuJoCo's times are medians of short rollouts; on a shared machine expect \
          tens of per cent between runs. Models on RK4 (most gymnasium ones, acrobot, \
-         cartpole) pay four evaluations per step.",
-        rows.len()
+         cartpole) pay four evaluations per step.\n\
+         - Contact-rich models part from MuJoCo after the first impact (MuJoCo's contacts \
+         are soft, ours hard): only the checks above are compared for them, not \
+         trajectories.",
+        rows.len(),
+        smooth.len(),
+        fatal.len(),
+        if fatal.is_empty() {
+            String::new()
+        } else {
+            format!(": {}", fatal.join(", "))
+        }
     );
     md
+}
+
+/// `suite/model case` of every case that is a regression (see [`fatal`]).
+pub fn fatal_cases(rows: &[Row]) -> Vec<String> {
+    rows.iter()
+        .flat_map(|r| {
+            r.cases
+                .iter()
+                .filter(|c| c.fatal())
+                .map(move |c| format!("{}/{} {}", r.suite, r.name, c.mujoco.case))
+        })
+        .collect()
 }
 
 /// A CSV field (RFC 4180): quoted when it holds a comma, quote or line break.
@@ -579,41 +910,71 @@ pub fn csv_field(s: &str) -> String {
     }
 }
 
-pub const CSV_HEADER: &str = "model,suite,nbody,njnt,nq,nv,nu,timestep,integrator,steps,max_ncon,\
-mujoco_status,mujoco_us_per_step,ours_loads,ours_error,ours_us_per_step,ratio";
+pub const CSV_HEADER: &str = "model,suite,case,nbody,njnt,nq,nv,nu,timestep,integrator,steps,\
+max_ncon,max_nlimit,mujoco_status,mujoco_us_per_step,ours_loads,ours_error,ours_panicked,\
+ours_us_per_step,ratio,finite,max_joint_separation,max_penetration,settled_penetration,\
+energy_initial,max_energy_increase,ours_max_contacts,energy_checked,checks,fatal,\
+smooth_ours_com,smooth_euler_com,smooth_note,ours_first_contact,mujoco_first_contact,\
+ours_root_z,mujoco_root_z";
 
-/// `target/models/models.csv`: the same data, empty fields where there is none.
+/// `models.csv`: one line per model and case (the smooth figures on the perturbed line),
+/// empty fields where there is none. `constraint_verify::models_report` reads it.
 pub fn csv(rows: &[Row]) -> String {
     let e = |v: Option<String>| v.unwrap_or_default();
+    let g = |v: Option<f64>| e(v.map(|v| format!("{v:e}")));
     let mut out = format!("{CSV_HEADER}\n");
     for r in rows {
-        let m = &r.mujoco;
-        let ratio = match (r.ours.us_per_step, m.us_per_step) {
-            (Some(a), Some(b)) if b > 0.0 => Some(a / b),
-            _ => None,
-        };
-        let f = [
-            r.name.clone(),
-            r.suite.clone(),
-            e(m.nbody.map(|v| v.to_string())),
-            e(m.njnt.map(|v| v.to_string())),
-            e(m.nq.map(|v| v.to_string())),
-            e(m.nv.map(|v| v.to_string())),
-            e(m.nu.map(|v| v.to_string())),
-            e(m.timestep.clone()),
-            e(m.integrator.clone()),
-            e(m.steps.map(|v| v.to_string())),
-            e(m.max_ncon.map(|v| v.to_string())),
-            m.status.clone(),
-            e(m.us_per_step.map(|v| format!("{v:.3}"))),
-            r.ours.loads.to_string(),
-            e(r.ours.error.clone()),
-            e(r.ours.us_per_step.map(|v| format!("{v:.3}"))),
-            e(ratio.map(|v| format!("{v:.4}"))),
-        ];
-        let line: Vec<String> = f.iter().map(|s| csv_field(s)).collect();
-        out.push_str(&line.join(","));
-        out.push('\n');
+        for c in &r.cases {
+            let m = &c.mujoco;
+            let s = c.ours.summary.as_ref();
+            let ratio = match (c.ours.us_per_step, m.us_per_step) {
+                (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+                _ => None,
+            };
+            let smooth = r.smooth.as_ref().filter(|_| m.case == "perturbed");
+            let f = [
+                r.name.clone(),
+                r.suite.clone(),
+                m.case.clone(),
+                e(m.nbody.map(|v| v.to_string())),
+                e(m.njnt.map(|v| v.to_string())),
+                e(m.nq.map(|v| v.to_string())),
+                e(m.nv.map(|v| v.to_string())),
+                e(m.nu.map(|v| v.to_string())),
+                e(m.timestep.clone()),
+                e(m.integrator.clone()),
+                e(m.steps.map(|v| v.to_string())),
+                e(m.max_ncon.map(|v| v.to_string())),
+                e(m.max_nlimit.map(|v| v.to_string())),
+                m.status.clone(),
+                e(m.us_per_step.map(|v| format!("{v:.3}"))),
+                c.ours.loads.to_string(),
+                e(c.ours.error.clone()),
+                c.ours.panicked.to_string(),
+                e(c.ours.us_per_step.map(|v| format!("{v:.3}"))),
+                e(ratio.map(|v| format!("{v:.4}"))),
+                e(s.map(|s| s.finite.to_string())),
+                g(s.map(|s| s.max_joint_separation)),
+                g(s.map(|s| s.max_penetration)),
+                g(s.map(|s| s.settled_penetration)),
+                g(s.map(|s| s.energy_initial)),
+                g(s.map(|s| s.max_energy_increase)),
+                e(s.map(|s| s.max_contacts.to_string())),
+                e(s.map(|s| energy_checked(&m.case, s).to_string())),
+                e(s.map(|_| c.failed_checks().join("; "))),
+                c.fatal().to_string(),
+                g(smooth.and_then(|s| s.ours)),
+                g(smooth.and_then(|s| s.euler)),
+                e(smooth.and_then(|s| s.note.clone())),
+                g(s.and_then(|s| s.first_contact_time)),
+                g(m.first_contact),
+                g(s.and_then(|s| s.root_height)),
+                g(m.root_z),
+            ];
+            let line: Vec<String> = f.iter().map(|s| csv_field(s)).collect();
+            out.push_str(&line.join(","));
+            out.push('\n');
+        }
     }
     out
 }
@@ -665,12 +1026,89 @@ pub fn parse_run_args(args: &[String]) -> Result<RunArgs, String> {
     Ok(a)
 }
 
-fn run(a: &RunArgs) -> Result<(), String> {
+/// What a whole run produced.
+pub struct Suite {
+    pub rows: Vec<Row>,
+    /// `models.md`'s text.
+    pub markdown: String,
+    /// The regressions ([`fatal_cases`]).
+    pub fatal: Vec<String>,
+}
+
+/// The smooth comparison of one model: MuJoCo RK4 at `h/10` (every 10th step kept) and
+/// Euler at `h`, from the perturbed state, against our perturbed run `ours_csv`.
+fn smooth(xml: &Path, mj: &Mujoco, ours_csv: &Path, work: &Path, stem: &str) -> Smooth {
+    let (Some(dt), Some(n)) = (mj.timestep.as_deref(), mj.steps) else {
+        return Smooth {
+            note: Some("no time step from MuJoCo".into()),
+            ..Smooth::default()
+        };
+    };
+    let h: f64 = dt.parse().unwrap_or(f64::NAN);
+    let duration = format!("{}", n as f64 * h);
+    let mjrun = |integrator: &str, dt: String, every: usize, out: PathBuf| {
+        let o = MjRun {
+            scene: xml.to_path_buf(),
+            dt: Some(dt),
+            duration: duration.clone(),
+            every,
+            integrator: Some(integrator.into()),
+            out: out.clone(),
+            qpos: mj.qpos.clone(),
+            qvel: mj.qvel.clone(),
+            ..MjRun::default()
+        };
+        crate::mujoco::run(&o).map(|()| out)
+    };
+    let reference = mjrun(
+        "rk4",
+        format!("{:?}", h / 10.0),
+        10,
+        work.join(format!("{stem}.rk4.csv")),
+    );
+    let euler = mjrun(
+        "euler",
+        dt.to_string(),
+        1,
+        work.join(format!("{stem}.euler.csv")),
+    );
+    let mut notes = Vec::new();
+    let mut err = |who: &str, a: Result<PathBuf, String>| -> Option<f64> {
+        let r = reference.as_ref().map_err(|e| format!("MuJoCo RK4: {e}"));
+        match a.and_then(|a| smooth_error(&a, r.as_ref().map_err(|e| e.clone())?)) {
+            Ok((v, _)) => Some(v),
+            Err(e) => {
+                notes.push(format!("{who}: {e}"));
+                None
+            }
+        }
+    };
+    let ours = err("ours", Ok(ours_csv.to_path_buf()));
+    let euler = err("MuJoCo Euler", euler);
+    notes.dedup();
+    Smooth {
+        ours,
+        euler,
+        note: (!notes.is_empty()).then(|| notes.join("; ")),
+    }
+}
+
+/// Runs the suite: MuJoCo's side (one Python process), then ours per model and case, the
+/// smooth comparisons; writes `models.md` and `models.csv` into `a.out`. `Err` only when
+/// the suite could not run at all (MuJoCo missing, the download failed, the build failed).
+pub fn run_suite(a: &RunArgs) -> Result<Suite, String> {
     let t0 = Instant::now();
     let python = fetch()?;
     let dir = models_dir();
-    let seconds = if a.quick { QUICK_SECONDS } else { SECONDS };
+    let (seconds, ctrl_seconds, repeats) = if a.quick {
+        (QUICK_SECONDS, QUICK_SECONDS, 1)
+    } else {
+        (SECONDS, CTRL_SECONDS, 3)
+    };
     let work = dir.join("work");
+    if work.exists() {
+        std::fs::remove_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
+    }
     std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
 
@@ -681,22 +1119,21 @@ fn run(a: &RunArgs) -> Result<(), String> {
         .collect();
     std::fs::write(&list, text).map_err(|e| format!("{}: {e}", list.display()))?;
     let tsv = work.join("mujoco.tsv");
-    let _ = std::fs::remove_file(&tsv);
     eprintln!(
-        "xtask: MuJoCo {MUJOCO_VERSION}: {} models, {seconds} s each (mujoco.rollout, median of 3)",
+        "xtask: MuJoCo {MUJOCO_VERSION}: {} models, passive and perturbed {seconds} s, \
+         controlled {ctrl_seconds} s (mujoco.rollout, median of {repeats})",
         MODELS.len()
     );
     let out = Command::new(&python)
         .arg(script("models_mujoco.py", MEASURE)?)
         .arg("--list")
         .arg(&list)
-        .args([
-            "--duration",
-            &seconds.to_string(),
-            "--repeats",
-            "3",
-            "--out",
-        ])
+        .args(["--duration", &seconds.to_string()])
+        .args(["--ctrl-duration", &ctrl_seconds.to_string()])
+        .args(["--repeats", &repeats.to_string()])
+        .arg("--work")
+        .arg(&work)
+        .arg("--out")
         .arg(&tsv)
         .stderr(Stdio::inherit())
         .output()
@@ -720,39 +1157,102 @@ fn run(a: &RunArgs) -> Result<(), String> {
     let mut rows = Vec::new();
     for (suite, name) in MODELS {
         let key = format!("{suite}/{name}");
-        let m = mj.iter().find(|m| m.name == key);
+        let stem = format!("{suite}_{name}");
         let xml = model_path(&dir, suite, name);
-        let csv_out = work.join(format!("{suite}_{name}.ours.csv"));
-        let o = ours(&bin, &xml, m, seconds, &csv_out, limit);
-        eprintln!(
-            "xtask: ours {key}: {}{}",
-            ours_status(&o),
-            o.us_per_step
-                .map_or(String::new(), |t| format!(", {t:.2} µs/step"))
-        );
-        rows.push(Row {
-            suite: suite.into(),
-            name: name.into(),
-            mujoco: m.cloned().unwrap_or_else(|| Mujoco {
+        let mut cases: Vec<Mujoco> = mj.iter().filter(|m| m.name == key).cloned().collect();
+        if cases.is_empty() {
+            cases.push(Mujoco {
                 name: key.clone(),
                 status: "not measured".into(),
+                case: "passive".into(),
                 ..Mujoco::default()
-            }),
-            ours: o,
-        });
+            });
+        }
+        let mut row = Row {
+            suite: suite.into(),
+            name: name.into(),
+            ..Row::default()
+        };
+        let loaded = loads(&bin, &xml, &work.join(format!("{stem}.load.csv")), limit);
+        for m in cases {
+            let ours = match &loaded {
+                Err((e, panicked)) => Ours {
+                    error: Some(e.clone()),
+                    panicked: *panicked,
+                    ..Ours::default()
+                },
+                Ok(()) => {
+                    // The perturbed run of a model that may be smooth keeps every step.
+                    let candidate = m.case == "perturbed"
+                        && m.status == "ok"
+                        && m.max_ncon == Some(0)
+                        && m.max_nlimit == Some(0);
+                    let out = work.join(format!("{stem}.{}.csv", m.case));
+                    ours_case(
+                        &bin,
+                        &xml,
+                        &m,
+                        seconds,
+                        u64::from(candidate),
+                        repeats,
+                        &out,
+                        limit,
+                    )
+                }
+            };
+            row.cases.push(Case { mujoco: m, ours });
+        }
+        if is_smooth(&row) {
+            if let Some(c) = row.case("perturbed") {
+                let ours_csv = work.join(format!("{stem}.perturbed.csv"));
+                row.smooth = Some(smooth(&xml, &c.mujoco, &ours_csv, &work, &stem));
+            }
+        }
+        let p = row.passive();
+        eprintln!(
+            "xtask: ours {key}: {}{}{}",
+            ours_status(&p.ours),
+            p.ours
+                .us_per_step
+                .map_or(String::new(), |t| format!(", {t:.2} µs/step")),
+            row.smooth.as_ref().map_or(String::new(), |s| format!(
+                ", smooth: ours {} m, MuJoCo Euler {} m",
+                sci(s.ours),
+                sci(s.euler)
+            ))
+        );
+        rows.push(row);
     }
-    let md = markdown(&rows, version.as_deref(), seconds);
+    let md = markdown(&rows, version.as_deref(), seconds, ctrl_seconds);
     for (file, text) in [("models.md", md.clone()), ("models.csv", csv(&rows))] {
         let p = a.out.join(file);
         std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))?;
     }
-    println!("{md}");
     eprintln!(
         "xtask: wrote {} and models.csv ({:.1} s: MuJoCo and fetch {t_mujoco:.1} s)",
         a.out.join("models.md").display(),
         t0.elapsed().as_secs_f64()
     );
-    Ok(())
+    let fatal = fatal_cases(&rows);
+    Ok(Suite {
+        rows,
+        markdown: md,
+        fatal,
+    })
+}
+
+fn run(a: &RunArgs) -> Result<(), String> {
+    let suite = run_suite(a)?;
+    println!("{}", suite.markdown);
+    if suite.fatal.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "{} loaded model case(s) panicked or diverged: {}",
+            suite.fatal.len(),
+            suite.fatal.join(", ")
+        ))
+    }
 }
 
 pub const USAGE: &str = "usage: cargo xtask models fetch | list | run [--quick] [--out DIR]";
@@ -854,10 +1354,33 @@ mod tests {
             Mujoco {
                 name: "dm_control/x".into(),
                 status: rows[1].status.clone(),
+                case: "passive".into(),
                 ..Mujoco::default()
             }
         );
         assert!(rows[2].status.starts_with("diverged"));
+
+        // The script's columns of today: cases, limits, the perturbed state, controls.
+        let text = "name\tcase\tstatus\tnbody\tnjnt\tnq\tnv\tnu\ttimestep\tintegrator\tsteps\t\
+            us_per_step\tmax_ncon\tmax_nlimit\tqpos\tqvel\tctrl\n\
+            p\tperturbed\tok\t2\t1\t1\t1\t1\t0.02\tEULER\t25\t8.9\t0\t0\t-0.18\t0.11\t-\n\
+            p\tcontrolled\tok\t2\t1\t1\t1\t1\t0.02\tEULER\t25\t8.1\t0\t1\t-\t-\tw/p.ctrl.csv\n";
+        let (_, rows) = parse_mujoco(text).unwrap();
+        assert_eq!(rows[0].case, "perturbed");
+        assert_eq!(
+            (
+                rows[0].qpos.as_deref(),
+                rows[0].qvel.as_deref(),
+                rows[0].ctrl.as_deref()
+            ),
+            (Some("-0.18"), Some("0.11"), None)
+        );
+        assert_eq!(
+            (rows[1].max_nlimit, rows[1].ctrl.as_deref()),
+            (Some(1), Some("w/p.ctrl.csv"))
+        );
+        let bad = text.replace("controlled", "sideways");
+        assert!(parse_mujoco(&bad).unwrap_err().contains("unknown case"));
 
         let header =
             "name\tstatus\tnbody\tnjnt\tnq\tnv\tnu\ttimestep\tsteps\tus_per_step\tmax_ncon\tintegrator\n";
@@ -896,6 +1419,13 @@ mod tests {
             "scene: line 3: element <include> is not supported here"
         );
         assert_eq!(reason("", "  only stdout  "), "only stdout");
+        // Loader warnings come first on stderr; the reason is the error after them.
+        assert_eq!(
+            reason("warning: not modelled: x\nsimulate: step 4 diverged\n", ""),
+            "step 4 diverged"
+        );
+        let p = "warning: w\nthread 'main' panicked at verify/src/x.rs:1:2:\nboom\n";
+        assert!(reason(p, "").starts_with("thread 'main' panicked at"));
         assert_eq!(reason("", ""), "no output");
     }
 
@@ -919,127 +1449,228 @@ mod tests {
     }
 
     fn rows() -> Vec<Row> {
-        let mj = |name: &str, us: Option<f64>| Mujoco {
+        let mj = |name: &str, case: &str, us: Option<f64>| Mujoco {
             name: name.into(),
+            case: case.into(),
             status: "ok".into(),
             nbody: Some(3),
             timestep: Some("0.01".into()),
             steps: Some(500),
             us_per_step: us,
+            max_ncon: Some(0),
+            max_nlimit: Some(0),
             ..Mujoco::default()
+        };
+        let summary = Summary {
+            steps: 500,
+            us_per_step: Some(5.0),
+            finite: true,
+            max_joint_separation: 1e-13,
+            energy_initial: 1.0,
+            ..Summary::default()
+        };
+        let ran = |us: f64, s: Summary| Ours {
+            loads: true,
+            us_per_step: Some(us),
+            summary: Some(s),
+            ..Ours::default()
         };
         vec![
             Row {
                 suite: "gymnasium".into(),
                 name: "b_first".into(),
-                mujoco: mj("gymnasium/b_first", Some(10.0)),
-                ours: Ours {
-                    loads: true,
-                    error: None,
-                    us_per_step: Some(5.0),
-                },
+                cases: vec![
+                    Case {
+                        mujoco: mj("gymnasium/b_first", "passive", Some(10.0)),
+                        ours: ran(5.0, summary.clone()),
+                    },
+                    Case {
+                        mujoco: mj("gymnasium/b_first", "perturbed", Some(10.0)),
+                        ours: ran(
+                            20.0,
+                            Summary {
+                                max_joint_separation: 1e-3,
+                                ..summary.clone()
+                            },
+                        ),
+                    },
+                ],
+                smooth: Some(Smooth {
+                    ours: Some(1e-4),
+                    euler: Some(1e-2),
+                    note: None,
+                }),
             },
             Row {
                 suite: "dm_control".into(),
                 name: "a_second".into(),
-                mujoco: mj("dm_control/a_second", Some(2.0)),
-                ours: Ours {
-                    loads: false,
-                    error: Some("scene: bad \"x\", a|b, c".into()),
-                    us_per_step: None,
-                },
+                cases: vec![Case {
+                    mujoco: mj("dm_control/a_second", "passive", Some(2.0)),
+                    ours: Ours {
+                        error: Some("scene: bad \"x\", a|b, c".into()),
+                        ..Ours::default()
+                    },
+                }],
+                smooth: None,
             },
             Row {
                 suite: "dm_control".into(),
                 name: "c_third".into(),
-                mujoco: Mujoco {
-                    status: "load failed: nope".into(),
-                    ..Mujoco::default()
-                },
-                ours: Ours {
-                    loads: true,
-                    error: Some("diverged".into()),
-                    us_per_step: None,
-                },
+                cases: vec![Case {
+                    mujoco: Mujoco {
+                        status: "load failed: nope".into(),
+                        case: "passive".into(),
+                        ..Mujoco::default()
+                    },
+                    ours: Ours {
+                        loads: true,
+                        error: Some("step 3 diverged (body 1 non-finite or beyond 1e12)".into()),
+                        ..Ours::default()
+                    },
+                }],
+                smooth: None,
             },
         ]
     }
 
     #[test]
-    fn the_table_keeps_the_order_and_every_row_has_every_cell() {
+    fn the_tables_keep_the_order_and_every_row_has_every_cell() {
         let rows = rows();
-        let md = markdown(&rows, Some("4.0.0"), 5.0);
+        let md = markdown(&rows, Some("4.0.0"), 5.0, 2.0);
         let cells = |l: &str| l.replace("\\|", "").matches('|').count();
-        let table: Vec<&str> = md.lines().filter(|l| l.starts_with('|')).collect();
-        assert_eq!(table.len(), 2 + rows.len());
-        for l in &table {
-            assert_eq!(cells(l), cells(table[0]), "{l}");
+        let tables: Vec<Vec<&str>> = md
+            .split("\n\n")
+            .map(|b| b.lines().filter(|l| l.starts_with('|')).collect::<Vec<_>>())
+            .filter(|t| !t.is_empty())
+            .collect();
+        assert_eq!(tables.len(), 3, "{md}");
+        for t in &tables {
+            for l in t {
+                assert_eq!(cells(l), cells(t[0]), "{l}");
+            }
         }
-        for (r, l) in rows.iter().zip(&table[2..]) {
+        let (main, checks, smooth) = (&tables[0], &tables[1], &tables[2]);
+        assert_eq!(main.len(), 2 + rows.len());
+        for (r, l) in rows.iter().zip(&main[2..]) {
             assert!(
                 l.starts_with(&format!("| {} | {} |", r.name, r.suite)),
                 "{l}"
             );
         }
         // Ratio only where both engines have a time: ours 5 µs against MuJoCo's 10 µs.
-        assert!(table[2].ends_with("| 5.00 | 0.500 |"), "{}", table[2]);
-        assert!(table[3].ends_with("| – | – |"), "{}", table[3]);
-        assert!(table[3].contains("no: scene: bad"));
-        assert!(table[4].contains("yes; failed: diverged"));
-        assert!(table[4].contains("load failed: nope"));
-        assert!(md.contains("MuJoCo 4.0.0") && md.contains("ours loads 2, runs 1"));
+        assert!(main[2].ends_with("| 5.00 | 0.500 |"), "{}", main[2]);
+        assert!(main[3].ends_with("| – | – |"), "{}", main[3]);
+        assert!(main[3].contains("no: scene: bad"));
+        assert!(main[4].contains("yes; failed: step 3 diverged"));
+        assert!(main[4].contains("load failed: nope"));
+        // Checks: one line per case of a loaded model (2 + 1); the perturbed case's
+        // joints fail at 1e-3 m.
+        assert_eq!(checks.len(), 2 + 3);
+        assert!(checks[2].ends_with("| ok |"), "{}", checks[2]);
+        assert!(
+            checks[3].contains("joints 1.0e-3 m > 1e-6"),
+            "{}",
+            checks[3]
+        );
+        assert!(checks[4].contains("did not finish"), "{}", checks[4]);
+        assert_eq!(smooth.len(), 2 + 1);
+        assert!(
+            smooth[2].contains("| 1.0e-4 | 1.0e-2 | 0.010 |"),
+            "{}",
+            smooth[2]
+        );
+        assert!(md.contains("MuJoCo 4.0.0") && md.contains("ours loads 2, runs every case"));
+        assert!(md.contains("1 regressions") && md.contains("dm_control/c_third passive"));
+        assert_eq!(fatal_cases(&rows), ["dm_control/c_third passive"]);
     }
 
     #[test]
-    fn the_csv_has_the_same_rows_and_quotes_what_needs_it() {
+    fn the_csv_has_a_line_per_case_and_quotes_what_needs_it() {
         let rows = rows();
         let text = csv(&rows);
         let lines: Vec<&str> = text.lines().collect();
-        assert_eq!(lines.len(), 1 + rows.len());
+        let cases: Vec<(&Row, &Case)> = rows
+            .iter()
+            .flat_map(|r| r.cases.iter().map(move |c| (r, c)))
+            .collect();
+        assert_eq!(lines.len(), 1 + cases.len());
         let header = split_csv(lines[0]);
-        for (r, l) in rows.iter().zip(&lines[1..]) {
+        let field =
+            |f: &[String], name: &str| f[header.iter().position(|h| h == name).unwrap()].clone();
+        for ((r, c), l) in cases.iter().zip(&lines[1..]) {
             let f = split_csv(l);
             assert_eq!(f.len(), header.len(), "{l}");
-            let field = |name: &str| &f[header.iter().position(|h| h == name).unwrap()];
-            assert_eq!(field("model"), &r.name);
-            assert_eq!(field("ours_error"), r.ours.error.as_deref().unwrap_or(""));
-            assert_eq!(field("ours_loads"), &r.ours.loads.to_string());
+            assert_eq!(field(&f, "model"), r.name);
+            assert_eq!(field(&f, "case"), c.mujoco.case);
+            assert_eq!(
+                field(&f, "ours_error"),
+                c.ours.error.as_deref().unwrap_or("")
+            );
+            assert_eq!(field(&f, "ours_loads"), c.ours.loads.to_string());
+            assert_eq!(field(&f, "fatal"), c.fatal().to_string());
         }
-        let f = split_csv(lines[1]);
-        assert_eq!(f.last().map(String::as_str), Some("0.5000"));
+        let first = split_csv(lines[1]);
+        assert_eq!(field(&first, "ratio"), "0.5000");
+        assert_eq!(
+            field(&first, "smooth_ours_com"),
+            "",
+            "smooth only on perturbed"
+        );
+        let second = split_csv(lines[2]);
+        assert_eq!(field(&second, "smooth_ours_com"), "1e-4");
+        assert_eq!(field(&second, "smooth_euler_com"), "1e-2");
+        assert!(field(&second, "checks").starts_with("joints"));
         assert_eq!(csv_field("plain"), "plain");
+        assert_eq!(csv_field("a,\"b\""), "\"a,\"\"b\"\"\"");
     }
 
-    /// Our side end to end on scenes that load today (none of the 33 models does yet).
+    #[test]
+    fn a_model_is_smooth_only_without_contact_and_limits_in_both_engines() {
+        let mut r = rows().remove(0);
+        assert!(is_smooth(&r));
+        r.cases[1].mujoco.max_nlimit = Some(1);
+        assert!(!is_smooth(&r));
+        let mut r = rows().remove(0);
+        r.cases[1].ours.summary.as_mut().unwrap().max_contacts = 2;
+        assert!(!is_smooth(&r));
+        let mut r = rows().remove(0);
+        r.cases.truncate(1);
+        assert!(!is_smooth(&r), "no perturbed case");
+    }
+
+    /// Our side end to end on scenes of this repository: a file that loads runs a case
+    /// and writes its summary; one that does not gives its reason.
     #[test]
     #[ignore = "builds the release simulate binary (minutes)"]
-    fn our_side_times_a_scene_that_loads_and_gives_the_reason_for_one_that_does_not() {
+    fn our_side_runs_a_case_and_gives_the_reason_for_a_file_that_does_not_load() {
         let bin = build_simulate().unwrap();
         let dir = root().join("target/xtask/test-models-ours");
         std::fs::create_dir_all(&dir).unwrap();
         let mj = Mujoco {
+            case: "perturbed".into(),
             timestep: Some("0.001".into()),
             steps: Some(1000),
+            qpos: Some("-0.3".into()),
+            qvel: Some("0.1".into()),
             ..Mujoco::default()
         };
         let limit = Duration::from_secs(60);
+        let xml = root().join("scenes/pendulum.xml");
         let out = dir.join("o.csv");
-        let o = ours(
-            &bin,
-            &root().join("scenes/pendulum.xml"),
-            Some(&mj),
-            1.0,
-            &out,
-            limit,
-        );
-        assert!(o.loads && o.error.is_none(), "{o:?}");
+        assert!(loads(&bin, &xml, &out, limit).is_ok());
+        let o = ours_case(&bin, &xml, &mj, 1.0, 0, 3, &out, limit);
+        assert!(o.loads && o.error.is_none() && !o.panicked, "{o:?}");
         assert!(o.us_per_step.is_some_and(|t| t > 0.0), "{o:?}");
+        let s = o.summary.unwrap();
+        assert_eq!(s.steps, 1000);
+        assert!(s.finite && s.max_joint_separation < JOINT_TOL, "{s:?}");
         let bad = dir.join("bad.xml");
         std::fs::write(&bad, "<mujoco><nonsense/></mujoco>").unwrap();
-        let o = ours(&bin, &bad, Some(&mj), 1.0, &out, limit);
-        assert!(!o.loads && o.us_per_step.is_none(), "{o:?}");
-        let e = o.error.unwrap();
-        assert!(!e.is_empty() && !e.starts_with("simulate: "), "{e}");
+        let (e, panicked) = loads(&bin, &bad, &out, limit).unwrap_err();
+        assert!(
+            !panicked && !e.is_empty() && !e.starts_with("simulate: "),
+            "{e}"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -53,7 +53,7 @@ pub struct Reference {
 }
 
 /// The committed references (scenes/reference/README.md gives their error figures).
-pub const REFERENCES: [Reference; 7] = [
+pub const REFERENCES: [Reference; 8] = [
     Reference {
         scene: "pendulum",
         dt: "1e-5",
@@ -95,6 +95,12 @@ pub const REFERENCES: [Reference; 7] = [
         dt: "1e-4",
         duration: "1",
         every: 1000,
+    },
+    Reference {
+        scene: "coupled_pendulums",
+        dt: "1e-4",
+        duration: "2",
+        every: 100,
     },
 ];
 
@@ -234,11 +240,12 @@ pub fn run(o: &RunOptions) -> Result<(), String> {
     if let Some(k) = &o.keyframe {
         cmd.args(["--keyframe", k]);
     }
+    // `--flag=value`: a value that starts with a minus sign is not an option to argparse.
     if let Some(q) = &o.qpos {
-        cmd.args(["--qpos", q]);
+        cmd.arg(format!("--qpos={q}"));
     }
     if let Some(v) = &o.qvel {
-        cmd.args(["--qvel", v]);
+        cmd.arg(format!("--qvel={v}"));
     }
     if let Some(c) = &o.ctrl {
         cmd.arg("--ctrl").arg(c);

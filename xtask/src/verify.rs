@@ -8,7 +8,15 @@
 //! 5. the sweeps (`verify-report` binary, release build): cloth stability map and
 //!    work-precision chart
 //!
-//! 6. with `--mujoco` only: every MuJoCo reference of `scenes/reference/` regenerated into
+//! 6. the real models (`cargo xtask models run`, `--quick`: 0.5 s runs, one repeat):
+//!    the 33 gymnasium and dm_control models in MuJoCo and here, per-model checks, the
+//!    "Real models" section and its charts (see `models.rs`,
+//!    `constraint_verify::models_report`). Fails on a panic, when a model that loads
+//!    diverges, or when the suite cannot run; a model that does not load is a table entry.
+//!    Skipped, with the reason in the report, only when MuJoCo itself cannot be
+//!    installed (no Python, no PyPI); once MuJoCo is there, a failed model download is
+//!    a failure.
+//! 7. with `--mujoco` only: every MuJoCo reference of `scenes/reference/` regenerated into
 //!    `target/verify/mujoco/` and compared with the committed file (COM, body origin and
 //!    orientation within 1e-9; needs Python, see `mujoco.rs`)
 //!
@@ -50,7 +58,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
     }
     let out = root().join("target/verify");
     std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
-    let total = if with_mujoco { 6 } else { 5 };
+    let total = if with_mujoco { 7 } else { 6 };
     let mut stages: Vec<Stage> = Vec::new();
     let begin = |k: usize, name: &str| eprintln!("\n[{k}/{total}] {name}");
 
@@ -144,9 +152,22 @@ pub fn main(args: &[String]) -> Result<(), String> {
         note: String::new(),
     });
 
+    begin(
+        6,
+        "real models: gymnasium and dm_control in MuJoCo and here",
+    );
+    let t0 = std::time::Instant::now();
+    let (ok, note, models_md) = real_models(quick, &out);
+    stages.push(Stage {
+        name: "real models (cargo xtask models run)",
+        ok,
+        secs: t0.elapsed().as_secs_f64(),
+        note,
+    });
+
     if with_mujoco {
         begin(
-            6,
+            7,
             "MuJoCo references regenerated and compared with scenes/reference/",
         );
         let t0 = std::time::Instant::now();
@@ -197,6 +218,8 @@ pub fn main(args: &[String]) -> Result<(), String> {
         }
         _ => md.push_str("Sweeps did not complete; see the console output.\n"),
     }
+    md.push('\n');
+    md.push_str(&models_md);
     let report = out.join("report.md");
     std::fs::write(&report, md).map_err(|e| e.to_string())?;
     let sweep_ok = bad_input_sweep(&report);
@@ -241,6 +264,65 @@ pub fn main(args: &[String]) -> Result<(), String> {
     } else {
         Err(format!("failed: {}", failed.join(", ")))
     }
+}
+
+/// Stage 6: the real-models suite into `out/models/`, then its report section (written by
+/// `verify-report --models`, charts beside the report). Returns (passed, the note for
+/// the checks table, the section's Markdown).
+fn real_models(quick: bool, out: &std::path::Path) -> (bool, String, String) {
+    let how = if quick {
+        "`cargo xtask verify --quick`: `cargo xtask models run --quick` (0.5 s runs, one repeat)"
+    } else {
+        "`cargo xtask verify`: `cargo xtask models run` (5 s passive and perturbed, 2 s controlled, MuJoCo median of 3)"
+    };
+    let heading = "## Real models (gymnasium and dm_control)\n\n";
+    if let Err(e) = crate::mujoco::ensure_venv() {
+        let why = format!(
+            "skipped: MuJoCo could not be installed ({e}); the real models need Python and \
+             PyPI (`pip install mujoco=={}`, then the gymnasium and dm-control wheels)",
+            crate::mujoco::MUJOCO_VERSION
+        );
+        eprintln!("xtask verify: real models {why}");
+        return (true, why.clone(), format!("{heading}Not run: {why}.\n"));
+    }
+    let args = crate::models::RunArgs {
+        quick,
+        out: out.join("models"),
+    };
+    let suite = match crate::models::run_suite(&args) {
+        Ok(s) => s,
+        Err(e) => return (false, e.clone(), format!("{heading}Did not run: {e}.\n")),
+    };
+    let loaded = suite.rows.iter().filter(|r| r.loads()).count();
+    let mut note = format!("{} models, {loaded} load", suite.rows.len());
+    if !suite.fatal.is_empty() {
+        let _ = write!(note, "; panicked or diverged: {}", suite.fatal.join(", "));
+    }
+    let mut section = cargo();
+    section.args([
+        "run",
+        "--release",
+        "--quiet",
+        "-p",
+        "constraint-verify",
+        "--bin",
+        "verify-report",
+        "--",
+        "--models",
+    ]);
+    section.arg(args.out.join("models.csv")).arg(out).arg(how);
+    let (section_ok, _) = status(&mut section);
+    let md = std::fs::read_to_string(out.join("models_section.md"))
+        .ok()
+        .filter(|_| section_ok)
+        .unwrap_or_else(|| {
+            format!(
+                "{heading}The section was not written (verify-report --models failed); the \
+                 table is in {}.\n",
+                args.out.join("models.md").display()
+            )
+        });
+    (suite.fatal.is_empty() && section_ok, note, md)
 }
 
 /// Issue 7's bad-input sweep (`verify/tests/bad_input_sweep.rs`): runs that one test,

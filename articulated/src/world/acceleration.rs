@@ -1,11 +1,22 @@
 //! The acceleration level with Baumgarte stabilisation (Otaduy 2010, "Opción 1").
 
-use alloc::vec;
+use alloc::vec::Vec;
 
 use constraint_core::rigid::rotate_by;
 use constraint_core::{DVec3, Pose};
 
 use super::*;
+
+/// Buffers the acceleration level reuses from step to step.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Scratch {
+    /// The bodies at the start of the step.
+    bodies: Vec<RigidBody>,
+    /// Explicit damping, actuator, spring and tendon wrenches per body.
+    damp: Vec<(DVec3, DVec3)>,
+    /// The actuator, spring and tendon wrenches per body.
+    wrench: Vec<(DVec3, DVec3)>,
+}
 
 impl World {
     /// `[M Jᵀ; J 0][a; λ] = [f; −J̇v − k_x C − k_v J v]`, then `v' = v + h a`,
@@ -17,8 +28,11 @@ impl World {
         kv: f64,
     ) -> Result<(), ArticulatedError> {
         let g = self.gravity;
-        // Explicit joint damping torques/forces: −d J_dᵀ (J_d v).
-        let mut damp = vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()];
+        // Explicit joint damping torques/forces: −d J_dᵀ (J_d v). Buffers reused across
+        // steps (no allocation once sized).
+        let mut damp = core::mem::take(&mut self.accel.damp);
+        damp.clear();
+        damp.resize(self.bodies.len(), (DVec3::ZERO, DVec3::ZERO));
         for joint in &self.joints {
             if joint.damping_rows() == 0 {
                 continue;
@@ -38,18 +52,22 @@ impl World {
                 damp[joint.child].1 += rows.rows[r][3] * s;
             }
         }
-        let bodies = self.bodies.clone();
-        let joints = self.joints.clone();
+        // The state at the start, for the rows' right-hand side (read while the solver
+        // is assembled).
+        let mut bodies = core::mem::take(&mut self.accel.bodies);
+        bodies.clone_from(&self.bodies);
         self.body_rhs(|b, _, iw| {
             let w = b.omega;
             (g * b.mass(), -w.cross(*iw * w))
         });
-        if let Some(w) = self.dof_wrenches() {
-            for (d, e) in damp.iter_mut().zip(w) {
+        let mut wrench = core::mem::take(&mut self.accel.wrench);
+        if self.dof_wrenches(&mut wrench) {
+            for (d, e) in damp.iter_mut().zip(&wrench) {
                 d.0 += e.0;
                 d.1 += e.1;
             }
         }
+        self.accel.wrench = wrench;
         self.add_fluid_rhs(1.0);
         for (i, (f, t)) in damp.iter().enumerate() {
             let o = self.solver.body_offset(i);
@@ -71,8 +89,7 @@ impl World {
         let pose_of = |b: Option<usize>| b.map_or(Pose::IDENTITY, |i| bodies[i].pose);
         // Compliant joints: explicit spring forces, rows out of the system.
         self.add_spring_rhs(1.0);
-        let loops = self.assemble(h, Rates::None, Soft::Free, |j, _, rows, rhs| {
-            let joint = &joints[j];
+        let loops = self.assemble(h, Rates::None, Soft::Free, |_, joint, rows, rhs| {
             let u = twist_of(joint);
             let (a, b) = (pose_of(joint.parent), pose_of(Some(joint.child)));
             for r in 0..rows.n_hard {
@@ -83,6 +100,8 @@ impl World {
                 rhs[r] = -jdot_v - kx * rows.value[r] - kv * cdot;
             }
         });
+        self.accel.damp = damp;
+        self.accel.bodies = bodies;
         self.solve(loops)?;
         for i in 0..self.bodies.len() {
             let (a, alpha) = self.body_solution(i);

@@ -101,6 +101,7 @@ impl World {
         match r.source {
             RowSource::Limit { joint, dof, upper } => (0, joint, 2 * dof + upper as usize, 0),
             RowSource::DryFriction { joint, dof } => (1, joint, dof, 0),
+            RowSource::TendonLimit { tendon, upper } => (5, tendon, upper as usize, 0),
             RowSource::Contact { contact, axis } => {
                 #[cfg(feature = "contact")]
                 {
@@ -123,6 +124,8 @@ impl World {
                 let n = *s.joint_node.get(joint)?;
                 (n != NONE).then_some(n)
             }
+            // A tendon spans several joints: not a row of one node.
+            RowSource::TendonLimit { .. } => None,
             RowSource::Contact { .. } => match (r.a, r.b) {
                 (None, Some(i)) | (Some(i), None) if i < s.n_bodies => {
                     let p = s.parent[i];

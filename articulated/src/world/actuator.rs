@@ -53,6 +53,17 @@ pub struct Tendon {
     pub rest_length: f64,
 }
 
+/// Which part of the actuator, spring and tendon forces `τ(q, q̇)` to apply: all of it,
+/// the part at rest `τ(q, 0)` (what RATTLE's symplectic kicks take), or the
+/// velocity-dependent rest `τ(q, q̇) − τ(q, 0)` (velocity actuators' `b₂ q̇`, tendon
+/// damping; what RATTLE's damping flow takes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum ForcePart {
+    Full,
+    Position,
+    Velocity,
+}
+
 /// One actuator on a joint degree of freedom or a tendon, in MuJoCo's general form.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Actuator {
@@ -294,6 +305,7 @@ impl World {
         &self,
         tau: &mut Vec<[f64; MAX_DOF]>,
         coords: &mut Vec<Option<DofState>>,
+        part: ForcePart,
     ) -> bool {
         if self.actuators.is_empty() && self.springs.is_empty() && self.tendons.is_empty() {
             return false;
@@ -315,13 +327,15 @@ impl World {
                 Target::Tendon(t) => tendon_state(&self.tendons[t]),
             };
             let u = act.ctrl_range.map_or(u, |[lo, hi]| u.min(hi).max(lo));
-            let mut s = act.gain * u
-                + act.bias[0]
-                + act.bias[1] * act.gear * len
-                + act.bias[2] * act.gear * vel;
-            if let Some([lo, hi]) = act.force_range {
-                s = s.min(hi).max(lo);
-            }
+            let clamp = |s: f64| act.force_range.map_or(s, |[lo, hi]| s.min(hi).max(lo));
+            let at_rest = act.gain * u + act.bias[0] + act.bias[1] * act.gear * len;
+            let s = match part {
+                ForcePart::Full => clamp(at_rest + act.bias[2] * act.gear * vel),
+                ForcePart::Position => clamp(at_rest),
+                ForcePart::Velocity => {
+                    clamp(at_rest + act.bias[2] * act.gear * vel) - clamp(at_rest)
+                }
+            };
             match act.target {
                 Target::Dof { joint, dof } => tau[joint][dof] += act.gear * s,
                 Target::Tendon(t) => {
@@ -331,15 +345,21 @@ impl World {
                 }
             }
         }
-        for s in &self.springs {
-            tau[s.joint][s.dof] -= s.stiffness * (q(s.joint, s.dof).0 - s.reference);
+        if part != ForcePart::Velocity {
+            for s in &self.springs {
+                tau[s.joint][s.dof] -= s.stiffness * (q(s.joint, s.dof).0 - s.reference);
+            }
         }
         for t in &self.tendons {
             if t.stiffness == 0.0 && t.damping == 0.0 {
                 continue;
             }
             let (l, ld) = tendon_state(t);
-            let f = -t.stiffness * (l - t.rest_length) - t.damping * ld;
+            let f = match part {
+                ForcePart::Full => -t.stiffness * (l - t.rest_length) - t.damping * ld,
+                ForcePart::Position => -t.stiffness * (l - t.rest_length),
+                ForcePart::Velocity => -t.damping * ld,
+            };
             for &(j, d, c) in &t.terms {
                 tau[j][d] += c * f;
             }
@@ -350,9 +370,25 @@ impl World {
     /// Adds `scale · Σ_k G_kᵀ τ_k` (the actuator, spring and tendon impulses over
     /// `scale` seconds) to the bodies' right-hand side.
     pub(super) fn add_dof_forces(&mut self, scale: f64) {
+        self.add_dof_forces_part(scale, ForcePart::Full);
+    }
+
+    /// Whether any force depends on the velocities besides the joint damping rows: a
+    /// velocity term `b₂ ≠ 0` of an actuator, a damped tendon, or a fluid. RATTLE moves
+    /// these into its damping flow (see `world/rattle.rs`).
+    pub(super) fn has_velocity_forces(&self) -> bool {
+        self.actuators.iter().any(|a| a.bias[2] != 0.0)
+            || self.tendons.iter().any(|t| t.damping != 0.0)
+            || self
+                .fluid
+                .is_some_and(|f| f.density != 0.0 || f.viscosity != 0.0)
+    }
+
+    /// [`Self::add_dof_forces`] for one part of the forces ([`ForcePart`]).
+    pub(super) fn add_dof_forces_part(&mut self, scale: f64, part: ForcePart) {
         let mut tau = core::mem::take(&mut self.dof_tau);
         let mut coords = core::mem::take(&mut self.dof_table);
-        if self.generalized_forces(&mut tau, &mut coords) {
+        if self.generalized_forces(&mut tau, &mut coords, part) {
             self.apply_dof_impulses(&tau, &coords, scale);
         }
         self.dof_tau = tau;
@@ -388,29 +424,34 @@ impl World {
     }
 
     /// The actuator, spring and tendon forces per body `(force, torque)` at the current
-    /// state (for the acceleration level, which applies forces, not impulses).
-    pub(super) fn dof_wrenches(&self) -> Option<Vec<(DVec3, DVec3)>> {
-        let (mut tau, mut coords) = (Vec::new(), Vec::new());
-        if !self.generalized_forces(&mut tau, &mut coords) {
-            return None;
-        }
-        let mut f = alloc::vec![(DVec3::ZERO, DVec3::ZERO); self.bodies.len()];
-        for ji in 0..self.joints.len() {
-            let Some((_, _, rows)) = &coords[ji] else {
-                continue;
-            };
-            let (parent, child) = (self.joints[ji].parent, self.joints[ji].child);
-            for k in 0..MAX_DOF {
-                let t = tau[ji][k];
-                if let Some(p) = parent {
-                    f[p].0 += rows[k][0] * t;
-                    f[p].1 += rows[k][1] * t;
+    /// state into `f` (resized to the bodies; for the acceleration level, which applies
+    /// forces, not impulses). Returns false, leaving `f` untouched, when there are none.
+    pub(super) fn dof_wrenches(&mut self, f: &mut Vec<(DVec3, DVec3)>) -> bool {
+        let mut tau = core::mem::take(&mut self.dof_tau);
+        let mut coords = core::mem::take(&mut self.dof_table);
+        let any = self.generalized_forces(&mut tau, &mut coords, ForcePart::Full);
+        if any {
+            f.clear();
+            f.resize(self.bodies.len(), (DVec3::ZERO, DVec3::ZERO));
+            for ji in 0..self.joints.len() {
+                let Some((_, _, rows)) = &coords[ji] else {
+                    continue;
+                };
+                let (parent, child) = (self.joints[ji].parent, self.joints[ji].child);
+                for k in 0..MAX_DOF {
+                    let t = tau[ji][k];
+                    if let Some(p) = parent {
+                        f[p].0 += rows[k][0] * t;
+                        f[p].1 += rows[k][1] * t;
+                    }
+                    f[child].0 += rows[k][2] * t;
+                    f[child].1 += rows[k][3] * t;
                 }
-                f[child].0 += rows[k][2] * t;
-                f[child].1 += rows[k][3] * t;
             }
         }
-        Some(f)
+        self.dof_tau = tau;
+        self.dof_table = coords;
+        any
     }
 }
 

@@ -40,6 +40,7 @@ mod active_set;
 mod actuator;
 #[cfg(feature = "contact")]
 mod contact;
+mod equality;
 mod fluid;
 mod projection;
 mod rattle;
@@ -51,6 +52,7 @@ pub use active_set::MAX_ITERATIONS as ACTIVE_SET_ITERATIONS;
 pub use actuator::{Actuator, DofSpring, Target, Tendon};
 #[cfg(feature = "contact")]
 pub use contact::CollisionFilter;
+pub use equality::{Equality, Terms};
 pub use fluid::Fluid;
 pub use unilateral::{RowSource, UnilateralSettings, UnilateralStats};
 
@@ -194,6 +196,10 @@ pub struct StepStats {
     /// (with projection for RATTLE) because one-sided rows (limits, contacts) were present:
     /// those methods are not defined across a complementarity event.
     pub unilateral_fallbacks: usize,
+    /// Steps of the acceleration-level method taken instead at the velocity level
+    /// because equality rows ([`World::add_equality`]) were present (its stages do not
+    /// take the rows, `equality.rs`; RATTLE and RATTLE4 do).
+    pub equality_fallbacks: usize,
 }
 
 /// Bodies, joints, gravity and the solver's reusable storage.
@@ -218,6 +224,11 @@ pub struct World {
     impulses: Vec<[f64; MAX_ROWS]>,
     /// Per-body angular momenta (RATTLE scratch).
     momenta: Vec<DVec3>,
+    /// RATTLE scratch: the first kick's joint impulses, the poses at the start of the
+    /// drift, the armature rows' carried rates, and the damping flow's stage twists.
+    rattle: rattle::Scratch,
+    /// Acceleration-level scratch.
+    accel: acceleration::Scratch,
     /// Per-body state at the start of a projection iteration (scratch).
     proj_base: Vec<(Pose, DVec3, DVec3)>,
     /// Positional compliance `α ≥ 0` per joint (0: hard).
@@ -233,6 +244,14 @@ pub struct World {
     springs: Vec<DofSpring>,
     /// Fixed tendons.
     tendons: Vec<Tendon>,
+    /// Length limits per tendon (shorter than `tendons` when the last have none).
+    tendon_ranges: Vec<Option<[f64; 2]>>,
+    /// Equality rows over coordinates.
+    equalities: Vec<Equality>,
+    /// The equality rows of the current assembly and their complement (scratch).
+    eq: equality::EqRows,
+    /// The tendon-limit rows' segments, one range per tendon (scratch).
+    tendon_spans: equality::Spans,
     /// The medium (fluid drag), if any.
     fluid: Option<Fluid>,
     /// Per body: principal axes (body frame) and inertia-box half-sizes.
@@ -268,6 +287,8 @@ pub struct World {
     dof_table: Vec<Option<actuator::DofState>>,
     /// The loop rows of the last assembly.
     last_loops: LoopRows,
+    /// Spare loop-row buffers (RATTLE keeps a second set; no allocation across steps).
+    spare_loops: LoopRows,
     /// Colliders (feature `contact`).
     #[cfg(feature = "contact")]
     colliders: Vec<constraint_contact::geometry::Collider>,
@@ -305,6 +326,8 @@ impl World {
             geometric_stiffness: GeometricStiffness::default(),
             impulses: Vec::new(),
             momenta: Vec::new(),
+            rattle: rattle::Scratch::default(),
+            accel: acceleration::Scratch::default(),
             proj_base: Vec::new(),
             compliance: Vec::new(),
             limits: Vec::new(),
@@ -314,6 +337,10 @@ impl World {
             ctrl: Vec::new(),
             springs: Vec::new(),
             tendons: Vec::new(),
+            tendon_ranges: Vec::new(),
+            equalities: Vec::new(),
+            eq: equality::EqRows::default(),
+            tendon_spans: equality::Spans::default(),
             fluid: None,
             fluid_boxes: Vec::new(),
             unilateral: UnilateralSettings::default(),
@@ -330,6 +357,7 @@ impl World {
             dof_tau: Vec::new(),
             dof_table: Vec::new(),
             last_loops: (Vec::new(), Vec::new(), Vec::new()),
+            spare_loops: (Vec::new(), Vec::new(), Vec::new()),
             #[cfg(feature = "contact")]
             colliders: Vec::new(),
             #[cfg(feature = "contact")]
@@ -672,6 +700,7 @@ impl World {
         self.urows.clear();
         self.ustats = UnilateralStats::default();
         self.push_limit_rows(h);
+        self.push_tendon_limit_rows(h);
         #[cfg(feature = "contact")]
         self.push_contact_rows(h)?;
         let _ = h;
@@ -694,7 +723,9 @@ impl World {
     fn step_inner(&mut self, h: f64, method: Method) -> Result<StepStats, ArticulatedError> {
         let mut stats = StepStats::default();
         self.collect_unilateral_rows(h)?;
-        if !self.urows.is_empty() {
+        let equalities = !self.equalities.is_empty();
+        let acceleration = matches!(method, Method::Acceleration { .. });
+        if !self.urows.is_empty() || (equalities && acceleration) {
             // RATTLE and the acceleration level are not defined across a complementarity
             // event: the step goes to the velocity level (projected for RATTLE).
             match method {
@@ -712,7 +743,8 @@ impl World {
                     return Ok(stats);
                 }
                 Method::Acceleration { .. } => {
-                    stats.unilateral_fallbacks = 1;
+                    stats.unilateral_fallbacks = usize::from(!self.urows.is_empty());
+                    stats.equality_fallbacks = usize::from(equalities);
                     self.velocity_solve(h, 1.0)?;
                     return Ok(stats);
                 }
@@ -785,10 +817,17 @@ impl World {
         soft: Soft,
         mut joint_rhs: impl FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]),
     ) -> LoopRows {
+        // Equality rows take part only in the solves of assemblies that load them.
+        self.eq.active = false;
+        // The loop rows' buffers of the last assembly (and of RATTLE's spare), reused.
+        let (mut loop_rows, mut loop_c, mut loop_rhs) = core::mem::take(&mut self.last_loops);
+        if loop_rows.capacity() == 0 {
+            (loop_rows, loop_c, loop_rhs) = core::mem::take(&mut self.spare_loops);
+        }
+        loop_rows.clear();
+        loop_c.clear();
+        loop_rhs.clear();
         let solver = &mut self.solver;
-        let mut loop_rows = Vec::new();
-        let mut loop_c = Vec::new();
-        let mut loop_rhs = Vec::new();
         for (j, joint) in self.joints.iter().enumerate() {
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
@@ -913,6 +952,15 @@ impl World {
         }
     }
 
+    /// Keeps `loops`' buffers for a later assembly.
+    pub(super) fn recycle_loops(&mut self, loops: LoopRows) {
+        if self.last_loops.0.capacity() == 0 {
+            self.last_loops = loops;
+        } else {
+            self.spare_loops = loops;
+        }
+    }
+
     fn solve(&mut self, loops: LoopRows) -> Result<(), ArticulatedError> {
         let solver = &mut self.solver;
         solver.factor()?;
@@ -926,7 +974,11 @@ impl World {
         let free_scale = self.loop_free_scale(loops);
         let solver = &mut self.solver;
         let (rows, c, r) = loops;
-        solver.solve_with_loops(&mut self.rhs, rows, c, r, free_scale, &mut self.mu)
+        solver.solve_with_loops(&mut self.rhs, rows, c, r, free_scale, &mut self.mu)?;
+        if self.eq.active {
+            self.solve_equalities(loops)?;
+        }
+        Ok(())
     }
 
     /// Loads every body's mass block `diag(m) ⊕ R I Rᵀ` into the solver and its

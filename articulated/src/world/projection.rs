@@ -16,7 +16,8 @@ impl World {
         velocity_h: Option<f64>,
     ) -> Result<usize, ArticulatedError> {
         // Compliant joints are not projected (their separation is their spring's).
-        let mut err = self.max_hard_separation();
+        // Equality rows are projected with the joints: `[M Eᵀ; E 0][δ; ν] = [0; −C_E]`.
+        let mut err = self.projection_error();
         for it in 0..max_iterations {
             if err <= tolerance {
                 return Ok(it);
@@ -27,6 +28,7 @@ impl World {
                     rhs[r] = -rows.value[r];
                 }
             });
+            self.load_equalities(|c| -c);
             self.solve(loops)?;
             // Backtracking: a full Newton step can overshoot far from the manifold (light
             // bodies turned by large angles); halve it until the separation decreases.
@@ -49,7 +51,7 @@ impl World {
                         b.omega = w + dth * (alpha / h);
                     }
                 }
-                let trial = self.max_hard_separation();
+                let trial = self.projection_error();
                 if trial < err {
                     err = trial;
                     accepted = true;
@@ -70,5 +72,12 @@ impl World {
             }
         }
         Ok(max_iterations)
+    }
+
+    /// What the projection drives to zero: the hard joints' separation and the
+    /// equalities' `|C|`.
+    fn projection_error(&self) -> f64 {
+        self.max_hard_separation()
+            .max(self.max_equality_violation())
     }
 }

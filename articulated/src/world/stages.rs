@@ -16,6 +16,8 @@ impl World {
     ///   with the implicit-midpoint `ω` (RATTLE);
     /// * Baraff's tree factorization of the KKT matrix, always; the loop-closure Schur
     ///   complement only when some joint closes a loop;
+    /// * the equality rows' complement only when [`World::add_equality`] was used (an
+    ///   acceleration-level step then runs at the velocity level);
     /// * damping rows (implicit) or damping forces (explicit, acceleration level) only
     ///   when some joint is damped;
     /// * compliant joints only when some [`World::compliances`] entry is `> 0`:
@@ -42,6 +44,9 @@ impl World {
         out.push("tree KKT factorization (Baraff, leaves first)");
         if self.loop_count() > 0 {
             out.push("loop closure: Schur complement (SVD)");
+        }
+        if !self.equalities.is_empty() {
+            out.push("equality rows: Schur complement over the tree (SVD)");
         }
         if self.joints.iter().any(|j| j.damping_rows() > 0) {
             out.push(if explicit {

@@ -16,7 +16,9 @@ impl World {
             // The one-sided rows in the tree factor by an active set; the dense path
             // where that does not apply or does not settle.
             let loops = self.velocity_assemble(h, beta);
-            if loops.0.is_empty() && self.solve_unilateral_sparse() {
+            // Loop joints and equality rows go by their Schur complement on the dense
+            // path only.
+            if loops.0.is_empty() && !self.eq.active && self.solve_unilateral_sparse() {
                 self.last_loops = loops;
             } else {
                 self.ustats.dense_fallback = true;
@@ -73,7 +75,8 @@ impl World {
     /// The velocity-level KKT system of [`Self::velocity_twists`] as one dense matrix
     /// (all joints' rows, loop joints included, damping rows with compliance
     /// `1/(h d)`, compliant joints' hard rows with `α/h²`): unknowns `[v₀, ω₀, v₁, ω₁, …, λ]`. A reference for tests and for
-    /// tiny systems; `O(n²)` memory.
+    /// tiny systems; `O(n²)` memory. Equality rows ([`World::add_equality`]) are not in
+    /// it (they are not joint rows; [`Self::velocity_twists`] does enforce them).
     pub fn dense_velocity_system(&self, h: f64, beta: f64) -> (Vec<Vec<f64>>, Vec<f64>) {
         let nb = self.bodies.len();
         let rows: usize = self
@@ -158,8 +161,8 @@ impl World {
         Ok(())
     }
 
-    /// Loads the velocity-level system (bodies, joints, forces) into the solver and
-    /// `self.rhs` without factoring it; returns the loop rows.
+    /// Loads the velocity-level system (bodies, joints, forces, equality rows) into the
+    /// solver and `self.rhs` without factoring it; returns the loop rows.
     fn velocity_assemble(&mut self, h: f64, beta: f64) -> LoopRows {
         let g = self.gravity;
         self.body_rhs(|b, r, iw| {
@@ -173,11 +176,13 @@ impl World {
         {
             self.add_geometric_stiffness(h);
         }
-        self.assemble(h, Rates::Full, Soft::Implicit, |_, _, rows, rhs| {
+        let loops = self.assemble(h, Rates::Full, Soft::Implicit, |_, _, rows, rhs| {
             for r in 0..rows.n_hard {
                 rhs[r] = -beta * rows.value[r] / h;
             }
-        })
+        });
+        self.load_equalities(|c| -beta * c / h);
+        loops
     }
 
     /// Geometric stiffness (Andrews, Teichmann and Kry 2017, "Geometric stiffness for

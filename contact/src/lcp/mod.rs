@@ -34,4 +34,6 @@ pub use lemke::{lemke, LemkeSettings};
 pub use newton::{fischer_newton, NewtonSettings};
 pub use pgs::{pgs, PgsSettings};
 pub use problem::{Lcp, LcpError, LcpSolution};
-pub use staggered::{solve_rows, Coupling, RowBound, RowMethod, RowSettings, RowStats};
+pub use staggered::{
+    row_residual, solve_rows, Coupling, RowBound, RowMethod, RowSettings, RowStats,
+};

@@ -75,6 +75,12 @@ pub struct RowSettings {
     pub friction_tolerance: f64,
     /// Sweeps of the friction PGS (and of its last-budget fallback).
     pub friction_iterations: usize,
+    /// Staggered coupling only: after its `sweeps`, keep alternating while the whole
+    /// problem's residual ([`row_residual`]) exceeds `friction_tolerance`, up to this
+    /// many sweeps in all, and if it still does, end with one more one-sided solve so
+    /// that contacts and limits hold exactly against the final friction (which is then
+    /// clamped into its cone). `0` (the default): exactly `sweeps` alternations.
+    pub max_sweeps: usize,
 }
 
 impl Default for RowSettings {
@@ -86,6 +92,7 @@ impl Default for RowSettings {
             pgs_iterations: 10_000,
             friction_tolerance: 1e-8,
             friction_iterations: 10_000,
+            max_sweeps: 0,
         }
     }
 }
@@ -104,6 +111,29 @@ pub struct RowStats {
     pub friction_pgs: bool,
     /// A friction PGS ran out of sweeps and its last budget of sweeps was kept.
     pub friction_budget: bool,
+    /// Normal/friction alternations of the staggered coupling.
+    pub sweeps: usize,
+}
+
+/// The residual of a solution of [`solve_rows`]'s problem: the largest
+/// `|z_i − P_i(z_i − w_i)|` over the rows, `w = A z + q`, `P_i` the projection on row
+/// `i`'s bounds (`[0, ∞)`, `[−μ z_n, μ z_n]`, `[lo, hi]`; zero exactly at a solution),
+/// relative to `max(1, max |q|)`.
+pub fn row_residual(a: &[f64], q: &[f64], bounds: &[RowBound], z: &[f64]) -> f64 {
+    let m = q.len();
+    let scale = q.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+    let mut worst: f64 = 0.0;
+    for i in 0..m {
+        let w: f64 = q[i] + (0..m).map(|k| a[i * m + k] * z[k]).sum::<f64>();
+        let (lo, hi) = match bounds[i] {
+            RowBound::Unilateral => (0.0, f64::INFINITY),
+            RowBound::Friction { normal, mu } => (-mu * z[normal], mu * z[normal]),
+            RowBound::Boxed { lo, hi } => (lo, hi),
+        };
+        let p = (z[i] - w).min(hi).max(lo);
+        worst = worst.max((z[i] - p).abs());
+    }
+    worst / scale
 }
 
 /// Solves `w = A z + q` with the row bounds `bounds` (`A` dense row-major `n × n`),
@@ -196,7 +226,10 @@ pub fn solve_rows(
         max_iterations: 200,
         ..NewtonSettings::default()
     };
-    for _ in 0..sweeps {
+    let max_sweeps = settings.max_sweeps.max(sweeps);
+    let mut done = 0;
+    loop {
+        let final_normal = done == max_sweeps;
         if !normal.is_empty() {
             // The one-sided LCP with the other impulses fixed.
             let qn: Vec<f64> = normal
@@ -234,6 +267,15 @@ pub fn solve_rows(
             }
         }
         if frictionless {
+            break;
+        }
+        if final_normal {
+            // The one-sided rows hold against the last friction; that friction goes back
+            // into the (new) cones.
+            for &i in &tangent {
+                let (lo, hi) = bound(i, z);
+                z[i] = z[i].min(hi).max(lo);
+            }
             break;
         }
         // The boxed problem of the other rows with the one-sided impulses fixed: PGS on
@@ -282,6 +324,14 @@ pub fn solve_rows(
                 }
             }
             Err(e) => return Err(e),
+        }
+        done += 1;
+        stats.sweeps = done;
+        if done >= sweeps
+            && (max_sweeps == sweeps
+                || row_residual(a, q, bounds, z) <= settings.friction_tolerance)
+        {
+            break;
         }
     }
     Ok(stats)

@@ -74,6 +74,8 @@ impl ContactWorld {
             pgs_iterations: s.iterations.max(10_000),
             friction_tolerance: 1e-8,
             friction_iterations: 10_000,
+            // Exactly the configured alternations (the contact world pins its trajectories).
+            max_sweeps: 0,
         };
         let mut z = z0;
         let stats = solve_rows(&a, &q, &bounds, &settings, &mut z).map_err(ContactError::Lcp)?;

@@ -1,17 +1,23 @@
 //! `simulate SCENE.xml [--keyframe NAME | --qpos V,.. --qvel V,..] [--ctrl FILE.csv]
-//! [--dt DT] --duration T [--every K] [--method M]
+//! [--dt DT] --duration T [--every K] [--method M] [--summary FILE.json]
 //! --out FILE.csv` — runs an MJCF scene with this library and writes the trajectory
 //! (DESIGN.md §6). `cargo xtask simulate` calls this. Exit status 1 with a one-line
-//! reason on any error.
+//! reason on any error. `--summary` also writes the run's figures (steps, µs per step,
+//! finite, worst joint separation, penetration, energy increase, contacts; see
+//! `constraint_verify::scene::Summary`) as one JSON object; `cargo xtask models` reads it.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use constraint_verify::scene::{run, RunOptions, METHODS};
+use constraint_verify::scene::{run, run_with_summary, RunOptions, METHODS};
 
-fn parse(args: &[String]) -> Result<(PathBuf, RunOptions, PathBuf), String> {
+/// The command line: scene, run options, trajectory file, summary file.
+type Args = (PathBuf, RunOptions, PathBuf, Option<PathBuf>);
+
+fn parse(args: &[String]) -> Result<Args, String> {
     let mut scene = None;
     let mut out = None;
+    let mut summary = None;
     let mut opts = RunOptions {
         duration: f64::NAN,
         ..RunOptions::default()
@@ -47,6 +53,7 @@ fn parse(args: &[String]) -> Result<(PathBuf, RunOptions, PathBuf), String> {
             "--qvel" => opts.qvel = Some(list(val("--qvel")?, "--qvel")?),
             "--ctrl" => opts.ctrl = Some(PathBuf::from(val("--ctrl")?)),
             "--out" => out = Some(PathBuf::from(val("--out")?)),
+            "--summary" => summary = Some(PathBuf::from(val("--summary")?)),
             s if s.starts_with("--") => return Err(format!("unknown option {s}")),
             s => {
                 if scene.replace(PathBuf::from(s)).is_some() {
@@ -60,23 +67,36 @@ fn parse(args: &[String]) -> Result<(PathBuf, RunOptions, PathBuf), String> {
     if opts.duration.is_nan() {
         return Err("missing --duration T".into());
     }
-    Ok((scene, opts, out))
+    Ok((scene, opts, out, summary))
 }
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.iter().any(|a| a == "-h" || a == "--help") {
-        println!("usage: simulate SCENE.xml [--keyframe NAME | --qpos V,V,... --qvel V,V,...] [--ctrl FILE.csv] [--dt DT] --duration T [--every K] [--method M] --out FILE.csv");
+        println!("usage: simulate SCENE.xml [--keyframe NAME | --qpos V,V,... --qvel V,V,...] [--ctrl FILE.csv] [--dt DT] --duration T [--every K] [--method M] [--summary FILE.json] --out FILE.csv");
         println!("  --qpos, --qvel  initial state in MuJoCo's generalized coordinates (missing values: qpos0, 0)");
         println!("  --ctrl FILE     controls: CSV `t,<actuator>...`, each row held until the next");
+        println!(
+            "  --summary FILE  also write the run's figures as JSON: steps, us_per_step, finite,"
+        );
+        println!("                  max_joint_separation, max_penetration, settled_penetration (second half),");
+        println!("                  energy_initial, max_energy_increase, energy_final, max_contacts, actuators, colliders");
         for (n, d) in METHODS {
             println!("  --method {n:<13} {d}");
         }
         return ExitCode::SUCCESS;
     }
-    let result = parse(&args).and_then(|(scene, opts, out)| {
-        let (traj, secs) = run(&scene, &opts)?;
+    let result = parse(&args).and_then(|(scene, opts, out, summary)| {
+        // The summary's figures are gathered only when asked for (they cost a pass over
+        // the joints per step, outside the timed part).
+        let (traj, secs, sum) = match &summary {
+            Some(_) => run_with_summary(&scene, &opts).map(|(t, s, m)| (t, s, Some(m)))?,
+            None => run(&scene, &opts).map(|(t, s)| (t, s, None))?,
+        };
         std::fs::write(&out, traj.to_csv()).map_err(|e| format!("{}: {e}", out.display()))?;
+        if let (Some(p), Some(sum)) = (&summary, sum) {
+            std::fs::write(p, sum.to_json() + "\n").map_err(|e| format!("{}: {e}", p.display()))?;
+        }
         let steps = ((opts.duration / opts.dt.unwrap_or(f64::NAN)).round()).max(0.0);
         eprintln!(
             "simulate: wrote {} rows to {} ({secs:.3} s stepping{})",

@@ -14,6 +14,10 @@
 //! `cargo run --release -p constraint-verify --bin verify-report -- [--quick] [--out DIR]`
 //! (normally called by `cargo xtask verify`).
 //!
+//! `verify-report --models MODELS.csv DIR [HOW]` only writes the real-models section
+//! (`DIR/models_section.md`, `models_time_ratio.svg`, `models_smooth_error.svg`; see
+//! `constraint_verify::models_report`) from what `cargo xtask models run` measured.
+//!
 //! `verify-report --html REPORT.md [PAGE.html]` only converts a report (default page:
 //! `REPORT.html` beside it), inlining the SVG charts it links; `cargo xtask verify` can
 //! call it once it has written `report.md`, so the page has the checks table too.
@@ -87,6 +91,26 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     .next()
                     .map_or_else(|| md.with_extension("html"), PathBuf::from);
                 constraint_verify::html::convert_file(&md, &page)?;
+                eprintln!("  wrote {}", page.display());
+                return Ok(());
+            }
+            "--models" => {
+                // `--models MODELS.csv DIR [HOW]`: the real-models section only.
+                let csv = PathBuf::from(args.next().ok_or("--models needs models.csv")?);
+                let dir = PathBuf::from(args.next().ok_or("--models needs an output folder")?);
+                let how = args
+                    .next()
+                    .unwrap_or_else(|| "`cargo xtask models run`".to_string());
+                let text =
+                    std::fs::read_to_string(&csv).map_err(|e| format!("{}: {e}", csv.display()))?;
+                let lines = constraint_verify::models_report::parse(&text)?;
+                let (md, charts) = constraint_verify::models_report::section(&lines, &how);
+                std::fs::create_dir_all(&dir)?;
+                for (name, svg) in charts {
+                    std::fs::write(dir.join(name), svg)?;
+                }
+                let page = dir.join("models_section.md");
+                std::fs::write(&page, md)?;
                 eprintln!("  wrote {}", page.display());
                 return Ok(());
             }
