@@ -3,13 +3,15 @@
 //! link touches the plane, two contact points and six one-sided rows per link) against
 //! the same chain swinging free ([`constraint_articulated::scenes::ball_chain`]`(n, 1.0)`),
 //! dt = 1e-3, velocity level and velocity level with projection; each world first runs
-//! 200 steps (fewer, see `CHAIN_FLOOR_SETTLE`, for the large floor chains, whose steps
-//! cost seconds: the floor step is quadratic in n, see `examples/floor_profile.rs`).
+//! 200 steps (`CHAIN_FLOOR_SETTLE` for the floor chains above 100 links, default 200).
+//! The floor rows are solved by the active set in the tree factor (`O(n)` per step,
+//! `world/active_set.rs`); `CHAIN_FLOOR_DENSE=1` times the dense Delassus path instead
+//! (quadratic in n: keep `CHAIN_FLOOR_MAX` small then).
 //! Also the 20-link chain dropped from z0 = 0.3 m, timed as 2 s of simulation.
 //!
 //! `cargo bench -p constraint-articulated --features contact --bench chain_floor`
-//! (`CHAIN_FLOOR_SIZES=10,20,50,100`, default 10,20,50,100,200; floor sizes above
-//! `CHAIN_FLOOR_MAX`, default 200, are skipped because a step there takes more than 1 s).
+//! (`CHAIN_FLOOR_SIZES=10,30,100`, default 10,30,100,300,1000; floor sizes above
+//! `CHAIN_FLOOR_MAX`, default 1000, are skipped).
 
 use constraint_articulated::scenes::{ball_chain, chain_on_floor};
 use constraint_articulated::{Method, World};
@@ -56,8 +58,9 @@ fn settle(w: &mut World, m: Method, steps: usize) {
 }
 
 fn bench(c: &mut Criterion) {
-    let sizes = env_list("CHAIN_FLOOR_SIZES", &[10, 20, 50, 100, 200]);
-    let floor_max = env_usize("CHAIN_FLOOR_MAX", 200);
+    let sizes = env_list("CHAIN_FLOOR_SIZES", &[10, 30, 100, 300, 1000]);
+    let floor_max = env_usize("CHAIN_FLOOR_MAX", 1000);
+    let dense = std::env::var("CHAIN_FLOOR_DENSE").is_ok_and(|v| v == "1");
     let mut g = c.benchmark_group("chain_floor_step");
     g.warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(2))
@@ -74,8 +77,9 @@ fn bench(c: &mut Criterion) {
                 continue;
             }
             let mut floor = chain_on_floor(n, 0.01, 0.5).unwrap_or_else(|e| panic!("{e}"));
+            floor.unilateral.sparse = !dense;
             let settle_steps = if n > 100 {
-                env_usize("CHAIN_FLOOR_SETTLE", 20)
+                env_usize("CHAIN_FLOOR_SETTLE", 200)
             } else {
                 200
             };
@@ -85,10 +89,11 @@ fn bench(c: &mut Criterion) {
             });
             let s = floor.unilateral_stats();
             println!(
-                "floor {name} n={n}: contacts {} rows {} LCP iterations {} residual {:.1e} \
+                "floor {name} n={n}: contacts {} rows {} sparse {} iterations {} residual {:.1e} \
                  penetration {:.2e} m joint separation {:.2e} m",
                 s.contacts,
                 s.rows,
+                s.sparse,
                 s.solver.iterations,
                 s.residual,
                 s.max_penetration,

@@ -5,7 +5,9 @@
 //! (2 s). Prints medians of individually timed steps, the contact points and one-sided
 //! rows per step, the LCP's iterations and residual, penetration and joint separation,
 //! and the least-squares growth exponents of time against n. Also a convenient target
-//! for `perf record` / `valgrind --tool=callgrind` (`profile N [steps]`).
+//! for `perf record` / `valgrind --tool=callgrind` (`profile N [steps]`). The floor
+//! rows go by the active set in the tree factor (`world/active_set.rs`), whose
+//! iterations the "LCP iters" column then shows.
 //!
 //! ```text
 //! cargo run --release -p constraint-articulated --features contact --example floor_profile -- \

@@ -30,6 +30,7 @@ pub mod mjcf;
 pub mod mjcf_contact;
 pub mod scenes;
 pub mod tree;
+mod tree_rows;
 pub mod world;
 
 pub use constraint_core::{BodyError, RigidBody};

@@ -48,27 +48,27 @@ use crate::error::ArticulatedError;
 /// A ≤ 6×6 dense block, row-major.
 pub(crate) type Blk = [[f64; 6]; 6];
 const ZERO: Blk = [[0.0; 6]; 6];
-const NONE: usize = usize::MAX;
+pub(crate) const NONE: usize = usize::MAX;
 
 /// The structure of the tree (built once per topology) and the factor (per step).
 #[derive(Clone, Debug)]
 pub(crate) struct TreeSolver {
     pub n_bodies: usize,
     /// Node dimension: 6 for bodies, rows for joints.
-    dim: Vec<usize>,
+    pub(crate) dim: Vec<usize>,
     /// Offset of each node's unknowns in the solution vector.
-    offset: Vec<usize>,
-    parent: Vec<usize>,
+    pub(crate) offset: Vec<usize>,
+    pub(crate) parent: Vec<usize>,
     /// Elimination order: every node before its parent.
-    order: Vec<usize>,
+    pub(crate) order: Vec<usize>,
     /// `H_ii` on entry, then the factored `D_i` (unit-lower `L` below the diagonal, `d`
     /// on it).
-    diag: Vec<Blk>,
+    pub(crate) diag: Vec<Blk>,
     /// Zero-pivot mask per node (bit r set: pivot r dropped).
     dropped: Vec<u8>,
     /// `H_{i,parent(i)}` (`dim_i × dim_parent`) on assembly; after [`Self::factor`],
     /// `W_i = L_i⁻¹ H_{i,parent(i)}` (`L_i` the unit lower factor of `D_i`).
-    off: Vec<Blk>,
+    pub(crate) off: Vec<Blk>,
     /// `1/d` of each node's pivots (0 for dropped pivots).
     dinv: Vec<[f64; 6]>,
     /// For joint `j`: its node, or `NONE` for a loop joint.

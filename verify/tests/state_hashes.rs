@@ -870,5 +870,7 @@ const ONE_WORLD_PINNED: &[(&str, u64)] = &[
     ("fluid_drag velocity", 0xa777ff894a4fbccb),
     ("pendulum_damped rattle", 0x910fbf2258a2a255),
     ("pendulum_damped velocity", 0x64170de2124e5743),
-    ("chain_on_floor projected", 0x683a14074bf369ea),
+    // Re-pinned for the sparse one-sided rows (tree-contact): the trajectory moved by
+    // 1.54e-13 m at most (articulated/tests/active_set.rs, pinned_floor_trajectory_…).
+    ("chain_on_floor projected", 0xfadfced5a097a740),
 ];

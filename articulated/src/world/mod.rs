@@ -36,6 +36,7 @@ use crate::tree::{JointTopo, TreeSolver};
 use constraint_core::compound::MAX_DOF;
 
 mod acceleration;
+mod active_set;
 mod actuator;
 #[cfg(feature = "contact")]
 mod contact;
@@ -47,6 +48,7 @@ mod stages;
 mod unilateral;
 mod velocity;
 
+pub use active_set::MAX_ITERATIONS as ACTIVE_SET_ITERATIONS;
 pub use actuator::{Actuator, DofSpring, Target, Tendon};
 #[cfg(feature = "contact")]
 pub use contact::CollisionFilter;
@@ -276,6 +278,9 @@ pub struct World {
     uzero: Vec<f64>,
     /// The rows' bounds (scratch).
     ubounds: Vec<constraint_contact::lcp::RowBound>,
+    /// The active-set solve of the one-sided rows in the tree factor (scratch and the
+    /// last step's statuses).
+    aset: active_set::ActiveSet,
     /// Per joint, the generalized forces on its coordinates, and the coordinate table
     /// (scratch of the actuator, spring and tendon forces).
     dof_tau: Vec<[f64; MAX_DOF]>,
@@ -348,6 +353,7 @@ impl World {
             umu: Vec::new(),
             uzero: Vec::new(),
             ubounds: Vec::new(),
+            aset: active_set::ActiveSet::default(),
             dof_tau: Vec::new(),
             dof_table: Vec::new(),
             last_loops: (Vec::new(), Vec::new(), Vec::new()),

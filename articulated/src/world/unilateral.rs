@@ -18,6 +18,13 @@
 //! updates the body velocities *and* the joint impulses, so every row holds in the same
 //! solve. Loop joints enter through the same Schur complement as in the plain solve.
 //!
+//! That dense path costs one tree solve per row and a dense `m × m` solve: quadratic
+//! and worse in the rows of a chain lying on the floor. Rows that keep the joint tree a
+//! tree (limits and dry friction of tree joints, contacts with the static world) are
+//! solved instead by an active set inside the tree factor, `O(n)` per iteration
+//! ([`super::active_set`], [`UnilateralSettings::sparse`]); this module's path remains
+//! for the other rows (body–body contacts, loop joints) and as the fallback.
+//!
 //! Rows at the velocity level: a limit or contact with value `C ≥ 0` at the start of the
 //! step asks for `G v' ≥ −C/h` (speculative: it may close the gap within the step, no
 //! further), one with `C < 0` (violated beyond the slop) for `G v' ≥ β (−C − slop)/h`.
@@ -44,6 +51,11 @@ pub struct UnilateralSettings {
     /// covers in one step are added (speculative rows); contacts use it as the narrow
     /// phase's margin.
     pub margin: f64,
+    /// Solve the rows that keep the joint tree a tree (limits and dry friction of tree
+    /// joints, contacts with the static world) by the active set inside the tree factor
+    /// (`O(n)` per iteration, `world/active_set.rs`); steps with other rows, or whose
+    /// set does not settle, use the dense Delassus path. `false`: always the dense path.
+    pub sparse: bool,
 }
 
 impl Default for UnilateralSettings {
@@ -69,6 +81,7 @@ impl Default for UnilateralSettings {
             baumgarte: 0.2,
             slop: 1e-4,
             margin: 0.02,
+            sparse: true,
         }
     }
 }
@@ -137,6 +150,13 @@ pub struct UnilateralStats {
     pub residual: f64,
     /// Deepest contact penetration at the start of the step (m).
     pub max_penetration: f64,
+    /// The rows were solved by the active set in the tree factor (else the dense path).
+    pub sparse: bool,
+    /// Iterations of the active set (each one `O(n)` factor and solve).
+    pub active_set_iterations: usize,
+    /// The active set was tried and the step went to the dense path (rows that do not
+    /// keep the tree, loop joints, a set that did not settle).
+    pub dense_fallback: bool,
 }
 
 impl World {

@@ -12,8 +12,31 @@ use super::*;
 impl World {
     /// `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`, then `x' = x + h v'`.
     pub(super) fn velocity_solve(&mut self, h: f64, beta: f64) -> Result<(), ArticulatedError> {
-        self.velocity_system_solve(h, beta)?;
-        if !self.urows.is_empty() {
+        if !self.urows.is_empty() && self.unilateral.sparse {
+            // The one-sided rows in the tree factor by an active set; the dense path
+            // where that does not apply or does not settle.
+            let loops = self.velocity_assemble(h, beta);
+            // Loop joints and equality rows go by their Schur complement on the dense
+            // path only.
+            if loops.0.is_empty() && !self.eq.active && self.solve_unilateral_sparse() {
+                self.last_loops = loops;
+            } else {
+                self.ustats.dense_fallback = true;
+                self.solve(loops)?;
+                self.store_impulses();
+                let loops = core::mem::take(&mut self.last_loops);
+                let out = self.solve_unilateral(&loops);
+                self.last_loops = loops;
+                out?;
+                self.remember_dense_statuses();
+            }
+            self.store_impulses();
+            #[cfg(feature = "contact")]
+            self.store_warm_contacts();
+        } else {
+            self.velocity_system_solve(h, beta)?;
+        }
+        if !self.urows.is_empty() && !self.unilateral.sparse {
             // One-sided rows through the factored joint system: x' = x_free + Y z.
             let loops = core::mem::take(&mut self.last_loops);
             let out = self.solve_unilateral(&loops);
@@ -132,6 +155,15 @@ impl World {
         h: f64,
         beta: f64,
     ) -> Result<(), ArticulatedError> {
+        let loops = self.velocity_assemble(h, beta);
+        self.solve(loops)?;
+        self.store_impulses();
+        Ok(())
+    }
+
+    /// Loads the velocity-level system (bodies, joints, forces, equality rows) into the
+    /// solver and `self.rhs` without factoring it; returns the loop rows.
+    fn velocity_assemble(&mut self, h: f64, beta: f64) -> LoopRows {
         let g = self.gravity;
         self.body_rhs(|b, r, iw| {
             let w = b.gyroscopic_step_with(r, h);
@@ -150,9 +182,7 @@ impl World {
             }
         });
         self.load_equalities(|c| -beta * c / h);
-        self.solve(loops)?;
-        self.store_impulses();
-        Ok(())
+        loops
     }
 
     /// Geometric stiffness (Andrews, Teichmann and Kry 2017, "Geometric stiffness for
