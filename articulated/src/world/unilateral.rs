@@ -27,7 +27,8 @@
 //!
 //! Rows at the velocity level: a limit or contact with value `C ≥ 0` at the start of the
 //! step asks for `G v' ≥ −C/h` (speculative: it may close the gap within the step, no
-//! further), one with `C < 0` (violated beyond the slop) for `G v' ≥ β (−C − slop)/h`.
+//! further), one with `C < 0` (violated beyond the slop) for `G v' ≥ β (−C − slop)/h`,
+//! at most [`UnilateralSettings::max_correction`].
 
 use alloc::vec::Vec;
 
@@ -47,6 +48,12 @@ pub struct UnilateralSettings {
     /// Violation allowed without correction (m for contacts and slide limits, rad for
     /// hinge limits).
     pub slop: f64,
+    /// Largest correction rate `β (−C − slop)/h` of a violated row (m/s for contacts and
+    /// slide limits, rad/s for hinge limits), as Box2D caps its push-out velocity: a
+    /// state that starts far inside a limit or a contact comes out at this rate instead
+    /// of in a few steps, without a kick of kinetic energy. Negative or NaN: no
+    /// correction beyond the speculative rows.
+    pub max_correction: f64,
     /// Rows whose value `C` is below `margin` plus the distance the row's current rate
     /// covers in one step are added (speculative rows); contacts use it as the narrow
     /// phase's margin.
@@ -68,7 +75,9 @@ impl Default for UnilateralSettings {
     /// `scenes/ragdoll.xml` 0.012 rad past its stop with a residual of 1.6 at landing, and
     /// the next step gained 11 J; now 2.5e-8 J at worst (`tests/one_world.rs`); a tolerance
     /// of 1e-8 cost the gymnasium humanoid 5× its time for no visible gain. Baumgarte 0.2,
-    /// slop 0.1 mm, margin 2 cm.
+    /// slop 0.1 mm, correction at most 1 m/s or 1 rad/s (gymnasium's ant starts with its
+    /// ankles 30° outside their range: uncapped, 10.5 rad/s in one step and 204 J of
+    /// kinetic energy out of 6.7 J), margin 2 cm.
     fn default() -> Self {
         Self {
             solver: RowSettings {
@@ -80,6 +89,7 @@ impl Default for UnilateralSettings {
             },
             baumgarte: 0.2,
             slop: 1e-4,
+            max_correction: 1.0,
             margin: 0.02,
             sparse: true,
         }
@@ -460,7 +470,13 @@ pub(super) fn row_bias(c: f64, h: f64, s: &UnilateralSettings) -> f64 {
     if c >= 0.0 {
         -c / h
     } else if -c > s.slop {
-        s.baumgarte * (-c - s.slop) / h
+        // A negative or NaN cap corrects nothing (documented on the setting).
+        let cap = if s.max_correction >= 0.0 {
+            s.max_correction
+        } else {
+            0.0
+        };
+        (s.baumgarte * (-c - s.slop) / h).min(cap)
     } else {
         0.0
     }
