@@ -243,6 +243,17 @@ pub struct Summary {
 }
 
 impl Summary {
+    /// The end-of-run figures: steps, stepping time, and from the final bodies whether
+    /// the state is finite and the root body's height.
+    fn finish(&mut self, steps: u64, stepping: f64, bodies: &[constraint_articulated::RigidBody]) {
+        self.steps = steps;
+        self.seconds_stepping = stepping;
+        self.finite = bodies
+            .iter()
+            .all(|b| b.pose.x.is_finite() && b.v.is_finite() && b.omega.is_finite());
+        self.root_height = bodies.first().map_or(f64::NAN, |b| b.origin().z);
+    }
+
     /// One flat JSON object (numbers in shortest round-trip form; a non-finite number
     /// is written as `null`).
     pub fn to_json(&self) -> String {
@@ -395,18 +406,7 @@ fn run_inner(
         }
     }
     stepping += start.elapsed().as_secs_f64();
-    sum.steps = steps;
-    sum.seconds_stepping = stepping;
-    sum.finite = scene
-        .world
-        .bodies()
-        .iter()
-        .all(|b| b.pose.x.is_finite() && b.v.is_finite() && b.omega.is_finite());
-    sum.root_height = scene
-        .world
-        .bodies()
-        .first()
-        .map_or(f64::NAN, |b| b.origin().z);
+    sum.finish(steps, stepping, scene.world.bodies());
     Ok((traj, stepping, sum))
 }
 
@@ -481,18 +481,7 @@ fn run_contact(
         }
     }
     stepping += start.elapsed().as_secs_f64();
-    sum.steps = steps;
-    sum.seconds_stepping = stepping;
-    sum.finite = scene
-        .world
-        .bodies()
-        .iter()
-        .all(|b| b.pose.x.is_finite() && b.v.is_finite() && b.omega.is_finite());
-    sum.root_height = scene
-        .world
-        .bodies()
-        .first()
-        .map_or(f64::NAN, |b| b.origin().z);
+    sum.finish(steps, stepping, scene.world.bodies());
     Ok((traj, stepping, sum))
 }
 

@@ -130,16 +130,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
         5,
         "sweeps: stability map and work-precision (release build)",
     );
-    let mut sweep = cargo();
-    sweep.args([
-        "run",
-        "--release",
-        "-p",
-        "constraint-verify",
-        "--bin",
-        "verify-report",
-        "--",
-    ]);
+    let mut sweep = verify_report(false);
     if quick {
         sweep.arg("--quick");
     }
@@ -224,18 +215,8 @@ pub fn main(args: &[String]) -> Result<(), String> {
     std::fs::write(&report, md).map_err(|e| e.to_string())?;
     let sweep_ok = bad_input_sweep(&report);
     // The same report as one self-contained HTML page, charts inline.
-    let mut html = cargo();
-    html.args([
-        "run",
-        "--release",
-        "--quiet",
-        "-p",
-        "constraint-verify",
-        "--bin",
-        "verify-report",
-        "--",
-        "--html",
-    ]);
+    let mut html = verify_report(true);
+    html.arg("--html");
     html.arg(&report).arg(out.join("report.html"));
     let (html_ok, _) = status(&mut html);
     if !html_ok {
@@ -298,18 +279,8 @@ fn real_models(quick: bool, out: &std::path::Path) -> (bool, String, String) {
     if !suite.fatal.is_empty() {
         let _ = write!(note, "; panicked or diverged: {}", suite.fatal.join(", "));
     }
-    let mut section = cargo();
-    section.args([
-        "run",
-        "--release",
-        "--quiet",
-        "-p",
-        "constraint-verify",
-        "--bin",
-        "verify-report",
-        "--",
-        "--models",
-    ]);
+    let mut section = verify_report(true);
+    section.arg("--models");
     section.arg(args.out.join("models.csv")).arg(out).arg(how);
     let (section_ok, _) = status(&mut section);
     let md = std::fs::read_to_string(out.join("models_section.md"))
@@ -377,4 +348,16 @@ fn bad_input_sweep(report: &std::path::Path) -> bool {
         eprintln!("xtask verify: could not append the sweep to the report: {e}");
     }
     ok
+}
+
+/// `cargo run --release [--quiet] -p constraint-verify --bin verify-report --`, for the
+/// caller to add the report's arguments.
+fn verify_report(quiet: bool) -> Command {
+    let mut c = cargo();
+    c.args(["run", "--release"]);
+    if quiet {
+        c.arg("--quiet");
+    }
+    c.args(["-p", "constraint-verify", "--bin", "verify-report", "--"]);
+    c
 }

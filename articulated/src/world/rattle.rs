@@ -271,6 +271,19 @@ impl World {
         Ok(())
     }
 
+    /// A kick's forces over `half`: the compliant joints' springs and the actuator,
+    /// spring and tendon forces, at rest only (`τ(q, 0)`) when velocity-dependent forces
+    /// are `explicit` in the damping flow, else whole and with the fluid.
+    fn add_kick_forces(&mut self, half: f64, explicit: bool) {
+        self.add_spring_rhs(half);
+        if explicit {
+            self.add_dof_forces_part(half, ForcePart::Position);
+        } else {
+            self.add_dof_forces(half);
+            self.add_fluid_rhs(half);
+        }
+    }
+
     /// `C_h`: one undamped RATTLE step of `h` (may be negative inside a Yoshida
     /// composition); the damping rows are left out (decoupled, `λ_d = 0`); without
     /// `forces` also gravity and the springs (`C⁰_h`, constraints only). Returns the
@@ -296,13 +309,7 @@ impl World {
         // forces at rest `τ(q, 0)` only, so that they stay symplectic.
         let explicit = forces && self.has_velocity_forces();
         if forces {
-            self.add_spring_rhs(half);
-            if explicit {
-                self.add_dof_forces_part(half, ForcePart::Position);
-            } else {
-                self.add_dof_forces(half);
-                self.add_fluid_rhs(half);
-            }
+            self.add_kick_forces(half, explicit);
         }
         // Armature rows stay (inertia on the coordinates), damping rows out.
         let loops = self.assemble(hd, Rates::Armature, Soft::Free, |_, _, rows, rhs| {
@@ -464,13 +471,7 @@ impl World {
             }
         }
         if forces {
-            self.add_spring_rhs(half);
-            if explicit {
-                self.add_dof_forces_part(half, ForcePart::Position);
-            } else {
-                self.add_dof_forces(half);
-                self.add_fluid_rhs(half);
-            }
+            self.add_kick_forces(half, explicit);
         }
         let loops = self.assemble(hd, Rates::Armature, Soft::Free, |_, _, _, _| {});
         self.load_equalities(|_| 0.0);
