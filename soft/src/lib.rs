@@ -37,7 +37,13 @@
 //! assert!((sys.x[1].z + 1.0 + 9.81e-4).abs() < 2e-4);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+#![forbid(unsafe_code)]
 #![deny(missing_docs)]
+
+/// The crate README's example, compiled and run with the doctests so it cannot rot.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctest;
 
 pub mod bsr;
 pub mod cg;
