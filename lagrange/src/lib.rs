@@ -52,7 +52,6 @@
 //!     step.step(&mut sys, &cons)?;
 //!     worst = worst.max(((sys.x[1] - sys.x[0]).length() - 1.0).abs());
 //! }
-//! println!("max |C| {worst:.2e} m, bob at z = {:.3} m", sys.x[1].z);
 //! assert!(worst < 2e-3); // measured 9.8e-4 m
 //! # Ok(())
 //! # }

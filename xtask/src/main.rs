@@ -2,7 +2,7 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `verify [--quick] [--mujoco]` | fmt and clippy checks, the whole test suite, the `no_std` build, the stiffness and work-precision sweeps; writes `target/verify/report.md` with charts; `--mujoco` also regenerates the MuJoCo references of `scenes/reference/` into `target/verify/mujoco/` and checks them against the committed ones (needs Python) |
+//! | `verify [--quick] [--mujoco]` | fmt and clippy checks, the whole test suite, the `no_std` build, `cargo package` of the library crates, the stiffness and work-precision sweeps; writes `target/verify/report.md` with charts; `--mujoco` also regenerates the MuJoCo references of `scenes/reference/` into `target/verify/mujoco/` and checks them against the committed ones (needs Python) |
 //! | `no-std` | builds `constraint-core` (no allocator) and `constraint-lagrange` (`alloc` only) without `std` for `thumbv7em-none-eabihf` |
 //! | `package [--no-verify]` | `cargo package` of the six library crates in one run (each packed crate built alone from its `.crate` unless `--no-verify`), after checking each file list holds the crate's README and nothing that reads outside the crate |
 //! | `bench [--no-mujoco] [--peers-only] [--only SECTIONS]` | runs the criterion benchmarks and the peer comparisons in one run and writes `target/bench/ratios.md`: ball-joint chains against rapier3d and MuJoCo, contact scenes against rapier3d, every MJCF scene of `scenes/` against MuJoCo (Euler, `mujoco.rollout`), and time per step and growth exponents of the cloth step and KKT solves; SECTIONS: `chains,contact,mjcf,cloth` |
@@ -34,7 +34,7 @@ const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
   verify [--quick] [--mujoco]
-                     checks, tests, no_std build and sweeps; writes target/verify/report.md;
+                     checks, tests, no_std build, packaging and sweeps; writes target/verify/report.md;
                      --mujoco also regenerates scenes/reference/ in MuJoCo and checks it
   no-std             build constraint-core and constraint-lagrange for thumbv7em-none-eabihf without std
   package [--no-verify]
