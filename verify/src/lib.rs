@@ -26,6 +26,9 @@
 //! * [`deps`] lists, per scene, the crate and features it declares, what they compile
 //!   (`cargo tree`) and the stages its steps were seen to run.
 //! * [`html`] turns the Markdown report into one self-contained HTML page.
+//! * [`viewer`] writes an animated, self-contained HTML page of a trajectory (shapes,
+//!   cloth meshes, play/pause, time slider, orbit camera); [`scene_view`] feeds it an
+//!   MJCF model and its trajectory.
 //!
 //! The binary `verify-report` (run by `cargo xtask verify`) writes the sweeps to
 //! `target/verify/`. The integration tests (`tests/`) apply the checks:
@@ -56,9 +59,11 @@ pub mod models_report;
 pub mod par;
 pub mod particle_report;
 pub mod scene;
+pub mod scene_view;
 pub mod stability;
 pub mod sweeps;
 pub mod trajectory;
+pub mod viewer;
 
 pub use fd::{
     check_derivatives, corrected_rel_error, exceeds, measure_only, tol_scale, FdOptions, FdReport,
