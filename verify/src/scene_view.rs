@@ -117,7 +117,11 @@ pub fn frames(
             name: b.name.clone(),
         })?);
     }
-    if let Some(k) = traj.rows.iter().position(|r| r.is_empty() || r.len() != traj.header.len()) {
+    if let Some(k) = traj
+        .rows
+        .iter()
+        .position(|r| r.is_empty() || r.len() != traj.header.len())
+    {
         return Err(viewer::ViewerError::FrameShape { frame: k });
     }
     let times: Vec<f64> = traj.rows.iter().map(|r| r[0]).collect();

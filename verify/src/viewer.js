@@ -304,6 +304,9 @@
       shadowCanvas.height = canvas.height;
       sctx.setTransform(dpr, 0, 0, dpr, 0, 0);
       sctx.fillStyle = "#000";
+      sctx.strokeStyle = "#000";
+      sctx.lineWidth = 0.8;
+      sctx.lineJoin = "round";
       var z0 = pl.pos[2];
       faces.forEach(function (f) {
         if (f.v.every(function (v) { return v[2] < z0; })) return;
@@ -311,6 +314,7 @@
         if (s.some(function (v) { return v[2] < view.near; })) return;
         path(sctx, s);
         sctx.fill();
+        sctx.stroke();
       });
       ctx.save();
       ctx.setTransform(1, 0, 0, 1, 0, 0);

@@ -286,7 +286,11 @@ fn validate(scene: &ViewScene, frames: &[ViewFrame]) -> Result<(), ViewerError> 
     }
     let shapes = scene.bodies.iter().map(|b| b.parts.len()).sum::<usize>()
         + scene.statics.len()
-        + scene.meshes.iter().map(|m| m.triangles.len()).sum::<usize>();
+        + scene
+            .meshes
+            .iter()
+            .map(|m| m.triangles.len())
+            .sum::<usize>();
     if shapes == 0 {
         return Err(ViewerError::NothingToDraw);
     }
@@ -312,8 +316,7 @@ fn validate(scene: &ViewScene, frames: &[ViewFrame]) -> Result<(), ViewerError> 
     for (k, f) in frames.iter().enumerate() {
         let shape_ok = f.poses.len() == scene.bodies.len()
             && f.mesh_vertices.len() == scene.meshes.len()
-            && f
-                .mesh_vertices
+            && f.mesh_vertices
                 .iter()
                 .zip(&scene.meshes)
                 .all(|(v, m)| v.len() == m.vertices);
