@@ -95,7 +95,7 @@ pub fn scene(model: &Model, title: &str) -> ViewScene {
     out
 }
 
-/// The frames of `traj` for the bodies of `scene` (matched by name), keeping at most
+/// The frames of `traj` for the bodies of `scene` (matched by name), keeping about
 /// `fps` frames per second of simulated time (see [`viewer::subsample`]). Errors: a
 /// body without its seven pose columns, a row shorter or longer than the header.
 pub fn frames(
@@ -149,4 +149,123 @@ pub fn page(model: &Model, traj: &Trajectory, title: &str) -> Result<String, vie
     let s = scene(model, title);
     let f = frames(traj, &s, PAGE_FPS)?;
     viewer::page(&s, &f)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{run, RunOptions};
+    use std::path::Path;
+
+    fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+        // v' = v + 2w (u × v) + 2 u × (u × v), u = (x, y, z), q normalised.
+        let n = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+        let (w, u) = (q[0] / n, [q[1] / n, q[2] / n, q[3] / n]);
+        let cross = |a: [f64; 3], b: [f64; 3]| {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        let t = cross(u, v).map(|c| 2.0 * c);
+        let ut = cross(u, t);
+        [0, 1, 2].map(|i| v[i] + w * t[i] + ut[i])
+    }
+
+    fn mul(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+        [
+            a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+            a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+            a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+            a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+        ]
+    }
+
+    /// Lowest z of every drawn capsule and sphere of a frame: the body pose applied to
+    /// the part pose, as the page does.
+    fn lowest(scene: &ViewScene, f: &ViewFrame) -> f64 {
+        let mut low = f64::INFINITY;
+        for (b, p) in scene.bodies.iter().zip(&f.poses) {
+            for part in &b.parts {
+                let c = rotate(p.quat, part.pos);
+                let centre = [0, 1, 2].map(|i| p.pos[i] + c[i]);
+                let axis = rotate(mul(p.quat, part.quat), [0.0, 0.0, 1.0]);
+                let z = match part.shape {
+                    ViewShape::Sphere { r } => centre[2] - r,
+                    ViewShape::Capsule { r, half_length } => {
+                        centre[2] - half_length * axis[2].abs() - r
+                    }
+                    _ => panic!("the ragdoll has capsules and a sphere only"),
+                };
+                low = low.min(z);
+            }
+        }
+        low
+    }
+
+    #[test]
+    fn ragdoll_shapes_follow_the_bodies_onto_the_floor() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/ragdoll.xml");
+        let model = constraint_mjcf::load_file(&path).unwrap();
+        let opts = RunOptions {
+            keyframe: Some("start".into()),
+            duration: 2.0,
+            ..RunOptions::default()
+        };
+        let (traj, _) = run(&path, &opts).unwrap();
+        let scene = scene(&model, "ragdoll");
+        // 9 bodies, 10 body geoms (the torso holds the head), the floor a static plane.
+        assert_eq!(scene.bodies.len(), 9);
+        assert_eq!(
+            scene.bodies.iter().map(|b| b.parts.len()).sum::<usize>(),
+            10
+        );
+        assert!(matches!(
+            scene.statics.as_slice(),
+            [ViewPart {
+                shape: ViewShape::Plane { .. },
+                ..
+            }]
+        ));
+        let frames = frames(&traj, &scene, PAGE_FPS).unwrap();
+        // 2 s at 60 frames per second from 1001 rows: 121 frames, the last at t = 2.
+        assert_eq!(frames.len(), 121);
+        assert_eq!(frames.last().map(|f| f.t), Some(2.0));
+        let (start, end) = (lowest(&scene, &frames[0]), lowest(&scene, &frames[120]));
+        // The keyframe holds the torso origin at 1.36 m, tilted 20° about y: the shins'
+        // far ends sit 0.3 + 0.42 + 0.32 = 1.04 m below it along the torso axis, so the
+        // feet's lowest point is at 1.36 − 1.04 cos 20° − 0.05 = 0.332720 m; measured
+        // 0.3327197 m.
+        let expect = 1.36 - 1.04 * 20f64.to_radians().cos() - 0.05;
+        assert!(
+            (start - expect).abs() < 1e-5,
+            "lowest point at t = 0: {start}"
+        );
+        println!("lowest point: {start} m at t = 0, {end} m at t = 2");
+        // At rest on the floor after 2 s: the drawn shapes touch z = 0 to within the
+        // contact penetration; measured -1.6e-5 m.
+        assert!(end.abs() < 1e-3, "lowest point at t = 2: {end}");
+        let page = page(&model, &traj, "ragdoll").unwrap();
+        assert!(page.contains("\"name\":\"right_shin\""));
+    }
+
+    #[test]
+    fn a_trajectory_without_a_body_is_a_typed_error() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/pendulum.xml");
+        let model = constraint_mjcf::load_file(&path).unwrap();
+        let mut traj = Trajectory::for_bodies(&["other".to_string()]);
+        traj.rows.push(vec![0.0; traj.header.len()]);
+        let name = model.bodies[0].name.clone();
+        assert_eq!(
+            page(&model, &traj, "p"),
+            Err(viewer::ViewerError::MissingBody { name })
+        );
+        let mut short = Trajectory::for_bodies(&[model.bodies[0].name.clone()]);
+        short.rows.push(vec![0.0]);
+        assert_eq!(
+            page(&model, &short, "p"),
+            Err(viewer::ViewerError::FrameShape { frame: 0 })
+        );
+    }
 }

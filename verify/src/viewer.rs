@@ -508,25 +508,30 @@ fn write_json(s: &mut String, scene: &ViewScene, frames: &[ViewFrame]) {
     s.push_str("]}");
 }
 
-/// The frames to keep so that the page holds at most `fps` frames per second of
-/// simulated time: the first, then each whose time is at least `1/fps` after the last
-/// kept, and the last. `times` must be increasing; `fps ≤ 0` or non-finite keeps all.
+/// The frames to keep so that the page holds about `fps` frames per second of
+/// simulated time: for each instant `t₀ + m/fps` of a regular grid, the first frame at
+/// or after it (each at most once), and the last frame. `times` must be increasing;
+/// `fps ≤ 0` or non-finite keeps all.
 pub fn subsample(times: &[f64], fps: f64) -> Vec<usize> {
+    let (Some(&t0), Some(last)) = (times.first(), times.len().checked_sub(1)) else {
+        return Vec::new();
+    };
     if !(fps > 0.0) || !fps.is_finite() {
         return (0..times.len()).collect();
     }
     let gap = 1.0 / fps;
+    // A relative slack so that a row at the grid instant up to rounding counts as on it.
+    let slack = 1e-9;
     let mut keep: Vec<usize> = Vec::new();
+    let mut next = t0;
     for (k, &t) in times.iter().enumerate() {
-        match keep.last() {
-            Some(&j) if t < times[j] + gap * (1.0 - 1e-9) => {}
-            _ => keep.push(k),
+        if t >= next - slack * gap {
+            keep.push(k);
+            next = t0 + (((t - t0) / gap + slack).floor() + 1.0) * gap;
         }
     }
-    if let (Some(&j), Some(last)) = (keep.last(), times.len().checked_sub(1)) {
-        if j != last {
-            keep.push(last);
-        }
+    if keep.last() != Some(&last) {
+        keep.push(last);
     }
     keep
 }
@@ -639,11 +644,45 @@ mod tests {
     }
 
     #[test]
+    fn a_mesh_alone_is_drawn_from_its_frames() {
+        let scene = ViewScene {
+            title: "sheet".into(),
+            meshes: vec![ViewMesh {
+                name: "sheet".into(),
+                vertices: 3,
+                triangles: vec![[0, 1, 2]],
+                rgba: [0.9, 0.3, 0.3, 1.0],
+            }],
+            ..ViewScene::default()
+        };
+        let frame = |t: f64, z: f64| ViewFrame {
+            t,
+            poses: vec![],
+            mesh_vertices: vec![vec![[0.0, 0.0, z], [1.0, 0.0, z], [0.0, 1.0, z]]],
+        };
+        let html = page(&scene, &[frame(0.0, 0.0), frame(0.5, -0.25)]).unwrap();
+        assert!(html.contains("\"tris\":[0,1,2]"), "{html}");
+        assert!(
+            html.contains("\"verts\":[[[0,0,0,1,0,0,0,1,0]],\n[[0,0,-0.25,1,0,-0.25,0,1,-0.25]]]")
+        );
+        // A frame that forgets the mesh is refused.
+        let mut bad = frame(1.0, 0.0);
+        bad.mesh_vertices[0].pop();
+        assert_eq!(
+            page(&scene, &[frame(0.0, 0.0), bad]),
+            Err(ViewerError::FrameShape { frame: 1 })
+        );
+    }
+
+    #[test]
     fn subsample_keeps_first_last_and_spacing() {
         let t: Vec<f64> = (0..=100).map(|k| k as f64 * 0.001).collect();
         let k = subsample(&t, 60.0);
-        // 0.1 s at 60 fps: frames 0, 17, 34, 51, 68, 85 (gap ≥ 1/60 s), then the last.
-        assert_eq!(k, vec![0, 17, 34, 51, 68, 85, 100]);
+        // 0.1 s at 60 fps: the first rows at or after 0, 1/60, 2/60, … 6/60 s.
+        assert_eq!(k, vec![0, 17, 34, 50, 67, 84, 100]);
+        // A row at every 0.018 s: each kept once (no grid instant repeats a row).
+        let coarse: Vec<f64> = (0..=10).map(|k| k as f64 * 0.018).collect();
+        assert_eq!(subsample(&coarse, 60.0), (0..=10).collect::<Vec<_>>());
         assert_eq!(subsample(&t[..1], 60.0), vec![0]);
         assert!(subsample(&[], 60.0).is_empty());
         assert_eq!(subsample(&t, 0.0).len(), 101);
