@@ -4,6 +4,11 @@
 // every face (Lambert, one directional light plus ambient) and paints them back to
 // front (painter's algorithm). Planes are drawn first as a checkered floor, with the
 // bodies' shadows cast straight down on the horizontal ones.
+// A script error is shown in place of the title (and seen by the browser test).
+window.addEventListener("error", function (e) {
+  var el = document.getElementById("title");
+  if (el) el.textContent = "viewer error: " + e.message;
+});
 (function () {
   "use strict";
   var D = JSON.parse(document.getElementById("scene-data").textContent);

@@ -3,7 +3,8 @@
 //! time pinned by the URL hash (`#t=S&paused=1`) and takes a screenshot at two times.
 //! The canvas must not be blank (many pixels off the sky colour, many distinct
 //! colours: shaded bodies, floor, shadows) and the two pictures must differ (the
-//! ragdoll moved). The DOM after the script ran must show the pinned time.
+//! ragdoll moved). The DOM after the script ran must show the pinned time and no
+//! script error.
 //!
 //! The browser is `chromium` or `chromium-browser` on `PATH`. Without one the test
 //! prints a skip line and passes, except when the `CI` environment variable is set:
@@ -210,6 +211,14 @@ fn ragdoll_page_draws_and_moves_in_headless_chromium() {
         &url("t=0.75&paused=1"),
     );
     assert!(ok, "chromium --dump-dom failed");
+    // A script error replaces the title with its message.
+    assert!(
+        dom.contains("<div id=\"title\">ragdoll</div>"),
+        "script error in the page: {}",
+        dom.lines()
+            .filter(|l| l.contains("id=\"title\""))
+            .collect::<String>()
+    );
     assert!(
         dom.contains("t = 0.750 s / 2.000 s") && dom.contains(">Play</button>"),
         "clock or button not set from the hash: {}",
