@@ -41,6 +41,8 @@
 //! * `soft_forces.rs` — soft forces and force/damping Jacobians against finite
 //!   differences; projected Hessians are PSD;
 //! * `momentum.rs` — linear and angular momentum of free bodies under every integrator.
+//! * `viewer_browser.rs` — the [`viewer`] page of the ragdoll in headless Chromium:
+//!   screenshots at two pinned times, not blank and different.
 #![deny(missing_docs)]
 
 pub mod articulated_report;
