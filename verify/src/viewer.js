@@ -75,16 +75,20 @@ window.addEventListener("error", function (e) {
     }
     return rings;
   }
-  function tessellate(shape, size) {
-    if (shape === "sphere") return lathe(sphereRings(size[0], 0, 0, 10), 16, 1, 1);
+  // Levels of detail: latitude rings and segments of round shapes, segments of a
+  // cylinder; a shape takes a coarser level the smaller it looks on screen.
+  var LODS = [[10, 16, 20], [6, 10, 12], [4, 6, 8]];
+  function tessellate(shape, size, lod) {
+    var L = LODS[lod];
+    if (shape === "sphere") return lathe(sphereRings(size[0], 0, 0, L[0]), L[1], 1, 1);
     if (shape === "capsule")
-      return lathe(sphereRings(size[0], -size[1], size[1], 10), 16, 1, 1);
+      return lathe(sphereRings(size[0], -size[1], size[1], L[0]), L[1], 1, 1);
     if (shape === "cylinder") {
       var r = size[0], h = size[1];
-      return lathe([[0, -h], [r, -h], [r, h], [0, h]], 20, 1, 1);
+      return lathe([[0, -h], [r, -h], [r, h], [0, h]], L[2], 1, 1);
     }
     if (shape === "ellipsoid") {
-      var faces = lathe(sphereRings(1, 0, 0, 10), 16, size[0], size[1]);
+      var faces = lathe(sphereRings(1, 0, 0, L[0]), L[1], size[0], size[1]);
       return faces.map(function (f) { return f.map(function (v) { return [v[0], v[1], v[2] * size[2]]; }); });
     }
     if (shape === "box") {
@@ -101,9 +105,9 @@ window.addEventListener("error", function (e) {
     return [];
   }
   // Faces of a part in the frame that holds it (body or world).
-  function placed(part) {
+  function placed(part, lod) {
     var q = qnorm(part.quat);
-    return tessellate(part.shape, part.size).map(function (f) {
+    return tessellate(part.shape, part.size, lod).map(function (f) {
       return f.map(function (v) { return add(part.pos, qrot(q, v)); });
     });
   }
@@ -116,17 +120,15 @@ window.addEventListener("error", function (e) {
   }
 
   var bodies = D.bodies.map(function (b) {
-    var faces = [];
-    b.parts.forEach(function (p) {
-      placed(p).forEach(function (f) { faces.push({ v: f, rgba: p.rgba }); });
+    return b.parts.map(function (p) {
+      return { lods: [0, 1, 2].map(function (l) { return placed(p, l); }), pos: p.pos, r: bound(p), rgba: p.rgba };
     });
-    return { faces: faces, parts: b.parts };
   });
   var solids = [];
   var planes = [];
   D.statics.forEach(function (p) {
     if (p.shape === "plane") planes.push(p);
-    else placed(p).forEach(function (f) { solids.push({ v: f, rgba: p.rgba }); });
+    else placed(p, 0).forEach(function (f) { solids.push({ v: f, rgba: p.rgba }); });
   });
 
   // ---- scene bounds over every frame: the default camera frames them ----
@@ -265,10 +267,14 @@ window.addEventListener("error", function (e) {
     var fr = frameAt(t);
     // World faces of every body and mesh at t.
     var faces = solids.map(function (f) { return { v: f.v, rgba: f.rgba, two: false }; });
-    bodies.forEach(function (b, i) {
+    bodies.forEach(function (parts, i) {
       var pq = poseAt(fr, i), x = pq[0], q = pq[1];
-      b.faces.forEach(function (f) {
-        faces.push({ v: f.v.map(function (v) { return add(x, qrot(q, v)); }), rgba: f.rgba, two: false });
+      parts.forEach(function (p) {
+        var depth = dot(sub(add(x, qrot(q, p.pos)), view.eye), view.f);
+        var px = view.F * p.r / Math.max(depth, view.near);
+        p.lods[px > 14 ? 0 : px > 5 ? 1 : 2].forEach(function (f) {
+          faces.push({ v: f.map(function (v) { return add(x, qrot(q, v)); }), rgba: p.rgba, two: false });
+        });
       });
     });
     D.meshes.forEach(function (m, mi) {
@@ -279,7 +285,12 @@ window.addEventListener("error", function (e) {
       for (var j = 0; j + 2 < m.tris.length; j += 3)
         faces.push({ v: [P(m.tris[j]), P(m.tris[j + 1]), P(m.tris[j + 2])], rgba: m.rgba, two: true });
     });
-    // Planes: checker squares, far to near, then the shadows of every face on them.
+    faces.forEach(function (f) {
+      var v = f.v, n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
+      if (v.length > 3) n = add(n, cross(sub(v[2], v[0]), sub(v[3], v[0])));
+      f.n = norm(n);
+    });
+    // Planes: checker squares, far to near, then the shadows of the faces on them.
     planes.forEach(function (p) {
       var pl = planeTiles(p);
       if (dot(sub(view.eye, pl.pos), pl.normal) < 0) return;
@@ -305,15 +316,21 @@ window.addEventListener("error", function (e) {
         ctx.stroke();
       });
       if (Math.abs(pl.normal[2]) < 0.9) return;
-      shadowCanvas.width = canvas.width;
-      shadowCanvas.height = canvas.height;
+      if (shadowCanvas.width !== canvas.width || shadowCanvas.height !== canvas.height) {
+        shadowCanvas.width = canvas.width;
+        shadowCanvas.height = canvas.height;
+      }
+      sctx.setTransform(1, 0, 0, 1, 0, 0);
+      sctx.clearRect(0, 0, shadowCanvas.width, shadowCanvas.height);
       sctx.setTransform(dpr, 0, 0, dpr, 0, 0);
       sctx.fillStyle = "#000";
       sctx.strokeStyle = "#000";
       sctx.lineWidth = 0.8;
       sctx.lineJoin = "round";
       var z0 = pl.pos[2];
+      // A closed shape's upward faces cover its whole shadow.
       faces.forEach(function (f) {
+        if (!f.two && !(f.n[2] > 0)) return;
         if (f.v.every(function (v) { return v[2] < z0; })) return;
         var s = f.v.map(function (v) { return project([v[0], v[1], z0]); });
         if (s.some(function (v) { return v[2] < view.near; })) return;
@@ -330,12 +347,9 @@ window.addEventListener("error", function (e) {
     // Solid faces: cull the ones facing away, shade, paint far to near.
     var drawn = [];
     faces.forEach(function (f) {
-      var v = f.v, n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
-      if (v.length > 3) n = add(n, cross(sub(v[2], v[0]), sub(v[3], v[0])));
-      var c = [0, 0, 0];
+      var v = f.v, n = f.n, c = [0, 0, 0];
       v.forEach(function (p) { c = add(c, p); });
       c = scale(c, 1 / v.length);
-      n = norm(n);
       if (dot(n, sub(view.eye, c)) < 0) {
         if (!f.two) return;
         n = scale(n, -1);
