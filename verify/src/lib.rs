@@ -28,7 +28,8 @@
 //! * [`html`] turns the Markdown report into one self-contained HTML page.
 //! * [`viewer`] writes an animated, self-contained HTML page of a trajectory (shapes,
 //!   cloth meshes, play/pause, time slider, orbit camera); [`scene_view`] feeds it an
-//!   MJCF model and its trajectory.
+//!   MJCF model and its trajectory; [`replays`] runs a few scenes into such pages for
+//!   the report.
 //!
 //! The binary `verify-report` (run by `cargo xtask verify`) writes the sweeps to
 //! `target/verify/`. The integration tests (`tests/`) apply the checks:
@@ -60,6 +61,7 @@ pub mod html;
 pub mod models_report;
 pub mod par;
 pub mod particle_report;
+pub mod replays;
 pub mod scene;
 pub mod scene_view;
 pub mod stability;

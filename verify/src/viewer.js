@@ -251,6 +251,9 @@ window.addEventListener("error", function (e) {
   function draw(t) {
     var dpr = window.devicePixelRatio || 1;
     var w = canvas.clientWidth, h = canvas.clientHeight;
+    // Not laid out yet (a frame still being placed): nothing to draw; the resize
+    // listener or the next animation frame draws it.
+    if (!(w >= 1 && h >= 1)) return;
     if (canvas.width !== Math.round(w * dpr) || canvas.height !== Math.round(h * dpr)) {
       canvas.width = Math.round(w * dpr);
       canvas.height = Math.round(h * dpr);
