@@ -99,6 +99,9 @@ impl ContactWorld {
         if has(path::SHOCK) {
             out.push("shock propagation");
         }
+        if has(path::SOFT_STEP) {
+            out.push("soft step (sub-steps: soft solve, integrate, relax; restitution)");
+        }
         if has(path::DENSE) {
             out.push("dense Delassus matrix J M⁻¹ Jᵀ");
             if has(path::BOXED_PGS) {
@@ -123,6 +126,8 @@ impl ContactWorld {
         }
         if has(path::SPLIT) {
             out.push("split impulses (pseudo-velocity position correction)");
+        } else if has(path::SOFT_STEP) {
+            out.push("soft contact bias (Box2D v3 soft constraints), relaxed each sub-step");
         } else if !s.split_impulse {
             out.push("Baumgarte velocity bias");
         }
@@ -143,9 +148,13 @@ impl ContactWorld {
         } else {
             0
         };
+        if let ContactSolver::SoftStep { .. } = s.solver {
+            return path::SOFT_STEP;
+        }
         split
             | match (s.solver, s.friction) {
                 (ContactSolver::Auto, _) => 0,
+                (ContactSolver::SoftStep { .. }, _) => path::SOFT_STEP,
                 (ContactSolver::SequentialImpulses, _) => path::SEQUENTIAL | shock,
                 (ContactSolver::Pgs, FrictionModel::Boxed) => path::DENSE | path::BOXED_PGS,
                 (ContactSolver::Pgs, _) => path::DENSE | path::NORMAL_PGS | friction,
