@@ -43,11 +43,12 @@ impl ContactWorld {
     /// * speculative contacts, restitution, Coulomb friction and warm starting when the
     ///   settings and materials use them;
     /// * the solver path: after a step, the one that step took (sequential impulses and
-    ///   shock propagation; or the dense Delassus matrix with boxed PGS, or staggered
+    ///   shock propagation; or the soft step; or the dense Delassus matrix with boxed PGS, or staggered
     ///   projections with the normal-LCP solvers whose answers were accepted and the
     ///   friction solve; or nothing to solve); before any step, the configured one;
     /// * position correction: split impulses when they ran (after a step) or are set
-    ///   (before), Baumgarte velocity bias when split impulses are off.
+    ///   (before), the soft step's soft bias (relaxed each sub-step), Baumgarte velocity
+    ///   bias when split impulses are off.
     pub fn stages(&self) -> Vec<&'static str> {
         let mut out = Vec::with_capacity(16);
         if self.gravity != DVec3::ZERO {
