@@ -150,6 +150,8 @@ pub(super) struct SoftState {
     total: Vec<[f64; 3]>,
     warm: Vec<Warm>,
     warm_next: Vec<Warm>,
+    /// The previous step's impulses of each contact (natural order; zero if new).
+    found: Vec<(f64, DVec3)>,
     /// Sub-step of the impulses in `warm` (they scale with it).
     warm_h: f64,
 }
@@ -295,6 +297,23 @@ impl ContactWorld {
         let fixed = Softness::new(2.0 * hertz, s.damping_ratio, hs);
         let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
         let nb = self.bodies.len();
+        // Warm start by key: the contacts come in pair order `(a, b)` and `warm` is
+        // sorted by key, so one forward merge finds every previous point (the same
+        // matches as a search per point, reading `warm` once, in order).
+        st.found.clear();
+        let mut cursor = 0;
+        for c in contacts {
+            let (a, b, id) = c.key();
+            while cursor < st.warm.len() && (st.warm[cursor].0 .0, st.warm[cursor].0 .1) < (a, b) {
+                cursor += 1;
+            }
+            let hit = st.warm[cursor..]
+                .iter()
+                .take_while(|e| e.0 .0 == a && e.0 .1 == b)
+                .find(|e| e.0 .2 == id);
+            st.found
+                .push(hit.map_or((0.0, DVec3::ZERO), |&(_, zn, ft)| (zn, ft)));
+        }
         macro_rules! clear {
             ($($f:ident),*) => { $(st.$f.clear();)* };
         }
@@ -340,10 +359,8 @@ impl ContactWorld {
             let vn = n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a]);
             let mut z = [0.0; 3];
             if self.settings.warm_start {
-                if let Ok(i) = st.warm.binary_search_by(|e| e.0.cmp(&c.key())) {
-                    let (_, zn, ft) = st.warm[i];
-                    z = [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale];
-                }
+                let (zn, ft) = st.found[k];
+                z = [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale];
             }
             st.slots.push([a, b]);
             st.dir.push(dirs);
