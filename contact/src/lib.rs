@@ -9,7 +9,7 @@
 //! |---|---|
 //! | [`lcp`] | the LCP type, its natural-map residual, and the solvers |
 //! | [`geometry`] | shapes, narrow phase (points, normals, depths, ids), broad phase |
-//! | `rigid` | (feature `rigid`) rigid bodies in contact: the contact LCP per step, solved matrix-free or by the dense solvers, with friction, restitution, warm starting and shock propagation |
+//! | `rigid` | (feature `rigid`) rigid bodies in contact: the contact LCP per step, solved matrix-free (sequential impulses, or Box2D v3's sub-stepped soft step) or by the dense solvers, with friction, restitution, warm starting and shock propagation |
 //!
 //! ## Example
 //!
