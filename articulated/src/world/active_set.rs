@@ -769,7 +769,9 @@ fn psd_eigen(s: &mut [f64], v: &mut Vec<f64>, d: usize) -> bool {
         for p in 0..d {
             for q in p + 1..d {
                 let apq = s[p * d + q];
-                if apq == 0.0 {
+                // Below round-off of its diagonal pair (|s_pq|² ≤ s_pp s_qq on a
+                // semi-definite matrix) the rotation would change nothing.
+                if !(apq.abs() > 1e-17 * libm::sqrt((s[p * d + p] * s[q * d + q]).abs())) {
                     continue;
                 }
                 // The rotation that zeroes s_pq: t = tan θ, the smaller root of
