@@ -34,9 +34,12 @@
 //! flat arenas reused across steps.
 //!
 //! Tolerances: a base pivot is dropped below `1e-12 ×` the largest base diagonal of its
-//! node (as in [`crate::tree`]); an extra pivot below `1e-12 ×` the largest extra pivot
-//! of its node with only the base rows eliminated (`|G D⁻¹ Gᵀ|`), so a contact's pivot
-//! is measured against the contacts, not against the body's mass.
+//! node (as in [`crate::tree`]); an extra pivot below `1e-12 ×` the largest diagonal of
+//! its node's extra rows before the node's elimination (`|g D_c⁻¹ gᵀ|` through the
+//! child subtree), so a contact's pivot is measured against the contacts, not against
+//! the body's mass, and a row the joint rows fully determine (a contact on a welded
+//! body) is dropped; an extra pivot of the wrong sign (positive: it is `−g D⁻¹ gᵀ`) is
+//! round-off of a dependent row and dropped too.
 
 use alloc::vec::Vec;
 
@@ -454,22 +457,25 @@ fn ldlt_two_segment(a: &mut [f64], n: usize, base: usize, dinv: &mut [f64]) {
     let mut tol = 1e-12 * scale;
     for j in 0..n {
         if j == base && base < n {
-            // Partial pivots of the extra rows with the base rows eliminated.
-            let mut s: f64 = 0.0;
-            for i in base..n {
-                let mut d = a[i * n + i];
-                for k in 0..base {
-                    d -= a[i * n + k] * a[i * n + k] * a[k * n + k];
-                }
-                s = s.max(d.abs());
-            }
+            // The extra rows' scale: their diagonal before any elimination at this
+            // node, `|g D_c⁻¹ gᵀ|` through the child subtree alone (no joint rows).
+            // Their partial pivots with the base rows eliminated would not do: on a
+            // welded body every extra row depends on the joint rows, all partial
+            // pivots are round-off (1e-17), and one of them kept would scale the
+            // parent body's block by 1e16 (gymnasium's humanoid feet).
+            let s = (base..n).map(|i| a[i * n + i].abs()).fold(0.0f64, f64::max);
             tol = 1e-12 * s;
         }
         let mut d = a[j * n + j];
         for k in 0..j {
             d -= a[j * n + k] * a[j * n + k] * a[k * n + k];
         }
-        if !(d.abs() > tol) {
+        // An extra row's pivot is `−g D⁻¹ gᵀ` with the rows before it eliminated
+        // (D positive definite on the subtree): never positive. A positive one is the
+        // round-off of a dependent row; kept, its inverse would flip the sign of the
+        // parent's update and make the parent body's block indefinite.
+        let wrong_sign = j >= base && d > 0.0;
+        if !(d.abs() > tol) || wrong_sign {
             dinv[j] = 0.0;
             a[j * n + j] = 0.0;
             for i in j + 1..n {

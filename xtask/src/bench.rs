@@ -1,7 +1,7 @@
 //! `cargo xtask bench [--no-mujoco] [--peers-only] [--only SECTIONS] [CRITERION ARGS]`:
 //! the criterion benchmarks and the peer comparisons, in one run, into
 //! `target/bench/ratios.md`. SECTIONS is a comma-separated subset of `chains`,
-//! `contact`, `mjcf`, `cloth` (default: all; `--peers-only` drops `cloth`); a section not
+//! `contact`, `mjcf`, `models`, `cloth` (default: all; `--peers-only` drops `cloth`); a section not
 //! run says so in the report. CRITERION ARGS (`--quick`, a filter, …) go to every bench.
 //!
 //! - `cloth`: `cargo bench -p constraint-soft --bench cloth_step` (time per implicit cloth
@@ -28,12 +28,17 @@
 //! - `mjcf`: every MJCF scene of `scenes/` (articulated and contact) with this library
 //!   (`cargo bench -p constraint-peers --bench mjcf_scenes`) and MuJoCo's Euler on the same
 //!   files, same dt, same one-second window ([`crate::bench_mjcf`]).
+//! - `models`: the 33 gymnasium and dm_control models of `cargo xtask models run`
+//!   ([`crate::models::run_suite`], fetched on first use): its time-per-step table (ours,
+//!   MuJoCo, ratio, per model, passive case); its full report goes to
+//!   `target/bench/models/`. Left out with `--no-mujoco`.
 //!
 //! Only criterion estimates written during this run are read (older `estimates.json`
 //! files, e.g. of a series a filter left out, show as "–").
 
 use crate::bench_cloth::{self, cloth_markdown};
 use crate::bench_mjcf;
+use crate::models;
 use crate::mujoco::{ensure_venv, run as run_mujoco, RunOptions};
 use crate::run::{cargo, root};
 use std::fmt::Write as _;
@@ -691,6 +696,28 @@ fn chains(criterion_args: &[String], mujoco: bool) -> Result<Peers, String> {
     Ok(p)
 }
 
+/// The `models` section: the time-per-step table of `cargo xtask models run`
+/// ([`models::timing_table`], each model's passive case) from the same runner, whose
+/// full report (checks, smooth comparisons) goes to `target/bench/models/models.md`.
+fn models_markdown(s: &models::Suite) -> String {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "\n# MuJoCo models: time per step\n\n\
+         gymnasium {} and dm_control {} models (`cargo xtask models run`'s runner), MuJoCo {}, \
+         each from its default pose with zero control for {} s at the file's time step and \
+         integrator; MuJoCo timed by `mujoco.rollout` (its C loop), ours by the `simulate` \
+         binary (release, default method), medians of 3 runs. Ratio below 1: this library \
+         is faster. Checks and the other cases: `target/bench/models/models.md`.\n",
+        models::GYMNASIUM_VERSION,
+        models::DM_CONTROL_VERSION,
+        s.version.as_deref().unwrap_or("?"),
+        s.seconds
+    );
+    md.push_str(&models::timing_table(&s.rows));
+    md
+}
+
 fn write_report(dir: &Path, md: &str) -> Result<PathBuf, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let path = dir.join("ratios.md");
@@ -699,7 +726,7 @@ fn write_report(dir: &Path, md: &str) -> Result<PathBuf, String> {
 }
 
 /// The sections of a run, in the report's order.
-const SECTIONS: [&str; 4] = ["chains", "contact", "mjcf", "cloth"];
+const SECTIONS: [&str; 5] = ["chains", "contact", "mjcf", "models", "cloth"];
 
 /// The command line of `cargo xtask bench`.
 #[derive(Debug, PartialEq)]
@@ -776,6 +803,14 @@ pub fn main(args: &[String]) -> Result<(), String> {
     } else {
         None
     };
+    // The real models need MuJoCo for their reference time: left out with --no-mujoco.
+    let models = if run("models") && o.mujoco {
+        let out = root().join("target/bench/models");
+        // Without Python or PyPI the section says why instead of failing the bench.
+        Some(models::run_suite(&models::RunArgs { quick: false, out }))
+    } else {
+        None
+    };
     let mut md = String::new();
     if let Some(p) = &chains {
         md.push_str(&ratios_markdown(p));
@@ -785,6 +820,16 @@ pub fn main(args: &[String]) -> Result<(), String> {
     }
     if let Some(m) = &mjcf {
         md.push_str(&bench_mjcf::markdown(m));
+    }
+    if let Some(m) = &models {
+        match m {
+            Ok(m) => md.push_str(&models_markdown(m)),
+            Err(e) => {
+                let _ = writeln!(md, "\n# MuJoCo models\n\nNot run: {e}.");
+            }
+        }
+    } else if run("models") {
+        md.push_str("\n# MuJoCo models\n\nLeft out: `--no-mujoco`.\n");
     }
     if let Some((c, k)) = &cloth {
         md.push_str(&cloth_markdown(c, k));

@@ -726,25 +726,11 @@ fn checks_cell(c: &Case) -> String {
 }
 
 /// `target/models/models.md`.
-pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64, ctrl_seconds: f64) -> String {
+/// The time-per-step table of [`markdown`] (one row per model, its passive case: counts,
+/// MuJoCo's µs per step, whether ours loads, ours µs per step and the ratio), also the
+/// `models` section of `cargo xtask bench`'s `ratios.md`.
+pub fn timing_table(rows: &[Row]) -> String {
     let mut md = String::new();
-    let _ = writeln!(
-        md,
-        "# MuJoCo models: MuJoCo against this library\n\n\
-         gymnasium {GYMNASIUM_VERSION} and dm_control {DM_CONTROL_VERSION} models, MuJoCo {}, \
-         at the file's time step. Cases: **passive** {seconds} s from the default pose with \
-         zero control; **perturbed** {seconds} s, zero control, from qpos0 plus a seeded \
-         perturbation (hinges ±0.2 rad, slides ±0.02 m, inside their ranges; those dofs' \
-         velocities ±0.2), the same state given to both engines with `--qpos/--qvel`; \
-         **controlled** {ctrl_seconds} s from qpos0 under one seeded control sequence (a new \
-         value every 0.05 s, uniform in ctrlrange; `target/models/work/*.ctrl.csv`). \
-         MuJoCo: `mujoco.rollout` (its C loop, one thread), median of the repeats; counts \
-         are MuJoCo's (nbody includes the world body); contacts and limits: most at any step \
-         of the perturbed run. Ours: the `simulate` binary (release, default method); \
-         \"loads\" means a zero-length run succeeded, the reason is its one-line error. \
-         Ratio below 1: this library is faster.\n",
-        version.unwrap_or("?")
-    );
     let _ = writeln!(
         md,
         "| model | suite | nbody | njnt | nu | timestep (s) | integrator | contacts / limits (MuJoCo) | MuJoCo µs/step | ours: loads? / reason | ours µs/step | ours / MuJoCo |"
@@ -775,6 +761,29 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64, ctrl_seconds:
             fmt_ratio(c.ours.us_per_step, m.us_per_step),
         );
     }
+    md
+}
+
+pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64, ctrl_seconds: f64) -> String {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# MuJoCo models: MuJoCo against this library\n\n\
+         gymnasium {GYMNASIUM_VERSION} and dm_control {DM_CONTROL_VERSION} models, MuJoCo {}, \
+         at the file's time step. Cases: **passive** {seconds} s from the default pose with \
+         zero control; **perturbed** {seconds} s, zero control, from qpos0 plus a seeded \
+         perturbation (hinges ±0.2 rad, slides ±0.02 m, inside their ranges; those dofs' \
+         velocities ±0.2), the same state given to both engines with `--qpos/--qvel`; \
+         **controlled** {ctrl_seconds} s from qpos0 under one seeded control sequence (a new \
+         value every 0.05 s, uniform in ctrlrange; `target/models/work/*.ctrl.csv`). \
+         MuJoCo: `mujoco.rollout` (its C loop, one thread), median of the repeats; counts \
+         are MuJoCo's (nbody includes the world body); contacts and limits: most at any step \
+         of the perturbed run. Ours: the `simulate` binary (release, default method); \
+         \"loads\" means a zero-length run succeeded, the reason is its one-line error. \
+         Ratio below 1: this library is faster.\n",
+        version.unwrap_or("?")
+    );
+    md.push_str(&timing_table(rows));
     let _ = writeln!(
         md,
         "\n## Checks (ours)\n\n\
@@ -1029,6 +1038,10 @@ pub fn parse_run_args(args: &[String]) -> Result<RunArgs, String> {
 /// What a whole run produced.
 pub struct Suite {
     pub rows: Vec<Row>,
+    /// MuJoCo's version, as its script reported it.
+    pub version: Option<String>,
+    /// Simulated seconds of the passive and perturbed cases.
+    pub seconds: f64,
     /// `models.md`'s text.
     pub markdown: String,
     /// The regressions ([`fatal_cases`]).
@@ -1236,6 +1249,8 @@ pub fn run_suite(a: &RunArgs) -> Result<Suite, String> {
     let fatal = fatal_cases(&rows);
     Ok(Suite {
         rows,
+        version,
+        seconds,
         markdown: md,
         fatal,
     })
@@ -1549,6 +1564,8 @@ mod tests {
                 assert_eq!(cells(l), cells(t[0]), "{l}");
             }
         }
+        // The bench report's models section is this table.
+        assert!(md.contains(&timing_table(&rows)));
         let (main, checks, smooth) = (&tables[0], &tables[1], &tables[2]);
         assert_eq!(main.len(), 2 + rows.len());
         for (r, l) in rows.iter().zip(&main[2..]) {

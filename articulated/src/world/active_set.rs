@@ -20,26 +20,33 @@
 //! the normal impulse of the previous iteration (the staggered coupling of
 //! [`constraint_contact::lcp::Coupling::Staggered`], iterated here to its fixed
 //! point: the step ends when the set is unchanged and every bound moved by less than
-//! `1e-11` of the largest impulse). The set starts from the last step's, matched by
-//! row identity (limit: joint, degree of freedom, side; contact: collider pair and
-//! feature id, axis).
+//! `1e-11` of the largest impulse). An iteration that leaves the set unchanged but
+//! moves bounds jumps to the bounds' fixed point for that set (one small linear solve,
+//! `World::extrapolate_bounds`) instead of creeping to it. The set starts from the
+//! last step's, matched by row identity (limit: joint, degree of freedom, side;
+//! contact: collider pair and feature id, axis).
 //!
-//! Active rows whose pivot the factor drops (more rows at a node than its subtree has
-//! freedoms) are solved by their Schur complement after each factor solve, as loop
-//! rows are; rows still unsatisfied after it are dependent and checked by value.
+//! Rows that keep the tree a tree ([`crate::tree_rows`]: limits and dry friction of
+//! tree joints, contacts with the static world) go into the factor. Contacts between
+//! two bodies (a humanoid's hand on its thigh) would close a loop: they are *coupled*
+//! rows, held outside the factor; active, they are solved by their Schur complement
+//! `G_C H_A⁻¹ G_Cᵀ` after each factor solve (one tree solve per active coupled row),
+//! together with the active rows whose pivot the factor drops (more rows at a node
+//! than its subtree has freedoms), as loop rows are; at a bound their impulse is on
+//! the right-hand side as any row's. Rows still unsatisfied after it are dependent
+//! and checked by value. The same primal–dual iteration decides the statuses of both
+//! kinds.
 //!
-//! Eligible rows keep the tree a tree ([`crate::tree_rows`]): limits and dry friction
-//! of tree joints, contacts with the static world. A step with another row (a
-//! body–body contact, a row of a loop joint), with loop joints, or whose set does not
-//! settle within [`MAX_ITERATIONS`], or where a dependent row's value cannot be held,
-//! goes to the dense path unchanged (counted in [`super::UnilateralStats`]).
+//! A step with a row neither kind holds (a tendon limit), with loop joints or equality
+//! rows, whose set does not settle within [`MAX_ITERATIONS`] or returns to a set met
+//! earlier in the step (the update cycles), with more than
+//! [`MAX_SCHUR`] Schur rows, or where a dependent row's value cannot be held, goes to
+//! the dense path unchanged (counted in [`super::UnilateralStats`]).
 
 use alloc::vec::Vec;
 
 use constraint_contact::lcp::RowBound;
 use constraint_core::DVec3;
-use constraint_lagrange::solve::svd::SvdSolver;
-use constraint_lagrange::solve::DenseMatrix;
 
 use super::unilateral::{RowSource, URow};
 use super::*;
@@ -49,8 +56,14 @@ use crate::tree_rows::{ExtraRow, RowTree};
 /// Iterations of the active set before the step goes to the dense path.
 pub const MAX_ITERATIONS: usize = 20;
 
-/// Most rows with dropped pivots solved by their Schur complement in one iteration.
-const MAX_DROPPED: usize = 48;
+/// Most rows solved by their Schur complement in one iteration (dropped pivots and
+/// active coupled rows together); beyond it the dense path is as cheap.
+const MAX_SCHUR: usize = 48;
+
+/// The "node" of a coupled row: a contact between two bodies, which no tree node's
+/// neighbourhood holds. Active, it is solved by its Schur complement with the factor
+/// of the tree rows, as a dropped pivot is (one tree solve per such row).
+const COUPLED: usize = usize::MAX;
 
 /// A row's state in the active set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -84,10 +97,31 @@ pub(super) struct ActiveSet {
     map: Vec<usize>,
     /// The augmented unknowns.
     x: Vec<f64>,
-    /// Active rows whose pivot the factor dropped (indices into `map`) and their
-    /// columns `H_A⁻¹ Gᵀ`.
-    dropped: Vec<usize>,
+    /// The rows solved by their Schur complement this iteration (row indices): the
+    /// active rows whose pivot the factor dropped, then the active coupled rows; their
+    /// factor positions (`usize::MAX` for a coupled row), their columns `H_A⁻¹ Gᵀ`, and
+    /// the small system `S ζ = r` with its solution.
+    schur: Vec<usize>,
+    schur_pos: Vec<usize>,
     ycols: Vec<f64>,
+    s_mat: Vec<f64>,
+    s_vec: Vec<f64>,
+    s_rhs: Vec<f64>,
+    zeta: Vec<f64>,
+    /// `S`'s eigendecomposition is current for this iteration's columns, and its floor.
+    s_ready: bool,
+    s_floor: f64,
+    /// Bound extrapolation ([`World::extrapolate_bounds`]): the normals whose
+    /// friction rows are at a bound, their values before and after the solve, the
+    /// responses to them and the small system.
+    ex_normals: Vec<usize>,
+    ex_t0: Vec<f64>,
+    ex_t1: Vec<f64>,
+    ex_resp: Vec<f64>,
+    ex_mat: Vec<f64>,
+    ex_dz: Vec<f64>,
+    /// Fingerprints of the sets met in this step's iterations (cycle detection).
+    history: Vec<u64>,
     /// The last step's rows in their order: key, status, impulse.
     warm: Vec<(RowKey, RowStatus, f64)>,
     /// `warm`'s indices sorted by key (built on the first lookup that misses the
@@ -116,7 +150,9 @@ impl World {
         }
     }
 
-    /// The tree node a row joins, or `None` when it would not keep the tree a tree.
+    /// The tree node a row joins, [`COUPLED`] for a contact between two bodies (held
+    /// outside the factor, by its Schur complement), or `None` when the row cannot be
+    /// taken (a tendon limit spans several joints).
     fn row_node(&self, r: &URow) -> Option<usize> {
         let s = &self.solver;
         match r.source {
@@ -131,6 +167,7 @@ impl World {
                     let p = s.parent[i];
                     Some(if p == NONE { i } else { p })
                 }
+                (Some(i), Some(k)) if i < s.n_bodies && k < s.n_bodies && i != k => Some(COUPLED),
                 _ => None,
             },
         }
@@ -207,6 +244,7 @@ impl World {
         let tol_w = self.unilateral.solver.tolerance * bias_scale;
         let mut iterations = 0;
         let mut settled = false;
+        st.history.clear();
         while iterations < MAX_ITERATIONS {
             iterations += 1;
             // Impulses of the rows off the factor (bounds from the current normals).
@@ -221,7 +259,7 @@ impl World {
             st.rows.clear();
             st.map.clear();
             for (i, r) in self.urows.iter().enumerate() {
-                if st.status[i] == RowStatus::Active {
+                if st.status[i] == RowStatus::Active && st.node[i] != COUPLED {
                     st.rows.push(ExtraRow {
                         node: st.node[i],
                         a: r.a,
@@ -253,13 +291,18 @@ impl World {
                 st.x[f.row_position(k)] = self.urows[i].bias;
             }
             f.solve(&self.solver, &mut st.x);
-            if !self.dropped_rows_schur(st, tol_w) {
+            if !self.schur_rows(st, tol_w) {
                 return false;
             }
             let f = &st.factor;
             let mut zmax: f64 = 0.0;
             for (k, &i) in st.map.iter().enumerate() {
                 st.z[i] = -st.x[f.row_position(k)];
+            }
+            for (c, &i) in st.schur.iter().enumerate() {
+                if st.schur_pos[c] == usize::MAX {
+                    st.z[i] = -st.zeta[c];
+                }
             }
             for i in 0..m {
                 zmax = zmax.max(st.z[i].abs());
@@ -272,22 +315,20 @@ impl World {
             // hold only if the others imply it: a one-sided one that does not cannot be
             // mended here; a boxed or friction one slides, to the bound against its rate.
             let mut changed = false;
-            for (k, &i) in st.map.iter().enumerate() {
-                if !st.dropped.is_empty() && st.dropped.contains(&k) {
-                    let w = st.w[i];
-                    match self.urows[i].bound {
-                        RowBound::Unilateral if w < -tol_w => return false,
-                        RowBound::Unilateral => {}
-                        _ if w.abs() > tol_w => {
-                            st.status[i] = if w < 0.0 {
-                                RowStatus::Hi
-                            } else {
-                                RowStatus::Lo
-                            };
-                            changed = true;
-                        }
-                        _ => {}
+            for &i in &st.schur {
+                let w = st.w[i];
+                match self.urows[i].bound {
+                    RowBound::Unilateral if w < -tol_w => return false,
+                    RowBound::Unilateral => {}
+                    _ if w.abs() > tol_w => {
+                        st.status[i] = if w < 0.0 {
+                            RowStatus::Hi
+                        } else {
+                            RowStatus::Lo
+                        };
+                        changed = true;
                     }
+                    _ => {}
                 }
             }
             let tz = 1e-12 * zmax;
@@ -328,13 +369,24 @@ impl World {
                     }
                 };
                 if new != old {
-                    changed = true;
                     st.status[i] = new;
+                    changed = true;
                 }
+            }
+            if changed && !self.unilateral_set_is_new(st) {
+                // A set met before in this step: the update cycles (an ant's four
+                // feet, two diagonal pairs in turn) and will not settle.
+                self.ustats.active_set_iterations = iterations;
+                return false;
             }
             if !changed && drift <= 1e-11 * zmax {
                 settled = true;
                 break;
+            }
+            if !changed {
+                // Same set, bounds still moving with their normals: jump to the
+                // bounds' fixed point for this set.
+                self.extrapolate_bounds(st);
             }
         }
         self.ustats.active_set_iterations = iterations;
@@ -363,43 +415,201 @@ impl World {
         true
     }
 
-    /// The active rows whose pivot the tree factor dropped: a row of a node beyond the
-    /// rank its child's unknowns give it (a foot's contacts under its hinge, more rows
-    /// than the foot has freedoms) is not dependent in the whole system, only in the
-    /// subtree below it. They are solved as loop rows are ([`crate::tree`]): with
-    /// `Y = H_A⁻¹ G_Dᵀ` (one solve of the factor without them per row),
-    /// `(G_D Y) ζ_D = G_D x_A − bias_D` by SVD for the minimum-norm `ζ_D` (singular
-    /// values below `1e-10 ×` the rows' scale without joints, `max g M⁻¹ gᵀ`, are
-    /// truncated: those directions are dependent and keep `ζ = 0`), then
-    /// `x = x_A − Y ζ_D`; skipped when the other rows already hold every dropped one
-    /// (`|w| ≤ tol_w`). `false` when the small solve fails or too many rows dropped
-    /// (more than [`MAX_DROPPED`]: the dense path is as cheap).
-    fn dropped_rows_schur(&self, st: &mut ActiveSet, tol_w: f64) -> bool {
-        st.dropped.clear();
-        let f = &st.factor;
-        for k in 0..st.map.len() {
-            if f.dropped(f.row_position(k)) {
-                st.dropped.push(k);
+    /// The staggered friction bounds' fixed point for the current set. With the
+    /// statuses held, the normals `t` the solve returns depend affinely on the normals
+    /// `t₀` the bounds `±μ t₀` of the friction rows at a bound were taken from:
+    /// `t = t₁ + D (t₀' − t₀)`, `D` the normals' response to those friction rows'
+    /// impulses (one factor solve per normal, through the Schur rows). The fixed
+    /// point `(I − D) t = t₁ − D t₀` replaces the linear convergence of the plain
+    /// iteration (factor 0.9 per iteration on a humanoid lying on the floor, where
+    /// `1e-11` took hundreds of iterations) by one small solve; the normals are set to
+    /// it for the next iteration, which checks it like any other. Does nothing when
+    /// no normal qualifies, a bound was clipped at zero, the Schur rows' solve is not
+    /// current, or the small system is singular or gives a negative normal.
+    fn extrapolate_bounds(&self, st: &mut ActiveSet) {
+        let m = self.urows.len();
+        let at_bound = |s: RowStatus| matches!(s, RowStatus::Lo | RowStatus::Hi);
+        st.ex_normals.clear();
+        st.ex_t0.clear();
+        for i in 0..m {
+            if !at_bound(st.status[i]) {
+                continue;
+            }
+            if let RowBound::Friction { normal, mu } = self.urows[i].bound {
+                if mu > 0.0
+                    && st.status.get(normal) == Some(&RowStatus::Active)
+                    && !st.ex_normals.contains(&normal)
+                {
+                    st.ex_normals.push(normal);
+                    st.ex_t0.push(st.z[i].abs() / mu);
+                }
             }
         }
-        let d = st.dropped.len();
+        let p = st.ex_normals.len();
+        if p == 0 || p > MAX_SCHUR || (!st.schur.is_empty() && !st.s_ready) {
+            return;
+        }
+        if st.ex_t0.iter().any(|t| !(*t > 0.0)) {
+            return;
+        }
+        st.ex_t1.clear();
+        for &n in &st.ex_normals {
+            st.ex_t1.push(st.z[n]);
+        }
+        let f = &st.factor;
+        let size = f.size;
+        let d = st.schur.len();
+        st.ex_resp.clear();
+        st.ex_resp.resize(p * size, 0.0);
+        st.ex_mat.clear();
+        st.ex_mat.resize(p * p, 0.0);
+        for b in 0..p {
+            let col = &mut st.ex_resp[b * size..(b + 1) * size];
+            for i in 0..m {
+                if let (true, RowBound::Friction { normal, mu }) =
+                    (at_bound(st.status[i]), self.urows[i].bound)
+                {
+                    if normal == st.ex_normals[b] {
+                        let sign = if st.status[i] == RowStatus::Hi {
+                            1.0
+                        } else {
+                            -1.0
+                        };
+                        scatter(f, col, &self.urows[i], sign * mu);
+                    }
+                }
+            }
+            f.solve(&self.solver, col);
+            if d > 0 {
+                st.s_rhs.clear();
+                for &i in &st.schur {
+                    st.s_rhs.push(gather(f, col, &self.urows[i]));
+                }
+                if !psd_apply(&st.s_mat, &st.s_vec, d, &st.s_rhs, st.s_floor, &mut st.zeta) {
+                    return;
+                }
+                for c in 0..d {
+                    let z = st.zeta[c];
+                    if z != 0.0 {
+                        let y = &st.ycols[c * size..(c + 1) * size];
+                        for (x, yv) in col.iter_mut().zip(y) {
+                            *x -= z * yv;
+                        }
+                    }
+                }
+            }
+            // The normals' response: −x at a factor row, −ζ at a Schur row.
+            for (a, &n) in st.ex_normals.iter().enumerate() {
+                let dz = if let Some(c) = st.schur.iter().position(|&i| i == n) {
+                    -st.zeta[c]
+                } else if let Some(k) = st.map.iter().position(|&i| i == n) {
+                    -col[f.row_position(k)]
+                } else {
+                    0.0
+                };
+                st.ex_mat[a * p + b] = dz;
+            }
+        }
+        // (I − D) t = t₁ − D t₀.
+        st.ex_dz.clear();
+        for a in 0..p {
+            let mut r = st.ex_t1[a];
+            for b in 0..p {
+                r -= st.ex_mat[a * p + b] * st.ex_t0[b];
+            }
+            st.ex_dz.push(r);
+        }
+        for a in 0..p {
+            for b in 0..p {
+                let v = -st.ex_mat[a * p + b] + if a == b { 1.0 } else { 0.0 };
+                st.ex_mat[a * p + b] = v;
+            }
+        }
+        if !small_solve(&mut st.ex_mat, &mut st.ex_dz, p) || st.ex_dz.iter().any(|t| *t < 0.0) {
+            return;
+        }
+        for (a, &n) in st.ex_normals.iter().enumerate() {
+            st.z[n] = st.ex_dz[a];
+        }
+    }
+
+    /// Whether the next iteration's input is one met before in this step: the
+    /// statuses and the normals the bounds of the friction rows at a bound come from
+    /// (the iteration is a function of these alone, so a repeat is a cycle that will
+    /// not settle). By a 64-bit FNV-1a fingerprint (a collision only sends the step
+    /// to the dense path); records it.
+    fn unilateral_set_is_new(&self, st: &mut ActiveSet) -> bool {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut mix = |v: u64| {
+            h ^= v;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        };
+        for (i, s) in st.status.iter().enumerate() {
+            mix(*s as u64);
+            if let (RowStatus::Lo | RowStatus::Hi, RowBound::Friction { normal, .. }) =
+                (s, self.urows[i].bound)
+            {
+                mix(st.z.get(normal).map_or(0, |z| z.to_bits()));
+            }
+        }
+        if st.history.contains(&h) {
+            return false;
+        }
+        st.history.push(h);
+        true
+    }
+
+    /// The rows solved by their Schur complement with the factor of the other active
+    /// rows, `H_A`: the active rows whose pivot the tree factor dropped, and the active
+    /// coupled rows (contacts between two bodies, [`COUPLED`]). A dropped row is a row
+    /// of a node beyond the rank its child's unknowns give it (a foot's contacts under
+    /// its hinge, more rows than the foot has freedoms): not dependent in the whole
+    /// system, only in the subtree below it. Both kinds are solved as loop rows are
+    /// ([`crate::tree`]): with `Y = H_A⁻¹ G_Dᵀ` (one solve of the factor without them
+    /// per row), `(G_D Y) ζ_D = G_D x_A − bias_D` for the minimum-norm `ζ_D` ([`psd_eigen`], [`psd_apply`])
+    /// (singular values below `1e-10 ×` the rows' scale without joints,
+    /// `max g M⁻¹ gᵀ`, are truncated: those directions are dependent and keep `ζ = 0`),
+    /// then `x = x_A − Y ζ_D`, and the rows' impulses are `z = −ζ`; skipped when the
+    /// other rows already hold every one of them (`|w| ≤ tol_w`). `false` when the small
+    /// solve fails or there are too many such rows (more than [`MAX_SCHUR`]: the dense
+    /// path is as cheap).
+    fn schur_rows(&self, st: &mut ActiveSet, tol_w: f64) -> bool {
+        st.schur.clear();
+        st.schur_pos.clear();
+        let f = &st.factor;
+        for (k, &i) in st.map.iter().enumerate() {
+            if f.dropped(f.row_position(k)) {
+                st.schur.push(i);
+                st.schur_pos.push(f.row_position(k));
+            }
+        }
+        for i in 0..st.status.len() {
+            if st.status[i] == RowStatus::Active && st.node[i] == COUPLED {
+                st.schur.push(i);
+                st.schur_pos.push(usize::MAX);
+            }
+        }
+        let d = st.schur.len();
+        st.s_ready = false;
+        st.zeta.clear();
+        st.zeta.resize(d, 0.0);
         // Rows the others already hold (|w| ≤ tol) need nothing more.
-        let held = st.dropped.iter().all(|&k| {
-            let r = &self.urows[st.map[k]];
+        let held = st.schur.iter().all(|&i| {
+            let r = &self.urows[i];
             (gather(f, &st.x, r) - r.bias).abs() <= tol_w
         });
         if held {
             return true;
         }
-        if d > MAX_DROPPED {
+        if d > MAX_SCHUR {
             return false;
         }
         let size = f.size;
         st.ycols.clear();
         st.ycols.resize(d * size, 0.0);
         let mut free_scale: f64 = 0.0;
-        for (c, &k) in st.dropped.iter().enumerate() {
-            let r = &self.urows[st.map[k]];
+        for (c, &i) in st.schur.iter().enumerate() {
+            let r = &self.urows[i];
             let col = &mut st.ycols[c * size..(c + 1) * size];
             scatter(f, col, r, 1.0);
             f.solve(&self.solver, col);
@@ -413,40 +623,35 @@ impl World {
             }
             free_scale = free_scale.max(g);
         }
-        let row = |a: usize| &self.urows[st.map[st.dropped[a]]];
-        let s = DenseMatrix::from_fn(d, d, |a, b| {
-            let y = &st.ycols[b * size..(b + 1) * size];
-            0.5 * (gather(f, y, row(a)) + {
-                let ya = &st.ycols[a * size..(a + 1) * size];
-                gather(f, ya, row(b))
-            })
-        });
-        let rhs: Vec<f64> = (0..d)
-            .map(|a| gather(f, &st.x, row(a)) - row(a).bias)
-            .collect();
-        if !s.is_finite() || rhs.iter().any(|v| !v.is_finite()) {
-            return false;
-        }
-        let Ok(svd) = SvdSolver::new(&s, 1e-10) else {
-            return false;
-        };
-        let smax = svd.singular_values().first().copied().unwrap_or(0.0);
-        let floor = 1e-10 * free_scale;
-        let mut zeta = alloc::vec![0.0; d];
-        if smax > floor {
-            let svd = if floor > 1e-10 * smax {
-                match SvdSolver::new(&s, floor / smax) {
-                    Ok(v) => v,
-                    Err(_) => return false,
-                }
-            } else {
-                svd
-            };
-            if svd.solve_min_norm(&rhs, &mut zeta).is_err() {
-                return false;
+        let row = |a: usize| &self.urows[st.schur[a]];
+        st.s_mat.clear();
+        st.s_mat.resize(d * d, 0.0);
+        for a in 0..d {
+            for b in 0..=a {
+                let (ya, yb) = (
+                    &st.ycols[a * size..(a + 1) * size],
+                    &st.ycols[b * size..(b + 1) * size],
+                );
+                let v = 0.5 * (gather(f, yb, row(a)) + gather(f, ya, row(b)));
+                st.s_mat[a * d + b] = v;
+                st.s_mat[b * d + a] = v;
             }
         }
-        for (c, z) in zeta.iter().enumerate() {
+        st.s_rhs.clear();
+        for a in 0..d {
+            st.s_rhs.push(gather(f, &st.x, row(a)) - row(a).bias);
+        }
+        if st.s_mat.iter().chain(&st.s_rhs).any(|v| !v.is_finite()) {
+            return false;
+        }
+        st.s_floor = 1e-10 * free_scale;
+        if !psd_eigen(&mut st.s_mat, &mut st.s_vec, d)
+            || !psd_apply(&st.s_mat, &st.s_vec, d, &st.s_rhs, st.s_floor, &mut st.zeta)
+        {
+            return false;
+        }
+        st.s_ready = true;
+        for (c, z) in st.zeta.iter().enumerate() {
             if *z != 0.0 {
                 let col = &st.ycols[c * size..(c + 1) * size];
                 for (x, y) in st.x.iter_mut().zip(col) {
@@ -454,8 +659,10 @@ impl World {
                 }
             }
         }
-        for (c, &k) in st.dropped.iter().enumerate() {
-            st.x[f.row_position(k)] = zeta[c];
+        for (c, &p) in st.schur_pos.iter().enumerate() {
+            if p != usize::MAX {
+                st.x[p] = st.zeta[c];
+            }
         }
         true
     }
@@ -529,4 +736,141 @@ fn gather(f: &RowTree, x: &[f64], r: &URow) -> f64 {
             + r.j[2 * side + 1].dot(DVec3::new(x[o + 3], x[o + 4], x[o + 5]));
     }
     s
+}
+
+/// Most cyclic Jacobi sweeps of [`psd_eigen`] (quadratic convergence: 6–10 suffice
+/// for the sizes met here).
+const JACOBI_SWEEPS: usize = 30;
+
+/// The eigendecomposition `S = V Λ Vᵀ` of the symmetric positive semi-definite `d × d`
+/// row-major `s` by cyclic Jacobi rotations (Golub and Van Loan, "Matrix
+/// Computations", §8.5): `s` is left with `Λ` on its diagonal, `v` (resized to `d²`)
+/// holds `V` by columns. The eigenvalues of a symmetric semi-definite matrix are its
+/// singular values, so [`psd_apply`] is the truncated SVD solve of
+/// [`constraint_lagrange::solve::svd`] without its one-sided sweeps. `false` when the
+/// rotations did not converge.
+fn psd_eigen(s: &mut [f64], v: &mut Vec<f64>, d: usize) -> bool {
+    v.clear();
+    v.resize(d * d, 0.0);
+    for i in 0..d {
+        v[i * d + i] = 1.0;
+    }
+    for _ in 0..JACOBI_SWEEPS {
+        let (mut off, mut diag) = (0.0f64, 0.0f64);
+        for p in 0..d {
+            diag += s[p * d + p] * s[p * d + p];
+            for q in p + 1..d {
+                off += s[p * d + q] * s[p * d + q];
+            }
+        }
+        if off <= 1e-32 * diag {
+            return true;
+        }
+        for p in 0..d {
+            for q in p + 1..d {
+                let apq = s[p * d + q];
+                // Below round-off of its diagonal pair (|s_pq|² ≤ s_pp s_qq on a
+                // semi-definite matrix) the rotation would change nothing.
+                if !(apq.abs() > 1e-17 * libm::sqrt((s[p * d + p] * s[q * d + q]).abs())) {
+                    continue;
+                }
+                // The rotation that zeroes s_pq: t = tan θ, the smaller root of
+                // t² + 2τ t − 1 = 0 with τ = (s_qq − s_pp) / (2 s_pq).
+                let tau = (s[q * d + q] - s[p * d + p]) / (2.0 * apq);
+                let t = if tau >= 0.0 {
+                    1.0 / (tau + libm::sqrt(1.0 + tau * tau))
+                } else {
+                    -1.0 / (-tau + libm::sqrt(1.0 + tau * tau))
+                };
+                let c = 1.0 / libm::sqrt(1.0 + t * t);
+                let sn = t * c;
+                for k in 0..d {
+                    let (skp, skq) = (s[k * d + p], s[k * d + q]);
+                    s[k * d + p] = c * skp - sn * skq;
+                    s[k * d + q] = sn * skp + c * skq;
+                }
+                for k in 0..d {
+                    let (spk, sqk) = (s[p * d + k], s[q * d + k]);
+                    s[p * d + k] = c * spk - sn * sqk;
+                    s[q * d + k] = sn * spk + c * sqk;
+                }
+                s[p * d + q] = 0.0;
+                s[q * d + p] = 0.0;
+                for k in 0..d {
+                    let (vkp, vkq) = (v[k * d + p], v[k * d + q]);
+                    v[k * d + p] = c * vkp - sn * vkq;
+                    v[k * d + q] = sn * vkp + c * vkq;
+                }
+            }
+        }
+    }
+    false
+}
+
+/// The minimum-norm `ζ = S⁺ r` from [`psd_eigen`]'s `Λ` (diagonal of `s`) and `V`:
+/// eigenvalues at most `max(1e-10 λ_max, floor)` are truncated (`ζ` has no part along
+/// them; none kept: `ζ = 0`). `false` when `ζ` is not finite.
+fn psd_apply(s: &[f64], v: &[f64], d: usize, r: &[f64], floor: f64, zeta: &mut [f64]) -> bool {
+    let lmax = (0..d).map(|i| s[i * d + i].abs()).fold(0.0f64, f64::max);
+    let cut = (1e-10 * lmax).max(floor);
+    zeta.iter_mut().for_each(|z| *z = 0.0);
+    if lmax <= floor {
+        return true;
+    }
+    for i in 0..d {
+        let l = s[i * d + i];
+        if l.abs() <= cut {
+            continue;
+        }
+        let mut proj = 0.0;
+        for k in 0..d {
+            proj += v[k * d + i] * r[k];
+        }
+        let c = proj / l;
+        for k in 0..d {
+            zeta[k] += c * v[k * d + i];
+        }
+    }
+    zeta.iter().all(|z| z.is_finite())
+}
+
+/// Solves the `p × p` row-major `a x = b` in place (`b` becomes `x`) by Gaussian
+/// elimination with partial pivoting; `false` when a pivot is below `1e-12 ×` the
+/// largest entry (singular) or the result is not finite.
+fn small_solve(a: &mut [f64], b: &mut [f64], p: usize) -> bool {
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for c in 0..p {
+        let mut piv = c;
+        for r in c + 1..p {
+            if a[r * p + c].abs() > a[piv * p + c].abs() {
+                piv = r;
+            }
+        }
+        if !(a[piv * p + c].abs() > 1e-12 * scale) {
+            return false;
+        }
+        if piv != c {
+            for k in 0..p {
+                a.swap(c * p + k, piv * p + k);
+            }
+            b.swap(c, piv);
+        }
+        for r in c + 1..p {
+            let f = a[r * p + c] / a[c * p + c];
+            if f != 0.0 {
+                for k in c..p {
+                    a[r * p + k] -= f * a[c * p + k];
+                }
+                b[r] -= f * b[c];
+            }
+        }
+    }
+    for c in (0..p).rev() {
+        let mut v = b[c];
+        for k in c + 1..p {
+            v -= a[c * p + k] * b[k];
+        }
+        b[c] = v / a[c * p + c];
+    }
+    b.iter().all(|v| v.is_finite())
 }

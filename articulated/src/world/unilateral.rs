@@ -22,8 +22,9 @@
 //! and worse in the rows of a chain lying on the floor. Rows that keep the joint tree a
 //! tree (limits and dry friction of tree joints, contacts with the static world) are
 //! solved instead by an active set inside the tree factor, `O(n)` per iteration
-//! ([`super::active_set`], [`UnilateralSettings::sparse`]); this module's path remains
-//! for the other rows (body–body contacts, loop joints) and as the fallback.
+//! ([`super::active_set`], [`UnilateralSettings::sparse`]), body–body contacts with
+//! them as coupled rows by their small Schur complement; this module's path remains
+//! for tendon limits, loop joints and equality rows, and as the fallback.
 //!
 //! Rows at the velocity level: a limit or contact with value `C ≥ 0` at the start of the
 //! step asks for `G v' ≥ −C/h` (speculative: it may close the gap within the step, no
@@ -60,8 +61,9 @@ pub struct UnilateralSettings {
     pub margin: f64,
     /// Solve the rows that keep the joint tree a tree (limits and dry friction of tree
     /// joints, contacts with the static world) by the active set inside the tree factor
-    /// (`O(n)` per iteration, `world/active_set.rs`); steps with other rows, or whose
-    /// set does not settle, use the dense Delassus path. `false`: always the dense path.
+    /// (`O(n)` per iteration, `world/active_set.rs`), body–body contacts with them by
+    /// their Schur complement; steps with other rows (tendon limits), or whose set does
+    /// not settle, use the dense Delassus path. `false`: always the dense path.
     pub sparse: bool,
 }
 
