@@ -42,15 +42,23 @@ pub enum StepError {
     TooLarge,
 }
 
-impl fmt::Display for StepError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
+impl StepError {
+    /// The rule that was broken, as a static string (for the crates whose typed errors
+    /// carry `rule: &'static str`).
+    pub fn rule(&self) -> &'static str {
+        match self {
             Self::NotANumber => "time step is NaN",
             Self::Infinite => "time step is infinite",
             Self::NonPositive => "time step must be positive",
             Self::TooSmall => "time step is below MIN_STEP (its square would be subnormal)",
             Self::TooLarge => "time step is above MAX_STEP (its square would overflow)",
-        })
+        }
+    }
+}
+
+impl fmt::Display for StepError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.rule())
     }
 }
 
