@@ -496,7 +496,8 @@ impl World {
 
     /// The tendon-limit rows at the current state (velocities before the solve): for
     /// each limited tendon near a bound, `L − lo ≥ 0` and/or `hi − L ≥ 0`.
-    pub(super) fn push_tendon_limit_rows(&mut self, h: f64) {
+    pub(super) fn push_tendon_limit_rows(&mut self, ctx: &StepContext) {
+        let h = ctx.h();
         let mut spans = core::mem::take(&mut self.tendon_spans);
         spans.clear();
         let s = self.unilateral;
@@ -520,7 +521,7 @@ impl World {
                     a: None,
                     b: None,
                     j: [DVec3::ZERO; 4],
-                    bias: row_bias(c, h, &s),
+                    bias: row_bias(c, ctx, &s),
                     bound: constraint_contact::lcp::RowBound::Unilateral,
                     source: RowSource::TendonLimit {
                         tendon: ti,

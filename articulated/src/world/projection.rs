@@ -17,8 +17,9 @@ impl World {
         &mut self,
         tolerance: f64,
         max_iterations: usize,
-        velocity_h: Option<f64>,
+        velocity_ctx: Option<&StepContext>,
     ) -> Result<usize, ArticulatedError> {
+        let velocity_h = velocity_ctx.map(StepContext::h);
         // Compliant joints are not projected (their separation is their spring's).
         // Equality rows are projected with the joints: `[M Eᵀ; E 0][δ; ν] = [0; −C_E]`.
         let mut err = self.projection_error();

@@ -35,7 +35,7 @@ use alloc::vec::Vec;
 use core::fmt;
 
 use constraint_core::rigid::rotate_by;
-use constraint_core::{BodyError, DMat3, DVec3, Pose, RigidBody};
+use constraint_core::{BodyError, DMat3, DVec3, Pose, RigidBody, StepContext};
 
 use crate::geometry::{generate_contacts, Collider, Contact, GeometryError};
 mod dense;
@@ -327,12 +327,15 @@ impl ContactWorld {
             .sum()
     }
 
-    fn check(&self, h: f64) -> Result<(), ContactError> {
+    /// Checks the settings and the state, and builds the step context of `h` (the one
+    /// check of the time step, [`StepContext::new`]).
+    fn check(&self, h: f64) -> Result<StepContext, ContactError> {
         let s = &self.settings;
         let bad = |name, rule| Err(ContactError::InvalidParameter { name, rule });
-        if !(h > 0.0) || !h.is_finite() {
-            return bad("h", "time step must be positive and finite");
-        }
+        let ctx = match StepContext::new(h) {
+            Ok(ctx) => ctx,
+            Err(e) => return bad("h", e.rule()),
+        };
         if !(0.0..=1.0).contains(&s.baumgarte) {
             return bad("baumgarte", "must be in [0, 1]");
         }
@@ -369,14 +372,14 @@ impl ContactWorld {
         }) {
             return bad("body state", "positions and velocities must be finite");
         }
-        Ok(())
+        Ok(ctx)
     }
 
     /// Advances by `h`. On error the state is left as before the call.
     pub fn step(&mut self, h: f64) -> Result<ContactStats, ContactError> {
-        self.check(h)?;
+        let ctx = self.check(h)?;
         let saved = self.bodies.clone();
-        match self.step_inner(h) {
+        match self.step_inner(ctx.h()) {
             Ok(stats) => {
                 let ok = constraint_core::math::within_limit;
                 if let Some(body) = self
