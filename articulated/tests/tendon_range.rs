@@ -12,8 +12,9 @@ use constraint_articulated::{Method, MjcfScene};
 /// The largest overshoot `max(L − 0.4, −0.4 − L, 0)` of the tendon over 1 s at 1 ms,
 /// and the largest `L` (that the swing reaches the bound at all).
 fn worst_overshoot(method: Method) -> (f64, f64) {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/tendon_range.xml");
-    let mut s = MjcfScene::from_file(std::path::Path::new(path), Some("start")).expect("scene");
+    // Reads ../scenes (excluded from the package in Cargo.toml).
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/tendon_range.xml");
+    let mut s = MjcfScene::from_file(&path, Some("start")).expect("scene");
     let [lo, hi] = s.world.tendon_ranges()[0].expect("range");
     let (mut worst, mut top): (f64, f64) = (0.0, f64::NEG_INFINITY);
     for _ in 0..1000 {

@@ -94,6 +94,30 @@ pub fn pyramid(base: usize) -> Result<ContactWorld, ContactError> {
     Ok(w)
 }
 
+/// A heavy box on a light one (issue 14's mass-ratio test): a 0.5 m box of 125 kg
+/// (density 1000) on the ground, and on it, exactly touching, a unit box `ratio` times
+/// heavier; friction 0.5.
+pub fn heavy_on_light(ratio: f64) -> Result<ContactWorld, ContactError> {
+    let mut w = ContactWorld::new(DVec3::new(0.0, 0.0, -9.81));
+    ground(&mut w, 0.5)?;
+    let light = add_box(
+        &mut w,
+        DVec3::splat(0.25),
+        None,
+        DVec3::new(0.0, 0.0, 0.25),
+        0.5,
+    )?;
+    let m = ratio * w.bodies()[light].mass();
+    add_box(
+        &mut w,
+        DVec3::splat(0.5),
+        Some(m),
+        DVec3::new(0.0, 0.0, 1.0),
+        0.5,
+    )?;
+    Ok(w)
+}
+
 /// A sphere of radius `r` (density 1000) dropped from height `z` onto the ground.
 pub fn sphere_drop(r: f64, z: f64) -> Result<ContactWorld, ContactError> {
     let mut w = ContactWorld::new(DVec3::new(0.0, 0.0, -9.81));

@@ -26,8 +26,46 @@
 //! Without the default `std` feature the crate needs only `alloc`: the rows, the KKT
 //! problem and its dense Schur, SVD, MINRES and GMRES solvers run on embedded targets;
 //! the formulations, which step a `constraint_soft::SoftSystem`, need `std`.
+//!
+//! ## Example
+//!
+//! A hard pendulum: a 1 kg bob on a 1 m rod (`C = |x₁ − x₀| − 1`, hard, `α = 0`) from a
+//! pinned pivot, released horizontally and stepped for one second at the velocity level
+//! (`Δt = 10 ms`, dense Schur solve). Each step solves `J v = −C(x₀)/Δt`, so the rod's
+//! length error stays at the `O(Δt²)` drift of one step instead of accumulating:
+//!
+//! ```
+//! # #[cfg(feature = "std")]
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! use constraint_core::{DVec3, Distance};
+//! use constraint_lagrange::{BaseStep, Constraints, HardSet, KktSolver, VelocityLevel};
+//! use constraint_soft::SoftSystem;
+//!
+//! let x = vec![DVec3::ZERO, DVec3::new(1.0, 0.0, 0.0)];
+//! let mut sys = SoftSystem::new(x.clone(), vec![1.0, 1.0])?;
+//! sys.pin(0)?;
+//! let mut cons = Constraints::new();
+//! cons.add(HardSet::hard("rod", vec![Distance::from_rest(0, 1, &x)?]));
+//! let mut step = VelocityLevel::new(1e-2, BaseStep::Explicit, KktSolver::DenseSchur)?;
+//! let mut worst: f64 = 0.0;
+//! for _ in 0..100 {
+//!     step.step(&mut sys, &cons)?;
+//!     worst = worst.max(((sys.x[1] - sys.x[0]).length() - 1.0).abs());
+//! }
+//! assert!(worst < 2e-3); // measured 9.8e-4 m
+//! # Ok(())
+//! # }
+//! # #[cfg(not(feature = "std"))]
+//! # fn main() {}
+//! ```
 #![cfg_attr(not(feature = "std"), no_std)]
+#![forbid(unsafe_code)]
 #![deny(missing_docs)]
+
+/// The crate README's example, compiled and run with the doctests so it cannot rot.
+#[cfg(all(doctest, feature = "std"))]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctest;
 
 extern crate alloc;
 

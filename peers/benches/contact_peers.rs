@@ -1,11 +1,14 @@
 //! Contact scenes, this library against rapier3d (f64), in one run.
 //!
 //! Times one step at dt = 1/60 (after 1 s of simulated warm-up: the stacks are at rest by
-//! then) of the 10-box stack (`constraint_contact::scenes::box_stack(10)`) and the
-//! pyramid with base 20 (`scenes::pyramid(20)`, 210 boxes):
+//! then) of the 10-box stack (`constraint_contact::scenes::box_stack(10)`), the
+//! pyramid with base 20 (`scenes::pyramid(20)`, 210 boxes) and a unit box 10⁴ times
+//! heavier than the 0.5 m box it rests on (`scenes::heavy_on_light(1e4)`, `heavy1e4`):
 //! `contact_peers/ours_auto/SCENE` (`ContactWorld::step`, default settings,
-//! `ContactSolver::Auto`), `contact_peers/ours_si/stack10`
-//! (`ContactSolver::SequentialImpulses`) and `contact_peers/rapier/SCENE` (one
+//! `ContactSolver::Auto`), `contact_peers/ours_si/SCENE` on the stack and the heavy box
+//! (`ContactSolver::SequentialImpulses`), `contact_peers/ours_softN/SCENE`
+//! (`ContactSolver::SoftStep { substeps: N }`, N = 1, 2, 4, 8, default soft settings)
+//! and `contact_peers/rapier/SCENE` (one
 //! `PhysicsPipeline::step` of the same boxes as cuboid colliders on a half-space ground,
 //! default integration parameters, sleeping off).
 //!
@@ -33,16 +36,28 @@ fn bench(c: &mut Criterion) {
     for scene in Scene::BENCH {
         let name = scene.name();
         for (engine, solver) in solvers(scene) {
+            // A typed failure (the heavy box defeats some solvers) is reported, not timed:
+            // the accuracy run records when it happens.
             let mut w = match ours::world(scene, solver, DT, WARM_UP) {
                 Ok(w) => w,
-                Err(e) => panic!("{engine} {name}: {e}"),
+                Err(e) => {
+                    println!("{engine} {name}: not timed, warm-up step failed: {e}");
+                    continue;
+                }
             };
+            let mut failed = None;
             g.bench_with_input(BenchmarkId::new(engine, &name), &name, |b, _| {
                 b.iter(|| match w.step(DT) {
                     Ok(s) => s.contacts,
-                    Err(e) => panic!("{engine} {name}: {e}"),
+                    Err(e) => {
+                        failed.get_or_insert(e);
+                        0
+                    }
                 })
             });
+            if let Some(e) = failed {
+                println!("{engine} {name}: a timed step failed (time not valid): {e}");
+            }
         }
         let start = match scene.world() {
             Ok(w) => w,

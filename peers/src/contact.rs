@@ -3,8 +3,10 @@
 //!
 //! The scenes are [`constraint_contact::scenes::box_stack`] (`n` unit boxes, 1 m, density
 //! 1000 kg/m³, friction 0.5, each resting exactly on the one below, on the ground plane
-//! `z = 0`) and [`constraint_contact::scenes::pyramid`] (rows of unit boxes in the x–z
-//! plane at 1.1 m pitch, `base − k` boxes at level `k`). [`Scene::world`] builds ours;
+//! `z = 0`), [`constraint_contact::scenes::pyramid`] (rows of unit boxes in the x–z
+//! plane at 1.1 m pitch, `base − k` boxes at level `k`) and
+//! [`constraint_contact::scenes::heavy_on_light`] (a unit box 10⁴ times heavier than the
+//! 0.5 m box it rests on). [`Scene::world`] builds ours;
 //! `rapier::RapierBoxes::from_world` (feature `rapier`) turns that very world into
 //! rapier3d (f64) rigid bodies and colliders, so both engines start from identical poses.
 //!
@@ -27,17 +29,22 @@ pub enum Scene {
     Stack(usize),
     /// [`scenes::pyramid`]`(base)`: `base (base + 1) / 2` unit boxes.
     Pyramid(usize),
+    /// [`scenes::heavy_on_light`]`(1e4)`: a unit box 10⁴ times heavier than the 0.5 m
+    /// box under it.
+    HeavyOnLight,
 }
 
 impl Scene {
-    /// The scenes of the benchmark: the 10-box stack and the pyramid with base 20.
-    pub const BENCH: [Scene; 2] = [Scene::Stack(10), Scene::Pyramid(20)];
+    /// The scenes of the benchmark: the 10-box stack, the pyramid with base 20 and the
+    /// 10⁴:1 heavy box on a light one.
+    pub const BENCH: [Scene; 3] = [Scene::Stack(10), Scene::Pyramid(20), Scene::HeavyOnLight];
 
-    /// Short name used in benchmark ids and files: `stack10`, `pyramid20`.
+    /// Short name used in benchmark ids and files: `stack10`, `pyramid20`, `heavy1e4`.
     pub fn name(&self) -> String {
         match self {
             Scene::Stack(n) => format!("stack{n}"),
             Scene::Pyramid(b) => format!("pyramid{b}"),
+            Scene::HeavyOnLight => "heavy1e4".into(),
         }
     }
 
@@ -46,6 +53,7 @@ impl Scene {
         match *self {
             Scene::Stack(n) => n,
             Scene::Pyramid(b) => b * (b + 1) / 2,
+            Scene::HeavyOnLight => 2,
         }
     }
 
@@ -54,6 +62,7 @@ impl Scene {
         match *self {
             Scene::Stack(n) => scenes::box_stack(n),
             Scene::Pyramid(b) => scenes::pyramid(b),
+            Scene::HeavyOnLight => scenes::heavy_on_light(1e4),
         }
     }
 }
@@ -204,12 +213,22 @@ pub mod ours {
     }
 }
 
-/// The solvers of ours that the bench runs on `scene`: `Auto` everywhere, and
-/// `SequentialImpulses` on stacks (on the pyramid `Auto` already is sequential impulses).
+/// Sub-step counts of the soft step in the bench (`ours_soft{n}`), so that accuracy
+/// can be drawn against time; 4 is the default (Box2D's).
+pub const SOFT_SUBSTEPS: [usize; 4] = [1, 2, 4, 8];
+
+/// The solvers of ours that the bench runs on `scene`: `Auto` everywhere,
+/// `SequentialImpulses` on the stack and the heavy box (on the pyramid `Auto` already
+/// is sequential impulses), and the soft step with each of [`SOFT_SUBSTEPS`]
+/// (`ours_soft1`, `ours_soft2`, `ours_soft4`, `ours_soft8`; default soft settings).
 pub fn solvers(scene: Scene) -> Vec<(&'static str, ContactSolver)> {
     let mut v = vec![("ours_auto", ContactSolver::Auto)];
-    if let Scene::Stack(_) = scene {
+    if !matches!(scene, Scene::Pyramid(_)) {
         v.push(("ours_si", ContactSolver::SequentialImpulses));
+    }
+    let names = ["ours_soft1", "ours_soft2", "ours_soft4", "ours_soft8"];
+    for (name, substeps) in names.into_iter().zip(SOFT_SUBSTEPS) {
+        v.push((name, ContactSolver::SoftStep { substeps }));
     }
     v
 }
@@ -248,7 +267,8 @@ pub mod rapier {
         /// The same scene as `w` (which must be at its start): each of our bodies becomes
         /// a dynamic rapier body at the same pose (sleeping off, so it is simulated every
         /// step as ours is), each box collider a cuboid with the same half extents,
-        /// friction and restitution and density [`DENSITY`]; each static plane a
+        /// friction and restitution and the density that gives our body's mass
+        /// ([`DENSITY`] for the unit boxes of the stack and pyramid); each static plane a
         /// half-space on a fixed body. Default integration parameters except `dt`.
         /// Fails on shapes other than planes and boxes, on colliders offset from their
         /// body, and on a plane attached to a body.
@@ -275,10 +295,16 @@ pub mod rapier {
                 if local.x.length() > 0.0 || local.q.to_scaled_axis().length() > 0.0 {
                     return Err(format!("collider {k}: offset from its body"));
                 }
+                let density = match (c.body, c.shape) {
+                    (Some(b), Shape::Box { half }) => {
+                        w.bodies()[b].mass() / (8.0 * half.x * half.y * half.z)
+                    }
+                    _ => DENSITY,
+                };
                 let material = |b: ColliderBuilder| {
                     b.friction(c.friction)
                         .restitution(c.restitution)
-                        .density(DENSITY)
+                        .density(density)
                 };
                 match (c.body, c.shape) {
                     (None, Shape::Plane { normal, offset }) => {

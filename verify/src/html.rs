@@ -1,7 +1,9 @@
 //! A small, dependency-free Markdown → HTML converter for the verification report: the
 //! subset the report writes — ATX headings, paragraphs, pipe tables, fenced code,
 //! bullet lists, inline code, bold, emphasis, links — with every image that links an
-//! `.svg` file replaced by that file's contents, so the page is self-contained.
+//! `.svg` file replaced by that file's contents, and every image that links an `.html`
+//! page (a [`crate::viewer`] replay) embedded as a sandboxed frame holding that page, so
+//! the page is self-contained.
 //!
 //! The output depends only on the input and the SVG files (no dates, no hashing
 //! iteration order): the same report converts to the same bytes.
@@ -193,6 +195,10 @@ fn lone_image(t: &str) -> Option<(&str, &str)> {
 }
 
 fn figure(alt: &str, src: &str, load_svg: &dyn Fn(&str) -> Option<String>, body: &mut String) {
+    if src.ends_with(".html") {
+        frame(alt, src, load_svg(src), body);
+        return;
+    }
     if !src.ends_with(".svg") {
         let _ = writeln!(
             body,
@@ -216,6 +222,33 @@ fn figure(alt: &str, src: &str, load_svg: &dyn Fn(&str) -> Option<String>, body:
             let _ = writeln!(
                 body,
                 r#"<p class="missing">missing chart: {} ({})</p>"#,
+                escape(alt),
+                escape(src)
+            );
+        }
+    }
+}
+
+/// A linked page embedded whole: `srcdoc` holds it (escaped), `sandbox="allow-scripts"`
+/// lets its script run without access to the report.
+fn frame(alt: &str, src: &str, page: Option<String>, body: &mut String) {
+    match page {
+        Some(page) => {
+            let _ = writeln!(
+                body,
+                "<figure>\n<iframe title=\"{}\" sandbox=\"allow-scripts\" \
+                 style=\"width:100%;height:520px;border:1px solid #bbb\" srcdoc=\"{}\"></iframe>\n\
+                 <figcaption>{} ({})</figcaption>\n</figure>",
+                escape(alt),
+                escape(&page),
+                escape(alt),
+                escape(src)
+            );
+        }
+        None => {
+            let _ = writeln!(
+                body,
+                r#"<p class="missing">missing page: {} ({})</p>"#,
                 escape(alt),
                 escape(src)
             );
@@ -443,6 +476,19 @@ mod tests {
         assert!(!h.contains("<?xml"));
         assert!(h.contains(r#"<p class="missing">missing chart: chart b (b.svg)</p>"#));
         assert!(!h.contains("<img"));
+    }
+
+    #[test]
+    fn html_pages_are_embedded_escaped_in_a_sandboxed_frame() {
+        let load = |p: &str| (p == "r.html").then(|| "<p class=\"x\">a & b</p>".to_string());
+        let h = to_html("![replay r](r.html)\n\n![replay s](s.html)\n", "T", &load);
+        // The page travels whole inside one attribute: every quote, angle bracket and
+        // ampersand escaped, so it cannot close the frame element.
+        assert!(h.contains(
+            r#"sandbox="allow-scripts" style="width:100%;height:520px;border:1px solid #bbb" srcdoc="&lt;p class=&quot;x&quot;&gt;a &amp; b&lt;/p&gt;"></iframe>"#
+        ));
+        assert!(h.contains("<figcaption>replay r (r.html)</figcaption>"));
+        assert!(h.contains(r#"<p class="missing">missing page: replay s (s.html)</p>"#));
     }
 
     #[test]

@@ -26,6 +26,10 @@
 //! * [`deps`] lists, per scene, the crate and features it declares, what they compile
 //!   (`cargo tree`) and the stages its steps were seen to run.
 //! * [`html`] turns the Markdown report into one self-contained HTML page.
+//! * [`viewer`] writes an animated, self-contained HTML page of a trajectory (shapes,
+//!   cloth meshes, play/pause, time slider, orbit camera); [`scene_view`] feeds it an
+//!   MJCF model and its trajectory; [`replays`] runs a few scenes into such pages for
+//!   the report.
 //!
 //! The binary `verify-report` (run by `cargo xtask verify`) writes the sweeps to
 //! `target/verify/`. The integration tests (`tests/`) apply the checks:
@@ -38,6 +42,8 @@
 //! * `soft_forces.rs` — soft forces and force/damping Jacobians against finite
 //!   differences; projected Hessians are PSD;
 //! * `momentum.rs` — linear and angular momentum of free bodies under every integrator.
+//! * `viewer_browser.rs` — the [`viewer`] page of the ragdoll in headless Chromium:
+//!   screenshots at two pinned times, not blank and different.
 #![deny(missing_docs)]
 
 pub mod articulated_report;
@@ -55,10 +61,13 @@ pub mod html;
 pub mod models_report;
 pub mod par;
 pub mod particle_report;
+pub mod replays;
 pub mod scene;
+pub mod scene_view;
 pub mod stability;
 pub mod sweeps;
 pub mod trajectory;
+pub mod viewer;
 
 pub use fd::{
     check_derivatives, corrected_rel_error, exceeds, measure_only, tol_scale, FdOptions, FdReport,

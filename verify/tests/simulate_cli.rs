@@ -285,6 +285,20 @@ fn bad_options_fail_with_one_line() {
             ],
         ),
         (
+            "unwritable page",
+            vec![
+                &s,
+                "--duration",
+                "0.01",
+                "--html",
+                "/nonexistent/dir/out.html",
+            ],
+        ),
+        (
+            "html without a file",
+            vec![&s, "--duration", "0.01", "--html"],
+        ),
+        (
             "summary without a file",
             vec![&s, "--duration", "0.01", "--out", &o, "--summary"],
         ),

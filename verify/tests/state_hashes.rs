@@ -686,6 +686,9 @@ const CONTACT_PINNED: &[(&str, u64)] = &[
     ("pyramid3/pgs-boxed", 0x9c7852e39b534df3),
     ("pyramid3/lemke", 0xf6c2870a2df62af5),
     ("pyramid3/newton", 0x75579f16fec89e21),
+    ("box_stack3/soft-step", 0x3d2d0111d9b8edca),
+    ("pyramid3/soft-step", 0x5d1d64a962f140d6),
+    ("sphere_drop/soft-step", 0x246fa5a519393c9e),
     ("sphere_drop/auto", 0x4b2f136f76e77280),
     ("sphere_drop/sequential-impulses", 0x2a692d2698677c7d),
     ("sphere_drop/pgs", 0xf393206177213288),
@@ -698,7 +701,8 @@ const CONTACT_PINNED: &[(&str, u64)] = &[
 
 /// The contact crate's built-in scenes for 120 steps of 1/60 s under every
 /// [`ContactSolver`](constraint_contact::rigid::ContactSolver) (default settings:
-/// staggered friction; PGS also with boxed friction): a stack of 3 unit boxes, a
+/// staggered friction; PGS also with boxed friction; the soft step with 4 sub-steps):
+/// a stack of 3 unit boxes, a
 /// pyramid with a base of 3 (6 boxes), and a 0.1 m sphere dropped from 0.5 m (it lands
 /// at 0.29 s). Then the deformable contact scenes (implicit step with contact rows, 60
 /// steps of 1e-2 s): a free 8×8 cloth falling onto a sphere, a free 2×2×2 jelly onto
@@ -730,6 +734,7 @@ fn contact_builtin_hashes_are_deterministic_and_pinned() {
         ("pgs-boxed", ContactSolver::Pgs, Some(FrictionModel::Boxed)),
         ("lemke", ContactSolver::Lemke, None),
         ("newton", ContactSolver::Newton, None),
+        ("soft-step", ContactSolver::SoftStep { substeps: 4 }, None),
     ];
     let mut scenes: Vec<Scene> = Vec::new();
     for (scene, make) in worlds {

@@ -425,15 +425,20 @@ fn ratios_markdown(p: &Peers) -> String {
 }
 
 /// Contact scenes of the contact_peers bench: `(id, label)`.
-const CONTACT_SCENES: [(&str, &str); 2] = [
+const CONTACT_SCENES: [(&str, &str); 3] = [
     ("stack10", "10-box stack"),
     ("pyramid20", "pyramid, base 20 (210 boxes)"),
+    ("heavy1e4", "10⁴:1 box on a small one"),
 ];
 
 /// Engines of the contact_peers bench: `(id, label)`.
-const CONTACT_ENGINES: [(&str, &str); 3] = [
+const CONTACT_ENGINES: [(&str, &str); 7] = [
     ("ours_auto", "ours (Auto)"),
     ("ours_si", "ours (SI)"),
+    ("ours_soft1", "ours (soft step, 1 sub-step)"),
+    ("ours_soft2", "ours (soft step, 2 sub-steps)"),
+    ("ours_soft4", "ours (soft step, 4 sub-steps)"),
+    ("ours_soft8", "ours (soft step, 8 sub-steps)"),
     ("rapier", "rapier3d"),
 ];
 
@@ -579,7 +584,9 @@ fn contact_markdown(p: &ContactPeers) -> String {
              Fischer–Burmeister Newton with staggered friction up to 200 contact points, \
              matrix-free sequential impulses (30 sweeps, 2 shock-propagation sweeps, split \
              impulses) beyond.{auto_pyramid} ours (SI) forces `ContactSolver::SequentialImpulses` \
-             (stack only)."
+             (stack and heavy box). ours (soft step, N sub-steps) is \
+             `ContactSolver::SoftStep {{ substeps: N }}` (Box2D v3's soft step, default \
+             `SoftStepSettings`: 30 Hz, damping ratio 10, push-out capped at 3 m/s)."
         ),
         format!(
             "rapier3d {} (f64): the same bodies at the same poses (built from our scene), \
@@ -590,7 +597,7 @@ fn contact_markdown(p: &ContactPeers) -> String {
              asleep and cost almost nothing). Contact points: ours only.",
             locked_version("rapier3d-f64").as_deref().unwrap_or("?")
         ),
-        "MuJoCo is not run on these two scenes: they are built in code \
+        "MuJoCo is not run on these scenes: they are built in code \
          (`constraint_contact::scenes`), not from MJCF. The MJCF contact scenes \
          (sphere_drop, sliding_box, box_stack) are compared with MuJoCo in the MJCF \
          section below."

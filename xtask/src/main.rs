@@ -2,8 +2,9 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `verify [--quick] [--mujoco]` | fmt and clippy checks, the whole test suite, the `no_std` build, the stiffness and work-precision sweeps; writes `target/verify/report.md` with charts; `--mujoco` also regenerates the MuJoCo references of `scenes/reference/` into `target/verify/mujoco/` and checks them against the committed ones (needs Python) |
+//! | `verify [--quick] [--mujoco]` | fmt and clippy checks, the whole test suite, the `no_std` build, `cargo package` of the library crates, the stiffness and work-precision sweeps; writes `target/verify/report.md` with charts; `--mujoco` also regenerates the MuJoCo references of `scenes/reference/` into `target/verify/mujoco/` and checks them against the committed ones (needs Python) |
 //! | `no-std` | builds `constraint-core` (no allocator) and `constraint-lagrange` (`alloc` only) without `std` for `thumbv7em-none-eabihf` |
+//! | `package [--no-verify]` | `cargo package` of the six library crates in one run (each packed crate built alone from its `.crate` unless `--no-verify`), after checking each file list holds the crate's README and nothing that reads outside the crate |
 //! | `bench [--no-mujoco] [--peers-only] [--only SECTIONS]` | runs the criterion benchmarks and the peer comparisons in one run and writes `target/bench/ratios.md`: ball-joint chains against rapier3d and MuJoCo, contact scenes against rapier3d, every MJCF scene of `scenes/` against MuJoCo (Euler, `mujoco.rollout`), and time per step and growth exponents of the cloth step and KKT solves; SECTIONS: `chains,contact,mjcf,cloth` |
 //! | `mujoco SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--integrator euler\|implicitfast\|rk4] --out FILE.csv [--timing FILE.json]` | runs an MJCF scene in MuJoCo (virtual environment with a pinned `mujoco` from PyPI in `target/mujoco-venv`, made on first use) and writes the trajectory file of DESIGN.md section 6; `--timing` adds seconds per step in MuJoCo's C loop |
 //! | `simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--method M] --out FILE.csv` | runs an MJCF scene with this library (the `simulate` binary of `constraint-verify`, release build) and writes the same trajectory file; one-line error and non-zero exit on any failure, divergence included |
@@ -22,6 +23,7 @@ mod models;
 mod models_checks;
 mod mujoco;
 mod no_std;
+mod package;
 mod run;
 mod simulate;
 mod verify;
@@ -32,9 +34,12 @@ const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
   verify [--quick] [--mujoco]
-                     checks, tests, no_std build and sweeps; writes target/verify/report.md;
+                     checks, tests, no_std build, packaging and sweeps; writes target/verify/report.md;
                      --mujoco also regenerates scenes/reference/ in MuJoCo and checks it
   no-std             build constraint-core and constraint-lagrange for thumbv7em-none-eabihf without std
+  package [--no-verify]
+                     cargo package of the six library crates (each built from its .crate
+                     unless --no-verify): target/package/
   bench [--no-mujoco] [--peers-only] [--only chains,contact,mjcf,cloth] [CRITERION ARGS]
                      criterion benchmarks and peer comparisons in one run: chains vs rapier3d
                      and MuJoCo, contact scenes vs rapier3d, every MJCF scene vs MuJoCo,
@@ -62,6 +67,7 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("verify") => verify::main(&args[1..]),
         Some("no-std") => no_std::main(&args[1..]).map(|_| ()),
+        Some("package") => package::main(&args[1..]),
         Some("bench") => bench::main(&args[1..]),
         Some("mujoco") => mujoco::main(&args[1..]),
         Some("compare") => compare::main(&args[1..]),

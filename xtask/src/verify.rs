@@ -5,10 +5,14 @@
 //! 2. `cargo clippy --workspace --all-targets -- -D warnings`
 //! 3. `cargo test --workspace` (full mode: `PROPTEST_CASES=2048`)
 //! 4. the `no_std` build of `constraint-core` (see `no_std.rs`)
-//! 5. the sweeps (`verify-report` binary, release build): cloth stability map and
+//! 5. `cargo xtask package` (see `package.rs`): every library crate packed and, in full
+//!    mode, built from its `.crate` alone (about 6 s once built; the first time in a
+//!    target directory it builds the dependencies at the published crates' own profile,
+//!    8 minutes on two loaded cores); `--quick` packs with `--no-verify` (about 2 s)
+//! 6. the sweeps (`verify-report` binary, release build): cloth stability map and
 //!    work-precision chart
 //!
-//! 6. the real models (`cargo xtask models run`, `--quick`: 0.5 s runs, one repeat):
+//! 7. the real models (`cargo xtask models run`, `--quick`: 0.5 s runs, one repeat):
 //!    the 33 gymnasium and dm_control models in MuJoCo and here, per-model checks, the
 //!    "Real models" section and its charts (see `models.rs`,
 //!    `constraint_verify::models_report`). Fails on a panic, when a model that loads
@@ -16,7 +20,7 @@
 //!    Skipped, with the reason in the report, only when MuJoCo itself cannot be
 //!    installed (no Python, no PyPI); once MuJoCo is there, a failed model download is
 //!    a failure.
-//! 7. with `--mujoco` only: every MuJoCo reference of `scenes/reference/` regenerated into
+//! 8. with `--mujoco` only: every MuJoCo reference of `scenes/reference/` regenerated into
 //!    `target/verify/mujoco/` and compared with the committed file (COM, body origin and
 //!    orientation within 1e-9; needs Python, see `mujoco.rs`)
 //!
@@ -58,7 +62,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
     }
     let out = root().join("target/verify");
     std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
-    let total = if with_mujoco { 7 } else { 6 };
+    let total = if with_mujoco { 8 } else { 7 };
     let mut stages: Vec<Stage> = Vec::new();
     let begin = |k: usize, name: &str| eprintln!("\n[{k}/{total}] {name}");
 
@@ -126,8 +130,28 @@ pub fn main(args: &[String]) -> Result<(), String> {
         note,
     });
 
+    begin(5, "packaging (cargo xtask package)");
+    let t0 = std::time::Instant::now();
+    let package_args = if quick {
+        vec!["--no-verify".to_string()]
+    } else {
+        Vec::new()
+    };
+    let (ok, note) = match crate::package::main(&package_args) {
+        Ok(()) if quick => (true, "--no-verify (packed, not built)".to_string()),
+        Ok(()) => (true, "each crate built from its .crate".to_string()),
+        // One table cell: the list of problems on one line.
+        Err(e) => (false, e.replace('\n', "; ")),
+    };
+    stages.push(Stage {
+        name: "cargo package (library crates)",
+        ok,
+        secs: t0.elapsed().as_secs_f64(),
+        note,
+    });
+
     begin(
-        5,
+        6,
         "sweeps: stability map and work-precision (release build)",
     );
     let mut sweep = verify_report(false);
@@ -144,7 +168,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
     });
 
     begin(
-        6,
+        7,
         "real models: gymnasium and dm_control in MuJoCo and here",
     );
     let t0 = std::time::Instant::now();
@@ -158,7 +182,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
 
     if with_mujoco {
         begin(
-            7,
+            8,
             "MuJoCo references regenerated and compared with scenes/reference/",
         );
         let t0 = std::time::Instant::now();
@@ -247,7 +271,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
     }
 }
 
-/// Stage 6: the real-models suite into `out/models/`, then its report section (written by
+/// Stage 7: the real-models suite into `out/models/`, then its report section (written by
 /// `verify-report --models`, charts beside the report). Returns (passed, the note for
 /// the checks table, the section's Markdown).
 fn real_models(quick: bool, out: &std::path::Path) -> (bool, String, String) {

@@ -70,10 +70,22 @@ pub fn sweep_and_prune_masked(
     is_static: &[bool],
     out: &mut Vec<(usize, usize)>,
 ) -> BroadStats {
+    sweep_and_prune_into(aabbs, is_static, &mut Vec::new(), out)
+}
+
+/// [`sweep_and_prune_masked`] with the sweep order in a caller's buffer (no allocation
+/// once `order` and `out` have grown to the scene).
+fn sweep_and_prune_into(
+    aabbs: &[Aabb],
+    is_static: &[bool],
+    order: &mut Vec<usize>,
+    out: &mut Vec<(usize, usize)>,
+) -> BroadStats {
     out.clear();
     let fixed = |i: usize| is_static.get(i).copied().unwrap_or(false);
     let axis = sweep_axis(aabbs);
-    let mut order: Vec<usize> = (0..aabbs.len()).collect();
+    order.clear();
+    order.extend(0..aabbs.len());
     order.sort_unstable_by(|&i, &j| {
         aabbs[i].min[axis]
             .total_cmp(&aabbs[j].min[axis])
@@ -151,6 +163,37 @@ pub fn generate_contacts_filtered(
     keep: impl Fn(usize, usize) -> bool,
     out: &mut Vec<Contact>,
 ) -> Result<BroadStats, GeometryError> {
+    generate_contacts_with(
+        colliders,
+        body_poses,
+        margin,
+        keep,
+        &mut BroadScratch::default(),
+        out,
+    )
+}
+
+/// The buffers of [`generate_contacts_with`] (bounding boxes, static mask, sweep order,
+/// overlapping pairs), kept between calls so that a step allocates nothing once they
+/// have grown to the scene.
+#[derive(Clone, Debug, Default)]
+pub struct BroadScratch {
+    aabbs: Vec<Aabb>,
+    is_static: Vec<bool>,
+    order: Vec<usize>,
+    pairs: Vec<(usize, usize)>,
+}
+
+/// [`generate_contacts_filtered`] with its buffers in `scratch`: the same contacts in
+/// the same order, without allocating once `scratch` and `out` have grown to the scene.
+pub fn generate_contacts_with(
+    colliders: &[Collider],
+    body_poses: &[Pose],
+    margin: f64,
+    keep: impl Fn(usize, usize) -> bool,
+    scratch: &mut BroadScratch,
+    out: &mut Vec<Contact>,
+) -> Result<BroadStats, GeometryError> {
     out.clear();
     if !(margin >= 0.0) || !margin.is_finite() {
         return Err(GeometryError::BadMargin);
@@ -165,7 +208,13 @@ pub fn generate_contacts_filtered(
         Some(b) => body_poses[b],
         None => Pose::IDENTITY,
     };
-    let mut aabbs = Vec::with_capacity(colliders.len());
+    let BroadScratch {
+        aabbs,
+        is_static,
+        order,
+        pairs,
+    } = scratch;
+    aabbs.clear();
     for (k, c) in colliders.iter().enumerate() {
         if let Some(b) = c.body {
             if b >= body_poses.len() {
@@ -177,10 +226,10 @@ pub fn generate_contacts_filtered(
         }
         aabbs.push(c.aabb(&pose_of(c), 0.5 * margin));
     }
-    let is_static: Vec<bool> = colliders.iter().map(|c| c.body.is_none()).collect();
-    let mut pairs = Vec::new();
-    let stats = sweep_and_prune_masked(&aabbs, &is_static, &mut pairs);
-    for &(i, j) in &pairs {
+    is_static.clear();
+    is_static.extend(colliders.iter().map(|c| c.body.is_none()));
+    let stats = sweep_and_prune_into(aabbs, is_static, order, pairs);
+    for &(i, j) in pairs.iter() {
         let (a, b) = (&colliders[i], &colliders[j]);
         if a.body == b.body || !keep(i, j) {
             continue;

@@ -5,7 +5,7 @@
 //! | [`shape`] | [`Shape`] (plane, sphere, box, capsule), [`Collider`] (a shape on a body with its offset pose, friction, restitution), [`Aabb`], [`GeometryError`] |
 //! | [`contact`] | [`Contact`] (pair, point, normal from `a` to `b`, depth = −gap, feature id) and [`ParticleContact`] |
 //! | [`narrow`] | [`collide`] for any pair of colliders, [`point_vs`] for particles, [`closest_point`], [`closest_segments`] |
-//! | [`broad`] | sort-and-sweep [`sweep_and_prune`], the all-pairs reference [`brute_force`], and [`generate_contacts`] for a whole scene |
+//! | [`broad`] | sort-and-sweep [`sweep_and_prune`], the all-pairs reference [`brute_force`], and [`generate_contacts`] for a whole scene ([`generate_contacts_with`] reuses a [`BroadScratch`]) |
 
 pub mod broad;
 pub mod contact;
@@ -13,8 +13,8 @@ pub mod narrow;
 pub mod shape;
 
 pub use broad::{
-    brute_force, generate_contacts, generate_contacts_filtered, sweep_and_prune,
-    sweep_and_prune_masked, BroadStats,
+    brute_force, generate_contacts, generate_contacts_filtered, generate_contacts_with,
+    sweep_and_prune, sweep_and_prune_masked, BroadScratch, BroadStats,
 };
 pub use contact::{Contact, ParticleContact};
 pub use narrow::{closest_point, closest_segments, collide, point_vs, Closest};

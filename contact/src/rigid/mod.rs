@@ -14,6 +14,8 @@
 //! * `SequentialImpulses`: projected Gauss–Seidel on `A` without forming it (each row's
 //!   impulse goes straight into the two bodies' velocities; Catto 2005, Erleben 2007),
 //!   warm-started from the previous step's impulses matched by contact id;
+//! * `SoftStep`: Box2D v3's soft step (Catto 2024): sub-steps, each with one soft
+//!   Gauss–Seidel pass and one rigid relax pass ([`soft_step`]'s module docs);
 //! * `Pgs`, `Lemke`, `Newton`: the dense LCP of [`crate::lcp`] on the assembled `A`.
 //!   Lemke and the Fischer–Burmeister Newton method take standard LCPs only, so friction
 //!   goes by Kaufman et al.'s staggered projections (2008): a normal LCP with the
@@ -40,7 +42,10 @@ use constraint_core::{BodyError, DMat3, DVec3, Pose, RigidBody, StepContext};
 use crate::geometry::{generate_contacts, Collider, Contact, GeometryError};
 mod dense;
 mod sequential;
+mod soft_step;
 mod stages;
+
+pub use soft_step::{SoftStepSettings, Softness};
 
 /// Bits of [`ContactWorld`]'s record of the solver path its last step took.
 mod path {
@@ -68,6 +73,8 @@ mod path {
     pub const SPLIT: u16 = 1 << 10;
     /// No contact rows: nothing to solve.
     pub const NO_ROWS: u16 = 1 << 11;
+    /// The soft step (sub-steps of soft solve and relax).
+    pub const SOFT_STEP: u16 = 1 << 12;
 }
 
 use crate::lcp::{solve_rows, Coupling, LcpError, RowBound, RowMethod, RowSettings};
@@ -86,6 +93,16 @@ pub enum ContactSolver {
     Lemke,
     /// Fischer–Burmeister Newton on the assembled matrix (friction staggered).
     Newton,
+    /// Box2D v3's soft step with `substeps` sub-steps per step (one soft Gauss–Seidel
+    /// pass and one rigid relax pass each); stiffness and damping in
+    /// [`ContactSettings::soft_step`]. The compliant form `[M Jᵀ; J −α/h²]` of the lecture
+    /// applied row by row. Uses `margin`, `warm_start` and `restitution_threshold`;
+    /// `iterations`, `baumgarte`, `slop`, `shock_propagation`, `split_impulse`,
+    /// `friction` and `tolerance` are for the other solvers.
+    SoftStep {
+        /// Sub-steps per step (at least 1; 4 is Box2D's default).
+        substeps: usize,
+    },
 }
 
 /// Largest number of contact points [`ContactSolver::Auto`] solves densely (the
@@ -132,6 +149,8 @@ pub struct ContactSettings {
     /// only, so correcting position error never adds kinetic energy. Off: the target is
     /// part of the velocity rows (plain Baumgarte).
     pub split_impulse: bool,
+    /// Contact stiffness, damping and push-out cap of [`ContactSolver::SoftStep`].
+    pub soft_step: SoftStepSettings,
 }
 
 impl Default for ContactSettings {
@@ -148,6 +167,7 @@ impl Default for ContactSettings {
             shock_propagation: 2,
             warm_start: true,
             split_impulse: true,
+            soft_step: SoftStepSettings::default(),
         }
     }
 }
@@ -250,6 +270,10 @@ pub struct ContactWorld {
     steps: u64,
     /// The solver path of the last step ([`path`] bits), for [`ContactWorld::stages`].
     path: u16,
+    /// The bodies at the start of the step being taken (rollback on failure), reused.
+    saved: Vec<RigidBody>,
+    /// Buffers of the soft step.
+    soft: soft_step::SoftState,
 }
 
 impl ContactWorld {
@@ -266,6 +290,8 @@ impl ContactWorld {
             warm: BTreeMap::new(),
             steps: 0,
             path: 0,
+            saved: Vec::new(),
+            soft: soft_step::SoftState::default(),
         }
     }
 
@@ -378,32 +404,36 @@ impl ContactWorld {
     /// Advances by `h`. On error the state is left as before the call.
     pub fn step(&mut self, h: f64) -> Result<ContactStats, ContactError> {
         let ctx = self.check(h)?;
-        let saved = self.bodies.clone();
-        match self.step_inner(ctx.h()) {
-            Ok(stats) => {
-                let ok = constraint_core::math::within_limit;
-                if let Some(body) = self
-                    .bodies
-                    .iter()
-                    .position(|b| !ok(b.pose.x) || !ok(b.v) || !ok(b.omega))
-                {
-                    self.bodies = saved;
-                    return Err(ContactError::Diverged {
-                        step: self.steps + 1,
-                        body,
-                    });
-                }
-                self.steps += 1;
-                Ok(stats)
+        // The rollback copy lives in a kept buffer: no allocation once it has grown.
+        let mut saved = core::mem::take(&mut self.saved);
+        saved.clone_from(&self.bodies);
+        let result = self.step_inner(ctx.h()).and_then(|stats| {
+            let ok = constraint_core::math::within_limit;
+            match self
+                .bodies
+                .iter()
+                .position(|b| !ok(b.pose.x) || !ok(b.v) || !ok(b.omega))
+            {
+                Some(body) => Err(ContactError::Diverged {
+                    step: self.steps + 1,
+                    body,
+                }),
+                None => Ok(stats),
             }
-            Err(e) => {
-                self.bodies = saved;
-                Err(e)
-            }
+        });
+        if result.is_ok() {
+            self.steps += 1;
+        } else {
+            core::mem::swap(&mut self.bodies, &mut saved);
         }
+        self.saved = saved;
+        result
     }
 
     fn step_inner(&mut self, h: f64) -> Result<ContactStats, ContactError> {
+        if let ContactSolver::SoftStep { substeps } = self.settings.solver {
+            return self.soft_step(h, substeps);
+        }
         let mut stats = ContactStats::default();
         // Contacts at the start of the step.
         let poses: Vec<Pose> = self.bodies.iter().map(|b| b.pose).collect();

@@ -43,11 +43,12 @@ impl ContactWorld {
     /// * speculative contacts, restitution, Coulomb friction and warm starting when the
     ///   settings and materials use them;
     /// * the solver path: after a step, the one that step took (sequential impulses and
-    ///   shock propagation; or the dense Delassus matrix with boxed PGS, or staggered
+    ///   shock propagation; or the soft step; or the dense Delassus matrix with boxed PGS, or staggered
     ///   projections with the normal-LCP solvers whose answers were accepted and the
     ///   friction solve; or nothing to solve); before any step, the configured one;
     /// * position correction: split impulses when they ran (after a step) or are set
-    ///   (before), Baumgarte velocity bias when split impulses are off.
+    ///   (before), the soft step's soft bias (relaxed each sub-step), Baumgarte velocity
+    ///   bias when split impulses are off.
     pub fn stages(&self) -> Vec<&'static str> {
         let mut out = Vec::with_capacity(16);
         if self.gravity != DVec3::ZERO {
@@ -99,6 +100,9 @@ impl ContactWorld {
         if has(path::SHOCK) {
             out.push("shock propagation");
         }
+        if has(path::SOFT_STEP) {
+            out.push("soft step (sub-steps: soft solve, integrate, relax; restitution)");
+        }
         if has(path::DENSE) {
             out.push("dense Delassus matrix J M⁻¹ Jᵀ");
             if has(path::BOXED_PGS) {
@@ -123,6 +127,8 @@ impl ContactWorld {
         }
         if has(path::SPLIT) {
             out.push("split impulses (pseudo-velocity position correction)");
+        } else if has(path::SOFT_STEP) {
+            out.push("soft contact bias (Box2D v3 soft constraints), relaxed each sub-step");
         } else if !s.split_impulse {
             out.push("Baumgarte velocity bias");
         }
@@ -143,9 +149,13 @@ impl ContactWorld {
         } else {
             0
         };
+        if let ContactSolver::SoftStep { .. } = s.solver {
+            return path::SOFT_STEP;
+        }
         split
             | match (s.solver, s.friction) {
                 (ContactSolver::Auto, _) => 0,
+                (ContactSolver::SoftStep { .. }, _) => path::SOFT_STEP,
                 (ContactSolver::SequentialImpulses, _) => path::SEQUENTIAL | shock,
                 (ContactSolver::Pgs, FrictionModel::Boxed) => path::DENSE | path::BOXED_PGS,
                 (ContactSolver::Pgs, _) => path::DENSE | path::NORMAL_PGS | friction,

@@ -7,9 +7,11 @@
 //! `contact_lcp.csv`, `contact_scenes.csv`; see `constraint_verify::contact_report`),
 //! the articulated stability map (`articulated_stability_<axis>.svg`,
 //! `articulated_stability.csv`; see `constraint_verify::articulated_stability`), the
-//! cloth stability heat map (`cloth_stability.svg`), the dependency listing per scene
-//! family (`constraint_verify::deps`), and `report.html`: `sweeps.md` as one
-//! self-contained page with every chart inline (`constraint_verify::html`).
+//! cloth stability heat map (`cloth_stability.svg`), the replays
+//! (`replay_<scene>.html`, animated pages of a few scenes; see
+//! `constraint_verify::replays`), the dependency listing per scene family
+//! (`constraint_verify::deps`), and `report.html`: `sweeps.md` as one self-contained
+//! page with every chart and replay inline (`constraint_verify::html`).
 //!
 //! `cargo run --release -p constraint-verify --bin verify-report -- [--quick] [--out DIR]`
 //! (normally called by `cargo xtask verify`).
@@ -343,6 +345,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let chain_panics = constraint_verify::chain_stability::section(&mut md, &out, quick)?;
     let chain_secs = t0.elapsed().as_secs_f64();
     eprintln!("    particle chain stability map done in {chain_secs:.1} s ({chain_panics} panics)");
+    let t0 = Instant::now();
+    eprintln!("  replays (scene pages for the viewer)");
+    let root = constraint_verify::articulated_report::root();
+    constraint_verify::replays::section(&mut md, &out, &root);
+    eprintln!("    done in {:.1} s", t0.elapsed().as_secs_f64());
     let t0 = Instant::now();
     eprintln!("  dependency listing (cargo tree per scene family)");
     constraint_verify::deps::section(&mut md, &constraint_verify::articulated_report::root());

@@ -1,0 +1,184 @@
+//! The soft step (`ContactSolver::SoftStep`, Box2D v3's sub-stepped soft contact
+//! solver): a stack and a pyramid at rest, the stack's sink against the contact-spring
+//! model, Coulomb sliding distance, bad settings as typed errors, energy on a resting
+//! stack, determinism, and the ground carrying the stack's weight.
+//!
+//! Tolerances sit above the values measured on this code (written beside each).
+
+use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld, SoftStepSettings};
+use constraint_contact::scenes::{add_box, box_stack, ground, pyramid};
+use constraint_core::DVec3;
+
+const DT: f64 = 1.0 / 60.0;
+const G: f64 = 9.81;
+
+fn soft(mut w: ContactWorld, substeps: usize) -> ContactWorld {
+    w.settings.solver = ContactSolver::SoftStep { substeps };
+    w
+}
+
+/// Runs `steps` steps; returns (top-box drift, top-box sink at the end, worst
+/// displacement of any box over the run), in metres.
+fn run(w: &mut ContactWorld, steps: usize) -> (f64, f64, f64) {
+    let x0: Vec<DVec3> = w.bodies().iter().map(|b| b.pose.x).collect();
+    let top = (0..x0.len())
+        .max_by(|&i, &j| x0[i].z.total_cmp(&x0[j].z).then(j.cmp(&i)))
+        .unwrap();
+    let (mut drift, mut worst) = (0.0f64, 0.0f64);
+    for _ in 0..steps {
+        w.step(DT).unwrap();
+        for (i, b) in w.bodies().iter().enumerate() {
+            let d = (b.pose.x - x0[i]).length();
+            worst = worst.max(d);
+            if i == top {
+                drift = drift.max(d);
+            }
+        }
+    }
+    (drift, x0[top].z - w.bodies()[top].pose.x.z, worst)
+}
+
+/// Ten unit boxes (1000 kg) for 10 s at 60 Hz with 4 sub-steps: the stack stands, and
+/// it settles by what the contact springs predict. A soft row of effective mass `m`
+/// and frequency `ω` is a spring `m ω²`; a corner point between two unit boxes has
+/// `m = M/8` (a box–ground corner `M/4`) and carries a quarter of the weight above it,
+/// so `k` boxes compress a box–box contact by `2 k g/ω²` and the ten a ground contact
+/// (twice the frequency) by `2.5 g/ω²`: the top sinks `(2·45 + 2.5) g/ω²` = 25.5 mm
+/// at 30 Hz.
+#[test]
+fn stack_of_ten_stands_and_settles_as_the_contact_springs_predict() {
+    let mut w = soft(box_stack(10).unwrap(), 4);
+    let (drift, sink, worst) = run(&mut w, 600);
+    let omega = std::f64::consts::TAU * SoftStepSettings::default().hertz;
+    let predicted = 92.5 * G / (omega * omega);
+    assert!(drift < 4e-2, "top drift {drift:e} m"); // measured 2.95e-2
+    assert!(worst < 4e-2, "worst displacement {worst:e} m"); // measured 2.95e-2
+    assert!(
+        (sink - predicted).abs() < 1e-2 * predicted,
+        "sink {sink:e} m, springs predict {predicted:e} m"
+    ); // measured 2.5517e-2 against 2.5538e-2 (0.08 %)
+}
+
+/// A pyramid with a base of 10 (55 boxes) for 10 s with 4 sub-steps holds.
+#[test]
+fn pyramid_holds() {
+    let mut w = soft(pyramid(10).unwrap(), 4);
+    let (_, _, worst) = run(&mut w, 600);
+    assert!(worst < 1e-2, "worst displacement {worst:e} m"); // measured 7.88e-3
+}
+
+/// A unit box sliding at 3 m/s on μ = 0.5 stops after `v²/(2 μ g)` = 0.917 m.
+#[test]
+fn sliding_box_stops_at_the_coulomb_distance() {
+    let mut w = ContactWorld::new(DVec3::new(0.0, 0.0, -G));
+    ground(&mut w, 0.5).unwrap();
+    let b = add_box(
+        &mut w,
+        DVec3::splat(0.5),
+        None,
+        DVec3::new(0.0, 0.0, 0.5),
+        0.5,
+    )
+    .unwrap();
+    w.bodies_mut()[b].v = DVec3::new(3.0, 0.0, 0.0);
+    let mut w = soft(w, 4);
+    for _ in 0..120 {
+        w.step(DT).unwrap();
+    }
+    let x = w.bodies()[b].pose.x.x;
+    let expected = 9.0 / (2.0 * 0.5 * G);
+    assert!(w.bodies()[b].v.length() < 1e-6, "{:?}", w.bodies()[b].v); // measured 3.2e-12
+    assert!(
+        (x - expected).abs() < 1e-2 * expected,
+        "stopped at {x} m, Coulomb {expected} m"
+    ); // measured 0.9112 against 0.9174 (−0.68 %)
+}
+
+/// Zero sub-steps, a NaN or zero frequency, a negative or NaN damping ratio, a negative
+/// push velocity: typed errors naming the setting, the state unchanged.
+#[test]
+fn bad_settings_are_typed_errors() {
+    type Spoil = fn(&mut SoftStepSettings);
+    let cases: [(&str, usize, Spoil); 6] = [
+        ("substeps", 0, |_| {}),
+        ("soft_step.hertz", 4, |s| s.hertz = f64::NAN),
+        ("soft_step.hertz", 4, |s| s.hertz = 0.0),
+        ("soft_step.damping_ratio", 4, |s| s.damping_ratio = -1.0),
+        ("soft_step.damping_ratio", 4, |s| s.damping_ratio = f64::NAN),
+        ("soft_step.max_push_velocity", 4, |s| {
+            s.max_push_velocity = -1.0
+        }),
+    ];
+    for (name, substeps, spoil) in cases {
+        let mut w = soft(box_stack(2).unwrap(), substeps);
+        spoil(&mut w.settings.soft_step);
+        let before: Vec<_> = w.bodies().to_vec();
+        match w.step(DT) {
+            Err(ContactError::InvalidParameter { name: n, .. }) => assert_eq!(n, name),
+            other => panic!("{name}: {other:?}"),
+        }
+        assert_eq!(w.bodies(), &before[..], "{name}: state changed");
+    }
+}
+
+/// On a resting stack (after 2 s of settling) the energy does not grow: over the next
+/// 8 s it changes by less than 1 J of the stack's 4.9e5 J of potential energy.
+#[test]
+fn energy_does_not_grow_on_a_resting_stack() {
+    let mut w = soft(box_stack(10).unwrap(), 4);
+    for _ in 0..120 {
+        w.step(DT).unwrap();
+    }
+    let start = w.energy();
+    let mut highest = start;
+    for _ in 0..480 {
+        w.step(DT).unwrap();
+        highest = highest.max(w.energy());
+    }
+    assert!(highest - start < 1.0, "energy rose {:e} J", highest - start); // measured 0.21 (of 4.89e5 J)
+}
+
+/// At rest the ground's normal impulses over one step carry the stack's weight:
+/// `Σ λ_n = M g h` (the sum over the sub-steps of each sub-step's impulse).
+#[test]
+fn the_ground_carries_the_weight() {
+    let mut w = soft(box_stack(10).unwrap(), 4);
+    for _ in 0..300 {
+        w.step(DT).unwrap();
+    }
+    w.step(DT).unwrap();
+    let ground_collider = 0;
+    let carried: f64 = w
+        .contacts()
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.a == ground_collider)
+        .map(|(k, _)| w.impulses()[3 * k])
+        .sum();
+    let weight = 10.0 * 1000.0 * G * DT;
+    assert!(
+        (carried - weight).abs() < 1e-3 * weight,
+        "ground impulse {carried} N·s, weight {weight} N·s"
+    ); // measured relative error 4.6e-6
+}
+
+/// Same input, same output: two runs of a 21-box pyramid's first second are
+/// bit-identical, and the stages name the soft step.
+#[test]
+fn deterministic_and_reported() {
+    let go = || {
+        let mut w = soft(pyramid(6).unwrap(), 4);
+        for _ in 0..60 {
+            w.step(DT).unwrap();
+        }
+        w
+    };
+    let (a, b) = (go(), go());
+    assert_eq!(a.bodies(), b.bodies());
+    assert_eq!(a.impulses(), b.impulses());
+    assert!(
+        a.stages().iter().any(|s| s.starts_with("soft step")),
+        "{:?}",
+        a.stages()
+    );
+}
