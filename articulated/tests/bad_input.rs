@@ -109,11 +109,44 @@ fn world_rejects_bad_joints_and_parameters_and_stays_unchanged() {
     nan_v.v = DVec3::NAN;
     assert!(w.add_body(nan_v).is_err());
     let before = w.bodies().to_vec();
-    for h in [0.0, -1e-3, f64::NAN, f64::INFINITY] {
-        assert!(matches!(
-            w.step(h, Method::default()),
-            Err(ArticulatedError::InvalidParameter { .. })
-        ));
+    // The one check of the time step (constraint_core::StepContext::new), under every
+    // method, and for the public velocity-level reference solve as well.
+    let bad = [
+        0.0,
+        -0.0,
+        -1e-3,
+        f64::NAN,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        1e-160,
+        1e160,
+    ];
+    let methods = [
+        Method::Velocity { beta: 1.0 },
+        Method::default(),
+        Method::Acceleration { kx: 0.0, kv: 0.0 },
+        Method::Rattle4 {
+            tolerance: 1e-10,
+            max_iterations: 3,
+        },
+    ];
+    for h in bad {
+        for m in methods {
+            assert!(
+                matches!(
+                    w.step(h, m),
+                    Err(ArticulatedError::InvalidParameter { name: "h", .. })
+                ),
+                "h = {h:e}, {m:?}"
+            );
+        }
+        assert!(
+            matches!(
+                w.velocity_twists(h, 1.0),
+                Err(ArticulatedError::InvalidParameter { name: "h", .. })
+            ),
+            "velocity_twists h = {h:e}"
+        );
     }
     for m in [
         Method::Velocity { beta: 2.0 },

@@ -21,7 +21,9 @@
 //!
 //! It also holds the rigid-body type every rigid crate shares, [`RigidBody`] (mass
 //! properties checked once and kept private; pose and twist plain data), and the body
-//! stencils of the joints ([`rigid`], [`joint`]).
+//! stencils of the joints ([`rigid`], [`joint`]), and the step context every world
+//! builds once per step from its time step `h` ([`StepContext`]: `h`, `1/h`, `h²`, `h/2`,
+//! validated in one place).
 //!
 //! Everything else — soft energies `½kC²`, forces `−kC∇C`, force Jacobians, KKT rows —
 //! is derived generically from this trait in the other crates.
@@ -82,6 +84,7 @@ pub mod math;
 pub mod plane;
 pub mod rigid;
 pub mod spring;
+pub mod step;
 pub mod volume;
 
 pub use area::Area;
@@ -95,4 +98,5 @@ pub use joint::{DistanceJoint, Fixed, Hinge, Prismatic, Spherical};
 pub use plane::PointOnPlane;
 pub use rigid::{BodyConstraint, Pose, TwistCurvature, TwistJacobian};
 pub use spring::Distance;
+pub use step::{StepContext, StepError};
 pub use volume::Volume;

@@ -259,3 +259,33 @@ fn sliding_box_at_game_steps() {
         );
     }
 }
+
+/// A rejected time step (the one check, `constraint_core::StepContext::new`) is
+/// `InvalidParameter { name: "h" }` and leaves the bodies as they were.
+#[test]
+fn bad_time_steps_are_a_typed_error_and_keep_the_state() {
+    use constraint_contact::rigid::ContactError;
+    let mut w = sphere_drop(0.1, 1.0).unwrap();
+    w.step(1e-3).unwrap();
+    let before = w.bodies().to_vec();
+    let bad = [
+        0.0,
+        -0.0,
+        -1e-3,
+        f64::NAN,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        1e-160,
+        1e160,
+    ];
+    for h in bad {
+        assert!(
+            matches!(
+                w.step(h),
+                Err(ContactError::InvalidParameter { name: "h", .. })
+            ),
+            "h = {h:e}"
+        );
+    }
+    assert_eq!(w.bodies(), &before[..]);
+}

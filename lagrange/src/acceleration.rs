@@ -20,8 +20,8 @@ use crate::error::LagrangeError;
 use crate::kkt::{solve_kkt, KktProblem, KktSolver, KktStats, KktWorkspace, MassMatrix};
 use crate::rows::ConstraintRows;
 use crate::set::Constraints;
-use crate::step::{check_h, check_indices, commit, rows_at};
-use constraint_core::DVec3;
+use crate::step::{check_indices, commit, rows_at, step_context};
+use constraint_core::{DVec3, StepContext};
 use constraint_soft::SoftSystem;
 
 /// Baumgarte gains.
@@ -57,7 +57,7 @@ impl Baumgarte {
 /// An acceleration-level constrained step.
 #[derive(Debug)]
 pub struct AccelerationLevel {
-    h: f64,
+    ctx: StepContext,
     /// Baumgarte gains.
     pub baumgarte: Baumgarte,
     /// Include `J̇ẋ` (the lecture's usual simplification drops it).
@@ -85,7 +85,7 @@ impl AccelerationLevel {
     /// # Errors
     /// `InvalidTimeStep`, or `InvalidParameter` for negative or non-finite gains.
     pub fn new(h: f64, baumgarte: Baumgarte, solver: KktSolver) -> Result<Self, LagrangeError> {
-        let h = check_h(h)?;
+        let ctx = step_context(h)?;
         if !(baumgarte.kx >= 0.0 && baumgarte.kx.is_finite()) {
             return Err(LagrangeError::InvalidParameter("k_x"));
         }
@@ -93,7 +93,7 @@ impl AccelerationLevel {
             return Err(LagrangeError::InvalidParameter("k_v"));
         }
         Ok(Self {
-            h,
+            ctx,
             baumgarte,
             velocity_term: true,
             solver,
@@ -114,7 +114,7 @@ impl AccelerationLevel {
 
     /// The time step.
     pub fn time_step(&self) -> f64 {
-        self.h
+        self.ctx.h()
     }
 
     /// The KKT solver the last step used ([`KktStats::chosen`]: [`KktSolver::Auto`]
@@ -133,7 +133,7 @@ impl AccelerationLevel {
         cons: &Constraints,
     ) -> Result<KktStats, LagrangeError> {
         check_indices(sys, cons)?;
-        let (h, n) = (self.h, sys.len());
+        let (h, n) = (self.ctx.h(), sys.len());
         rows_at(sys.pinned(), cons, &sys.x, &mut self.rows);
         let m = self.rows.len();
         self.cdot.resize(m, 0.0);

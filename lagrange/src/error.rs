@@ -16,7 +16,8 @@ pub enum LagrangeError {
         /// Number of particles.
         len: usize,
     },
-    /// The time step was not positive and finite.
+    /// The time step was rejected by `constraint_core::StepContext::new` (not positive,
+    /// not finite, or outside `MIN_STEP..=MAX_STEP`).
     InvalidTimeStep,
     /// A parameter (Baumgarte gain, tolerance) was negative or not finite.
     InvalidParameter(&'static str),
@@ -40,7 +41,9 @@ impl core::fmt::Display for LagrangeError {
                     "constraints need {needed} particles, the system has {len}"
                 )
             }
-            Self::InvalidTimeStep => f.write_str("time step must be positive and finite"),
+            Self::InvalidTimeStep => {
+                f.write_str("time step must be positive, finite and within StepContext's bounds")
+            }
             Self::InvalidParameter(p) => write!(f, "parameter {p} must be finite and ≥ 0"),
             Self::Diverged { step, particle } => {
                 write!(

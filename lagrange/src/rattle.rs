@@ -33,8 +33,8 @@ use crate::error::LagrangeError;
 use crate::kkt::{solve_kkt, KktProblem, KktSolver, KktWorkspace, MassMatrix};
 use crate::rows::ConstraintRows;
 use crate::set::Constraints;
-use crate::step::{check_h, check_indices, max_relative, rows_at};
-use constraint_core::DVec3;
+use crate::step::{check_indices, max_relative, rows_at, step_context};
+use constraint_core::{DVec3, StepContext};
 use constraint_soft::SoftSystem;
 
 /// Order of the method.
@@ -63,7 +63,7 @@ pub struct RattleStats {
 /// A RATTLE or RATTLE4 step for a [`SoftSystem`] under hard [`Constraints`].
 #[derive(Debug)]
 pub struct Rattle {
-    h: f64,
+    ctx: StepContext,
     /// Second or fourth order.
     pub order: RattleOrder,
     /// SHAKE stops when `max |C_r|/s_r ≤ tolerance` (`s_r` the rows' rest scales).
@@ -110,7 +110,7 @@ impl Rattle {
         max_iterations: usize,
         solver: KktSolver,
     ) -> Result<Self, LagrangeError> {
-        let h = check_h(h)?;
+        let ctx = step_context(h)?;
         if !(tolerance > 0.0 && tolerance.is_finite()) {
             return Err(LagrangeError::InvalidParameter("tolerance"));
         }
@@ -118,7 +118,7 @@ impl Rattle {
             return Err(LagrangeError::InvalidParameter("max_iterations"));
         }
         Ok(Self {
-            h,
+            ctx,
             order,
             tolerance,
             max_iterations,
@@ -143,7 +143,7 @@ impl Rattle {
 
     /// The time step.
     pub fn time_step(&self) -> f64 {
-        self.h
+        self.ctx.h()
     }
 
     /// Advances `sys` by one step of RATTLE or RATTLE4.
@@ -178,7 +178,7 @@ impl Rattle {
         };
         let mut result = Ok(());
         for &w in subs {
-            result = self.substep(sys, cons, w * self.h, &mut st);
+            result = self.substep(sys, cons, w * self.ctx.h(), &mut st);
             if result.is_err() {
                 break;
             }

@@ -3,15 +3,14 @@
 use crate::error::LagrangeError;
 use crate::rows::ConstraintRows;
 use crate::set::Constraints;
-use constraint_core::DVec3;
+use constraint_core::{DVec3, StepContext};
 use constraint_soft::SoftSystem;
 
-pub(crate) fn check_h(h: f64) -> Result<f64, LagrangeError> {
-    if h > 0.0 && h.is_finite() {
-        Ok(h)
-    } else {
-        Err(LagrangeError::InvalidTimeStep)
-    }
+/// The step context of `h`, checked once when the step is built
+/// ([`StepContext::new`]); every [`StepError`](constraint_core::StepError) is
+/// [`LagrangeError::InvalidTimeStep`].
+pub(crate) fn step_context(h: f64) -> Result<StepContext, LagrangeError> {
+    StepContext::new(h).map_err(|_| LagrangeError::InvalidTimeStep)
 }
 
 pub(crate) fn check_indices(sys: &SoftSystem, cons: &Constraints) -> Result<(), LagrangeError> {

@@ -24,8 +24,8 @@ use crate::kkt::{solve_kkt, KktProblem, KktSolver, KktStats, KktWorkspace, MassM
 use crate::projection::{FastProjection, ProjectionStats};
 use crate::rows::ConstraintRows;
 use crate::set::Constraints;
-use crate::step::{check_h, check_indices, commit, rows_at};
-use constraint_core::DVec3;
+use crate::step::{check_indices, commit, rows_at, step_context};
+use constraint_core::{DVec3, StepContext};
 use constraint_soft::{ImplicitEuler, SoftSystem};
 
 /// How `A` and `b` are formed.
@@ -40,7 +40,7 @@ pub enum BaseStep {
 /// A velocity-level constrained step.
 #[derive(Debug)]
 pub struct VelocityLevel {
-    h: f64,
+    ctx: StepContext,
     /// `A, b`.
     pub base: BaseStep,
     /// The KKT solver.
@@ -71,15 +71,15 @@ impl VelocityLevel {
     /// # Errors
     /// `InvalidTimeStep` (also when the implicit base step has another `h`).
     pub fn new(h: f64, base: BaseStep, solver: KktSolver) -> Result<Self, LagrangeError> {
-        let h = check_h(h)?;
+        let ctx = step_context(h)?;
         if let BaseStep::Implicit(imp) = &base {
             use constraint_soft::Integrator;
-            if imp.time_step() != h {
+            if imp.time_step() != ctx.h() {
                 return Err(LagrangeError::InvalidTimeStep);
             }
         }
         Ok(Self {
-            h,
+            ctx,
             base,
             solver,
             projection: None,
@@ -99,7 +99,7 @@ impl VelocityLevel {
 
     /// The time step.
     pub fn time_step(&self) -> f64 {
-        self.h
+        self.ctx.h()
     }
 
     /// The KKT solver the last step used ([`KktStats::chosen`]: [`KktSolver::Auto`]
@@ -128,13 +128,13 @@ impl VelocityLevel {
         cons: &Constraints,
     ) -> Result<KktStats, LagrangeError> {
         check_indices(sys, cons)?;
-        let h = self.h;
+        let h = self.ctx.h();
         let n = sys.len();
         rows_at(sys.pinned(), cons, &sys.x, &mut self.rows);
         let m = self.rows.len();
         cons.compliance(&mut self.compliance);
         for a in &mut self.compliance {
-            *a /= h * h;
+            *a /= self.ctx.h2();
         }
         self.c.clear();
         self.c.extend(self.rows.value.iter().map(|c| -c / h));

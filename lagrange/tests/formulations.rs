@@ -7,7 +7,7 @@ use constraint_lagrange::scenes::{chain, inextensible_cloth};
 use constraint_lagrange::solve::IterSettings;
 use constraint_lagrange::{
     AccelerationLevel, BaseStep, Baumgarte, Constraints, FastProjection, HardSet, KktSolver,
-    LagrangeError, ProjectedStep, VelocityLevel,
+    LagrangeError, ProjectedStep, Rattle, RattleOrder, VelocityLevel,
 };
 use constraint_soft::{
     ConstraintSet, HessianMode, ImplicitEuler, Integrator, LinearSolver, SoftSystem, Softness,
@@ -328,7 +328,18 @@ fn implicit_soft_base_mixes_with_hard_constraints() {
 
 #[test]
 fn bad_input_is_a_typed_error() {
-    for h in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+    // Every StepError of the one check (constraint_core::StepContext::new) maps to
+    // InvalidTimeStep: zero of either sign, negative, NaN, ±inf, below MIN_STEP.
+    let bad = [
+        0.0,
+        -0.0,
+        -1.0,
+        f64::NAN,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        1e-160,
+    ];
+    for h in bad {
         assert!(matches!(
             VelocityLevel::new(h, BaseStep::Explicit, KktSolver::DenseSchur),
             Err(LagrangeError::InvalidTimeStep)
@@ -337,6 +348,12 @@ fn bad_input_is_a_typed_error() {
             AccelerationLevel::new(h, Baumgarte::NONE, KktSolver::DenseSchur),
             Err(LagrangeError::InvalidTimeStep)
         ));
+        for order in [RattleOrder::Second, RattleOrder::Fourth] {
+            assert!(matches!(
+                Rattle::new(h, order, 1e-10, 40, KktSolver::DenseSchur),
+                Err(LagrangeError::InvalidTimeStep)
+            ));
+        }
     }
     assert!(matches!(
         AccelerationLevel::new(1e-3, Baumgarte { kx: -1.0, kv: 0.0 }, KktSolver::DenseSchur),

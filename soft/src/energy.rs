@@ -19,7 +19,7 @@
 //! need a positive (semi)definite matrix get one through [`HessianMode`].
 
 use crate::project::project_psd_at;
-use constraint_core::{math::outer, DMat3, DVec3, PointConstraint};
+use constraint_core::{math::outer, DMat3, DVec3, PointConstraint, StepContext};
 
 /// Stiffness `k` and damping `c` of one soft constraint (SI: N/m and N·s/m for a spring).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -185,18 +185,18 @@ where
 
 /// Contribution `−h ∂F/∂v − h² ∂F/∂x` of one constraint to the implicit matrix
 /// `A = M − h ∂F/∂v − h² ∂F/∂x` (slide "Integración Implícita"), computed with a single
-/// Jacobian evaluation.
+/// Jacobian evaluation; `h` and `h²` come from the step context `ctx`.
 pub fn implicit_blocks<C, const N: usize, const R: usize>(
     c: &C,
     s: Softness,
     x: &[DVec3; N],
-    h: f64,
+    ctx: &StepContext,
     mode: HessianMode,
 ) -> [[DMat3; N]; N]
 where
     C: PointConstraint<N, R>,
 {
-    let mut parts = implicit_parts(c, s, x, h, mode);
+    let mut parts = implicit_parts(c, s, x, ctx, mode);
     if parts.project {
         project_psd_at(&mut parts.stiffness, x);
     }
@@ -233,7 +233,7 @@ pub(crate) fn implicit_parts<C, const N: usize, const R: usize>(
     c: &C,
     s: Softness,
     x: &[DVec3; N],
-    h: f64,
+    ctx: &StepContext,
     mode: HessianMode,
 ) -> ImplicitParts<N>
 where
@@ -241,7 +241,9 @@ where
 {
     let j = c.jacobian(x);
     let g = gram(&j.grad);
-    let h2k = h * h * s.stiffness;
+    let h = ctx.h();
+    // `h * h * k` as before: `h²` is the context's `h * h`.
+    let h2k = ctx.h2() * s.stiffness;
     let mut a = [[DMat3::ZERO; N]; N];
     match mode {
         HessianMode::GaussNewton => {

@@ -43,7 +43,8 @@ pub enum SoftError {
         /// Name of the constraint set.
         set: &'static str,
     },
-    /// The time step was not positive and finite.
+    /// The time step was rejected by `constraint_core::StepContext::new` (not positive,
+    /// not finite, or outside `MIN_STEP..=MAX_STEP`).
     InvalidTimeStep,
     /// A scene parameter was out of range (named, with the rule it broke).
     InvalidParameter {
@@ -96,7 +97,9 @@ impl fmt::Display for SoftError {
                 f,
                 "set '{set}': infinite stiffness; use a hard (Lagrange) constraint instead"
             ),
-            Self::InvalidTimeStep => f.write_str("time step must be positive and finite"),
+            Self::InvalidTimeStep => {
+                f.write_str("time step must be positive, finite and within StepContext's bounds")
+            }
             Self::InvalidParameter { name, rule } => write!(f, "parameter {name}: {rule}"),
             Self::LengthMismatch => f.write_str("positions and masses differ in length"),
             Self::Indefinite { iteration } => write!(

@@ -9,7 +9,7 @@ use crate::cg::{Cg, CgSettings, SolveStats};
 use crate::energy::HessianMode;
 use crate::error::SoftError;
 use crate::system::SoftSystem;
-use constraint_core::{DMat3, DVec3};
+use constraint_core::{DMat3, DVec3, StepContext};
 
 /// A one-step method for a [`SoftSystem`].
 pub trait Integrator {
@@ -42,21 +42,21 @@ fn check_gravity(sys: &SoftSystem) -> Result<(), SoftError> {
     }
 }
 
-fn check_h(h: f64) -> Result<f64, SoftError> {
-    if h > 0.0 && h.is_finite() {
-        Ok(h)
-    } else {
-        Err(SoftError::InvalidTimeStep)
-    }
+/// The step context of `h`, checked once when the integrator is built
+/// ([`StepContext::new`]); every [`StepError`](constraint_core::StepError) is
+/// [`SoftError::InvalidTimeStep`].
+fn step_context(h: f64) -> Result<StepContext, SoftError> {
+    StepContext::new(h).map_err(|_| SoftError::InvalidTimeStep)
 }
 
 /// Commits `(x + h v_new, v_new)` if it is finite and bounded.
 fn commit(
     sys: &mut SoftSystem,
-    h: f64,
+    ctx: &StepContext,
     v_new: &[DVec3],
     x_new: &mut Vec<DVec3>,
 ) -> Result<(), SoftError> {
+    let h = ctx.h();
     x_new.clear();
     x_new.extend(sys.x.iter().zip(v_new).map(|(x, v)| *x + *v * h));
     if let Some(p) = SoftSystem::first_bad(x_new, v_new) {
@@ -77,7 +77,7 @@ fn commit(
 /// roughly `h < 2/ω = 2√(m/2k)`.
 #[derive(Clone, Debug)]
 pub struct SymplecticEuler {
-    h: f64,
+    ctx: StepContext,
     f: Vec<DVec3>,
     v_new: Vec<DVec3>,
     x_new: Vec<DVec3>,
@@ -90,7 +90,7 @@ impl SymplecticEuler {
     /// [`SoftError::InvalidTimeStep`].
     pub fn new(h: f64) -> Result<Self, SoftError> {
         Ok(Self {
-            h: check_h(h)?,
+            ctx: step_context(h)?,
             f: Vec::new(),
             v_new: Vec::new(),
             x_new: Vec::new(),
@@ -108,7 +108,7 @@ impl Integrator for SymplecticEuler {
     }
 
     fn time_step(&self) -> f64 {
-        self.h
+        self.ctx.h()
     }
 
     fn step(&mut self, sys: &mut SoftSystem) -> Result<SolveStats, SoftError> {
@@ -118,7 +118,7 @@ impl Integrator for SymplecticEuler {
         self.f.resize(n, DVec3::ZERO);
         sys.forces(true, &mut self.f);
         self.v_new.clear();
-        let (h, m, pinned) = (self.h, sys.masses(), sys.pinned());
+        let (h, m, pinned) = (self.ctx.h(), sys.masses(), sys.pinned());
         self.v_new.extend((0..n).map(|i| {
             if pinned[i] {
                 DVec3::ZERO
@@ -126,7 +126,7 @@ impl Integrator for SymplecticEuler {
                 sys.v[i] + self.f[i] * (h / m[i])
             }
         }));
-        commit(sys, h, &self.v_new, &mut self.x_new)?;
+        commit(sys, &self.ctx, &self.v_new, &mut self.x_new)?;
         Ok(SolveStats {
             iterations: 0,
             residual: 0.0,
@@ -169,7 +169,7 @@ pub enum LinearSolver {
 /// refills values in place.
 #[derive(Debug)]
 pub struct ImplicitEuler {
-    h: f64,
+    ctx: StepContext,
     /// Treatment of the indefinite curvature term.
     pub mode: HessianMode,
     /// The linear solver.
@@ -195,7 +195,7 @@ impl ImplicitEuler {
     /// [`SoftError::InvalidTimeStep`].
     pub fn new(h: f64, mode: HessianMode, solver: LinearSolver) -> Result<Self, SoftError> {
         Ok(Self {
-            h: check_h(h)?,
+            ctx: step_context(h)?,
             mode,
             solver,
             topology: None,
@@ -274,7 +274,7 @@ impl ImplicitEuler {
             self.rebuild(sys)?;
         }
         let n = sys.len();
-        let h = self.h;
+        let (ctx, h) = (self.ctx, self.ctx.h());
         self.a.clear();
         for i in 0..n {
             if let Some(s) = self.a.pattern.slot(i, i) {
@@ -282,7 +282,7 @@ impl ImplicitEuler {
             }
         }
         for s in &sys.sets {
-            s.add_implicit(&sys.x, h, self.mode, sys.pinned(), &mut self.a);
+            s.add_implicit(&sys.x, &ctx, self.mode, sys.pinned(), &mut self.a);
         }
         self.f.resize(n, DVec3::ZERO);
         sys.forces(false, &mut self.f);
@@ -328,7 +328,7 @@ impl Integrator for ImplicitEuler {
     }
 
     fn time_step(&self) -> f64 {
-        self.h
+        self.ctx.h()
     }
 
     fn step(&mut self, sys: &mut SoftSystem) -> Result<SolveStats, SoftError> {
@@ -367,7 +367,7 @@ impl Integrator for ImplicitEuler {
                 *v = DVec3::ZERO;
             }
         }
-        commit(sys, self.h, &self.v_new, &mut self.x_new)?;
+        commit(sys, &self.ctx, &self.v_new, &mut self.x_new)?;
         Ok(stats)
     }
 }

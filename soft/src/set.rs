@@ -5,7 +5,7 @@ use crate::bsr::{BlockMatrix, BlockPattern};
 use crate::energy::{self, HessianMode, Softness};
 use crate::error::SoftError;
 use crate::project::{project_batch, BATCH};
-use constraint_core::{DMat3, DVec3, PointConstraint};
+use constraint_core::{DMat3, DVec3, PointConstraint, StepContext};
 
 /// A set of constraints of one type with per-constraint softness.
 #[derive(Clone, Debug)]
@@ -117,11 +117,11 @@ pub trait ForceSet: Send + Sync {
     /// Adds elastic forces, and damping forces when `v` is given, to `f`.
     fn add_forces(&self, x: &[DVec3], v: Option<&[DVec3]>, f: &mut [DVec3]);
     /// Adds `−h ∂F/∂v − h² ∂F/∂x` to the bound matrix, skipping blocks that touch a
-    /// pinned point.
+    /// pinned point (`h` and `h²` from the integrator's step context `ctx`).
     fn add_implicit(
         &self,
         x: &[DVec3],
-        h: f64,
+        ctx: &StepContext,
         mode: HessianMode,
         pinned: &[bool],
         a: &mut BlockMatrix,
@@ -225,7 +225,7 @@ where
     fn add_implicit(
         &self,
         x: &[DVec3],
-        h: f64,
+        ctx: &StepContext,
         mode: HessianMode,
         pinned: &[bool],
         a: &mut BlockMatrix,
@@ -247,7 +247,7 @@ where
             for (l, k) in (start..end).enumerate() {
                 let c = &self.constraints[k];
                 xs[l] = Self::gather(c, x);
-                let parts = energy::implicit_parts(c, self.softness[k], &xs[l], h, mode);
+                let parts = energy::implicit_parts(c, self.softness[k], &xs[l], ctx, mode);
                 stiff[l] = parts.stiffness;
                 selected[l] = parts.project;
                 damp[l] = parts.damping;

@@ -105,7 +105,17 @@ fn stencils_out_of_range_are_rejected() {
 
 #[test]
 fn time_steps_are_checked() {
-    for h in [0.0, -1e-3, f64::NAN, f64::INFINITY] {
+    // Every StepError of constraint_core::StepContext::new is InvalidTimeStep here.
+    let bad = [
+        0.0,
+        -0.0,
+        -1e-3,
+        f64::NAN,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        1e-160,
+    ];
+    for h in bad {
         assert_eq!(
             SymplecticEuler::new(h).unwrap_err(),
             SoftError::InvalidTimeStep

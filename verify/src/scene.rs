@@ -412,8 +412,9 @@ fn run_inner(
 
 /// The number of steps of `h` in `opts.duration`, after checking the run options.
 fn step_count(h: f64, opts: &RunOptions) -> Result<u64, String> {
-    if !(h > 0.0) || !h.is_finite() {
-        return Err(format!("time step must be positive and finite, got {h}"));
+    // The same check the world's step makes (the one place a time step is validated).
+    if let Err(e) = constraint_core::StepContext::new(h) {
+        return Err(format!("{e}, got {h}"));
     }
     if !(opts.duration >= 0.0) || !opts.duration.is_finite() {
         return Err(format!(

@@ -23,10 +23,11 @@ impl World {
     /// `x' = x + h v'`.
     pub(super) fn acceleration_solve(
         &mut self,
-        h: f64,
+        ctx: &StepContext,
         kx: f64,
         kv: f64,
     ) -> Result<(), ArticulatedError> {
+        let h = ctx.h();
         let g = self.gravity;
         // Explicit joint damping torques/forces: −d J_dᵀ (J_d v). Buffers reused across
         // steps (no allocation once sized).

@@ -125,7 +125,7 @@ impl World {
 
     /// Contact generation at the start of the step and the contact rows (normal, then
     /// two tangents per point; restitution from the velocities before the step).
-    pub(super) fn push_contact_rows(&mut self, h: f64) -> Result<(), ArticulatedError> {
+    pub(super) fn push_contact_rows(&mut self, ctx: &StepContext) -> Result<(), ArticulatedError> {
         self.ustats.contacts = 0;
         self.ustats.max_penetration = 0.0;
         if self.colliders.is_empty() {
@@ -167,7 +167,7 @@ impl World {
                 d.dot(vb - va)
             };
             // The gap is d = −depth: speculative below the margin, Baumgarte beyond slop.
-            let mut bias = row_bias(-c.depth, h, &s);
+            let mut bias = row_bias(-c.depth, ctx, &s);
             let e = ca.restitution.max(cb.restitution);
             let vn = rate(n);
             if e > 0.0 && vn < -self.restitution_threshold {

@@ -494,9 +494,51 @@ impl World {
         Ok(())
     }
 
+    /// The largest violation of a tendon range, `max(lo − L, L − hi, 0)` (0 without
+    /// ranges).
+    pub(super) fn max_tendon_limit_violation(&self) -> f64 {
+        let mut worst: f64 = 0.0;
+        for (ti, t) in self.tendons.iter().enumerate() {
+            let Some([lo, hi]) = self.tendon_ranges.get(ti).copied().flatten() else {
+                continue;
+            };
+            let l = self.sum_value(&t.terms);
+            worst = worst.max(lo - l).max(l - hi);
+        }
+        worst
+    }
+
+    /// Appends each violated tendon range to the loaded equality rows as an equality at
+    /// its bound, for the projection (`[M Eᵀ; E 0][δ; ν] = [0; −C]`, Goldenthal et al.
+    /// 2007): the row `± Σ c G` with `C = L − lo` (lower) or `hi − L` (upper), as
+    /// `push_violated_limits` does for a joint limit. A tendon spans several joints, so
+    /// the row goes with the equality rows' Schur complement, not the loop rows. Call
+    /// after [`Self::load_equalities`]; the rows' buffers are reused.
+    pub(super) fn push_violated_tendon_limits(&mut self) {
+        let mut eq = core::mem::take(&mut self.eq);
+        for (ti, t) in self.tendons.iter().enumerate() {
+            let Some([lo, hi]) = self.tendon_ranges.get(ti).copied().flatten() else {
+                continue;
+            };
+            let l = self.sum_value(&t.terms);
+            for (c, sign) in [(l - lo, 1.0), (hi - l, -1.0)] {
+                if c < 0.0 {
+                    let start = eq.spans.segs.len();
+                    self.push_sum(&mut eq.spans.segs, &t.terms, sign);
+                    eq.spans.ranges.push((start, eq.spans.segs.len()));
+                    eq.value.push(c);
+                    eq.rhs.push(-c);
+                    eq.active = true;
+                }
+            }
+        }
+        self.eq = eq;
+    }
+
     /// The tendon-limit rows at the current state (velocities before the solve): for
     /// each limited tendon near a bound, `L − lo ≥ 0` and/or `hi − L ≥ 0`.
-    pub(super) fn push_tendon_limit_rows(&mut self, h: f64) {
+    pub(super) fn push_tendon_limit_rows(&mut self, ctx: &StepContext) {
+        let h = ctx.h();
         let mut spans = core::mem::take(&mut self.tendon_spans);
         spans.clear();
         let s = self.unilateral;
@@ -520,7 +562,7 @@ impl World {
                     a: None,
                     b: None,
                     j: [DVec3::ZERO; 4],
-                    bias: row_bias(c, h, &s),
+                    bias: row_bias(c, ctx, &s),
                     bound: constraint_contact::lcp::RowBound::Unilateral,
                     source: RowSource::TendonLimit {
                         tendon: ti,

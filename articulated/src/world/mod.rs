@@ -27,7 +27,7 @@
 
 use alloc::vec::Vec;
 
-use constraint_core::{DMat3, DVec3, Pose};
+use constraint_core::{DMat3, DVec3, Pose, StepContext};
 
 use crate::body::RigidBody;
 use crate::error::ArticulatedError;
@@ -664,18 +664,13 @@ impl World {
     /// On error (bad parameter, singular system, divergence) the state is left as it was
     /// before the call.
     pub fn step(&mut self, h: f64, method: Method) -> Result<StepStats, ArticulatedError> {
-        if !(h > 0.0) || !h.is_finite() {
-            return Err(ArticulatedError::InvalidParameter {
-                name: "h",
-                rule: "time step must be positive and finite",
-            });
-        }
+        let ctx = step_context(h)?;
         check_method(&method)?;
         self.ensure_solver();
         // Saved into buffers kept across steps: no allocation once the sizes are known.
         self.saved.clone_from(&self.bodies);
         self.saved_impulses.clone_from(&self.impulses);
-        let result = self.step_inner(h, method);
+        let result = self.step_inner(&ctx, method);
         match result {
             Ok(stats) => {
                 if let Some(body) = self.first_bad_body() {
@@ -696,14 +691,13 @@ impl World {
     }
 
     /// The one-sided rows of this step, at its start: joint limits, then contacts.
-    fn collect_unilateral_rows(&mut self, h: f64) -> Result<(), ArticulatedError> {
+    fn collect_unilateral_rows(&mut self, ctx: &StepContext) -> Result<(), ArticulatedError> {
         self.urows.clear();
         self.ustats = UnilateralStats::default();
-        self.push_limit_rows(h);
-        self.push_tendon_limit_rows(h);
+        self.push_limit_rows(ctx);
+        self.push_tendon_limit_rows(ctx);
         #[cfg(feature = "contact")]
-        self.push_contact_rows(h)?;
-        let _ = h;
+        self.push_contact_rows(ctx)?;
         Ok(())
     }
 
@@ -720,9 +714,14 @@ impl World {
             .position(|b| !ok(b.pose.x) || !ok(b.v) || !ok(b.omega) || !b.pose.q.is_finite())
     }
 
-    fn step_inner(&mut self, h: f64, method: Method) -> Result<StepStats, ArticulatedError> {
+    fn step_inner(
+        &mut self,
+        ctx: &StepContext,
+        method: Method,
+    ) -> Result<StepStats, ArticulatedError> {
+        let h = ctx.h();
         let mut stats = StepStats::default();
-        self.collect_unilateral_rows(h)?;
+        self.collect_unilateral_rows(ctx)?;
         let equalities = !self.equalities.is_empty();
         let acceleration = matches!(method, Method::Acceleration { .. });
         if !self.urows.is_empty() || (equalities && acceleration) {
@@ -738,32 +737,32 @@ impl World {
                     max_iterations,
                 } => {
                     stats.unilateral_fallbacks = 1;
-                    self.velocity_solve(h, 1.0)?;
+                    self.velocity_solve(ctx, 1.0)?;
                     stats.projection_iterations = self.project(tolerance, max_iterations, None)?;
                     return Ok(stats);
                 }
                 Method::Acceleration { .. } => {
                     stats.unilateral_fallbacks = usize::from(!self.urows.is_empty());
                     stats.equality_fallbacks = usize::from(equalities);
-                    self.velocity_solve(h, 1.0)?;
+                    self.velocity_solve(ctx, 1.0)?;
                     return Ok(stats);
                 }
                 _ => {}
             }
         }
         match method {
-            Method::Velocity { beta } => self.velocity_solve(h, beta)?,
+            Method::Velocity { beta } => self.velocity_solve(ctx, beta)?,
             Method::VelocityProjected {
                 beta,
                 tolerance,
                 max_iterations,
                 correct_velocity,
             } => {
-                self.velocity_solve(h, beta)?;
+                self.velocity_solve(ctx, beta)?;
                 stats.projection_iterations =
-                    self.project(tolerance, max_iterations, correct_velocity.then_some(h))?;
+                    self.project(tolerance, max_iterations, correct_velocity.then_some(ctx))?;
             }
-            Method::Acceleration { kx, kv } => self.acceleration_solve(h, kx, kv)?,
+            Method::Acceleration { kx, kv } => self.acceleration_solve(ctx, kx, kv)?,
             Method::Rattle {
                 tolerance,
                 max_iterations,
@@ -771,7 +770,7 @@ impl World {
                 let (it, ok) = self.rattle_step(h, tolerance, max_iterations)?;
                 stats.projection_iterations = it;
                 if !ok {
-                    self.fall_back(h, tolerance, max_iterations, &mut stats)?;
+                    self.fall_back(ctx, tolerance, max_iterations, &mut stats)?;
                 }
             }
             Method::Rattle4 {
@@ -784,7 +783,7 @@ impl World {
                 // D_{h/2} ∘ C_{w₁h} ∘ C_{w₀h} ∘ C_{w₁h} ∘ D_{h/2}.
                 let damped = self.joints.iter().any(|j| j.damping_rows() > 0);
                 if damped {
-                    self.damp(0.5 * h, false)?;
+                    self.damp(ctx.half_h(), false)?;
                 }
                 let mut fell_back = false;
                 for w in [w1, w0, w1] {
@@ -795,13 +794,13 @@ impl World {
                     };
                     stats.projection_iterations += it;
                     if !ok {
-                        self.fall_back(h, tolerance, max_iterations, &mut stats)?;
+                        self.fall_back(ctx, tolerance, max_iterations, &mut stats)?;
                         fell_back = true;
                         break;
                     }
                 }
                 if damped && !fell_back {
-                    self.damp(0.5 * h, false)?;
+                    self.damp(ctx.half_h(), false)?;
                 }
             }
         }
@@ -810,6 +809,9 @@ impl World {
 
     /// Loads the mass blocks and the joint rows into the solver; `rhs_joint(j, rows)`
     /// writes the joint's right-hand side and returns nothing. Returns the loop rows.
+    /// `h` is the length of the implicit terms (damping `h d`, compliance `α/h²`): the
+    /// step's `h` at the velocity and acceleration levels, `|h|/2` in RATTLE's kicks,
+    /// the damping flow's `τ`, `1` in the projection — not always the step context's.
     fn assemble(
         &mut self,
         h: f64,
@@ -1025,6 +1027,16 @@ impl World {
             None => "none",
         }
     }
+}
+
+/// The step context of `h` ([`StepContext::new`], the one check of the time step);
+/// a rejected `h` is [`ArticulatedError::InvalidParameter`] named `"h"` with the
+/// [`StepError`](constraint_core::StepError)'s rule.
+fn step_context(h: f64) -> Result<StepContext, ArticulatedError> {
+    StepContext::new(h).map_err(|e| ArticulatedError::InvalidParameter {
+        name: "h",
+        rule: e.rule(),
+    })
 }
 
 fn check_method(m: &Method) -> Result<(), ArticulatedError> {

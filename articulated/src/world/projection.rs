@@ -17,8 +17,9 @@ impl World {
         &mut self,
         tolerance: f64,
         max_iterations: usize,
-        velocity_h: Option<f64>,
+        velocity_ctx: Option<&StepContext>,
     ) -> Result<usize, ArticulatedError> {
+        let velocity_h = velocity_ctx.map(StepContext::h);
         // Compliant joints are not projected (their separation is their spring's).
         // Equality rows are projected with the joints: `[M Eᵀ; E 0][δ; ν] = [0; −C_E]`.
         let mut err = self.projection_error();
@@ -34,6 +35,7 @@ impl World {
             });
             self.push_violated_limits(&mut loops);
             self.load_equalities(|c| -c);
+            self.push_violated_tendon_limits();
             self.solve(loops)?;
             // Backtracking: a full Newton step can overshoot far from the manifold (light
             // bodies turned by large angles); halve it until the separation decreases.
@@ -80,12 +82,13 @@ impl World {
     }
 
     /// What the projection drives to zero: the hard joints' separation, the
-    /// equalities' `|C|` and the joint limits' violations `max(lo − q, q − hi)` (m or
-    /// rad).
+    /// equalities' `|C|`, the joint limits' violations `max(lo − q, q − hi)` (m or
+    /// rad) and the tendon ranges' `max(lo − L, L − hi)`.
     fn projection_error(&self) -> f64 {
         self.max_hard_separation()
             .max(self.max_equality_violation())
             .max(self.max_limit_violation())
+            .max(self.max_tendon_limit_violation())
     }
 
     /// The largest violation of a joint limit, `max(lo − q, q − hi, 0)`.

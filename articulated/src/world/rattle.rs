@@ -94,7 +94,7 @@ impl World {
     /// fallback step keeps the joints as tight as a RATTLE step.
     pub(super) fn fall_back(
         &mut self,
-        h: f64,
+        ctx: &StepContext,
         tolerance: f64,
         max_iterations: usize,
         stats: &mut StepStats,
@@ -102,7 +102,7 @@ impl World {
         // Back to the start of the step (saved by `World::step`).
         self.restore_start();
         stats.fallbacks += 1;
-        self.velocity_solve(h, 1.0)?;
+        self.velocity_solve(ctx, 1.0)?;
         stats.projection_iterations += self.project(tolerance, max_iterations, None)?;
         Ok(())
     }

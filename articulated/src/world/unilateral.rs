@@ -291,7 +291,8 @@ impl World {
     }
 
     /// The limit rows at the current state (velocities `v` before the solve).
-    pub(super) fn push_limit_rows(&mut self, h: f64) {
+    pub(super) fn push_limit_rows(&mut self, ctx: &StepContext) {
+        let h = ctx.h();
         let s = self.unilateral;
         for (ji, joint) in self.joints.iter().enumerate() {
             let dry = &self.frictionloss[ji];
@@ -335,7 +336,7 @@ impl World {
                         a: joint.parent,
                         b: Some(joint.child),
                         j,
-                        bias: row_bias(c, h, &s),
+                        bias: row_bias(c, ctx, &s),
                         bound: RowBound::Unilateral,
                         source: RowSource::Limit {
                             joint: ji,
@@ -471,7 +472,8 @@ impl World {
 }
 
 /// The target of a one-sided row of value `c` at the velocity level.
-pub(super) fn row_bias(c: f64, h: f64, s: &UnilateralSettings) -> f64 {
+pub(super) fn row_bias(c: f64, ctx: &StepContext, s: &UnilateralSettings) -> f64 {
+    let h = ctx.h();
     if c >= 0.0 {
         -c / h
     } else if -c > s.slop {

@@ -11,11 +11,16 @@ use super::*;
 
 impl World {
     /// `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`, then `x' = x + h v'`.
-    pub(super) fn velocity_solve(&mut self, h: f64, beta: f64) -> Result<(), ArticulatedError> {
+    pub(super) fn velocity_solve(
+        &mut self,
+        ctx: &StepContext,
+        beta: f64,
+    ) -> Result<(), ArticulatedError> {
+        let h = ctx.h();
         if !self.urows.is_empty() && self.unilateral.sparse {
             // The one-sided rows in the tree factor by an active set; the dense path
             // where that does not apply or does not settle.
-            let loops = self.velocity_assemble(h, beta);
+            let loops = self.velocity_assemble(ctx, beta);
             // Loop joints and equality rows go by their Schur complement on the dense
             // path only.
             if loops.0.is_empty() && !self.eq.active && self.solve_unilateral_sparse() {
@@ -34,7 +39,7 @@ impl World {
             #[cfg(feature = "contact")]
             self.store_warm_contacts();
         } else {
-            self.velocity_system_solve(h, beta)?;
+            self.velocity_system_solve(ctx, beta)?;
         }
         if !self.urows.is_empty() && !self.unilateral.sparse {
             // One-sided rows through the factored joint system: x' = x_free + Y z.
@@ -60,13 +65,18 @@ impl World {
     /// The end-of-step twists `(v', ω')` of the velocity-level system
     /// `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`, solved by the tree factorization,
     /// without moving the bodies (for checking against [`Self::dense_velocity_system`]).
+    ///
+    /// # Errors
+    /// [`ArticulatedError::InvalidParameter`] for a time step that
+    /// [`StepContext::new`] rejects, or the solver's errors.
     pub fn velocity_twists(
         &mut self,
         h: f64,
         beta: f64,
     ) -> Result<Vec<(DVec3, DVec3)>, ArticulatedError> {
+        let ctx = step_context(h)?;
         self.ensure_solver();
-        self.velocity_system_solve(h, beta)?;
+        self.velocity_system_solve(&ctx, beta)?;
         Ok((0..self.bodies.len())
             .map(|i| self.body_solution(i))
             .collect())
@@ -152,10 +162,10 @@ impl World {
 
     pub(super) fn velocity_system_solve(
         &mut self,
-        h: f64,
+        ctx: &StepContext,
         beta: f64,
     ) -> Result<(), ArticulatedError> {
-        let loops = self.velocity_assemble(h, beta);
+        let loops = self.velocity_assemble(ctx, beta);
         self.solve(loops)?;
         self.store_impulses();
         Ok(())
@@ -163,7 +173,8 @@ impl World {
 
     /// Loads the velocity-level system (bodies, joints, forces, equality rows) into the
     /// solver and `self.rhs` without factoring it; returns the loop rows.
-    fn velocity_assemble(&mut self, h: f64, beta: f64) -> LoopRows {
+    fn velocity_assemble(&mut self, ctx: &StepContext, beta: f64) -> LoopRows {
+        let h = ctx.h();
         let g = self.gravity;
         self.body_rhs(|b, r, iw| {
             let w = b.gyroscopic_step_with(r, h);
@@ -174,7 +185,7 @@ impl World {
         if self.geometric_stiffness != GeometricStiffness::Off
             && self.impulses.len() == self.joints.len()
         {
-            self.add_geometric_stiffness(h);
+            self.add_geometric_stiffness(ctx);
         }
         let loops = self.assemble(h, Rates::Full, Soft::Implicit, |_, _, rows, rhs| {
             for r in 0..rows.n_hard {
@@ -197,7 +208,8 @@ impl World {
     /// To keep Baraff's tree structure only each body's own diagonal blocks (`xx` and
     /// `θθ`) are kept, and each is replaced by its positive semi-definite part, as in
     /// Andrews et al.'s diagonal approximation.
-    pub(super) fn add_geometric_stiffness(&mut self, h: f64) {
+    pub(super) fn add_geometric_stiffness(&mut self, ctx: &StepContext) {
+        let h = ctx.h();
         let threshold = match self.geometric_stiffness {
             GeometricStiffness::Off => return,
             GeometricStiffness::Always => 0.0,

@@ -37,7 +37,7 @@ use alloc::vec::Vec;
 use core::fmt;
 
 use constraint_core::rigid::rotate_by;
-use constraint_core::{BodyError, DMat3, DVec3, Pose, RigidBody};
+use constraint_core::{BodyError, DMat3, DVec3, Pose, RigidBody, StepContext};
 
 use crate::geometry::{generate_contacts, Collider, Contact, GeometryError};
 mod dense;
@@ -353,12 +353,15 @@ impl ContactWorld {
             .sum()
     }
 
-    fn check(&self, h: f64) -> Result<(), ContactError> {
+    /// Checks the settings and the state, and builds the step context of `h` (the one
+    /// check of the time step, [`StepContext::new`]).
+    fn check(&self, h: f64) -> Result<StepContext, ContactError> {
         let s = &self.settings;
         let bad = |name, rule| Err(ContactError::InvalidParameter { name, rule });
-        if !(h > 0.0) || !h.is_finite() {
-            return bad("h", "time step must be positive and finite");
-        }
+        let ctx = match StepContext::new(h) {
+            Ok(ctx) => ctx,
+            Err(e) => return bad("h", e.rule()),
+        };
         if !(0.0..=1.0).contains(&s.baumgarte) {
             return bad("baumgarte", "must be in [0, 1]");
         }
@@ -395,16 +398,16 @@ impl ContactWorld {
         }) {
             return bad("body state", "positions and velocities must be finite");
         }
-        Ok(())
+        Ok(ctx)
     }
 
     /// Advances by `h`. On error the state is left as before the call.
     pub fn step(&mut self, h: f64) -> Result<ContactStats, ContactError> {
-        self.check(h)?;
+        let ctx = self.check(h)?;
         // The rollback copy lives in a kept buffer: no allocation once it has grown.
         let mut saved = core::mem::take(&mut self.saved);
         saved.clone_from(&self.bodies);
-        let result = self.step_inner(h).and_then(|stats| {
+        let result = self.step_inner(ctx.h()).and_then(|stats| {
             let ok = constraint_core::math::within_limit;
             match self
                 .bodies
