@@ -7,7 +7,9 @@
 //! (`ContactSolver::Auto`); any other into an articulated [`World`] through
 //! [`MjcfScene`], stepped with [`VELOCITY`] (the velocity level, first order like
 //! MuJoCo's semi-implicit Euler) and with [`Method::default`] (RATTLE, second order).
-//! The same choice as `cargo xtask simulate` (`constraint_verify::scene`). Every scene
+//! (`cargo xtask simulate` runs every file in the one world and takes the contact world
+//! only by name, `--method free-contact` or `soft-step`; this bench times the contact
+//! crate's own world on the free-body files, as its peers comparison did.) Every scene
 //! starts from its keyframe `start` when it has one, else from the default pose at rest
 //! (MuJoCo does the same), and runs at the file's `option timestep`.
 //!

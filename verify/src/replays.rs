@@ -24,7 +24,8 @@ pub struct Replay {
 }
 
 /// The replays of the report: jointed bodies with limits landing on the floor, a chain
-/// whipping under gravity, a chain falling onto the floor, and a box stack at rest.
+/// whipping under gravity, a chain falling onto the floor, and a box stack at rest, all
+/// in the one world.
 pub const REPLAYS: [Replay; 4] = [
     Replay {
         name: "ragdoll",
@@ -52,7 +53,7 @@ pub const REPLAYS: [Replay; 4] = [
         file: "box_stack.xml",
         keyframe: None,
         duration: 2.0,
-        caption: "box stack resting on the floor (free-body contact world)",
+        caption: "box stack resting on the floor",
     },
 ];
 

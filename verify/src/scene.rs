@@ -1,4 +1,10 @@
 //! Running MJCF scenes with this library (what `cargo xtask simulate` does).
+//!
+//! One world runs every file — jointed or free bodies, with or without contact — with
+//! the formulation of [`METHODS`]. The free-body contact world of `constraint-contact`
+//! (its own solvers: the soft step, sequential impulses, dense LCPs) is there for files of
+//! free bodies only, by name ([`FREE_BODY_METHODS`]): the user picks it, the file does
+//! not.
 
 use std::path::Path;
 
@@ -39,6 +45,19 @@ pub const METHODS: [(&str, &str); 7] = [
     ),
 ];
 
+/// The free-body contact world's solvers by name (`--method M`, files whose bodies are
+/// all free only).
+pub const FREE_BODY_METHODS: [(&str, &str); 2] = [
+    (
+        "free-contact",
+        "free bodies only: the contact crate's world and defaults (dense Newton with staggered friction up to 200 points, sequential impulses beyond)",
+    ),
+    (
+        "soft-step",
+        "free bodies only: the contact crate's world, Box2D v3 soft step with 4 sub-steps (the fast path)",
+    ),
+];
+
 /// The [`Method`] for a name of [`METHODS`] at step `h`.
 pub fn method(name: &str, h: f64) -> Result<Method, String> {
     Ok(match name {
@@ -67,7 +86,11 @@ pub fn method(name: &str, h: f64) -> Result<Method, String> {
             max_iterations: 20,
         },
         other => {
-            let names: Vec<&str> = METHODS.iter().map(|m| m.0).collect();
+            let names: Vec<&str> = METHODS
+                .iter()
+                .chain(&FREE_BODY_METHODS)
+                .map(|m| m.0)
+                .collect();
             return Err(format!(
                 "unknown method {other:?} (one of {})",
                 names.join(", ")
@@ -317,19 +340,9 @@ fn run_inner(
     collect: bool,
 ) -> Result<(Trajectory, f64, Summary), String> {
     let model = constraint_mjcf::load_file(path).map_err(|e| format!("scene: {e}"))?;
-    let collides = !model.contact_disabled
-        && model
-            .geoms
-            .iter()
-            .any(|g| g.contype != 0 || g.conaffinity != 0);
-    // Free bodies only: the free-body contact world (sequential impulses, shock
-    // propagation, split impulses). Everything else — joints with or without contact —
-    // runs in the one jointed world with its colliders.
-    let all_free = (0..model.bodies.len()).all(|i| {
-        let mut js = model.joints.iter().filter(|j| j.body == i);
-        matches!((js.next(), js.next()), (Some(j), None) if j.kind == constraint_mjcf::JointKind::Free)
-    });
-    if collides && all_free {
+    // The one world runs every file; the free-body contact world only when asked for
+    // by name (its loader rejects anything but free bodies with a typed error).
+    if FREE_BODY_METHODS.iter().any(|m| m.0 == opts.method) {
         return run_contact(&model, opts, collect);
     }
     let mut scene = MjcfScene::new(&model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
@@ -432,9 +445,9 @@ fn step_count(h: f64, opts: &RunOptions) -> Result<u64, String> {
     Ok(steps)
 }
 
-/// A scene of free bodies with collision geoms, in a [`ContactWorld`] (the contact crate's
-/// defaults; `--method` is ignored). The trailing `C_max` column holds the deepest
-/// penetration before each step.
+/// A scene of free bodies with collision geoms, in a [`ContactWorld`]: the contact crate's
+/// defaults (`free-contact`) or its soft step with 4 sub-steps (`soft-step`). The
+/// trailing `C_max` column holds the deepest penetration before each step.
 fn run_contact(
     model: &constraint_mjcf::Model,
     opts: &RunOptions,
@@ -442,6 +455,10 @@ fn run_contact(
 ) -> Result<(Trajectory, f64, Summary), String> {
     let mut scene =
         MjcfContactScene::new(model, opts.keyframe.as_deref()).map_err(|e| e.to_string())?;
+    if opts.method == "soft-step" {
+        scene.world.settings.solver =
+            constraint_contact::rigid::ContactSolver::SoftStep { substeps: 4 };
+    }
     let h = opts.dt.unwrap_or(scene.timestep);
     let steps = step_count(h, opts)?;
     let energy = |w: &constraint_contact::rigid::ContactWorld| {

@@ -13,7 +13,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use constraint_verify::scene::{run, run_with_summary, RunOptions, METHODS};
+use constraint_verify::scene::{run, run_with_summary, RunOptions, FREE_BODY_METHODS, METHODS};
 use constraint_verify::scene_view;
 
 /// The command line.
@@ -108,7 +108,7 @@ fn main() -> ExitCode {
         );
         println!("                  max_joint_separation, max_penetration, settled_penetration (second half),");
         println!("                  energy_initial, max_energy_increase, energy_final, max_contacts, actuators, colliders");
-        for (n, d) in METHODS {
+        for (n, d) in METHODS.iter().chain(&FREE_BODY_METHODS) {
             println!("  --method {n:<13} {d}");
         }
         return ExitCode::SUCCESS;
