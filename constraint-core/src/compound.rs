@@ -31,10 +31,11 @@
 //! first three in metres, the third scaled to a unit gradient). The relative rotation is
 //! the universal joint's, so the coordinates and rate rows are the same.
 //!
-//! Every row is a dot product of [`crate::frame_expr`] vectors, so value, Jacobian and
-//! curvature come from the same derivation as the other joints (and are checked the
-//! same way). [`Compound::coordinates`] recovers MuJoCo's `qpos` of the composed joints
-//! from the two poses, and [`Compound::dof_rows`] the rows of their rates `q̇`.
+//! Every row is a dot product of frame-expression vectors (the private `frame_expr`
+//! module), so value, Jacobian and curvature come from the same derivation as the other
+//! joints (and are checked the same way). [`Compound::coordinates`] recovers MuJoCo's
+//! `qpos` of the composed joints from the two poses, and [`Compound::dof_rows`] the rows
+//! of their rates `q̇`.
 
 use glam::{DQuat, DVec3};
 

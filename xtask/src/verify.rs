@@ -3,16 +3,18 @@
 //! Stages, each timed and shown as it runs:
 //! 1. `cargo fmt --all -- --check`
 //! 2. `cargo clippy --workspace --all-targets -- -D warnings`
-//! 3. `cargo test --workspace` (full mode: `PROPTEST_CASES=2048`)
-//! 4. the `no_std` build of `constraint-core` (see `no_std.rs`)
-//! 5. `cargo xtask package` (see `package.rs`): every library crate packed and, in full
+//! 3. `cargo doc --no-deps` of the library crates with `RUSTDOCFLAGS=-D warnings`, with
+//!    default and with all features (broken intra-doc links, missing docs)
+//! 4. `cargo test --workspace` (full mode: `PROPTEST_CASES=2048`)
+//! 5. the `no_std` build of `constraint-core` (see `no_std.rs`)
+//! 6. `cargo xtask package` (see `package.rs`): every library crate packed and, in full
 //!    mode, built from its `.crate` alone (about 6 s once built; the first time in a
 //!    target directory it builds the dependencies at the published crates' own profile,
 //!    8 minutes on two loaded cores); `--quick` packs with `--no-verify` (about 2 s)
-//! 6. the sweeps (`verify-report` binary, release build): cloth stability map and
+//! 7. the sweeps (`verify-report` binary, release build): cloth stability map and
 //!    work-precision chart
 //!
-//! 7. the real models (`cargo xtask models run`, `--quick`: 0.5 s runs, one repeat):
+//! 8. the real models (`cargo xtask models run`, `--quick`: 0.5 s runs, one repeat):
 //!    the 33 gymnasium and dm_control models in MuJoCo and here, per-model checks, the
 //!    "Real models" section and its charts (see `models.rs`,
 //!    `constraint_verify::models_report`). Fails on a panic, when a model that loads
@@ -20,7 +22,7 @@
 //!    Skipped, with the reason in the report, only when MuJoCo itself cannot be
 //!    installed (no Python, no PyPI); once MuJoCo is there, a failed model download is
 //!    a failure.
-//! 8. with `--mujoco` only: every MuJoCo reference of `scenes/reference/` regenerated into
+//! 9. with `--mujoco` only: every MuJoCo reference of `scenes/reference/` regenerated into
 //!    `target/verify/mujoco/` and compared with the committed file (COM, body origin and
 //!    orientation within 1e-9; needs Python, see `mujoco.rs`)
 //!
@@ -62,7 +64,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
     }
     let out = root().join("target/verify");
     std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
-    let total = if with_mujoco { 8 } else { 7 };
+    let total = if with_mujoco { 9 } else { 8 };
     let mut stages: Vec<Stage> = Vec::new();
     let begin = |k: usize, name: &str| eprintln!("\n[{k}/{total}] {name}");
 
@@ -91,7 +93,30 @@ pub fn main(args: &[String]) -> Result<(), String> {
         note: String::new(),
     });
 
-    begin(3, "tests (cargo test --workspace)");
+    begin(3, "docs (cargo doc of the library crates, -D warnings)");
+    let t0 = std::time::Instant::now();
+    let mut ok = true;
+    // Default features, then all: a link can resolve under one set and not the other.
+    for all in [false, true] {
+        let mut doc = cargo();
+        doc.args(["doc", "--no-deps"]);
+        for (c, _) in crate::package::CRATES {
+            doc.args(["-p", c]);
+        }
+        if all {
+            doc.arg("--all-features");
+        }
+        doc.env("RUSTDOCFLAGS", "-D warnings");
+        ok &= status(&mut doc).0;
+    }
+    stages.push(Stage {
+        name: "cargo doc (library crates) -D warnings",
+        ok,
+        secs: t0.elapsed().as_secs_f64(),
+        note: "default and all features".to_string(),
+    });
+
+    begin(4, "tests (cargo test --workspace)");
     let mut test = cargo();
     test.args(["test", "--workspace"]);
     if !quick {
@@ -110,7 +135,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
         note,
     });
 
-    begin(4, "no_std build of constraint-core");
+    begin(5, "no_std build of constraint-core");
     let t0 = std::time::Instant::now();
     let (ok, note) = match no_std::main(&[]) {
         Ok(no_std::Outcome::Embedded) => (true, format!("built for {}", no_std::TARGET)),
@@ -130,7 +155,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
         note,
     });
 
-    begin(5, "packaging (cargo xtask package)");
+    begin(6, "packaging (cargo xtask package)");
     let t0 = std::time::Instant::now();
     let package_args = if quick {
         vec!["--no-verify".to_string()]
@@ -151,7 +176,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
     });
 
     begin(
-        6,
+        7,
         "sweeps: stability map and work-precision (release build)",
     );
     let mut sweep = verify_report(false);
@@ -168,7 +193,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
     });
 
     begin(
-        7,
+        8,
         "real models: gymnasium and dm_control in MuJoCo and here",
     );
     let t0 = std::time::Instant::now();
@@ -182,7 +207,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
 
     if with_mujoco {
         begin(
-            8,
+            9,
             "MuJoCo references regenerated and compared with scenes/reference/",
         );
         let t0 = std::time::Instant::now();

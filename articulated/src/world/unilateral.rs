@@ -131,7 +131,7 @@ pub enum RowSource {
     /// Contact point `contact` of the last step: its normal (`axis = 0`) or one of its
     /// two friction directions.
     Contact {
-        /// Index into [`World::contacts`].
+        /// Index into the last step's contacts (`World::contacts`, feature `contact`).
         contact: usize,
         /// 0: normal, 1 and 2: tangents.
         axis: u8,

@@ -15,7 +15,7 @@
 //!   impulse goes straight into the two bodies' velocities; Catto 2005, Erleben 2007),
 //!   warm-started from the previous step's impulses matched by contact id;
 //! * `SoftStep`: Box2D v3's soft step (Catto 2024): sub-steps, each with one soft
-//!   Gauss–Seidel pass and one rigid relax pass ([`soft_step`]'s module docs);
+//!   Gauss–Seidel pass and one rigid relax pass (the `soft_step` module's docs);
 //! * `Pgs`, `Lemke`, `Newton`: the dense LCP of [`crate::lcp`] on the assembled `A`.
 //!   Lemke and the Fischer–Burmeister Newton method take standard LCPs only, so friction
 //!   goes by Kaufman et al.'s staggered projections (2008): a normal LCP with the
