@@ -46,6 +46,30 @@ struct Compared {
     rows: usize,
 }
 
+/// Largest velocity difference (linear or angular, any body) between `a` and the
+/// reference `b`, over the reference's largest speed (at least g·h).
+fn relative_dv(a: &World, b: &World, h: f64) -> f64 {
+    let mut dv: f64 = 0.0;
+    let mut vmax: f64 = 9.81 * h;
+    for (x, y) in a.bodies().iter().zip(b.bodies()) {
+        dv = dv.max((x.v - y.v).abs().max_element());
+        dv = dv.max((x.omega - y.omega).abs().max_element());
+        vmax = vmax
+            .max(y.v.abs().max_element())
+            .max(y.omega.abs().max_element());
+    }
+    dv / vmax
+}
+
+/// The fetched real models: `MJCF_MODELS_DIR`, else `target/models` of the workspace.
+fn models_dir() -> std::path::PathBuf {
+    std::env::var_os("MJCF_MODELS_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| {
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/models")
+        })
+}
+
 fn compare_one_step(w: &World, m: Method) -> Compared {
     let mut a = w.clone();
     let mut b = w.clone();
@@ -54,15 +78,7 @@ fn compare_one_step(w: &World, m: Method) -> Compared {
     a.step(H, m).unwrap();
     b.step(H, m).unwrap();
     let s = a.unilateral_stats();
-    let mut dv: f64 = 0.0;
-    let mut vmax: f64 = 9.81 * H;
-    for (x, y) in a.bodies().iter().zip(b.bodies()) {
-        dv = dv.max((x.v - y.v).abs().max_element());
-        dv = dv.max((x.omega - y.omega).abs().max_element());
-        vmax = vmax
-            .max(y.v.abs().max_element())
-            .max(y.omega.abs().max_element());
-    }
+    let dv = relative_dv(&a, &b, H);
     // Impulses; a limit and the dry friction of one degree of freedom act along the same
     // row, so only their sum (lower − upper + dry) is determined: those are compared
     // summed per degree of freedom.
@@ -92,7 +108,7 @@ fn compare_one_step(w: &World, m: Method) -> Compared {
         m.max((x.1 - y.1).abs())
     });
     Compared {
-        dv: dv / vmax,
+        dv,
         dz: if za.is_empty() { 0.0 } else { dz / zmax },
         sparse: s.sparse,
         residual: s.residual,
@@ -359,11 +375,7 @@ fn ragdoll_matches_dense() {
 #[test]
 #[ignore = "needs the models fetched by `cargo xtask models fetch` (MJCF_MODELS_DIR)"]
 fn real_models_with_feet_match_dense() {
-    let dir = std::env::var_os("MJCF_MODELS_DIR")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| {
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/models")
-        });
+    let dir = models_dir();
     for name in ["hopper", "walker2d", "half_cheetah", "ant"] {
         let path = dir.join("gymnasium").join(format!("{name}.xml"));
         let mut s = MjcfScene::from_file(&path, None).unwrap();
@@ -377,16 +389,7 @@ fn real_models_with_feet_match_dense() {
                 a.step(h, VELOCITY).unwrap();
                 b.step(h, VELOCITY).unwrap();
                 if a.unilateral_stats().sparse && b.unilateral_stats().residual <= 1e-9 {
-                    let mut vmax: f64 = 9.81 * h;
-                    let mut dv: f64 = 0.0;
-                    for (x, y) in a.bodies().iter().zip(b.bodies()) {
-                        dv = dv.max((x.v - y.v).abs().max_element());
-                        dv = dv.max((x.omega - y.omega).abs().max_element());
-                        vmax = vmax
-                            .max(y.v.abs().max_element())
-                            .max(y.omega.abs().max_element());
-                    }
-                    worst = worst.max(dv / vmax);
+                    worst = worst.max(relative_dv(&a, &b, h));
                     compared += 1;
                 }
             }
@@ -419,11 +422,7 @@ fn real_models_with_feet_match_dense() {
 #[test]
 #[ignore = "needs the models fetched by `cargo xtask models fetch` (MJCF_MODELS_DIR)"]
 fn real_humanoids_match_dense() {
-    let dir = std::env::var_os("MJCF_MODELS_DIR")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| {
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/models")
-        });
+    let dir = models_dir();
     for (suite, name) in [("dm_control", "humanoid"), ("gymnasium", "humanoid")] {
         let path = dir.join(suite).join(format!("{name}.xml"));
         let mut s = MjcfScene::from_file(&path, None).unwrap();
@@ -442,16 +441,7 @@ fn real_humanoids_match_dense() {
                     .iter()
                     .any(|c| cl[c.a].body.is_some() && cl[c.b].body.is_some());
                 if a.unilateral_stats().sparse && b.unilateral_stats().residual <= 1e-9 {
-                    let mut vmax: f64 = 9.81 * h;
-                    let mut dv: f64 = 0.0;
-                    for (x, y) in a.bodies().iter().zip(b.bodies()) {
-                        dv = dv.max((x.v - y.v).abs().max_element());
-                        dv = dv.max((x.omega - y.omega).abs().max_element());
-                        vmax = vmax
-                            .max(y.v.abs().max_element())
-                            .max(y.omega.abs().max_element());
-                    }
-                    worst = worst.max(dv / vmax);
+                    worst = worst.max(relative_dv(&a, &b, h));
                     compared += 1;
                     coupled += usize::from(body_body);
                 }
