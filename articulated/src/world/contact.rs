@@ -12,7 +12,7 @@
 //! are not joined by a joint (parent–child filtering; the world is exempt), and the
 //! body pair was not excluded ([`World::exclude_pair`]).
 
-use constraint_contact::geometry::{generate_contacts_filtered, Collider, Contact};
+use constraint_contact::geometry::{generate_contacts_with, Collider, Contact};
 use constraint_contact::lcp::RowBound;
 use constraint_core::DVec3;
 
@@ -137,10 +137,18 @@ impl World {
         poses.clear();
         poses.extend(self.bodies.iter().map(|b| b.pose));
         let mut contacts = core::mem::take(&mut self.contacts);
+        let mut broad = core::mem::take(&mut self.broad);
         let keep = |i: usize, j: usize| self.may_touch(i, j);
-        let result =
-            generate_contacts_filtered(&self.colliders, &poses, s.margin, keep, &mut contacts);
+        let result = generate_contacts_with(
+            &self.colliders,
+            &poses,
+            s.margin,
+            keep,
+            &mut broad,
+            &mut contacts,
+        );
         self.poses = poses;
+        self.broad = broad;
         if let Err(e) = result {
             self.contacts = contacts;
             return Err(ArticulatedError::Geometry {

@@ -299,6 +299,10 @@ pub struct World {
     excluded: Vec<(usize, usize)>,
     #[cfg(feature = "contact")]
     contacts: Vec<constraint_contact::geometry::Contact>,
+    /// Contact generation's buffers (bounding boxes, sweep order, pairs), kept between
+    /// steps.
+    #[cfg(feature = "contact")]
+    broad: constraint_contact::geometry::BroadScratch,
     /// Contact impulses of the last step by contact key, sorted (warm start).
     #[cfg(feature = "contact")]
     warm: Vec<WarmContact>,
@@ -366,6 +370,8 @@ impl World {
             excluded: Vec::new(),
             #[cfg(feature = "contact")]
             contacts: Vec::new(),
+            #[cfg(feature = "contact")]
+            broad: constraint_contact::geometry::BroadScratch::default(),
             #[cfg(feature = "contact")]
             warm: Vec::new(),
             #[cfg(feature = "contact")]
