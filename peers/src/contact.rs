@@ -443,7 +443,11 @@ mod tests {
         let r = rapier::RapierBoxes::from_world(&w, DT).unwrap();
         assert_eq!(r.centres(), ours::centres(&w));
         for (m, b) in r.masses().iter().zip(w.bodies()) {
-            assert!((m - b.mass).abs() < 1e-9 * b.mass, "{m} vs {}", b.mass);
+            assert!(
+                (m - b.mass()).abs() < 1e-9 * b.mass(),
+                "{m} vs {}",
+                b.mass()
+            );
         }
         let run = rapier::run(&w, DT, 0.5).unwrap();
         assert!(run.finite && run.top_drift < 0.05, "{run:?}");

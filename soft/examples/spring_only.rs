@@ -1,6 +1,6 @@
 //! The smallest build of the soft crate: one spring, implicit Euler with conjugate
 //! gradient, no faer (`cargo run -p constraint-soft --no-default-features --example
-//! spring_only`). `verify/tests/leave_out.rs` builds it and checks that it links none of
+//! spring_only`). `report/tests/leave_out.rs` builds it and checks that it links none of
 //! the lagrange, articulated or contact crates, nor faer.
 
 use constraint_core::{DVec3, Distance};

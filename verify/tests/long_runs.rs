@@ -113,9 +113,9 @@ fn report(what: &str, d: &Drift) -> String {
 /// The spring pendulum over 20,000 steps of 1e-3 s (20 s, undamped), per integrator.
 #[test]
 fn soft_spring_pendulum_energy_per_integrator() {
+    use constraint_scene::soft::Method;
     use constraint_soft::lagged::LaggedSettings;
     use constraint_soft::{HessianMode, ImplicitEuler, Integrator, LinearSolver};
-    use constraint_verify::sweeps::Method;
     let links = 5;
     // m g (links · l) per free particle: the energy the swing exchanges, 4.9 J.
     let scale = links as f64 * 0.1 * 9.81 * links as f64 * 0.2;

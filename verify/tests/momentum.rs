@@ -12,11 +12,11 @@
 //!
 //! `cargo test -p constraint-verify --test momentum -- --nocapture` prints the drifts.
 
+use constraint_scene::soft::{free_cloth, free_jelly, momentum_drift};
 use constraint_soft::{
     CgSettings, HessianMode, ImplicitEuler, Integrator, LinearSolver, SoftSystem, SymplecticEuler,
 };
 use constraint_verify::fd::exceeds;
-use constraint_verify::sweeps::{free_cloth, free_jelly, momentum_drift};
 
 fn integrators() -> Vec<Box<dyn Integrator>> {
     let cg = LinearSolver::ConjugateGradient(CgSettings {

@@ -6,8 +6,8 @@
 
 use std::path::PathBuf;
 
-use constraint_verify::scene::{run, RunOptions};
-use constraint_verify::trajectory::{compare, Trajectory};
+use constraint_scene::run::{run, RunOptions};
+use constraint_scene::trajectory::{compare, Trajectory};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")

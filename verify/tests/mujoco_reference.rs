@@ -10,8 +10,8 @@
 
 use std::path::PathBuf;
 
-use constraint_verify::scene::{run, RunOptions};
-use constraint_verify::trajectory::{compare, Comparison, Trajectory};
+use constraint_scene::run::{run, RunOptions};
+use constraint_scene::trajectory::{compare, Comparison, Trajectory};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -233,7 +233,7 @@ fn control_file_and_initial_state_replay_in_both_engines() {
 /// The control file's errors name the problem.
 #[test]
 fn control_files_are_checked() {
-    use constraint_verify::scene::Controls;
+    use constraint_scene::run::Controls;
     let names = vec!["push".to_string(), "servo".to_string()];
     let ok = Controls::parse("t,servo,push\n0,1,2\n0.5,3,4\n", &names).unwrap();
     assert_eq!(ok.at(0.49), Some(&[(1, 1.0), (0, 2.0)][..]));

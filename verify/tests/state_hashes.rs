@@ -317,9 +317,9 @@ fn check(group: &str, pinned: &[(&str, u64)], scenes: Vec<Scene>) {
 }
 
 /// A short name for each soft integrator configuration of the sweeps.
-fn soft_method_name(m: constraint_verify::sweeps::Method) -> &'static str {
+fn soft_method_name(m: constraint_scene::soft::Method) -> &'static str {
+    use constraint_scene::soft::Method;
     use constraint_soft::HessianMode;
-    use constraint_verify::sweeps::Method;
     match m {
         Method::Symplectic => "symplectic",
         Method::ImplicitLdlt(HessianMode::Projected) => "implicit-ldlt-projected",
@@ -372,9 +372,9 @@ const SOFT_PINNED: &[(&str, u64)] = &[
 /// `2√(m/k)`, takes 1e-4 s steps.
 #[test]
 fn soft_scene_hashes_are_deterministic_and_pinned() {
+    use constraint_scene::soft::{free_cloth, free_jelly, Method};
     use constraint_soft::lagged::LaggedSettings;
     use constraint_soft::{Cloth, HessianMode, ImplicitEuler, Integrator, Jelly, LinearSolver};
-    use constraint_verify::sweeps::{free_cloth, free_jelly, Method};
     type Make = fn() -> SoftSystem;
     let systems: [(&str, Make, usize, usize); 4] = [
         ("cloth16", || Cloth::default().build().unwrap(), 100, 1000),

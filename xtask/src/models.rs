@@ -12,7 +12,7 @@
 //! `run` measures every model of [`MODELS`] (order fixed): MuJoCo (`xtask/models/
 //! mujoco_models.py`, one process): sizes, µs per step of a passive run from the default pose
 //! with zero control in its C loop (`mujoco.rollout`, median of 3), most contacts at any
-//! step; ours: the `simulate` binary of `constraint-verify` (release), first with duration 0
+//! step; ours: the `simulate` binary of `constraint-scene` (release), first with duration 0
 //! (does it load?), then for the same steps; its one-line error is the reason. Writes
 //! `models.md` and `models.csv` to `--out` (default `target/models/`) and prints the table.
 
@@ -990,14 +990,14 @@ pub fn csv(rows: &[Row]) -> String {
 
 /// Our `simulate` binary, built once (release).
 fn build_simulate() -> Result<PathBuf, String> {
-    eprintln!("xtask: cargo build --release -p constraint-verify --bin simulate");
+    eprintln!("xtask: cargo build --release -p constraint-scene --bin simulate");
     let ok = cargo()
-        .args(["build", "--release", "--quiet", "-p", "constraint-verify"])
+        .args(["build", "--release", "--quiet", "-p", "constraint-scene"])
         .args(["--bin", "simulate"])
         .status()
         .is_ok_and(|s| s.success());
     if !ok {
-        return Err("cargo build --release -p constraint-verify --bin simulate failed".into());
+        return Err("cargo build --release -p constraint-scene --bin simulate failed".into());
     }
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)

@@ -17,7 +17,7 @@
 
 use crate::run::{cargo, output, root, status};
 
-/// The library crates, in dependency order (the tools `constraint-verify`,
+/// The library crates, in dependency order (the tools `constraint-scene`, `constraint-verify`, `constraint-report`,
 /// `constraint-peers` and `xtask` are `publish = false`).
 pub const CRATES: [(&str, &str); 6] = [
     ("constraint-core", "constraint-core"),

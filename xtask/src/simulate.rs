@@ -2,7 +2,7 @@
 //! [--method M] --out FILE.csv`: runs an MJCF scene with this library and writes the
 //! trajectory file of DESIGN.md section 6.
 //!
-//! The work is done by the `simulate` binary of `constraint-verify` (built in release
+//! The work is done by the `simulate` binary of `constraint-scene` (built in release
 //! mode on first use), so xtask itself keeps no physics dependency. Paths are taken
 //! relative to the directory the command was run from. On any error the binary prints
 //! one line and this command exits non-zero without adding another.
@@ -17,7 +17,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
     let status = Command::new(cargo)
         .args(["run", "--release", "--quiet", "--manifest-path"])
         .arg(root().join("Cargo.toml"))
-        .args(["-p", "constraint-verify", "--bin", "simulate", "--"])
+        .args(["-p", "constraint-scene", "--bin", "simulate", "--"])
         .args(args)
         .status()
         .map_err(|e| format!("could not run cargo: {e}"))?;

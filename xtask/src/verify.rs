@@ -399,7 +399,7 @@ fn bad_input_sweep(report: &std::path::Path) -> bool {
     ok
 }
 
-/// `cargo run --release [--quiet] -p constraint-verify --bin verify-report --`, for the
+/// `cargo run --release [--quiet] -p constraint-report --bin verify-report --`, for the
 /// caller to add the report's arguments.
 fn verify_report(quiet: bool) -> Command {
     let mut c = cargo();
@@ -407,6 +407,6 @@ fn verify_report(quiet: bool) -> Command {
     if quiet {
         c.arg("--quiet");
     }
-    c.args(["-p", "constraint-verify", "--bin", "verify-report", "--"]);
+    c.args(["-p", "constraint-report", "--bin", "verify-report", "--"]);
     c
 }

@@ -154,7 +154,7 @@ pub fn page(model: &Model, traj: &Trajectory, title: &str) -> Result<String, vie
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{run, RunOptions};
+    use crate::run::{run, RunOptions};
     use std::path::Path;
 
     fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {

@@ -30,7 +30,8 @@ use constraint_soft::{
     SoftSystem, Softness,
 };
 
-use crate::{articulated_report, articulated_stability, contact_report, particle_report, scene};
+use crate::{articulated_report, articulated_stability, contact_report, particle_report};
+use constraint_scene::run as scene;
 
 /// A scene of the report: its name, the crate it is built with and the smallest feature
 /// set it needs (on top of `--no-default-features`).
@@ -762,7 +763,7 @@ pub fn section(md: &mut String, root: &Path) {
          phase and the contact solver path taken (`ContactWorld::stages`). Where a scene \
          runs several methods, the first row (\"every method\") holds the stages they all \
          share and each method's row the rest; methods with identical stages share a row, \
-         and scenes with identical runs share an entry. The test `verify/tests/leave_out.rs` checks \
+         and scenes with identical runs share an entry. The test `report/tests/leave_out.rs` checks \
          that the spring-only build links none of `constraint-lagrange`, \
          `constraint-articulated`, `constraint-contact` or `faer`.\n"
     );

@@ -2,7 +2,7 @@
 //! subset the report writes — ATX headings, paragraphs, pipe tables, fenced code,
 //! bullet lists, inline code, bold, emphasis, links — with every image that links an
 //! `.svg` file replaced by that file's contents, and every image that links an `.html`
-//! page (a [`crate::viewer`] replay) embedded as a sandboxed frame holding that page, so
+//! page (a [`constraint_scene::viewer`] replay) embedded as a sandboxed frame holding that page, so
 //! the page is self-contained.
 //!
 //! The output depends only on the input and the SVG files (no dates, no hashing
@@ -11,20 +11,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// Escapes text for HTML element content and attribute values.
-pub fn escape(s: &str) -> String {
-    let mut o = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '&' => o.push_str("&amp;"),
-            '<' => o.push_str("&lt;"),
-            '>' => o.push_str("&gt;"),
-            '"' => o.push_str("&quot;"),
-            _ => o.push(c),
-        }
-    }
-    o
-}
+pub use constraint_scene::viewer::escape;
 
 const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;line-height:1.45;color:#222}\
 table{border-collapse:collapse;margin:1em 0;font-size:90%}\

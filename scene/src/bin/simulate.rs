@@ -4,17 +4,17 @@
 //! writes the trajectory (DESIGN.md §6; at least one of `--out` and `--html`).
 //! `--html` writes an animated, self-contained page of the run (the scene's shapes
 //! moving along the trajectory, at most 60 frames per simulated second; play/pause,
-//! time slider, orbit camera; `constraint_verify::viewer`). `cargo xtask simulate`
+//! time slider, orbit camera; `constraint_scene::viewer`). `cargo xtask simulate`
 //! calls this. Exit status 1 with a one-line
 //! reason on any error. `--summary` also writes the run's figures (steps, µs per step,
 //! finite, worst joint separation, penetration, energy increase, contacts; see
-//! `constraint_verify::scene::Summary`) as one JSON object; `cargo xtask models` reads it.
+//! `constraint_scene::run::Summary`) as one JSON object; `cargo xtask models` reads it.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use constraint_verify::scene::{run, run_with_summary, RunOptions, FREE_BODY_METHODS, METHODS};
-use constraint_verify::scene_view;
+use constraint_scene::run::{run, run_with_summary, RunOptions, FREE_BODY_METHODS, METHODS};
+use constraint_scene::scene_view;
 
 /// The command line.
 struct Args {

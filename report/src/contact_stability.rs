@@ -677,7 +677,7 @@ mod tests {
     }
 
     /// The quick map's cells, printed with their wall times (`cargo test --release -p
-    /// constraint-verify --lib contact_map -- --ignored --nocapture`).
+    /// constraint-report --lib contact_map -- --ignored --nocapture`).
     #[test]
     #[ignore]
     fn contact_map() {

@@ -1,12 +1,12 @@
 //! The report's replays: a few scenes of `scenes/` run with the default method and
-//! written as [`crate::scene_view`] pages beside the report, so `report.html` shows each
+//! written as [`constraint_scene::scene_view`] pages beside the report, so `report.html` shows each
 //! one moving (the converter in [`crate::html`] embeds a linked `.html` page as a
 //! sandboxed frame). Markdown readers get a link to the page.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::scene::{run, RunOptions};
+use constraint_scene::run::{run, RunOptions};
 
 /// A replayed scene: report name, file under `scenes/`, keyframe, simulated seconds,
 /// and what it shows.
@@ -78,7 +78,7 @@ pub fn section(md: &mut String, out: &Path, root: &Path) {
         };
         let page = run(&path, &opts).and_then(|(traj, _)| {
             let model = constraint_mjcf::load_file(&path).map_err(|e| e.to_string())?;
-            crate::scene_view::page(&model, &traj, r.name).map_err(|e| e.to_string())
+            constraint_scene::scene_view::page(&model, &traj, r.name).map_err(|e| e.to_string())
         });
         let file = format!("replay_{}.html", r.name);
         match page.and_then(|p| std::fs::write(out.join(&file), p).map_err(|e| e.to_string())) {

@@ -19,8 +19,8 @@ use std::path::{Path, PathBuf};
 use constraint_articulated::MjcfScene;
 
 use crate::chart::{pareto_front, LogLogChart, Series};
-use crate::scene::{self, RunOptions};
-use crate::trajectory::{compare, Trajectory};
+use constraint_scene::run::{self as scene, RunOptions};
+use constraint_scene::trajectory::{compare, Trajectory};
 
 /// Every MJCF scene with a committed reference, in report order: the seven joint-only
 /// scenes, then the one world's smooth scenes (a planar root with a hinged leg, two hinges

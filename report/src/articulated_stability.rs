@@ -635,7 +635,7 @@ mod tests {
     }
 
     /// The quick compliance map alone, printed (`cargo test --release -p
-    /// constraint-verify --lib compliance_map -- --ignored --nocapture`).
+    /// constraint-report --lib compliance_map -- --ignored --nocapture`).
     #[test]
     #[ignore]
     fn compliance_map() {

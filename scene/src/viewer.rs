@@ -221,7 +221,7 @@ pub fn page(scene: &ViewScene, frames: &[ViewFrame]) -> Result<String, ViewerErr
     validate(scene, frames)?;
     let mut json = String::with_capacity(256 + frames.len() * (scene.bodies.len() * 64 + 16));
     write_json(&mut json, scene, frames);
-    let title = crate::html::escape(&scene.title);
+    let title = escape(&scene.title);
     let mut s = String::with_capacity(json.len() + PLAYER_JS.len() + 2048);
     s.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
     let _ = writeln!(s, "<title>{title}</title>");
@@ -534,6 +534,21 @@ pub fn subsample(times: &[f64], fps: f64) -> Vec<usize> {
         keep.push(last);
     }
     keep
+}
+
+/// Escapes text for HTML element content and attribute values.
+pub fn escape(s: &str) -> String {
+    let mut o = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => o.push_str("&amp;"),
+            '<' => o.push_str("&lt;"),
+            '>' => o.push_str("&gt;"),
+            '"' => o.push_str("&quot;"),
+            _ => o.push(c),
+        }
+    }
+    o
 }
 
 #[cfg(test)]

@@ -1,12 +1,12 @@
-//! `cargo run -p constraint-verify --example cloth_html -- [OUT.html]` — the soft
+//! `cargo run -p constraint-scene --example cloth_html -- [OUT.html]` — the soft
 //! crate's 16 × 16 cloth (springs plus one area constraint per triangle, pinned at its
 //! two top corners) falling and swinging for 3 s under linearized implicit Euler
 //! (projected Hessian, sparse LDLᵀ, h = 1/240 s), written as a viewer page: the
 //! cloth's triangles move with the particles; the pins are drawn as small spheres.
 
+use constraint_scene::soft::Method;
+use constraint_scene::viewer::{self, ViewFrame, ViewMesh, ViewPart, ViewScene, ViewShape};
 use constraint_soft::{Cloth, HessianMode};
-use constraint_verify::sweeps::Method;
-use constraint_verify::viewer::{self, ViewFrame, ViewMesh, ViewPart, ViewScene, ViewShape};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args()

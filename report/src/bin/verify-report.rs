@@ -2,30 +2,30 @@
 //! `sweeps.md` (tables), `cloth_work_precision.svg` (chart), `work_precision.csv` and
 //! `stability.csv` (raw data), and the articulated section
 //! (`articulated_<scene>.svg`, `articulated_chain20_drift.svg`,
-//! `articulated_work_precision.csv`; see `constraint_verify::articulated_report`), and
+//! `articulated_work_precision.csv`; see `constraint_report::articulated_report`), and
 //! the contact section (`contact_lcp_residual.svg`, `contact_<scene>.svg`,
-//! `contact_lcp.csv`, `contact_scenes.csv`; see `constraint_verify::contact_report`),
+//! `contact_lcp.csv`, `contact_scenes.csv`; see `constraint_report::contact_report`),
 //! the articulated stability map (`articulated_stability_<axis>.svg`,
-//! `articulated_stability.csv`; see `constraint_verify::articulated_stability`), the
+//! `articulated_stability.csv`; see `constraint_report::articulated_stability`), the
 //! cloth stability heat map (`cloth_stability.svg`), the replays
 //! (`replay_<scene>.html`, animated pages of a few scenes; see
-//! `constraint_verify::replays`), the dependency listing per scene family
-//! (`constraint_verify::deps`), and `report.html`: `sweeps.md` as one self-contained
-//! page with every chart and replay inline (`constraint_verify::html`).
+//! `constraint_report::replays`), the dependency listing per scene family
+//! (`constraint_report::deps`), and `report.html`: `sweeps.md` as one self-contained
+//! page with every chart and replay inline (`constraint_report::html`).
 //!
-//! `cargo run --release -p constraint-verify --bin verify-report -- [--quick] [--out DIR]`
+//! `cargo run --release -p constraint-report --bin verify-report -- [--quick] [--out DIR]`
 //! (normally called by `cargo xtask verify`).
 //!
 //! `verify-report --models MODELS.csv DIR [HOW]` only writes the real-models section
 //! (`DIR/models_section.md`, `models_time_ratio.svg`, `models_smooth_error.svg`; see
-//! `constraint_verify::models_report`) from what `cargo xtask models run` measured.
+//! `constraint_report::models_report`) from what `cargo xtask models run` measured.
 //!
 //! `verify-report --html REPORT.md [PAGE.html]` only converts a report (default page:
 //! `REPORT.html` beside it), inlining the SVG charts it links; `cargo xtask verify` can
 //! call it once it has written `report.md`, so the page has the checks table too.
 
-use constraint_verify::chart::{LogLogChart, Series};
-use constraint_verify::sweeps::{
+use constraint_report::chart::{LogLogChart, Series};
+use constraint_report::sweeps::{
     error_chart, free_cloth, jelly_volume, momentum_drift, series_by_method, stability_sweep,
     work_precision, work_precision_table, Method, Outcome, WorkPoint,
 };
@@ -92,7 +92,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 let page = args
                     .next()
                     .map_or_else(|| md.with_extension("html"), PathBuf::from);
-                constraint_verify::html::convert_file(&md, &page)?;
+                constraint_report::html::convert_file(&md, &page)?;
                 eprintln!("  wrote {}", page.display());
                 return Ok(());
             }
@@ -105,8 +105,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                     .unwrap_or_else(|| "`cargo xtask models run`".to_string());
                 let text =
                     std::fs::read_to_string(&csv).map_err(|e| format!("{}: {e}", csv.display()))?;
-                let lines = constraint_verify::models_report::parse(&text)?;
-                let (md, charts) = constraint_verify::models_report::section(&lines, &how);
+                let lines = constraint_report::models_report::parse(&text)?;
+                let (md, charts) = constraint_report::models_report::section(&lines, &how);
                 std::fs::create_dir_all(&dir)?;
                 for (name, svg) in charts {
                     std::fs::write(dir.join(name), svg)?;
@@ -156,8 +156,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
          iteration limit; P a panic (caught per cell, must never happen). Cells run in parallel on {} \
          thread(s), each deterministic.\n",
         p.stab_t,
-        constraint_verify::sweeps::CLOTH_ENERGY_SCALE,
-        constraint_verify::par::threads(),
+        constraint_report::sweeps::CLOTH_ENERGY_SCALE,
+        constraint_report::par::threads(),
         n = p.stab_n
     );
     let mut head = String::from("| method | k \\ h |");
@@ -318,41 +318,41 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     hard_sections(&mut md, &out, quick)?;
-    constraint_verify::particle_report::section(&mut md, &out, quick)?;
+    constraint_report::particle_report::section(&mut md, &out, quick)?;
     let t0 = Instant::now();
-    constraint_verify::articulated_report::section(&mut md, &out, quick)?;
+    constraint_report::articulated_report::section(&mut md, &out, quick)?;
     eprintln!(
         "    articulated section done in {:.1} s",
         t0.elapsed().as_secs_f64()
     );
     let t0 = Instant::now();
-    constraint_verify::contact_report::section(&mut md, &out, quick)?;
+    constraint_report::contact_report::section(&mut md, &out, quick)?;
     eprintln!(
         "    contact section done in {:.1} s",
         t0.elapsed().as_secs_f64()
     );
     let t0 = Instant::now();
-    let contact_panics = constraint_verify::contact_stability::section(&mut md, &out, quick)?;
+    let contact_panics = constraint_report::contact_stability::section(&mut md, &out, quick)?;
     eprintln!(
         "    contact stability map done in {:.1} s ({contact_panics} panics)",
         t0.elapsed().as_secs_f64()
     );
     let t0 = Instant::now();
-    let panics = constraint_verify::articulated_stability::section(&mut md, &out, quick)?;
+    let panics = constraint_report::articulated_stability::section(&mut md, &out, quick)?;
     let stab_secs = t0.elapsed().as_secs_f64();
     eprintln!("    articulated stability map done in {stab_secs:.1} s ({panics} panics)");
     let t0 = Instant::now();
-    let chain_panics = constraint_verify::chain_stability::section(&mut md, &out, quick)?;
+    let chain_panics = constraint_report::chain_stability::section(&mut md, &out, quick)?;
     let chain_secs = t0.elapsed().as_secs_f64();
     eprintln!("    particle chain stability map done in {chain_secs:.1} s ({chain_panics} panics)");
     let t0 = Instant::now();
     eprintln!("  replays (scene pages for the viewer)");
-    let root = constraint_verify::articulated_report::root();
-    constraint_verify::replays::section(&mut md, &out, &root);
+    let root = constraint_report::articulated_report::root();
+    constraint_report::replays::section(&mut md, &out, &root);
     eprintln!("    done in {:.1} s", t0.elapsed().as_secs_f64());
     let t0 = Instant::now();
     eprintln!("  dependency listing (cargo tree per scene family)");
-    constraint_verify::deps::section(&mut md, &constraint_verify::articulated_report::root());
+    constraint_report::deps::section(&mut md, &constraint_report::articulated_report::root());
     let deps_secs = t0.elapsed().as_secs_f64();
     eprintln!("    done in {deps_secs:.1} s");
     std::fs::write(out.join("sweeps.md"), &md)?;
@@ -364,7 +364,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
          charts inline.\n\n{md}",
         if quick { "quick" } else { "full" }
     );
-    constraint_verify::html::write_page(&page, &out, &out.join("report.html"))?;
+    constraint_report::html::write_page(&page, &out, &out.join("report.html"))?;
     eprintln!("  wrote {}", out.join("report.html").display());
     if panics > 0 {
         return Err(format!("articulated stability map: {panics} cell(s) panicked").into());
@@ -382,10 +382,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
 
 /// The cloth stability map as a heat map: one panel per method, h × k.
 fn cloth_heat_map(
-    rows: &[constraint_verify::sweeps::StabilityRow],
+    rows: &[constraint_report::sweeps::StabilityRow],
     p: &Plan,
-) -> constraint_verify::heatmap::HeatMap {
-    use constraint_verify::heatmap::{tick, Class, HeatMap, Panel};
+) -> constraint_report::heatmap::HeatMap {
+    use constraint_report::heatmap::{tick, Class, HeatMap, Panel};
     let class = |o: &Outcome| match o {
         Outcome::Stable => 0,
         Outcome::NotConverged => 1,
@@ -442,7 +442,7 @@ fn hard_sections(
     out: &std::path::Path,
     quick: bool,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    use constraint_verify::hard::{chain_drift, cloth_strain_vs_time, series_names, DRIFT_METHODS};
+    use constraint_report::hard::{chain_drift, cloth_strain_vs_time, series_names, DRIFT_METHODS};
     let secs = if quick { 3.0 } else { 10.0 };
     let h = 1e-3;
     eprintln!("  drift: 10-link chain, {secs} s, 4 formulations");
@@ -572,7 +572,7 @@ fn hard_sections(
     } else {
         &[1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12]
     };
-    let rows = constraint_verify::hard::jelly_hard_vs_soft(secs, ks);
+    let rows = constraint_report::hard::jelly_hard_vs_soft(secs, ks);
     let _ = writeln!(
         md,
         "![jelly volume error against run time](jelly_volume.svg)\n"

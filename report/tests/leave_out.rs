@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use constraint_verify::deps::{cargo, cargo_tree, has_package, packages};
+use constraint_report::deps::{cargo, cargo_tree, has_package, packages};
 
 const FORBIDDEN: [&str; 4] = [
     "constraint-lagrange",
