@@ -103,7 +103,9 @@
 //!   `friction`; softness ignored) as data.
 //! - `tendon`: `fixed` with `joint` children (`joint`, `coef`, hinge or slide joints),
 //!   `stiffness`, `damping`, `frictionloss`, `range` / `limited` (the joint rule),
-//!   `springlength`, `class`; visual and softness attributes ignored ([`Tendon`]).
+//!   `springlength`, `class`; `spatial` with the same attributes and `site` children
+//!   (`site`; at least two): straight segments between consecutive sites; visual and
+//!   softness attributes ignored ([`Tendon`]).
 //! - `equality`: `connect` (modelled; `body1`, `body2`, `anchor`, `active` only when
 //!   true), `joint` (`joint1`, `joint2`, `polycoef`), `tendon` (`tendon1`, `tendon2`,
 //!   `polycoef`) and `weld` (`body1`, `body2`, `anchor`, `relpose`, `torquescale`) as
@@ -122,7 +124,8 @@
 //!   than `nq` / `nv` / `nu` values are an error, and ball / free quaternions are
 //!   normalised (a zero quaternion becomes the identity).
 //! - Typed errors ([`MjcfError::UnsupportedFeature`], naming element and line): mesh and
-//!   sdf geoms (any geom naming a `mesh`), hfield geoms, spatial tendons, `frame`,
+//!   sdf geoms (any geom naming a `mesh`), hfield geoms, a spatial tendon's wrapping
+//!   `geom` and `pulley`, `frame`,
 //!   `extension` / plugins, the actuator features above, `springdamper`. Anything not
 //!   listed is [`MjcfError::Unsupported`] or [`MjcfError::UnsupportedAttribute`].
 //!

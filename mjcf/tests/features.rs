@@ -525,8 +525,18 @@ fn geom_contact_and_visual_data() {
         .is_empty());
 }
 
+/// Two bodies with sites `a` and `b` and a geom `g`, and a spatial tendon whose path
+/// is `path` (its path starts on line 7).
+fn spatial_path(path: &str) -> String {
+    format!(
+        "<mujoco><worldbody>\n<body><freejoint/><geom name=\"g\" size=\"0.1\"/><site name=\"a\"/></body>\n\
+         <body pos=\"1 0 0\"><freejoint/><geom size=\"0.1\"/><site name=\"b\"/></body>\n\
+         </worldbody>\n<tendon>\n<spatial>\n{path}</spatial></tendon></mujoco>"
+    )
+}
+
 #[test]
-fn mesh_hfield_and_spatial_tendons_are_named_unsupported_features() {
+fn mesh_hfield_and_tendon_wrapping_are_named_unsupported_features() {
     let cases = [
         (
             world("<body>\n<geom type=\"mesh\" mesh=\"m\"/></body>"),
@@ -548,10 +558,16 @@ fn mesh_hfield_and_spatial_tendons_are_named_unsupported_features() {
             "hfield geom",
         ),
         (
-            "<mujoco><tendon>\n<spatial><site site=\"a\"/></spatial></tendon></mujoco>".to_string(),
-            "spatial",
-            2,
-            "spatial tendon",
+            spatial_path("<site site=\"a\"/>\n<geom geom=\"g\"/><site site=\"b\"/>"),
+            "geom",
+            8,
+            "spatial tendon wrapping over a geom",
+        ),
+        (
+            spatial_path("<site site=\"a\"/>\n<pulley divisor=\"2\"/><site site=\"b\"/>"),
+            "pulley",
+            8,
+            "spatial tendon pulley",
         ),
     ];
     for (xml, element, line, what) in cases {
@@ -569,6 +585,51 @@ fn mesh_hfield_and_spatial_tendons_are_named_unsupported_features() {
             "{e}"
         );
     }
+}
+
+/// `tendon/spatial` (`tests/data/spatial_tendon.xml`): the path's sites in order, the
+/// attributes of fixed tendons (a default class's among them), an actuator on it; a
+/// path of one site and an unknown site are typed errors.
+#[test]
+fn spatial_tendons_keep_their_site_paths() {
+    let m = load_file(&data("spatial_tendon.xml")).expect("spatial_tendon.xml");
+    let names: Vec<&str> = m.sites.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, ["anchor", "ring", "knot"]);
+    let (t, slack) = (&m.tendons[0], &m.tendons[1]);
+    assert_eq!(
+        (t.name.as_str(), t.sites.as_slice()),
+        ("string", &[0, 1, 2][..])
+    );
+    assert!(t.joints.is_empty());
+    assert_eq!(
+        (t.stiffness, t.damping, t.limited, t.range, t.springlength),
+        (40.0, 0.5, true, [0.0, 0.9], [0.6, 0.6])
+    );
+    assert_eq!(slack.sites, [1, 2]);
+    assert_eq!(
+        (slack.stiffness, slack.damping, slack.limited),
+        (0.0, 0.0, false)
+    );
+    assert_eq!(m.actuators[0].target, Transmission::Tendon(0));
+    let one = spatial_path("<site site=\"a\"/>");
+    assert!(
+        matches!(fail(&one), MjcfError::Invalid { line: 6, .. }),
+        "{:?}",
+        fail(&one)
+    );
+    let unknown = spatial_path("<site site=\"a\"/><site site=\"nowhere\"/>");
+    assert!(
+        matches!(
+            fail(&unknown),
+            MjcfError::UnknownObject {
+                kind: "site",
+                line: 7,
+                ..
+            }
+        ),
+        "{:?}",
+        fail(&unknown)
+    );
 }
 
 #[test]
