@@ -87,9 +87,10 @@
 //!   `range[0] < range[1]` (ball: `range[0] = 0`); negative `damping`, `armature`,
 //!   `stiffness`, `frictionloss` are errors. `solreflimit`, `solimplimit`,
 //!   `solreffriction`, `solimpfriction`, `margin`, `group`, `user`, `actuatorfrcrange`,
-//!   `actuatorfrclimited` accepted and ignored; `springdamper` and `actuatorgravcomp`
-//!   only when off. A free joint sits on a child of the world; its anchor is the body
-//!   origin.
+//!   `actuatorfrclimited` accepted and ignored; `springdamper` (hinge and slide) sets
+//!   `stiffness` and `damping` from the inertia at `qpos0` as MuJoCo 4.0 does
+//!   (`springdamper.rs`); `actuatorgravcomp` only when off. A free joint sits on a
+//!   child of the world; its anchor is the body origin.
 //! - `freejoint`: `name`, `group`, `align` (`false` or `auto`).
 //! - `geom`: `type` (`sphere` default, `plane`, `box`, `capsule`, `cylinder`,
 //!   `ellipsoid`), `size`, `fromto` (capsule, cylinder, box, ellipsoid), `pos`, an
@@ -126,7 +127,8 @@
 //! - Typed errors ([`MjcfError::UnsupportedFeature`], naming element and line): mesh and
 //!   sdf geoms (any geom naming a `mesh`), hfield geoms, a spatial tendon's wrapping
 //!   `geom` and `pulley`, `frame`,
-//!   `extension` / plugins, the actuator features above, `springdamper`. Anything not
+//!   `extension` / plugins, the actuator features above, `springdamper` on a ball or
+//!   free joint. Anything not
 //!   listed is [`MjcfError::Unsupported`] or [`MjcfError::UnsupportedAttribute`].
 //!
 //! Soft-constraint tuning (`solref`, `solimp`, `solreflimit`, `solimplimit`,
@@ -179,6 +181,7 @@ mod math;
 pub mod model;
 mod orientation;
 mod parse;
+mod springdamper;
 mod xml;
 
 use std::path::Path;

@@ -124,6 +124,7 @@ pub(crate) fn load(
     }
     loader.check_moving_masses()?;
     loader.total_mass();
+    crate::springdamper::apply(&mut loader.model, &loader.springdampers)?;
     for n in of("contact") {
         loader.contact(n)?;
     }
@@ -214,6 +215,8 @@ struct Loader {
     tendon_names: BTreeMap<String, usize>,
     actuator_names: BTreeMap<String, usize>,
     equality_names: BTreeMap<String, usize>,
+    /// Joints with `springdamper` on: `(joint, [timeconst, dampratio])`.
+    springdampers: Vec<(usize, [f64; 2])>,
     key_names: BTreeMap<String, usize>,
     nq: usize,
     nv: usize,
@@ -313,6 +316,7 @@ impl Loader {
             tendon_names: BTreeMap::new(),
             actuator_names: BTreeMap::new(),
             equality_names: BTreeMap::new(),
+            springdampers: Vec::new(),
             key_names: BTreeMap::new(),
             nq: 0,
             nv: 0,
@@ -795,6 +799,12 @@ impl Loader {
         }
         let index = self.model.joints.len();
         register(&mut self.joint_names, el, index)?;
+        if let Some((sd, a)) = &data.springdamper {
+            if !matches!(data.kind, JointKind::Hinge | JointKind::Slide) {
+                return Err(a.feature("springdamper on a ball or free joint"));
+            }
+            self.springdampers.push((index, *sd));
+        }
         let (nq, nv) = match data.kind {
             JointKind::Hinge | JointKind::Slide => (1, 1),
             JointKind::Ball => (4, 3),

@@ -587,6 +587,40 @@ fn mesh_hfield_and_tendon_wrapping_are_named_unsupported_features() {
     }
 }
 
+/// `springdamper` (`tests/data/springdamper.xml`): stiffness and damping from the
+/// inertia at `qpos0` (`m = 1/(M⁻¹)_ii`, armature included), against MuJoCo 4.0.0's
+/// compiled `jnt_stiffness` and `dof_damping` of the same file; a joint without it
+/// keeps its own; negative values are errors.
+#[test]
+fn springdamper_sets_stiffness_and_damping_as_mujoco() {
+    let m = load_file(&data("springdamper.xml")).expect("springdamper.xml");
+    // MuJoCo 4.0.0 (`mujoco.MjModel.from_xml_path`, repr of jnt_stiffness, dof_damping).
+    let mujoco = [
+        (16.37781134764022, 8.025127560343705),
+        (38.63002965364612, 34.76702668828151),
+        (15.505197192100823, 1.4884989304416791),
+        (2.0, 3.0),
+    ];
+    let mut worst: f64 = 0.0;
+    for (j, (k, d)) in m.joints.iter().zip(mujoco) {
+        worst = worst
+            .max((j.stiffness - k).abs() / k)
+            .max((j.damping - d).abs() / d);
+    }
+    println!("springdamper vs MuJoCo: worst relative {worst:e}");
+    // measured 4.4e-16
+    assert!(worst < 1e-12, "relative error {worst:e}");
+    let e = fail(&world(
+        "<body><joint\n springdamper=\"-1 1\"/><geom size=\"1\"/></body>",
+    ));
+    assert!(matches!(e, MjcfError::BadValue { line: 4, .. }), "{e:?}");
+    // Off (a zero) keeps the written values.
+    let m = load(&world(
+        "<body><joint springdamper=\"0 1\" stiffness=\"3\"/><geom size=\"1\"/></body>",
+    ));
+    assert_eq!(m.joints[0].stiffness, 3.0);
+}
+
 /// `tendon/spatial` (`tests/data/spatial_tendon.xml`): the path's sites in order, the
 /// attributes of fixed tendons (a default class's among them), an actuator on it; a
 /// path of one site and an unknown site are typed errors.
