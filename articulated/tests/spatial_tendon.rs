@@ -187,3 +187,55 @@ fn an_equality_on_a_spatial_tendon_is_a_typed_error() {
         "{msg}"
     );
 }
+
+/// A motor on the string (`gear="2"`) pulls along the path as a spring of the same
+/// force would: one velocity-level step from the same state with the motor at
+/// `ctrl = u` (no spring) and with a unit spring whose rest length is `L₀ + 2u` (no
+/// control) gives the same state (both forces are explicit at the start of the step).
+#[test]
+fn a_motor_on_the_string_pulls_along_the_path() {
+    let l0 = 0.2f64.sqrt() + 0.35;
+    // u > 0: the rest length L₀ + 2u stays positive (a negative one means "the length
+    // at qpos0").
+    let u = 0.7;
+    let free = text().replace(
+        r#"<tendon stiffness="40" damping="0.5"/>"#,
+        r#"<tendon stiffness="0" damping="0"/>"#,
+    );
+    let spring = text()
+        .replace(
+            r#"<tendon stiffness="40" damping="0.5"/>"#,
+            r#"<tendon stiffness="1" damping="0"/>"#,
+        )
+        .replace(
+            r#"springlength="0.6""#,
+            &format!(r#"springlength="{:?}""#, l0 + 2.0 * u),
+        );
+    let (_, mut motor) = scene(&free);
+    motor.world.set_ctrl(0, u).expect("ctrl");
+    let (_, mut sprung) = scene(&spring);
+    assert_eq!(sprung.world.tendons()[0].stiffness, 1.0);
+    let (_, mut idle) = scene(&free);
+    let m = Method::Velocity { beta: 1.0 };
+    for w in [&mut motor.world, &mut sprung.world, &mut idle.world] {
+        w.step(0.002, m).expect("step");
+    }
+    let (mut diff, mut moved): (f64, f64) = (0.0, 0.0);
+    for ((a, b), c) in motor
+        .world
+        .bodies()
+        .iter()
+        .zip(sprung.world.bodies())
+        .zip(idle.world.bodies())
+    {
+        diff = diff
+            .max((a.v - b.v).length())
+            .max((a.omega - b.omega).length());
+        moved = moved.max((a.v - c.v).length());
+    }
+    println!("motor vs spring after one step: {diff:e} m/s (the motor changed v by {moved:e})");
+    // The motor acts (measured 5.3e-3 m/s against no control) ...
+    assert!(moved > 1e-3, "the motor did nothing: {moved:e}");
+    // ... exactly as the spring of the same force (measured 0).
+    assert!(diff < 1e-12, "motor vs spring: {diff:e} m/s");
+}
