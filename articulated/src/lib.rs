@@ -82,6 +82,6 @@ pub use mjcf::MjcfScene;
 #[cfg(feature = "contact")]
 pub use world::CollisionFilter;
 pub use world::{
-    Actuator, DofSpring, Equality, Fluid, GeometricStiffness, Method, RowSource, StepStats, Target,
-    Tendon, Terms, UnilateralSettings, UnilateralStats, World,
+    Actuator, DofSpring, Equality, Fluid, GeometricStiffness, Method, PathSite, RowSource,
+    SpatialTendon, StepStats, Target, Tendon, Terms, UnilateralSettings, UnilateralStats, World,
 };

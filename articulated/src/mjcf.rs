@@ -16,6 +16,8 @@
 //! | several joints | [`Compound`]: slides, then hinges whose lines meet in one point (up to three) or two hinges alone on skew lines ([`Compound::from_lines`]) |
 //! | `equality/connect` | [`Spherical`] between `body1` and `body2` at the anchor |
 //! | `equality/joint`, `equality/tendon` | a hard [`Equality`] row (`solref`/`solimp` not modelled) |
+//! | `tendon/fixed` | a [`Tendon`] over the joints' coordinates (spring, damping) |
+//! | `tendon/spatial` (sites only) | a [`SpatialTendon`] through the sites ([`World::add_spatial_tendon`]) |
 //! | tendon `range` (`limited`) | two one-sided rows, [`World::set_tendon_range`] |
 //! | `option/flag` `constraint`, `limit`, `equality`, `frictionloss`, `contact` `="disable"` | those rows left out (`constraint`: all of them), as in MuJoCo |
 //!
@@ -36,7 +38,7 @@ use constraint_mjcf::{JointKind as MjKind, Model, Transmission};
 use crate::body::RigidBody;
 use crate::error::ArticulatedError;
 use crate::joint::{Joint, JointKind};
-use crate::world::{Actuator, DofSpring, Equality, Target, Tendon, World};
+use crate::world::{Actuator, DofSpring, Equality, PathSite, SpatialTendon, Target, Tendon, World};
 
 /// A world built from an MJCF model, with the model's names and time step.
 #[derive(Clone, Debug)]
@@ -256,6 +258,7 @@ impl MjcfScene {
         }
         // Fixed tendons: MuJoCo's length is over its coordinates, ours plus `ref`; the
         // default spring length (−1) is the length at qpos0, where ours are all zero.
+        // Spatial tendons: the path's length, the same in both.
         let mut tendon_ref = Vec::with_capacity(model.tendons.len());
         for t in &model.tendons {
             let at = |e: String| scene_err(format!("tendon {:?} (line {}): {e}", t.name, t.line));
@@ -263,6 +266,11 @@ impl MjcfScene {
                 return Err(at(
                     "tendon frictionloss is not supported by the world yet".into()
                 ));
+            }
+            if !t.sites.is_empty() {
+                add_spatial(model, &mut world, t, &default_poses).map_err(|e| at(e.to_string()))?;
+                tendon_ref.push(0.0);
+                continue;
             }
             let mut terms = Vec::with_capacity(t.joints.len());
             let mut offset = 0.0;
@@ -441,6 +449,56 @@ impl MjcfScene {
     }
 }
 
+/// A `tendon/spatial` as a [`SpatialTendon`]: each site at its offset from its body's
+/// centre of mass (`pos − com` in the body frame; world sites at their position), the
+/// default spring length (`springlength` −1) the path's length at `qpos0` (the default
+/// poses), and its `range` (when `limited`) as one-sided rows on the length.
+fn add_spatial(
+    model: &Model,
+    world: &mut World,
+    t: &constraint_mjcf::Tendon,
+    default_poses: &[Pose],
+) -> Result<(), ArticulatedError> {
+    let mut path = Vec::with_capacity(t.sites.len());
+    for &k in &t.sites {
+        let site = model
+            .sites
+            .get(k)
+            .ok_or_else(|| scene_err(format!("site {k} does not exist")))?;
+        let offset = match site.body {
+            Some(b) => v3(site.pos) - v3(model.bodies[b].com),
+            None => v3(site.pos),
+        };
+        path.push(PathSite {
+            body: site.body,
+            offset,
+        });
+    }
+    let point = |s: &PathSite| {
+        s.body
+            .map_or(s.offset, |b| default_poses[b].point(s.offset))
+    };
+    let length0: f64 = path
+        .windows(2)
+        .map(|w| (point(&w[1]) - point(&w[0])).length())
+        .sum();
+    let rest_length = if t.springlength[0] < 0.0 {
+        length0
+    } else {
+        t.springlength[0]
+    };
+    let wt = world.add_spatial_tendon(SpatialTendon {
+        path,
+        stiffness: t.stiffness,
+        damping: t.damping,
+        rest_length,
+    })?;
+    if t.limited && !model.options.disabled("limit") {
+        world.set_tendon_range(wt, t.range[0], t.range[1])?;
+    }
+    Ok(())
+}
+
 /// The active `equality/joint` and `equality/tendon` elements as hard [`Equality`] rows:
 /// `q₁ − q₁₀ = P(q₂ − q₂₀)` over MuJoCo's coordinates, which are ours plus `ref`
 /// (`q₀ = ref`), so `q₁ = P(q₂)` over ours; tendon lengths likewise (`L − L₀` is ours,
@@ -496,6 +554,12 @@ fn add_equalities(
             return Err(at(&"tendon1 and tendon2 are the same tendon"));
         }
         let side = |t: usize| {
+            if !world.tendon_path(t).is_empty() {
+                return Err(at(&format!(
+                    "tendon {:?} is spatial: an equality on a spatial tendon is not supported",
+                    model.tendons.get(t).map_or("?", |t| t.name.as_str())
+                )));
+            }
             let terms = world.tendons().get(t).map(|t| t.terms.clone());
             match terms {
                 Some(terms) if !terms.is_empty() => Ok(terms),

@@ -31,6 +31,8 @@ pub(crate) struct JointSpec {
     springref: f64,
     frictionloss: f64,
     reference: f64,
+    /// `springdamper` (time constant, damping ratio) and where it was written.
+    springdamper: Option<([f64; 2], Attr)>,
 }
 
 impl Default for JointSpec {
@@ -48,6 +50,7 @@ impl Default for JointSpec {
             springref: 0.0,
             frictionloss: 0.0,
             reference: 0.0,
+            springdamper: None,
         }
     }
 }
@@ -65,6 +68,9 @@ pub(crate) struct JointData {
     pub springref: f64,
     pub frictionloss: f64,
     pub reference: f64,
+    /// `springdamper` when both numbers are positive (it then overrides `stiffness`
+    /// and `damping`, `crate::springdamper`), with its attribute.
+    pub springdamper: Option<([f64; 2], Attr)>,
 }
 
 /// Attributes accepted and ignored on `joint`: visual, user data, and the softness of
@@ -122,12 +128,14 @@ impl JointSpec {
             "frictionloss" => self.frictionloss = a.non_negative()?,
             "ref" => self.reference = a.scalar()?,
             "springref" => self.springref = a.scalar()?,
-            // Stiffness and damping set from the mass matrix at compile time.
+            // Stiffness and damping set from the mass matrix at qpos0
+            // (`crate::springdamper`), when both numbers are positive.
             "springdamper" => {
                 let v: [f64; 2] = a.exact()?;
-                if v != [0.0, 0.0] {
-                    return Err(a.feature("joint springdamper"));
+                if v[0] < 0.0 || v[1] < 0.0 {
+                    return Err(a.bad("must not be negative"));
                 }
+                self.springdamper = (v[0] > 0.0 && v[1] > 0.0).then(|| (v, a.clone()));
             }
             "actuatorgravcomp" => {
                 if a.boolean()? {
@@ -229,6 +237,7 @@ impl JointSpec {
             springref,
             frictionloss: self.frictionloss,
             reference,
+            springdamper: self.springdamper.clone(),
         })
     }
 }

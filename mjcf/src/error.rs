@@ -122,13 +122,13 @@ pub enum MjcfError {
         line: u32,
     },
     /// A MuJoCo feature this loader recognises but does not model (meshes, height
-    /// fields, spatial tendons, frames, actuator dynamics, ...).
+    /// fields, tendon wrapping, frames, actuator dynamics, ...).
     UnsupportedFeature {
         /// Element name.
         element: String,
         /// 1-based line.
         line: u32,
-        /// What is not supported, e.g. `"spatial tendon"`.
+        /// What is not supported, e.g. `"mesh geom"`.
         feature: String,
     },
     /// An `<include>` that cannot be followed: missing file, cycle, no base directory,

@@ -87,9 +87,10 @@
 //!   `range[0] < range[1]` (ball: `range[0] = 0`); negative `damping`, `armature`,
 //!   `stiffness`, `frictionloss` are errors. `solreflimit`, `solimplimit`,
 //!   `solreffriction`, `solimpfriction`, `margin`, `group`, `user`, `actuatorfrcrange`,
-//!   `actuatorfrclimited` accepted and ignored; `springdamper` and `actuatorgravcomp`
-//!   only when off. A free joint sits on a child of the world; its anchor is the body
-//!   origin.
+//!   `actuatorfrclimited` accepted and ignored; `springdamper` (hinge and slide) sets
+//!   `stiffness` and `damping` from the inertia at `qpos0` as MuJoCo 4.0 does
+//!   (`springdamper.rs`); `actuatorgravcomp` only when off. A free joint sits on a
+//!   child of the world; its anchor is the body origin.
 //! - `freejoint`: `name`, `group`, `align` (`false` or `auto`).
 //! - `geom`: `type` (`sphere` default, `plane`, `box`, `capsule`, `cylinder`,
 //!   `ellipsoid`), `size`, `fromto` (capsule, cylinder, box, ellipsoid), `pos`, an
@@ -103,7 +104,9 @@
 //!   `friction`; softness ignored) as data.
 //! - `tendon`: `fixed` with `joint` children (`joint`, `coef`, hinge or slide joints),
 //!   `stiffness`, `damping`, `frictionloss`, `range` / `limited` (the joint rule),
-//!   `springlength`, `class`; visual and softness attributes ignored ([`Tendon`]).
+//!   `springlength`, `class`; `spatial` with the same attributes and `site` children
+//!   (`site`; at least two): straight segments between consecutive sites; visual and
+//!   softness attributes ignored ([`Tendon`]).
 //! - `equality`: `connect` (modelled; `body1`, `body2`, `anchor`, `active` only when
 //!   true), `joint` (`joint1`, `joint2`, `polycoef`), `tendon` (`tendon1`, `tendon2`,
 //!   `polycoef`) and `weld` (`body1`, `body2`, `anchor`, `relpose`, `torquescale`) as
@@ -122,8 +125,10 @@
 //!   than `nq` / `nv` / `nu` values are an error, and ball / free quaternions are
 //!   normalised (a zero quaternion becomes the identity).
 //! - Typed errors ([`MjcfError::UnsupportedFeature`], naming element and line): mesh and
-//!   sdf geoms (any geom naming a `mesh`), hfield geoms, spatial tendons, `frame`,
-//!   `extension` / plugins, the actuator features above, `springdamper`. Anything not
+//!   sdf geoms (any geom naming a `mesh`), hfield geoms, a spatial tendon's wrapping
+//!   `geom` and `pulley`, `frame`,
+//!   `extension` / plugins, the actuator features above, `springdamper` on a ball or
+//!   free joint. Anything not
 //!   listed is [`MjcfError::Unsupported`] or [`MjcfError::UnsupportedAttribute`].
 //!
 //! Soft-constraint tuning (`solref`, `solimp`, `solreflimit`, `solimplimit`,
@@ -176,6 +181,7 @@ mod math;
 pub mod model;
 mod orientation;
 mod parse;
+mod springdamper;
 mod xml;
 
 use std::path::Path;

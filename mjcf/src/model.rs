@@ -26,7 +26,7 @@ pub struct Model {
     pub keyframes: Vec<Keyframe>,
     /// Actuators in document order (MuJoCo's general form, see [`Actuator`]).
     pub actuators: Vec<Actuator>,
-    /// Fixed tendons in document order.
+    /// Tendons (fixed and spatial) in document order.
     pub tendons: Vec<Tendon>,
     /// `equality/joint` constraints in document order.
     pub joint_equalities: Vec<JointEquality>,
@@ -129,7 +129,7 @@ pub enum ActuatorKind {
 pub enum Transmission {
     /// A joint (index in [`Model::joints`]); `length` is its coordinate times the gear.
     Joint(usize),
-    /// A fixed tendon (index in [`Model::tendons`]).
+    /// A tendon (index in [`Model::tendons`]).
     Tendon(usize),
 }
 
@@ -164,13 +164,18 @@ pub struct Actuator {
     pub line: u32,
 }
 
-/// `tendon/fixed`: a linear combination of joint coordinates, `length = Σ coef·q`.
+/// `tendon/fixed`: a linear combination of joint coordinates, `length = Σ coef·q`;
+/// `tendon/spatial`: a path through sites, `length = Σ_k |p_{k+1} − p_k|` (straight
+/// segments between consecutive sites; wrapping is not read).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tendon {
     /// `name` or `tendon<i>`.
     pub name: String,
-    /// `(joint index, coef)` in document order.
+    /// `(joint index, coef)` in document order (empty for a spatial tendon).
     pub joints: Vec<(usize, f64)>,
+    /// A spatial tendon's path: site indices ([`Model::sites`]) in document order, at
+    /// least two (empty for a fixed tendon).
+    pub sites: Vec<usize>,
     /// `stiffness` (default 0).
     pub stiffness: f64,
     /// `damping` (default 0).

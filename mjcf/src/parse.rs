@@ -124,6 +124,7 @@ pub(crate) fn load(
     }
     loader.check_moving_masses()?;
     loader.total_mass();
+    crate::springdamper::apply(&mut loader.model, &loader.springdampers)?;
     for n in of("contact") {
         loader.contact(n)?;
     }
@@ -214,6 +215,8 @@ struct Loader {
     tendon_names: BTreeMap<String, usize>,
     actuator_names: BTreeMap<String, usize>,
     equality_names: BTreeMap<String, usize>,
+    /// Joints with `springdamper` on: `(joint, [timeconst, dampratio])`.
+    springdampers: Vec<(usize, [f64; 2])>,
     key_names: BTreeMap<String, usize>,
     nq: usize,
     nv: usize,
@@ -313,6 +316,7 @@ impl Loader {
             tendon_names: BTreeMap::new(),
             actuator_names: BTreeMap::new(),
             equality_names: BTreeMap::new(),
+            springdampers: Vec::new(),
             key_names: BTreeMap::new(),
             nq: 0,
             nv: 0,
@@ -795,6 +799,12 @@ impl Loader {
         }
         let index = self.model.joints.len();
         register(&mut self.joint_names, el, index)?;
+        if let Some((sd, a)) = &data.springdamper {
+            if !matches!(data.kind, JointKind::Hinge | JointKind::Slide) {
+                return Err(a.feature("springdamper on a ball or free joint"));
+            }
+            self.springdampers.push((index, *sd));
+        }
         let (nq, nv) = match data.kind {
             JointKind::Hinge | JointKind::Slide => (1, 1),
             JointKind::Ball => (4, 3),
@@ -1056,11 +1066,11 @@ impl Loader {
         node.el.only(&[])?;
         for child in node.elements() {
             let el = &child.el;
-            match el.name.as_str() {
-                "fixed" => {}
-                "spatial" => return Err(el.feature("spatial tendon")),
+            let spatial = match el.name.as_str() {
+                "fixed" => false,
+                "spatial" => true,
                 _ => return Err(el.unsupported()),
-            }
+            };
             let class = self.class_of(el, 0)?;
             let mut stiffness = 0.0;
             let mut damping = 0.0;
@@ -1130,7 +1140,11 @@ impl Loader {
                 return Err(el.invalid("range[0] should be smaller than range[1] in tendon"));
             }
             let mut joints = Vec::new();
-            for j in child.elements() {
+            let mut sites = Vec::new();
+            if spatial {
+                sites = self.tendon_path(child)?;
+            }
+            for j in child.elements().filter(|_| !spatial) {
                 let je = &j.el;
                 if je.name != "joint" {
                     return Err(je.unsupported());
@@ -1147,7 +1161,7 @@ impl Loader {
                 let coef = je.require("coef")?.scalar()?;
                 joints.push((joint, coef));
             }
-            if joints.is_empty() {
+            if joints.is_empty() && !spatial {
                 return Err(el.invalid("fixed tendon needs at least one joint"));
             }
             let index = self.model.tendons.len();
@@ -1155,6 +1169,7 @@ impl Loader {
             self.model.tendons.push(Tendon {
                 name: name_or(el, "tendon", index),
                 joints,
+                sites,
                 stiffness,
                 damping,
                 frictionloss,
@@ -1165,6 +1180,29 @@ impl Loader {
             });
         }
         Ok(())
+    }
+
+    /// The path of a `tendon/spatial`: its `site` children in order (at least two).
+    /// Wrapping over a `geom` and `pulley` branches are named unsupported features.
+    fn tendon_path(&self, node: &XNode) -> Result<Vec<usize>, MjcfError> {
+        let el = &node.el;
+        let mut sites = Vec::new();
+        for p in node.elements() {
+            let pe = &p.el;
+            match pe.name.as_str() {
+                "site" => {}
+                "geom" => return Err(pe.feature("spatial tendon wrapping over a geom")),
+                "pulley" => return Err(pe.feature("spatial tendon pulley")),
+                _ => return Err(pe.unsupported()),
+            }
+            no_children(p)?;
+            pe.only(&["site"])?;
+            sites.push(lookup(&self.site_names, pe.require("site")?, "site")?);
+        }
+        if sites.len() < 2 {
+            return Err(el.invalid("spatial tendon needs at least two sites"));
+        }
+        Ok(sites)
     }
 
     fn equality(&mut self, node: &XNode) -> Result<(), MjcfError> {

@@ -525,8 +525,18 @@ fn geom_contact_and_visual_data() {
         .is_empty());
 }
 
+/// Two bodies with sites `a` and `b` and a geom `g`, and a spatial tendon whose path
+/// is `path` (its path starts on line 7).
+fn spatial_path(path: &str) -> String {
+    format!(
+        "<mujoco><worldbody>\n<body><freejoint/><geom name=\"g\" size=\"0.1\"/><site name=\"a\"/></body>\n\
+         <body pos=\"1 0 0\"><freejoint/><geom size=\"0.1\"/><site name=\"b\"/></body>\n\
+         </worldbody>\n<tendon>\n<spatial>\n{path}</spatial></tendon></mujoco>"
+    )
+}
+
 #[test]
-fn mesh_hfield_and_spatial_tendons_are_named_unsupported_features() {
+fn mesh_hfield_and_tendon_wrapping_are_named_unsupported_features() {
     let cases = [
         (
             world("<body>\n<geom type=\"mesh\" mesh=\"m\"/></body>"),
@@ -548,10 +558,16 @@ fn mesh_hfield_and_spatial_tendons_are_named_unsupported_features() {
             "hfield geom",
         ),
         (
-            "<mujoco><tendon>\n<spatial><site site=\"a\"/></spatial></tendon></mujoco>".to_string(),
-            "spatial",
-            2,
-            "spatial tendon",
+            spatial_path("<site site=\"a\"/>\n<geom geom=\"g\"/><site site=\"b\"/>"),
+            "geom",
+            8,
+            "spatial tendon wrapping over a geom",
+        ),
+        (
+            spatial_path("<site site=\"a\"/>\n<pulley divisor=\"2\"/><site site=\"b\"/>"),
+            "pulley",
+            8,
+            "spatial tendon pulley",
         ),
     ];
     for (xml, element, line, what) in cases {
@@ -569,6 +585,85 @@ fn mesh_hfield_and_spatial_tendons_are_named_unsupported_features() {
             "{e}"
         );
     }
+}
+
+/// `springdamper` (`tests/data/springdamper.xml`): stiffness and damping from the
+/// inertia at `qpos0` (`m = 1/(M⁻¹)_ii`, armature included), against MuJoCo 4.0.0's
+/// compiled `jnt_stiffness` and `dof_damping` of the same file; a joint without it
+/// keeps its own; negative values are errors.
+#[test]
+fn springdamper_sets_stiffness_and_damping_as_mujoco() {
+    let m = load_file(&data("springdamper.xml")).expect("springdamper.xml");
+    // MuJoCo 4.0.0 (`mujoco.MjModel.from_xml_path`, repr of jnt_stiffness, dof_damping).
+    let mujoco = [
+        (16.37781134764022, 8.025127560343705),
+        (38.63002965364612, 34.76702668828151),
+        (15.505197192100823, 1.4884989304416791),
+        (2.0, 3.0),
+    ];
+    let mut worst: f64 = 0.0;
+    for (j, (k, d)) in m.joints.iter().zip(mujoco) {
+        worst = worst
+            .max((j.stiffness - k).abs() / k)
+            .max((j.damping - d).abs() / d);
+    }
+    println!("springdamper vs MuJoCo: worst relative {worst:e}");
+    // measured 4.4e-16
+    assert!(worst < 1e-12, "relative error {worst:e}");
+    let e = fail(&world(
+        "<body><joint\n springdamper=\"-1 1\"/><geom size=\"1\"/></body>",
+    ));
+    assert!(matches!(e, MjcfError::BadValue { line: 4, .. }), "{e:?}");
+    // Off (a zero) keeps the written values.
+    let m = load(&world(
+        "<body><joint springdamper=\"0 1\" stiffness=\"3\"/><geom size=\"1\"/></body>",
+    ));
+    assert_eq!(m.joints[0].stiffness, 3.0);
+}
+
+/// `tendon/spatial` (`tests/data/spatial_tendon.xml`): the path's sites in order, the
+/// attributes of fixed tendons (a default class's among them), an actuator on it; a
+/// path of one site and an unknown site are typed errors.
+#[test]
+fn spatial_tendons_keep_their_site_paths() {
+    let m = load_file(&data("spatial_tendon.xml")).expect("spatial_tendon.xml");
+    let names: Vec<&str> = m.sites.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, ["anchor", "ring", "knot"]);
+    let (t, slack) = (&m.tendons[0], &m.tendons[1]);
+    assert_eq!(
+        (t.name.as_str(), t.sites.as_slice()),
+        ("string", &[0, 1, 2][..])
+    );
+    assert!(t.joints.is_empty());
+    assert_eq!(
+        (t.stiffness, t.damping, t.limited, t.range, t.springlength),
+        (40.0, 0.5, true, [0.0, 0.9], [0.6, 0.6])
+    );
+    assert_eq!(slack.sites, [1, 2]);
+    assert_eq!(
+        (slack.stiffness, slack.damping, slack.limited),
+        (0.0, 0.0, false)
+    );
+    assert_eq!(m.actuators[0].target, Transmission::Tendon(0));
+    let one = spatial_path("<site site=\"a\"/>");
+    assert!(
+        matches!(fail(&one), MjcfError::Invalid { line: 6, .. }),
+        "{:?}",
+        fail(&one)
+    );
+    let unknown = spatial_path("<site site=\"a\"/><site site=\"nowhere\"/>");
+    assert!(
+        matches!(
+            fail(&unknown),
+            MjcfError::UnknownObject {
+                kind: "site",
+                line: 7,
+                ..
+            }
+        ),
+        "{:?}",
+        fail(&unknown)
+    );
 }
 
 #[test]

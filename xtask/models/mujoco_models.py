@@ -11,8 +11,9 @@ N = round(duration / timestep) steps at the file's step and integrator:
   * `passive`: from the default pose (qpos0, zero velocity) with zero control, T s;
   * `perturbed`: zero control, T s, from qpos0 plus a seeded perturbation of every hinge
     (uniform in +-0.2 rad) and slide (+-0.02 m) coordinate, kept inside the joint's range
-    shrunk by a tenth of its width, and a seeded velocity of those dofs (+-0.2 rad/s or
-    m/s); free and ball joints keep qpos0 and zero velocity. The state is written to the
+    shrunk by a tenth of its width (offsets from qpos0 halved until every limited
+    tendon's length is inside its range), and a seeded velocity of those dofs (+-0.2
+    rad/s or m/s); free and ball joints keep qpos0 and zero velocity. The state is written to the
     row (`qpos`, `qvel`, comma-separated repr, MuJoCo's order) for the other engine;
   * `controlled` (models with actuators): from qpos0 under a seeded control
     sequence, a new value every 0.05 s (zero-order hold) uniform in the actuator's
@@ -87,7 +88,29 @@ def perturbed_state(m, rng):
             q = min(max(q, lo + pad), hi - pad)
         qpos[a] = q
         qvel[v] = rng.uniform(-amp, amp)
+    # A limited tendon must start inside its range too (ball_in_cup's string): halve
+    # the position offsets from qpos0 until every limited tendon length is (no new
+    # draws, so the other models' states do not change).
+    base = np.array(m.qpos0, dtype=float)
+    for _ in range(40):
+        if tendons_inside(m, qpos):
+            break
+        qpos = base + 0.5 * (qpos - base)
     return qpos, qvel
+
+
+def tendons_inside(m, qpos):
+    """Whether every limited tendon's length at qpos lies inside its range."""
+    if m.ntendon == 0 or not np.any(m.tendon_limited):
+        return True
+    d = mujoco.MjData(m)
+    d.qpos[:] = qpos
+    mujoco.mj_forward(m, d)
+    for t in range(m.ntendon):
+        lo, hi = float(m.tendon_range[t][0]), float(m.tendon_range[t][1])
+        if m.tendon_limited[t] and not lo <= float(d.ten_length[t]) <= hi:
+            return False
+    return True
 
 
 def control_sequence(m, rng, duration):

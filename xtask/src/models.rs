@@ -772,11 +772,12 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64, ctrl_seconds:
          gymnasium {GYMNASIUM_VERSION} and dm_control {DM_CONTROL_VERSION} models, MuJoCo {}, \
          at the file's time step. Cases: **passive** {seconds} s from the default pose with \
          zero control; **perturbed** {seconds} s, zero control, from qpos0 plus a seeded \
-         perturbation (hinges ±0.2 rad, slides ±0.02 m, inside their ranges; those dofs' \
-         velocities ±0.2), the same state given to both engines with `--qpos/--qvel`; \
-         **controlled** {ctrl_seconds} s from qpos0 under one seeded control sequence (a new \
-         value every 0.05 s, uniform in ctrlrange; `target/models/work/*.ctrl.csv`). \
-         MuJoCo: `mujoco.rollout` (its C loop, one thread), median of the repeats; counts \
+         perturbation (hinges ±0.2 rad, slides ±0.02 m, inside their ranges, limited \
+         tendons inside theirs; those dofs' velocities ±0.2), the same state given to both \
+         engines with `--qpos/--qvel`; **controlled** {ctrl_seconds} s from qpos0 under one \
+         seeded control sequence (a new value every 0.05 s, uniform in ctrlrange; \
+         `target/models/work/*.ctrl.csv`). MuJoCo: `mujoco.rollout` (its C loop, one \
+         thread), median of the repeats; counts \
          are MuJoCo's (nbody includes the world body); contacts and limits: most at any step \
          of the perturbed run. Ours: the `simulate` binary (release, default method); \
          \"loads\" means a zero-length run succeeded, the reason is its one-line error. \

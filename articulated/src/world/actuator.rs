@@ -34,13 +34,15 @@ pub enum Target {
         /// Its degree of freedom.
         dof: usize,
     },
-    /// A fixed tendon ([`World::add_tendon`]).
+    /// A tendon ([`World::add_tendon`], [`World::add_spatial_tendon`]).
     Tendon(usize),
 }
 
 /// A fixed tendon (MuJoCo's `tendon/fixed`): the length `L = Σ c_i q_i` over joint
 /// coordinates, with a spring `−k (L − L₀)` and viscous damping `−d L̇`, both as
-/// generalized forces `c_i τ` on its coordinates (explicit).
+/// generalized forces `c_i τ` on its coordinates (explicit). A spatial tendon
+/// ([`World::add_spatial_tendon`]) is one with a path as well, whose length adds to
+/// the sum and whose force acts through the path (`world/spatial_tendon.rs`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tendon {
     /// `(joint, dof, coefficient)` terms.
@@ -246,8 +248,10 @@ impl World {
         let tendons: f64 = self
             .tendons
             .iter()
-            .map(|t| {
-                let l: f64 = t.terms.iter().map(|&(j, d, c)| c * q(j, d)).sum();
+            .enumerate()
+            .map(|(ti, t)| {
+                let l: f64 = t.terms.iter().map(|&(j, d, c)| c * q(j, d)).sum::<f64>()
+                    + self.path_state(ti).0;
                 0.5 * t.stiffness * (l - t.rest_length) * (l - t.rest_length)
             })
             .sum();
@@ -300,13 +304,16 @@ impl World {
 
     /// The generalized force on every degree of freedom at the current state
     /// (actuators, joint springs, tendons) into `tau`, with the coordinate table into
-    /// `coords` (both reused buffers); `false` when nothing acts.
+    /// `coords`, and the force along each spatial tendon's path into `path_f` (empty
+    /// without paths; all reused buffers); `false` when nothing acts.
     fn generalized_forces(
         &self,
         tau: &mut Vec<[f64; MAX_DOF]>,
         coords: &mut Vec<Option<DofState>>,
+        path_f: &mut Vec<f64>,
         part: ForcePart,
     ) -> bool {
+        path_f.clear();
         if self.actuators.is_empty() && self.springs.is_empty() && self.tendons.is_empty() {
             return false;
         }
@@ -315,16 +322,24 @@ impl World {
         let q = |j: usize, d: usize| coords[j].as_ref().map_or((0.0, 0.0), |c| (c.0[d], c.1[d]));
         tau.clear();
         tau.resize(self.joints.len(), [0.0; MAX_DOF]);
-        let tendon_state = |t: &Tendon| {
-            t.terms.iter().fold((0.0, 0.0), |(l, ld), &(j, d, c)| {
-                let (qj, qdj) = q(j, d);
-                (l + c * qj, ld + c * qdj)
-            })
+        if self.paths.any() {
+            path_f.resize(self.tendons.len(), 0.0);
+        }
+        // A tendon's length and rate: its joint terms' and its path's.
+        let tendon_state = |ti: usize| {
+            let (lp, rp) = self.path_state(ti);
+            self.tendons[ti]
+                .terms
+                .iter()
+                .fold((lp, rp), |(l, ld), &(j, d, c)| {
+                    let (qj, qdj) = q(j, d);
+                    (l + c * qj, ld + c * qdj)
+                })
         };
         for (act, &u) in self.actuators.iter().zip(&self.ctrl) {
             let (len, vel) = match act.target {
                 Target::Dof { joint, dof } => q(joint, dof),
-                Target::Tendon(t) => tendon_state(&self.tendons[t]),
+                Target::Tendon(t) => tendon_state(t),
             };
             let u = act.ctrl_range.map_or(u, |[lo, hi]| u.min(hi).max(lo));
             let clamp = |s: f64| act.force_range.map_or(s, |[lo, hi]| s.min(hi).max(lo));
@@ -342,6 +357,9 @@ impl World {
                     for &(j, d, c) in &self.tendons[t].terms {
                         tau[j][d] += act.gear * s * c;
                     }
+                    if let Some(f) = path_f.get_mut(t) {
+                        *f += act.gear * s;
+                    }
                 }
             }
         }
@@ -350,11 +368,11 @@ impl World {
                 tau[s.joint][s.dof] -= s.stiffness * (q(s.joint, s.dof).0 - s.reference);
             }
         }
-        for t in &self.tendons {
+        for (ti, t) in self.tendons.iter().enumerate() {
             if t.stiffness == 0.0 && t.damping == 0.0 {
                 continue;
             }
-            let (l, ld) = tendon_state(t);
+            let (l, ld) = tendon_state(ti);
             let f = match part {
                 ForcePart::Full => -t.stiffness * (l - t.rest_length) - t.damping * ld,
                 ForcePart::Position => -t.stiffness * (l - t.rest_length),
@@ -362,6 +380,9 @@ impl World {
             };
             for &(j, d, c) in &t.terms {
                 tau[j][d] += c * f;
+            }
+            if let Some(p) = path_f.get_mut(ti) {
+                *p += f;
             }
         }
         true
@@ -388,8 +409,12 @@ impl World {
     pub(super) fn add_dof_forces_part(&mut self, scale: f64, part: ForcePart) {
         let mut tau = core::mem::take(&mut self.dof_tau);
         let mut coords = core::mem::take(&mut self.dof_table);
-        if self.generalized_forces(&mut tau, &mut coords, part) {
+        let mut path_f = core::mem::take(&mut self.paths.force);
+        let any = self.generalized_forces(&mut tau, &mut coords, &mut path_f, part);
+        self.paths.force = path_f;
+        if any {
             self.apply_dof_impulses(&tau, &coords, scale);
+            self.apply_path_forces(scale, None);
         }
         self.dof_tau = tau;
         self.dof_table = coords;
@@ -429,7 +454,9 @@ impl World {
     pub(super) fn dof_wrenches(&mut self, f: &mut Vec<(DVec3, DVec3)>) -> bool {
         let mut tau = core::mem::take(&mut self.dof_tau);
         let mut coords = core::mem::take(&mut self.dof_table);
-        let any = self.generalized_forces(&mut tau, &mut coords, ForcePart::Full);
+        let mut path_f = core::mem::take(&mut self.paths.force);
+        let any = self.generalized_forces(&mut tau, &mut coords, &mut path_f, ForcePart::Full);
+        self.paths.force = path_f;
         if any {
             f.clear();
             f.resize(self.bodies.len(), (DVec3::ZERO, DVec3::ZERO));
@@ -448,6 +475,7 @@ impl World {
                     f[child].1 += rows[k][3] * t;
                 }
             }
+            self.apply_path_forces(1.0, Some(f.as_mut_slice()));
         }
         self.dof_tau = tau;
         self.dof_table = coords;

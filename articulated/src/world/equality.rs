@@ -44,7 +44,8 @@
 //! [`StepStats::equality_fallbacks`] — the rows are always enforced, never skipped.
 //!
 //! A tendon range `lo ≤ L ≤ hi` gives two one-sided rows `L − lo ≥ 0`, `hi − L ≥ 0`
-//! with the Jacobian `±Σ c_i G_i`, solved in the complementarity problem with the
+//! with the Jacobian `±Σ c_i G_i` (plus a spatial tendon's path rows,
+//! `world/spatial_tendon.rs`), solved in the complementarity problem with the
 //! joint limits and contacts ([`RowSource::TendonLimit`]).
 
 use alloc::vec::Vec;
@@ -262,8 +263,10 @@ impl World {
         let Some(t) = self.tendons.get(tendon) else {
             return Err(bad("unknown tendon"));
         };
-        if t.terms.is_empty() {
-            return Err(bad("a tendon with no joints has no length to limit"));
+        if t.terms.is_empty() && self.tendon_path(tendon).is_empty() {
+            return Err(bad(
+                "a tendon with no joints and no path has no length to limit",
+            ));
         }
         if lower.is_nan() || upper.is_nan() || lower > upper {
             return Err(bad("limits need lower <= upper (no NaN)"));
@@ -292,9 +295,12 @@ impl World {
         (l, self.span_rate(&spans.segs))
     }
 
-    /// Tendon `t`'s length and rate at the current state (`None`: unknown tendon).
+    /// Tendon `t`'s length and rate at the current state, its joint terms' and its
+    /// path's ([`World::add_spatial_tendon`]) together (`None`: unknown tendon).
     pub fn tendon_length(&self, t: usize) -> Option<(f64, f64)> {
-        self.tendons.get(t).map(|t| self.coordinate_sum(&t.terms))
+        let (l, rate) = self.coordinate_sum(&self.tendons.get(t)?.terms);
+        let (lp, rp) = self.path_state(t);
+        Some((l + lp, rate + rp))
     }
 
     /// Equality `i`'s value `C` and its rate `J v` through the row's Jacobian at the
@@ -320,7 +326,7 @@ impl World {
     }
 
     /// `Σ c G v` over segments, with the body twists.
-    fn span_rate(&self, segs: &[Seg]) -> f64 {
+    pub(super) fn span_rate(&self, segs: &[Seg]) -> f64 {
         segs.iter()
             .map(|(a, b, g)| {
                 let tw = |i: Option<usize>| {
@@ -502,7 +508,7 @@ impl World {
             let Some([lo, hi]) = self.tendon_ranges.get(ti).copied().flatten() else {
                 continue;
             };
-            let l = self.sum_value(&t.terms);
+            let l = self.sum_value(&t.terms) + self.path_state(ti).0;
             worst = worst.max(lo - l).max(l - hi);
         }
         worst
@@ -520,11 +526,12 @@ impl World {
             let Some([lo, hi]) = self.tendon_ranges.get(ti).copied().flatten() else {
                 continue;
             };
-            let l = self.sum_value(&t.terms);
+            let l = self.sum_value(&t.terms) + self.path_state(ti).0;
             for (c, sign) in [(l - lo, 1.0), (hi - l, -1.0)] {
                 if c < 0.0 {
                     let start = eq.spans.segs.len();
                     self.push_sum(&mut eq.spans.segs, &t.terms, sign);
+                    self.push_path(&mut eq.spans.segs, ti, sign);
                     eq.spans.ranges.push((start, eq.spans.segs.len()));
                     eq.value.push(c);
                     eq.rhs.push(-c);
@@ -547,7 +554,8 @@ impl World {
             let range = self.tendon_ranges.get(ti).copied().flatten();
             let mut l = 0.0;
             if range.is_some() {
-                l = self.push_sum(&mut spans.segs, &t.terms, 1.0);
+                l = self.push_sum(&mut spans.segs, &t.terms, 1.0)
+                    + self.push_path(&mut spans.segs, ti, 1.0);
             }
             spans.ranges.push((lo, spans.segs.len()));
             let Some([lower, upper]) = range else {

@@ -44,6 +44,7 @@ mod equality;
 mod fluid;
 mod projection;
 mod rattle;
+mod spatial_tendon;
 mod stages;
 mod unilateral;
 mod velocity;
@@ -54,6 +55,7 @@ pub use actuator::{Actuator, DofSpring, Target, Tendon};
 pub use contact::CollisionFilter;
 pub use equality::{Equality, Terms};
 pub use fluid::Fluid;
+pub use spatial_tendon::{PathSite, SpatialTendon};
 pub use unilateral::{RowSource, UnilateralSettings, UnilateralStats};
 
 /// Largest rotation of a body in one RATTLE drift (rad) before the step is redone at
@@ -242,8 +244,10 @@ pub struct World {
     ctrl: Vec<f64>,
     /// Joint springs.
     springs: Vec<DofSpring>,
-    /// Fixed tendons.
+    /// Tendons (fixed; spatial ones have a path in `paths` too).
     tendons: Vec<Tendon>,
+    /// The spatial tendons' paths and the scratch of their forces.
+    paths: spatial_tendon::Paths,
     /// Length limits per tendon (shorter than `tendons` when the last have none).
     tendon_ranges: Vec<Option<[f64; 2]>>,
     /// Equality rows over coordinates.
@@ -341,6 +345,7 @@ impl World {
             ctrl: Vec::new(),
             springs: Vec::new(),
             tendons: Vec::new(),
+            paths: spatial_tendon::Paths::default(),
             tendon_ranges: Vec::new(),
             equalities: Vec::new(),
             eq: equality::EqRows::default(),
