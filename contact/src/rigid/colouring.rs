@@ -10,7 +10,7 @@
 //! independent rows next to each other: the processor overlaps their dependency chains
 //! instead of waiting on each body update before the next row of the same pair.
 //!
-//! Greedy rule: manifolds are visited bottom-up (the order the caller gives) and each
+//! Greedy rule: manifolds are visited bottom-up (by their lowest point) and each
 //! takes the lowest colour that neither of its moving bodies already has, out of
 //! [`COLOURS`]; a manifold with no colour left goes to a last, overflow colour (still
 //! solved in the same sequential pass: colours order the work, they are not needed for
@@ -27,88 +27,131 @@ pub const COLOURS: u32 = 63;
 /// Kept buffers of the colouring.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Colouring {
-    /// Manifold of each contact (natural order).
-    manifold: Vec<u32>,
-    /// Rank of each manifold in the bottom-up visit (`u32::MAX` before it is seen).
-    rank: Vec<u32>,
+    /// First contact of each manifold (natural order), then the contact count.
+    start: Vec<usize>,
+    /// Lowest point of each manifold (the first of its run once sorted).
+    low: Vec<usize>,
+    /// Manifolds bottom-up (by their lowest point).
+    by_rank: Vec<u32>,
     /// Colour of each manifold.
     colour: Vec<u32>,
-    /// Points of each manifold placed so far.
-    placed: Vec<u32>,
     /// Colours used by each body (bit `c` set: a manifold of colour `c` touches it).
     used: Vec<u64>,
-    /// Sort key of each contact: colour, place in its manifold, manifold rank.
-    key: Vec<u64>,
+    /// Manifolds per colour, then (after the prefix sum) each colour's first slot.
+    offset: Vec<usize>,
+    /// Manifolds in colour order, bottom-up within a colour.
+    by_colour: Vec<u32>,
+    /// The solve order being built (swapped with the caller's).
+    out: Vec<usize>,
     /// Colours in use after the last call (the overflow colour counts as one).
     pub(super) colours: usize,
 }
 
 impl Colouring {
-    /// Reorders `order` — contact indices, bottom-up — into colour-major order.
-    /// `pair(k)` gives contact `k`'s collider pair (contacts of one pair come
-    /// consecutively in natural order and form one manifold) and its two body slots;
-    /// slots `≥ bodies` are static.
-    pub(super) fn order<F>(&mut self, order: &mut [usize], bodies: usize, pair: F)
-    where
+    /// Writes into `order` the solve order of the `n` contacts: colour-major, and
+    /// within a colour the manifolds' first points (bottom-up by manifold), then
+    /// their second points, and so on. `pair(k)` gives contact `k`'s collider pair
+    /// (contacts of one pair come consecutively in natural order and form one
+    /// manifold) and its two body slots (slots `≥ bodies` are static); `height(k)`
+    /// its height along −gravity. Manifolds are ranked by their lowest point and a
+    /// manifold's points go bottom-up (ties by index), so the order is the same as
+    /// sorting all points bottom-up and then by (colour, place in manifold, rank),
+    /// with sorts over manifolds and within manifolds only.
+    pub(super) fn order<F, H>(
+        &mut self,
+        order: &mut Vec<usize>,
+        n: usize,
+        bodies: usize,
+        pair: F,
+        height: H,
+    ) where
         F: Fn(usize) -> ((usize, usize), [usize; 2]),
+        H: Fn(usize) -> f64,
     {
-        let n = order.len();
+        let below = |p: usize, q: usize| height(p).total_cmp(&height(q)).then(p.cmp(&q));
         // Manifolds: runs of equal pairs in natural order.
-        self.manifold.clear();
-        let mut count = 0u32;
+        self.start.clear();
         let mut last = None;
         for k in 0..n {
             let (p, _) = pair(k);
             if last != Some(p) {
-                count += 1;
+                self.start.push(k);
                 last = Some(p);
             }
-            self.manifold.push(count - 1);
         }
-        let m = count as usize;
-        self.rank.clear();
-        self.rank.resize(m, u32::MAX);
-        self.colour.clear();
-        self.colour.resize(m, 0);
-        self.placed.clear();
-        self.placed.resize(m, 0);
+        let m = self.start.len();
+        self.start.push(n);
+        // Each manifold's points bottom-up, in place (unique keys: deterministic).
+        order.clear();
+        order.extend(0..n);
+        self.low.clear();
+        for j in 0..m {
+            let run = &mut order[self.start[j]..self.start[j + 1]];
+            run.sort_unstable_by(|&p, &q| below(p, q));
+            self.low.push(run[0]);
+        }
+        // Manifolds bottom-up by their lowest point.
+        self.by_rank.clear();
+        self.by_rank.extend(0..m as u32);
+        let low = &self.low;
+        self.by_rank
+            .sort_unstable_by(|&i, &j| below(low[i as usize], low[j as usize]));
+        // Greedy colours in rank order: the lowest colour free on both moving bodies.
         self.used.clear();
         self.used.resize(bodies, 0);
-        self.key.clear();
-        self.key.resize(n, 0);
-        let mut next_rank = 0u32;
-        let mut highest = 0u32;
-        for &k in order.iter() {
-            let j = self.manifold[k] as usize;
-            if self.rank[j] == u32::MAX {
-                self.rank[j] = next_rank;
-                next_rank += 1;
-                // Lowest colour free on both moving bodies.
-                let (_, [a, b]) = pair(k);
-                let mask = |s: usize| if s < bodies { self.used[s] } else { 0 };
-                let taken = mask(a) | mask(b);
-                let c = (!taken).trailing_zeros().min(COLOURS);
-                if c < COLOURS {
-                    for s in [a, b] {
-                        if s < bodies {
-                            self.used[s] |= 1 << c;
-                        }
+        self.colour.clear();
+        self.colour.resize(m, 0);
+        self.offset.clear();
+        self.offset.resize(COLOURS as usize + 2, 0);
+        let mut highest = 0;
+        for &j in &self.by_rank {
+            let (_, [a, b]) = pair(self.low[j as usize]);
+            let mask = |s: usize| if s < bodies { self.used[s] } else { 0 };
+            let c = (!(mask(a) | mask(b))).trailing_zeros().min(COLOURS);
+            if c < COLOURS {
+                for s in [a, b] {
+                    if s < bodies {
+                        self.used[s] |= 1 << c;
                     }
                 }
-                self.colour[j] = c;
-                highest = highest.max(c);
             }
-            let place = self.placed[j];
-            self.placed[j] += 1;
-            self.key[k] = (u64::from(self.colour[j]) << 56)
-                | (u64::from(place.min(0xff)) << 48)
-                | u64::from(self.rank[j]);
+            self.colour[j as usize] = c;
+            self.offset[c as usize + 1] += 1;
+            highest = highest.max(c as usize);
         }
-        self.colours = if n == 0 { 0 } else { highest as usize + 1 };
-        // Keys are unique (a manifold's rank and a point's place in it): the unstable
-        // sort is deterministic.
-        let key = &self.key;
-        order.sort_unstable_by_key(|&k| key[k]);
+        self.colours = if n == 0 { 0 } else { highest + 1 };
+        // Counting sort of the manifolds by colour, bottom-up within a colour.
+        for c in 0..=COLOURS as usize {
+            self.offset[c + 1] += self.offset[c];
+        }
+        self.by_colour.clear();
+        self.by_colour.resize(m, 0);
+        for &j in &self.by_rank {
+            let c = self.colour[j as usize] as usize;
+            self.by_colour[self.offset[c]] = j;
+            self.offset[c] += 1;
+        }
+        // Emit: per colour (its manifolds end at offset[c] now), place by place.
+        self.out.clear();
+        let mut first = 0;
+        for c in 0..self.colours {
+            let ms = &self.by_colour[first..self.offset[c]];
+            first = self.offset[c];
+            let longest = ms
+                .iter()
+                .map(|&j| self.start[j as usize + 1] - self.start[j as usize])
+                .max()
+                .unwrap_or(0);
+            for place in 0..longest {
+                for &j in ms {
+                    let (s, e) = (self.start[j as usize], self.start[j as usize + 1]);
+                    if s + place < e {
+                        self.out.push(order[s + place]);
+                    }
+                }
+            }
+        }
+        core::mem::swap(order, &mut self.out);
     }
 }
 
@@ -133,9 +176,9 @@ mod tests {
             ((3, 4), [2, 3]),
             ((3, 4), [2, 3]),
         ];
-        let mut order: Vec<usize> = (0..8).collect();
+        let mut order = Vec::new();
         let mut c = Colouring::default();
-        c.order(&mut order, 4, |k| pairs[k]);
+        c.order(&mut order, 8, 4, |k| pairs[k], |k| k as f64);
         assert_eq!(order, [0, 4, 1, 5, 2, 6, 3, 7]);
         assert_eq!(c.colours, 2);
     }
@@ -157,15 +200,17 @@ mod tests {
                 pairs.push(((j, j + 1), [a, b]));
             }
         }
-        let mut order: Vec<usize> = (0..pairs.len()).collect();
+        let mut order = Vec::new();
         let mut c = Colouring::default();
-        c.order(&mut order, 8, |k| pairs[k]);
+        // Heights from a hash of the index: the bottom-up order is not the natural one.
+        let height = |k: usize| ((k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 40) as f64;
+        c.order(&mut order, pairs.len(), 8, |k| pairs[k], height);
         let mut seen = order.clone();
         seen.sort_unstable();
         assert_eq!(seen, (0..pairs.len()).collect::<Vec<_>>());
         for k in 0..pairs.len() {
             for l in 0..pairs.len() {
-                let (jk, jl) = (c.manifold[k] as usize, c.manifold[l] as usize);
+                let (jk, jl) = (pairs[k].0 .0, pairs[l].0 .0);
                 if jk == jl || c.colour[jk] != c.colour[jl] || c.colour[jk] == COLOURS {
                     continue;
                 }
@@ -175,10 +220,7 @@ mod tests {
             }
         }
         // Colour-major: colours never decrease along the order.
-        let colours: Vec<u32> = order
-            .iter()
-            .map(|&k| c.colour[c.manifold[k] as usize])
-            .collect();
+        let colours: Vec<u32> = order.iter().map(|&k| c.colour[pairs[k].0 .0]).collect();
         assert!(colours.windows(2).all(|w| w[0] <= w[1]), "{colours:?}");
         assert!(c.colours >= 2);
     }

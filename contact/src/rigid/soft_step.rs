@@ -304,26 +304,23 @@ impl ContactWorld {
         } else {
             DVec3::Z
         };
-        st.order.clear();
-        st.order.extend(0..self.contacts.len());
         let contacts = &self.contacts;
-        // Unique keys (index tie-break): deterministic without a stable sort's buffer.
-        st.order.sort_unstable_by(|&p, &q| {
-            contacts[p]
-                .point
-                .dot(up)
-                .total_cmp(&contacts[q].point.dot(up))
-                .then(p.cmp(&q))
-        });
-        // Then colour-major: manifolds coloured greedily bottom-up, so that a colour's
-        // rows touch disjoint bodies (the `colouring` module).
+        // Colour-major: manifolds ranked bottom-up (along −gravity, index tie-break:
+        // deterministic) and coloured greedily, so that a colour's rows touch disjoint
+        // bodies (the `colouring` module).
         let nb = self.bodies.len();
         let colliders = &self.colliders;
-        st.colouring.order(&mut st.order, nb, |k| {
-            let c = &contacts[k];
-            let slot = |i: usize| colliders[i].body.unwrap_or(nb);
-            ((c.a, c.b), [slot(c.a), slot(c.b)])
-        });
+        st.colouring.order(
+            &mut st.order,
+            contacts.len(),
+            nb,
+            |k| {
+                let c = &contacts[k];
+                let slot = |i: usize| colliders[i].body.unwrap_or(nb);
+                ((c.a, c.b), [slot(c.a), slot(c.b)])
+            },
+            |k| contacts[k].point.dot(up),
+        );
         let s = self.settings.soft_step;
         let hertz = s.hertz.min(0.25 / hs);
         let dynamic = Softness::new(hertz, s.damping_ratio, hs);
