@@ -32,9 +32,9 @@
 //! order — the manifolds coloured greedily bottom-up along −gravity so that the points
 //! of one colour touch disjoint moving bodies, then solved colour by colour with the
 //! manifolds of a colour interleaved (the `colouring` module: independent rows side by
-//! side, whose dependency chains the processor overlaps); body velocities, displacements and inverse masses in dense
-//! arrays indexed by solver slot, with a last, static slot (zero inverse mass) for the
-//! ground. Every buffer lives in [`SoftState`] and is reused: a step allocates nothing
+//! side, whose dependency chains the processor overlaps); body velocities,
+//! displacements and inverse masses in dense arrays indexed by solver slot, with a
+//! last, static slot (zero inverse mass) for the ground. Every buffer lives in [`SoftState`] and is reused: a step allocates nothing
 //! once the buffers have grown to the scene.
 
 use alloc::vec::Vec;
