@@ -6,7 +6,7 @@
 //! Tolerances sit above the values measured on this code (written beside each).
 
 use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld, SoftStepSettings};
-use constraint_contact::scenes::{add_box, box_stack, ground, pyramid};
+use constraint_contact::scenes::{add_box, box_stack, ground, heavy_on_light, pyramid};
 use constraint_core::DVec3;
 
 const DT: f64 = 1.0 / 60.0;
@@ -99,7 +99,7 @@ fn sliding_box_stops_at_the_coulomb_distance() {
 #[test]
 fn bad_settings_are_typed_errors() {
     type Spoil = fn(&mut SoftStepSettings);
-    let cases: [(&str, usize, Spoil); 6] = [
+    let cases: [(&str, usize, Spoil); 8] = [
         ("substeps", 0, |_| {}),
         ("soft_step.hertz", 4, |s| s.hertz = f64::NAN),
         ("soft_step.hertz", 4, |s| s.hertz = 0.0),
@@ -107,6 +107,12 @@ fn bad_settings_are_typed_errors() {
         ("soft_step.damping_ratio", 4, |s| s.damping_ratio = f64::NAN),
         ("soft_step.max_push_velocity", 4, |s| {
             s.max_push_velocity = -1.0
+        }),
+        ("soft_step.one_way_mass_ratio", 4, |s| {
+            s.one_way_mass_ratio = 0.5
+        }),
+        ("soft_step.one_way_mass_ratio", 4, |s| {
+            s.one_way_mass_ratio = f64::NAN
         }),
     ];
     for (name, substeps, spoil) in cases {
@@ -233,4 +239,38 @@ fn friction_anchors_let_a_box_slide() {
         (x - expected).abs() < 1e-2 * expected,
         "stopped at {x} m, Coulomb {expected} m"
     ); // measured 0.9110 against 0.9174 (−0.70 %)
+}
+
+/// The 10⁴:1 box on a 0.5 m box (issue 14's mass-ratio case) for 10 s with 4
+/// sub-steps. Without one-way coupling one Gauss–Seidel pass per sub-step cannot stop
+/// the heavy box and it crushes the light one (sinks its full 0.5 m); with
+/// `one_way_mass_ratio` 100 the light box is static for the rows it shares with the
+/// heavy one, every step succeeds and the heavy box sinks by its contact spring only.
+/// The price, as documented: the ground carries the light box's weight alone.
+#[test]
+fn one_way_coupling_holds_a_heavy_box_on_a_light_one() {
+    let go = |ratio: f64| {
+        let mut w = soft(heavy_on_light(1e4).unwrap(), 4);
+        w.settings.soft_step.one_way_mass_ratio = ratio;
+        let r = run(&mut w, 600);
+        (r, w)
+    };
+    let ((_, crushed, _), _) = go(f64::INFINITY);
+    let ((_, sink, worst), mut w) = go(100.0);
+    assert!(crushed > 0.4, "without: sink {crushed:e} m"); // measured 5.00e-1
+    assert!(sink.abs() < 1e-3, "with: sink {sink:e} m"); // measured 1.90e-4
+    assert!(worst < 1e-3, "with: worst displacement {worst:e} m"); // measured 1.93e-4
+    w.step(DT).unwrap();
+    let light = 125.0 * G * DT;
+    let carried: f64 = w
+        .contacts()
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.a == 0)
+        .map(|(k, _)| w.impulses()[3 * k])
+        .sum();
+    assert!(
+        (carried - light).abs() < 1e-2 * light,
+        "ground impulse {carried} N·s, light box's weight {light} N·s"
+    ); // measured 20.4375 against 20.4375 N·s (relative error below 1e-15)
 }

@@ -70,6 +70,17 @@ pub struct SoftStepSettings {
     /// pyramid at the defaults they add about 9 mm of sink (4.3 cm against 3.4 cm),
     /// so they are not on by default.
     pub friction_anchors: bool,
+    /// One-way coupling for extreme mass ratios (≥ 1; `f64::INFINITY`, the default,
+    /// is off): where a moving body rests on a moving body more than this many times
+    /// lighter (the lower one along −gravity, by centre height at the start of the
+    /// step), their rows treat the lower body as static — zero inverse mass and
+    /// inertia in the row's effective mass, in the solve and in the warm start — as
+    /// shock propagation does (Guendelman et al. 2003; Erleben 2007). One
+    /// Gauss–Seidel pass per sub-step moves only a `1/ratio` share of a heavy body's
+    /// momentum through a light one, so at 10⁴:1 the heavy box crushes the light one
+    /// without it; with it the heavy box rests, but the light body no longer feels
+    /// the heavy one (the ground's impulses carry only the light body's weight).
+    pub one_way_mass_ratio: f64,
 }
 
 impl Default for SoftStepSettings {
@@ -87,6 +98,7 @@ impl Default for SoftStepSettings {
             damping_ratio: 10.0,
             max_push_velocity: 3.0,
             friction_anchors: false,
+            one_way_mass_ratio: f64::INFINITY,
         }
     }
 }
@@ -157,6 +169,9 @@ pub(super) struct SoftState {
     ang: Vec<[[DVec3; 4]; 3]>,
     /// Effective masses `1/(J M⁻¹ Jᵀ)` of the three rows (0 for a row with none).
     mass: Vec<[f64; 3]>,
+    /// Inverse masses of the two bodies as the point's rows see them (zero for a
+    /// body the one-way coupling freezes).
+    im: Vec<[f64; 2]>,
     /// Gap `nᵀ(p_b − p_a)` at the start of the step minus `nᵀ(r_b − r_a)`.
     base_gap: Vec<f64>,
     soft: Vec<Softness>,
@@ -192,6 +207,12 @@ impl ContactWorld {
         }
         if !(s.damping_ratio >= 0.0) || !s.damping_ratio.is_finite() {
             return bad("soft_step.damping_ratio", "must be finite and non-negative");
+        }
+        if !(s.one_way_mass_ratio >= 1.0) {
+            return bad(
+                "soft_step.one_way_mass_ratio",
+                "must be at least 1 (infinity: off)",
+            );
         }
         if !(s.max_push_velocity >= 0.0) || !s.max_push_velocity.is_finite() {
             return bad(
@@ -363,7 +384,8 @@ impl ContactWorld {
             impulse,
             max_normal,
             total,
-            slip
+            slip,
+            im
         );
         for &k in &st.order {
             let c = &contacts[k];
@@ -378,13 +400,25 @@ impl ContactWorld {
             let n = c.normal;
             let (t1, t2) = n.any_orthonormal_pair();
             let dirs = [n, t1, t2];
+            // One-way coupling: the lower of two moving bodies is static for this
+            // point when the upper is more than `one_way_mass_ratio` times heavier.
+            let mut im = [st.inv_mass[a], st.inv_mass[b]];
+            let mut inertia = [st.inv_inertia[a], st.inv_inertia[b]];
+            if a != nb && b != nb {
+                let (ha, hb) = (self.bodies[a].pose.x.dot(up), self.bodies[b].pose.x.dot(up));
+                let (lower, upper) = if ha < hb { (0, 1) } else { (1, 0) };
+                if im[lower] > s.one_way_mass_ratio * im[upper] {
+                    im[lower] = 0.0;
+                    inertia[lower] = DMat3::ZERO;
+                }
+            }
             let mut ang = [[DVec3::ZERO; 4]; 3];
             let mut mass = [0.0; 3];
             for (r, d) in dirs.iter().enumerate() {
                 let (ua, ub) = (ra.cross(*d), rb.cross(*d));
-                let (ia, ib) = (st.inv_inertia[a] * ua, st.inv_inertia[b] * ub);
+                let (ia, ib) = (inertia[0] * ua, inertia[1] * ub);
                 // k = J M⁻¹ Jᵀ = 1/m_a + 1/m_b + (r_a×d)ᵀI_a⁻¹(r_a×d) + (r_b×d)ᵀI_b⁻¹(r_b×d)
-                let k = st.inv_mass[a] + st.inv_mass[b] + ua.dot(ia) + ub.dot(ib);
+                let k = im[0] + im[1] + ua.dot(ia) + ub.dot(ib);
                 mass[r] = if k > 0.0 { 1.0 / k } else { 0.0 };
                 ang[r] = [ua, ub, ia, ib];
             }
@@ -410,6 +444,7 @@ impl ContactWorld {
             st.anchor.push([ra, rb]);
             st.ang.push(ang);
             st.mass.push(mass);
+            st.im.push(im);
             st.base_gap.push(-c.depth - n.dot(rb - ra));
             st.soft
                 .push(if a == nb || b == nb { fixed } else { dynamic });
@@ -488,9 +523,10 @@ fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
     let d = st.dir[p];
     let g = &st.ang[p];
     let lin = d[0] * z[0] + d[1] * z[1] + d[2] * z[2];
-    st.v[a] -= lin * st.inv_mass[a];
+    let [ma, mb] = st.im[p];
+    st.v[a] -= lin * ma;
     st.w[a] -= g[0][2] * z[0] + g[1][2] * z[1] + g[2][2] * z[2];
-    st.v[b] += lin * st.inv_mass[b];
+    st.v[b] += lin * mb;
     st.w[b] += g[0][3] * z[0] + g[1][3] * z[1] + g[2][3] * z[2];
 }
 
@@ -524,7 +560,7 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
         let d = &st.dir[p];
         let g = &st.ang[p];
         let m = st.mass[p];
-        let (ma, mb) = (st.inv_mass[a], st.inv_mass[b]);
+        let [ma, mb] = st.im[p];
         let (mut va, mut wa, mut vb, mut wb) = (st.v[a], st.w[a], st.v[b], st.w[b]);
         // Current gap from the displacements since the start of the step (anchors fixed
         // in the bodies): C = C₀ + nᵀ(Δx_b + Δq_b r_b − Δx_a − Δq_a r_a).
