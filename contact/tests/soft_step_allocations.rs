@@ -66,6 +66,19 @@ fn soft_steps_do_not_allocate() {
     assert_eq!(pyr, 0, "21-box pyramid: {pyr} allocations in 100 steps");
 }
 
+/// With friction anchors the slips ride along with the warm-start impulses, in the
+/// same kept buffers: still no allocation per step.
+#[test]
+fn anchored_soft_steps_do_not_allocate() {
+    let mut w = box_stack(10).expect("stack");
+    w.settings.soft_step.friction_anchors = true;
+    let stack = allocations_in(w, 10, 100);
+    assert_eq!(
+        stack, 0,
+        "10-box stack, anchors: {stack} allocations in 100 steps"
+    );
+}
+
 /// The counter sees allocations (the test above could not pass by counting nothing):
 /// a world's first soft step grows its buffers.
 #[test]

@@ -8,6 +8,10 @@
 //! `ContactSolver::Auto`), `contact_peers/ours_si/SCENE` on the stack and the heavy box
 //! (`ContactSolver::SequentialImpulses`), `contact_peers/ours_softN/SCENE`
 //! (`ContactSolver::SoftStep { substeps: N }`, N = 1, 2, 4, 8, default soft settings)
+//! the tuned soft steps of [`TUNED`] (`ours_soft8_120hz`, `ours_soft8_120hz_anchors`,
+//! `ours_soft12_150hz`, `ours_soft16_240hz`: stiffer contacts, which sink less and
+//! need more sub-steps; `_anchors` adds `SoftStepSettings::friction_anchors`;
+//! `ours_soft4_oneway`: the default soft step with `one_way_mass_ratio` 100)
 //! and `contact_peers/rapier/SCENE` (one
 //! `PhysicsPipeline::step` of the same boxes as cuboid colliders on a half-space ground,
 //! default integration parameters, sleeping off).
@@ -19,7 +23,8 @@
 //! `cargo bench -p constraint-peers --features rapier --bench contact_peers`
 //! (`cargo xtask bench` runs it). `CONTACT_PEERS_ACCURACY=0` skips the accuracy runs.
 
-use constraint_peers::contact::{ours, rapier, solvers, ContactRun, Scene, DT};
+use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld};
+use constraint_peers::contact::{ours, rapier, solvers, ContactRun, Scene, Tracker, DT};
 use constraint_peers::out_dir;
 use criterion::{BenchmarkId, Criterion};
 use std::fmt::Write as _;
@@ -27,6 +32,58 @@ use std::time::Duration;
 
 const WARM_UP: f64 = 1.0;
 const DURATION: f64 = 10.0;
+
+/// A tuned soft step: name, sub-steps, contact frequency (Hz), friction anchors,
+/// one-way mass ratio.
+type Tuned = (&'static str, usize, f64, bool, f64);
+
+/// Tuned soft steps. The sink of a soft contact goes as `1/hertz²`, and a stiffer
+/// contact needs more sub-steps (the frequency is capped at a quarter of the sub-step
+/// rate); the one-way coupling is for the heavy box.
+const TUNED: [Tuned; 5] = [
+    ("ours_soft4_oneway", 4, 30.0, false, 100.0),
+    ("ours_soft8_120hz", 8, 120.0, false, f64::INFINITY),
+    ("ours_soft8_120hz_anchors", 8, 120.0, true, f64::INFINITY),
+    ("ours_soft12_150hz", 12, 150.0, false, f64::INFINITY),
+    ("ours_soft16_240hz", 16, 240.0, false, f64::INFINITY),
+];
+
+/// The scene with a tuned soft step (see [`TUNED`]), at rest after `warm_up` seconds.
+fn tuned(
+    scene: Scene,
+    (_, substeps, hertz, anchors, one_way): Tuned,
+    warm_up: f64,
+) -> Result<ContactWorld, ContactError> {
+    let mut w = scene.world()?;
+    w.settings.solver = ContactSolver::SoftStep { substeps };
+    w.settings.soft_step.hertz = hertz;
+    w.settings.soft_step.friction_anchors = anchors;
+    w.settings.soft_step.one_way_mass_ratio = one_way;
+    for _ in 0..(warm_up / DT).round() as usize {
+        w.step(DT)?;
+    }
+    Ok(w)
+}
+
+/// A tuned soft step run for `DURATION` from rest, tracked as `ours::run` does.
+fn tuned_run(scene: Scene, setting: Tuned) -> Result<ContactRun, ContactError> {
+    let mut w = tuned(scene, setting, 0.0)?;
+    let mut t = Tracker::new(ours::centres(&w));
+    let mut contacts = None;
+    for k in 0..(DURATION / DT).round() as usize {
+        match w.step(DT) {
+            Ok(s) => contacts = Some(s.contacts),
+            Err(_) => {
+                let mut r = t.finish(&ours::centres(&w), contacts);
+                r.finite = false;
+                r.failed_at = Some((k + 1) as f64 * DT);
+                return Ok(r);
+            }
+        }
+        t.observe(&ours::centres(&w));
+    }
+    Ok(t.finish(&ours::centres(&w), contacts))
+}
 
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("contact_peers");
@@ -39,6 +96,29 @@ fn bench(c: &mut Criterion) {
             // A typed failure (the heavy box defeats some solvers) is reported, not timed:
             // the accuracy run records when it happens.
             let mut w = match ours::world(scene, solver, DT, WARM_UP) {
+                Ok(w) => w,
+                Err(e) => {
+                    println!("{engine} {name}: not timed, warm-up step failed: {e}");
+                    continue;
+                }
+            };
+            let mut failed = None;
+            g.bench_with_input(BenchmarkId::new(engine, &name), &name, |b, _| {
+                b.iter(|| match w.step(DT) {
+                    Ok(s) => s.contacts,
+                    Err(e) => {
+                        failed.get_or_insert(e);
+                        0
+                    }
+                })
+            });
+            if let Some(e) = failed {
+                println!("{engine} {name}: a timed step failed (time not valid): {e}");
+            }
+        }
+        for setting in TUNED {
+            let engine = setting.0;
+            let mut w = match tuned(scene, setting, WARM_UP) {
                 Ok(w) => w,
                 Err(e) => {
                     println!("{engine} {name}: not timed, warm-up step failed: {e}");
@@ -114,6 +194,12 @@ fn accuracy() {
             match ours::run(scene, solver, DT, DURATION) {
                 Ok(r) => row(&mut out, scene, engine, &r),
                 Err(e) => panic!("{engine} {}: {e}", scene.name()),
+            }
+        }
+        for setting in TUNED {
+            match tuned_run(scene, setting) {
+                Ok(r) => row(&mut out, scene, setting.0, &r),
+                Err(e) => panic!("{} {}: {e}", setting.0, scene.name()),
             }
         }
         let start = match scene.world() {

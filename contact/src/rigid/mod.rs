@@ -40,6 +40,7 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::{BodyError, DMat3, DVec3, Pose, RigidBody, StepContext};
 
 use crate::geometry::{generate_contacts, Collider, Contact, GeometryError};
+mod colouring;
 mod dense;
 mod sequential;
 mod soft_step;
