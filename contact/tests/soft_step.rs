@@ -94,13 +94,20 @@ fn sliding_box_stops_at_the_coulomb_distance() {
     ); // measured 0.9112 against 0.9174 (−0.68 %)
 }
 
-/// Zero sub-steps, a NaN or zero frequency, a negative or NaN damping ratio, a negative
+/// Zero or more than `MAX_SUBSTEPS` sub-steps (`usize::MAX` would never end), a NaN or
+/// zero frequency, a negative or NaN damping ratio, a negative
 /// push velocity: typed errors naming the setting, the state unchanged.
 #[test]
 fn bad_settings_are_typed_errors() {
     type Spoil = fn(&mut SoftStepSettings);
-    let cases: [(&str, usize, Spoil); 8] = [
+    let cases: [(&str, usize, Spoil); 10] = [
         ("substeps", 0, |_| {}),
+        (
+            "substeps",
+            constraint_contact::rigid::MAX_SUBSTEPS + 1,
+            |_| {},
+        ),
+        ("substeps", usize::MAX, |_| {}),
         ("soft_step.hertz", 4, |s| s.hertz = f64::NAN),
         ("soft_step.hertz", 4, |s| s.hertz = 0.0),
         ("soft_step.damping_ratio", 4, |s| s.damping_ratio = -1.0),

@@ -437,13 +437,30 @@ const CONTACT_SCENES: [(&str, &str); 3] = [
 ];
 
 /// Engines of the contact_peers bench: `(id, label)`.
-const CONTACT_ENGINES: [(&str, &str); 7] = [
+const CONTACT_ENGINES: [(&str, &str); 12] = [
     ("ours_auto", "ours (Auto)"),
     ("ours_si", "ours (SI)"),
     ("ours_soft1", "ours (soft step, 1 sub-step)"),
     ("ours_soft2", "ours (soft step, 2 sub-steps)"),
     ("ours_soft4", "ours (soft step, 4 sub-steps)"),
     ("ours_soft8", "ours (soft step, 8 sub-steps)"),
+    (
+        "ours_soft4_oneway",
+        "ours (soft step, 4 sub-steps, one-way above 100:1)",
+    ),
+    ("ours_soft8_120hz", "ours (soft step, 8 sub-steps, 120 Hz)"),
+    (
+        "ours_soft8_120hz_anchors",
+        "ours (soft step, 8 sub-steps, 120 Hz, friction anchors)",
+    ),
+    (
+        "ours_soft12_150hz",
+        "ours (soft step, 12 sub-steps, 150 Hz)",
+    ),
+    (
+        "ours_soft16_240hz",
+        "ours (soft step, 16 sub-steps, 240 Hz)",
+    ),
     ("rapier", "rapier3d"),
 ];
 

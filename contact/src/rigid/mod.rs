@@ -46,7 +46,7 @@ mod sequential;
 mod soft_step;
 mod stages;
 
-pub use soft_step::{SoftStepSettings, Softness};
+pub use soft_step::{SoftStepSettings, Softness, MAX_SUBSTEPS};
 
 /// Bits of [`ContactWorld`]'s record of the solver path its last step took.
 mod path {

@@ -194,6 +194,11 @@ pub(super) struct SoftState {
     warm_h: f64,
 }
 
+/// The most sub-steps one soft step accepts: 4096 (a 60 Hz step cut to 4 µs sub-steps;
+/// Box2D v3 uses 4). Beyond it the step is a typed error rather than a step that
+/// never ends (`usize::MAX` sub-steps would loop for centuries).
+pub const MAX_SUBSTEPS: usize = 4096;
+
 impl ContactWorld {
     /// Rejects soft-step settings out of range (before any state changes).
     fn check_soft(&self, substeps: usize) -> Result<(), ContactError> {
@@ -201,6 +206,9 @@ impl ContactWorld {
         let bad = |name, rule| Err(ContactError::InvalidParameter { name, rule });
         if substeps == 0 {
             return bad("substeps", "must be at least 1");
+        }
+        if substeps > MAX_SUBSTEPS {
+            return bad("substeps", "must be at most MAX_SUBSTEPS (4096)");
         }
         if !(s.hertz > 0.0) || !s.hertz.is_finite() {
             return bad("soft_step.hertz", "must be positive and finite");
