@@ -15,7 +15,9 @@ use constraint_contact::geometry::{Collider, Shape};
 use constraint_contact::lcp::{
     fischer_newton, lemke, pgs, Lcp, LemkeSettings, NewtonSettings, PgsSettings,
 };
-use constraint_contact::rigid::{ContactSettings, ContactSolver, ContactWorld, FrictionModel};
+use constraint_contact::rigid::{
+    ContactSettings, ContactSolver, ContactWorld, FrictionModel, SoftStepSettings,
+};
 use constraint_core::{
     Area, DMat3, DQuat, DVec3, Dihedral, Distance, DistanceJoint, Fixed, Hinge, PointOnPlane, Pose,
     Prismatic, Spherical, Volume,
@@ -2487,6 +2489,57 @@ fn contact_cases(s: &mut Sweep) {
                 contact_step(&mut w, 1e-2)
             });
         }
+        // The soft step's own settings (issue 14): each bad value on its own, with the
+        // solver that reads them; one-way coupling and friction anchors on.
+        let soft: Vec<(&str, SoftStepSettings)> = vec![
+            (
+                "hertz",
+                SoftStepSettings {
+                    hertz: v,
+                    ..Default::default()
+                },
+            ),
+            (
+                "damping_ratio",
+                SoftStepSettings {
+                    damping_ratio: v,
+                    ..Default::default()
+                },
+            ),
+            (
+                "max_push_velocity",
+                SoftStepSettings {
+                    max_push_velocity: v,
+                    ..Default::default()
+                },
+            ),
+            (
+                "one_way_mass_ratio",
+                SoftStepSettings {
+                    one_way_mass_ratio: v,
+                    ..Default::default()
+                },
+            ),
+            (
+                "one_way_mass_ratio with anchors",
+                SoftStepSettings {
+                    one_way_mass_ratio: v,
+                    friction_anchors: true,
+                    ..Default::default()
+                },
+            ),
+        ];
+        for (field, st) in soft {
+            s.case(
+                format!("ContactWorld::step SoftStep settings.soft_step.{field}={v:e}"),
+                || {
+                    let mut w = contact_world();
+                    w.settings.solver = ContactSolver::SoftStep { substeps: 4 };
+                    w.settings.soft_step = st;
+                    contact_step(&mut w, 1e-2)
+                },
+            );
+        }
     }
     s.case("ContactWorld::add_collider unknown body", || {
         let mut w = contact_world();
@@ -2498,6 +2551,11 @@ fn contact_cases(s: &mut Sweep) {
         ContactSolver::Pgs,
         ContactSolver::Lemke,
         ContactSolver::Newton,
+        ContactSolver::SoftStep { substeps: 0 },
+        ContactSolver::SoftStep { substeps: 1 },
+        ContactSolver::SoftStep {
+            substeps: usize::MAX,
+        },
     ] {
         for friction in [FrictionModel::Boxed, FrictionModel::Staggered { sweeps: 0 }] {
             s.case(
