@@ -41,7 +41,7 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DQuat, DVec3, Pose};
 
 use super::{path, ContactError, ContactSolver, ContactStats, ContactWorld};
-use crate::geometry::{generate_contacts_with, BroadScratch};
+use crate::geometry::BroadScratch;
 
 /// Settings of [`ContactSolver::SoftStep`] (Box2D v3's world definition values by
 /// default, except the contact stiffness; see [`SoftStepSettings::default`]).
@@ -196,20 +196,14 @@ impl ContactWorld {
         st.poses.clear();
         st.poses.extend(self.bodies.iter().map(|b| b.pose));
         let mut contacts = core::mem::take(&mut self.contacts);
-        let broad = generate_contacts_with(
-            &self.colliders,
-            &st.poses,
-            self.settings.margin,
-            |_, _| true,
-            &mut st.broad,
-            &mut contacts,
-        );
+        // Asleep bodies are left out of the pairs (the sleep module's hook).
+        let broad = self.awake_contacts(&st.poses, &mut st.broad, &mut contacts);
         self.contacts = contacts;
         let broad = match broad {
             Ok(b) => b,
             Err(e) => {
                 self.soft = st;
-                return Err(ContactError::Geometry(e));
+                return Err(e);
             }
         };
         stats.pair_tests = broad.tests;
