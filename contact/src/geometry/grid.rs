@@ -15,6 +15,10 @@
 //! ground plane, container walls, a huge static box) and boxes with non-finite bounds
 //! are tested against every other box.
 //!
+//! The cell follows the largest moving box, so one moving box much larger than the
+//! rest (a long plank among pebbles) makes cells coarse and the sweep tests more pairs
+//! per cell; the pairs stay exact.
+//!
 //! The result is the set of overlapping pairs, `(i, j)` with `i < j`, sorted: the same
 //! pairs in the same order as [`super::sweep_and_prune_masked`], in time linear in the
 //! number of boxes for scenes of similar-sized bodies (the sweep and prune along one
