@@ -246,7 +246,16 @@ impl ContactWorld {
         st.inv_inertia.clear();
         st.v.clear();
         st.w.clear();
-        for b in &mut self.bodies {
+        for (i, b) in self.bodies.iter_mut().enumerate() {
+            // An asleep body (the sleep module's hook) takes a static slot: at rest, zero
+            // inverse mass, not integrated (it is in no contact row either).
+            if self.sleep.asleep.get(i).copied().unwrap_or(false) {
+                st.inv_mass.push(0.0);
+                st.inv_inertia.push(DMat3::ZERO);
+                st.v.push(DVec3::ZERO);
+                st.w.push(DVec3::ZERO);
+                continue;
+            }
             b.omega = b.gyroscopic_step(h);
             st.inv_mass.push(1.0 / b.mass());
             st.inv_inertia.push(b.world_inv_inertia());
@@ -400,18 +409,25 @@ impl ContactWorld {
     }
 }
 
-/// `v += g h` for every moving body (the static slot stays at rest).
+/// `v += g h` for every moving body (the static slot and asleep bodies, zero inverse
+/// mass, stay at rest).
 fn integrate_velocities(st: &mut SoftState, g: DVec3, hs: f64) {
     let n = st.v.len() - 1;
-    for v in &mut st.v[..n] {
-        *v += g * hs;
+    for (v, &m) in st.v[..n].iter_mut().zip(&st.inv_mass) {
+        if m > 0.0 {
+            *v += g * hs;
+        }
     }
 }
 
-/// `Δx += v h`, `Δq ← exp(ω h) Δq` (and its matrix) for every moving body.
+/// `Δx += v h`, `Δq ← exp(ω h) Δq` (and its matrix) for every moving body (asleep
+/// bodies, zero inverse mass, are skipped).
 fn integrate_positions(st: &mut SoftState, hs: f64) {
     let n = st.v.len() - 1;
     for i in 0..n {
+        if !(st.inv_mass[i] > 0.0) {
+            continue; // asleep
+        }
         st.dp[i] += st.v[i] * hs;
         st.dq[i] = rotate_by(st.dq[i], st.w[i] * hs);
         st.rot[i] = DMat3::from_quat(st.dq[i]);
