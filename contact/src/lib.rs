@@ -8,8 +8,9 @@
 //! | module | holds |
 //! |---|---|
 //! | [`lcp`] | the LCP type, its natural-map residual, and the solvers |
-//! | [`geometry`] | shapes, narrow phase (points, normals, depths, ids), broad phase |
-//! | `rigid` | (feature `rigid`) rigid bodies in contact: the contact LCP per step, solved matrix-free (sequential impulses, or Box2D v3's sub-stepped soft step) or by the dense solvers, with friction, restitution, warm starting and shock propagation |
+//! | [`geometry`] | shapes, narrow phase (points, normals, depths, ids), broad phase (sweep and prune; the uniform grid kept sorted between steps that contact generation uses) |
+//! | `rigid` | (feature `rigid`) rigid bodies in contact: the contact LCP per step, solved matrix-free (sequential impulses, or Box2D v3's sub-stepped soft step) or by the dense solvers, with friction, restitution, warm starting and shock propagation; islands and sleeping (off by default) |
+//! | `scenes` | (feature `rigid`) stacks, pyramids, a heavy box on a light one, a dropped sphere, and a pile of boxes, spheres and capsules poured into a container |
 //!
 //! ## Example
 //!

@@ -20,15 +20,26 @@
 //! 60 Hz from the start — the top box's largest displacement (drift) and its final sink,
 //! and the worst displacement of any box.
 //!
+//! The pile (`scenes::pile(n, 1)`: boxes, spheres and capsules poured into a square
+//! container, 8 layers high whatever `n`): after 3 s of pouring and settling,
+//! `contact_peers/ours_soft4/pileN` and `ours_soft4_sleep/pileN` (the soft step, sleeping
+//! off and on) against `rapier/pileN` and `rapier_sleep/pileN`, for N = 1000 and 10000.
+//! Then, untimed by criterion, the growth: mean time per step over 30 steps of each
+//! engine and sleep setting at N = 100, 300, 1000, 3000, 10000 (after the same 3 s),
+//! the exponent of a least-squares fit `t ∝ N^p` over those sizes, and each run's energy
+//! change over the 3 s, deepest penetration at the end and bodies asleep, written to
+//! `target/peers/pile_growth.tsv`. `CONTACT_PEERS_PILE=0` skips the pile.
+//!
 //! `cargo bench -p constraint-peers --features rapier --bench contact_peers`
 //! (`cargo xtask bench` runs it). `CONTACT_PEERS_ACCURACY=0` skips the accuracy runs.
 
-use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld};
+use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld, SleepSettings};
+use constraint_contact::scenes::pile;
 use constraint_peers::contact::{ours, rapier, solvers, ContactRun, Scene, Tracker, DT};
 use constraint_peers::out_dir;
 use criterion::{BenchmarkId, Criterion};
 use std::fmt::Write as _;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 const WARM_UP: f64 = 1.0;
 const DURATION: f64 = 10.0;
@@ -219,11 +230,211 @@ fn accuracy() {
     println!("wrote {}", path.display());
 }
 
+/// Simulated pouring time before a pile is timed (s).
+const PILE_SETTLE: f64 = 3.0;
+/// Pile sizes of the growth fit.
+const PILE_SIZES: [usize; 5] = [100, 300, 1000, 3000, 10_000];
+
+/// Ours on the pile: the soft step with 4 sub-steps, sleeping off or on.
+fn our_pile(n: usize, sleep: bool) -> ContactWorld {
+    let mut w = match pile(n, 1) {
+        Ok(w) => w,
+        Err(e) => panic!("pile{n}: {e}"),
+    };
+    w.settings.solver = ContactSolver::SoftStep { substeps: 4 };
+    w.settings.sleep = SleepSettings {
+        enabled: sleep,
+        ..SleepSettings::default()
+    };
+    w
+}
+
+/// One engine on one pile, after [`PILE_SETTLE`] seconds: what the growth table shows.
+struct PileRow {
+    engine: &'static str,
+    n: usize,
+    step_s: f64,
+    energy_change: f64,
+    deepest: f64,
+    asleep: usize,
+}
+
+/// Steps `step` for the pouring time, then times 30 steps (mean).
+fn settle_and_time(mut step: impl FnMut()) -> f64 {
+    for _ in 0..(PILE_SETTLE / DT).round() as usize {
+        step();
+    }
+    let t = Instant::now();
+    for _ in 0..30 {
+        step();
+    }
+    t.elapsed().as_secs_f64() / 30.0
+}
+
+fn pile_rows(n: usize) -> Vec<PileRow> {
+    let mut rows = Vec::new();
+    for (engine, sleep) in [("ours_soft4", false), ("ours_soft4_sleep", true)] {
+        let mut w = our_pile(n, sleep);
+        let e0 = w.energy();
+        let mut failed = None;
+        let step_s = settle_and_time(|| {
+            if let Err(e) = w.step(DT) {
+                failed.get_or_insert(e);
+            }
+        });
+        if let Some(e) = failed {
+            panic!("{engine} pile{n}: {e}");
+        }
+        rows.push(PileRow {
+            engine,
+            n,
+            step_s,
+            energy_change: w.energy() - e0,
+            deepest: w.contacts().iter().map(|c| c.depth).fold(0.0, f64::max),
+            asleep: (0..n).filter(|&i| w.is_asleep(i)).count(),
+        });
+    }
+    let start = our_pile(n, false);
+    for (engine, sleep) in [("rapier", false), ("rapier_sleep", true)] {
+        let mut r = match rapier::RapierBoxes::from_world_sleeping(&start, DT, sleep) {
+            Ok(r) => r,
+            Err(e) => panic!("rapier pile{n}: {e}"),
+        };
+        let e0 = r.energy();
+        let step_s = settle_and_time(|| r.step());
+        rows.push(PileRow {
+            engine,
+            n,
+            step_s,
+            energy_change: r.energy() - e0,
+            deepest: r.deepest(),
+            asleep: r.asleep(),
+        });
+    }
+    rows
+}
+
+/// Least-squares slope of `ln t` against `ln n`.
+fn exponent(points: &[(usize, f64)]) -> f64 {
+    let xy: Vec<(f64, f64)> = points
+        .iter()
+        .map(|&(n, t)| ((n as f64).ln(), t.ln()))
+        .collect();
+    let m = xy.len() as f64;
+    let (sx, sy) = xy.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
+    let (mx, my) = (sx / m, sy / m);
+    let (num, den) = xy.iter().fold((0.0, 0.0), |a, p| {
+        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx) * (p.0 - mx))
+    });
+    num / den
+}
+
+/// The growth table and exponents: `target/peers/pile_growth.tsv`.
+fn pile_growth() {
+    let rows: Vec<PileRow> = PILE_SIZES.iter().flat_map(|&n| pile_rows(n)).collect();
+    let mut out = String::from(
+        "engine\tbodies\tstep_s\tratio_vs_rapier_same_sleep\tenergy_change_J\tdeepest_m\tasleep\n",
+    );
+    for r in &rows {
+        let peer = if r.engine.ends_with("sleep") {
+            "rapier_sleep"
+        } else {
+            "rapier"
+        };
+        let base = rows
+            .iter()
+            .find(|p| p.n == r.n && p.engine == peer)
+            .map_or(f64::NAN, |p| p.step_s);
+        let _ = writeln!(
+            out,
+            "{}\t{}\t{:e}\t{:.3}\t{:e}\t{:e}\t{}",
+            r.engine,
+            r.n,
+            r.step_s,
+            r.step_s / base,
+            r.energy_change,
+            r.deepest,
+            r.asleep
+        );
+        println!(
+            "pile{:>6} {:>17}: {:9.3} ms/step ({:.2}x {peer}), energy change {:+.3e} J, \
+             deepest {:.2e} m, {} asleep",
+            r.n,
+            r.engine,
+            r.step_s * 1e3,
+            r.step_s / base,
+            r.energy_change,
+            r.deepest,
+            r.asleep
+        );
+    }
+    for engine in ["ours_soft4", "ours_soft4_sleep", "rapier", "rapier_sleep"] {
+        let pts: Vec<(usize, f64)> = rows
+            .iter()
+            .filter(|r| r.engine == engine)
+            .map(|r| (r.n, r.step_s))
+            .collect();
+        let p = exponent(&pts);
+        let _ = writeln!(out, "# exponent\t{engine}\t{p:.3}");
+        println!("pile growth exponent {engine}: {p:.3} (fit over {PILE_SIZES:?})");
+    }
+    let dir = out_dir();
+    let path = dir.join("pile_growth.tsv");
+    if let Err(e) = std::fs::create_dir_all(&dir).and_then(|()| std::fs::write(&path, out)) {
+        panic!("{}: {e}", path.display());
+    }
+    println!("wrote {}", path.display());
+}
+
+/// Criterion on the 1000- and 10,000-body piles, both engines, sleeping off and on.
+fn pile_bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("contact_peers");
+    g.warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3))
+        .sample_size(10);
+    let settle = (PILE_SETTLE / DT).round() as usize;
+    for n in [1000, 10_000] {
+        let name = format!("pile{n}");
+        for (engine, sleep) in [("ours_soft4", false), ("ours_soft4_sleep", true)] {
+            let mut w = our_pile(n, sleep);
+            for _ in 0..settle {
+                if let Err(e) = w.step(DT) {
+                    panic!("{engine} {name}: {e}");
+                }
+            }
+            g.bench_with_input(BenchmarkId::new(engine, &name), &name, |b, _| {
+                b.iter(|| w.step(DT).map_or(0, |s| s.contacts))
+            });
+        }
+        let start = our_pile(n, false);
+        for (engine, sleep) in [("rapier", false), ("rapier_sleep", true)] {
+            let mut r = match rapier::RapierBoxes::from_world_sleeping(&start, DT, sleep) {
+                Ok(r) => r,
+                Err(e) => panic!("rapier {name}: {e}"),
+            };
+            for _ in 0..settle {
+                r.step();
+            }
+            g.bench_with_input(BenchmarkId::new(engine, &name), &name, |b, _| {
+                b.iter(|| r.step())
+            });
+        }
+    }
+    g.finish();
+}
+
 fn main() {
     let mut c = Criterion::default().configure_from_args();
     bench(&mut c);
-    c.final_summary();
     let listing = std::env::args().any(|a| a == "--list");
+    let pile_on = !std::env::var("CONTACT_PEERS_PILE").is_ok_and(|v| v == "0");
+    if pile_on {
+        pile_bench(&mut c);
+    }
+    c.final_summary();
+    if !listing && pile_on {
+        pile_growth();
+    }
     let skip = std::env::var("CONTACT_PEERS_ACCURACY").is_ok_and(|v| v == "0");
     if !listing && !skip {
         accuracy();

@@ -270,9 +270,19 @@ pub mod rapier {
         /// friction and restitution and the density that gives our body's mass
         /// ([`DENSITY`] for the unit boxes of the stack and pyramid); each static plane a
         /// half-space on a fixed body. Default integration parameters except `dt`.
-        /// Fails on shapes other than planes and boxes, on colliders offset from their
-        /// body, and on a plane attached to a body.
+        /// Fails on colliders offset from their body and on a plane attached to a body.
         pub fn from_world(w: &ContactWorld, dt: f64) -> Result<Self, String> {
+            Self::from_world_sleeping(w, dt, false)
+        }
+
+        /// [`RapierBoxes::from_world`] with rapier's sleeping on or off (`can_sleep`),
+        /// and spheres and capsules (`ball`, `capsule_z`) besides boxes, each with the
+        /// density that gives our body's mass.
+        pub fn from_world_sleeping(
+            w: &ContactWorld,
+            dt: f64,
+            sleeping: bool,
+        ) -> Result<Self, String> {
             let mut bodies = RigidBodySet::new();
             let mut colliders = ColliderSet::new();
             let handles: Vec<RigidBodyHandle> = w
@@ -286,7 +296,7 @@ pub mod rapier {
                             .rotation(Vector::new(r.x, r.y, r.z))
                             .linvel(Vector::new(b.v.x, b.v.y, b.v.z))
                             .angvel(Vector::new(b.omega.x, b.omega.y, b.omega.z))
-                            .can_sleep(false),
+                            .can_sleep(sleeping),
                     )
                 })
                 .collect();
@@ -295,10 +305,21 @@ pub mod rapier {
                 if local.x.length() > 0.0 || local.q.to_scaled_axis().length() > 0.0 {
                     return Err(format!("collider {k}: offset from its body"));
                 }
+                let pi = std::f64::consts::PI;
                 let density = match (c.body, c.shape) {
                     (Some(b), Shape::Box { half }) => {
                         w.bodies()[b].mass() / (8.0 * half.x * half.y * half.z)
                     }
+                    (Some(b), Shape::Sphere { radius: r }) => {
+                        w.bodies()[b].mass() / (4.0 / 3.0 * pi * r * r * r)
+                    }
+                    (
+                        Some(b),
+                        Shape::Capsule {
+                            radius: r,
+                            half_length: hl,
+                        },
+                    ) => w.bodies()[b].mass() / (pi * r * r * (2.0 * hl + 4.0 / 3.0 * r)),
                     _ => DENSITY,
                 };
                 let material = |b: ColliderBuilder| {
@@ -322,6 +343,26 @@ pub mod rapier {
                     (Some(b), Shape::Box { half }) => {
                         colliders.insert_with_parent(
                             material(ColliderBuilder::cuboid(half.x, half.y, half.z)),
+                            handles[b],
+                            &mut bodies,
+                        );
+                    }
+                    (Some(b), Shape::Sphere { radius }) => {
+                        colliders.insert_with_parent(
+                            material(ColliderBuilder::ball(radius)),
+                            handles[b],
+                            &mut bodies,
+                        );
+                    }
+                    (
+                        Some(b),
+                        Shape::Capsule {
+                            radius,
+                            half_length,
+                        },
+                    ) => {
+                        colliders.insert_with_parent(
+                            material(ColliderBuilder::capsule_z(half_length, radius)),
                             handles[b],
                             &mut bodies,
                         );
@@ -378,6 +419,36 @@ pub mod rapier {
                     [x.x, x.y, x.z]
                 })
                 .collect()
+        }
+
+        /// Kinetic plus gravitational potential energy (J), as
+        /// `ContactWorld::energy` counts it.
+        pub fn energy(&self) -> f64 {
+            self.handles
+                .iter()
+                .map(|&h| {
+                    let b = &self.bodies[h];
+                    b.kinetic_energy() - b.mass() * self.gravity.dot(b.translation())
+                })
+                .sum()
+        }
+
+        /// Deepest penetration among the current contact points (m; 0 when none).
+        pub fn deepest(&self) -> f64 {
+            self.narrow_phase
+                .contact_pairs()
+                .flat_map(|p| p.manifolds().iter())
+                .flat_map(|m| m.points.iter())
+                .map(|pt| -pt.dist)
+                .fold(0.0, f64::max)
+        }
+
+        /// Bodies rapier has put to sleep.
+        pub fn asleep(&self) -> usize {
+            self.handles
+                .iter()
+                .filter(|&&h| self.bodies[h].is_sleeping())
+                .count()
         }
 
         /// Masses in our body order (kg), from the colliders' density.
@@ -443,6 +514,17 @@ mod tests {
         let r = rapier::RapierBoxes::from_world(&w, DT).unwrap();
         assert_eq!(r.centres(), ours::centres(&w));
         for (m, b) in r.masses().iter().zip(w.bodies()) {
+            assert!(
+                (m - b.mass()).abs() < 1e-9 * b.mass(),
+                "{m} vs {}",
+                b.mass()
+            );
+        }
+        // The pile's spheres and capsules: rapier's masses from the densities it gets.
+        let p = constraint_contact::scenes::pile(30, 1).unwrap();
+        let r = rapier::RapierBoxes::from_world_sleeping(&p, DT, true).unwrap();
+        assert_eq!(r.centres(), ours::centres(&p));
+        for (m, b) in r.masses().iter().zip(p.bodies()) {
             assert!(
                 (m - b.mass()).abs() < 1e-9 * b.mass(),
                 "{m} vs {}",

@@ -4,13 +4,16 @@
 //! box centres vary most and sweeps: box `i` is tested only against the boxes that start
 //! before it ends on that axis. Output pairs are `(i, j)` with `i < j`, sorted, so the
 //! result does not depend on the sort (deterministic). [`brute_force`] is the all-pairs
-//! reference. [`generate_contacts`] runs both phases over a scene of colliders.
+//! reference. [`generate_contacts`] runs both phases over a scene of colliders, with
+//! the broad phase of [`super::grid`] (the same pairs in the same order, linear in the
+//! number of bodies, its sorted order kept between steps in a [`BroadScratch`]).
 
 use alloc::vec::Vec;
 
 use constraint_core::Pose;
 
 use super::contact::Contact;
+use super::grid::{grid_pairs, GridScratch};
 use super::narrow::collide;
 use super::shape::{Aabb, Collider, GeometryError};
 
@@ -173,14 +176,15 @@ pub fn generate_contacts_filtered(
     )
 }
 
-/// The buffers of [`generate_contacts_with`] (bounding boxes, static mask, sweep order,
-/// overlapping pairs), kept between calls so that a step allocates nothing once they
-/// have grown to the scene.
+/// The buffers of [`generate_contacts_with`] (bounding boxes, static mask, the grid's
+/// sorted order, overlapping pairs), kept between calls so that a step allocates
+/// nothing once they have grown to the scene, and the grid re-sorts a nearly sorted
+/// list instead of sorting anew.
 #[derive(Clone, Debug, Default)]
 pub struct BroadScratch {
     aabbs: Vec<Aabb>,
     is_static: Vec<bool>,
-    order: Vec<usize>,
+    grid: GridScratch,
     pairs: Vec<(usize, usize)>,
 }
 
@@ -191,6 +195,23 @@ pub fn generate_contacts_with(
     body_poses: &[Pose],
     margin: f64,
     keep: impl Fn(usize, usize) -> bool,
+    scratch: &mut BroadScratch,
+    out: &mut Vec<Contact>,
+) -> Result<BroadStats, GeometryError> {
+    generate_contacts_awake(colliders, body_poses, margin, keep, &[], scratch, out)
+}
+
+/// [`generate_contacts_with`] for a world with sleeping bodies: a body marked in
+/// `asleep` (a shorter mask marks the rest awake) pairs like a static collider, so two
+/// asleep or static colliders are never paired; an asleep body against an awake one
+/// still is (the caller wakes it). With an empty mask, the same contacts as
+/// [`generate_contacts_with`].
+pub fn generate_contacts_awake(
+    colliders: &[Collider],
+    body_poses: &[Pose],
+    margin: f64,
+    keep: impl Fn(usize, usize) -> bool,
+    asleep: &[bool],
     scratch: &mut BroadScratch,
     out: &mut Vec<Contact>,
 ) -> Result<BroadStats, GeometryError> {
@@ -211,7 +232,7 @@ pub fn generate_contacts_with(
     let BroadScratch {
         aabbs,
         is_static,
-        order,
+        grid,
         pairs,
     } = scratch;
     aabbs.clear();
@@ -227,8 +248,11 @@ pub fn generate_contacts_with(
         aabbs.push(c.aabb(&pose_of(c), 0.5 * margin));
     }
     is_static.clear();
-    is_static.extend(colliders.iter().map(|c| c.body.is_none()));
-    let stats = sweep_and_prune_into(aabbs, is_static, order, pairs);
+    is_static.extend(colliders.iter().map(|c| {
+        c.body
+            .is_none_or(|b| asleep.get(b).copied().unwrap_or(false))
+    }));
+    let stats = grid_pairs(aabbs, is_static, grid, pairs);
     for &(i, j) in pairs.iter() {
         let (a, b) = (&colliders[i], &colliders[j]);
         if a.body == b.body || !keep(i, j) {

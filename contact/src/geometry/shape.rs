@@ -132,6 +132,21 @@ impl Shape {
         Ok(s)
     }
 
+    /// Radius of the smallest sphere about the shape's frame origin that holds it
+    /// (infinite for a plane): `r` for a sphere, `|half|` for a box, `half_length + r`
+    /// for a capsule.
+    pub fn bounding_radius(&self) -> f64 {
+        match *self {
+            Self::Plane { .. } => f64::INFINITY,
+            Self::Sphere { radius } => radius,
+            Self::Box { half } => half.length(),
+            Self::Capsule {
+                radius,
+                half_length,
+            } => half_length + radius,
+        }
+    }
+
     /// Checks sizes (finite, positive) and, for a plane, that the normal is unit (to within
     /// 1e-9; [`Shape::plane`] normalises it).
     pub fn validate(&self) -> Result<(), GeometryError> {

@@ -8,22 +8,56 @@ use super::*;
 
 impl ContactWorld {
     /// Delassus matrix `A = J M⁻¹ Jᵀ` (dense, row-major) and `q = J v_free − b`.
+    ///
+    /// Only row pairs that share a body are visited (`A_ij = 0` otherwise, as `J_i`
+    /// and `M⁻¹ J_jᵀ` then have no body in common): the rows are bucketed by body, and
+    /// each body's bucket is crossed with itself, so the work is `Σ_b deg(b)²` instead
+    /// of `n²` (entries non-zero: 40 % on a six-box stack, 27 % on a ten-box pyramid).
+    /// An entry whose rows share two
+    /// bodies is reached twice and written twice with the same bits (each visit sums
+    /// every shared body's term in the same order as the all-pairs loop did).
     pub(super) fn delassus(&self) -> (Vec<f64>, Vec<f64>) {
         let n = self.rows.len();
         let mut a = vec![0.0; n * n];
-        for (i, ri) in self.rows.iter().enumerate() {
-            for (j, rj) in self.rows.iter().enumerate().skip(i) {
-                let mut s = 0.0;
-                for (si, bi) in [(0usize, ri.a), (2usize, ri.b)] {
-                    let Some(bi) = bi else { continue };
-                    for (sj, bj) in [(0usize, rj.a), (2usize, rj.b)] {
-                        if Some(bi) == bj {
-                            s += ri.j[si].dot(rj.mj[sj]) + ri.j[si + 1].dot(rj.mj[sj + 1]);
-                        }
+        // Rows of each body, ascending (counting sort by body: deterministic).
+        let nb = self.bodies.len();
+        let mut start = vec![0usize; nb + 1];
+        for r in &self.rows {
+            for b in [r.a, r.b].into_iter().flatten() {
+                start[b + 1] += 1;
+            }
+        }
+        for b in 0..nb {
+            start[b + 1] += start[b];
+        }
+        let mut fill = start.clone();
+        let mut bucket = vec![0usize; start[nb]];
+        for (i, r) in self.rows.iter().enumerate() {
+            for b in [r.a, r.b].into_iter().flatten() {
+                bucket[fill[b]] = i;
+                fill[b] += 1;
+            }
+        }
+        let entry = |ri: &Row, rj: &Row| {
+            let mut s = 0.0;
+            for (si, bi) in [(0usize, ri.a), (2usize, ri.b)] {
+                let Some(bi) = bi else { continue };
+                for (sj, bj) in [(0usize, rj.a), (2usize, rj.b)] {
+                    if Some(bi) == bj {
+                        s += ri.j[si].dot(rj.mj[sj]) + ri.j[si + 1].dot(rj.mj[sj + 1]);
                     }
                 }
-                a[i * n + j] = s;
-                a[j * n + i] = s;
+            }
+            s
+        };
+        for b in 0..nb {
+            let rows = &bucket[start[b]..start[b + 1]];
+            for (k, &i) in rows.iter().enumerate() {
+                for &j in &rows[k..] {
+                    let s = entry(&self.rows[i], &self.rows[j]);
+                    a[i * n + j] = s;
+                    a[j * n + i] = s;
+                }
             }
         }
         let q = self
@@ -95,5 +129,55 @@ impl ContactWorld {
             self.path |= path::FRICTION_BUDGET;
         }
         Ok((z, stats.iterations))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenes::{box_stack, pyramid};
+
+    /// The all-pairs assembly the sparse one replaced.
+    fn all_pairs(w: &ContactWorld) -> Vec<f64> {
+        let n = w.rows.len();
+        let mut a = vec![0.0; n * n];
+        for (i, ri) in w.rows.iter().enumerate() {
+            for (j, rj) in w.rows.iter().enumerate().skip(i) {
+                let mut s = 0.0;
+                for (si, bi) in [(0usize, ri.a), (2usize, ri.b)] {
+                    let Some(bi) = bi else { continue };
+                    for (sj, bj) in [(0usize, rj.a), (2usize, rj.b)] {
+                        if Some(bi) == bj {
+                            s += ri.j[si].dot(rj.mj[sj]) + ri.j[si + 1].dot(rj.mj[sj + 1]);
+                        }
+                    }
+                }
+                a[i * n + j] = s;
+                a[j * n + i] = s;
+            }
+        }
+        a
+    }
+
+    #[test]
+    fn sparse_assembly_equals_all_pairs_bit_for_bit() {
+        for mut w in [box_stack(6).unwrap(), pyramid(4).unwrap()] {
+            w.settings.solver = ContactSolver::Newton;
+            for _ in 0..5 {
+                w.step(1.0 / 60.0).unwrap();
+            }
+            assert!(w.rows.len() >= 60, "{} rows", w.rows.len());
+            let (a, _) = w.delassus();
+            let reference = all_pairs(&w);
+            assert!(a
+                .iter()
+                .zip(&reference)
+                .all(|(x, y)| x.to_bits() == y.to_bits()));
+            // Sparse indeed: rows meet only their neighbours' (measured non-zero: 2048 of
+            // 5184 entries on the stack, 10080 of 36864 on the pyramid); tolerance half.
+            let nonzero = a.iter().filter(|x| **x != 0.0).count();
+            println!("{} of {} entries non-zero", nonzero, a.len());
+            assert!(2 * nonzero < a.len(), "{nonzero} of {}", a.len());
+        }
     }
 }

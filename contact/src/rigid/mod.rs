@@ -39,13 +39,15 @@ use core::fmt;
 use constraint_core::rigid::rotate_by;
 use constraint_core::{BodyError, DMat3, DVec3, Pose, RigidBody, StepContext};
 
-use crate::geometry::{generate_contacts, Collider, Contact, GeometryError};
+use crate::geometry::{BroadScratch, Collider, Contact, GeometryError};
 mod colouring;
 mod dense;
 mod sequential;
+mod sleep;
 mod soft_step;
 mod stages;
 
+pub use sleep::SleepSettings;
 pub use soft_step::{SoftStepSettings, Softness, MAX_SUBSTEPS};
 
 /// Bits of [`ContactWorld`]'s record of the solver path its last step took.
@@ -152,6 +154,8 @@ pub struct ContactSettings {
     pub split_impulse: bool,
     /// Contact stiffness, damping and push-out cap of [`ContactSolver::SoftStep`].
     pub soft_step: SoftStepSettings,
+    /// Islands and sleeping (every solver; off by default, [`SleepSettings::default`]).
+    pub sleep: SleepSettings,
 }
 
 impl Default for ContactSettings {
@@ -169,6 +173,7 @@ impl Default for ContactSettings {
             warm_start: true,
             split_impulse: true,
             soft_step: SoftStepSettings::default(),
+            sleep: SleepSettings::default(),
         }
     }
 }
@@ -189,6 +194,8 @@ pub struct ContactStats {
     pub max_penetration: f64,
     /// The solver that ran ([`ContactSolver::Auto`] resolved by contact count).
     pub solver: Option<ContactSolver>,
+    /// Bodies asleep after the step ([`ContactSettings::sleep`]).
+    pub asleep: usize,
 }
 
 /// Why a contact world rejected input or a step failed.
@@ -275,6 +282,10 @@ pub struct ContactWorld {
     saved: Vec<RigidBody>,
     /// Buffers of the soft step.
     soft: soft_step::SoftState,
+    /// Buffers of the broad phase (the other solvers; the soft step keeps its own).
+    broad: BroadScratch,
+    /// Islands and sleep state.
+    sleep: sleep::SleepState,
 }
 
 impl ContactWorld {
@@ -293,6 +304,8 @@ impl ContactWorld {
             path: 0,
             saved: Vec::new(),
             soft: soft_step::SoftState::default(),
+            broad: BroadScratch::default(),
+            sleep: sleep::SleepState::default(),
         }
     }
 
@@ -331,8 +344,10 @@ impl ContactWorld {
         &self.bodies
     }
 
-    /// Mutable access to the bodies' state.
+    /// Mutable access to the bodies' state. Wakes every body (a changed state must be
+    /// simulated).
     pub fn bodies_mut(&mut self) -> &mut [RigidBody] {
+        self.sleep.wake_all();
         &mut self.bodies
     }
 
@@ -372,6 +387,7 @@ impl ContactWorld {
         if !(s.tolerance > 0.0) || !s.tolerance.is_finite() {
             return bad("tolerance", "must be positive and finite");
         }
+        s.sleep.check()?;
         if s.iterations == 0 {
             return bad("iterations", "must be at least 1");
         }
@@ -408,7 +424,12 @@ impl ContactWorld {
         // The rollback copy lives in a kept buffer: no allocation once it has grown.
         let mut saved = core::mem::take(&mut self.saved);
         saved.clone_from(&self.bodies);
-        let result = self.step_inner(ctx.h()).and_then(|stats| {
+        let result = self.step_inner(ctx.h()).map(|mut stats| {
+            self.update_sleep(ctx.h(), &saved);
+            stats.asleep = self.sleep.count();
+            stats
+        });
+        let result = result.and_then(|stats| {
             let ok = constraint_core::math::within_limit;
             match self
                 .bodies
@@ -439,8 +460,10 @@ impl ContactWorld {
         // Contacts at the start of the step.
         let poses: Vec<Pose> = self.bodies.iter().map(|b| b.pose).collect();
         let mut contacts = core::mem::take(&mut self.contacts);
-        let broad = generate_contacts(&self.colliders, &poses, self.settings.margin, &mut contacts)
-            .map_err(ContactError::Geometry)?;
+        let mut scratch = core::mem::take(&mut self.broad);
+        let broad = self.awake_contacts(&poses, &mut scratch, &mut contacts);
+        self.broad = scratch;
+        let broad = broad?;
         stats.pair_tests = broad.tests;
         stats.contacts = contacts.len();
         stats.max_penetration = contacts.iter().map(|c| c.depth).fold(0.0, f64::max);

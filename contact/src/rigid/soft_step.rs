@@ -45,7 +45,7 @@ use constraint_core::{DMat3, DQuat, DVec3, Pose};
 
 use super::colouring::Colouring;
 use super::{path, ContactError, ContactSolver, ContactStats, ContactWorld};
-use crate::geometry::{generate_contacts_with, BroadScratch};
+use crate::geometry::BroadScratch;
 
 /// Settings of [`ContactSolver::SoftStep`] (Box2D v3's world definition values by
 /// default, except the contact stiffness; see [`SoftStepSettings::default`]).
@@ -248,20 +248,14 @@ impl ContactWorld {
         st.poses.clear();
         st.poses.extend(self.bodies.iter().map(|b| b.pose));
         let mut contacts = core::mem::take(&mut self.contacts);
-        let broad = generate_contacts_with(
-            &self.colliders,
-            &st.poses,
-            self.settings.margin,
-            |_, _| true,
-            &mut st.broad,
-            &mut contacts,
-        );
+        // Asleep bodies are left out of the pairs (the sleep module's hook).
+        let broad = self.awake_contacts(&st.poses, &mut st.broad, &mut contacts);
         self.contacts = contacts;
         let broad = match broad {
             Ok(b) => b,
             Err(e) => {
                 self.soft = st;
-                return Err(ContactError::Geometry(e));
+                return Err(e);
             }
         };
         stats.pair_tests = broad.tests;
@@ -305,7 +299,16 @@ impl ContactWorld {
         st.inv_inertia.clear();
         st.v.clear();
         st.w.clear();
-        for b in &mut self.bodies {
+        for (i, b) in self.bodies.iter_mut().enumerate() {
+            // An asleep body (the sleep module's hook) takes a static slot: at rest, zero
+            // inverse mass, not integrated (it is in no contact row either).
+            if self.sleep.asleep.get(i).copied().unwrap_or(false) {
+                st.inv_mass.push(0.0);
+                st.inv_inertia.push(DMat3::ZERO);
+                st.v.push(DVec3::ZERO);
+                st.w.push(DVec3::ZERO);
+                continue;
+            }
             b.omega = b.gyroscopic_step(h);
             st.inv_mass.push(1.0 / b.mass());
             st.inv_inertia.push(b.world_inv_inertia());
@@ -506,18 +509,25 @@ impl ContactWorld {
     }
 }
 
-/// `v += g h` for every moving body (the static slot stays at rest).
+/// `v += g h` for every moving body (the static slot and asleep bodies, zero inverse
+/// mass, stay at rest).
 fn integrate_velocities(st: &mut SoftState, g: DVec3, hs: f64) {
     let n = st.v.len() - 1;
-    for v in &mut st.v[..n] {
-        *v += g * hs;
+    for (v, &m) in st.v[..n].iter_mut().zip(&st.inv_mass) {
+        if m > 0.0 {
+            *v += g * hs;
+        }
     }
 }
 
-/// `Δx += v h`, `Δq ← exp(ω h) Δq` (and its matrix) for every moving body.
+/// `Δx += v h`, `Δq ← exp(ω h) Δq` (and its matrix) for every moving body (asleep
+/// bodies, zero inverse mass, are skipped).
 fn integrate_positions(st: &mut SoftState, hs: f64) {
     let n = st.v.len() - 1;
     for i in 0..n {
+        if !(st.inv_mass[i] > 0.0) {
+            continue; // asleep
+        }
         st.dp[i] += st.v[i] * hs;
         st.dq[i] = rotate_by(st.dq[i], st.w[i] * hs);
         st.rot[i] = DMat3::from_quat(st.dq[i]);

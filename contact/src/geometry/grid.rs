@@ -1,0 +1,198 @@
+//! Broad phase for many bodies: a uniform grid kept sorted between steps.
+//!
+//! The cell size `s` is the largest extent of a moving collider's bounding box (times
+//! `1 + 1e-6`, so rounding never loses a touching pair). Every box no larger than `s`
+//! on each axis is filed under the cell of its lower corner,
+//! `(⌊min_z/s⌋, ⌊min_y/s⌋, ⌊min_x/s⌋)`; two such boxes can overlap only if their cells
+//! differ by at most one on every axis (`|min_a − min_b| ≤ s` on each axis when they
+//! overlap). The filed boxes are kept in a list sorted by (cell, index); between steps
+//! bodies rarely change cell, so the list is re-sorted by insertion sort on the previous
+//! order (linear on a nearly sorted list; past a budget of moves it finishes with a
+//! full sort, which gives the same order since the keys are unique). The sweep walks the
+//! sorted list once with nine cursors, one per neighbouring `(z, y)` row of cells:
+//! each cursor only moves forward, because the row `(z + dz, y + dy)` starting at
+//! `x − 1` grows with the cell in lexicographic order. Boxes larger than a cell (the
+//! ground plane, container walls, a huge static box) and boxes with non-finite bounds
+//! are tested against every other box.
+//!
+//! The cell follows the largest moving box, so one moving box much larger than the
+//! rest (a long plank among pebbles) makes cells coarse and the sweep tests more pairs
+//! per cell; the pairs stay exact.
+//!
+//! The result is the set of overlapping pairs, `(i, j)` with `i < j`, sorted: the same
+//! pairs in the same order as [`super::sweep_and_prune_masked`], in time linear in the
+//! number of boxes for scenes of similar-sized bodies (the sweep and prune along one
+//! axis tests every box against the whole slab it spans: about `n^1.5` tests for a pile
+//! spread over a floor). Ericson, *Real-Time Collision Detection* (2005), §7.1
+//! (uniform grids; the lower-corner cell and the neighbour test); the kept, insertion-
+//! sorted order is Baraff's (1992) incremental sweep and prune applied to cell keys.
+
+use alloc::vec::Vec;
+
+use super::broad::BroadStats;
+use super::shape::Aabb;
+
+/// Cell coordinates `(z, y, x)` (lexicographic order walks rows of `x`).
+type Cell = (i64, i64, i64);
+
+/// Largest cell coordinate magnitude (keys are clamped to it; clamping is monotone, so
+/// overlapping boxes stay within one cell of each other).
+const CELL_LIMIT: f64 = (1u64 << 40) as f64;
+
+/// The grid's buffers, kept between steps (no allocation once grown to the scene).
+#[derive(Clone, Debug, Default)]
+pub struct GridScratch {
+    /// Cell of each box (meaningful for filed boxes only).
+    cell: Vec<Cell>,
+    /// Whether box `i` is filed in the grid (else tested against everything).
+    filed: Vec<bool>,
+    /// Whether box `i` was in `sorted` after the previous step.
+    was_filed: Vec<bool>,
+    /// Filed boxes sorted by (cell, index): the order kept between steps.
+    sorted: Vec<usize>,
+    /// Boxes tested against everything, ascending.
+    large: Vec<usize>,
+    /// The nine row cursors of the sweep.
+    cursor: [usize; 9],
+}
+
+/// The cell of a lower corner at cell size `s`.
+#[inline]
+fn cell_of(aabb: &Aabb, s: f64) -> Cell {
+    let k = |v: f64| libm::floor(v / s).clamp(-CELL_LIMIT, CELL_LIMIT) as i64;
+    (k(aabb.min.z), k(aabb.min.y), k(aabb.min.x))
+}
+
+/// Overlapping pairs `(i, j)`, `i < j`, sorted, into `out` (cleared first); pairs of two
+/// boxes marked in `fixed` (a shorter mask marks the rest moving) are left out, as in
+/// [`super::sweep_and_prune_masked`]. The cell size comes from the moving boxes (all
+/// boxes when none moves). `tests` counts box–box comparisons; `axis` is 0.
+pub fn grid_pairs(
+    aabbs: &[Aabb],
+    fixed: &[bool],
+    g: &mut GridScratch,
+    out: &mut Vec<(usize, usize)>,
+) -> BroadStats {
+    out.clear();
+    let n = aabbs.len();
+    let is_fixed = |i: usize| fixed.get(i).copied().unwrap_or(false);
+    let finite = |b: &Aabb| b.min.is_finite() && b.max.is_finite();
+    let extent = |b: &Aabb| (b.max - b.min).max_element();
+    // Cell size: the largest moving box (then all boxes), never zero.
+    let mut s: f64 = 0.0;
+    for pass in 0..2 {
+        for (i, b) in aabbs.iter().enumerate() {
+            if (pass == 1 || !is_fixed(i)) && finite(b) {
+                s = s.max(extent(b));
+            }
+        }
+        if s > 0.0 {
+            break;
+        }
+    }
+    let s = if s > 0.0 && s.is_finite() {
+        s * (1.0 + 1e-6)
+    } else {
+        1.0
+    };
+    g.cell.clear();
+    g.filed.clear();
+    g.large.clear();
+    for (i, b) in aabbs.iter().enumerate() {
+        let small = finite(b) && extent(b) <= s;
+        g.filed.push(small);
+        g.cell.push(if small { cell_of(b, s) } else { (0, 0, 0) });
+        if !small {
+            g.large.push(i);
+        }
+    }
+    // The kept order: drop boxes no longer filed (or gone), append newly filed ones.
+    let GridScratch {
+        cell,
+        filed,
+        was_filed,
+        sorted,
+        large,
+        cursor,
+    } = g;
+    sorted.retain(|&i| i < n && filed[i]);
+    was_filed.resize(n, false);
+    for i in 0..n {
+        if filed[i] && !was_filed[i] {
+            sorted.push(i);
+        }
+    }
+    insertion_sort(sorted, cell);
+    was_filed.clear();
+    was_filed.extend_from_slice(filed);
+
+    let mut tests = 0;
+    // Filed against filed: the nine neighbouring rows, each pair once (from its
+    // earlier box in sorted order).
+    *cursor = [0; 9];
+    for p in 0..sorted.len() {
+        let i = sorted[p];
+        let (z, y, x) = cell[i];
+        for (c, cur) in cursor.iter_mut().enumerate() {
+            let (dz, dy) = ((c / 3) as i64 - 1, (c % 3) as i64 - 1);
+            let lo = (z + dz, y + dy, x - 1);
+            let hi = (z + dz, y + dy, x + 1);
+            while *cur < sorted.len() && cell[sorted[*cur]] < lo {
+                *cur += 1;
+            }
+            let mut q = *cur;
+            while q < sorted.len() && cell[sorted[q]] <= hi {
+                if q > p {
+                    let j = sorted[q];
+                    tests += 1;
+                    if !(is_fixed(i) && is_fixed(j)) && aabbs[i].overlaps(&aabbs[j]) {
+                        out.push(if i < j { (i, j) } else { (j, i) });
+                    }
+                }
+                q += 1;
+            }
+        }
+    }
+    // Large boxes against every other box (large pairs once).
+    for &i in large.iter() {
+        for j in 0..n {
+            if j == i || (!filed[j] && j < i) {
+                continue;
+            }
+            tests += 1;
+            if !(is_fixed(i) && is_fixed(j)) && aabbs[i].overlaps(&aabbs[j]) {
+                out.push(if i < j { (i, j) } else { (j, i) });
+            }
+        }
+    }
+    out.sort_unstable();
+    BroadStats {
+        tests,
+        pairs: out.len(),
+        axis: 0,
+    }
+}
+
+/// Sorts `order` by `(cell[i], i)` in place: insertion sort on the previous order
+/// (linear when nearly sorted), finished by a full sort past `4 n + 64` moves. The keys
+/// are unique, so both give the same order.
+fn insertion_sort(order: &mut [usize], cell: &[Cell]) {
+    let key = |i: usize| (cell[i], i);
+    let budget = 4 * order.len() + 64;
+    let mut moves = 0;
+    for k in 1..order.len() {
+        let v = order[k];
+        let kv = key(v);
+        let mut m = k;
+        while m > 0 && key(order[m - 1]) > kv {
+            order[m] = order[m - 1];
+            m -= 1;
+            moves += 1;
+        }
+        order[m] = v;
+        if moves > budget {
+            order.sort_unstable_by_key(|&i| key(i));
+            return;
+        }
+    }
+}
