@@ -41,7 +41,10 @@
 //! rows, whose set does not settle within [`MAX_ITERATIONS`] or returns to a set met
 //! earlier in the step (the update cycles), with more than
 //! [`MAX_SCHUR`] Schur rows, or where a dependent row's value cannot be held, goes to
-//! the dense path unchanged (counted in [`super::UnilateralStats`]).
+//! the dense path unchanged (counted in [`super::UnilateralStats`]); after three or
+//! more such steps in a row, the next ones go there without trying (a doubling
+//! back-off, `World::solve_unilateral_sparse`). An iteration whose set of factor rows
+//! is the last one's reuses its factor and the Schur rows' columns.
 
 use alloc::vec::Vec;
 
