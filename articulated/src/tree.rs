@@ -336,6 +336,30 @@ impl TreeSolver {
     /// forward (leaves first) `u_i = L_i⁻¹ y_i`, `s_i = d_i⁻¹ u_i`, `y_p −= W_iᵀ s_i`;
     /// backward (root first) `x_i = L_i⁻ᵀ (s_i − d_i⁻¹ W_i x_p)`.
     pub fn solve(&self, x: &mut [f64]) {
+        self.solve_marked(x, None);
+    }
+
+    /// [`Self::solve`] for a right-hand side that is zero outside the unknowns of the
+    /// bodies `bodies` (a row's `Gᵀ`, [`Self::scatter`]): the forward pass visits only
+    /// those bodies' nodes and their ancestors (elsewhere it would carry zeros), the
+    /// backward pass every node. `mark` is scratch (one flag per node, kept by the
+    /// caller). Same values as [`Self::solve`] (up to the sign of zeros).
+    pub fn solve_sparse(&self, x: &mut [f64], bodies: [Option<usize>; 2], mark: &mut Vec<bool>) {
+        mark.clear();
+        mark.resize(self.dim.len(), false);
+        for mut i in bodies.into_iter().flatten() {
+            while i != NONE && i < mark.len() && !mark[i] {
+                mark[i] = true;
+                i = self.parent[i];
+            }
+        }
+        self.solve_marked(x, Some(mark));
+    }
+
+    /// [`Self::solve`] with the forward pass restricted to the nodes `mark` flags (all
+    /// without it): one body for both, so the node kernels keep a single call site
+    /// each (and stay inlined).
+    fn solve_marked(&self, x: &mut [f64], mark: Option<&[bool]>) {
         // Fixed-size kernels for the node shapes of body/joint pairs (loops unroll);
         // `NP = 0` is a root.
         macro_rules! dispatch {
@@ -347,55 +371,7 @@ impl TreeSolver {
             };
         }
         for &i in &self.order {
-            let (n, oi, p) = (self.dim[i], self.offset[i], self.parent[i]);
-            let (np, op) = if p == NONE {
-                (0, 0)
-            } else {
-                (self.dim[p], self.offset[p])
-            };
-            let args = (&self.diag[i], &self.dinv[i], &self.off[i], oi, op, n, np);
-            dispatch!(forward, n, np, args, x;
-                6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
-                1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
-        }
-        for &i in self.order.iter().rev() {
-            let (n, oi, p) = (self.dim[i], self.offset[i], self.parent[i]);
-            let (np, op) = if p == NONE {
-                (0, 0)
-            } else {
-                (self.dim[p], self.offset[p])
-            };
-            let args = (&self.diag[i], &self.dinv[i], &self.off[i], oi, op, n, np);
-            dispatch!(backward, n, np, args, x;
-                6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
-                1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
-        }
-    }
-
-    /// [`Self::solve`] for a right-hand side that is zero outside the unknowns of the
-    /// bodies `bodies` (a row's `Gᵀ`, [`Self::scatter`]): the forward pass visits only
-    /// those bodies' nodes and their ancestors (elsewhere it would carry zeros), the
-    /// backward pass every node. `mark` is scratch (one flag per node, kept by the
-    /// caller). Same values as [`Self::solve`] (up to the sign of zeros).
-    pub fn solve_sparse(&self, x: &mut [f64], bodies: [Option<usize>; 2], mark: &mut Vec<bool>) {
-        macro_rules! dispatch {
-            ($f:ident, $n:expr, $np:expr, $args:expr, $x:expr; $($a:literal, $b:literal);*) => {
-                match ($n, $np) {
-                    $(($a, $b) => $f::<$a, $b>($args, $x),)*
-                    _ => $f::<6, 6>($args, $x),
-                }
-            };
-        }
-        mark.clear();
-        mark.resize(self.dim.len(), false);
-        for mut i in bodies.into_iter().flatten() {
-            while i != NONE && i < mark.len() && !mark[i] {
-                mark[i] = true;
-                i = self.parent[i];
-            }
-        }
-        for &i in &self.order {
-            if !mark[i] {
+            if mark.is_some_and(|m| !m[i]) {
                 continue;
             }
             let (n, oi, p) = (self.dim[i], self.offset[i], self.parent[i]);
