@@ -336,6 +336,30 @@ impl TreeSolver {
     /// forward (leaves first) `u_i = L_i⁻¹ y_i`, `s_i = d_i⁻¹ u_i`, `y_p −= W_iᵀ s_i`;
     /// backward (root first) `x_i = L_i⁻ᵀ (s_i − d_i⁻¹ W_i x_p)`.
     pub fn solve(&self, x: &mut [f64]) {
+        self.solve_marked(x, None);
+    }
+
+    /// [`Self::solve`] for a right-hand side that is zero outside the unknowns of the
+    /// bodies `bodies` (a row's `Gᵀ`, [`Self::scatter`]): the forward pass visits only
+    /// those bodies' nodes and their ancestors (elsewhere it would carry zeros), the
+    /// backward pass every node. `mark` is scratch (one flag per node, kept by the
+    /// caller). Same values as [`Self::solve`] (up to the sign of zeros).
+    pub fn solve_sparse(&self, x: &mut [f64], bodies: [Option<usize>; 2], mark: &mut Vec<bool>) {
+        mark.clear();
+        mark.resize(self.dim.len(), false);
+        for mut i in bodies.into_iter().flatten() {
+            while i != NONE && i < mark.len() && !mark[i] {
+                mark[i] = true;
+                i = self.parent[i];
+            }
+        }
+        self.solve_marked(x, Some(mark));
+    }
+
+    /// [`Self::solve`] with the forward pass restricted to the nodes `mark` flags (all
+    /// without it): one body for both, so the node kernels keep a single call site
+    /// each (and stay inlined).
+    fn solve_marked(&self, x: &mut [f64], mark: Option<&[bool]>) {
         // Fixed-size kernels for the node shapes of body/joint pairs (loops unroll);
         // `NP = 0` is a root.
         macro_rules! dispatch {
@@ -347,6 +371,9 @@ impl TreeSolver {
             };
         }
         for &i in &self.order {
+            if mark.is_some_and(|m| !m[i]) {
+                continue;
+            }
             let (n, oi, p) = (self.dim[i], self.offset[i], self.parent[i]);
             let (np, op) = if p == NONE {
                 (0, 0)
@@ -625,4 +652,66 @@ fn backward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) 
         s[r] = v;
     }
     x[oi..oi + n].copy_from_slice(&s[..n]);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use constraint_core::DMat3;
+
+    /// A branched tree (a chain of 8 bodies hung from the world, with a second chain of
+    /// 4 on body 2) held by 3-row ball joints: a column `Gᵀ` of a contact row on one
+    /// or two bodies gives the same solution by [`TreeSolver::solve_sparse`] (forward
+    /// pass on the bodies' paths to the root only) as by [`TreeSolver::solve`], to the
+    /// bit (`==`, which equates the two zeros).
+    #[test]
+    fn sparse_forward_pass_gives_the_full_solve() {
+        let n = 12;
+        let mut topo = vec![JointTopo {
+            a: None,
+            b: 0,
+            rows: 3,
+        }];
+        for i in 1..n {
+            let a = if i == 8 { 2 } else { i - 1 };
+            topo.push(JointTopo {
+                a: Some(a),
+                b: i,
+                rows: 3,
+            });
+        }
+        let mut t = TreeSolver::new(n, &topo);
+        for i in 0..n {
+            let m = 1.0 + 0.1 * i as f64;
+            t.set_body(i, m, &(DMat3::IDENTITY * (0.01 + 0.001 * i as f64)));
+        }
+        for (j, tp) in topo.iter().enumerate() {
+            // Ball joint at the child's origin offset by r: v_b + ω_b × r_b − … = 0.
+            let r = DVec3::new(0.1, 0.02 * j as f64, -0.05);
+            let mut rows = [[DVec3::ZERO; 4]; 3];
+            for (k, row) in rows.iter_mut().enumerate() {
+                let e = DVec3::AXES[k];
+                *row = [-e, -r.cross(e) * 0.5, e, r.cross(e)];
+            }
+            t.set_joint(j, tp, &rows, &[0.0; 3]);
+        }
+        t.factor().expect("factor");
+        let mut mark = Vec::new();
+        for bodies in [[Some(5), None], [Some(10), Some(4)], [Some(0), Some(11)]] {
+            let mut full = vec![0.0; t.size];
+            for (s, b) in bodies.iter().enumerate() {
+                if let Some(b) = b {
+                    let o = t.body_offset(*b);
+                    for c in 0..6 {
+                        full[o + c] = (1 + s) as f64 * (0.3 + c as f64) * 0.7;
+                    }
+                }
+            }
+            let mut sparse = full.clone();
+            t.solve(&mut full);
+            t.solve_sparse(&mut sparse, bodies, &mut mark);
+            assert!(full.iter().any(|v| *v != 0.0));
+            assert_eq!(full, sparse, "bodies {bodies:?}");
+        }
+    }
 }

@@ -41,7 +41,10 @@
 //! rows, whose set does not settle within [`MAX_ITERATIONS`] or returns to a set met
 //! earlier in the step (the update cycles), with more than
 //! [`MAX_SCHUR`] Schur rows, or where a dependent row's value cannot be held, goes to
-//! the dense path unchanged (counted in [`super::UnilateralStats`]).
+//! the dense path unchanged (counted in [`super::UnilateralStats`]); after three or
+//! more such steps in a row, the next ones go there without trying (a doubling
+//! back-off, `World::solve_unilateral_sparse`). An iteration whose set of factor rows
+//! is the last one's reuses its factor and the Schur rows' columns.
 
 use alloc::vec::Vec;
 
@@ -55,6 +58,10 @@ use crate::tree_rows::{ExtraRow, RowTree};
 
 /// Iterations of the active set before the step goes to the dense path.
 pub const MAX_ITERATIONS: usize = 20;
+
+/// Most steps [`World::solve_unilateral_sparse`]'s back-off sends to the dense path
+/// without trying the active set.
+const MAX_SKIP: u32 = 15;
 
 /// Most rows solved by their Schur complement in one iteration (dropped pivots and
 /// active coupled rows together); beyond it the dense path is as cheap.
@@ -120,8 +127,21 @@ pub(super) struct ActiveSet {
     ex_resp: Vec<f64>,
     ex_mat: Vec<f64>,
     ex_dz: Vec<f64>,
+    /// The factor rows (`map`) of the iteration that built `factor`, and whether it
+    /// was built in this step: an iteration with the same rows reuses it.
+    factor_map: Vec<usize>,
+    factor_current: bool,
+    /// The Schur rows whose `ycols` and eigendecomposition of `S` (in `s_mat`,
+    /// `s_vec`, with `s_floor`) were built on the current factor; `y_current` says
+    /// they are valid (cleared when the factor is rebuilt).
+    y_schur: Vec<usize>,
+    y_current: bool,
     /// Fingerprints of the sets met in this step's iterations (cycle detection).
     history: Vec<u64>,
+    /// Consecutive steps whose active set failed, and the steps still to go straight
+    /// to the dense path ([`World::solve_unilateral_sparse`]'s back-off).
+    failures: u32,
+    skip: u32,
     /// The last step's rows in their order: key, status, impulse.
     warm: Vec<(RowKey, RowStatus, f64)>,
     /// `warm`'s indices sorted by key (built on the first lookup that misses the
@@ -177,9 +197,26 @@ impl World {
     /// the active set; on success the solution is in `self.rhs` (the tree's layout) and
     /// the impulses in `self.uz`. `false`: not eligible or not settled, and neither
     /// `self.rhs` nor the solver was touched (the dense path follows).
+    ///
+    /// Back-off: after `k ≥ 3` consecutive steps whose active set failed (a contact
+    /// patch whose update cycles keeps cycling while it rests: gymnasium's ant standing
+    /// on four feet failed 430 of 479 steps at its 10 ms step, each after several
+    /// factorizations), the next `2^(k−2) − 1` steps (at most [`MAX_SKIP`]) go to the
+    /// dense path without trying; a step that settles resets the count. One or two
+    /// failures in a row skip nothing.
     pub(super) fn solve_unilateral_sparse(&mut self) -> bool {
+        if self.aset.skip > 0 {
+            self.aset.skip -= 1;
+            return false;
+        }
         let mut st = core::mem::take(&mut self.aset);
         let ok = self.active_set_solve(&mut st);
+        if ok {
+            st.failures = 0;
+        } else {
+            st.failures = st.failures.saturating_add(1);
+            st.skip = ((1u32 << st.failures.saturating_sub(2).min(6)) - 1).min(MAX_SKIP);
+        }
         self.aset = st;
         ok
     }
@@ -245,6 +282,8 @@ impl World {
         let mut iterations = 0;
         let mut settled = false;
         st.history.clear();
+        st.factor_current = false;
+        st.y_current = false;
         while iterations < MAX_ITERATIONS {
             iterations += 1;
             // Impulses of the rows off the factor (bounds from the current normals).
@@ -269,10 +308,20 @@ impl World {
                     st.map.push(i);
                 }
             }
-            if !st.factor.assemble(&self.solver, &st.rows)
-                || st.factor.factor(&self.solver).is_err()
-            {
-                return false;
+            // The factor depends on the set of active factor rows alone (their
+            // Jacobians are fixed within the step): an iteration that only moved
+            // bounds or impulses at a bound keeps it, and the Schur rows' columns.
+            if !(st.factor_current && st.factor_map == st.map) {
+                st.factor_current = false;
+                st.y_current = false;
+                if !st.factor.assemble(&self.solver, &st.rows)
+                    || st.factor.factor(&self.solver).is_err()
+                {
+                    return false;
+                }
+                st.factor_current = true;
+                st.factor_map.clear();
+                st.factor_map.extend_from_slice(&st.map);
             }
             // Right-hand side: the tree's, the known impulses, the active rows' targets.
             let f = &st.factor;
@@ -605,6 +654,52 @@ impl World {
             return false;
         }
         let size = f.size;
+        if !(st.y_current && st.y_schur == st.schur) {
+            st.y_current = false;
+            if !self.schur_columns(st) {
+                return false;
+            }
+            st.y_current = true;
+            st.y_schur.clear();
+            st.y_schur.extend_from_slice(&st.schur);
+        }
+        let f = &st.factor;
+        let row = |a: usize| &self.urows[st.schur[a]];
+        st.s_rhs.clear();
+        for a in 0..d {
+            st.s_rhs.push(gather(f, &st.x, row(a)) - row(a).bias);
+        }
+        if st.s_rhs.iter().any(|v| !v.is_finite())
+            || !psd_apply(&st.s_mat, &st.s_vec, d, &st.s_rhs, st.s_floor, &mut st.zeta)
+        {
+            return false;
+        }
+        st.s_ready = true;
+        for (c, z) in st.zeta.iter().enumerate() {
+            if *z != 0.0 {
+                let col = &st.ycols[c * size..(c + 1) * size];
+                for (x, y) in st.x.iter_mut().zip(col) {
+                    *x -= z * y;
+                }
+            }
+        }
+        for (c, &p) in st.schur_pos.iter().enumerate() {
+            if p != usize::MAX {
+                st.x[p] = st.zeta[c];
+            }
+        }
+        true
+    }
+
+    /// The Schur rows' columns `Y = H_A⁻¹ G_Dᵀ` (one factor solve each), `S = G_D Y`
+    /// (symmetrised) in its eigendecomposition ([`psd_eigen`]) and the truncation
+    /// floor `1e-10 max g M⁻¹ gᵀ`, for [`Self::schur_rows`]; they depend on the factor
+    /// and the Schur rows only, so iterations that keep both reuse them. `false` when
+    /// `S` is not finite or its rotations did not converge.
+    fn schur_columns(&self, st: &mut ActiveSet) -> bool {
+        let f = &st.factor;
+        let d = st.schur.len();
+        let size = f.size;
         st.ycols.clear();
         st.ycols.resize(d * size, 0.0);
         let mut free_scale: f64 = 0.0;
@@ -637,34 +732,11 @@ impl World {
                 st.s_mat[b * d + a] = v;
             }
         }
-        st.s_rhs.clear();
-        for a in 0..d {
-            st.s_rhs.push(gather(f, &st.x, row(a)) - row(a).bias);
-        }
-        if st.s_mat.iter().chain(&st.s_rhs).any(|v| !v.is_finite()) {
+        if st.s_mat.iter().any(|v| !v.is_finite()) {
             return false;
         }
         st.s_floor = 1e-10 * free_scale;
-        if !psd_eigen(&mut st.s_mat, &mut st.s_vec, d)
-            || !psd_apply(&st.s_mat, &st.s_vec, d, &st.s_rhs, st.s_floor, &mut st.zeta)
-        {
-            return false;
-        }
-        st.s_ready = true;
-        for (c, z) in st.zeta.iter().enumerate() {
-            if *z != 0.0 {
-                let col = &st.ycols[c * size..(c + 1) * size];
-                for (x, y) in st.x.iter_mut().zip(col) {
-                    *x -= z * y;
-                }
-            }
-        }
-        for (c, &p) in st.schur_pos.iter().enumerate() {
-            if p != usize::MAX {
-                st.x[p] = st.zeta[c];
-            }
-        }
-        true
+        psd_eigen(&mut st.s_mat, &mut st.s_vec, d)
     }
 
     /// After a dense solve: the statuses its impulses imply, for the next step's warm

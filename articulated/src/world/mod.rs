@@ -280,6 +280,9 @@ pub struct World {
     umu: Vec<f64>,
     /// Zero loop right-hand side (scratch).
     uzero: Vec<f64>,
+    /// Per tree node: on a column's path to the root (scratch of
+    /// [`crate::tree::TreeSolver::solve_sparse`]).
+    umark: Vec<bool>,
     /// The rows' bounds (scratch).
     ubounds: Vec<constraint_contact::lcp::RowBound>,
     /// The active-set solve of the one-sided rows in the tree factor (scratch and the
@@ -361,6 +364,7 @@ impl World {
             uq: Vec::new(),
             umu: Vec::new(),
             uzero: Vec::new(),
+            umark: Vec::new(),
             ubounds: Vec::new(),
             aset: active_set::ActiveSet::default(),
             dof_tau: Vec::new(),

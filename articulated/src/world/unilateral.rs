@@ -381,11 +381,19 @@ impl World {
         zero_rhs.clear();
         zero_rhs.resize(loops.2.len(), 0.0);
         let free_scale = self.loop_free_scale(loops);
+        let mut mark = core::mem::take(&mut self.umark);
         for (k, r) in self.urows.iter().enumerate() {
             let col = &mut ycols[k * size..(k + 1) * size];
             scatter(&self.solver, &self.tendon_spans, col, r, 1.0);
-            self.solver
-                .solve_with_loops(col, &loops.0, &loops.1, &zero_rhs, free_scale, &mut mu)?;
+            // Without loops a body row's column needs the forward pass only along its
+            // bodies' paths to the root (a tendon's row spans its joints' bodies).
+            let tendon = matches!(r.source, RowSource::TendonLimit { .. });
+            if loops.0.is_empty() && !tendon {
+                self.solver.solve_sparse(col, [r.a, r.b], &mut mark);
+            } else {
+                self.solver
+                    .solve_with_loops(col, &loops.0, &loops.1, &zero_rhs, free_scale, &mut mu)?;
+            }
             // Through the equality rows too (equality.rs).
             self.eq.correct(&self.solver, col);
         }
@@ -441,6 +449,7 @@ impl World {
         self.umu = mu;
         self.uzero = zero_rhs;
         self.ubounds = bounds;
+        self.umark = mark;
         outcome
     }
 
