@@ -166,12 +166,25 @@ fuzz_target!(|inp: Input| {
 
     // A few contact bodies (spheres and boxes) on a ground plane.
     let mut cw = ContactWorld::new(v(inp.gravity));
-    cw.settings.solver = match inp.contact_solver % 5 {
+    cw.settings.solver = match inp.contact_solver % 7 {
         0 => ContactSolver::Auto,
         1 => ContactSolver::SequentialImpulses,
         2 => ContactSolver::Pgs,
         3 => ContactSolver::Lemke,
-        _ => ContactSolver::Newton,
+        4 => ContactSolver::Newton,
+        // The soft step (issue 14) with fuzzed sub-steps and settings: the iteration
+        // count as sub-steps (0 is a typed error), `param` as every float setting.
+        5 => ContactSolver::SoftStep {
+            substeps: usize::from(inp.iters),
+        },
+        _ => {
+            cw.settings.soft_step.hertz = inp.param;
+            cw.settings.soft_step.damping_ratio = inp.param;
+            cw.settings.soft_step.max_push_velocity = inp.param;
+            cw.settings.soft_step.one_way_mass_ratio = inp.param;
+            cw.settings.soft_step.friction_anchors = inp.param > 1.0;
+            ContactSolver::SoftStep { substeps: 4 }
+        }
     };
     if let Ok(plane) = Shape::plane(DVec3::Z, 0.0) {
         let _ = cw.add_collider(Collider::simple(None, plane).unwrap());

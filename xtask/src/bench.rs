@@ -629,7 +629,69 @@ fn contact_markdown(p: &ContactPeers) -> String {
     for n in notes {
         let _ = writeln!(md, "- {n}");
     }
+    pile_section(&mut md, p);
     md
+}
+
+/// The piles (issue 14): criterion's time per step on 1000 and 10,000 mixed bodies,
+/// sleeping off and on, each against rapier3d with the same sleeping; then the growth
+/// table `target/peers/pile_growth.tsv` (time per step over 100 … 10,000 bodies, energy,
+/// depth, bodies asleep) as the bench wrote it, with its fitted exponents.
+fn pile_section(md: &mut String, p: &ContactPeers) {
+    let sizes = [1000usize, 10000];
+    let pairs = [
+        (
+            "ours_soft4",
+            "rapier",
+            "ours (soft step, 4 sub-steps), sleeping off",
+        ),
+        (
+            "ours_soft4_sleep",
+            "rapier_sleep",
+            "ours (soft step, 4 sub-steps), sleeping on",
+        ),
+        ("rapier", "rapier", "rapier3d, sleeping off"),
+        ("rapier_sleep", "rapier_sleep", "rapier3d, sleeping on"),
+    ];
+    let any = sizes.iter().any(|n| {
+        pairs
+            .iter()
+            .any(|(e, _, _)| p.time(e, &format!("pile{n}")).is_some())
+    });
+    let growth = std::fs::read_to_string(root().join("target/peers/pile_growth.tsv")).ok();
+    if !any && growth.is_none() {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "\n## Piles: boxes, spheres and capsules poured into a container\n\n\
+         `constraint_contact::scenes::pile(n, 1)`, timed after the pour settles; the ratio is \
+         against rapier3d with the same sleeping setting (a ratio below 1: this library is \
+         faster).\n\n| bodies | engine | time per step | ratio |\n|---:|---|---:|---:|"
+    );
+    for n in sizes {
+        let scene = format!("pile{n}");
+        for (engine, peer, label) in pairs {
+            let t = p.time(engine, &scene);
+            if t.is_none() {
+                continue;
+            }
+            let ratio = if engine.starts_with("rapier") {
+                "–".to_string()
+            } else {
+                fmt_ratio(t, p.time(peer, &scene))
+            };
+            let _ = writeln!(md, "| {n} | {label} | {} | {ratio} |", fmt_time(t));
+        }
+    }
+    if let Some(g) = growth {
+        let _ = writeln!(
+            md,
+            "\nGrowth (`target/peers/pile_growth.tsv`; the bench prints the fitted exponent of \
+             time per step against bodies):\n\n```\n{}```",
+            g
+        );
+    }
 }
 
 /// The contact scenes: the contact_peers bench and its accuracy file.
@@ -660,6 +722,13 @@ fn contact_peers(criterion_args: &[String]) -> Result<ContactPeers, String> {
     let mut p = ContactPeers::default();
     for (engine, _) in CONTACT_ENGINES {
         for (scene, _) in CONTACT_SCENES {
+            if let Some(t) = estimate("contact_peers", engine, scene) {
+                p.time.push((engine.to_string(), scene.to_string(), t));
+            }
+        }
+    }
+    for engine in ["ours_soft4", "ours_soft4_sleep", "rapier", "rapier_sleep"] {
+        for scene in ["pile1000", "pile10000"] {
             if let Some(t) = estimate("contact_peers", engine, scene) {
                 p.time.push((engine.to_string(), scene.to_string(), t));
             }
