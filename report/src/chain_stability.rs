@@ -21,10 +21,10 @@
 //! * **velocity level + projection**: then Newton on `C(x) = 0` with
 //!   `(h² J M⁻¹ Jᵀ) δλ = C` (Goldenthal et al. 2007) and `v = (x − x₀)/h`;
 //! * **fast projection**: a symplectic Euler step without the links, then the same
-//!   projection ([`ProjectedStep`], Goldenthal et al.'s Algorithm 1);
+//!   projection ([`constraint_lagrange::ProjectedStep`], Goldenthal et al.'s Algorithm 1);
 //! * **RATTLE** `v½ = v + (h/2)M⁻¹(F − Jᵀλ)`, `x' = x + h v½` on `C(x') = 0` (SHAKE),
 //!   `v' = v½ + (h/2)M⁻¹(F' − J'ᵀμ)` on `J(x')v' = 0`, and **RATTLE4** (Yoshida's triple
-//!   jump) ([`Rattle`]).
+//!   jump) ([`constraint_lagrange::Rattle`]); each built by [`Formulation::particle_stepper`].
 //!
 //! Cells run in parallel over all cores; each run is single-threaded and deterministic
 //! (the sparse factorizations run sequentially), and the results are stored by cell

@@ -506,7 +506,12 @@ impl Runner for Plan {
         format!(
             "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{:e},{:.1},{:e},{:.4},{}",
             stem,
-            METHODS.get(c.method).copied().unwrap_or("?"),
+            // "seq. impulses, plain Baumgarte" holds a comma: escaped as the chain map does.
+            METHODS
+                .get(c.method)
+                .copied()
+                .unwrap_or("?")
+                .replace(',', ";"),
             c.h,
             c.boxes,
             c.top_ratio,
