@@ -4,8 +4,8 @@
 //!
 //! * the fastest method at each error level per scene family, from the work-precision
 //!   CSVs (`work_precision.csv`: the cloth; `particle_work_precision.csv` and
-//!   `articulated_work_precision.csv`: one family per scene), cost in run time per
-//!   simulated second;
+//!   `articulated_work_precision.csv`, `contact_scenes.csv`: one family per scene), cost
+//!   in run time per simulated second;
 //! * the stability verdicts: per map (`stability.csv`: the cloth;
 //!   `{chain,articulated,contact}_stability.csv`) the cells by class and the formulation
 //!   with the most stable cells;
@@ -93,6 +93,19 @@ pub fn parse_points(file: &str, csv: &str) -> Vec<Point> {
             // scene,method,dt,com_error_m,seconds_per_step,c_max_m,failure
             "articulated_work_precision.csv" => {
                 let f = fields(line, 1, 7)?;
+                let h = num(f[2])?;
+                Some(Point {
+                    family: f[0].into(),
+                    method: f[1].into(),
+                    h,
+                    cost: num(f[4])? / h,
+                    error: num(f[3])?,
+                })
+            }
+            // scene,solver,dt,error_m,seconds_per_step,max_contacts,iterations_per_step,
+            // worst_residual,failure
+            "contact_scenes.csv" => {
+                let f = fields(line, 1, 9)?;
                 let h = num(f[2])?;
                 Some(Point {
                     family: f[0].into(),
@@ -327,6 +340,7 @@ pub fn section(md: &str, dir: &Path, root: &Path) -> String {
         "work_precision.csv",
         "particle_work_precision.csv",
         "articulated_work_precision.csv",
+        "contact_scenes.csv",
     ] {
         if let Some(csv) = read(&dir.join(file)) {
             points.extend(parse_points(file, &csv));
@@ -440,6 +454,15 @@ mod tests {
         let p = parse_points("articulated_work_precision.csv", a);
         // 5e-6 s per step at 1e-3 s: 5e-3 s per simulated second (to rounding).
         assert!((p[0].cost - 5e-3).abs() < 1e-15, "{p:?}");
+        let c = "scene,solver,dt,error_m,seconds_per_step,max_contacts,iterations_per_step,worst_residual,failure\n\
+                 stack,Newton,1e-2,3e-3,2e-4,12,4e0,1e-11,\nstack,Lemke,1e-2,,,,,,singular\n";
+        let p = parse_points("contact_scenes.csv", c);
+        assert_eq!(p.len(), 1, "{p:?}");
+        // 2e-4 s per step at 1e-2 s: 2e-2 s per simulated second (to rounding).
+        assert!(
+            (p[0].cost - 2e-2).abs() < 1e-15 && p[0].error == 3e-3,
+            "{p:?}"
+        );
     }
 
     #[test]
