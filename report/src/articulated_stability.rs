@@ -15,9 +15,9 @@ use std::time::Instant;
 
 use constraint_articulated::scenes::ball_chain;
 use constraint_articulated::{ArticulatedError, Method, World};
+use constraint_scene::formulation::Formulation;
 
-use crate::heatmap::{tick, HeatMap};
-use crate::stability::{self, CellClass, StabilityMap};
+use crate::stability::{self, CellClass, Map, MapAxis, Runner};
 
 /// Link length of the ball chain (m).
 pub const LINK: f64 = 0.1;
@@ -54,30 +54,24 @@ pub const METHODS: [&str; 5] = [
     "RATTLE4 (Yoshida)",
 ];
 
-/// The [`Method`] of `METHODS[k]` at step `h`.
+/// The formulations of [`METHODS`], in the same order (the body side of the shared
+/// vocabulary, [`constraint_scene::formulation`]).
+pub const FORMULATIONS: [Formulation; 5] = [
+    Formulation::Velocity,
+    Formulation::VelocityProjection,
+    Formulation::AccelerationBaumgarte,
+    Formulation::Rattle,
+    Formulation::Rattle4,
+];
+
+/// The [`Method`] of `METHODS[k]` at step `h` ([`Formulation::body_method`]); an index
+/// past the end (or a formulation without a body method, none of [`FORMULATIONS`]) gives
+/// `Method::default()` (RATTLE), as the listing of [`crate::deps`] expects a method.
 pub fn method(k: usize, h: f64) -> Method {
-    match k {
-        0 => Method::Velocity { beta: 1.0 },
-        1 => Method::VelocityProjected {
-            beta: 1.0,
-            tolerance: 1e-10,
-            max_iterations: 10,
-            correct_velocity: false,
-        },
-        2 => {
-            // Critically damped C̈ + k_v Ċ + k_x C = 0, time constant τ = 5h.
-            let tau = 5.0 * h;
-            Method::Acceleration {
-                kx: 1.0 / (tau * tau),
-                kv: 2.0 / tau,
-            }
-        }
-        3 => Method::default(),
-        _ => Method::Rattle4 {
-            tolerance: 1e-12,
-            max_iterations: 20,
-        },
-    }
+    FORMULATIONS
+        .get(k)
+        .and_then(|f| f.body_method(h))
+        .unwrap_or_default()
 }
 
 /// One cell's configuration.
@@ -265,10 +259,12 @@ pub fn run_cell(cell: &Cell) -> CellResult {
 /// Runs `cells` on up to `threads` threads ([`crate::par::map_cells`], longest first);
 /// results in the order of `cells`.
 pub fn run_all(cells: &[Cell], threads: usize) -> Vec<CellResult> {
-    // Work estimate: link-steps, times a per-method factor.
-    let cost =
-        |c: &Cell| steps(c) as f64 * c.links as f64 * [1.0, 2.0, 2.0, 4.0, 11.0][c.method.min(4)];
     crate::par::map_cells("articulated", cells, threads, cost, run_cell, panicked)
+}
+
+/// Work estimate of a cell: link-steps, times a per-method factor.
+fn cost(c: &Cell) -> f64 {
+    steps(c) as f64 * c.links as f64 * [1.0, 2.0, 2.0, 4.0, 11.0][c.method.min(4)]
 }
 
 /// One pair of axes: time step × another.
@@ -292,6 +288,11 @@ impl Axis {
         Axis::Violation,
         Axis::Compliance,
     ];
+
+    /// Position in [`Axis::ALL`]: the axis's index in the map ([`crate::stability::Map::axes`]).
+    pub fn index(self) -> usize {
+        Axis::ALL.iter().position(|a| *a == self).unwrap_or(0)
+    }
 
     /// Axis label.
     pub fn label(self) -> &'static str {
@@ -375,109 +376,97 @@ impl Plan {
 
     /// The cells of one map: for each method, value and step.
     pub fn cells(&self, axis: Axis) -> Vec<Cell> {
-        let mut v = Vec::new();
-        for m in 0..METHODS.len() {
-            for &x in &self.values(axis) {
-                for &h in &self.hs {
-                    let mut c = Cell {
-                        method: m,
-                        h,
-                        links: self.base_links,
-                        tip_ratio: 1.0,
-                        violation: 0.0,
-                        compliance: 0.0,
-                        horizon: self.horizon,
-                        max_link_steps: self.max_link_steps,
-                    };
-                    match axis {
-                        Axis::MassRatio => c.tip_ratio = x,
-                        Axis::Length => c.links = x as usize,
-                        Axis::Violation => c.violation = x,
-                        Axis::Compliance => c.compliance = x,
-                    }
-                    v.push(c);
-                }
-            }
+        self.map()
+            .grid(self, axis.index())
+            .into_iter()
+            .flatten()
+            .collect()
+    }
+
+    /// The map as data: the formulations, the time steps and the axes of [`Axis::ALL`].
+    pub fn map(&self) -> Map {
+        let axes = Axis::ALL
+            .iter()
+            .map(|&axis| {
+                let note = match axis {
+                    Axis::Compliance => format!(
+                        "Ball chain of {} links (0.1 m), every joint compliant (α; k = 1/α), released horizontal, {} s per cell.\nStable: max |E|/(M g ℓ) ≤ {ENERGY_TOL:e} with the joints' elastic energy (α = 0: also separation ≤ {SEPARATION_TOL:e} m).",
+                        self.base_links, self.horizon
+                    ),
+                    Axis::Length => format!(
+                        "Ball chain, 0.1 m links, released horizontal; {} s or at most {:.0e} link-steps per cell (long chains: shorter runs).\nStable: max joint separation over the run's second half ≤ {SEPARATION_TOL:e} m and max |E|/(M g ℓ) ≤ {ENERGY_TOL:e}.",
+                        self.horizon, self.max_link_steps
+                    ),
+                    _ => format!(
+                        "Ball chain of {} links (0.1 m), released horizontal, {} s per cell.\nStable: max joint separation over the run's second half ≤ {SEPARATION_TOL:e} m and max |E|/(M g ℓ) ≤ {ENERGY_TOL:e}.",
+                        self.base_links, self.horizon
+                    ),
+                };
+                MapAxis::new(axis.label(), axis.stem(), self.values(axis), note)
+            })
+            .collect();
+        Map {
+            name: "articulated",
+            heading: "Time step",
+            alt: "articulated stability",
+            title: "Articulated stability: time step",
+            columns: 3,
+            summary: "Summary per formulation",
+            first_column: "method",
+            csv_header: "axis,method,h,links,tip_ratio,violation,compliance,class,steps,simulated_s,separation_m,energy_rel,fallbacks,wall_s,message\n",
+            methods: &METHODS,
+            hs: self.hs.clone(),
+            axes,
         }
-        v
     }
 }
 
-/// The heat map of one axis pair from its results (in [`Plan::cells`] order).
-pub fn heat_map(plan: &Plan, axis: Axis, results: &[CellResult]) -> HeatMap {
-    let note = match axis {
-        Axis::Compliance => format!(
-            "Ball chain of {} links (0.1 m), every joint compliant (α; k = 1/α), released horizontal, {} s per cell.\nStable: max |E|/(M g ℓ) ≤ {ENERGY_TOL:e} with the joints' elastic energy (α = 0: also separation ≤ {SEPARATION_TOL:e} m).",
-            plan.base_links, plan.horizon
-        ),
-        Axis::Length => format!(
-            "Ball chain, 0.1 m links, released horizontal; {} s or at most {:.0e} link-steps per cell (long chains: shorter runs).\nStable: max joint separation over the run's second half ≤ {SEPARATION_TOL:e} m and max |E|/(M g ℓ) ≤ {ENERGY_TOL:e}.",
-            plan.horizon, plan.max_link_steps
-        ),
-        _ => format!(
-            "Ball chain of {} links (0.1 m), released horizontal, {} s per cell.\nStable: max joint separation over the run's second half ≤ {SEPARATION_TOL:e} m and max |E|/(M g ℓ) ≤ {ENERGY_TOL:e}.",
-            plan.base_links, plan.horizon
-        ),
-    };
-    stability::heat_map(
-        &plan.layout(axis),
-        format!("Articulated stability: time step × {}", axis.label()),
-        axis.label(),
-        plan.values(axis).iter().map(|&v| tick(v)).collect(),
-        3,
-        note,
-        |i| results.get(i).map(|r| r.class),
-    )
-}
-
-impl StabilityMap for Plan {
-    type Axis = Axis;
+impl Runner for Plan {
+    type Cell = Cell;
     type Result = CellResult;
-    const NAME: &'static str = "articulated";
-    const HEADING: &'static str = "Time step";
-    const ALT: &'static str = "articulated stability";
-    const SUMMARY: &'static str = "Summary per formulation";
-    const FIRST_COLUMN: &'static str = "method";
-    const CSV_HEADER: &'static str = "axis,method,h,links,tip_ratio,violation,compliance,class,steps,simulated_s,separation_m,energy_rel,fallbacks,wall_s,message\n";
-    const METHODS: &'static [&'static str] = &METHODS;
-    const AXES: &'static [Axis] = &Axis::ALL;
 
-    fn axis_label(axis: Axis) -> &'static str {
-        axis.label()
+    fn cell(&self, axis: usize, method: usize, x: f64, h: f64) -> Option<Cell> {
+        let mut c = Cell {
+            method,
+            h,
+            links: self.base_links,
+            tip_ratio: 1.0,
+            violation: 0.0,
+            compliance: 0.0,
+            horizon: self.horizon,
+            max_link_steps: self.max_link_steps,
+        };
+        match Axis::ALL.get(axis)? {
+            Axis::MassRatio => c.tip_ratio = x,
+            Axis::Length => c.links = x as usize,
+            Axis::Violation => c.violation = x,
+            Axis::Compliance => c.compliance = x,
+        }
+        Some(c)
     }
 
-    fn axis_stem(axis: Axis) -> &'static str {
-        axis.stem()
+    fn cost(&self, c: &Cell) -> f64 {
+        cost(c)
     }
 
-    fn hs(&self) -> &[f64] {
-        &self.hs
+    fn run(&self, cell: &Cell) -> CellResult {
+        classify(cell)
     }
 
-    fn axis_values(&self, axis: Axis) -> Vec<f64> {
-        self.values(axis)
+    fn panicked(&self, cell: &Cell, message: String) -> CellResult {
+        panicked(cell, message)
     }
 
-    fn run(&self, axis: Axis, threads: usize, announce: &mut dyn FnMut(usize)) -> Vec<CellResult> {
-        let cells = self.cells(axis);
-        announce(cells.len());
-        run_all(&cells, threads)
+    fn class(r: &CellResult) -> CellClass {
+        r.class
     }
 
-    fn heat_map(&self, axis: Axis, results: &[CellResult]) -> HeatMap {
-        heat_map(self, axis, results)
-    }
-
-    fn class(r: &CellResult) -> Option<CellClass> {
-        Some(r.class)
-    }
-
-    fn csv_row(axis: Axis, r: &CellResult) -> Option<String> {
+    fn csv_row(stem: &str, r: &CellResult) -> String {
         let c = &r.cell;
-        Some(format!(
+        format!(
             "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{},{:.4},{}",
-            axis.stem(),
-            METHODS[c.method],
+            stem,
+            METHODS.get(c.method).copied().unwrap_or("?"),
             c.h,
             c.links,
             c.tip_ratio,
@@ -491,7 +480,7 @@ impl StabilityMap for Plan {
             r.fallbacks,
             r.seconds,
             r.message.replace(',', ";")
-        ))
+        )
     }
 }
 
@@ -554,10 +543,11 @@ pub fn section(
         plan.horizon,
         plan.max_link_steps
     );
-    let all = stability::write_maps(&plan, md, out, threads)?;
+    let map = plan.map();
+    let all = stability::write_maps(&map, &plan, md, out, threads)?;
     // Summary: per method, counts and the largest step stable (and not unstable) on
     // every row of each map.
-    let total = stability::write_summary(&plan, md, &all, &[]);
+    let total = stability::write_summary::<Plan>(&map, md, &all, &[]);
     let _ = writeln!(
         md,
         "\nPanics: {} (of {} cells). Raw data: `articulated_stability.csv` (class, steps, \

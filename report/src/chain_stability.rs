@@ -21,10 +21,10 @@
 //! * **velocity level + projection**: then Newton on `C(x) = 0` with
 //!   `(h² J M⁻¹ Jᵀ) δλ = C` (Goldenthal et al. 2007) and `v = (x − x₀)/h`;
 //! * **fast projection**: a symplectic Euler step without the links, then the same
-//!   projection ([`ProjectedStep`], Goldenthal et al.'s Algorithm 1);
+//!   projection ([`constraint_lagrange::ProjectedStep`], Goldenthal et al.'s Algorithm 1);
 //! * **RATTLE** `v½ = v + (h/2)M⁻¹(F − Jᵀλ)`, `x' = x + h v½` on `C(x') = 0` (SHAKE),
 //!   `v' = v½ + (h/2)M⁻¹(F' − J'ᵀμ)` on `J(x')v' = 0`, and **RATTLE4** (Yoshida's triple
-//!   jump) ([`Rattle`]).
+//!   jump) ([`constraint_lagrange::Rattle`]); each built by [`Formulation::particle_stepper`].
 //!
 //! Cells run in parallel over all cores; each run is single-threaded and deterministic
 //! (the sparse factorizations run sequentially), and the results are stored by cell
@@ -33,17 +33,13 @@
 use std::time::Instant;
 
 use constraint_core::{DVec3, Distance};
-use constraint_lagrange::{
-    AccelerationLevel, BaseStep, Baumgarte, Constraints, FastProjection, HardSet, KktSolver,
-    LagrangeError, ProjectedStep, Rattle, RattleOrder, VelocityLevel,
-};
-use constraint_soft::{
-    ConstraintSet, HessianMode, ImplicitEuler, Integrator, LinearSolver, SoftError, SoftSystem,
-    Softness, SymplecticEuler,
-};
+use constraint_lagrange::{Constraints, HardSet, KktSolver, LagrangeError};
+pub use constraint_scene::formulation::Links;
+use constraint_scene::formulation::{Formulation, SoftIntegrator};
+use constraint_soft::{ConstraintSet, SoftError, SoftSystem, Softness};
 
-use crate::heatmap::{tick, HeatMap};
-use crate::stability::{self, CellClass, StabilityMap};
+use crate::heatmap::tick;
+use crate::stability::{self, CellClass, Map, MapAxis, Runner};
 
 /// Link length of the chain (m).
 pub const LINK: f64 = 0.1;
@@ -94,24 +90,23 @@ pub const METHODS: [&str; 9] = [
     "RATTLE4 (Yoshida)",
 ];
 
-/// How a formulation models the links.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Links {
-    /// Soft springs of stiffness `k` (no `k = ∞`: a soft set rejects it).
-    Springs,
-    /// Compliant constraints, `α = 1/k` (`k = ∞`: `α = 0`, hard).
-    Compliant,
-    /// Hard constraints: no stiffness parameter.
-    Hard,
-}
+/// The formulations of [`METHODS`], in the same order (the particle side of the shared
+/// vocabulary, [`constraint_scene::formulation`]).
+pub const FORMULATIONS: [Formulation; 9] = [
+    Formulation::Soft(SoftIntegrator::Symplectic),
+    Formulation::Soft(SoftIntegrator::Implicit),
+    Formulation::AccelerationBaumgarte,
+    Formulation::Velocity,
+    Formulation::Compliant,
+    Formulation::VelocityProjection,
+    Formulation::FastProjection,
+    Formulation::Rattle,
+    Formulation::Rattle4,
+];
 
-/// How `METHODS[m]` models the links.
+/// How `METHODS[m]` models the links ([`Formulation::links`]; hard past the end).
 pub fn links_of(m: usize) -> Links {
-    match m {
-        0 | 1 => Links::Springs,
-        4 => Links::Compliant,
-        _ => Links::Hard,
-    }
+    FORMULATIONS.get(m).map_or(Links::Hard, |f| f.links())
 }
 
 /// One cell's configuration.
@@ -262,88 +257,6 @@ fn kkt_solver(rows: usize) -> KktSolver {
     }
 }
 
-/// Newton projection of the projection methods: to strain 1e-10, at most 10 iterations.
-fn projection(rows: usize) -> Result<FastProjection, LagrangeError> {
-    FastProjection::new(1e-10, 10, kkt_solver(rows))
-}
-
-/// One formulation's stepper.
-enum Stepper {
-    Soft(Box<dyn Integrator>),
-    Acceleration(Box<AccelerationLevel>),
-    Velocity(Box<VelocityLevel>),
-    Projected(Box<ProjectedStep<SymplecticEuler>>),
-    Rattle(Box<Rattle>),
-}
-
-impl Stepper {
-    fn new(method: usize, h: f64, rows: usize) -> Result<Self, LagrangeError> {
-        let solver = kkt_solver(rows);
-        Ok(match method {
-            0 => Stepper::Soft(Box::new(SymplecticEuler::new(h)?)),
-            1 => Stepper::Soft(Box::new(ImplicitEuler::new(
-                h,
-                HessianMode::Projected,
-                LinearSolver::SparseLdlt,
-            )?)),
-            // Critically damped C̈ + k_v Ċ + k_x C = 0, time constant τ = 5h.
-            2 => Stepper::Acceleration(Box::new(AccelerationLevel::new(
-                h,
-                Baumgarte::critical(5.0 * h)?,
-                solver,
-            )?)),
-            3 | 4 => {
-                Stepper::Velocity(Box::new(VelocityLevel::new(h, BaseStep::Explicit, solver)?))
-            }
-            5 => {
-                let mut v = VelocityLevel::new(h, BaseStep::Explicit, solver)?;
-                v.projection = Some(projection(rows)?);
-                Stepper::Velocity(Box::new(v))
-            }
-            6 => Stepper::Projected(Box::new(ProjectedStep::new(
-                SymplecticEuler::new(h)?,
-                projection(rows)?,
-            ))),
-            // SHAKE to strain 1e-10 in at most 20 iterations per sub-step (as the articulated
-            // map's RATTLE4; a larger budget lets a failing SHAKE reach singular Schur
-            // complements, whose dense SVD fallback costs minutes on 1000 links).
-            7 => Stepper::Rattle(Box::new(Rattle::new(
-                h,
-                RattleOrder::Second,
-                1e-10,
-                20,
-                solver,
-            )?)),
-            _ => Stepper::Rattle(Box::new(Rattle::new(
-                h,
-                RattleOrder::Fourth,
-                1e-10,
-                20,
-                solver,
-            )?)),
-        })
-    }
-
-    /// One step: whether a projection stopped at its iteration limit, and the RATTLE
-    /// Newton fallbacks.
-    fn step(
-        &mut self,
-        sys: &mut SoftSystem,
-        cons: &Constraints,
-    ) -> Result<(bool, usize), LagrangeError> {
-        match self {
-            Stepper::Soft(s) => s.step(sys).map(|_| (false, 0)).map_err(LagrangeError::from),
-            Stepper::Acceleration(a) => a.step(sys, cons).map(|_| (false, 0)),
-            Stepper::Velocity(v) => {
-                v.step(sys, cons)?;
-                Ok((v.last_projection.is_some_and(|p| !p.converged), 0))
-            }
-            Stepper::Projected(p) => p.step(sys, cons).map(|st| (!st.converged, 0)),
-            Stepper::Rattle(r) => r.step(sys, cons).map(|st| (false, st.newton_fallbacks)),
-        }
-    }
-}
-
 /// Largest link strain `| |x_{i+1} − x_i| − ℓ | / ℓ` and the spring energy
 /// `½ k Σ C²` (0 for `k = ∞`).
 fn strain_and_energy(x: &[DVec3], k: f64) -> (f64, f64) {
@@ -390,7 +303,11 @@ pub fn classify(cell: &Cell) -> CellResult {
         message: String::new(),
     };
     let built = scene(cell).and_then(|(sys, cons)| {
-        Stepper::new(cell.method, cell.h, cell.links).map(|s| (sys, cons, s))
+        FORMULATIONS
+            .get(cell.method)
+            .ok_or(LagrangeError::InvalidParameter("method"))?
+            .particle_stepper(cell.h, kkt_solver(cell.links))
+            .map(|s| (sys, cons, s))
     });
     let (mut sys, cons, mut stepper) = match built {
         Ok(b) => b,
@@ -409,9 +326,9 @@ pub fn classify(cell: &Cell) -> CellResult {
     let mut strain = 0.0f64;
     for step in 1..=n {
         match stepper.step(&mut sys, &cons) {
-            Ok((unconverged, fallbacks)) => {
-                r.unconverged += usize::from(unconverged);
-                r.fallbacks += fallbacks;
+            Ok(st) => {
+                r.unconverged += usize::from(st.unconverged);
+                r.fallbacks += st.fallbacks;
             }
             Err(e) => {
                 r.class = if matches!(
@@ -483,8 +400,12 @@ const COST: [f64; 9] = [0.3, 3.0, 1.5, 1.0, 1.0, 2.5, 2.5, 3.0, 9.0];
 /// Runs `cells` on up to `threads` threads ([`crate::par::map_cells`], longest first);
 /// results in the order of `cells`.
 pub fn run_all(cells: &[Cell], threads: usize) -> Vec<CellResult> {
-    let cost = |c: &Cell| steps(c) as f64 * c.links as f64 * COST[c.method.min(COST.len() - 1)];
     crate::par::map_cells("chain", cells, threads, cost, run_cell, panicked)
+}
+
+/// Work estimate of a cell: link-steps times the method's [`COST`].
+fn cost(c: &Cell) -> f64 {
+    steps(c) as f64 * c.links as f64 * COST[c.method.min(COST.len() - 1)]
 }
 
 /// One pair of axes: time step × another.
@@ -508,6 +429,11 @@ impl Axis {
         Axis::Length,
         Axis::Violation,
     ];
+
+    /// Position in [`Axis::ALL`]: the axis's index in the map ([`crate::stability::Map::axes`]).
+    pub fn index(self) -> usize {
+        Axis::ALL.iter().position(|a| *a == self).unwrap_or(0)
+    }
 
     /// Axis label.
     pub fn label(self) -> &'static str {
@@ -608,136 +534,115 @@ impl Plan {
     /// has no such value (hard links at finite `k`, springs at `k = ∞`). Off the
     /// stiffness axis, springs and compliant links take [`load_stiffness`].
     pub fn grid(&self, axis: Axis) -> Vec<Option<Cell>> {
-        let mut v = Vec::new();
-        for m in 0..METHODS.len() {
-            for &x in &self.values(axis) {
-                for &h in &self.hs {
-                    let mut c = Cell {
-                        method: m,
-                        h,
-                        links: self.base_links,
-                        tip_ratio: 1.0,
-                        violation: 0.0,
-                        stiffness: f64::INFINITY,
-                        horizon: self.horizon,
-                        max_link_steps: self.max_link_steps,
-                    };
-                    match axis {
-                        Axis::Stiffness => c.stiffness = x,
-                        Axis::MassRatio => c.tip_ratio = x,
-                        Axis::Length => c.links = x as usize,
-                        Axis::Violation => c.violation = x,
-                    }
-                    let links = links_of(m);
-                    if axis != Axis::Stiffness && links != Links::Hard {
-                        c.stiffness = load_stiffness(c.links, c.tip_ratio);
-                    }
-                    let applies = match (axis, links) {
-                        (Axis::Stiffness, Links::Springs) => c.stiffness.is_finite(),
-                        (Axis::Stiffness, Links::Hard) => c.stiffness.is_infinite(),
-                        _ => true,
-                    };
-                    if links == Links::Hard {
-                        c.stiffness = f64::INFINITY;
-                    }
-                    v.push(applies.then_some(c));
+        self.map().grid(self, axis.index())
+    }
+
+    /// The map as data: the formulations, the time steps and the axes of [`Axis::ALL`].
+    pub fn map(&self) -> Map {
+        let stable = format!(
+            "Stable: link strain over the run's second half ≤ {STRAIN_TOL:e} (hard) or ≤ {STRAIN_TOL:e} + {DYNAMIC_FACTOR}·W/(kℓ) + δ√N (springs, compliant), and max |E − E(0)|/E_s ≤ {ENERGY_TOL:e}."
+        );
+        let axes = Axis::ALL
+            .iter()
+            .map(|&axis| {
+                let note = match axis {
+                    Axis::Stiffness => format!(
+                        "Particle chain of {} links (0.1 m, 0.1 kg), released horizontal, {} s per cell. Hard formulations have no stiffness: one row, k = ∞ (blank elsewhere);\nsoft springs have no k = ∞ (blank); the compliant formulation runs α = 1/k and α = 0 (k = ∞). {stable}",
+                        self.base_links, self.horizon
+                    ),
+                    Axis::Length => format!(
+                        "Particle chain, 0.1 m links, released horizontal; {} s or at most {:.0e} link-steps per cell (long chains: shorter runs). Springs: k = W/({LOAD_STRAIN:e}·ℓ).\n{stable}",
+                        self.horizon, self.max_link_steps
+                    ),
+                    _ => format!(
+                        "Particle chain of {} links (0.1 m), released horizontal, {} s per cell. Springs and compliant links: k = W/({LOAD_STRAIN:e}·ℓ).\n{stable}",
+                        self.base_links, self.horizon
+                    ),
+                };
+                let values = self.values(axis);
+                MapAxis {
+                    label: axis.label(),
+                    stem: axis.stem(),
+                    ticks: values.iter().map(|&v| value_tick(v)).collect(),
+                    values,
+                    note,
                 }
-            }
+            })
+            .collect();
+        Map {
+            name: "chain",
+            heading: "Time step",
+            alt: "particle chain stability",
+            title: "Particle chain stability: time step",
+            columns: 5,
+            summary: "Summary per formulation",
+            first_column: "method",
+            csv_header: "axis,method,h,links,tip_ratio,violation,stiffness,class,steps,simulated_s,strain,strain_allowed,energy_rel,unconverged_projections,rattle_fallbacks,wall_s,message\n",
+            methods: &METHODS,
+            hs: self.hs.clone(),
+            axes,
         }
-        v
     }
 }
 
-/// Runs the cells of a grid; `None` stays `None`.
-pub fn run_grid(grid: &[Option<Cell>], threads: usize) -> Vec<Option<CellResult>> {
-    let cells: Vec<Cell> = grid.iter().flatten().copied().collect();
-    let mut res = run_all(&cells, threads).into_iter();
-    grid.iter()
-        .map(|c| c.as_ref().and_then(|_| res.next()))
-        .collect()
-}
+impl Runner for Plan {
+    type Cell = Cell;
+    type Result = CellResult;
 
-/// The heat map of one axis pair from its results (in [`Plan::grid`] order).
-pub fn heat_map(plan: &Plan, axis: Axis, results: &[Option<CellResult>]) -> HeatMap {
-    let stable = format!(
-        "Stable: link strain over the run's second half ≤ {STRAIN_TOL:e} (hard) or ≤ {STRAIN_TOL:e} + {DYNAMIC_FACTOR}·W/(kℓ) + δ√N (springs, compliant), and max |E − E(0)|/E_s ≤ {ENERGY_TOL:e}."
-    );
-    let note = match axis {
-        Axis::Stiffness => format!(
-            "Particle chain of {} links (0.1 m, 0.1 kg), released horizontal, {} s per cell. Hard formulations have no stiffness: one row, k = ∞ (blank elsewhere);\nsoft springs have no k = ∞ (blank); the compliant formulation runs α = 1/k and α = 0 (k = ∞). {stable}",
-            plan.base_links, plan.horizon
-        ),
-        Axis::Length => format!(
-            "Particle chain, 0.1 m links, released horizontal; {} s or at most {:.0e} link-steps per cell (long chains: shorter runs). Springs: k = W/({LOAD_STRAIN:e}·ℓ).\n{stable}",
-            plan.horizon, plan.max_link_steps
-        ),
-        _ => format!(
-            "Particle chain of {} links (0.1 m), released horizontal, {} s per cell. Springs and compliant links: k = W/({LOAD_STRAIN:e}·ℓ).\n{stable}",
-            plan.base_links, plan.horizon
-        ),
-    };
-    stability::heat_map(
-        &plan.layout(axis),
-        format!("Particle chain stability: time step × {}", axis.label()),
-        axis.label(),
-        plan.values(axis).iter().map(|&v| value_tick(v)).collect(),
-        5,
-        note,
-        |i| results.get(i).and_then(|r| r.as_ref().map(|r| r.class)),
-    )
-}
-
-impl StabilityMap for Plan {
-    type Axis = Axis;
-    type Result = Option<CellResult>;
-    const NAME: &'static str = "chain";
-    const HEADING: &'static str = "Time step";
-    const ALT: &'static str = "particle chain stability";
-    const SUMMARY: &'static str = "Summary per formulation";
-    const FIRST_COLUMN: &'static str = "method";
-    const CSV_HEADER: &'static str = "axis,method,h,links,tip_ratio,violation,stiffness,class,steps,simulated_s,strain,strain_allowed,energy_rel,unconverged_projections,rattle_fallbacks,wall_s,message\n";
-    const METHODS: &'static [&'static str] = &METHODS;
-    const AXES: &'static [Axis] = &Axis::ALL;
-
-    fn axis_label(axis: Axis) -> &'static str {
-        axis.label()
+    fn cell(&self, axis: usize, method: usize, x: f64, h: f64) -> Option<Cell> {
+        let axis = *Axis::ALL.get(axis)?;
+        let mut c = Cell {
+            method,
+            h,
+            links: self.base_links,
+            tip_ratio: 1.0,
+            violation: 0.0,
+            stiffness: f64::INFINITY,
+            horizon: self.horizon,
+            max_link_steps: self.max_link_steps,
+        };
+        match axis {
+            Axis::Stiffness => c.stiffness = x,
+            Axis::MassRatio => c.tip_ratio = x,
+            Axis::Length => c.links = x as usize,
+            Axis::Violation => c.violation = x,
+        }
+        let links = links_of(method);
+        if axis != Axis::Stiffness && links != Links::Hard {
+            c.stiffness = load_stiffness(c.links, c.tip_ratio);
+        }
+        let applies = match (axis, links) {
+            (Axis::Stiffness, Links::Springs) => c.stiffness.is_finite(),
+            (Axis::Stiffness, Links::Hard) => c.stiffness.is_infinite(),
+            _ => true,
+        };
+        if links == Links::Hard {
+            c.stiffness = f64::INFINITY;
+        }
+        applies.then_some(c)
     }
 
-    fn axis_stem(axis: Axis) -> &'static str {
-        axis.stem()
+    fn cost(&self, c: &Cell) -> f64 {
+        cost(c)
     }
 
-    fn hs(&self) -> &[f64] {
-        &self.hs
+    fn run(&self, cell: &Cell) -> CellResult {
+        classify(cell)
     }
 
-    fn axis_values(&self, axis: Axis) -> Vec<f64> {
-        self.values(axis)
+    fn panicked(&self, cell: &Cell, message: String) -> CellResult {
+        panicked(cell, message)
     }
 
-    fn run(
-        &self,
-        axis: Axis,
-        threads: usize,
-        announce: &mut dyn FnMut(usize),
-    ) -> Vec<Option<CellResult>> {
-        let grid = self.grid(axis);
-        announce(grid.iter().flatten().count());
-        run_grid(&grid, threads)
-    }
-
-    fn heat_map(&self, axis: Axis, results: &[Option<CellResult>]) -> HeatMap {
-        heat_map(self, axis, results)
-    }
-
-    fn class(r: &Option<CellResult>) -> Option<CellClass> {
-        r.as_ref().map(|r| r.class)
+    fn class(r: &CellResult) -> CellClass {
+        r.class
     }
 
     /// The value's tick; off the stiffness axis, springs and compliant links also show
     /// their load stiffness, and on it the hard formulations say they have none.
-    fn row_label(&self, axis: Axis, method: usize, value: f64) -> String {
+    fn row_label(&self, axis: usize, method: usize, value: f64) -> String {
         let label = value_tick(value);
+        let axis = Axis::ALL.get(axis).copied().unwrap_or(Axis::Stiffness);
         if axis != Axis::Stiffness && links_of(method) != Links::Hard {
             let k = load_stiffness(
                 if axis == Axis::Length {
@@ -755,13 +660,16 @@ impl StabilityMap for Plan {
         }
     }
 
-    fn csv_row(axis: Axis, r: &Option<CellResult>) -> Option<String> {
-        let r = r.as_ref()?;
+    fn csv_row(stem: &str, r: &CellResult) -> String {
         let c = &r.cell;
-        Some(format!(
+        format!(
             "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{:e},{},{},{:.4},{}",
-            axis.stem(),
-            METHODS[c.method].replace(',', ";"),
+            stem,
+            METHODS
+                .get(c.method)
+                .copied()
+                .unwrap_or("?")
+                .replace(',', ";"),
             c.h,
             c.links,
             c.tip_ratio,
@@ -777,7 +685,7 @@ impl StabilityMap for Plan {
             r.fallbacks,
             r.seconds,
             r.message.replace(',', ";")
-        ))
+        )
     }
 }
 
@@ -851,12 +759,13 @@ pub fn section(
         plan.horizon,
         plan.max_link_steps
     );
-    let all = stability::write_maps(&plan, md, out, threads)?;
-    let results = || all.iter().flat_map(|(_, r)| r.iter().flatten());
+    let map = plan.map();
+    let all = stability::write_maps(&map, &plan, md, out, threads)?;
+    let results = || all.iter().flat_map(|r| r.iter().flatten());
     // Summary: per method, counts and the largest step stable (and not unstable) on
     // every row the method runs of each map.
-    let total = stability::write_summary(
-        &plan,
+    let total = stability::write_summary::<Plan>(
+        &map,
         md,
         &all,
         &[(

@@ -19,8 +19,7 @@ use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld, Frict
 use constraint_contact::scenes::{add_box, ground};
 use constraint_core::DVec3;
 
-use crate::heatmap::{tick, HeatMap};
-use crate::stability::{self, CellClass, StabilityMap};
+use crate::stability::{self, CellClass, Map, MapAxis, Runner};
 
 /// Edge of the boxes (m); each is 1000 kg (density 1000), friction 0.5 on the boxes and
 /// the ground.
@@ -285,16 +284,17 @@ pub fn run_cell(cell: &Cell) -> CellResult {
 /// Runs `cells` on up to `threads` threads ([`crate::par::map_cells`], longest first);
 /// results in the order of `cells`.
 pub fn run_all(cells: &[Cell], threads: usize) -> Vec<CellResult> {
-    // Work estimate: box-steps (dense solvers: rows², so boxes² per step).
-    let cost = |c: &Cell| {
-        let b = c.boxes as f64;
-        let per_step = match c.method {
-            1..=3 => b * b,
-            _ => b,
-        };
-        steps(c) as f64 * per_step
-    };
     crate::par::map_cells("contact", cells, threads, cost, run_cell, panicked)
+}
+
+/// Work estimate of a cell: box-steps (dense solvers: rows², so boxes² per step).
+fn cost(c: &Cell) -> f64 {
+    let b = c.boxes as f64;
+    let per_step = match c.method {
+        1..=3 => b * b,
+        _ => b,
+    };
+    steps(c) as f64 * per_step
 }
 
 /// One pair of axes: time step × another.
@@ -318,6 +318,11 @@ impl Axis {
         Axis::Violation,
         Axis::Baumgarte,
     ];
+
+    /// Position in [`Axis::ALL`]: the axis's index in the map ([`crate::stability::Map::axes`]).
+    pub fn index(self) -> usize {
+        Axis::ALL.iter().position(|a| *a == self).unwrap_or(0)
+    }
 
     /// Axis label.
     pub fn label(self) -> &'static str {
@@ -405,116 +410,108 @@ impl Plan {
 
     /// The cells of one map: for each method, value and step.
     pub fn cells(&self, axis: Axis) -> Vec<Cell> {
-        let beta = settings(0, 0.2).baumgarte;
-        let mut v = Vec::new();
-        for m in 0..METHODS.len() {
-            for &x in &self.values(axis) {
-                for &h in &self.hs {
-                    let mut c = Cell {
-                        method: m,
-                        h,
-                        boxes: self.base_boxes,
-                        top_ratio: 1.0,
-                        violation: 0.0,
-                        beta,
-                        horizon: self.horizon,
-                        max_box_steps: self.max_box_steps,
-                    };
-                    match axis {
-                        Axis::Height => c.boxes = x as usize,
-                        Axis::MassRatio => c.top_ratio = x,
-                        Axis::Violation => c.violation = x,
-                        Axis::Baumgarte => {
-                            c.beta = x;
-                            c.violation = self.beta_violation;
-                        }
-                    }
-                    v.push(c);
-                }
+        self.map()
+            .grid(self, axis.index())
+            .into_iter()
+            .flatten()
+            .collect()
+    }
+
+    /// The map as data: the solvers, the time steps and the axes of [`Axis::ALL`].
+    pub fn map(&self) -> Map {
+        let stable = format!(
+            "Stable: over the run's second half every box within {DRIFT_TOL:e} m of rest and penetration ≤ {PENETRATION_TOL:e} m."
+        );
+        let axes = Axis::ALL
+            .iter()
+            .map(|&axis| {
+                let note = match axis {
+                    Axis::Height => format!(
+                        "Stacks of 1 m, 1000 kg boxes (μ 0.5) at rest on the ground; {} s or at most {:.0e} box-steps per cell (tall stacks: shorter runs).\n{stable}",
+                        self.horizon, self.max_box_steps
+                    ),
+                    Axis::Baumgarte => format!(
+                        "Stack of {} boxes, every interface overlapping by {} of the box size at the start, {} s per cell.\n{stable}",
+                        self.base_boxes, self.beta_violation, self.horizon
+                    ),
+                    _ => format!(
+                        "Stack of {} boxes (1 m, 1000 kg, μ 0.5), {} s per cell.\n{stable}",
+                        self.base_boxes, self.horizon
+                    ),
+                };
+                MapAxis::new(axis.label(), axis.stem(), self.values(axis), note)
+            })
+            .collect();
+        Map {
+            name: "contact",
+            heading: "Contact: time step",
+            alt: "contact stability",
+            title: "Contact stability: time step",
+            columns: 3,
+            summary: "Contact: summary per solver",
+            first_column: "solver",
+            csv_header: "axis,method,h,boxes,top_ratio,violation,beta,class,steps,simulated_s,drift_m,penetration_m,final_drift_m,iterations_per_step,worst_residual,wall_s,message\n",
+            methods: &METHODS,
+            hs: self.hs.clone(),
+            axes,
+        }
+    }
+}
+
+impl Runner for Plan {
+    type Cell = Cell;
+    type Result = CellResult;
+
+    fn cell(&self, axis: usize, method: usize, x: f64, h: f64) -> Option<Cell> {
+        let mut c = Cell {
+            method,
+            h,
+            boxes: self.base_boxes,
+            top_ratio: 1.0,
+            violation: 0.0,
+            beta: settings(0, 0.2).baumgarte,
+            horizon: self.horizon,
+            max_box_steps: self.max_box_steps,
+        };
+        match Axis::ALL.get(axis)? {
+            Axis::Height => c.boxes = x as usize,
+            Axis::MassRatio => c.top_ratio = x,
+            Axis::Violation => c.violation = x,
+            Axis::Baumgarte => {
+                c.beta = x;
+                c.violation = self.beta_violation;
             }
         }
-        v
-    }
-}
-
-/// The heat map of one axis pair from its results (in [`Plan::cells`] order).
-pub fn heat_map(plan: &Plan, axis: Axis, results: &[CellResult]) -> HeatMap {
-    let stable = format!(
-        "Stable: over the run's second half every box within {DRIFT_TOL:e} m of rest and penetration ≤ {PENETRATION_TOL:e} m."
-    );
-    let note = match axis {
-        Axis::Height => format!(
-            "Stacks of 1 m, 1000 kg boxes (μ 0.5) at rest on the ground; {} s or at most {:.0e} box-steps per cell (tall stacks: shorter runs).\n{stable}",
-            plan.horizon, plan.max_box_steps
-        ),
-        Axis::Baumgarte => format!(
-            "Stack of {} boxes, every interface overlapping by {} of the box size at the start, {} s per cell.\n{stable}",
-            plan.base_boxes, plan.beta_violation, plan.horizon
-        ),
-        _ => format!(
-            "Stack of {} boxes (1 m, 1000 kg, μ 0.5), {} s per cell.\n{stable}",
-            plan.base_boxes, plan.horizon
-        ),
-    };
-    stability::heat_map(
-        &plan.layout(axis),
-        format!("Contact stability: time step × {}", axis.label()),
-        axis.label(),
-        plan.values(axis).iter().map(|&v| tick(v)).collect(),
-        3,
-        note,
-        |i| results.get(i).map(|r| r.class),
-    )
-}
-
-impl StabilityMap for Plan {
-    type Axis = Axis;
-    type Result = CellResult;
-    const NAME: &'static str = "contact";
-    const HEADING: &'static str = "Contact: time step";
-    const ALT: &'static str = "contact stability";
-    const SUMMARY: &'static str = "Contact: summary per solver";
-    const FIRST_COLUMN: &'static str = "solver";
-    const CSV_HEADER: &'static str = "axis,method,h,boxes,top_ratio,violation,beta,class,steps,simulated_s,drift_m,penetration_m,final_drift_m,iterations_per_step,worst_residual,wall_s,message\n";
-    const METHODS: &'static [&'static str] = &METHODS;
-    const AXES: &'static [Axis] = &Axis::ALL;
-
-    fn axis_label(axis: Axis) -> &'static str {
-        axis.label()
+        Some(c)
     }
 
-    fn axis_stem(axis: Axis) -> &'static str {
-        axis.stem()
+    fn cost(&self, c: &Cell) -> f64 {
+        cost(c)
     }
 
-    fn hs(&self) -> &[f64] {
-        &self.hs
+    fn run(&self, cell: &Cell) -> CellResult {
+        classify(cell)
     }
 
-    fn axis_values(&self, axis: Axis) -> Vec<f64> {
-        self.values(axis)
+    fn panicked(&self, cell: &Cell, message: String) -> CellResult {
+        panicked(cell, message)
     }
 
-    fn run(&self, axis: Axis, threads: usize, announce: &mut dyn FnMut(usize)) -> Vec<CellResult> {
-        let cells = self.cells(axis);
-        announce(cells.len());
-        run_all(&cells, threads)
+    fn class(r: &CellResult) -> CellClass {
+        r.class
     }
 
-    fn heat_map(&self, axis: Axis, results: &[CellResult]) -> HeatMap {
-        heat_map(self, axis, results)
-    }
-
-    fn class(r: &CellResult) -> Option<CellClass> {
-        Some(r.class)
-    }
-
-    fn csv_row(axis: Axis, r: &CellResult) -> Option<String> {
+    fn csv_row(stem: &str, r: &CellResult) -> String {
         let c = &r.cell;
-        Some(format!(
+        format!(
             "{},{},{:e},{},{:e},{:e},{:e},{:?},{},{:e},{:e},{:e},{:e},{:.1},{:e},{:.4},{}",
-            axis.stem(),
-            METHODS[c.method],
+            stem,
+            // "seq. impulses, plain Baumgarte" holds a comma: escaped as the chain map does.
+            METHODS
+                .get(c.method)
+                .copied()
+                .unwrap_or("?")
+                .replace(',', ";"),
             c.h,
             c.boxes,
             c.top_ratio,
@@ -530,7 +527,7 @@ impl StabilityMap for Plan {
             r.residual,
             r.seconds,
             r.message.replace(',', ";")
-        ))
+        )
     }
 }
 
@@ -587,8 +584,9 @@ pub fn section(
          thread(s); each run is deterministic.\n",
         plan.base_boxes, plan.base_boxes, plan.beta_violation, plan.horizon, plan.max_box_steps
     );
-    let all = stability::write_maps(&plan, md, out, threads)?;
-    let total = stability::write_summary(&plan, md, &all, &[]);
+    let map = plan.map();
+    let all = stability::write_maps(&map, &plan, md, out, threads)?;
+    let total = stability::write_summary::<Plan>(&map, md, &all, &[]);
     let _ = writeln!(
         md,
         "\nPanics: {} (of {} cells). Raw data: `contact_stability.csv` (class, steps, \

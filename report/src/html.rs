@@ -23,14 +23,22 @@ pre code{background:none;padding:0}\
 figure{margin:1em 0}\
 figure svg{max-width:100%;height:auto}\
 figcaption{font-size:85%;color:#555}\
+details{margin:0 0 1em 0}\
+summary{cursor:pointer;color:#345}\
 .missing{color:#a00}";
 
 /// Converts `md` to a complete HTML page titled `title`. `load_svg(path)` returns the
 /// contents of the image file `path` as written in the Markdown (`None`: missing; the
 /// page then says so where the chart would be).
+///
+/// Headings get the ids of [`headings`] (unique). A table that follows a chart in the
+/// same section (after the image, before the next heading) repeats the chart's data: it
+/// is folded under it, in `<details>` with a summary line giving its row count.
 pub fn to_html(md: &str, title: &str, load_svg: &dyn Fn(&str) -> Option<String>) -> String {
     let mut body = String::new();
     let lines: Vec<&str> = md.lines().collect();
+    let mut ids = headings(md).into_iter().map(|h| h.id);
+    let mut after_chart = false;
     let mut i = 0;
     let mut para: Vec<&str> = Vec::new();
     let flush = |para: &mut Vec<&str>, body: &mut String| {
@@ -65,12 +73,9 @@ pub fn to_html(md: &str, title: &str, load_svg: &dyn Fn(&str) -> Option<String>)
             let _ = writeln!(body, "<pre><code{class}>{}</code></pre>", escape(&code));
         } else if let Some((level, text)) = heading(t) {
             flush(&mut para, &mut body);
-            let _ = writeln!(
-                body,
-                r#"<h{level} id="{}">{}</h{level}>"#,
-                slug(text),
-                inline(text)
-            );
+            after_chart = false;
+            let id = ids.next().unwrap_or_else(|| slug(text));
+            let _ = writeln!(body, r#"<h{level} id="{id}">{}</h{level}>"#, inline(text));
             i += 1;
         } else if t.starts_with('|') {
             flush(&mut para, &mut body);
@@ -78,10 +83,23 @@ pub fn to_html(md: &str, title: &str, load_svg: &dyn Fn(&str) -> Option<String>)
             while i < lines.len() && lines[i].trim().starts_with('|') {
                 i += 1;
             }
-            table(&lines[start..i], &mut body);
+            let rows = &lines[start..i];
+            if after_chart {
+                let header = rows.len() >= 2 && is_separator(rows[1]);
+                let n = rows.len() - if header { 2 } else { 0 };
+                let _ = writeln!(
+                    body,
+                    "<details>\n<summary>Table: the chart's data, {n} row(s)</summary>"
+                );
+                table(rows, &mut body);
+                body.push_str("</details>\n");
+            } else {
+                table(rows, &mut body);
+            }
         } else if let Some((alt, src)) = lone_image(t) {
             flush(&mut para, &mut body);
             figure(alt, src, load_svg, &mut body);
+            after_chart = !src.ends_with(".html");
             i += 1;
         } else if t.starts_with("- ") || t.starts_with("* ") {
             flush(&mut para, &mut body);
@@ -126,11 +144,15 @@ pub fn convert_file(md_path: &Path, html_path: &Path) -> std::io::Result<()> {
 }
 
 /// Writes `md` as the page `html_path`, inlining the SVG images it links from `dir`
-/// (plain relative names only). The title is the first `# ` heading.
+/// (plain relative names only), opened by the one screen of summary and the table of
+/// contents of [`crate::summary::with_summary`] (read from the files in `dir`). The
+/// title is the first `# ` heading.
 ///
 /// # Errors
 /// Writing the page.
 pub fn write_page(md: &str, dir: &Path, html_path: &Path) -> std::io::Result<()> {
+    let md = crate::summary::with_summary(md, dir, &crate::articulated_report::root());
+    let md = md.as_str();
     let title = md
         .lines()
         .find_map(|l| l.strip_prefix("# "))
@@ -145,6 +167,48 @@ pub fn write_page(md: &str, dir: &Path, html_path: &Path) -> std::io::Result<()>
         std::fs::read_to_string(dir.join(src)).ok()
     };
     std::fs::write(html_path, to_html(md, &title, &load))
+}
+
+/// A heading of a Markdown text: its level, text and the unique id the page gives it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Heading {
+    /// Level, 1 for `#`.
+    pub level: usize,
+    /// The heading's text (Markdown).
+    pub text: String,
+    /// Its id: the lowercase slug of the text, with `-2`, `-3` … appended to repeats.
+    pub id: String,
+}
+
+/// The headings of `md` in order, outside fenced code, with unique ids.
+pub fn headings(md: &str) -> Vec<Heading> {
+    let mut out: Vec<Heading> = Vec::new();
+    let mut fenced = false;
+    for line in md.lines() {
+        let t = line.trim();
+        if t.starts_with("```") {
+            fenced = !fenced;
+            continue;
+        }
+        if fenced {
+            continue;
+        }
+        if let Some((level, text)) = heading(t) {
+            let base = slug(text);
+            let mut id = base.clone();
+            let mut k = 1;
+            while out.iter().any(|h| h.id == id) {
+                k += 1;
+                id = format!("{base}-{k}");
+            }
+            out.push(Heading {
+                level,
+                text: text.to_string(),
+                id,
+            });
+        }
+    }
+    out
 }
 
 fn heading(t: &str) -> Option<(usize, &str)> {
@@ -496,6 +560,27 @@ mod tests {
         assert_eq!(inline("a * b ` c [d"), "a * b ` c [d");
         assert_eq!(inline("2*3 = 6"), "2*3 = 6");
         assert_eq!(inline("x < y & z"), "x &lt; y &amp; z");
+    }
+
+    #[test]
+    fn repeated_headings_get_unique_ids() {
+        let md = "## Summary\n\n```\n## not a heading\n```\n\n### Summary\n\n## Summary\n";
+        let ids: Vec<String> = headings(md).into_iter().map(|h| h.id).collect();
+        assert_eq!(ids, ["summary", "summary-2", "summary-3"]);
+        let h = to_html(md, "T", &none);
+        assert!(h.contains(r#"<h3 id="summary-2">Summary</h3>"#));
+        assert!(h.contains(r#"<h2 id="summary-3">Summary</h2>"#));
+    }
+
+    #[test]
+    fn a_table_after_a_chart_folds_until_the_next_heading() {
+        let md = "## A\n\n![c](c.svg)\n\nnote\n\n| a |\n|---|\n| 1 |\n| 2 |\n\n## B\n\n| b |\n|---|\n| 3 |\n";
+        let h = to_html(md, "T", &none);
+        assert!(
+            h.contains("<details>\n<summary>Table: the chart's data, 2 row(s)</summary>\n<table>")
+        );
+        assert_eq!(h.matches("<details>").count(), 1);
+        assert!(h.contains("</table>\n</details>\n<h2 id=\"b\">B</h2>"));
     }
 
     #[test]

@@ -22,15 +22,17 @@
 //!   length and initial violation.
 //! * [`contact_stability`] classifies the rigid contact solvers on a box stack over
 //!   time step × stack height, top mass ratio, initial overlap and Baumgarte factor.
-//! * [`stability`] holds what those three maps share: the cell classes, the tally, and
-//!   the writer of a map section (heat maps, tables, CSV, summary).
+//! * [`stability`] is the one stability map those three are instances of: axes and
+//!   formulations as data, a scene runner per map, and one skeleton (grid, parallel run,
+//!   classes, heat maps, tables, CSV, summary).
 //! * [`par`] maps cells over threads with results independent of the thread count and
 //!   a panic in one cell caught as that cell's result.
 //! * [`models_report`] writes the real-models section from `cargo xtask models`' table.
 //! * [`deps`] lists, per scene, the crate and features it declares, what they compile
 //!   (`cargo tree`) and the stages its steps were seen to run.
 //! * [`replays`] runs a few scenes into viewer pages for the report.
-//! * [`html`] turns the Markdown report into one self-contained HTML page.
+//! * [`html`] turns the Markdown report into one self-contained HTML page, opened by
+//!   [`summary`]: one screen of what the run found and a table of contents.
 #![deny(missing_docs)]
 
 pub mod articulated_report;
@@ -49,4 +51,5 @@ pub mod par;
 pub mod particle_report;
 pub mod replays;
 pub mod stability;
+pub mod summary;
 pub mod sweeps;

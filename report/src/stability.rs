@@ -1,10 +1,13 @@
-//! What the stability maps share ([`crate::articulated_stability`],
-//! [`crate::chain_stability`], [`crate::contact_stability`]): the cell classes with their
-//! table symbols and heat-map legend, the per-method tally, and the writer of a map
-//! section — per axis pair a heat map, a Markdown table and CSV rows ([`write_maps`]),
-//! then a summary per method ([`write_summary`]). Each map keeps its own scene, methods,
-//! thresholds and classification, and describes itself to the writer through
-//! [`StabilityMap`].
+//! The one stability map ([`crate::articulated_stability`], [`crate::chain_stability`],
+//! [`crate::contact_stability`] are three instances): a [`Map`] is data — time steps,
+//! axes ([`MapAxis`]: stiffness or compliance, mass ratio, chain length, initial
+//! violation, stack height, overlap, Baumgarte factor …) and formulations — and a
+//! [`Runner`] is the scene: it builds a cell from (axis, formulation, value, step), runs
+//! and classifies it and writes its CSV row. One skeleton does the rest: the grid
+//! ([`Map::grid`]), the parallel run ([`run_grid`], [`crate::par::map_cells`], a panic
+//! caught per cell), the cell classes with their table symbols and heat-map legend, the
+//! per-formulation tally, and the section writer — per axis a heat map, a Markdown table
+//! and CSV rows ([`write_maps`]), then a summary per formulation ([`write_summary`]).
 //!
 //! Every map stores its results in (method, value, step) order, the time step fastest
 //! ([`Layout::index`]).
@@ -173,169 +176,242 @@ pub fn heat_map(
     }
 }
 
-/// What a stability map tells [`write_maps`] and [`write_summary`]: its names, axes and
-/// methods, how to run one map, draw it, label its rows and write a cell's CSV row.
-pub trait StabilityMap {
-    /// One pair of axes: time step × another.
-    type Axis: Copy + 'static;
-    /// What one map stores per cell of its [`Layout`] (a cell's result, or an `Option` of
-    /// it where some methods do not run some values).
-    type Result;
+/// One axis of a map, paired with the time step: data, not code.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapAxis {
+    /// Label (tables, headings, the heat map's y axis).
+    pub label: &'static str,
+    /// File stem of the chart (`{name}_stability_<stem>.svg`) and the CSV's `axis` column.
+    pub stem: &'static str,
+    /// Values along the axis (rows per formulation).
+    pub values: Vec<f64>,
+    /// Tick label per value (heat map).
+    pub ticks: Vec<String>,
+    /// The heat map's note (what the cells ran and what stable means).
+    pub note: String,
+}
 
-    /// Name in the progress lines (`{NAME} stability: …`) and the files
-    /// (`{NAME}_stability_<axis stem>.svg`, `{NAME}_stability.csv`).
-    const NAME: &'static str;
-    /// Heading of each map, followed by ` × <axis label>`.
-    const HEADING: &'static str;
-    /// Alternative text of each map's image, followed by `, h × <axis label>`.
-    const ALT: &'static str;
-    /// Heading of the summary.
-    const SUMMARY: &'static str;
-    /// Label of the tables' first column.
-    const FIRST_COLUMN: &'static str;
-    /// First line of the CSV file (with its newline).
-    const CSV_HEADER: &'static str;
-    /// The methods, in result order.
-    const METHODS: &'static [&'static str];
-    /// Every axis pair, in report order.
-    const AXES: &'static [Self::Axis];
-
-    /// Label of `axis`.
-    fn axis_label(axis: Self::Axis) -> &'static str;
-    /// File stem of `axis`'s chart.
-    fn axis_stem(axis: Self::Axis) -> &'static str;
-    /// Time steps (s).
-    fn hs(&self) -> &[f64];
-    /// Values along `axis`.
-    fn axis_values(&self, axis: Self::Axis) -> Vec<f64>;
-    /// Runs the map of `axis` on `threads` threads, calling `announce` with the number of
-    /// cells before running them; results in [`Layout::index`] order.
-    fn run(
-        &self,
-        axis: Self::Axis,
-        threads: usize,
-        announce: &mut dyn FnMut(usize),
-    ) -> Vec<Self::Result>;
-    /// The heat map of `axis` from its results.
-    fn heat_map(&self, axis: Self::Axis, results: &[Self::Result]) -> HeatMap;
-    /// The class of a stored result (`None`: not run).
-    fn class(result: &Self::Result) -> Option<CellClass>;
-    /// One CSV line (without its newline) of a stored result (`None`: not run).
-    fn csv_row(axis: Self::Axis, result: &Self::Result) -> Option<String>;
-    /// The label of the table row of method `method` at `value` of `axis`.
-    fn row_label(&self, axis: Self::Axis, method: usize, value: f64) -> String {
-        let _ = (axis, method);
-        tick(value)
-    }
-
-    /// The layout of the map of `axis`.
-    fn layout(&self, axis: Self::Axis) -> Layout<'_> {
-        Layout {
-            methods: Self::METHODS,
-            hs: self.hs(),
-            values: self.axis_values(axis).len(),
+impl MapAxis {
+    /// An axis whose ticks are the values' [`tick`]s.
+    pub fn new(label: &'static str, stem: &'static str, values: Vec<f64>, note: String) -> Self {
+        let ticks = values.iter().map(|&v| tick(v)).collect();
+        Self {
+            label,
+            stem,
+            values,
+            ticks,
+            note,
         }
     }
 }
 
-/// The results of every map of a [`StabilityMap`], per axis pair in report order.
-pub type Maps<M> = Vec<(<M as StabilityMap>::Axis, Vec<<M as StabilityMap>::Result>)>;
+/// A stability map as data: its names, formulations, time steps and axes. What runs a
+/// cell is the map's [`Runner`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Map {
+    /// Name in the progress lines (`{name} stability: …`) and the files
+    /// (`{name}_stability_<stem>.svg`, `{name}_stability.csv`).
+    pub name: &'static str,
+    /// Heading of each map, followed by ` × <axis label>`.
+    pub heading: &'static str,
+    /// Alternative text of each map's image, followed by `, h × <axis label>`.
+    pub alt: &'static str,
+    /// Heat-map title, followed by ` × <axis label>`.
+    pub title: &'static str,
+    /// Heat-map panels per row.
+    pub columns: usize,
+    /// Heading of the summary.
+    pub summary: &'static str,
+    /// Label of the tables' first column.
+    pub first_column: &'static str,
+    /// First line of the CSV file (with its newline).
+    pub csv_header: &'static str,
+    /// The formulations' labels, in result order.
+    pub methods: &'static [&'static str],
+    /// Time steps (s), the columns.
+    pub hs: Vec<f64>,
+    /// Every axis, in report order.
+    pub axes: Vec<MapAxis>,
+}
 
-/// Runs every map of `map` on `threads` threads and writes, per axis pair: the heat map
-/// `{NAME}_stability_<stem>.svg`, a heading and the image in `md`, a table (a row per
-/// method and value, rows with no cell run left out; a column per time step; each cell
-/// its class symbol, `—` where not run) and the cell count and wall time; then
-/// `{NAME}_stability.csv` (a row per cell run). Returns the results per axis pair.
+impl Map {
+    /// The layout of the map of `axis` (an index into [`Map::axes`]).
+    pub fn layout(&self, axis: usize) -> Layout<'_> {
+        Layout {
+            methods: self.methods,
+            hs: &self.hs,
+            values: self.axes.get(axis).map_or(0, |a| a.values.len()),
+        }
+    }
+
+    /// The cells of the map of `axis`, in [`Layout::index`] order: `runner.cell` of
+    /// every formulation, value and step (`None`: the formulation does not run there).
+    pub fn grid<R: Runner>(&self, runner: &R, axis: usize) -> Vec<Option<R::Cell>> {
+        let Some(a) = self.axes.get(axis) else {
+            return Vec::new();
+        };
+        let mut v = Vec::with_capacity(self.methods.len() * a.values.len() * self.hs.len());
+        for m in 0..self.methods.len() {
+            for &x in &a.values {
+                for &h in &self.hs {
+                    v.push(runner.cell(axis, m, x, h));
+                }
+            }
+        }
+        v
+    }
+}
+
+/// What differs between maps: the scene a cell runs, its classification and its CSV row.
+pub trait Runner: Sync {
+    /// One cell's configuration.
+    type Cell: Sync;
+    /// What one cell measured.
+    type Result: Send;
+    /// The cell of formulation `method` at `value` of axis `axis` and step `h`; `None`
+    /// where the formulation does not run that value.
+    fn cell(&self, axis: usize, method: usize, value: f64, h: f64) -> Option<Self::Cell>;
+    /// Work estimate of a cell (cells run longest first).
+    fn cost(&self, cell: &Self::Cell) -> f64;
+    /// Runs and classifies a cell.
+    fn run(&self, cell: &Self::Cell) -> Self::Result;
+    /// The result of a cell whose run panicked, from the panic message.
+    fn panicked(&self, cell: &Self::Cell, message: String) -> Self::Result;
+    /// The class of a result.
+    fn class(result: &Self::Result) -> CellClass;
+    /// One CSV line (without its newline) of a result on the axis of stem `stem`.
+    fn csv_row(stem: &str, result: &Self::Result) -> String;
+    /// The label of the table row of formulation `method` at `value` of axis `axis`.
+    fn row_label(&self, axis: usize, method: usize, value: f64) -> String {
+        let _ = (axis, method);
+        tick(value)
+    }
+}
+
+/// Runs the cells of `grid` on `threads` threads ([`crate::par::map_cells`], longest
+/// first, a panic caught per cell); results in grid order, `None` stays `None`.
+pub fn run_grid<R: Runner>(
+    label: &str,
+    runner: &R,
+    grid: &[Option<R::Cell>],
+    threads: usize,
+) -> Vec<Option<R::Result>> {
+    let cells: Vec<&R::Cell> = grid.iter().flatten().collect();
+    let mut res = crate::par::map_cells(
+        label,
+        &cells,
+        threads,
+        |c| runner.cost(c),
+        |c| runner.run(c),
+        |c, m| runner.panicked(c, m),
+    )
+    .into_iter();
+    grid.iter()
+        .map(|c| c.as_ref().and_then(|_| res.next()))
+        .collect()
+}
+
+/// The results of every map of a [`Map`], per axis in report order.
+pub type Maps<R> = Vec<Vec<Option<<R as Runner>::Result>>>;
+
+/// Runs every map of `map` on `threads` threads and writes, per axis: the heat map
+/// `{name}_stability_<stem>.svg`, a heading and the image in `md`, a table (a row per
+/// formulation and value, rows with no cell run left out; a column per time step; each
+/// cell its class symbol, `—` where not run) and the cell count and wall time; then
+/// `{name}_stability.csv` (a row per cell run). Returns the results per axis.
 ///
 /// # Errors
 /// Writing a file.
-pub fn write_maps<M: StabilityMap>(
-    map: &M,
+pub fn write_maps<R: Runner>(
+    map: &Map,
+    runner: &R,
     md: &mut String,
     out: &Path,
     threads: usize,
-) -> std::io::Result<Maps<M>> {
-    let mut csv = String::from(M::CSV_HEADER);
+) -> std::io::Result<Maps<R>> {
+    let mut csv = String::from(map.csv_header);
     let mut all = Vec::new();
-    for &axis in M::AXES {
-        let label = M::axis_label(axis);
+    for (a, axis) in map.axes.iter().enumerate() {
+        let label = axis.label;
         let t0 = Instant::now();
-        let res = map.run(axis, threads, &mut |n| {
-            eprintln!(
-                "  {} stability: h × {label}, {n} cells on {threads} thread(s)",
-                M::NAME
-            );
-        });
+        let grid = map.grid(runner, a);
+        eprintln!(
+            "  {} stability: h × {label}, {} cells on {threads} thread(s)",
+            map.name,
+            grid.iter().flatten().count()
+        );
+        let res = run_grid(map.name, runner, &grid, threads);
         let secs = t0.elapsed().as_secs_f64();
         eprintln!("    done in {secs:.1} s");
-        let stem = format!("{}_stability_{}", M::NAME, M::axis_stem(axis));
-        std::fs::write(
-            out.join(format!("{stem}.svg")),
-            map.heat_map(axis, &res).to_svg(),
-        )?;
+        let layout = map.layout(a);
+        let class = |i: usize| res.get(i).and_then(|r| r.as_ref()).map(R::class);
+        let stem = format!("{}_stability_{}", map.name, axis.stem);
+        let chart = heat_map(
+            &layout,
+            format!("{} × {label}", map.title),
+            label,
+            axis.ticks.clone(),
+            map.columns,
+            axis.note.clone(),
+            class,
+        );
+        std::fs::write(out.join(format!("{stem}.svg")), chart.to_svg())?;
         let _ = writeln!(
             md,
             "### {} × {label}\n\n![{}, h × {label}]({stem}.svg)\n",
-            M::HEADING,
-            M::ALT
+            map.heading, map.alt
         );
-        let mut head = format!("| {} | {label} \\ h (s) |", M::FIRST_COLUMN);
+        let mut head = format!("| {} | {label} \\ h (s) |", map.first_column);
         let mut sep = String::from("|---|---|");
-        for h in map.hs() {
+        for h in &map.hs {
             let _ = write!(head, " {} |", tick(*h));
             sep.push_str("---|");
         }
         let _ = writeln!(md, "{head}\n{sep}");
-        let layout = map.layout(axis);
-        let vals = map.axis_values(axis);
-        for (m, name) in M::METHODS.iter().enumerate() {
-            for (v, x) in vals.iter().enumerate() {
+        for (m, name) in map.methods.iter().enumerate() {
+            for (v, x) in axis.values.iter().enumerate() {
                 let row: Vec<Option<&str>> = (0..layout.hs.len())
-                    .map(|k| {
-                        res.get(layout.index(m, v, k))
-                            .and_then(M::class)
-                            .map(CellClass::symbol)
-                    })
+                    .map(|k| class(layout.index(m, v, k)).map(CellClass::symbol))
                     .collect();
                 if row.iter().all(Option::is_none) {
                     continue;
                 }
                 let row: Vec<&str> = row.iter().map(|s| s.unwrap_or("—")).collect();
-                let label = map.row_label(axis, m, *x);
+                let label = runner.row_label(a, m, *x);
                 let _ = writeln!(md, "| {name} | {label} | {} |", row.join(" | "));
             }
         }
-        let count = res.iter().filter(|r| M::class(r).is_some()).count();
+        let count = res.iter().flatten().count();
         let _ = writeln!(md, "\n({count} cells, {secs:.1} s wall.)\n");
-        for r in &res {
-            if let Some(row) = M::csv_row(axis, r) {
-                let _ = writeln!(csv, "{row}");
-            }
+        for r in res.iter().flatten() {
+            let _ = writeln!(csv, "{}", R::csv_row(axis.stem, r));
         }
-        all.push((axis, res));
+        all.push(res);
     }
-    std::fs::write(out.join(format!("{}_stability.csv", M::NAME)), csv)?;
+    std::fs::write(out.join(format!("{}_stability.csv", map.name)), csv)?;
     Ok(all)
 }
 
-/// Writes the summary of the maps `all` ([`write_maps`]): per method its [`Tally`] over
-/// all maps — with the `extra` columns (header, value per method) after `~` — and, per
-/// axis pair, the largest time step at which every row the method runs is stable, and
-/// at which none is unstable. Returns the tally of all cells.
-pub fn write_summary<M: StabilityMap>(
-    map: &M,
+/// Writes the summary of the maps `all` ([`write_maps`]): per formulation its [`Tally`]
+/// over all maps — with the `extra` columns (header, value per formulation) after `~` —
+/// and, per axis, the largest time step at which every row the formulation runs is
+/// stable, and at which none is unstable. Returns the tally of all cells.
+pub fn write_summary<R: Runner>(
+    map: &Map,
     md: &mut String,
-    all: &Maps<M>,
+    all: &Maps<R>,
     extra: &[(&str, Vec<usize>)],
 ) -> Tally {
-    let mut tally = vec![Tally::default(); M::METHODS.len()];
+    let class =
+        |res: &Vec<Option<R::Result>>, i: usize| res.get(i).and_then(|r| r.as_ref()).map(R::class);
+    let mut tally = vec![Tally::default(); map.methods.len()];
     let mut total = Tally::default();
-    for (axis, res) in all {
-        let layout = map.layout(*axis);
+    for (a, res) in all.iter().enumerate() {
+        let layout = map.layout(a);
         for (m, t) in tally.iter_mut().enumerate() {
             for v in 0..layout.values {
                 for k in 0..layout.hs.len() {
-                    if let Some(c) = res.get(layout.index(m, v, k)).and_then(M::class) {
+                    if let Some(c) = class(res, layout.index(m, v, k)) {
                         t.add(c);
                         total.add(c);
                     }
@@ -343,8 +419,8 @@ pub fn write_summary<M: StabilityMap>(
             }
         }
     }
-    let _ = writeln!(md, "### {}\n", M::SUMMARY);
-    let mut head = format!("| {} | ✓ | ~ |", M::FIRST_COLUMN);
+    let _ = writeln!(md, "### {}\n", map.summary);
+    let mut head = format!("| {} | ✓ | ~ |", map.first_column);
     let mut sep = String::from("|---|---|---|");
     for (name, _) in extra {
         let _ = write!(head, " {name} |");
@@ -352,33 +428,29 @@ pub fn write_summary<M: StabilityMap>(
     }
     head.push_str(" unstable | panics |");
     sep.push_str("---|---|");
-    for &axis in M::AXES {
+    for axis in &map.axes {
         let _ = write!(
             head,
             " largest h stable / bounded on every {} |",
-            M::axis_label(axis)
+            axis.label
         );
         sep.push_str("---|");
     }
     let _ = writeln!(md, "{head}\n{sep}");
-    let hs = map.hs();
-    for (m, name) in M::METHODS.iter().enumerate() {
+    let hs = &map.hs;
+    for (m, name) in map.methods.iter().enumerate() {
         let t = tally[m];
         let mut row = format!("| {name} | {} | {} |", t.stable, t.inaccurate);
         for (_, values) in extra {
-            let _ = write!(row, " {} |", values[m]);
+            let _ = write!(row, " {} |", values.get(m).copied().unwrap_or(0));
         }
         let _ = write!(row, " {} | {} |", t.unstable, t.panics);
-        for (axis, res) in all {
-            let layout = map.layout(*axis);
+        for (a, res) in all.iter().enumerate() {
+            let layout = map.layout(a);
             let largest = |ok: &dyn Fn(CellClass) -> bool| {
                 (0..hs.len())
                     .filter(|&k| {
-                        (0..layout.values).all(|v| {
-                            res.get(layout.index(m, v, k))
-                                .and_then(M::class)
-                                .is_none_or(ok)
-                        })
+                        (0..layout.values).all(|v| class(res, layout.index(m, v, k)).is_none_or(ok))
                     })
                     .map(|k| hs[k])
                     .fold(None, |a: Option<f64>, h| Some(a.map_or(h, |a| a.max(h))))

@@ -13,6 +13,9 @@
 //!   MJCF model and its trajectory;
 //! * [`soft`] is the catalogue of soft scenes shared by tests and sweeps (the hanging
 //!   cloth, the free cloth and jelly) and the integrator configurations compared on them;
+//! * [`formulation`] is the one vocabulary of constraint formulations (soft, compliant,
+//!   Baumgarte, velocity, projection, RATTLE, RATTLE4) mapped to the particle and the
+//!   body types;
 //! * [`rng`] is the seeded generator behind every seeded configuration.
 //!
 //! The binary `simulate` (`cargo install --path scene`) runs a file from the command
@@ -20,6 +23,7 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod formulation;
 pub mod rng;
 pub mod run;
 pub mod scene_view;
