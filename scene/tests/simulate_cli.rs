@@ -565,6 +565,16 @@ fn compare_reports_checks_tolerances_and_fails_with_one_line() {
     let (code, _, err, _) = run_bin(exe, &[&a, &b, "--tolerance", "0.005"]);
     assert_eq!(code, Some(2), "{err}");
     one_line("beyond tolerance", "compare: ", &err);
+    assert!(err.contains("exceeds the tolerance"), "{err}");
+    // A sample without a match fails a tolerance however small the errors.
+    let c = path("c.csv");
+    std::fs::write(&c, traj(&[0.0, 0.25, 0.5, 1.0], 1.0, 0.0)).expect("write");
+    let (code, _, err, _) = run_bin(exe, &[&a, &c, "--tolerance", "1"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        one_line("unmatched", "compare: ", &err)[0].contains("only 3 samples"),
+        "{err}"
+    );
 
     let missing = path("missing.csv");
     let cases: Vec<(&str, Vec<&str>)> = vec![

@@ -112,15 +112,17 @@ fn main() -> ExitCode {
     }
     match cli.tolerance {
         Some(tol) if !(c.all_matched() && c.worst() <= tol) => {
-            eprintln!(
-                "compare: worst error {:.3e} exceeds the tolerance {tol:.3e}{}",
-                c.worst(),
-                if c.all_matched() {
-                    ""
-                } else {
-                    " or a sample has no match"
-                }
-            );
+            if c.all_matched() {
+                eprintln!(
+                    "compare: worst error {:.3e} exceeds the tolerance {tol:.3e}",
+                    c.worst()
+                );
+            } else {
+                eprintln!(
+                    "compare: only {} samples matched (A has {}, B has {}); a tolerance needs every sample",
+                    c.samples, c.samples_a, c.samples_b
+                );
+            }
             ExitCode::from(2)
         }
         _ => ExitCode::SUCCESS,
