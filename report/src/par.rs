@@ -10,6 +10,13 @@
 //!
 //! The progress bar (indicatif) is drawn on stderr only when stderr is a terminal, so
 //! CI logs stay clean.
+//!
+//! Scoped threads and an atomic cell counter rather than `rayon`: rayon's indexed
+//! `par_iter().map().collect()` would keep the cell order, but each cell would still need
+//! its own `catch_unwind`, the longest-first order a sort and an inverse permutation, the
+//! thread count (`CONSTRAINT_THREADS`) a pool of its own, and the progress bar the same
+//! counter — the dispatch loop it replaces is about twenty lines. rayon 1.12 builds in
+//! 7.9 s of CPU (six crates with crossbeam), for no change in behaviour.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicUsize, Ordering};

@@ -18,8 +18,11 @@
 //!   body types;
 //! * [`rng`] is the seeded generator behind every seeded configuration.
 //!
-//! The binary `simulate` (`cargo install --path scene`) runs a file from the command
-//! line and writes its trajectory as CSV, a JSON summary or an HTML page.
+//! The binaries (`cargo install --path scene`; `--help` lists every option with its
+//! default): `simulate` runs a file from the command line and writes its trajectory as
+//! CSV, a JSON summary or an HTML page; `compare A.csv B.csv [--tolerance TOL]` prints
+//! [`trajectory::compare`]'s figures and exits with status 2 beyond the tolerance. Both
+//! parse their arguments with `clap` (derive) and fail with one line on bad input.
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 

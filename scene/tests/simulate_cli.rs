@@ -2,7 +2,9 @@
 //! and options (issue 7): every case must exit with a non-zero status and exactly one
 //! line on stderr naming the reason, within a time limit (no hang), without a panic,
 //! and without writing an output file with non-finite numbers. Valid files that
-//! diverge must stop with the typed divergence error, not write NaN.
+//! diverge must stop with the typed divergence error, not write NaN. `--help` of both
+//! binaries lists every option with its default; `compare` (what `cargo xtask compare`
+//! runs) keeps the same one-line contract on bad arguments and files.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -19,25 +21,35 @@ fn dir() -> PathBuf {
 
 /// Runs `simulate` with `args`; returns (success, stderr, wall time).
 fn simulate(args: &[&str]) -> (bool, String, Duration) {
+    let (code, _, err, t) = run_bin(env!("CARGO_BIN_EXE_simulate"), args);
+    (code == Some(0), err, t)
+}
+
+/// Runs a binary with `args`; returns (exit code, stdout, stderr, wall time).
+fn run_bin(exe: &str, args: &[&str]) -> (Option<i32>, String, String, Duration) {
     let t0 = Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_simulate"))
+    let mut child = Command::new(exe)
         .args(args)
-        .stdout(Stdio::null())
+        .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .expect("spawn simulate");
+        .expect("spawn");
+    // Outputs here are small (a help text, a report), far below a pipe's buffer.
     loop {
         if let Some(status) = child.try_wait().expect("wait") {
-            let mut err = String::new();
+            let (mut out, mut err) = (String::new(), String::new());
+            use std::io::Read as _;
+            if let Some(mut o) = child.stdout.take() {
+                let _ = o.read_to_string(&mut out);
+            }
             if let Some(mut e) = child.stderr.take() {
-                use std::io::Read as _;
                 let _ = e.read_to_string(&mut err);
             }
-            return (status.success(), err, t0.elapsed());
+            return (status.code(), out, err, t0.elapsed());
         }
         if t0.elapsed() > LIMIT {
             let _ = child.kill();
-            panic!("simulate {args:?} hung (killed after {LIMIT:?})");
+            panic!("{exe} {args:?} hung (killed after {LIMIT:?})");
         }
         std::thread::sleep(Duration::from_millis(5));
     }
@@ -47,12 +59,7 @@ fn simulate(args: &[&str]) -> (bool, String, Duration) {
 fn assert_clean_failure(name: &str, args: &[&str], out: &Path) {
     let (ok, err, t) = simulate(args);
     assert!(!ok, "{name}: exit status 0 (stderr {err:?})");
-    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "{name}: stderr is not one line: {err:?}");
-    assert!(
-        lines[0].starts_with("simulate: ") && lines[0].len() > "simulate: ".len() + 3,
-        "{name}: {err:?}"
-    );
+    let lines = one_line(name, "simulate: ", &err);
     assert!(!err.contains("panicked"), "{name}: panic: {err:?}");
     if let Ok(csv) = std::fs::read_to_string(out) {
         for tok in csv
@@ -65,6 +72,18 @@ fn assert_clean_failure(name: &str, args: &[&str], out: &Path) {
         }
     }
     eprintln!("{name}: {} ({:.3} s)", lines[0], t.as_secs_f64());
+}
+
+/// Checks that `err` is one line `<prefix><reason>`, no panic; returns the lines.
+fn one_line<'a>(name: &str, prefix: &str, err: &'a str) -> Vec<&'a str> {
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{name}: stderr is not one line: {err:?}");
+    assert!(
+        lines[0].starts_with(prefix) && lines[0].len() > prefix.len() + 3,
+        "{name}: {err:?}"
+    );
+    assert!(!err.contains("panicked"), "{name}: panic: {err:?}");
+    lines
 }
 
 const PENDULUM: &str = r#"<mujoco model="p">
@@ -435,5 +454,157 @@ fn the_summary_reports_the_runs_figures() {
     assert!(num("max_energy_increase") <= 1e-4, "{text}");
     assert!(num("us_per_step") > 0.0, "{text}");
     assert!(num("root_height").abs() <= 1e-11, "{text}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `--help` (and `-h`) of `simulate`: exit 0, every option listed with its default (or
+/// marked required), and every `--method` name with its description.
+#[test]
+fn simulate_help_lists_every_option_and_its_default() {
+    for flag in ["--help", "-h"] {
+        let (code, out, err, _) = run_bin(env!("CARGO_BIN_EXE_simulate"), &[flag]);
+        assert_eq!(code, Some(0), "{flag}: {err}");
+        for opt in [
+            "--keyframe",
+            "--qpos",
+            "--qvel",
+            "--ctrl",
+            "--dt",
+            "--duration",
+            "--every",
+            "--method",
+            "--out",
+            "--html",
+            "--summary",
+        ] {
+            // The option's own paragraph: its line and the indented lines up to the next
+            // option or heading.
+            let lines: Vec<&str> = out.lines().collect();
+            let at = lines
+                .iter()
+                .position(|l| l.trim_start().starts_with(&format!("{opt} ")))
+                .unwrap_or_else(|| panic!("{flag}: {opt} not listed:\n{out}"));
+            let rest = lines[at + 1..]
+                .iter()
+                .take_while(|l| l.starts_with("  ") && !l.trim_start().starts_with('-'));
+            let para = std::iter::once(&lines[at])
+                .chain(rest)
+                .copied()
+                .collect::<Vec<_>>()
+                .join(" ");
+            assert!(
+                para.contains("default") || para.contains("required"),
+                "{flag}: {opt} has no default: {para:?}"
+            );
+        }
+        assert!(out.contains("[default: 1]") && out.contains("[default: rattle]"));
+        for (m, _) in constraint_scene::run::METHODS
+            .iter()
+            .chain(&constraint_scene::run::FREE_BODY_METHODS)
+        {
+            assert!(out.contains(&format!("  {m} ")), "{flag}: method {m}");
+        }
+    }
+}
+
+/// One-body trajectory text: the body at x = t·v, rotated by `angle` about z.
+fn traj(times: &[f64], v: f64, angle: f64) -> String {
+    let mut s = String::from("t");
+    for c in ["x", "y", "z", "qw", "qx", "qy", "qz", "cx", "cy", "cz"] {
+        s += &format!(",b.{c}");
+    }
+    s += ",E_tot\n";
+    for &t in times {
+        let (c, sn) = ((angle / 2.0).cos(), (angle / 2.0).sin());
+        s += &format!("{t:?},{:?},0,0,{c:?},0,0,{sn:?},{:?},0,0,1\n", t * v, t * v);
+    }
+    s
+}
+
+/// `compare A.csv B.csv`: the report on stdout, `--tolerance` decides the exit status
+/// (0 within, 2 beyond), `--format keys` prints `key value` lines, and bad arguments or
+/// files fail with one line and status 1.
+#[test]
+fn compare_reports_checks_tolerances_and_fails_with_one_line() {
+    let exe = env!("CARGO_BIN_EXE_compare");
+    let d = dir().join("compare");
+    std::fs::create_dir_all(&d).expect("dir");
+    let path = |n: &str| d.join(n).to_string_lossy().to_string();
+    let (a, b, bad) = (path("a.csv"), path("b.csv"), path("bad.csv"));
+    // B drifts 1e-3 m/s faster and is turned 0.01 rad: COM error 1e-3 m at t = 1 s.
+    std::fs::write(&a, traj(&[0.0, 0.5, 1.0], 1.0, 0.0)).expect("write");
+    std::fs::write(&b, traj(&[0.0, 0.5, 1.0], 1.001, 0.01)).expect("write");
+    std::fs::write(&bad, "t,b.x\n0,nan\n").expect("write");
+
+    let (code, out, err, _) = run_bin(exe, &[&a, &b]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(out.contains("compared 3 samples"), "{out}");
+    assert!(
+        out.contains("max COM position error   1.000000e-3 m   at t = 1 s, body b"),
+        "{out}"
+    );
+    assert!(out.contains("max |Δ E_tot|"), "{out}");
+
+    let (code, out, _, _) = run_bin(exe, &[&a, &b, "--format", "keys"]);
+    assert_eq!(code, Some(0));
+    let key = |k: &str| -> f64 {
+        out.lines()
+            .find_map(|l| l.strip_prefix(&format!("{k} ")))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("{k} in {out}"))
+    };
+    assert_eq!(key("samples"), 3.0);
+    // Measured: COM 1.0000000000000009e-3 m, orientation 0.01 rad (to 1e-17).
+    assert!((key("com") - 1e-3).abs() < 1e-15, "{out}");
+    assert!((key("orientation") - 0.01).abs() < 1e-15, "{out}");
+    assert_eq!(key("worst"), key("orientation"));
+
+    // The worst error is the 0.01 rad turn.
+    let (code, _, err, _) = run_bin(exe, &[&a, &b, "--tolerance", "0.02"]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, _, err, _) = run_bin(exe, &[&a, &b, "--tolerance", "0.005"]);
+    assert_eq!(code, Some(2), "{err}");
+    one_line("beyond tolerance", "compare: ", &err);
+    assert!(err.contains("exceeds the tolerance"), "{err}");
+    // A sample without a match fails a tolerance however small the errors.
+    let c = path("c.csv");
+    std::fs::write(&c, traj(&[0.0, 0.25, 0.5, 1.0], 1.0, 0.0)).expect("write");
+    let (code, _, err, _) = run_bin(exe, &[&a, &c, "--tolerance", "1"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        one_line("unmatched", "compare: ", &err)[0].contains("only 3 samples"),
+        "{err}"
+    );
+
+    let missing = path("missing.csv");
+    let cases: Vec<(&str, Vec<&str>)> = vec![
+        ("no arguments", vec![]),
+        ("one file", vec![&a]),
+        ("three files", vec![&a, &b, &b]),
+        ("unknown option", vec![&a, &b, "--frobnicate"]),
+        ("tolerance not a number", vec![&a, &b, "--tolerance", "x"]),
+        ("unknown format", vec![&a, &b, "--format", "xml"]),
+        ("missing file", vec![&a, &missing]),
+        ("non-finite number", vec![&a, &bad]),
+    ];
+    for (name, args) in cases {
+        let (code, out, err, _) = run_bin(exe, &args);
+        assert_eq!(code, Some(1), "{name}: {err}");
+        assert!(out.is_empty(), "{name}: stdout {out:?}");
+        let l = one_line(name, "compare: ", &err);
+        eprintln!("{name}: {}", l[0]);
+    }
+
+    let (code, out, _, _) = run_bin(exe, &["--help"]);
+    assert_eq!(code, Some(0));
+    for opt in [
+        "--tolerance",
+        "--format",
+        "A.csv",
+        "B.csv",
+        "[default: table]",
+    ] {
+        assert!(out.contains(opt), "{opt} not in help:\n{out}");
+    }
     let _ = std::fs::remove_dir_all(&d);
 }

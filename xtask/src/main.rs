@@ -7,12 +7,19 @@
 //! | `package [--no-verify]` | `cargo package` of the six library crates in one run (each packed crate built alone from its `.crate` unless `--no-verify`), after checking each file list holds the crate's README and nothing that reads outside the crate |
 //! | `bench [--no-mujoco] [--peers-only] [--only SECTIONS]` | runs the criterion benchmarks and the peer comparisons in one run and writes `target/bench/ratios.md`: ball-joint chains against rapier3d and MuJoCo, contact scenes against rapier3d, every MJCF scene of `scenes/` against MuJoCo (Euler, `mujoco.rollout`), the gymnasium and dm_control models against MuJoCo (`models run`'s timing table), and time per step and growth exponents of the cloth step and KKT solves; SECTIONS: `chains,contact,mjcf,models,cloth` |
 //! | `mujoco SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--integrator euler\|implicitfast\|rk4] --out FILE.csv [--timing FILE.json]` | runs an MJCF scene in MuJoCo (virtual environment with a pinned `mujoco` from PyPI in `target/mujoco-venv`, made on first use) and writes the trajectory file of DESIGN.md section 6; `--timing` adds seconds per step in MuJoCo's C loop |
-//! | `simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--method M] --out FILE.csv` | runs an MJCF scene with this library (the `simulate` binary of `constraint-scene`, release build) and writes the same trajectory file; one-line error and non-zero exit on any failure, divergence included |
-//! | `compare A.csv B.csv` | max COM position, orientation and body-origin error between two trajectory files, with time and body |
+//! | `simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K] [--method M] --out FILE.csv` | runs an MJCF scene with this library (the `simulate` binary of `constraint-scene`, release build; its `--help` lists every option) and writes the same trajectory file; one-line error and non-zero exit on any failure, divergence included |
+//! | `compare A.csv B.csv [--tolerance TOL]` | max COM position, orientation and body-origin error between two trajectory files, with time and body (the `compare` binary of `constraint-scene`, release build); exit status 2 beyond `TOL` |
 //! | `models fetch \| list \| run [--quick] [--out DIR]` | the gymnasium 1.4.0 and dm_control 1.0.50 MJCF models (pinned wheels from PyPI, extracted into `target/models/`, dm_control's `lqr_2_1` and `swimmer6` generated): `run` times a passive run of each in MuJoCo (`mujoco.rollout`) and in the `simulate` binary and writes `target/models/models.md` and `models.csv`; `list` prints the 33 pinned files |
 //!
 //! One file per command, as in glam's `tools/ci`. Standard library only, so the task
 //! runner itself builds in seconds (MuJoCo runs through Python, never at build time).
+//! `clap` (derive) was weighed for this dispatch and the subcommands' arguments: a clean
+//! build of clap 4.6 with `derive` took 57 s of CPU (348 s wall on a loaded 2-core
+//! machine) against 0.16 s for a std-only binary, paid by every fresh clone before its
+//! first `cargo xtask` prints anything; the commands a user runs (`simulate`, `compare`)
+//! are `constraint-scene`'s binaries and parse with clap there. The JSON xtask reads
+//! (flat objects from its own Python scripts and from `simulate --summary`) is read by
+//! key for the same reason, rather than with `serde_json`.
 
 mod bench;
 mod bench_cloth;
@@ -48,10 +55,13 @@ commands:
          [--integrator euler|implicitfast|rk4] --out FILE.csv [--timing FILE.json]
                      run the scene in MuJoCo (pip-installed into target/mujoco-venv on first use)
   simulate SCENE.xml [--keyframe NAME] [--dt DT] --duration T [--every K]
-           [--method velocity|projected|shake|baumgarte|acceleration] --out FILE.csv
+           [--method M] [--qpos V,.. --qvel V,..] [--ctrl FILE.csv] --out FILE.csv
+           [--html FILE.html] [--summary FILE.json]
                      run the scene with this library (maximal coordinates) and write its trajectory
-  compare A.csv B.csv
+  compare A.csv B.csv [--tolerance TOL] [--format table|keys]
                      max COM, orientation and body-origin error between two trajectory files
+                     (exit status 2 beyond TOL); both run the binaries of constraint-scene
+                     (`cargo install --path scene` gives them to a user): --help lists options
   fuzz [--seconds N] [TARGET...]
                      run the cargo-fuzz targets of fuzz/ for N seconds each (default 60)
   models fetch       download the pinned gymnasium and dm_control wheels (PyPI, no dependencies)

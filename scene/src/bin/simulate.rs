@@ -1,157 +1,192 @@
-//! `simulate SCENE.xml [--keyframe NAME | --qpos V,.. --qvel V,..] [--ctrl FILE.csv]
-//! [--dt DT] --duration T [--every K] [--method M] [--summary FILE.json]
-//! [--out FILE.csv] [--html FILE.html]` — runs an MJCF scene with this library and
-//! writes the trajectory (DESIGN.md §6; at least one of `--out` and `--html`).
-//! `--html` writes an animated, self-contained page of the run (the scene's shapes
-//! moving along the trajectory, at most 60 frames per simulated second; play/pause,
-//! time slider, orbit camera; `constraint_scene::viewer`). `cargo xtask simulate`
-//! calls this. Exit status 1 with a one-line
-//! reason on any error. `--summary` also writes the run's figures (steps, µs per step,
-//! finite, worst joint separation, penetration, energy increase, contacts; see
-//! `constraint_scene::run::Summary`) as one JSON object; `cargo xtask models` reads it.
+//! `simulate SCENE.xml --duration T (--out FILE.csv | --html FILE.html) [options]` — runs
+//! an MJCF scene with this library and writes the trajectory (DESIGN.md §6). `--help`
+//! lists every option with its default. `--html` writes an animated, self-contained page
+//! of the run (the scene's shapes moving along the trajectory, at most 60 frames per
+//! simulated second; play/pause, time slider, orbit camera; `constraint_scene::viewer`).
+//! `--summary` also writes the run's figures (steps, µs per step, finite, worst joint
+//! separation, penetration, energy increase, contacts; see `constraint_scene::run::Summary`)
+//! as one JSON object; `cargo xtask models` reads it. `cargo xtask simulate` calls this.
+//!
+//! Exit status 1 with one line `simulate: <reason>` on any error, bad arguments included
+//! (clap's multi-line usage errors are folded to one line).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use clap::{CommandFactory, FromArgMatches, Parser};
 use constraint_scene::run::{run, run_with_summary, RunOptions, FREE_BODY_METHODS, METHODS};
 use constraint_scene::scene_view;
 
-/// The command line.
+/// Runs an MJCF scene with the constraint crates and writes its trajectory.
+#[derive(Parser, Debug)]
+#[command(name = "simulate", version)]
+struct Cli {
+    /// The MJCF scene file.
+    #[arg(value_name = "SCENE.xml")]
+    scene: Option<PathBuf>,
+    /// Start from this keyframe of the file [default: the model's qpos0, at rest].
+    #[arg(long, value_name = "NAME")]
+    keyframe: Option<String>,
+    /// Initial positions in MuJoCo's generalized coordinates, comma-separated
+    /// [default: qpos0; missing trailing values: qpos0].
+    #[arg(long, value_name = "V,V,...", allow_hyphen_values = true)]
+    qpos: Option<String>,
+    /// Initial velocities in generalized coordinates [default: 0; missing values: 0].
+    #[arg(long, value_name = "V,V,...", allow_hyphen_values = true)]
+    qvel: Option<String>,
+    /// Controls: CSV `t,<actuator>...`, each row held until the next [default: none, zero].
+    #[arg(long, value_name = "FILE.csv")]
+    ctrl: Option<PathBuf>,
+    /// The time step, s [default: the file's option timestep].
+    #[arg(long, value_name = "DT", allow_hyphen_values = true)]
+    dt: Option<String>,
+    /// Simulated time, s (required).
+    #[arg(long, value_name = "T", allow_hyphen_values = true)]
+    duration: Option<String>,
+    /// Write every K-th step.
+    #[arg(
+        long,
+        value_name = "K",
+        default_value = "1",
+        allow_hyphen_values = true
+    )]
+    every: String,
+    /// The formulation (listed below).
+    #[arg(long, value_name = "M", default_value = "rattle")]
+    method: String,
+    /// The trajectory as CSV (t, per body x,y,z, qw,qx,qy,qz, cx,cy,cz, energies)
+    /// [default: none; --out or --html is required].
+    #[arg(long, value_name = "FILE.csv")]
+    out: Option<PathBuf>,
+    /// An animated page of the run: shapes, play/pause, time slider, orbit camera
+    /// (self-contained, at most 60 frames per simulated second; URL #t=S&paused=1)
+    /// [default: none].
+    #[arg(long, value_name = "FILE.html")]
+    html: Option<PathBuf>,
+    /// Also write the run's figures as one JSON object: steps, dt, seconds_stepping,
+    /// us_per_step, finite, max_joint_separation, max_penetration, settled_penetration
+    /// (second half), energy_initial, max_energy_increase, energy_final, max_contacts,
+    /// first_contact_time, root_height, actuators, colliders [default: none].
+    #[arg(long, value_name = "FILE.json")]
+    summary: Option<PathBuf>,
+}
+
+/// `--method` values with their descriptions, for `--help`.
+fn methods_help() -> String {
+    let mut s = String::from("Methods (--method M):\n");
+    for (n, d) in METHODS.iter().chain(&FREE_BODY_METHODS) {
+        s += &format!("  {n:<13} {d}\n");
+    }
+    s + "\nAt least one of --out and --html is required."
+}
+
+/// A number of option `name`, with the hand parser's message on failure.
+fn num(s: &str, name: &str) -> Result<f64, String> {
+    s.trim()
+        .parse::<f64>()
+        .map_err(|_| format!("{name}: not a number: {s:?}"))
+}
+
+/// A comma-separated list of numbers.
+fn list(s: &str, name: &str) -> Result<Vec<f64>, String> {
+    s.split(',').map(|x| num(x, name)).collect()
+}
+
+/// The checked command line: scene, run options and outputs.
 struct Args {
     scene: PathBuf,
     opts: RunOptions,
-    /// Trajectory CSV.
     out: Option<PathBuf>,
-    /// Summary JSON.
     summary: Option<PathBuf>,
-    /// Viewer page.
     html: Option<PathBuf>,
 }
 
-fn parse(args: &[String]) -> Result<Args, String> {
-    let mut scene = None;
-    let mut out = None;
-    let mut summary = None;
-    let mut html = None;
-    let mut opts = RunOptions {
-        duration: f64::NAN,
-        ..RunOptions::default()
-    };
-    let list = |s: String, name: &str| -> Result<Vec<f64>, String> {
-        s.split(',')
-            .map(|x| {
-                x.trim()
-                    .parse::<f64>()
-                    .map_err(|_| format!("{name}: not a number: {x:?}"))
-            })
-            .collect()
-    };
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut val = |name: &str| it.next().cloned().ok_or(format!("{name} needs a value"));
-        let num = |s: String, name: &str| {
-            s.parse::<f64>()
-                .map_err(|_| format!("{name}: not a number: {s:?}"))
-        };
-        match a.as_str() {
-            "--keyframe" => opts.keyframe = Some(val("--keyframe")?),
-            "--dt" => opts.dt = Some(num(val("--dt")?, "--dt")?),
-            "--duration" => opts.duration = num(val("--duration")?, "--duration")?,
-            "--every" => {
-                let v = val("--every")?;
-                opts.every = v
-                    .parse()
-                    .map_err(|_| format!("--every: not a positive integer: {v:?}"))?;
-            }
-            "--method" => opts.method = val("--method")?,
-            "--qpos" => opts.qpos = Some(list(val("--qpos")?, "--qpos")?),
-            "--qvel" => opts.qvel = Some(list(val("--qvel")?, "--qvel")?),
-            "--ctrl" => opts.ctrl = Some(PathBuf::from(val("--ctrl")?)),
-            "--out" => out = Some(PathBuf::from(val("--out")?)),
-            "--summary" => summary = Some(PathBuf::from(val("--summary")?)),
-            "--html" => html = Some(PathBuf::from(val("--html")?)),
-            s if s.starts_with("--") => return Err(format!("unknown option {s}")),
-            s => {
-                if scene.replace(PathBuf::from(s)).is_some() {
-                    return Err("more than one scene file given".into());
-                }
-            }
+impl Cli {
+    /// Checks what clap leaves as text (numbers keep their option-named messages; the
+    /// run itself checks ranges: positive step, finite duration, known method).
+    fn check(self) -> Result<Args, String> {
+        let scene = self.scene.ok_or("missing SCENE.xml")?;
+        if self.out.is_none() && self.html.is_none() {
+            return Err("missing --out FILE.csv (or --html FILE.html)".into());
         }
+        let duration = num(
+            self.duration.as_deref().ok_or("missing --duration T")?,
+            "--duration",
+        )?;
+        let every = self
+            .every
+            .parse()
+            .map_err(|_| format!("--every: not a positive integer: {:?}", self.every))?;
+        let opts = RunOptions {
+            keyframe: self.keyframe,
+            dt: self.dt.as_deref().map(|s| num(s, "--dt")).transpose()?,
+            duration,
+            every,
+            method: self.method,
+            qpos: self
+                .qpos
+                .as_deref()
+                .map(|s| list(s, "--qpos"))
+                .transpose()?,
+            qvel: self
+                .qvel
+                .as_deref()
+                .map(|s| list(s, "--qvel"))
+                .transpose()?,
+            ctrl: self.ctrl,
+        };
+        Ok(Args {
+            scene,
+            opts,
+            out: self.out,
+            summary: self.summary,
+            html: self.html,
+        })
     }
-    let scene = scene.ok_or("missing SCENE.xml")?;
-    if out.is_none() && html.is_none() {
-        return Err("missing --out FILE.csv (or --html FILE.html)".into());
+}
+
+/// Parses the command line: `Ok(None)` when `--help` or `--version` was printed.
+fn parse() -> Result<Option<Args>, String> {
+    let cmd = Cli::command().after_help(methods_help());
+    let matches = match cmd.try_get_matches() {
+        Ok(m) => m,
+        Err(e) => return one_line(e).map(|()| None),
+    };
+    let cli = Cli::from_arg_matches(&matches).map_err(|e| first_line(&e))?;
+    cli.check().map(Some)
+}
+
+/// Prints `--help` / `--version` (success) or folds a usage error to one line.
+fn one_line(e: clap::Error) -> Result<(), String> {
+    use clap::error::ErrorKind;
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+            print!("{}", e.render());
+            Ok(())
+        }
+        _ => Err(first_line(&e)),
     }
-    if opts.duration.is_nan() {
-        return Err("missing --duration T".into());
+}
+
+/// A clap error as one line without its `error: ` prefix: the message up to its first
+/// blank line, indented continuation lines (the missing arguments) joined with spaces.
+fn first_line(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let msg: Vec<&str> = text
+        .lines()
+        .take_while(|l| !l.trim().is_empty() && !l.starts_with("Usage:"))
+        .map(str::trim)
+        .collect();
+    let line = msg.join(" ");
+    match line.strip_prefix("error: ") {
+        Some(rest) => rest.to_string(),
+        None if line.is_empty() => "bad arguments".to_string(),
+        None => line,
     }
-    Ok(Args {
-        scene,
-        opts,
-        out,
-        summary,
-        html,
-    })
 }
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.iter().any(|a| a == "-h" || a == "--help") {
-        println!("usage: simulate SCENE.xml [--keyframe NAME | --qpos V,V,... --qvel V,V,...] [--ctrl FILE.csv] [--dt DT] --duration T [--every K] [--method M] [--summary FILE.json] [--out FILE.csv] [--html FILE.html]");
-        println!("  --qpos, --qvel  initial state in MuJoCo's generalized coordinates (missing values: qpos0, 0)");
-        println!("  --ctrl FILE     controls: CSV `t,<actuator>...`, each row held until the next");
-        println!("  --out FILE      the trajectory as CSV (t, per body x,y,z, qw,qx,qy,qz, cx,cy,cz, energies)");
-        println!("  --html FILE     an animated page of the run: shapes, play/pause, time slider, orbit camera");
-        println!("                  (self-contained, at most 60 frames per simulated second; URL #t=S&paused=1)");
-        println!(
-            "  --summary FILE  also write the run's figures as JSON: steps, us_per_step, finite,"
-        );
-        println!("                  max_joint_separation, max_penetration, settled_penetration (second half),");
-        println!("                  energy_initial, max_energy_increase, energy_final, max_contacts, actuators, colliders");
-        for (n, d) in METHODS.iter().chain(&FREE_BODY_METHODS) {
-            println!("  --method {n:<13} {d}");
-        }
-        return ExitCode::SUCCESS;
-    }
-    let result = parse(&args).and_then(|a| {
-        let (scene, opts) = (&a.scene, &a.opts);
-        // The summary's figures are gathered only when asked for (they cost a pass over
-        // the joints per step, outside the timed part).
-        let (traj, secs, sum) = match &a.summary {
-            Some(_) => run_with_summary(scene, opts).map(|(t, s, m)| (t, s, Some(m)))?,
-            None => run(scene, opts).map(|(t, s)| (t, s, None))?,
-        };
-        let mut wrote = Vec::new();
-        if let Some(out) = &a.out {
-            std::fs::write(out, traj.to_csv()).map_err(|e| format!("{}: {e}", out.display()))?;
-            wrote.push(out.display().to_string());
-        }
-        if let Some(p) = &a.html {
-            // The run already loaded this file, so a second load only fails if it changed.
-            let model = constraint_mjcf::load_file(scene).map_err(|e| format!("scene: {e}"))?;
-            let title = scene
-                .file_stem()
-                .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-            let page = scene_view::page(&model, &traj, &title).map_err(|e| e.to_string())?;
-            std::fs::write(p, page).map_err(|e| format!("{}: {e}", p.display()))?;
-            wrote.push(p.display().to_string());
-        }
-        let (out, summary) = (wrote.join(" and "), &a.summary);
-        if let (Some(p), Some(sum)) = (&summary, sum) {
-            std::fs::write(p, sum.to_json() + "\n").map_err(|e| format!("{}: {e}", p.display()))?;
-        }
-        let steps = ((opts.duration / opts.dt.unwrap_or(f64::NAN)).round()).max(0.0);
-        eprintln!(
-            "simulate: wrote {} rows to {out} ({secs:.3} s stepping{})",
-            traj.rows.len(),
-            if steps.is_finite() && steps > 0.0 {
-                format!(", {:.2} µs/step", secs / steps * 1e6)
-            } else {
-                String::new()
-            }
-        );
-        Ok(())
-    });
+    let result = parse().and_then(|args| args.map_or(Ok(()), simulate));
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -159,4 +194,45 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// Runs the scene and writes the asked-for files.
+fn simulate(a: Args) -> Result<(), String> {
+    let (scene, opts) = (&a.scene, &a.opts);
+    // The summary's figures are gathered only when asked for (they cost a pass over
+    // the joints per step, outside the timed part).
+    let (traj, secs, sum) = match &a.summary {
+        Some(_) => run_with_summary(scene, opts).map(|(t, s, m)| (t, s, Some(m)))?,
+        None => run(scene, opts).map(|(t, s)| (t, s, None))?,
+    };
+    let mut wrote = Vec::new();
+    if let Some(out) = &a.out {
+        std::fs::write(out, traj.to_csv()).map_err(|e| format!("{}: {e}", out.display()))?;
+        wrote.push(out.display().to_string());
+    }
+    if let Some(p) = &a.html {
+        // The run already loaded this file, so a second load only fails if it changed.
+        let model = constraint_mjcf::load_file(scene).map_err(|e| format!("scene: {e}"))?;
+        let title = scene
+            .file_stem()
+            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let page = scene_view::page(&model, &traj, &title).map_err(|e| e.to_string())?;
+        std::fs::write(p, page).map_err(|e| format!("{}: {e}", p.display()))?;
+        wrote.push(p.display().to_string());
+    }
+    if let (Some(p), Some(sum)) = (&a.summary, sum) {
+        std::fs::write(p, sum.to_json() + "\n").map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    let steps = ((opts.duration / opts.dt.unwrap_or(f64::NAN)).round()).max(0.0);
+    eprintln!(
+        "simulate: wrote {} rows to {} ({secs:.3} s stepping{})",
+        traj.rows.len(),
+        wrote.join(" and "),
+        if steps.is_finite() && steps > 0.0 {
+            format!(", {:.2} µs/step", secs / steps * 1e6)
+        } else {
+            String::new()
+        }
+    );
+    Ok(())
 }
