@@ -16,7 +16,7 @@ use constraint_contact::lcp::{
     fischer_newton, lemke, pgs, Lcp, LemkeSettings, NewtonSettings, PgsSettings,
 };
 use constraint_contact::rigid::{
-    ContactSettings, ContactSolver, ContactWorld, FrictionModel, SoftStepSettings,
+    ContactSettings, ContactSolver, ContactWorld, FrictionModel, SleepSettings, SoftStepSettings,
 };
 use constraint_core::{
     Area, DMat3, DQuat, DVec3, Dihedral, Distance, DistanceJoint, Fixed, Hinge, PointOnPlane, Pose,
@@ -2529,6 +2529,38 @@ fn contact_cases(s: &mut Sweep) {
                 },
             ),
         ];
+        // Sleeping (issue 14) on, with each bad threshold, under the dense default and
+        // the soft step.
+        for (field, sl) in [
+            (
+                "velocity",
+                SleepSettings {
+                    enabled: true,
+                    velocity: v,
+                    ..Default::default()
+                },
+            ),
+            (
+                "time",
+                SleepSettings {
+                    enabled: true,
+                    time: v,
+                    ..Default::default()
+                },
+            ),
+        ] {
+            for solver in [ContactSolver::Auto, ContactSolver::SoftStep { substeps: 4 }] {
+                s.case(
+                    format!("ContactWorld::step {solver:?} settings.sleep.{field}={v:e}"),
+                    || {
+                        let mut w = contact_world();
+                        w.settings.solver = solver;
+                        w.settings.sleep = sl;
+                        contact_step(&mut w, 1e-2)
+                    },
+                );
+            }
+        }
         for (field, st) in soft {
             s.case(
                 format!("ContactWorld::step SoftStep settings.soft_step.{field}={v:e}"),
