@@ -11,7 +11,7 @@
 //! | [`body`] | [`RigidBody`]: mass, inertia, pose, twist; implicit gyroscopic update |
 //! | [`joint`] | [`Joint`]: spherical, hinge, prismatic, fixed, distance (from `constraint-core`) with damping |
 //! | [`tree`] | Baraff's leaves-first block `LDLᵀ` of the KKT matrix: no fill-in, `O(n)`; loop joints by a small Schur complement |
-//! | [`world`] | [`World`]: the step, with [`Method`]s velocity level, velocity level + projection, acceleration level + Baumgarte, RATTLE; compliant joints (`World::set_compliance`); the run-time stages of a step (`World::stages`) |
+//! | [`world`] | [`World`]: the step, with [`Method`]s velocity level, velocity level + projection, acceleration level + Baumgarte, RATTLE; compliant joints (`World::set_compliance`); what a step did ([`StepStats`]: projection iterations, fallbacks taken) |
 //! | `mjcf` | (feature `mjcf`) worlds from MJCF scene files |
 //!
 //! ## Example

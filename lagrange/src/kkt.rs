@@ -167,20 +167,6 @@ impl KktSolver {
             s => s,
         }
     }
-
-    /// A short description of the solver, for reports' stage lists.
-    pub fn stage(&self) -> &'static str {
-        match self {
-            KktSolver::Auto => "KKT solver chosen at the solve (Auto)",
-            KktSolver::DenseSchur => "dense Schur complement (Cholesky, SVD if singular)",
-            #[cfg(feature = "sparse")]
-            KktSolver::SparseSchur => "sparse Schur complement (faer Cholesky)",
-            KktSolver::Minres(_) => "MINRES on the KKT matrix",
-            KktSolver::Gmres { .. } => "restarted GMRES on the KKT matrix",
-            KktSolver::Svd { .. } => "minimum-norm SVD of the Schur complement",
-            KktSolver::DampedLeastSquares { .. } => "damped least squares on the Schur complement",
-        }
-    }
 }
 
 /// Largest number of rows [`KktSolver::Auto`] hands to the dense Schur solve.

@@ -20,8 +20,9 @@
 //! | [`projection`] | Newton on `C(x) = 0` with `(h²JM⁻¹Jᵀ)δλ = C` | Goldenthal et al. 2007 |
 //! | [`rattle`] | RATTLE (2nd order, symplectic) and RATTLE4 (Yoshida, 4th order) | beyond the lecture: the accurate corner |
 //!
-//! All share [`kkt::solve_kkt`] and its solvers ([`kkt::KktSolver`]). Each formulation
-//! lists the run-time stages it goes through ([`stages`], for reports).
+//! All share [`kkt::solve_kkt`] and its solvers ([`kkt::KktSolver`]). A step records
+//! the solver it ran as data ([`kkt::KktStats::chosen`],
+//! [`velocity::VelocityLevel::last_solver`]); reports put it into words.
 //!
 //! Without the default `std` feature the crate needs only `alloc`: the rows, the KKT
 //! problem and its dense Schur, SVD, MINRES and GMRES solvers run on embedded targets;
@@ -87,8 +88,6 @@ pub mod set;
 pub mod solve;
 #[cfg(feature = "sparse")]
 pub mod sparse;
-#[cfg(feature = "std")]
-pub mod stages;
 #[cfg(feature = "std")]
 mod step;
 #[cfg(feature = "std")]

@@ -3,7 +3,6 @@
 
 use crate::rows::ConstraintRows;
 use alloc::boxed::Box;
-use alloc::string::String;
 use alloc::vec::Vec;
 use constraint_core::{Area, DVec3, Dihedral, Distance, PointConstraint, PointOnPlane, Volume};
 
@@ -249,20 +248,6 @@ impl Constraints {
     /// The sets.
     pub fn sets(&self) -> impl Iterator<Item = &dyn RowSet> {
         self.sets.iter().map(|s| s.as_ref())
-    }
-
-    /// The sets a step assembles, for reports: one entry per set with rows,
-    /// `hard name: rows × Kind` or `compliant name: rows × Kind` (for example
-    /// `hard links: 5 × Distance`).
-    pub fn stages(&self) -> Vec<String> {
-        self.sets
-            .iter()
-            .filter(|s| s.rows() > 0)
-            .map(|s| {
-                let level = if s.compliant() { "compliant" } else { "hard" };
-                alloc::format!("{level} {}: {} × {}", s.name(), s.rows(), s.kind())
-            })
-            .collect()
     }
 
     /// Whether some row of some set is compliant (`α > 0`).

@@ -4,11 +4,12 @@
 //! Every scene declares the crate it is built with and the smallest feature set it
 //! needs ([`SCENES`]). [`catalogue`] builds each scene, runs a few steps with every
 //! method the report uses on it, and collects the run-time stages the steps actually
-//! went through, as each stepping type reports them: [`SoftSystem::stages`] and
-//! [`Integrator::stages`] (soft forces and integrator), [`Constraints::stages`] and the
-//! formulations' `stages` ([`constraint_lagrange::stages`]: hard sets, formulation, KKT
-//! solver used), [`World::stages`] (rigid bodies, tree, loops, damping, compliance,
-//! method) and [`ContactWorld::stages`] (broad and narrow phase, solver path taken).
+//! went through. The libraries return plain data — their configuration and what their
+//! steps record ([`Integrator::scheme`], [`VelocityLevel::last_solver`],
+//! [`ContactWorld::last_path`], …) — and [`words`] names the stages: soft forces and
+//! integrator, hard sets, formulation and the KKT solver used, rigid bodies, tree,
+//! loops, damping, compliance and method, broad and narrow phase and the contact solver
+//! path taken.
 //! [`section`] writes them with the compiled
 //! dependency tree of each crate + feature set, from
 //! `cargo tree -e normal -p <crate> --no-default-features --features <…>` (run through
@@ -31,6 +32,8 @@ use constraint_soft::{
 };
 
 use crate::{articulated_report, articulated_stability, contact_report, particle_report};
+
+pub mod words;
 use constraint_scene::run as scene;
 
 /// A scene of the report: its name, the crate it is built with and the smallest feature
@@ -217,10 +220,8 @@ fn soft_run(method: String, mut sys: SoftSystem, mut integ: Box<dyn Integrator>)
             break;
         }
     }
-    let mut stages = sys.stages();
-    let mut st = Vec::new();
-    integ.stages(&mut st);
-    observe(&mut stages, st);
+    let mut stages = words::soft_system(&sys);
+    observe(&mut stages, words::integrator(integ.as_ref()));
     Run {
         method,
         stages,
@@ -228,7 +229,7 @@ fn soft_run(method: String, mut sys: SoftSystem, mut integ: Box<dyn Integrator>)
     }
 }
 
-/// What the report's particle formulations share: a step and its stages.
+/// What the report's particle formulations share: a step and its stages ([`words`]).
 trait Formulation {
     fn step(&mut self, sys: &mut SoftSystem, cons: &Constraints) -> Result<(), String>;
     fn stages(&self, cons: &Constraints) -> Vec<&'static str>;
@@ -241,7 +242,7 @@ impl Formulation for VelocityLevel {
             .map_err(|e| e.to_string())
     }
     fn stages(&self, cons: &Constraints) -> Vec<&'static str> {
-        VelocityLevel::stages(self, cons)
+        words::velocity(self, cons)
     }
 }
 
@@ -252,7 +253,7 @@ impl Formulation for ProjectedStep<ImplicitEuler> {
             .map_err(|e| e.to_string())
     }
     fn stages(&self, cons: &Constraints) -> Vec<&'static str> {
-        ProjectedStep::stages(self, cons)
+        words::projected(self, cons)
     }
 }
 
@@ -263,9 +264,7 @@ impl Formulation for ImplicitEuler {
             .map_err(|e| e.to_string())
     }
     fn stages(&self, _: &Constraints) -> Vec<&'static str> {
-        let mut out = Vec::new();
-        Integrator::stages(self, &mut out);
-        out
+        words::integrator(self)
     }
 }
 
@@ -284,13 +283,13 @@ fn particle_run(
             failure = Some(format!("step {k}: {e}"));
             break;
         }
-        observe(&mut stages, sys.stages());
-        observe(&mut stages, cons.stages());
+        observe(&mut stages, words::soft_system(&sys));
+        observe(&mut stages, words::constraints(cons));
         observe(&mut stages, f.stages(cons));
     }
     if stages.is_empty() {
-        observe(&mut stages, sys.stages());
-        observe(&mut stages, cons.stages());
+        observe(&mut stages, words::soft_system(&sys));
+        observe(&mut stages, words::constraints(cons));
         observe(&mut stages, f.stages(cons));
     }
     Run {
@@ -335,7 +334,10 @@ fn articulated_run(label: &str, mut w: World, method: Articulated, h: f64) -> Ru
             break;
         }
     }
-    let stages = w.stages(method).into_iter().map(String::from).collect();
+    let stages = words::world(&mut w, method)
+        .into_iter()
+        .map(String::from)
+        .collect();
     Run {
         method: label.into(),
         stages,
@@ -351,7 +353,7 @@ fn contact_run(label: &str, mut w: ContactWorld, h: f64, steps: usize) -> Run {
     for k in 1..=steps {
         let stepped = w.step(h);
         // After a failed step too: the path it took until it failed.
-        observe(&mut stages, w.stages());
+        observe(&mut stages, words::contact(&w));
         if let Err(e) = stepped {
             failure = Some(format!("step {k}: {e}"));
             break;
@@ -755,12 +757,14 @@ pub fn section(md: &mut String, root: &Path) {
          -p <crate> --no-default-features --features <…> --offline --locked`; deps: distinct \
          packages, the crate itself not counted), and the run-time stages observed: each \
          scene is built and stepped a few times ({STEPS} steps; the contact scenes one \
-         simulated second at 1/60 s) with every method the report uses on it, and each \
-         stepping type reports the stages it ran — soft sets and integrator \
-         (`SoftSystem::stages`, `Integrator::stages`), hard sets, formulation and the KKT \
-         solver used (`Constraints::stages`, `VelocityLevel::stages`, …), rigid bodies, \
-         tree, loops, damping, compliance and method (`World::stages`), broad and narrow \
-         phase and the contact solver path taken (`ContactWorld::stages`). Where a scene \
+         simulated second at 1/60 s) with every method the report uses on it, and the \
+         report names the stages from what each library returns as data (its \
+         configuration and its steps' statistics) — soft sets and integrator \
+         (`SoftSystem::sets`, `Integrator::scheme`), hard sets, formulation and the KKT \
+         solver used (`Constraints::sets`, `VelocityLevel::last_solver`, …), rigid bodies, \
+         tree, loops, damping, compliance and method (`World::loop_joints`, \
+         `World::compliances`, …), broad and narrow phase and the contact solver path \
+         taken (`ContactWorld::last_path`). Where a scene \
          runs several methods, the first row (\"every method\") holds the stages they all \
          share and each method's row the rest; methods with identical stages share a row, \
          and scenes with identical runs share an entry. The test `report/tests/leave_out.rs` checks \

@@ -25,6 +25,7 @@ use constraint_soft::{
 };
 
 use crate::chart::Series;
+use crate::deps::words;
 use crate::sweeps::{
     best_of, error_chart, series_by_method, work_precision_of, work_precision_table, Method,
     WorkPoint,
@@ -125,14 +126,10 @@ impl Stepper {
 
     fn stages(&self, cons: &Constraints) -> Vec<&'static str> {
         match self {
-            Stepper::Acc(s) => s.stages(cons),
-            Stepper::Vel(s) => s.stages(cons),
-            Stepper::Soft(s) => {
-                let mut out = Vec::new();
-                s.stages(&mut out);
-                out
-            }
-            Stepper::Rattle(s) => s.stages(cons),
+            Stepper::Acc(s) => words::acceleration(s, cons),
+            Stepper::Vel(s) => words::velocity(s, cons),
+            Stepper::Soft(s) => words::integrator(s.as_ref()),
+            Stepper::Rattle(s) => words::rattle(s, cons),
         }
     }
 }
@@ -150,10 +147,9 @@ pub fn chain_stages(method: usize, h: f64, steps: usize) -> Result<Vec<String>, 
     let mut out: Vec<String> = Vec::new();
     for _ in 0..steps {
         s.step(&mut sys, &cons)?;
-        let now = sys
-            .stages()
+        let now = words::soft_system(&sys)
             .into_iter()
-            .chain(cons.stages())
+            .chain(words::constraints(&cons))
             .chain(s.stages(&cons).into_iter().map(String::from));
         for st in now {
             if !out.contains(&st) {

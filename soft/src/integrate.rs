@@ -22,12 +22,28 @@ pub trait Integrator {
     /// # Errors
     /// [`SoftError::Diverged`] (state unchanged), or a solver error.
     fn step(&mut self, sys: &mut SoftSystem) -> Result<SolveStats, SoftError>;
-    /// Appends the run-time stages of a step, as configured (the force stages of the
-    /// system itself are [`SoftSystem::stages`]). Nothing unless an implementation says
-    /// otherwise.
-    fn stages(&self, out: &mut Vec<&'static str>) {
-        let _ = out;
+    /// What a step runs, as plain data (for reports and tools; the words are theirs).
+    /// [`Scheme::Other`] unless an implementation says otherwise.
+    fn scheme(&self) -> Scheme {
+        Scheme::Other
     }
+}
+
+/// The scheme an [`Integrator`] steps with, as plain data ([`Integrator::scheme`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scheme {
+    /// [`SymplecticEuler`]: explicit forces, `v' = v + h M⁻¹ F(x, v)`, `x' = x + h v'`.
+    SymplecticEuler,
+    /// [`ImplicitEuler`]: the linearized backward Euler system
+    /// `(M − h ∂F/∂v − h² ∂F/∂x) v' = M v + h F`, with this Hessian and linear solver.
+    ImplicitEuler {
+        /// How the stiffness Hessian `∂F/∂x` is formed.
+        mode: HessianMode,
+        /// The linear solver of the system.
+        solver: LinearSolver,
+    },
+    /// An integrator that does not describe itself.
+    Other,
 }
 
 /// Gravity must be finite (a NaN or infinite field would otherwise reach the solver).
@@ -103,8 +119,8 @@ impl Integrator for SymplecticEuler {
         "symplectic Euler".into()
     }
 
-    fn stages(&self, out: &mut Vec<&'static str>) {
-        out.push("symplectic Euler (explicit forces)");
+    fn scheme(&self) -> Scheme {
+        Scheme::SymplecticEuler
     }
 
     fn time_step(&self) -> f64 {
@@ -311,20 +327,11 @@ impl Integrator for ImplicitEuler {
         format!("implicit Euler ({solver}, {:?})", self.mode)
     }
 
-    fn stages(&self, out: &mut Vec<&'static str>) {
-        out.push("implicit Euler assembly (M − h∂F/∂v − h²∂F/∂x)");
-        out.push(match self.mode {
-            HessianMode::Exact => "exact Hessian",
-            HessianMode::GaussNewton => "Gauss–Newton Hessian",
-            HessianMode::Projected => "per-element projected Hessian",
-        });
-        out.push(match self.solver {
-            LinearSolver::ConjugateGradient(_) => "block-Jacobi CG",
-            #[cfg(feature = "faer")]
-            LinearSolver::SparseLdlt => "sparse LDLᵀ (faer)",
-            #[cfg(feature = "faer")]
-            LinearSolver::LaggedLdlt(_) => "lagged-LDLᵀ-preconditioned CG (faer)",
-        });
+    fn scheme(&self) -> Scheme {
+        Scheme::ImplicitEuler {
+            mode: self.mode,
+            solver: self.solver,
+        }
     }
 
     fn time_step(&self) -> f64 {

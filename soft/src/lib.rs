@@ -64,7 +64,7 @@ pub mod system;
 pub use cg::{CgSettings, SolveStats};
 pub use energy::{HessianMode, Softness};
 pub use error::SoftError;
-pub use integrate::{ImplicitEuler, Integrator, LinearSolver, SymplecticEuler};
+pub use integrate::{ImplicitEuler, Integrator, LinearSolver, Scheme, SymplecticEuler};
 pub use scenes::cloth::{Cloth, ClothPins};
 pub use scenes::jelly::{Jelly, JellyPins};
 pub use set::{ConstraintSet, ForceSet};

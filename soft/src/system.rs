@@ -92,26 +92,6 @@ impl SoftSystem {
         self.sets.iter().map(|s| s.as_ref())
     }
 
-    /// The force stages a step of this system evaluates, for reports: `gravity` when it
-    /// is not zero, `pins` when a particle is pinned, then one entry per non-empty
-    /// constraint set, `name: count Kind` with `, damped` when some constraint of the set
-    /// has damping (for example `springs: 144 Distance`). The integrator's own stages
-    /// are [`Integrator::stages`](crate::Integrator::stages).
-    pub fn stages(&self) -> Vec<String> {
-        let mut out = Vec::with_capacity(self.sets.len() + 2);
-        if self.gravity != DVec3::ZERO {
-            out.push("gravity".to_string());
-        }
-        if self.pinned.iter().any(|&p| p) {
-            out.push("pins".to_string());
-        }
-        for s in self.sets.iter().filter(|s| !s.is_empty()) {
-            let damped = if s.damped() { ", damped" } else { "" };
-            out.push(format!("{}: {} {}{damped}", s.name(), s.len(), s.kind()));
-        }
-        out
-    }
-
     /// Pins particle `i` in place (its velocity is held at zero).
     ///
     /// # Errors
@@ -243,8 +223,10 @@ impl SoftSystem {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{CgSettings, HessianMode, ImplicitEuler, Integrator, LinearSolver, Softness};
-    use constraint_core::{Area, Distance};
+    use crate::{
+        CgSettings, HessianMode, ImplicitEuler, Integrator, LinearSolver, Scheme, Softness,
+    };
+    use constraint_core::Distance;
 
     fn bob() -> SoftSystem {
         let x = vec![DVec3::ZERO, DVec3::new(0.0, 0.0, -1.0), DVec3::X];
@@ -258,41 +240,31 @@ mod tests {
         sys
     }
 
+    /// The integrators describe their scheme as data (the configuration they step
+    /// with), unchanged by a step; the words are the report's.
     #[test]
-    fn stages_list_the_sets_present_and_the_integrator() {
+    fn integrators_report_their_scheme_as_data() {
         let mut sys = bob();
-        assert_eq!(sys.stages(), ["gravity", "pins", "spring: 1 Distance"]);
-        // An empty set runs nothing and is not listed; a damped one says so.
-        sys.add_set(
-            ConstraintSet::uniform("areas", Vec::<Area>::new(), Softness::stiff(1.0)).expect("set"),
-        )
-        .expect("add");
-        let x = sys.x.clone();
-        let damped = Softness {
-            stiffness: 1.0,
-            damping: 0.5,
-        };
-        let link = Distance::from_rest(1, 2, &x).expect("link");
-        sys.add_set(ConstraintSet::uniform("link", vec![link], damped).expect("set"))
-            .expect("add");
-        sys.gravity = DVec3::ZERO;
+        let cg = LinearSolver::ConjugateGradient(CgSettings::default());
+        let mut step = ImplicitEuler::new(1e-2, HessianMode::GaussNewton, cg).expect("integrator");
+        step.step(&mut sys).expect("step");
         assert_eq!(
-            sys.stages(),
-            ["pins", "spring: 1 Distance", "link: 1 Distance, damped"]
+            step.scheme(),
+            Scheme::ImplicitEuler {
+                mode: HessianMode::GaussNewton,
+                solver: cg
+            }
         );
-        let step = ImplicitEuler::new(
-            1e-2,
-            HessianMode::GaussNewton,
-            LinearSolver::ConjugateGradient(CgSettings::default()),
-        )
-        .expect("integrator");
-        let mut st = Vec::new();
-        step.stages(&mut st);
-        assert_eq!(st[1..], ["Gauss–Newton Hessian", "block-Jacobi CG"]);
-        st.clear();
-        crate::SymplecticEuler::new(1e-3)
-            .expect("integrator")
-            .stages(&mut st);
-        assert_eq!(st, ["symplectic Euler (explicit forces)"]);
+        step.mode = HessianMode::Projected;
+        assert!(matches!(
+            step.scheme(),
+            Scheme::ImplicitEuler {
+                mode: HessianMode::Projected,
+                ..
+            }
+        ));
+        let mut se = crate::SymplecticEuler::new(1e-3).expect("integrator");
+        se.step(&mut sys).expect("step");
+        assert_eq!(se.scheme(), Scheme::SymplecticEuler);
     }
 }

@@ -45,7 +45,6 @@ mod fluid;
 mod projection;
 mod rattle;
 mod spatial_tendon;
-mod stages;
 mod unilateral;
 mod velocity;
 

@@ -75,10 +75,10 @@ impl ContactWorld {
     ) -> Result<(Vec<f64>, usize), ContactError> {
         let n = self.rows.len();
         if n == 0 {
-            self.path |= path::NO_ROWS;
+            self.path.rows = RowsSolver::NoRows;
             return Ok((Vec::new(), 0));
         }
-        self.path |= path::DENSE;
+        self.path.rows = RowsSolver::Dense;
         let (a, q) = self.delassus();
         let s = self.settings;
         // Rows 3k: normal; 3k + 1, 3k + 2: friction bounded by μ_k z_3k.
@@ -113,21 +113,10 @@ impl ContactWorld {
         };
         let mut z = z0;
         let stats = solve_rows(&a, &q, &bounds, &settings, &mut z).map_err(ContactError::Lcp)?;
-        if stats.boxed_pgs {
-            self.path |= path::BOXED_PGS;
-        }
-        self.path |= match stats.accepted {
-            Some(RowMethod::Lemke) => path::NORMAL_LEMKE,
-            Some(RowMethod::Newton) => path::NORMAL_NEWTON,
-            Some(RowMethod::Pgs) => path::NORMAL_PGS,
-            None => 0,
-        };
-        if stats.friction_pgs {
-            self.path |= path::FRICTION_PGS;
-        }
-        if stats.friction_budget {
-            self.path |= path::FRICTION_BUDGET;
-        }
+        self.path.boxed_pgs = stats.boxed_pgs;
+        self.path.normal = stats.accepted;
+        self.path.friction_pgs = stats.friction_pgs;
+        self.path.friction_budget = stats.friction_budget;
         Ok((z, stats.iterations))
     }
 }

@@ -42,43 +42,14 @@ use constraint_core::{BodyError, DMat3, DVec3, Pose, RigidBody, StepContext};
 use crate::geometry::{BroadScratch, Collider, Contact, GeometryError};
 mod colouring;
 mod dense;
+mod path;
 mod sequential;
 mod sleep;
 mod soft_step;
-mod stages;
 
+pub use path::{RowsSolver, SolverPath};
 pub use sleep::SleepSettings;
 pub use soft_step::{SoftStepSettings, Softness, MAX_SUBSTEPS};
-
-/// Bits of [`ContactWorld`]'s record of the solver path its last step took.
-mod path {
-    /// A step has run.
-    pub const STEPPED: u16 = 1;
-    /// Matrix-free sequential impulses.
-    pub const SEQUENTIAL: u16 = 1 << 1;
-    /// Shock-propagation sweeps ran.
-    pub const SHOCK: u16 = 1 << 2;
-    /// The dense Delassus matrix was assembled.
-    pub const DENSE: u16 = 1 << 3;
-    /// PGS on the boxed LCP (friction in one problem).
-    pub const BOXED_PGS: u16 = 1 << 4;
-    /// A normal LCP accepted from Fischer–Burmeister Newton.
-    pub const NORMAL_NEWTON: u16 = 1 << 5;
-    /// A normal LCP accepted from Lemke.
-    pub const NORMAL_LEMKE: u16 = 1 << 6;
-    /// A normal LCP accepted from PGS.
-    pub const NORMAL_PGS: u16 = 1 << 7;
-    /// The boxed friction problem solved by PGS.
-    pub const FRICTION_PGS: u16 = 1 << 8;
-    /// The friction PGS ran out of sweeps; the sweep budget was kept.
-    pub const FRICTION_BUDGET: u16 = 1 << 9;
-    /// Split-impulse pseudo velocities were solved (some contact beyond the slop).
-    pub const SPLIT: u16 = 1 << 10;
-    /// No contact rows: nothing to solve.
-    pub const NO_ROWS: u16 = 1 << 11;
-    /// The soft step (sub-steps of soft solve and relax).
-    pub const SOFT_STEP: u16 = 1 << 12;
-}
 
 use crate::lcp::{solve_rows, Coupling, LcpError, RowBound, RowMethod, RowSettings};
 
@@ -276,8 +247,8 @@ pub struct ContactWorld {
     impulses: Vec<f64>,
     warm: BTreeMap<(usize, usize, u64), (f64, DVec3)>,
     steps: u64,
-    /// The solver path of the last step ([`path`] bits), for [`ContactWorld::stages`].
-    path: u16,
+    /// The solver path of the last step ([`ContactWorld::last_path`]).
+    path: SolverPath,
     /// The bodies at the start of the step being taken (rollback on failure), reused.
     saved: Vec<RigidBody>,
     /// Buffers of the soft step.
@@ -301,7 +272,7 @@ impl ContactWorld {
             impulses: Vec::new(),
             warm: BTreeMap::new(),
             steps: 0,
-            path: 0,
+            path: SolverPath::NOT_STEPPED,
             saved: Vec::new(),
             soft: soft_step::SoftState::default(),
             broad: BroadScratch::default(),
@@ -490,7 +461,7 @@ impl ContactWorld {
             s => s,
         };
         stats.solver = Some(solver);
-        self.path = path::STEPPED;
+        self.path = SolverPath::STEPPED;
         let (z, iterations) = match solver {
             ContactSolver::SequentialImpulses => self.sequential_impulses(z0, &inv),
             _ => self.dense(solver, z0)?,
@@ -507,7 +478,7 @@ impl ContactWorld {
         self.impulses = z;
         let pseudo = if self.settings.split_impulse {
             if self.rows.iter().any(|r| r.push != 0.0) {
-                self.path |= path::SPLIT;
+                self.path.split = true;
             }
             self.pseudo_velocities()
         } else {

@@ -14,10 +14,10 @@ impl ContactWorld {
         mut z: Vec<f64>,
         inv: &[(f64, DMat3)],
     ) -> (Vec<f64>, usize) {
-        self.path |= if self.rows.is_empty() {
-            path::NO_ROWS
+        self.path.rows = if self.rows.is_empty() {
+            RowsSolver::NoRows
         } else {
-            path::SEQUENTIAL
+            RowsSolver::Sequential
         };
         for (r, zi) in self.rows.iter().zip(&z) {
             apply(&mut self.bodies, r, *zi);
@@ -84,7 +84,7 @@ impl ContactWorld {
         }
         // Shock propagation: bottom-up sweeps with the lower body of each contact frozen.
         if self.settings.shock_propagation > 0 && !self.contacts.is_empty() {
-            self.path |= path::SHOCK;
+            self.path.shock = true;
             let frozen: Vec<Row> = self
                 .rows
                 .iter()

@@ -44,7 +44,7 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DQuat, DVec3, Pose};
 
 use super::colouring::Colouring;
-use super::{path, ContactError, ContactSolver, ContactStats, ContactWorld};
+use super::{ContactError, ContactSolver, ContactStats, ContactWorld, RowsSolver, SolverPath};
 use crate::geometry::BroadScratch;
 
 /// Settings of [`ContactSolver::SoftStep`] (Box2D v3's world definition values by
@@ -264,12 +264,12 @@ impl ContactWorld {
         let hs = h / substeps as f64;
         self.load_bodies(&mut st, h);
         self.prepare(&mut st, hs);
-        self.path = path::STEPPED
-            | if self.contacts.is_empty() {
-                path::NO_ROWS
-            } else {
-                path::SOFT_STEP
-            };
+        self.path = SolverPath::STEPPED;
+        self.path.rows = if self.contacts.is_empty() {
+            RowsSolver::NoRows
+        } else {
+            RowsSolver::SoftStep
+        };
         let g = self.gravity;
         for _ in 0..substeps {
             integrate_velocities(&mut st, g, hs);
