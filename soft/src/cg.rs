@@ -64,6 +64,8 @@ pub(crate) struct PcgWork {
 
 impl PcgWork {
     /// Scratch of length `n` (for a residual computed outside [`PcgWork::run`]).
+    // Only the lagged preconditioner (feature `faer`) computes a residual outside `run`.
+    #[cfg_attr(not(feature = "faer"), allow(dead_code))]
     pub(crate) fn scratch(&mut self, n: usize) -> &mut [DVec3] {
         self.ap.resize(n, DVec3::ZERO);
         &mut self.ap
