@@ -30,7 +30,7 @@ fn scenes() -> Vec<String> {
             .map(|v| v.trim().to_string())
             .filter(|v| !v.is_empty())
             .collect(),
-        Err(_) => mjcf::SCENES.iter().map(|s| s.to_string()).collect(),
+        Err(_) => mjcf::scenes().map(String::from).collect(),
     }
 }
 

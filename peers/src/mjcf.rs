@@ -25,20 +25,13 @@ use constraint_contact::rigid::ContactWorld;
 /// The velocity-level step (`β = 1`).
 pub const VELOCITY: Method = Method::Velocity { beta: 1.0 };
 
-/// The scenes of the comparison, file stems in `scenes/`: the articulated ones (MuJoCo
-/// RK4 references in `scenes/reference/`), then the contact ones.
-pub const SCENES: [&str; 10] = [
-    "pendulum",
-    "double_pendulum",
-    "spherical_pendulum",
-    "four_bar",
-    "chain20",
-    "chain20_heavy",
-    "chain100",
-    "sphere_drop",
-    "sliding_box",
-    "box_stack",
-];
+/// The scenes of the comparison, file stems in `scenes/` (`constraint_scene::catalogue`):
+/// the joint-only ones (MuJoCo RK4 references in `scenes/reference/`), then the free-body
+/// contact ones.
+pub fn scenes() -> impl Iterator<Item = &'static str> {
+    use constraint_scene::catalogue::{family, Family};
+    family(Family::Joints).chain(family(Family::FreeBodyContact))
+}
 
 /// Simulated seconds of the timed window: every engine steps the first second from the
 /// initial state, and the time per step is the mean over that window (the contact
@@ -293,7 +286,7 @@ mod tests {
 
     #[test]
     fn every_scene_loads_with_its_kind_and_a_whole_window() {
-        for name in SCENES {
+        for name in scenes() {
             let s = Scene::load(name).unwrap_or_else(|e| panic!("{e}"));
             let contact = matches!(name, "sphere_drop" | "sliding_box" | "box_stack");
             assert_eq!(s.kind() == Kind::Contact, contact, "{name}");

@@ -22,24 +22,13 @@ use crate::chart::{pareto_front, LogLogChart, Series};
 use constraint_scene::run::{self as scene, RunOptions};
 use constraint_scene::trajectory::{compare, Trajectory};
 
-/// Every MJCF scene with a committed reference, in report order: the seven joint-only
-/// scenes, then the one world's smooth scenes (a planar root with a hinged leg, two hinges
-/// in one body, a damped hinge, a motor-driven prismatic joint at zero control, fluid
-/// drag).
-pub const SCENES: [&str; 12] = [
-    "pendulum",
-    "double_pendulum",
-    "spherical_pendulum",
-    "four_bar",
-    "chain20",
-    "chain20_heavy",
-    "chain100",
-    "planar_leg",
-    "two_hinge_pendulum",
-    "pendulum_damped",
-    "actuated",
-    "fluid_drag",
-];
+/// Every MJCF scene the report charts against MuJoCo's committed reference, in report
+/// order (`constraint_scene::catalogue`: the seven joint-only scenes, then the one
+/// world's smooth scenes — a planar root with a hinged leg, two hinges in one body, a
+/// damped hinge, a motor-driven prismatic joint at zero control, fluid drag).
+pub fn scenes() -> impl Iterator<Item = &'static str> {
+    constraint_scene::catalogue::charted_scenes()
+}
 
 /// Our methods on the work-precision charts: every name of [`scene::METHODS`] except
 /// `acceleration` (unstabilised, it drifts; it is on the drift chart).
@@ -91,11 +80,7 @@ pub struct Plan {
 impl Plan {
     /// The quick (CI) or full plan.
     pub fn new(quick: bool) -> Self {
-        let scenes = SCENES
-            .iter()
-            .copied()
-            .filter(|s| !quick || *s != "chain100")
-            .collect();
+        let scenes = scenes().filter(|s| !quick || *s != "chain100").collect();
         Self {
             scenes,
             dts: if quick {
@@ -783,7 +768,7 @@ mod tests {
     fn committed_mujoco_points_cover_every_scene_integrator_and_dt() {
         let m = load_mujoco_points().unwrap();
         assert!(m.provenance.starts_with("mujoco 4.0.0, measured "));
-        for scene in SCENES {
+        for scene in scenes() {
             let pts = mujoco_for(&m, scene, &FULL_DTS);
             assert_eq!(pts.len(), 3 * FULL_DTS.len(), "{scene}");
             assert!(pts

@@ -513,7 +513,7 @@ fn str_err(e: impl ToString) -> String {
 
 fn articulated_scenes(root: &Path, out: &mut Vec<SceneStages>) {
     let h = 1e-3;
-    for name in articulated_report::SCENES {
+    for name in articulated_report::scenes() {
         let mut s = SceneStages::new(format!("{name}.xml"), SCENES[6]);
         let path = root.join(format!("scenes/{name}.xml"));
         let scene = constraint_mjcf::load_file(&path)

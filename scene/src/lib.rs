@@ -16,6 +16,8 @@
 //! * [`formulation`] is the one vocabulary of constraint formulations (soft, compliant,
 //!   Baumgarte, velocity, projection, RATTLE, RATTLE4) mapped to the particle and the
 //!   body types;
+//! * [`catalogue`] lists the files of `scenes/` with their family and whether a
+//!   MuJoCo reference is committed: the one list tests, report and benchmarks draw from;
 //! * [`rng`] is the seeded generator behind every seeded configuration.
 //!
 //! The binaries (`cargo install --path scene`; `--help` lists every option with its
@@ -26,6 +28,7 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod catalogue;
 pub mod formulation;
 pub mod rng;
 pub mod run;
