@@ -6,44 +6,12 @@
 //! The counter is per thread: the harness runs tests (and its own bookkeeping) on
 //! other threads.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use constraint_contact::rigid::{ContactSolver, ContactWorld, SleepSettings};
 use constraint_contact::scenes::{box_stack, pile};
 use constraint_core::DVec3;
 
-struct Counting;
-
-thread_local! {
-    /// Allocations made by this thread (the harness's other threads do not count).
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-fn count() {
-    let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-}
-
-fn allocations() -> usize {
-    ALLOCATIONS.with(Cell::get)
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
+mod counting;
+use counting::allocations;
 
 const DT: f64 = 1.0 / 60.0;
 
