@@ -1,4 +1,5 @@
-//! `cargo xtask models fetch | list | run [--quick] [--out DIR]`: the MuJoCo models people
+//! `cargo xtask models fetch | list | run [--quick] [--out DIR] [--only SUITE/NAME,...]`:
+//! the MuJoCo models people
 //! use (the gymnasium and dm_control suites), run through MuJoCo and through this library.
 //!
 //! `fetch` (done first by the other two) downloads the pinned wheels `gymnasium==1.4.0` and
@@ -15,6 +16,7 @@
 //! step; ours: the `simulate` binary of `constraint-scene` (release), first with duration 0
 //! (does it load?), then for the same steps; its one-line error is the reason. Writes
 //! `models.md` and `models.csv` to `--out` (default `target/models/`) and prints the table.
+//! `--only` runs the named models alone (e.g. `--only gymnasium/ant,dm_control/humanoid`).
 
 use crate::bench::fmt_ratio;
 use crate::models_checks::{
@@ -1111,6 +1113,11 @@ fn smooth(xml: &Path, mj: &Mujoco, ours_csv: &Path, work: &Path, stem: &str) -> 
 /// smooth comparisons; writes `models.md` and `models.csv` into `a.out`. `Err` only when
 /// the suite could not run at all (MuJoCo missing, the download failed, the build failed).
 pub fn run_suite(a: &RunArgs) -> Result<Suite, String> {
+    run_models(a, &MODELS)
+}
+
+/// [`run_suite`] on `models` only (a subset of [`MODELS`], `run --only`).
+fn run_models(a: &RunArgs, models: &[(&str, &str)]) -> Result<Suite, String> {
     let t0 = Instant::now();
     let python = fetch()?;
     let dir = models_dir();
@@ -1127,7 +1134,7 @@ pub fn run_suite(a: &RunArgs) -> Result<Suite, String> {
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
 
     let list = work.join("list.tsv");
-    let text: String = MODELS
+    let text: String = models
         .iter()
         .map(|(s, n)| format!("{s}/{n}\t{}\n", model_path(&dir, s, n).display()))
         .collect();
@@ -1136,7 +1143,7 @@ pub fn run_suite(a: &RunArgs) -> Result<Suite, String> {
     eprintln!(
         "xtask: MuJoCo {MUJOCO_VERSION}: {} models, passive and perturbed {seconds} s, \
          controlled {ctrl_seconds} s (mujoco.rollout, median of {repeats})",
-        MODELS.len()
+        models.len()
     );
     let out = Command::new(&python)
         .arg(script("models_mujoco.py", MEASURE)?)
@@ -1169,7 +1176,7 @@ pub fn run_suite(a: &RunArgs) -> Result<Suite, String> {
         OURS_TIMEOUT_S
     });
     let mut rows = Vec::new();
-    for (suite, name) in MODELS {
+    for &(suite, name) in models {
         let key = format!("{suite}/{name}");
         let stem = format!("{suite}_{name}");
         let xml = model_path(&dir, suite, name);
@@ -1257,8 +1264,48 @@ pub fn run_suite(a: &RunArgs) -> Result<Suite, String> {
     })
 }
 
-fn run(a: &RunArgs) -> Result<(), String> {
-    let suite = run_suite(a)?;
+/// A model of [`MODELS`]: `(suite, name)`.
+type Model = (&'static str, &'static str);
+
+/// Takes `--only SUITE/NAME[,SUITE/NAME...]` out of `run`'s arguments: the models of
+/// [`MODELS`] it names (all without it). Errors: a name not in [`MODELS`], no value.
+pub fn split_only(args: &[String]) -> Result<(Vec<String>, Vec<Model>), String> {
+    let mut rest = Vec::new();
+    let mut only: Option<Vec<Model>> = None;
+    let mut it = args.iter();
+    while let Some(s) = it.next() {
+        if s != "--only" {
+            rest.push(s.clone());
+            continue;
+        }
+        let list = it.next().ok_or("--only needs SUITE/NAME[,SUITE/NAME...]")?;
+        let chosen = only.get_or_insert_with(Vec::new);
+        for key in list.split(',') {
+            let m = MODELS
+                .iter()
+                .find(|(s, n)| format!("{s}/{n}") == key)
+                .ok_or_else(|| {
+                    format!("--only: no model {key:?} (see `cargo xtask models list`)")
+                })?;
+            if !chosen.contains(m) {
+                chosen.push(*m);
+            }
+        }
+    }
+    // In the suite's order.
+    let models = match only {
+        Some(chosen) => MODELS
+            .iter()
+            .filter(|m| chosen.contains(m))
+            .copied()
+            .collect(),
+        None => MODELS.to_vec(),
+    };
+    Ok((rest, models))
+}
+
+fn run(a: &RunArgs, models: &[(&str, &str)]) -> Result<(), String> {
+    let suite = run_models(a, models)?;
     println!("{}", suite.markdown);
     if suite.fatal.is_empty() {
         Ok(())
@@ -1271,7 +1318,8 @@ fn run(a: &RunArgs) -> Result<(), String> {
     }
 }
 
-pub const USAGE: &str = "usage: cargo xtask models fetch | list | run [--quick] [--out DIR]";
+pub const USAGE: &str =
+    "usage: cargo xtask models fetch | list | run [--quick] [--out DIR] [--only SUITE/NAME,...]";
 
 pub fn main(args: &[String]) -> Result<(), String> {
     match args.first().map(String::as_str) {
@@ -1284,7 +1332,11 @@ pub fn main(args: &[String]) -> Result<(), String> {
             }
             Ok(())
         }
-        Some("run") => run(&parse_run_args(&args[1..]).map_err(|e| format!("{e}\n{USAGE}"))?),
+        Some("run") => {
+            let usage = |e: String| format!("{e}\n{USAGE}");
+            let (rest, models) = split_only(&args[1..]).map_err(usage)?;
+            run(&parse_run_args(&rest).map_err(usage)?, &models)
+        }
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             Ok(())
@@ -1690,6 +1742,22 @@ mod tests {
             "{e}"
         );
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn only_selects_models_in_suite_order() {
+        let args = |s: &str| s.split_whitespace().map(String::from).collect::<Vec<_>>();
+        let (rest, m) = split_only(&args(
+            "--quick --only dm_control/humanoid,gymnasium/ant --out x",
+        ))
+        .unwrap();
+        assert_eq!(rest, args("--quick --out x"));
+        assert_eq!(m, [("gymnasium", "ant"), ("dm_control", "humanoid")]);
+        let (rest, m) = split_only(&args("--quick")).unwrap();
+        assert_eq!(rest, args("--quick"));
+        assert_eq!(m.len(), MODELS.len());
+        assert!(split_only(&args("--only gymnasium/nothing")).is_err());
+        assert!(split_only(&args("--only")).is_err());
     }
 
     #[test]

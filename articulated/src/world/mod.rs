@@ -314,6 +314,9 @@ pub struct World {
     warm: Vec<WarmContact>,
     #[cfg(feature = "contact")]
     poses: Vec<Pose>,
+    /// The contacts of the position projection and its scratch.
+    #[cfg(feature = "contact")]
+    projection: contact::Projection,
     /// Approach speed above which restitution applies (m/s; feature `contact`).
     #[cfg(feature = "contact")]
     pub restitution_threshold: f64,
@@ -384,6 +387,8 @@ impl World {
             warm: Vec::new(),
             #[cfg(feature = "contact")]
             poses: Vec::new(),
+            #[cfg(feature = "contact")]
+            projection: contact::Projection::default(),
             #[cfg(feature = "contact")]
             restitution_threshold: 0.5,
         }

@@ -4,6 +4,12 @@
 //! (the minimum-norm step onto the joints alone can move a coordinate loaded against
 //! its stop: `scenes/ragdoll.xml`'s shoulder went 3.9e-3 rad past it, about 5e-4 rad a
 //! step, while the ragdoll lay on that arm).
+//!
+//! This step's contacts (feature `contact`) join as one-sided rows `d(x) ≥ −slop`,
+//! `z ≥ 0`: in each iteration the rows the joints' step would violate go into a
+//! complementarity problem through the factor (`contact.rs`), so the projection pushes
+//! a contact out to the slop and never pulls one in (without them its minimum-norm step
+//! moved feet into the floor freely).
 
 use constraint_core::rigid::rotate_by;
 use constraint_core::DVec3;
@@ -20,6 +26,9 @@ impl World {
         velocity_ctx: Option<&StepContext>,
     ) -> Result<usize, ArticulatedError> {
         let velocity_h = velocity_ctx.map(StepContext::h);
+        // This step's contacts join as one-sided rows (`d ≥ −slop`, push only).
+        #[cfg(feature = "contact")]
+        self.load_projection_contacts();
         // Compliant joints are not projected (their separation is their spring's).
         // Equality rows are projected with the joints: `[M Eᵀ; E 0][δ; ν] = [0; −C_E]`.
         let mut err = self.projection_error();
@@ -37,6 +46,12 @@ impl World {
             self.load_equalities(|c| -c);
             self.push_violated_tendon_limits();
             self.solve(loops)?;
+            // The contacts' rows; where their problem has no solution the projection
+            // goes on without them (the error then leaves them out too).
+            #[cfg(feature = "contact")]
+            if !self.push_contacts_apart() {
+                err = self.projection_error();
+            }
             // Backtracking: a full Newton step can overshoot far from the manifold (light
             // bodies turned by large angles); halve it until the separation decreases.
             // The iterate the trials start from, in a reused scratch (no allocation per
@@ -75,6 +90,14 @@ impl World {
             }
             self.proj_base = base;
             if !accepted {
+                // Contacts that the joints (and limits) do not let out: the iteration
+                // again without them, so the joints are still projected.
+                #[cfg(feature = "contact")]
+                if !self.projection.contacts.is_empty() {
+                    self.projection.contacts.clear();
+                    err = self.projection_error();
+                    continue;
+                }
                 return Ok(it + 1);
             }
         }
@@ -85,10 +108,14 @@ impl World {
     /// equalities' `|C|`, the joint limits' violations `max(lo − q, q − hi)` (m or
     /// rad) and the tendon ranges' `max(lo − L, L − hi)`.
     fn projection_error(&self) -> f64 {
-        self.max_hard_separation()
+        let err = self
+            .max_hard_separation()
             .max(self.max_equality_violation())
             .max(self.max_limit_violation())
-            .max(self.max_tendon_limit_violation())
+            .max(self.max_tendon_limit_violation());
+        #[cfg(feature = "contact")]
+        let err = err.max(self.max_contact_violation());
+        err
     }
 
     /// The largest violation of a joint limit, `max(lo − q, q − hi, 0)`.

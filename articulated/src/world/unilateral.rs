@@ -370,6 +370,31 @@ impl World {
         if m == 0 {
             return Ok(());
         }
+        let rows = core::mem::take(&mut self.urows);
+        let mut z = core::mem::take(&mut self.uz);
+        self.warm_unilateral_rows(&rows, &mut z);
+        let result = self.solve_rows_in_factor(&rows, &mut z, loops);
+        self.urows = rows;
+        self.uz = z;
+        let (stats, residual) = result?;
+        self.ustats.solver = stats;
+        self.ustats.residual = residual;
+        Ok(())
+    }
+
+    /// The complementarity problem of `rows` through the factored joint system whose
+    /// solution (`x_free`) is in `self.rhs`: `Y = H⁻¹ Gᵀ` (one tree solve per row, with
+    /// the loop closure and the equality rows), `A = G Y`, `q = G x_free − bias`, solved
+    /// from the impulses in `z` (warm start); then `x' = x_free + Y z` in `self.rhs`.
+    /// Returns the solver's statistics and the natural-map residual at `z`. `loops` are
+    /// the loop rows the factor was assembled with.
+    pub(super) fn solve_rows_in_factor(
+        &mut self,
+        rows: &[URow],
+        z: &mut [f64],
+        loops: &LoopRows,
+    ) -> Result<(RowStats, f64), ArticulatedError> {
+        let m = rows.len();
         let size = self.solver.size;
         // Y = H⁻¹ Gᵀ, one tree solve (with the loop closure) per row.
         let mut ycols = core::mem::take(&mut self.ucols);
@@ -382,7 +407,8 @@ impl World {
         zero_rhs.resize(loops.2.len(), 0.0);
         let free_scale = self.loop_free_scale(loops);
         let mut mark = core::mem::take(&mut self.umark);
-        for (k, r) in self.urows.iter().enumerate() {
+        let mut columns = Ok(());
+        for (k, r) in rows.iter().enumerate() {
             let col = &mut ycols[k * size..(k + 1) * size];
             scatter(&self.solver, &self.tendon_spans, col, r, 1.0);
             // Without loops a body row's column needs the forward pass only along its
@@ -390,12 +416,22 @@ impl World {
             let tendon = matches!(r.source, RowSource::TendonLimit { .. });
             if loops.0.is_empty() && !tendon {
                 self.solver.solve_sparse(col, [r.a, r.b], &mut mark);
-            } else {
-                self.solver
-                    .solve_with_loops(col, &loops.0, &loops.1, &zero_rhs, free_scale, &mut mu)?;
+            } else if let Err(e) = self
+                .solver
+                .solve_with_loops(col, &loops.0, &loops.1, &zero_rhs, free_scale, &mut mu)
+            {
+                columns = Err(e);
+                break;
             }
             // Through the equality rows too (equality.rs).
             self.eq.correct(&self.solver, col);
+        }
+        if let Err(e) = columns {
+            self.ucols = ycols;
+            self.umu = mu;
+            self.uzero = zero_rhs;
+            self.umark = mark;
+            return Err(e);
         }
         // A = G Y, q = G x_free − bias.
         let mut a = core::mem::take(&mut self.udel);
@@ -403,7 +439,7 @@ impl World {
         a.resize(m * m, 0.0);
         let mut q = core::mem::take(&mut self.uq);
         q.clear();
-        for (i, ri) in self.urows.iter().enumerate() {
+        for (i, ri) in rows.iter().enumerate() {
             for k in 0..m {
                 let col = &ycols[k * size..(k + 1) * size];
                 a[i * m + k] = gather(&self.solver, &self.tendon_spans, col, ri);
@@ -420,14 +456,11 @@ impl World {
         }
         let mut bounds = core::mem::take(&mut self.ubounds);
         bounds.clear();
-        bounds.extend(self.urows.iter().map(|r| r.bound));
-        let mut z = core::mem::take(&mut self.uz);
-        self.warm_unilateral(&mut z);
+        bounds.extend(rows.iter().map(|r| r.bound));
         let settings: RowSettings = self.unilateral.solver;
-        let result = solve_movable(&a, &q, &bounds, &settings, &mut z);
+        let result = solve_movable(&a, &q, &bounds, &settings, z);
         let outcome = match result {
             Ok(stats) => {
-                self.ustats.solver = stats;
                 // x' = x_free + Y z.
                 for (k, zk) in z.iter().enumerate() {
                     if *zk != 0.0 {
@@ -437,12 +470,10 @@ impl World {
                         }
                     }
                 }
-                self.ustats.residual = row_residual(&a, &q, &bounds, &z);
-                Ok(())
+                Ok((stats, row_residual(&a, &q, &bounds, z)))
             }
             Err(e) => Err(ArticulatedError::Unilateral(e)),
         };
-        self.uz = z;
         self.ucols = ycols;
         self.udel = a;
         self.uq = q;
@@ -470,13 +501,13 @@ impl World {
         free_scale
     }
 
-    /// Warm start: the contact impulses of the previous step matched by contact key;
-    /// limits from zero.
-    fn warm_unilateral(&self, z: &mut [f64]) {
+    /// Warm start of `rows` (this step's one-sided rows): the contact impulses of the
+    /// previous step matched by contact key; limits from zero.
+    fn warm_unilateral_rows(&self, rows: &[URow], z: &mut [f64]) {
         #[cfg(feature = "contact")]
-        self.warm_contacts(z);
+        self.warm_contacts(rows, z);
         #[cfg(not(feature = "contact"))]
-        let _ = z;
+        let _ = (rows, z);
     }
 }
 
@@ -522,7 +553,7 @@ fn scatter(
 }
 
 /// `G x` on the row's bodies' unknowns (a tendon limit's on its segments).
-fn gather(
+pub(super) fn gather(
     solver: &crate::tree::TreeSolver,
     spans: &super::equality::Spans,
     x: &[f64],
