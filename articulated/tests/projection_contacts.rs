@@ -122,3 +122,36 @@ fn fast_ball_gets_a_speculative_contact() {
     let vz = w.bodies()[0].v.z;
     assert!(vz >= -3.0 - 1e-9, "v {vz}"); // measured -3 (the gap over h)
 }
+
+/// A contact that no row held at the start of the step: a ball at rest 3 cm above the
+/// floor (beyond the 2 cm margin, and not moving) under a gravity of 1000 m/s² falls
+/// 10 cm within one step of 0.01 s. A second ball resting on the floor gives the step
+/// its contact rows, so it ends with the projection, which generates the contacts at
+/// the velocity level's end and pushes the first ball out to the slop (it ended the
+/// step 7 cm deep before).
+#[test]
+fn projection_holds_a_contact_that_closed_within_the_step() {
+    let h = 1e-2;
+    let mut w = World::new(DVec3::new(0.0, 0.0, -1000.0));
+    let floor = Shape::plane(DVec3::Z, 0.0).unwrap();
+    w.add_collider(Collider::new(None, floor, Pose::IDENTITY, 0.5, 0.0).unwrap())
+        .unwrap();
+    for (x, z) in [(0.0, RADIUS + 0.03), (1.0, RADIUS)] {
+        let pose = Pose {
+            x: DVec3::new(x, 0.0, z),
+            q: DQuat::IDENTITY,
+        };
+        let b = w
+            .add_body(RigidBody::new(0, 1.0, DMat3::IDENTITY * 1e-3, pose).unwrap())
+            .unwrap();
+        let ball = Shape::sphere(RADIUS).unwrap();
+        w.add_collider(Collider::new(Some(b), ball, Pose::IDENTITY, 0.5, 0.0).unwrap())
+            .unwrap();
+    }
+    let st = w.step(h, Method::default()).unwrap();
+    assert_eq!(st.unilateral_fallbacks, 1);
+    assert_eq!(w.unilateral_stats().contacts, 1, "the resting ball's only"); // measured 1
+    let pen = penetration(&w);
+    println!("falling ball after the step: penetration {pen:.6e} m");
+    assert!(pen <= w.unilateral.slop + 1e-9, "penetration {pen:e}"); // measured 1.000000e-4
+}

@@ -14,7 +14,7 @@
 
 use constraint_contact::geometry::{generate_contacts_with, Collider, Contact, Shape};
 use constraint_contact::lcp::RowBound;
-use constraint_core::DVec3;
+use constraint_core::{DVec3, Pose};
 
 use super::unilateral::{gather, row_bias, RowSource, URow};
 use super::*;
@@ -70,6 +70,10 @@ pub(super) struct Projection {
     z: Vec<f64>,
     /// The joint solve's step `δ_free`.
     free: Vec<f64>,
+    /// The poses the contacts were generated at.
+    poses: Vec<Pose>,
+    /// The generated contacts.
+    found: Vec<Contact>,
 }
 
 impl World {
@@ -287,16 +291,45 @@ impl World {
             .dot(point_velocity(c.b, c.point_on_b()) - point_velocity(c.a, c.point_on_a()))
     }
 
-    /// Loads this step's contacts (generated at the poses in `self.poses`) for the
-    /// position projection: their bodies, witness points in the body frames and normals.
+    /// Loads the contacts for the position projection: contact generation at the
+    /// current poses (the velocity level's end, so a pair that closed within the step
+    /// without a row at its start is held too: a finger of humanoid_CMU, light and
+    /// driven hard, started steps 4 mm inside the next one), with the narrow phase's
+    /// margin; their bodies, points in the body frames and normals.
     pub(super) fn load_projection_contacts(&mut self) {
         let mut pc = core::mem::take(&mut self.projection.contacts);
         pc.clear();
-        for c in &self.contacts {
+        if self.colliders.is_empty() {
+            self.projection.contacts = pc;
+            return;
+        }
+        let mut poses = core::mem::take(&mut self.projection.poses);
+        poses.clear();
+        poses.extend(self.bodies.iter().map(|b| b.pose));
+        let mut found = core::mem::take(&mut self.projection.found);
+        let mut broad = core::mem::take(&mut self.broad);
+        let keep = |i: usize, j: usize| self.may_touch(i, j);
+        let margin = self.unilateral.margin;
+        // A failure (non-finite poses, which the step reports anyway) leaves the
+        // projection without contacts.
+        if generate_contacts_with(
+            &self.colliders,
+            &poses,
+            margin,
+            keep,
+            &mut broad,
+            &mut found,
+        )
+        .is_err()
+        {
+            found.clear();
+        }
+        self.broad = broad;
+        for c in &found {
             let (ia, ib) = (self.colliders[c.a].body, self.colliders[c.b].body);
             let local = |b: Option<usize>, p: DVec3| {
                 b.map_or(p, |i| {
-                    let pose = self.poses[i];
+                    let pose = poses[i];
                     pose.q.inverse() * (p - pose.x)
                 })
             };
@@ -316,6 +349,8 @@ impl World {
             });
         }
         self.projection.contacts = pc;
+        self.projection.poses = poses;
+        self.projection.found = found;
     }
 
     /// The gap `d = nᵀ(p_b − p_a) − ρ` of a projection contact at the current poses
