@@ -273,6 +273,23 @@ impl World {
         }));
     }
 
+    /// The coordinates of joint `ji` alone (those of [`Self::coordinates_and_rows`],
+    /// the same bits, without the rate rows: a compound joint's rows cost more than its
+    /// coordinates, and the projection's error needs only these); `None` for joints
+    /// without coordinates.
+    pub(super) fn coordinates_of(&self, ji: usize) -> Option<[f64; MAX_DOF]> {
+        let j = &self.joints[ji];
+        let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
+        let mut q = [0.0; MAX_DOF];
+        match &j.kind {
+            JointKind::Hinge(c) => q[0] = c.angle(&a, &b),
+            JointKind::Prismatic(c) => q[0] = c.displacement(&a, &b),
+            JointKind::Compound(c, _) => q = c.coordinates(&a, &b, &q),
+            _ => return None,
+        }
+        Some(q)
+    }
+
     /// The coordinates of joint `ji` and the rows of their rates (hinge angle and its
     /// row, prismatic displacement and its row, a compound joint's coordinates and
     /// rows); `None` for joints without coordinates.

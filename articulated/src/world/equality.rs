@@ -412,7 +412,7 @@ impl World {
         terms
             .iter()
             .filter(|&&(j, d, _)| d < self.dofs_of(j))
-            .filter_map(|&(j, d, c)| self.coordinates_and_rows(j).map(|(q, _)| c * q[d]))
+            .filter_map(|&(j, d, c)| self.coordinates_of(j).map(|q| c * q[d]))
             .sum()
     }
 

@@ -125,7 +125,7 @@ impl World {
             if self.limits[ji].iter().all(|l| l.is_none()) {
                 continue;
             }
-            let Some((q, _)) = self.coordinates_and_rows(ji) else {
+            let Some(q) = self.coordinates_of(ji) else {
                 continue;
             };
             for (d, lim) in self.limits[ji].iter().enumerate() {
@@ -143,6 +143,18 @@ impl World {
     fn push_violated_limits(&self, loops: &mut LoopRows) {
         for (ji, joint) in self.joints.iter().enumerate() {
             if self.limits[ji].iter().all(|l| l.is_none()) {
+                continue;
+            }
+            // The rows only for a joint past a limit (the coordinates are the same bits
+            // either way).
+            let Some(q) = self.coordinates_of(ji) else {
+                continue;
+            };
+            let past = self.limits[ji]
+                .iter()
+                .enumerate()
+                .any(|(d, lim)| lim.is_some_and(|[lo, hi]| q[d] < lo || q[d] > hi));
+            if !past {
                 continue;
             }
             let Some((q, rows)) = self.coordinates_and_rows(ji) else {

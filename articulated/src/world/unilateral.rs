@@ -275,7 +275,7 @@ impl World {
         if joint >= self.joints.len() {
             return None;
         }
-        let (q, _) = self.coordinates_and_rows(joint)?;
+        let q = self.coordinates_of(joint)?;
         Some((q, self.dofs_of(joint)))
     }
 
