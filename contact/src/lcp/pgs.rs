@@ -107,6 +107,11 @@ pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpS
             }
         }
     }
+    // Out of sweeps: the answer stands if the residual is down to its round-off floor
+    // (huge impulses; [`Lcp::round_off`]).
+    if lcp.accepts(&z, residual, settings.tolerance) {
+        return lcp.finish(z, settings.max_iterations, None, settings.tolerance);
+    }
     Err(LcpError::IterationLimit {
         iterations: settings.max_iterations,
         residual,
