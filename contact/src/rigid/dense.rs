@@ -114,6 +114,7 @@ impl ContactWorld {
         let mut z = z0;
         let stats = solve_rows(&a, &q, &bounds, &settings, &mut z).map_err(ContactError::Lcp)?;
         self.path.boxed_pgs = stats.boxed_pgs;
+        self.path.boxed_fallback = stats.boxed_fallback;
         self.path.normal = stats.accepted;
         self.path.friction_pgs = stats.friction_pgs;
         self.path.friction_budget = stats.friction_budget;
