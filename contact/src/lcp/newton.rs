@@ -137,7 +137,7 @@ pub fn fischer_newton(
     let mut db = vec![0.0; n];
     for k in 0..=settings.max_iterations {
         if residual <= settings.tolerance {
-            return lcp.finish(z, k, None, settings.tolerance);
+            return lcp.finish_with(z, w, k, None, settings.tolerance);
         }
         if k == settings.max_iterations {
             break;

@@ -467,6 +467,19 @@ impl Lcp {
         tolerance: f64,
     ) -> Result<LcpSolution, LcpError> {
         let w = self.w(&z);
+        self.finish_with(z, w, iterations, basis, tolerance)
+    }
+
+    /// [`Lcp::finish`] with `w = M z + q` already evaluated (must be `self.w(&z)`: the
+    /// same bits, one pass over `M` saved).
+    pub(crate) fn finish_with(
+        &self,
+        z: Vec<f64>,
+        w: Vec<f64>,
+        iterations: usize,
+        basis: Option<Vec<bool>>,
+        tolerance: f64,
+    ) -> Result<LcpSolution, LcpError> {
         let residual = self.residual_with(&z, &w);
         if self.accepts(&z, residual, tolerance) {
             Ok(LcpSolution {

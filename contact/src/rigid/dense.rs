@@ -153,8 +153,8 @@ impl ContactWorld {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use alloc::vec;
     use crate::scenes::{box_stack, pyramid};
+    use alloc::vec;
 
     /// The all-pairs assembly the sparse one replaced.
     fn all_pairs(w: &ContactWorld) -> Vec<f64> {
