@@ -337,7 +337,7 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// The quick (CI) or full plan.
+    /// The small plan (`cargo xtask verify` and CI) or the full one (`--full`).
     pub fn new(quick: bool) -> Self {
         if quick {
             Self {

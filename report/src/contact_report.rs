@@ -63,7 +63,7 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// The quick (CI) or full plan.
+    /// The small plan (`cargo xtask verify` and CI) or the full one (`--full`).
     pub fn new(quick: bool) -> Self {
         let mut newton_caps: Vec<usize> = (1..=10).collect();
         newton_caps.extend([15, 20, 30, 50, 100]);

@@ -893,7 +893,11 @@ pub fn main(args: &[String]) -> Result<(), String> {
     let models = if run("models") && o.mujoco {
         let out = root().join("target/bench/models");
         // Without Python or PyPI the section says why instead of failing the bench.
-        Some(models::run_suite(&models::RunArgs { quick: false, out }))
+        Some(models::run_suite(&models::RunArgs {
+            quick: false,
+            out,
+            simulate: None,
+        }))
     } else {
         None
     };

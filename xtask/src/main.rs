@@ -2,7 +2,7 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `verify [--quick] [--mujoco]` | fmt, clippy and rustdoc (`-D warnings`, library crates) checks, the whole test suite, the `no_std` build, `cargo package` of the library crates, the stiffness and work-precision sweeps; writes `target/verify/report.md` with charts; `--mujoco` also regenerates the MuJoCo references of `scenes/reference/` into `target/verify/mujoco/` and checks them against the committed ones (needs Python) |
+//! | `verify [--quick \| --full] [--mujoco]` | fmt, clippy and rustdoc (`-D warnings`, library crates) checks, one release build, the whole test suite, the `no_std` build, `cargo package` of the library crates, the sweeps and the real models; writes `target/verify/report.md` with charts (`--quick`: CI's shorter model runs and 256 proptest cases; `--full`: denser sweeps, 2048 cases, packages built); `--mujoco` also regenerates the MuJoCo references of `scenes/reference/` into `target/verify/mujoco/` and checks them against the committed ones (needs Python) |
 //! | `no-std` | builds `constraint-core` (no allocator) and `constraint-lagrange` (`alloc` only) without `std` for `thumbv7em-none-eabihf` |
 //! | `package [--no-verify]` | `cargo package` of the six library crates in one run (each packed crate built alone from its `.crate` unless `--no-verify`), after checking each file list holds the crate's README and nothing that reads outside the crate |
 //! | `bench [--no-mujoco] [--peers-only] [--only SECTIONS]` | runs the criterion benchmarks and the peer comparisons in one run and writes `target/bench/ratios.md`: ball-joint chains against rapier3d and MuJoCo, contact scenes against rapier3d, every MJCF scene of `scenes/` against MuJoCo (Euler, `mujoco.rollout`), the gymnasium and dm_control models against MuJoCo (`models run`'s timing table), and time per step and growth exponents of the cloth step and KKT solves; SECTIONS: `chains,contact,mjcf,models,cloth` |
@@ -24,6 +24,7 @@
 mod bench;
 mod bench_cloth;
 mod bench_mjcf;
+mod build;
 mod compare;
 mod fuzz;
 mod models;
@@ -40,8 +41,11 @@ use std::process::ExitCode;
 const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
-  verify [--quick] [--mujoco]
-                     checks, tests, no_std build, packaging and sweeps; writes target/verify/report.md;
+  verify [--quick | --full] [--mujoco]
+                     checks, one release build, tests, no_std build, packaging, sweeps and the
+                     real models; writes target/verify/report.md (about ten minutes on two cores);
+                     --quick: CI's shorter model runs; --full: denser sweeps, 2048 proptest
+                     cases, each library crate built from its .crate;
                      --mujoco also regenerates scenes/reference/ in MuJoCo and checks it
   no-std             build constraint-core and constraint-lagrange for thumbv7em-none-eabihf without std
   package [--no-verify]

@@ -1018,12 +1018,16 @@ fn build_simulate() -> Result<PathBuf, String> {
 pub struct RunArgs {
     pub quick: bool,
     pub out: PathBuf,
+    /// A `simulate` executable already built (`cargo xtask verify` passes the one of its
+    /// release build); `None`: `cargo build --release -p constraint-scene` first.
+    pub simulate: Option<PathBuf>,
 }
 
 pub fn parse_run_args(args: &[String]) -> Result<RunArgs, String> {
     let mut a = RunArgs {
         quick: false,
         out: models_dir(),
+        simulate: None,
     };
     let mut it = args.iter();
     while let Some(s) = it.next() {
@@ -1162,7 +1166,10 @@ pub fn run_suite(a: &RunArgs) -> Result<Suite, String> {
     let (version, mj) = parse_mujoco(&tsv_text).map_err(|e| format!("{}: {e}", tsv.display()))?;
     let t_mujoco = t0.elapsed().as_secs_f64();
 
-    let bin = build_simulate()?;
+    let bin = match &a.simulate {
+        Some(b) => b.clone(),
+        None => build_simulate()?,
+    };
     let limit = Duration::from_secs(if a.quick {
         OURS_TIMEOUT_S / 10
     } else {

@@ -1,33 +1,41 @@
-//! `cargo xtask verify [--quick]`: everything CI checks, and the report.
+//! `cargo xtask verify [--quick | --full] [--mujoco]`: everything CI checks, and the report.
 //!
-//! Stages, each timed and shown as it runs:
+//! Stages, each timed and shown as it runs (`[k/N, elapsed] what`):
 //! 1. `cargo fmt --all -- --check`
 //! 2. `cargo clippy --workspace --all-targets -- -D warnings`
 //! 3. `cargo doc --no-deps` of the library crates with `RUSTDOCFLAGS=-D warnings`, with
 //!    default and with all features (broken intra-doc links, missing docs)
-//! 4. `cargo test --workspace` (full mode: `PROPTEST_CASES=2048`)
-//! 5. the `no_std` build of `constraint-core` (see `no_std.rs`)
-//! 6. `cargo xtask package` (see `package.rs`): every library crate packed and, in full
-//!    mode, built from its `.crate` alone (about 6 s once built; the first time in a
-//!    target directory it builds the dependencies at the published crates' own profile,
-//!    8 minutes on two loaded cores); `--quick` packs with `--no-verify` (about 2 s)
-//! 7. the sweeps (`verify-report` binary, release build): cloth stability map and
-//!    work-precision chart
-//!
-//! 8. the real models (`cargo xtask models run`, `--quick`: 0.5 s runs, one repeat):
+//! 4. the builds (see `build.rs`): the test suite as `cargo test --workspace`
+//!    builds it (dev profile, shared with the README's test command), and
+//!    `verify-report` and `simulate` in one release build that the sweeps and the real
+//!    models run directly
+//! 5. `cargo test --workspace --no-fail-fast`, each test executable announced as
+//!    `[tests k/N, elapsed]` (`--full`: `PROPTEST_CASES=2048`, else 256)
+//! 6. the `no_std` build of `constraint-core` (see `no_std.rs`)
+//! 7. `cargo xtask package` (see `package.rs`): every library crate packed and its file
+//!    list checked; with `--full` also built from its `.crate` alone (the first time in
+//!    a target directory that builds the dependencies again at the published crates'
+//!    own profile, minutes); otherwise `--no-verify` (about 2 s)
+//! 8. the sweeps (`verify-report`): stability maps, work-precision charts, drift, the
+//!    contact and articulated sections; the default plan (also CI's; `--quick` names
+//!    the default) is sized so the whole command answers within ten minutes on two
+//!    cores, `--full` runs the dense one (about 18 minutes of sweeps)
+//! 9. the real models (`cargo xtask models run --quick`: 0.5 s runs, one repeat;
+//!    `--full`: 5 s runs, MuJoCo's median of 3):
 //!    the 33 gymnasium and dm_control models in MuJoCo and here, per-model checks, the
 //!    "Real models" section and its charts (see `models.rs`,
-//!    `constraint_verify::models_report`). Fails on a panic, when a model that loads
+//!    `constraint_report::models_report`). Fails on a panic, when a model that loads
 //!    diverges, or when the suite cannot run; a model that does not load is a table entry.
 //!    Skipped, with the reason in the report, only when MuJoCo itself cannot be
 //!    installed (no Python, no PyPI); once MuJoCo is there, a failed model download is
 //!    a failure.
-//! 9. with `--mujoco` only: every MuJoCo reference of `scenes/reference/` regenerated into
-//!    `target/verify/mujoco/` and compared with the committed file (COM, body origin and
-//!    orientation within 1e-9; needs Python, see `mujoco.rs`)
+//! 10. with `--mujoco` only: every MuJoCo reference of `scenes/reference/` regenerated
+//!     into `target/verify/mujoco/` and compared with the committed file (COM, body
+//!     origin and orientation within 1e-9; needs Python, see `mujoco.rs`)
 //!
-//! and writes `target/verify/report.md`. A failing stage does not stop the later ones;
-//! the exit status is non-zero if any failed.
+//! and writes `target/verify/report.md` (and `report.html`), then runs the bad-input
+//! sweep's executable once more for its summary line. A failing stage does not stop the
+//! later ones; the exit status is non-zero if any failed.
 
 use crate::no_std;
 use crate::run::{cargo, root, status};
@@ -54,19 +62,69 @@ fn git_head() -> String {
     }
 }
 
+/// How much `verify` runs: the sweeps' plan, the real models' runs, the property
+/// tests' cases and whether packages are built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    /// A newcomer's first command, and CI's (`--quick` names the same): every chart and
+    /// table from the small plans, 0.5 s model runs, 256 proptest cases, packages packed
+    /// but not built; sized to answer within ten minutes on two cores.
+    Standard,
+    /// `--full`: the dense plans (about 18 minutes of sweeps), 5 s model runs with
+    /// MuJoCo's median of 3, 2048 proptest cases, each library crate built from its
+    /// `.crate`.
+    Full,
+}
+
+impl Mode {
+    fn name(self) -> &'static str {
+        match self {
+            Mode::Standard => "standard",
+            Mode::Full => "full",
+        }
+    }
+
+    /// The flag that selects it (empty for the default).
+    fn flag(self) -> &'static str {
+        match self {
+            Mode::Standard => "",
+            Mode::Full => " --full",
+        }
+    }
+}
+
 pub fn main(args: &[String]) -> Result<(), String> {
-    let quick = args.iter().any(|a| a == "--quick");
     let with_mujoco = args.iter().any(|a| a == "--mujoco");
-    if let Some(a) = args.iter().find(|a| *a != "--quick" && *a != "--mujoco") {
-        return Err(format!(
-            "unknown argument {a:?} (expected --quick, --mujoco)"
-        ));
+    let quick = args.iter().any(|a| a == "--quick");
+    let mode = if args.iter().any(|a| a == "--full") {
+        Mode::Full
+    } else {
+        Mode::Standard
+    };
+    if quick && mode == Mode::Full {
+        return Err("--quick and --full exclude each other".into());
+    }
+    for a in args {
+        match a.as_str() {
+            "--quick" | "--full" | "--mujoco" => {}
+            _ => {
+                return Err(format!(
+                    "unknown argument {a:?} (expected --quick, --full, --mujoco)"
+                ))
+            }
+        }
     }
     let out = root().join("target/verify");
     std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
-    let total = if with_mujoco { 9 } else { 8 };
+    let total = if with_mujoco { 10 } else { 9 };
     let mut stages: Vec<Stage> = Vec::new();
-    let begin = |k: usize, name: &str| eprintln!("\n[{k}/{total}] {name}");
+    let started = std::time::Instant::now();
+    let begin = |k: usize, name: &str| {
+        eprintln!(
+            "\n[{k}/{total}, {:.0} s] {name}",
+            started.elapsed().as_secs_f64()
+        )
+    };
 
     begin(1, "format (cargo fmt --check)");
     let (ok, secs) = status(cargo().args(["fmt", "--all", "--", "--check"]));
@@ -116,26 +174,37 @@ pub fn main(args: &[String]) -> Result<(), String> {
         note: "default and all features".to_string(),
     });
 
-    begin(4, "tests (cargo test --workspace)");
-    let mut test = cargo();
-    test.args(["test", "--workspace"]);
-    if !quick {
-        test.env("PROPTEST_CASES", "2048");
-    }
-    let (ok, secs) = status(&mut test);
-    let note = if quick {
-        "proptest: 256 cases".to_string()
-    } else {
-        "proptest: 2048 cases".to_string()
-    };
+    begin(
+        4,
+        "build: the test suite (cargo test --no-run), verify-report and simulate (release)",
+    );
+    let t0 = std::time::Instant::now();
+    let built = crate::build::build();
+    stages.push(Stage {
+        name: "build (tests; verify-report and simulate in release)",
+        ok: built.is_ok(),
+        secs: t0.elapsed().as_secs_f64(),
+        note: match &built {
+            Ok(b) => format!("{} test executables", b.tests),
+            Err(e) => e.clone(),
+        },
+    });
+    let built = built.ok();
+
+    begin(5, "tests (cargo test --workspace)");
+    let t0 = std::time::Instant::now();
+    let cases = if mode == Mode::Full { "2048" } else { "256" };
+    let ok = built
+        .as_ref()
+        .is_some_and(|b| crate::build::run_tests(b, &[("PROPTEST_CASES", cases)]));
     stages.push(Stage {
         name: "cargo test --workspace",
         ok,
-        secs,
-        note,
+        secs: t0.elapsed().as_secs_f64(),
+        note: format!("proptest: {cases} cases"),
     });
 
-    begin(5, "no_std build of constraint-core");
+    begin(6, "no_std build of constraint-core");
     let t0 = std::time::Instant::now();
     let (ok, note) = match no_std::main(&[]) {
         Ok(no_std::Outcome::Embedded) => (true, format!("built for {}", no_std::TARGET)),
@@ -155,15 +224,21 @@ pub fn main(args: &[String]) -> Result<(), String> {
         note,
     });
 
-    begin(6, "packaging (cargo xtask package)");
+    begin(7, "packaging (cargo xtask package)");
     let t0 = std::time::Instant::now();
-    let package_args = if quick {
-        vec!["--no-verify".to_string()]
-    } else {
+    // Building each packed crate alone compiles the dependencies again at the
+    // published crates' own profile (minutes on a fresh machine): `--full` and CI do
+    // it (`.ci/run` runs `cargo xtask package`), the default packs and checks the lists.
+    let package_args = if mode == Mode::Full {
         Vec::new()
+    } else {
+        vec!["--no-verify".to_string()]
     };
     let (ok, note) = match crate::package::main(&package_args) {
-        Ok(()) if quick => (true, "--no-verify (packed, not built)".to_string()),
+        Ok(()) if mode != Mode::Full => (
+            true,
+            "--no-verify (packed, not built; `cargo xtask package` builds them)".to_string(),
+        ),
         Ok(()) => (true, "each crate built from its .crate".to_string()),
         // One table cell: the list of problems on one line.
         Err(e) => (false, e.replace('\n', "; ")),
@@ -176,28 +251,42 @@ pub fn main(args: &[String]) -> Result<(), String> {
     });
 
     begin(
-        7,
-        "sweeps: stability map and work-precision (release build)",
+        8,
+        &format!(
+            "sweeps: stability maps and work-precision ({} plan)",
+            mode.name()
+        ),
     );
-    let mut sweep = verify_report(false);
-    if quick {
-        sweep.arg("--quick");
-    }
-    sweep.arg("--out").arg(&out);
-    let (ok, secs) = status(&mut sweep);
+    let t0 = std::time::Instant::now();
+    let ok = built.as_ref().is_some_and(|b| {
+        let mut sweep = Command::new(&b.verify_report);
+        sweep.current_dir(root());
+        if mode == Mode::Full {
+            sweep.arg("--full");
+        }
+        sweep.arg("--out").arg(&out);
+        status(&mut sweep).0
+    });
     stages.push(Stage {
         name: "sweeps (verify-report)",
         ok,
-        secs,
-        note: String::new(),
+        secs: t0.elapsed().as_secs_f64(),
+        note: format!("{} plan", mode.name()),
     });
 
     begin(
-        8,
+        9,
         "real models: gymnasium and dm_control in MuJoCo and here",
     );
     let t0 = std::time::Instant::now();
-    let (ok, note, models_md) = real_models(quick, &out);
+    let (ok, note, models_md) = match &built {
+        Some(b) => real_models(mode, b, &out),
+        None => (
+            false,
+            "the build failed".to_string(),
+            "## Real models (gymnasium and dm_control)\n\nNot run: the build failed.\n".to_string(),
+        ),
+    };
     stages.push(Stage {
         name: "real models (cargo xtask models run)",
         ok,
@@ -207,7 +296,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
 
     if with_mujoco {
         begin(
-            9,
+            10,
             "MuJoCo references regenerated and compared with scenes/reference/",
         );
         let t0 = std::time::Instant::now();
@@ -229,8 +318,8 @@ pub fn main(args: &[String]) -> Result<(), String> {
         md,
         "Commit `{}`, mode `{}`. Reproduce with `cargo xtask verify{}{}`.\n",
         git_head(),
-        if quick { "quick" } else { "full" },
-        if quick { " --quick" } else { "" },
+        mode.name(),
+        mode.flag(),
         if with_mujoco { " --mujoco" } else { "" }
     );
     let _ = writeln!(
@@ -262,12 +351,14 @@ pub fn main(args: &[String]) -> Result<(), String> {
     md.push_str(&models_md);
     let report = out.join("report.md");
     std::fs::write(&report, md).map_err(|e| e.to_string())?;
-    let sweep_ok = bad_input_sweep(&report);
+    let sweep_ok = built.as_ref().is_some_and(|b| bad_input_sweep(b, &report));
     // The same report as one self-contained HTML page, charts inline.
-    let mut html = verify_report(true);
-    html.arg("--html");
-    html.arg(&report).arg(out.join("report.html"));
-    let (html_ok, _) = status(&mut html);
+    let html_ok = built.as_ref().is_some_and(|b| {
+        let mut html = Command::new(&b.verify_report);
+        html.current_dir(root()).arg("--html");
+        html.arg(&report).arg(out.join("report.html"));
+        status(&mut html).0
+    });
     if !html_ok {
         eprintln!("warning: report.html was not written (the markdown report is complete)");
     }
@@ -281,6 +372,11 @@ pub fn main(args: &[String]) -> Result<(), String> {
             s.name
         );
     }
+    eprintln!(
+        "  total {:.1} s ({} mode)",
+        started.elapsed().as_secs_f64(),
+        mode.name()
+    );
     eprintln!("report: {}", report.display());
     if html_ok {
         eprintln!("        {}", out.join("report.html").display());
@@ -299,11 +395,16 @@ pub fn main(args: &[String]) -> Result<(), String> {
 /// Stage 7: the real-models suite into `out/models/`, then its report section (written by
 /// `verify-report --models`, charts beside the report). Returns (passed, the note for
 /// the checks table, the section's Markdown).
-fn real_models(quick: bool, out: &std::path::Path) -> (bool, String, String) {
+fn real_models(
+    mode: Mode,
+    built: &crate::build::Built,
+    out: &std::path::Path,
+) -> (bool, String, String) {
+    let quick = mode != Mode::Full;
     let how = if quick {
-        "`cargo xtask verify --quick`: `cargo xtask models run --quick` (0.5 s runs, one repeat)"
+        "`cargo xtask verify`: `cargo xtask models run --quick` (0.5 s runs, one repeat)"
     } else {
-        "`cargo xtask verify`: `cargo xtask models run` (5 s passive and perturbed, 2 s controlled, MuJoCo median of 3)"
+        "`cargo xtask verify --full`: `cargo xtask models run` (5 s passive and perturbed, 2 s controlled, MuJoCo median of 3)"
     };
     let heading = "## Real models (gymnasium and dm_control)\n\n";
     if let Err(e) = crate::mujoco::ensure_venv() {
@@ -318,6 +419,7 @@ fn real_models(quick: bool, out: &std::path::Path) -> (bool, String, String) {
     let args = crate::models::RunArgs {
         quick,
         out: out.join("models"),
+        simulate: Some(built.simulate.clone()),
     };
     let suite = match crate::models::run_suite(&args) {
         Ok(s) => s,
@@ -328,8 +430,8 @@ fn real_models(quick: bool, out: &std::path::Path) -> (bool, String, String) {
     if !suite.fatal.is_empty() {
         let _ = write!(note, "; panicked or diverged: {}", suite.fatal.join(", "));
     }
-    let mut section = verify_report(true);
-    section.arg("--models");
+    let mut section = Command::new(&built.verify_report);
+    section.current_dir(root()).arg("--models");
     section.arg(args.out.join("models.csv")).arg(out).arg(how);
     let (section_ok, _) = status(&mut section);
     let md = std::fs::read_to_string(out.join("models_section.md"))
@@ -348,17 +450,9 @@ fn real_models(quick: bool, out: &std::path::Path) -> (bool, String, String) {
 /// Issue 7's bad-input sweep (`verify/tests/bad_input_sweep.rs`): runs that one test,
 /// prints its `bad-input sweep: N cases, P panics, F non-finite` line and appends it to
 /// the report as a last section. Returns whether the test passed.
-fn bad_input_sweep(report: &std::path::Path) -> bool {
-    eprintln!("\n[+] bad-input sweep (cargo test --test bad_input_sweep)");
-    let (ok, stdout) = crate::run::output(cargo().args([
-        "test",
-        "-p",
-        "constraint-verify",
-        "--test",
-        "bad_input_sweep",
-        "--",
-        "--nocapture",
-    ]));
+fn bad_input_sweep(built: &crate::build::Built, report: &std::path::Path) -> bool {
+    eprintln!("\n[+] bad-input sweep (verify/tests/bad_input_sweep.rs)");
+    let (ok, stdout) = crate::build::run_bad_input_sweep(built);
     let line = stdout
         .lines()
         .find(|l| l.starts_with("bad-input sweep:"))
@@ -397,16 +491,4 @@ fn bad_input_sweep(report: &std::path::Path) -> bool {
         eprintln!("xtask verify: could not append the sweep to the report: {e}");
     }
     ok
-}
-
-/// `cargo run --release [--quiet] -p constraint-report --bin verify-report --`, for the
-/// caller to add the report's arguments.
-fn verify_report(quiet: bool) -> Command {
-    let mut c = cargo();
-    c.args(["run", "--release"]);
-    if quiet {
-        c.arg("--quiet");
-    }
-    c.args(["-p", "constraint-report", "--bin", "verify-report", "--"]);
-    c
 }

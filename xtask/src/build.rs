@@ -1,0 +1,221 @@
+//! The builds `cargo xtask verify` runs from, and the test run.
+//!
+//! Two builds, each once: the test suite in the dev profile (the same artifacts as the
+//! README's `cargo test --workspace`, so a newcomer who ran the tests first compiles
+//! nothing again here), and the two tools the later stages run, `verify-report` and
+//! `simulate`, in one release build (one feature resolution for both). Later stages run
+//! those executables directly: a `cargo run -p …` per tool would resolve features for
+//! that package alone and could compile the libraries a second time.
+
+use crate::run::{cargo, output};
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+/// The executables of the builds that later stages run.
+pub struct Built {
+    /// The report generator (`constraint-report`'s `verify-report`, release).
+    pub verify_report: PathBuf,
+    /// The scene runner (`constraint-scene`'s `simulate`, release), for the real models.
+    pub simulate: PathBuf,
+    /// `verify/tests/bad_input_sweep.rs` (dev), run again alone for its summary line.
+    pub bad_input_sweep: PathBuf,
+    /// The package directory of `bad_input_sweep` (tests run from their package root).
+    pub bad_input_sweep_dir: PathBuf,
+    /// Test executables (unit and integration), for the progress count of the test run.
+    pub tests: usize,
+}
+
+/// The release build of the two tools, as cargo arguments.
+const TOOLS: [&str; 9] = [
+    "build",
+    "--release",
+    "-p",
+    "constraint-report",
+    "-p",
+    "constraint-scene",
+    "--bin",
+    "verify-report",
+    "--bin",
+];
+
+/// `cargo test --workspace --no-run` and the release build of `verify-report` and
+/// `simulate`, each with cargo's own progress; then both again with
+/// `--message-format=json` (nothing left to build: they only list the executables).
+pub fn build() -> Result<Built, String> {
+    let t0 = Instant::now();
+    eprintln!("  the test suite (dev profile, as `cargo test --workspace`)");
+    let ok = cargo()
+        .args(["test", "--workspace", "--no-run"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !ok {
+        return Err("cargo test --workspace --no-run failed".into());
+    }
+    let t1 = Instant::now();
+    eprintln!("  verify-report and simulate (release)");
+    let ok = cargo()
+        .args(TOOLS)
+        .arg("simulate")
+        .status()
+        .is_ok_and(|s| s.success());
+    if !ok {
+        return Err("cargo build --release (verify-report, simulate) failed".into());
+    }
+    let t2 = Instant::now();
+    let json = |c: &mut Command| {
+        let (ok, text) = output(c.args(["--quiet", "--message-format=json"]));
+        if ok {
+            Ok(text.lines().filter_map(Artifact::parse).collect::<Vec<_>>())
+        } else {
+            Err("listing the built executables (--message-format=json) failed".to_string())
+        }
+    };
+    let tests = json(cargo().args(["test", "--workspace", "--no-run"]))?;
+    let tools = json(cargo().args(TOOLS).arg("simulate"))?;
+    let find = |list: &[Artifact], name: &str, test: bool| -> Result<(PathBuf, PathBuf), String> {
+        list.iter()
+            .find(|a| a.name == name && a.test == test)
+            .map(|a| (a.executable.clone(), a.package_dir.clone()))
+            .ok_or_else(|| format!("the build has no executable `{name}`"))
+    };
+    let (bad_input_sweep, bad_input_sweep_dir) = find(&tests, "bad_input_sweep", true)?;
+    let built = Built {
+        verify_report: find(&tools, "verify-report", false)?.0,
+        simulate: find(&tools, "simulate", false)?.0,
+        bad_input_sweep,
+        bad_input_sweep_dir,
+        tests: tests.iter().filter(|a| a.test).count(),
+    };
+    eprintln!(
+        "  built {} test executables in {:.0} s, the tools in {:.0} s",
+        built.tests,
+        (t1 - t0).as_secs_f64(),
+        (t2 - t1).as_secs_f64()
+    );
+    Ok(built)
+}
+
+/// `cargo test --workspace --no-fail-fast` (plus `env`), its output passed
+/// through with each test executable and doc-test crate announced as
+/// `[k/N, 12 s] …`, so a long run shows where it is. Returns success.
+pub fn run_tests(built: &Built, env: &[(&str, &str)]) -> bool {
+    let mut c = cargo();
+    c.args(["test", "--workspace", "--no-fail-fast"]);
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.stderr(Stdio::piped());
+    let t0 = Instant::now();
+    let Ok(mut child) = c.spawn() else {
+        return false;
+    };
+    let (mut k, mut docs) = (0, 0);
+    if let Some(err) = child.stderr.take() {
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            let t = line.trim_start();
+            if let Some(what) = t.strip_prefix("Running ") {
+                k += 1;
+                // `unittests src/lib.rs (target/debug/deps/x-hash)`: the name is the
+                // executable's file name without its hash.
+                let exe = what
+                    .rsplit_once('(')
+                    .map_or(what, |(_, p)| p.trim_end_matches(')'));
+                let file = exe.rsplit('/').next().unwrap_or(exe);
+                let stem = file.rsplit_once('-').map_or(file, |(s, _)| s);
+                let src = what.split(" (").next().unwrap_or(what);
+                eprintln!(
+                    "[tests {k}/{}, {:.0} s] {stem}: {src}",
+                    built.tests,
+                    t0.elapsed().as_secs_f64()
+                );
+            } else if let Some(krate) = t.strip_prefix("Doc-tests ") {
+                docs += 1;
+                eprintln!(
+                    "[doc-tests {docs}, {:.0} s] {krate}",
+                    t0.elapsed().as_secs_f64()
+                );
+            } else {
+                eprintln!("{line}");
+            }
+        }
+    }
+    child.wait().is_ok_and(|s| s.success())
+}
+
+/// The bad-input sweep's executable with `--nocapture`, from its package directory;
+/// returns success and stdout.
+pub fn run_bad_input_sweep(built: &Built) -> (bool, String) {
+    output(
+        Command::new(&built.bad_input_sweep)
+            .current_dir(&built.bad_input_sweep_dir)
+            .arg("--nocapture"),
+    )
+}
+
+/// One `compiler-artifact` message of `cargo --message-format=json` that made an
+/// executable.
+struct Artifact {
+    name: String,
+    test: bool,
+    executable: PathBuf,
+    package_dir: PathBuf,
+}
+
+impl Artifact {
+    /// Reads the fields by key: the messages are cargo's, one object per line, and the
+    /// values read here (target name, paths) hold no escaped quotes on the platforms
+    /// this runs on; a line that does not parse is skipped.
+    fn parse(line: &str) -> Option<Self> {
+        if !line.contains("\"reason\":\"compiler-artifact\"") {
+            return None;
+        }
+        let string = |key: &str| {
+            let start = line.find(&format!("\"{key}\":\""))? + key.len() + 4;
+            let len = line[start..].find('"')?;
+            Some(line[start..start + len].to_string())
+        };
+        let executable = PathBuf::from(string("executable")?);
+        let manifest = PathBuf::from(string("manifest_path")?);
+        Some(Self {
+            // The first `"name"` is the target's (the package id spells its name
+            // differently).
+            name: string("name")?,
+            // The profile's `test` (the target object has a `test` key of its own).
+            test: line
+                .split_once("\"profile\":{")
+                .and_then(|(_, p)| p.split_once('}'))
+                .is_some_and(|(p, _)| p.contains("\"test\":true")),
+            executable,
+            package_dir: manifest.parent()?.to_path_buf(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Artifact;
+
+    #[test]
+    fn reads_an_artifact_line() {
+        let line = r#"{"reason":"compiler-artifact","package_id":"path+file:///w/verify#constraint-verify@0.1.0","manifest_path":"/w/verify/Cargo.toml","target":{"kind":["test"],"crate_types":["bin"],"name":"bad_input_sweep","src_path":"/w/verify/tests/bad_input_sweep.rs","edition":"2021","doc":false,"doctest":false,"test":true},"profile":{"opt_level":"3","debuginfo":0,"debug_assertions":false,"overflow_checks":false,"test":true},"features":[],"filenames":["/w/target/release/deps/bad_input_sweep-1"],"executable":"/w/target/release/deps/bad_input_sweep-1","fresh":true}"#;
+        let a = Artifact::parse(line).expect("parses");
+        assert_eq!(a.name, "bad_input_sweep");
+        assert!(a.test);
+        assert_eq!(
+            a.executable.to_str(),
+            Some("/w/target/release/deps/bad_input_sweep-1")
+        );
+        assert_eq!(a.package_dir.to_str(), Some("/w/verify"));
+        // A binary: its target says `"test":true` too, its profile does not.
+        let bin = line
+            .replace(
+                "\"overflow_checks\":false,\"test\":true",
+                "\"overflow_checks\":false,\"test\":false",
+            )
+            .replace("bad_input_sweep", "simulate");
+        assert!(!Artifact::parse(&bin).expect("parses").test);
+        assert!(Artifact::parse(r#"{"reason":"build-finished","success":true}"#).is_none());
+    }
+}
