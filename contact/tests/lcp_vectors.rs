@@ -425,3 +425,128 @@ fn pgs_warm_start_and_relaxation() {
     assert_close(&plain.z, &l.z, 1e-9);
     assert_close(&sor.z, &l.z, 1e-9);
 }
+
+/// The normal LCP of issue 14's heavy box (`scenes::heavy_on_light(1e4)`, first step at
+/// h = 1/60, as the contact world assembles it): four ground rows under the 125 kg box
+/// and four rows between it and the 1.25e6 kg box on top. The two faces touch at four
+/// coplanar points each, so `M` is singular, and the impulses are 10⁵ times `|q|`.
+/// Lemke's final basis keeps a degenerate variable (zero, computed as −1.1e-6) whose
+/// clamp cost a residual of 9.5e-9 (`Inaccurate` against 1e-10); dropping it from the
+/// basis and solving again gives the exact answer. Physical check: the top rows carry
+/// the heavy box's weight over the step, `m g h`, and the ground rows both boxes'.
+#[test]
+fn heavy_box_on_a_light_one_degenerate_basis() {
+    let m = vec![
+        0.032,
+        0.008,
+        0.008,
+        -0.016000000000000004,
+        -0.0320024,
+        -0.008000000000000004,
+        0.0160024,
+        -0.008,
+        0.008,
+        0.032,
+        -0.016000000000000004,
+        0.008,
+        -0.008,
+        -0.0320024,
+        -0.008000000000000004,
+        0.016002400000000003,
+        0.008,
+        -0.016000000000000004,
+        0.032,
+        0.008,
+        -0.008,
+        0.0160024,
+        -0.007999999999999997,
+        -0.0320024,
+        -0.016000000000000004,
+        0.008,
+        0.008,
+        0.032,
+        0.016002400000000003,
+        -0.007999999999999997,
+        -0.0320024,
+        -0.008,
+        -0.0320024,
+        -0.008,
+        -0.008,
+        0.016002400000000003,
+        0.032006200360006,
+        0.008000800000000004,
+        -0.016004600360005998,
+        0.0080008,
+        -0.008000000000000004,
+        -0.0320024,
+        0.0160024,
+        -0.007999999999999997,
+        0.008000800000000004,
+        0.032006200360005996,
+        0.008000800000000002,
+        -0.016004600360005998,
+        0.0160024,
+        -0.008000000000000004,
+        -0.007999999999999997,
+        -0.0320024,
+        -0.016004600360005998,
+        0.008000800000000002,
+        0.032006200360005996,
+        0.008000799999999999,
+        -0.008,
+        0.016002400000000003,
+        -0.0320024,
+        -0.008,
+        0.0080008,
+        -0.016004600360005998,
+        0.008000799999999999,
+        0.032006200360006,
+    ];
+    let lcp = Lcp::new(
+        m,
+        vec![-0.1635, -0.1635, -0.1635, -0.1635, 0.0, 0.0, 0.0, 0.0],
+    )
+    .unwrap();
+    let sol = lemke_default(&lcp).unwrap();
+    println!(
+        "heavy box: Lemke residual {:e}, z {:?}",
+        sol.residual, sol.z
+    );
+    // measured 3.4e-13
+    assert!(sol.residual <= 1e-10, "{:e}", sol.residual);
+    // The residual's round-off floor is real: `w = M z + q` summed forwards and
+    // backwards differs, and by less than the floor (measured 2.3e-13 apart, floor
+    // 5.8e-11); on a unit-scaled problem the floor is far below any tolerance.
+    let floor = lcp.round_off(&sol.z);
+    let apart = (0..8)
+        .map(|i| {
+            let row = &lcp.m()[8 * i..8 * i + 8];
+            let fwd = lcp.q()[i] + row.iter().zip(&sol.z).map(|(m, z)| m * z).sum::<f64>();
+            let rev = lcp.q()[i]
+                + row
+                    .iter()
+                    .zip(&sol.z)
+                    .rev()
+                    .map(|(m, z)| m * z)
+                    .sum::<f64>();
+            (fwd - rev).abs()
+        })
+        .fold(0.0, f64::max);
+    println!("heavy box: w forwards vs backwards {apart:e}, floor {floor:e}");
+    assert!(apart <= floor && floor < 1e-8, "{apart:e} {floor:e}");
+    let unit = Lcp::new(vec![2.0, 1.0, 1.0, 2.0], vec![-1.0, 3.0]).unwrap();
+    let unit_floor = unit.round_off(&[0.5, 0.0]);
+    println!("unit problem floor {unit_floor:e}");
+    assert!(unit_floor < 1e-14); // measured 7.8e-16
+    let h = 1.0 / 60.0;
+    let top: f64 = sol.z[4..].iter().sum();
+    let ground: f64 = sol.z[..4].iter().sum();
+    let (heavy, light) = (1.25e6 * 9.81 * h, 125.0 * 9.81 * h);
+    // measured: 204375.000000 and 204395.437500 N·s (relative error below 1e-14)
+    assert!((top - heavy).abs() <= 1e-9 * heavy, "{top} vs {heavy}");
+    assert!(
+        (ground - heavy - light).abs() <= 1e-9 * heavy,
+        "{ground} vs {}",
+        heavy + light
+    );
+}

@@ -21,7 +21,10 @@
 //! | [`solve_rows()`] | one-sided, friction and boxed rows together: staggered projections (Kaufman et al. 2008) over the three, or one boxed PGS |
 //!
 //! Every solver checks the natural-map residual of its answer against its tolerance
-//! before returning `Ok`; the empty problem (`n = 0`) is solved trivially.
+//! before returning `Ok` (or against the residual's round-off floor,
+//! [`Lcp::round_off`], where that is larger: heavy bodies on light ones make impulses so
+//! large that `w = M z + q` cannot be evaluated to a fixed tolerance); the empty problem
+//! (`n = 0`) is solved trivially.
 
 mod dense;
 pub mod lemke;

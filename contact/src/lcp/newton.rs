@@ -137,7 +137,7 @@ pub fn fischer_newton(
     let mut db = vec![0.0; n];
     for k in 0..=settings.max_iterations {
         if residual <= settings.tolerance {
-            return lcp.finish(z, k, None, settings.tolerance);
+            return lcp.finish_with(z, w, k, None, settings.tolerance);
         }
         if k == settings.max_iterations {
             break;
@@ -209,7 +209,7 @@ pub fn fischer_newton(
         }
         residual = lcp.residual_with(&z, &w);
         if !accepted {
-            if residual <= settings.tolerance {
+            if lcp.accepts(&z, residual, settings.tolerance) {
                 return lcp.finish(z, k, None, settings.tolerance);
             }
             return Err(LcpError::Stalled {
@@ -217,6 +217,11 @@ pub fn fischer_newton(
                 residual,
             });
         }
+    }
+    // Out of steps: the answer stands if the residual is down to its round-off floor
+    // (huge impulses; [`Lcp::round_off`]).
+    if lcp.accepts(&z, residual, settings.tolerance) {
+        return lcp.finish(z, settings.max_iterations, None, settings.tolerance);
     }
     Err(LcpError::IterationLimit {
         iterations: settings.max_iterations,

@@ -51,7 +51,9 @@ pub enum RowMethod {
 /// How the non-one-sided rows couple with the one-sided ones.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Coupling {
-    /// One boxed LCP with the friction bounds moving with the normal impulses (PGS only).
+    /// One boxed LCP with the friction bounds moving with the normal impulses (PGS only;
+    /// when PGS runs out of sweeps, two staggered alternations answer instead,
+    /// [`RowStats::boxed_fallback`]).
     Boxed,
     /// Staggered projections, `sweeps` normal/friction alternations.
     Staggered {
@@ -105,8 +107,13 @@ pub struct RowStats {
     /// The method whose one-sided answer was accepted last (`None`: no one-sided rows
     /// or the boxed PGS).
     pub accepted: Option<RowMethod>,
-    /// The whole problem went to one boxed PGS.
+    /// The whole problem went to one boxed PGS (and it answered).
     pub boxed_pgs: bool,
+    /// The boxed PGS ([`Coupling::Boxed`]) ran out of sweeps and the staggered solve
+    /// (two alternations, the one-sided rows by Newton, Lemke, then PGS) answered
+    /// instead: with a heavy body on a light one PGS converges at a rate near
+    /// `1 − 1/κ`, far too slowly for any sweep budget.
+    pub boxed_fallback: bool,
     /// A friction PGS ran.
     pub friction_pgs: bool,
     /// A friction PGS ran out of sweeps and its last budget of sweeps was kept.
@@ -175,13 +182,24 @@ pub fn solve_rows(
             links.push(link);
         }
         let lcp = Lcp::boxed(a.to_vec(), q.to_vec(), lo, hi)?.with_friction(links)?;
-        let sol = pgs(&lcp, &pgs_settings, Some(z))?;
-        z.copy_from_slice(&sol.z);
-        stats.iterations = sol.iterations;
-        return Ok(stats);
+        match pgs(&lcp, &pgs_settings, Some(z)) {
+            Ok(sol) => {
+                z.copy_from_slice(&sol.z);
+                stats.iterations = sol.iterations;
+                return Ok(stats);
+            }
+            Err(LcpError::IterationLimit { iterations, .. }) => {
+                // Fall back on the staggered solve from the same warm start.
+                stats.boxed_pgs = false;
+                stats.boxed_fallback = true;
+                stats.iterations = iterations;
+            }
+            Err(e) => return Err(e),
+        }
     }
     let sweeps = match settings.coupling {
         Coupling::Staggered { sweeps } => sweeps.max(1),
+        Coupling::Boxed if stats.boxed_fallback => 2,
         Coupling::Boxed => 1,
     };
     let normal: Vec<usize> = (0..n)
@@ -242,6 +260,10 @@ pub fn solve_rows(
             // accuracy on the semi-definite Delassus matrix of coplanar contact points),
             // the others in turn, so a step fails only when all three do.
             let order = match settings.method {
+                // The boxed PGS already failed: the pivoting and Newton methods first.
+                RowMethod::Pgs if stats.boxed_fallback => {
+                    [RowMethod::Newton, RowMethod::Lemke, RowMethod::Pgs]
+                }
                 RowMethod::Lemke => [RowMethod::Lemke, RowMethod::Newton, RowMethod::Pgs],
                 RowMethod::Newton => [RowMethod::Newton, RowMethod::Lemke, RowMethod::Pgs],
                 RowMethod::Pgs => [RowMethod::Pgs, RowMethod::Newton, RowMethod::Lemke],

@@ -1,10 +1,19 @@
 //! The dense Delassus matrix, solved by [`crate::lcp::solve_rows`] (staggered
 //! friction or one boxed PGS).
 
-use alloc::vec;
 use alloc::vec::Vec;
 
 use super::*;
+
+/// Buffers of the dense path kept between steps (no per-step allocation of the
+/// `n × n` Delassus matrix or of the row buckets once they have grown).
+#[derive(Clone, Debug, Default)]
+pub(super) struct DenseScratch {
+    a: Vec<f64>,
+    start: Vec<usize>,
+    fill: Vec<usize>,
+    bucket: Vec<usize>,
+}
 
 impl ContactWorld {
     /// Delassus matrix `A = J M⁻¹ Jᵀ` (dense, row-major) and `q = J v_free − b`.
@@ -16,12 +25,28 @@ impl ContactWorld {
     /// An entry whose rows share two
     /// bodies is reached twice and written twice with the same bits (each visit sums
     /// every shared body's term in the same order as the all-pairs loop did).
+    #[cfg(test)]
     pub(super) fn delassus(&self) -> (Vec<f64>, Vec<f64>) {
+        let mut scratch = DenseScratch::default();
+        let q = self.delassus_into(&mut scratch);
+        (scratch.a, q)
+    }
+
+    /// [`ContactWorld::delassus`] into kept buffers: `A` in `scratch.a`; returns `q`.
+    fn delassus_into(&self, scratch: &mut DenseScratch) -> Vec<f64> {
         let n = self.rows.len();
-        let mut a = vec![0.0; n * n];
+        let DenseScratch {
+            a,
+            start,
+            fill,
+            bucket,
+        } = scratch;
+        a.clear();
+        a.resize(n * n, 0.0);
         // Rows of each body, ascending (counting sort by body: deterministic).
         let nb = self.bodies.len();
-        let mut start = vec![0usize; nb + 1];
+        start.clear();
+        start.resize(nb + 1, 0);
         for r in &self.rows {
             for b in [r.a, r.b].into_iter().flatten() {
                 start[b + 1] += 1;
@@ -30,8 +55,9 @@ impl ContactWorld {
         for b in 0..nb {
             start[b + 1] += start[b];
         }
-        let mut fill = start.clone();
-        let mut bucket = vec![0usize; start[nb]];
+        fill.clone_from(start);
+        bucket.clear();
+        bucket.resize(start[nb], 0);
         for (i, r) in self.rows.iter().enumerate() {
             for b in [r.a, r.b].into_iter().flatten() {
                 bucket[fill[b]] = i;
@@ -60,12 +86,10 @@ impl ContactWorld {
                 }
             }
         }
-        let q = self
-            .rows
+        self.rows
             .iter()
             .map(|r| self.row_rate(r) - r.bias)
-            .collect();
-        (a, q)
+            .collect()
     }
 
     pub(super) fn dense(
@@ -79,7 +103,9 @@ impl ContactWorld {
             return Ok((Vec::new(), 0));
         }
         self.path.rows = RowsSolver::Dense;
-        let (a, q) = self.delassus();
+        let mut scratch = core::mem::take(&mut self.dense);
+        let q = self.delassus_into(&mut scratch);
+        let a = &scratch.a;
         let s = self.settings;
         // Rows 3k: normal; 3k + 1, 3k + 2: friction bounded by μ_k z_3k.
         let bounds: Vec<RowBound> = (0..n)
@@ -112,8 +138,11 @@ impl ContactWorld {
             max_sweeps: 0,
         };
         let mut z = z0;
-        let stats = solve_rows(&a, &q, &bounds, &settings, &mut z).map_err(ContactError::Lcp)?;
+        let solved = solve_rows(a, &q, &bounds, &settings, &mut z);
+        self.dense = scratch;
+        let stats = solved.map_err(ContactError::Lcp)?;
         self.path.boxed_pgs = stats.boxed_pgs;
+        self.path.boxed_fallback = stats.boxed_fallback;
         self.path.normal = stats.accepted;
         self.path.friction_pgs = stats.friction_pgs;
         self.path.friction_budget = stats.friction_budget;
@@ -125,6 +154,7 @@ impl ContactWorld {
 mod tests {
     use super::*;
     use crate::scenes::{box_stack, pyramid};
+    use alloc::vec;
 
     /// The all-pairs assembly the sparse one replaced.
     fn all_pairs(w: &ContactWorld) -> Vec<f64> {

@@ -255,6 +255,8 @@ pub struct ContactWorld {
     soft: soft_step::SoftState,
     /// Buffers of the broad phase (the other solvers; the soft step keeps its own).
     broad: BroadScratch,
+    /// Buffers of the dense path (Delassus matrix, row buckets).
+    dense: dense::DenseScratch,
     /// Islands and sleep state.
     sleep: sleep::SleepState,
 }
@@ -276,6 +278,7 @@ impl ContactWorld {
             saved: Vec::new(),
             soft: soft_step::SoftState::default(),
             broad: BroadScratch::default(),
+            dense: dense::DenseScratch::default(),
             sleep: sleep::SleepState::default(),
         }
     }

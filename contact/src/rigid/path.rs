@@ -31,6 +31,9 @@ pub struct SolverPath {
     /// The dense path solved the boxed LCP with one PGS (friction in one problem)
     /// instead of staggered projections.
     pub boxed_pgs: bool,
+    /// The boxed PGS ran out of sweeps and the staggered solve answered instead
+    /// ([`crate::lcp::RowStats::boxed_fallback`]; `boxed_pgs` is then false).
+    pub boxed_fallback: bool,
     /// The method whose answer to the normal LCP was accepted (dense, staggered).
     pub normal: Option<RowMethod>,
     /// The friction (tangent) block was solved by PGS (dense, staggered).
@@ -49,6 +52,7 @@ impl SolverPath {
         rows: RowsSolver::NoRows,
         shock: false,
         boxed_pgs: false,
+        boxed_fallback: false,
         normal: None,
         friction_pgs: false,
         friction_budget: false,
