@@ -550,3 +550,22 @@ fn heavy_box_on_a_light_one_degenerate_basis() {
         heavy + light
     );
 }
+
+/// The round-off floor never accepts an answer that overflowed: `M = diag(1e300,
+/// 1e-300)`, `q = (−1, −1e300)` has `z₂ = 1e600`, beyond `f64`. Lemke must answer with
+/// an error (found by the bad-input sweep's "lemke mixed scale" case when the floor first
+/// accepted `residual ≤ ∞`), and `accepts` turns down a non-finite floor.
+#[test]
+fn the_round_off_floor_accepts_no_overflowed_answer() {
+    let lcp = Lcp::new(vec![1e300, 0.0, 0.0, 1e-300], vec![-1.0, -1e300]).unwrap();
+    let r = lemke(&lcp, &LemkeSettings::default(), None);
+    assert!(
+        r.as_ref()
+            .map_or(true, |s| s.z.iter().all(|z| z.is_finite())),
+        "{r:?}"
+    );
+    assert!(r.is_err(), "{r:?}");
+    assert!(!lcp.round_off(&[1e-300, f64::INFINITY]).is_finite());
+    assert!(!lcp.accepts(&[1e-300, f64::INFINITY], f64::INFINITY, 1e-10));
+    assert!(!lcp.accepts(&[1e-300, 1e308], 1.0, 1e-10));
+}

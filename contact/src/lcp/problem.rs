@@ -447,9 +447,15 @@ impl Lcp {
 
     /// Whether `residual` (of [`Lcp::residual`] at `z`) is an acceptable answer for
     /// `tolerance`: at most `max(tolerance, round_off(z))` ([`Lcp::round_off`]; the
-    /// floor is evaluated only when the tolerance alone is missed).
+    /// floor is evaluated only when the tolerance alone is missed). A non-finite floor
+    /// (an overflowing `|M||z|`, a non-finite `z`) accepts nothing: an answer that
+    /// overflowed is never passed on as one at the round-off limit.
     pub fn accepts(&self, z: &[f64], residual: f64, tolerance: f64) -> bool {
-        residual <= tolerance || residual <= self.round_off(z)
+        if residual <= tolerance {
+            return true;
+        }
+        let floor = self.round_off(z);
+        floor.is_finite() && residual <= floor
     }
 
     /// Validates a warm-start / initial vector.
