@@ -36,7 +36,8 @@ pub mod staggered;
 pub use lemke::{lemke, LemkeSettings};
 pub use newton::{fischer_newton, NewtonSettings};
 pub use pgs::{pgs, PgsSettings};
-pub use problem::{Lcp, LcpError, LcpSolution};
+pub use problem::{Lcp, LcpError, LcpSolution, SparseRows};
 pub use staggered::{
-    row_residual, solve_rows, Coupling, RowBound, RowMethod, RowSettings, RowStats,
+    row_residual, solve_rows, solve_rows_sparse, Coupling, RowBound, RowMethod, RowSettings,
+    RowStats,
 };

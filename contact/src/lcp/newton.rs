@@ -154,13 +154,23 @@ pub fn fischer_newton(
             }
         }
         // H = D_a + D_b M / α; ∇Ψ = Hᵀ Φ.
+        // Over the non-zero M_ij only: an off-diagonal zero gives h_ij = +0 and adds ±0
+        // to the gradient (bit-neutral); the diagonal is always written.
         let mut h = vec![0.0; n * n];
         let mut grad = vec![0.0; n];
         for i in 0..n {
-            for j in 0..n {
-                let v = db[i] * lcp.m_ij(i, j) / alpha + if i == j { da[i] } else { 0.0 };
+            let (cols, vals) = lcp.row_nonzeros(i);
+            let mut diagonal = false;
+            for (&j, &m) in cols.iter().zip(vals) {
+                let v = db[i] * m / alpha + if i == j { da[i] } else { 0.0 };
+                diagonal |= i == j;
                 h[i * n + j] = v;
                 grad[j] += v * phi[i];
+            }
+            if !diagonal {
+                let v = db[i] * 0.0 / alpha + da[i];
+                h[i * n + i] = v;
+                grad[i] += v * phi[i];
             }
         }
         // Regularized step (H − μI) d = −Φ with μ = min(|Φ|₂, 0.01): since −D_a, −D_b ≥ 0 this

@@ -17,7 +17,7 @@
 use alloc::vec;
 use alloc::vec::Vec;
 
-use super::problem::{check_tolerance, dot, Lcp, LcpError, LcpSolution};
+use super::problem::{check_tolerance, Lcp, LcpError, LcpSolution};
 
 /// Settings of [`pgs`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -91,7 +91,7 @@ pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpS
     let omega = settings.omega;
     for sweep in 1..=settings.max_iterations {
         for i in 0..n {
-            let wi = lcp.q()[i] + dot(lcp.row(i), &z);
+            let wi = lcp.q()[i] + lcp.row_dot(i, &z);
             let (lo, hi) = lcp.bounds(i, &z);
             z[i] = (z[i] - omega * wi * inv_diag[i]).max(lo).min(hi);
         }

@@ -37,6 +37,98 @@ pub struct Lcp {
     lo: Vec<f64>,
     hi: Vec<f64>,
     friction: Vec<Option<(usize, f64)>>,
+    /// The non-zero entries of `M` by row ([`SparseRows`]). `w = M z + q` and the
+    /// solvers' row products run over these only, in the same column order as the
+    /// dense sum, so they give the dense sum's bits (a skipped term is `±0`).
+    sparse: SparseRows,
+}
+
+/// A matrix as compressed sparse rows: row `i`'s entries are `cols[start[i]..start[i+1]]`
+/// (ascending) with values `vals[..]`; entries not listed are zero (listed ones may be
+/// zero too).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SparseRows {
+    /// Row starts into `cols` and `vals` (`n + 1` of them, the first `0`).
+    pub start: Vec<usize>,
+    /// Columns, ascending within each row.
+    pub cols: Vec<usize>,
+    /// Values.
+    pub vals: Vec<f64>,
+}
+
+impl SparseRows {
+    /// The non-zero entries of the row-major `n × n` matrix `m` (a NaN is non-zero).
+    pub fn from_dense(m: &[f64], n: usize) -> SparseRows {
+        // Branch-free compaction (every entry is written, the cursor moves past the
+        // non-zero ones): the zero pattern of a Delassus matrix defeats branch prediction.
+        let mut start = Vec::with_capacity(n + 1);
+        let mut cols = vec![0usize; n * n];
+        let mut vals = vec![0.0; n * n];
+        let mut k = 0;
+        start.push(0);
+        for row in m.chunks_exact(n.max(1)).take(n) {
+            for (j, &v) in row.iter().enumerate() {
+                cols[k] = j;
+                vals[k] = v;
+                k += usize::from(v != 0.0);
+            }
+            start.push(k);
+        }
+        cols.truncate(k);
+        vals.truncate(k);
+        SparseRows { start, cols, vals }
+    }
+
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        self.start.len().saturating_sub(1)
+    }
+
+    /// Row `i`: its columns (ascending) and values.
+    #[inline]
+    pub fn row(&self, i: usize) -> (&[usize], &[f64]) {
+        let (s, e) = (self.start[i], self.start[i + 1]);
+        (&self.cols[s..e], &self.vals[s..e])
+    }
+
+    /// The dense row-major `n × n` matrix (`n` = [`SparseRows::rows`]).
+    pub fn to_dense(&self) -> Vec<f64> {
+        let n = self.rows();
+        let mut m = vec![0.0; n * n];
+        for i in 0..n {
+            let (cols, vals) = self.row(i);
+            for (&j, &v) in cols.iter().zip(vals) {
+                m[i * n + j] = v;
+            }
+        }
+        m
+    }
+
+    /// Whether the structure is consistent with an `n × n` matrix (row starts
+    /// non-decreasing from 0 to the number of entries, columns below `n` and ascending
+    /// within each row).
+    pub fn is_valid(&self, n: usize) -> bool {
+        if !(self.start.len() == n + 1
+            && self.start[0] == 0
+            && self.start[n] == self.cols.len()
+            && self.cols.len() == self.vals.len())
+        {
+            return false;
+        }
+        let mut ok = true;
+        for w in self.start.windows(2) {
+            let Some(c) = self.cols.get(w[0]..w[1]) else {
+                return false;
+            };
+            // Ascending and below n: each column above the last (branch-free).
+            let mut last = None::<usize>;
+            for &j in c {
+                ok &= j < n && last.is_none_or(|l| l < j);
+                last = Some(j);
+            }
+        }
+        ok
+    }
 }
 
 /// Why a problem was rejected or a solver failed. No solver returns a `z` on failure: the
@@ -231,12 +323,8 @@ impl Lcp {
         check_len("hi", n, hi.len())?;
         check_finite("m", &m)?;
         check_finite("q", &q)?;
-        for i in 0..n {
-            let (l, h) = (lo[i], hi[i]);
-            if l.is_nan() || h.is_nan() || l > h || l == f64::INFINITY || h == f64::NEG_INFINITY {
-                return Err(LcpError::BadBounds { index: i });
-            }
-        }
+        check_bounds(&lo, &hi)?;
+        let sparse = SparseRows::from_dense(&m, n);
         Ok(Lcp {
             n,
             m,
@@ -244,6 +332,48 @@ impl Lcp {
             lo,
             hi,
             friction: vec![None; n],
+            sparse,
+        })
+    }
+
+    /// [`Lcp::boxed`] with the non-zero pattern of `m` already known (`sparse` lists
+    /// every non-zero entry of `m` with its value): no pass over the whole of `m`; only
+    /// the listed values are checked for finiteness.
+    pub(crate) fn boxed_sparse(
+        m: Vec<f64>,
+        sparse: SparseRows,
+        q: Vec<f64>,
+        lo: Vec<f64>,
+        hi: Vec<f64>,
+    ) -> Result<Lcp, LcpError> {
+        let n = q.len();
+        check_len("m", n * n, m.len())?;
+        check_len("lo", n, lo.len())?;
+        check_len("hi", n, hi.len())?;
+        // The crate's callers build the pattern from a checked one.
+        debug_assert!(sparse.is_valid(n));
+        debug_assert!(sparse
+            .to_dense()
+            .iter()
+            .zip(&m)
+            .all(|(x, y)| x == y || (x.is_nan() && y.is_nan())));
+        if let Some(k) = sparse.vals.iter().position(|x| !x.is_finite()) {
+            let i = sparse.start.partition_point(|&s| s <= k) - 1;
+            return Err(LcpError::NonFinite {
+                what: "m",
+                index: i * n + sparse.cols[k],
+            });
+        }
+        check_finite("q", &q)?;
+        check_bounds(&lo, &hi)?;
+        Ok(Lcp {
+            n,
+            m,
+            q,
+            lo,
+            hi,
+            friction: vec![None; n],
+            sparse,
         })
     }
 
@@ -295,6 +425,10 @@ impl Lcp {
             lo: Vec::new(),
             hi: Vec::new(),
             friction: Vec::new(),
+            sparse: SparseRows {
+                start: vec![0],
+                ..SparseRows::default()
+            },
         }
     }
 
@@ -340,6 +474,36 @@ impl Lcp {
         &self.friction
     }
 
+    /// Replaces the stored bounds (same `n`; checked as in [`Lcp::boxed`]), e.g. a boxed
+    /// problem whose boxes moved while `M` stayed: no second pass over `M`.
+    pub fn set_bounds(&mut self, lo: Vec<f64>, hi: Vec<f64>) -> Result<(), LcpError> {
+        check_len("lo", self.n, lo.len())?;
+        check_len("hi", self.n, hi.len())?;
+        check_bounds(&lo, &hi)?;
+        for (i, link) in self.friction.iter().enumerate() {
+            if matches!(*link, Some((k, _)) if lo[k] < 0.0) {
+                return Err(LcpError::BadFriction { index: i });
+            }
+        }
+        self.lo = lo;
+        self.hi = hi;
+        Ok(())
+    }
+
+    /// `Σ_j M_ij z_j` over the non-zero `M_ij` (columns ascending: the bits of the dense
+    /// sum, whose skipped terms are `±0`).
+    #[inline]
+    pub fn row_dot(&self, i: usize, z: &[f64]) -> f64 {
+        let (cols, vals) = self.sparse.row(i);
+        vals.iter().zip(cols).map(|(v, &j)| v * z[j]).sum()
+    }
+
+    /// Row `i`'s non-zero entries of `M`: columns (ascending) and values.
+    #[inline]
+    pub fn row_nonzeros(&self, i: usize) -> (&[usize], &[f64]) {
+        self.sparse.row(i)
+    }
+
     /// Replaces `q` (same `n`, finite), e.g. for the next time step of the same contacts.
     pub fn set_q(&mut self, q: Vec<f64>) -> Result<(), LcpError> {
         check_len("q", self.n, q.len())?;
@@ -370,7 +534,7 @@ impl Lcp {
     /// `w = M z + q`.
     pub fn w(&self, z: &[f64]) -> Vec<f64> {
         (0..self.n)
-            .map(|i| self.q[i] + dot(self.row(i), z))
+            .map(|i| self.q[i] + self.row_dot(i, z))
             .collect()
     }
 
@@ -504,9 +668,14 @@ impl Lcp {
     }
 }
 
-#[inline]
-pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+/// Bounds with `lo_i > hi_i`, a NaN bound, `lo_i = +∞` or `hi_i = −∞` are rejected.
+fn check_bounds(lo: &[f64], hi: &[f64]) -> Result<(), LcpError> {
+    for (i, (&l, &h)) in lo.iter().zip(hi).enumerate() {
+        if l.is_nan() || h.is_nan() || l > h || l == f64::INFINITY || h == f64::NEG_INFINITY {
+            return Err(LcpError::BadBounds { index: i });
+        }
+    }
+    Ok(())
 }
 
 pub(crate) fn check_tolerance(tolerance: f64) -> Result<(), LcpError> {

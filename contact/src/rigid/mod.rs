@@ -51,7 +51,9 @@ pub use path::{RowsSolver, SolverPath};
 pub use sleep::SleepSettings;
 pub use soft_step::{SoftStepSettings, Softness, MAX_SUBSTEPS};
 
-use crate::lcp::{solve_rows, Coupling, LcpError, RowBound, RowMethod, RowSettings};
+use crate::lcp::{
+    solve_rows_sparse, Coupling, LcpError, RowBound, RowMethod, RowSettings, SparseRows,
+};
 
 /// Which solver handles the contact LCP.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
