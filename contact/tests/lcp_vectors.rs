@@ -569,3 +569,32 @@ fn the_round_off_floor_accepts_no_overflowed_answer() {
     assert!(!lcp.accepts(&[1e-300, f64::INFINITY], f64::INFINITY, 1e-10));
     assert!(!lcp.accepts(&[1e-300, 1e308], 1.0, 1e-10));
 }
+
+/// A friction row whose `normal` is out of range or not a one-sided row is a typed
+/// error from both row solvers (it panicked on the index before; bad-input sweep).
+#[test]
+fn a_friction_row_needs_a_unilateral_normal() {
+    use constraint_contact::lcp::{
+        solve_rows, solve_rows_sparse, RowBound, RowSettings, SparseRows,
+    };
+    let a = [2.0, 0.1, 0.1, 1.0];
+    let q = [-1.0, 0.5];
+    for normal in [1, 7] {
+        let b = [RowBound::Unilateral, RowBound::Friction { normal, mu: 0.5 }];
+        let mut z = [0.0; 2];
+        let dense = solve_rows(&a, &q, &b, &RowSettings::default(), &mut z);
+        assert!(matches!(dense, Err(LcpError::BadSettings(_))), "{dense:?}");
+        let rows = SparseRows::from_dense(&a, 2);
+        let sparse = solve_rows_sparse(&rows, &q, &b, &RowSettings::default(), &mut z);
+        assert!(
+            matches!(sparse, Err(LcpError::BadSettings(_))),
+            "{sparse:?}"
+        );
+    }
+    let b = [
+        RowBound::Unilateral,
+        RowBound::Friction { normal: 0, mu: 0.5 },
+    ];
+    let mut z = [0.0; 2];
+    assert!(solve_rows(&a, &q, &b, &RowSettings::default(), &mut z).is_ok());
+}

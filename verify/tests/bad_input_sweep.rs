@@ -13,7 +13,8 @@
 use constraint_articulated::{Joint, JointKind, Method, MjcfScene, RigidBody, World};
 use constraint_contact::geometry::{Collider, Shape};
 use constraint_contact::lcp::{
-    fischer_newton, lemke, pgs, Lcp, LemkeSettings, NewtonSettings, PgsSettings,
+    fischer_newton, lemke, pgs, solve_rows, solve_rows_sparse, Lcp, LemkeSettings, NewtonSettings,
+    PgsSettings, RowBound, RowSettings, SparseRows,
 };
 use constraint_contact::rigid::{
     ContactSettings, ContactSolver, ContactWorld, FrictionModel, SleepSettings, SoftStepSettings,
@@ -2024,6 +2025,165 @@ fn lcp_solve_all(s: &mut Sweep, label: &str, lcp: &Lcp) {
     });
 }
 
+/// One row-solver case: label, `A` (row-major), `q`, bounds, warm start.
+type RowCase = (String, Vec<f64>, Vec<f64>, Vec<RowBound>, Vec<f64>);
+
+/// The staggered row solvers, dense (`solve_rows`) and sparse (`solve_rows_sparse`), on
+/// one contact (a normal row and two friction rows) and a boxed row: a bad value in
+/// each slot of `A`, `q`, `z`, `μ` and the box, wrong lengths, and hand-built sparse
+/// rows that break their invariants (a column out of range, unsorted columns, short
+/// `start`). An accepted answer must be finite (`z` and the stats).
+fn row_solver_cases(s: &mut Sweep) {
+    let a = vec![
+        2.0, 0.1, 0.0, 0.3, //
+        0.1, 1.0, 0.0, 0.0, //
+        0.0, 0.0, 1.0, 0.0, //
+        0.3, 0.0, 0.0, 1.5,
+    ];
+    let q = vec![-1.0, 0.5, -0.2, 0.4];
+    let bounds = |mu: f64, lo: f64, hi: f64| {
+        vec![
+            RowBound::Unilateral,
+            RowBound::Friction { normal: 0, mu },
+            RowBound::Friction { normal: 0, mu },
+            RowBound::Boxed { lo, hi },
+        ]
+    };
+    let z0 = vec![0.0; 4];
+    let mut cases: Vec<RowCase> = Vec::new();
+    for &v in &BAD {
+        for i in [0, 3, 5, 15] {
+            let mut aa = a.clone();
+            aa[i] = v;
+            cases.push((
+                format!("A[{i}]={v:e}"),
+                aa,
+                q.clone(),
+                bounds(0.5, -0.1, 0.1),
+                z0.clone(),
+            ));
+        }
+        for i in [0, 2] {
+            let mut qq = q.clone();
+            qq[i] = v;
+            cases.push((
+                format!("q[{i}]={v:e}"),
+                a.clone(),
+                qq,
+                bounds(0.5, -0.1, 0.1),
+                z0.clone(),
+            ));
+        }
+        let mut zz = z0.clone();
+        zz[1] = v;
+        cases.push((
+            format!("z[1]={v:e}"),
+            a.clone(),
+            q.clone(),
+            bounds(0.5, -0.1, 0.1),
+            zz,
+        ));
+        cases.push((
+            format!("mu={v:e}"),
+            a.clone(),
+            q.clone(),
+            bounds(v, -0.1, 0.1),
+            z0.clone(),
+        ));
+        cases.push((
+            format!("box lo={v:e}"),
+            a.clone(),
+            q.clone(),
+            bounds(0.5, v, 0.1),
+            z0.clone(),
+        ));
+        cases.push((
+            format!("box hi={v:e}"),
+            a.clone(),
+            q.clone(),
+            bounds(0.5, -0.1, v),
+            z0.clone(),
+        ));
+    }
+    cases.push((
+        "short A".into(),
+        a[..12].to_vec(),
+        q.clone(),
+        bounds(0.5, -0.1, 0.1),
+        z0.clone(),
+    ));
+    cases.push((
+        "short z".into(),
+        a.clone(),
+        q.clone(),
+        bounds(0.5, -0.1, 0.1),
+        vec![0.0; 3],
+    ));
+    cases.push((
+        "short bounds".into(),
+        a.clone(),
+        q.clone(),
+        bounds(0.5, -0.1, 0.1)[..3].to_vec(),
+        z0.clone(),
+    ));
+    cases.push((
+        "friction on a friction row".into(),
+        a.clone(),
+        q.clone(),
+        vec![
+            RowBound::Unilateral,
+            RowBound::Friction { normal: 2, mu: 0.5 },
+            RowBound::Friction { normal: 7, mu: 0.5 },
+            RowBound::Boxed { lo: 0.1, hi: -0.1 },
+        ],
+        z0.clone(),
+    ));
+    for (label, aa, qq, bb, zz) in cases {
+        s.case(format!("solve_rows {label}"), || {
+            let mut z = zz.clone();
+            of(solve_rows(&aa, &qq, &bb, &RowSettings::default(), &mut z).map(|st| (z, st)))
+        });
+        if aa.len() == qq.len() * qq.len() {
+            s.case(format!("solve_rows_sparse {label}"), || {
+                let rows = SparseRows::from_dense(&aa, qq.len());
+                let mut z = zz.clone();
+                of(
+                    solve_rows_sparse(&rows, &qq, &bb, &RowSettings::default(), &mut z)
+                        .map(|st| (z, st)),
+                )
+            });
+        }
+    }
+    // Sparse rows that break their invariants, built by hand (the fields are public).
+    let good = SparseRows::from_dense(&a, 4);
+    let mut out_of_range = good.clone();
+    out_of_range.cols[1] = 9;
+    let mut unsorted = good.clone();
+    unsorted.cols.swap(0, 1);
+    let mut short_start = good.clone();
+    short_start.start.pop();
+    let mut short_vals = good.clone();
+    short_vals.vals.pop();
+    for (label, rows) in [
+        ("column out of range", out_of_range),
+        ("unsorted columns", unsorted),
+        ("short start", short_start),
+        ("short vals", short_vals),
+    ] {
+        s.case(format!("solve_rows_sparse {label}"), || {
+            let mut z = vec![0.0; 4];
+            of(solve_rows_sparse(
+                &rows,
+                &q,
+                &bounds(0.5, -0.1, 0.1),
+                &RowSettings::default(),
+                &mut z,
+            )
+            .map(|st| (z, st)))
+        });
+    }
+}
+
 /// An accepted `Lcp`: `M` and `q` finite, bounds not NaN (±∞ bounds are documented).
 fn lcp_outcome(r: Result<Lcp, constraint_contact::lcp::LcpError>) -> Outcome {
     match r {
@@ -2301,6 +2461,7 @@ fn contact_cases(s: &mut Sweep) {
             lcp_solve_all(s, label, &lcp);
         }
     }
+    row_solver_cases(s);
     // Solver settings and warm starts.
     let lcp = Lcp::new(m.clone(), q.clone()).unwrap();
     for &v in &BAD {

@@ -217,6 +217,20 @@ pub fn solve_rows_sparse(
             "sparse rows of A inconsistent with q",
         ));
     }
+    // A friction row's bound is `μ z_normal`: its normal must be a one-sided row of
+    // this problem (found by the bad-input sweep: an index out of range, or a friction
+    // row as the normal, panicked or chained bounds).
+    let normals_ok = bounds.iter().all(|b| match *b {
+        RowBound::Friction { normal, .. } => {
+            matches!(bounds.get(normal), Some(RowBound::Unilateral))
+        }
+        _ => true,
+    });
+    if !normals_ok {
+        return Err(LcpError::BadSettings(
+            "a friction row's normal must be a unilateral row of the problem",
+        ));
+    }
     let pgs_settings = PgsSettings {
         tolerance: settings.tolerance,
         max_iterations: settings.pgs_iterations,
