@@ -88,23 +88,65 @@ pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpS
         return lcp.finish(z, 0, None, settings.tolerance);
     }
     let omega = settings.omega;
+    // The check of sweep `k`'s iterate runs inside sweep `k + 1` (its copy in `prev`):
+    // each row is read once for both sums, `w_i` of the new sweep and `w_i` at `prev`
+    // (two independent accumulations, in the order of [`dot`], so the results are
+    // those of a separate `q + M z` bit for bit), and nothing is allocated per check.
+    // A checked iterate that meets the tolerance is returned as before; the sweep run
+    // past it is dropped.
+    let scale = lcp.scale();
+    let start: f64 = core::iter::empty::<f64>().sum();
+    let mut prev: Vec<f64> = Vec::with_capacity(n);
+    let mut pending = false;
     for sweep in 1..=settings.max_iterations {
+        let check = pending;
+        if check {
+            prev.clear();
+            prev.extend_from_slice(&z);
+        }
+        let mut r = 0.0_f64;
+        let mut finite = true;
         for i in 0..n {
-            let wi = lcp.q()[i] + dot(lcp.row(i), &z);
+            let row = lcp.row(i);
+            let wi = if check {
+                let (mut a_new, mut a_old) = (start, start);
+                for ((m, zn), zo) in row.iter().zip(&z).zip(&prev) {
+                    a_new += m * zn;
+                    a_old += m * zo;
+                }
+                let w_old = lcp.q()[i] + a_old;
+                if !prev[i].is_finite() || !w_old.is_finite() {
+                    finite = false;
+                }
+                let (lo, hi) = lcp.bounds(i, &prev);
+                let p = (prev[i] - w_old).max(lo).min(hi);
+                r = r.max(libm::fabs(prev[i] - p));
+                lcp.q()[i] + a_new
+            } else {
+                lcp.q()[i] + dot(row, &z)
+            };
             let (lo, hi) = lcp.bounds(i, &z);
             z[i] = (z[i] - omega * wi * inv_diag[i]).max(lo).min(hi);
         }
-        if sweep % settings.check_every == 0 || sweep == settings.max_iterations {
-            residual = lcp.residual(&z);
+        if check {
+            residual = if finite { r / scale } else { f64::INFINITY };
             if residual <= settings.tolerance {
-                return lcp.finish(z, sweep, None, settings.tolerance);
+                return lcp.finish(prev, sweep - 1, None, settings.tolerance);
             }
             if !residual.is_finite() {
                 return Err(LcpError::IterationLimit {
-                    iterations: sweep,
+                    iterations: sweep - 1,
                     residual,
                 });
             }
+        }
+        pending = sweep % settings.check_every == 0;
+    }
+    // The last sweep's iterate is always checked.
+    if settings.max_iterations > 0 {
+        residual = lcp.residual(&z);
+        if residual <= settings.tolerance {
+            return lcp.finish(z, settings.max_iterations, None, settings.tolerance);
         }
     }
     Err(LcpError::IterationLimit {
