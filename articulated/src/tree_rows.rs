@@ -447,14 +447,32 @@ fn update_dyn(n: usize, np: usize, blk: &[f64], dinv: &[f64], w: &mut [f64], dpa
     }
 }
 
+/// Most negative pivots one node's block can have: the unknowns of one rigid body
+/// ([`ldlt_two_segment`]'s rank cap).
+const MAX_NEGATIVE_PIVOTS: usize = 6;
+
 /// In-place `LDLᵀ` of an `n × n` row-major block, no pivoting (`L` strictly below the
 /// diagonal, `d` on it, `dinv = 1/d` or 0 for a dropped pivot, whose column of `L` is
 /// zeroed). Pivots `0..base` are dropped below `1e-12 ×` the largest `|a_ii|` among
-/// them; pivots `base..n` below `1e-12 ×` the largest of their values with only the
-/// base pivots eliminated.
+/// them; pivots `base..n` below `1e-12 ×` the largest of their diagonal values before
+/// any elimination at this node, when positive (see below), and once the node holds
+/// [`MAX_NEGATIVE_PIVOTS`] negative pivots.
+///
+/// The rank cap: every negative pivot of a node is a direction of `−G D⁻¹ Gᵀ` through
+/// the six unknowns of one body (a joint node's child body, into which its subtree is
+/// condensed; a root body's own twist for the rows on it), so a node has at most six.
+/// Beyond them a pivot is the round-off of a row that depends on the ones kept (in
+/// exact arithmetic zero); it can come out above the relative tolerance (a foot's
+/// ground contacts under a two-hinge ankle: its four joint rows leave room for two
+/// contact rows, and a third one's pivot is round-off only), and kept,
+/// its inverse scales the parent body's block by orders of magnitude until that body's
+/// own pivots fail the tolerance (`ArticulatedError::Singular`: dm_control's
+/// humanoid_CMU lying on the floor, 46 of the active set's tries in its 5 s passive
+/// run, each sending its step to the dense path and up to 15 more by the back-off).
 fn ldlt_two_segment(a: &mut [f64], n: usize, base: usize, dinv: &mut [f64]) {
     let scale = (0..base).map(|i| a[i * n + i].abs()).fold(0.0f64, f64::max);
     let mut tol = 1e-12 * scale;
+    let mut negative = 0usize;
     for j in 0..n {
         if j == base && base < n {
             // The extra rows' scale: their diagonal before any elimination at this
@@ -475,13 +493,17 @@ fn ldlt_two_segment(a: &mut [f64], n: usize, base: usize, dinv: &mut [f64]) {
         // round-off of a dependent row; kept, its inverse would flip the sign of the
         // parent's update and make the parent body's block indefinite.
         let wrong_sign = j >= base && d > 0.0;
-        if !(d.abs() > tol) || wrong_sign {
+        let beyond_rank = j >= base && negative >= MAX_NEGATIVE_PIVOTS;
+        if !(d.abs() > tol) || wrong_sign || beyond_rank {
             dinv[j] = 0.0;
             a[j * n + j] = 0.0;
             for i in j + 1..n {
                 a[i * n + j] = 0.0;
             }
             continue;
+        }
+        if d < 0.0 {
+            negative += 1;
         }
         a[j * n + j] = d;
         dinv[j] = 1.0 / d;
@@ -492,5 +514,56 @@ fn ldlt_two_segment(a: &mut [f64], n: usize, base: usize, dinv: &mut [f64]) {
             }
             a[i * n + j] = s / d;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A joint node's block `−G D⁻¹ Gᵀ` with eight rows on one body (four joint rows of
+    /// a two-hinge joint, then four contact rows: rank six), plus a symmetric round-off
+    /// of `1e-10` relative: [`ldlt_two_segment`] keeps six pivots and drops the last
+    /// two (they depend on the others). Without the rank cap the seventh pivot passed
+    /// the `1e-12` tolerance and was kept (measured: its inverse −1.8e7 against at
+    /// most −154 for the six real ones; this test then fails with 7 kept).
+    #[test]
+    fn rank_cap_drops_pivots_beyond_one_body() {
+        let n = 8;
+        // G: 8 × 6, rows a deterministic spread; D⁻¹ = diag of a body's inverse
+        // mass and inertia.
+        let mut g = [[0.0f64; 6]; 8];
+        for (r, row) in g.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate() {
+                *v = libm::sin(1.0 + 0.7 * r as f64 + 1.3 * c as f64 + 0.1 * (r * c) as f64);
+            }
+        }
+        let dinv_body = [1.0, 1.0, 1.0, 4.0, 5.0, 6.0];
+        let mut a = alloc::vec![0.0f64; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                let mut s = 0.0;
+                for c in 0..6 {
+                    s -= g[i][c] * dinv_body[c] * g[j][c];
+                }
+                a[i * n + j] = s;
+            }
+        }
+        // Symmetric round-off, relative 1e-10.
+        for i in 0..n {
+            for j in 0..=i {
+                let e = 1e-10 * libm::cos(3.0 * i as f64 + 5.0 * j as f64) * a[i * n + i].abs();
+                a[i * n + j] += e;
+                if i != j {
+                    a[j * n + i] += e;
+                }
+            }
+        }
+        let mut dinv = alloc::vec![0.0f64; n];
+        ldlt_two_segment(&mut a, n, 4, &mut dinv);
+        let kept = dinv.iter().filter(|d| **d != 0.0).count();
+        assert_eq!(kept, 6, "dinv {dinv:?}");
+        assert!(dinv[..6].iter().all(|d| *d < 0.0), "dinv {dinv:?}");
+        assert_eq!(&dinv[6..], &[0.0, 0.0]);
     }
 }
