@@ -43,7 +43,7 @@ const USAGE: &str = "usage: cargo xtask <command>
 commands:
   verify [--quick | --full] [--mujoco]
                      checks, one release build, tests, no_std build, packaging, sweeps and the
-                     real models; writes target/verify/report.md (about ten minutes on two cores);
+                     real models; writes target/verify/report.md (12 min on two cores once built);
                      --quick: CI's shorter model runs; --full: denser sweeps, 2048 proptest
                      cases, each library crate built from its .crate;
                      --mujoco also regenerates scenes/reference/ in MuJoCo and checks it

@@ -15,8 +15,9 @@
 //!
 //! `cargo run --release -p constraint-report --bin verify-report -- [--full] [--out DIR]`
 //! (normally called by `cargo xtask verify`). Two plans: the default one, sized so that
-//! `cargo xtask verify` answers within ten minutes on two cores, build included (every
-//! chart, fewer points: about 100 s of sweeps there), and `--full` (denser grids, finer
+//! `cargo xtask verify` answers in about ten minutes on two cores (every chart, fewer
+//! points: 242 s of sweeps in the last measurement, 153 s of it one contact map cell,
+//! boxed PGS under a 1e4:1 box at h = 1e-4), and `--full` (denser grids, finer
 //! references, best of three timings: about 18 minutes of sweeps). `--quick`, what CI
 //! passes, is the default plan.
 //!
