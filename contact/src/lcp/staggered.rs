@@ -39,6 +39,20 @@ pub enum RowBound {
     },
 }
 
+impl RowBound {
+    /// The interval `[lo, hi]` the row's impulse must lie in at `z`: `[0, ∞)` one-sided,
+    /// `[−μ z_normal, μ z_normal]` for friction, `[lo, hi]` for a box. `z` must hold the
+    /// normal row of a friction row (the solvers check it).
+    #[inline]
+    pub fn interval(self, z: &[f64]) -> (f64, f64) {
+        match self {
+            RowBound::Unilateral => (0.0, f64::INFINITY),
+            RowBound::Friction { normal, mu } => (-mu * z[normal], mu * z[normal]),
+            RowBound::Boxed { lo, hi } => (lo, hi),
+        }
+    }
+}
+
 /// The method for the one-sided part (and for the whole problem with `Boxed`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RowMethod {
@@ -134,11 +148,7 @@ pub fn row_residual(a: &[f64], q: &[f64], bounds: &[RowBound], z: &[f64]) -> f64
     let mut worst: f64 = 0.0;
     for i in 0..m {
         let w: f64 = q[i] + (0..m).map(|k| a[i * m + k] * z[k]).sum::<f64>();
-        let (lo, hi) = match bounds[i] {
-            RowBound::Unilateral => (0.0, f64::INFINITY),
-            RowBound::Friction { normal, mu } => (-mu * z[normal], mu * z[normal]),
-            RowBound::Boxed { lo, hi } => (lo, hi),
-        };
+        let (lo, hi) = bounds[i].interval(z);
         let p = (z[i] - w).min(hi).max(lo);
         worst = worst.max((z[i] - p).abs());
     }
@@ -153,11 +163,7 @@ fn sparse_residual(a: &SparseRows, q: &[f64], bounds: &[RowBound], z: &[f64]) ->
     for (i, &qi) in q.iter().enumerate() {
         let (cols, vals) = a.row(i);
         let w: f64 = qi + cols.iter().zip(vals).map(|(&k, v)| v * z[k]).sum::<f64>();
-        let (lo, hi) = match bounds[i] {
-            RowBound::Unilateral => (0.0, f64::INFINITY),
-            RowBound::Friction { normal, mu } => (-mu * z[normal], mu * z[normal]),
-            RowBound::Boxed { lo, hi } => (lo, hi),
-        };
+        let (lo, hi) = bounds[i].interval(z);
         let p = (z[i] - w).min(hi).max(lo);
         worst = worst.max((z[i] - p).abs());
     }
@@ -357,14 +363,7 @@ pub fn solve_rows_sparse(
         RowBound::Unilateral => true,
     };
     let frictionless = bounds.iter().all(inert);
-    let bound = |i: usize, z: &[f64]| match bounds[i] {
-        RowBound::Friction { normal, mu } => {
-            let m = mu * z[normal];
-            (-m, m)
-        }
-        RowBound::Boxed { lo, hi } => (lo, hi),
-        RowBound::Unilateral => (0.0, f64::INFINITY),
-    };
+    let bound = |i: usize, z: &[f64]| bounds[i].interval(z);
     let lemke_settings = LemkeSettings {
         tolerance: settings.tolerance,
         ..LemkeSettings::default()
