@@ -100,6 +100,10 @@ pub struct Cell {
     pub horizon: f64,
     /// Most `boxes × steps` of the run (the horizon is cut to fit).
     pub max_box_steps: f64,
+    /// Most solver iterations (sweeps) summed over the run: a cell whose solver needs
+    /// thousands of sweeps per step stops there, its horizon cut and said so in its
+    /// message, and is classified on the steps it ran. Deterministic (counts, not time).
+    pub max_iterations: f64,
 }
 
 /// What one cell measured.
@@ -210,7 +214,11 @@ pub fn classify(cell: &Cell) -> CellResult {
         }
     };
     let bound = BLOWUP_EXTENT * (cell.boxes as f64 + 1.0) * SIZE;
-    let (mut drift, mut pen, mut iters) = (0.0f64, 0.0f64, 0usize);
+    let mut iters = 0usize;
+    // Per step: the farthest box from rest and the deepest contact, for the second half
+    // of the run (of the planned run, or of the steps taken when the budget cut it).
+    let mut history: Vec<(f64, f64)> = Vec::new();
+    let mut cut = false;
     for k in 1..=n {
         let stats = match w.step(cell.h) {
             Ok(s) => s,
@@ -233,9 +241,23 @@ pub fn classify(cell: &Cell) -> CellResult {
             r.message = format!("blow-up at step {k}: a box {far:.3e} m from rest");
             break;
         }
-        if 2 * k >= n {
+        history.push((far, stats.max_penetration));
+        if iters as f64 >= cell.max_iterations && k < n {
+            cut = true;
+            r.message = format!(
+                "horizon cut at {:.3} s of {} s: {iters} solver iterations, the cell's budget",
+                k as f64 * cell.h,
+                cell.horizon
+            );
+            break;
+        }
+    }
+    let span = if cut { r.steps } else { n };
+    let (mut drift, mut pen) = (0.0f64, 0.0f64);
+    for (k, &(far, depth)) in (1u64..).zip(&history) {
+        if 2 * k >= span {
             drift = drift.max(far);
-            pen = pen.max(stats.max_penetration);
+            pen = pen.max(depth);
             r.drift = drift;
             r.penetration = pen;
         }
@@ -366,6 +388,8 @@ pub struct Plan {
     pub horizon: f64,
     /// Cap on `boxes × steps` per cell (tall stacks' horizon is cut to fit).
     pub max_box_steps: f64,
+    /// Cap on solver iterations summed over a cell's run ([`Cell::max_iterations`]).
+    pub max_iterations: f64,
 }
 
 impl Plan {
@@ -382,6 +406,9 @@ impl Plan {
                 beta_violation: 1e-2,
                 horizon: 1.0,
                 max_box_steps: 3e4,
+                // Boxed PGS under a 1e4:1 top box at h = 1e-4 needs ~7,900 sweeps a step
+                // (~2 µs each): uncapped, that one cell took 153 s of the plan's 242 s.
+                max_iterations: 5e6,
             }
         } else {
             Self {
@@ -394,6 +421,7 @@ impl Plan {
                 beta_violation: 1e-2,
                 horizon: 2.0,
                 max_box_steps: 1e5,
+                max_iterations: 1e8,
             }
         }
     }
@@ -420,7 +448,8 @@ impl Plan {
     /// The map as data: the solvers, the time steps and the axes of [`Axis::ALL`].
     pub fn map(&self) -> Map {
         let stable = format!(
-            "Stable: over the run's second half every box within {DRIFT_TOL:e} m of rest and penetration ≤ {PENETRATION_TOL:e} m."
+            "Stable: over the run's second half every box within {DRIFT_TOL:e} m of rest and penetration ≤ {PENETRATION_TOL:e} m. A cell stops after {:.0e} solver iterations in all (its message gives the time reached; it is classified on the steps it ran).",
+            self.max_iterations
         );
         let axes = Axis::ALL
             .iter()
@@ -472,6 +501,7 @@ impl Runner for Plan {
             beta: settings(0, 0.2).baumgarte,
             horizon: self.horizon,
             max_box_steps: self.max_box_steps,
+            max_iterations: self.max_iterations,
         };
         match Axis::ALL.get(axis)? {
             Axis::Height => c.boxes = x as usize,
@@ -580,9 +610,15 @@ pub fn section(
          more than {BLOWUP_EXTENT} × (boxes + 1) m from its rest position, or a non-finite \
          energy; **! unstable**: another typed error (an LCP solver's `IterationLimit`, …); \
          **P**: a panic (caught per cell by `catch_unwind`; must be 0). Each cell simulates {} s \
-         (tall stacks: at most {:.0e} box-steps, so fewer steps). Cells run on {threads} \
-         thread(s); each run is deterministic.\n",
-        plan.base_boxes, plan.base_boxes, plan.beta_violation, plan.horizon, plan.max_box_steps
+         (tall stacks: at most {:.0e} box-steps, so fewer steps) or until its solver has run \
+         {:.0e} iterations in all (the cell's message then gives the time it reached). Cells \
+         run on {threads} thread(s); each run is deterministic.\n",
+        plan.base_boxes,
+        plan.base_boxes,
+        plan.beta_violation,
+        plan.horizon,
+        plan.max_box_steps,
+        plan.max_iterations
     );
     let map = plan.map();
     let all = stability::write_maps(&map, &plan, md, out, threads)?;
@@ -612,6 +648,7 @@ mod tests {
             beta: 0.2,
             horizon: 0.1,
             max_box_steps: 1e9,
+            max_iterations: f64::INFINITY,
         }
     }
 
@@ -676,11 +713,29 @@ mod tests {
         );
     }
 
+    /// The iteration budget stops a run after the step that reaches it, says so, and the
+    /// cell is classified on the steps it ran (drift and penetration measured, not NaN).
+    #[test]
+    fn the_iteration_budget_cuts_the_run_and_says_so() {
+        let full = run_cell(&cell(0, 1e-2));
+        assert_eq!(full.steps, 10);
+        assert!(full.message.is_empty(), "{full:?}");
+        let r = run_cell(&Cell {
+            max_iterations: 1.0,
+            ..cell(0, 1e-2)
+        });
+        assert_eq!(r.steps, 1, "{r:?}");
+        assert!(r.message.starts_with("horizon cut at 0.010 s"), "{r:?}");
+        assert_eq!(r.class, CellClass::Stable, "{r:?}");
+        assert!(r.drift.is_finite() && r.penetration.is_finite(), "{r:?}");
+    }
+
     #[test]
     fn the_horizon_is_cut_to_the_box_step_budget() {
         let c = Cell {
             boxes: 30,
             max_box_steps: 3e3,
+            max_iterations: f64::INFINITY,
             ..cell(0, 1e-4)
         };
         assert_eq!(steps(&c), 100);
