@@ -286,7 +286,7 @@ pub fn section(md: &str, dir: &Path, root: &Path) -> String {
         Some(src) => {
             let _ = writeln!(
                 s,
-                "- **Pins**: {} state hashes pinned in `verify/tests/state_hashes.rs` (checked by the tests stage).",
+                "- **Pins**: {} state hashes pinned in `verify/tests/state_hashes.rs` (checked by the pins stage, or by the tests stage with `--ci`).",
                 count_pins(&src)
             );
         }

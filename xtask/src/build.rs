@@ -1,11 +1,14 @@
-//! The builds `cargo xtask verify` runs from, and the test run.
+//! The builds `cargo xtask verify` runs from, and the test runs.
 //!
-//! Two builds, each once: the test suite in the dev profile (the same artifacts as the
-//! README's `cargo test --workspace`, so a newcomer who ran the tests first compiles
-//! nothing again here), and the two tools the later stages run, `verify-report` and
-//! `simulate`, in one release build (one feature resolution for both). Later stages run
-//! those executables directly: a `cargo run -p …` per tool would resolve features for
-//! that package alone and could compile the libraries a second time.
+//! One release build makes the two tools the later stages run, `verify-report` and
+//! `simulate` (one feature resolution for both). By default (a newcomer's first command)
+//! the same build makes two test executables of `constraint-verify`, the state-hash pins
+//! and the bad-input sweep, so the report keeps their counts without building the test
+//! suite twice over; the suite itself is the README's second command. With `--ci` the
+//! test suite is built in the dev profile instead, the same artifacts as the README's
+//! `cargo test --workspace`, so CI, having run the tests first, compiles nothing again.
+//! Later stages run those executables directly: a `cargo run -p …` per tool would resolve
+//! features for that package alone and could compile the libraries a second time.
 
 use crate::run::{cargo, output};
 use std::io::{BufRead, BufReader};
@@ -19,16 +22,20 @@ pub struct Built {
     pub verify_report: PathBuf,
     /// The scene runner (`constraint-scene`'s `simulate`, release), for the real models.
     pub simulate: PathBuf,
-    /// `verify/tests/bad_input_sweep.rs` (dev), run again alone for its summary line.
+    /// `verify/tests/bad_input_sweep.rs` (release by default, dev with `--ci`), run again
+    /// alone for its summary line.
     pub bad_input_sweep: PathBuf,
-    /// The package directory of `bad_input_sweep` (tests run from their package root).
-    pub bad_input_sweep_dir: PathBuf,
-    /// Test executables (unit and integration), for the progress count of the test run.
+    /// The package directory of the verify tests (tests run from their package root).
+    pub verify_dir: PathBuf,
+    /// `verify/tests/state_hashes.rs` in release, when the test suite is not built.
+    pub pins: Option<PathBuf>,
+    /// Test executables (unit and integration) of the dev build, for the progress count
+    /// of the test run; 0 when the test suite is not built.
     pub tests: usize,
 }
 
 /// The release build of the two tools, as cargo arguments.
-const TOOLS: [&str; 9] = [
+const TOOLS: [&str; 10] = [
     "build",
     "--release",
     "-p",
@@ -38,30 +45,52 @@ const TOOLS: [&str; 9] = [
     "--bin",
     "verify-report",
     "--bin",
+    "simulate",
 ];
 
-/// `cargo test --workspace --no-run` and the release build of `verify-report` and
-/// `simulate`, each with cargo's own progress; then both again with
+/// Added to [`TOOLS`] when the test suite is not built: the pins' and the bad-input
+/// sweep's test executables, in the same release build.
+const RELEASE_TESTS: [&str; 6] = [
+    "-p",
+    "constraint-verify",
+    "--test",
+    "state_hashes",
+    "--test",
+    "bad_input_sweep",
+];
+
+/// With `suite`, `cargo test --workspace --no-run` (dev); then the release build of
+/// `verify-report` and `simulate` (and without `suite`, of the pins' and the bad-input
+/// sweep's tests), each with cargo's own progress; then again with
 /// `--message-format=json` (nothing left to build: they only list the executables).
-pub fn build() -> Result<Built, String> {
+pub fn build(suite: bool) -> Result<Built, String> {
     let t0 = Instant::now();
-    eprintln!("  the test suite (dev profile, as `cargo test --workspace`)");
-    let ok = cargo()
-        .args(["test", "--workspace", "--no-run"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !ok {
-        return Err("cargo test --workspace --no-run failed".into());
+    if suite {
+        eprintln!("  the test suite (dev profile, as `cargo test --workspace`)");
+        let ok = cargo()
+            .args(["test", "--workspace", "--no-run"])
+            .status()
+            .is_ok_and(|s| s.success());
+        if !ok {
+            return Err("cargo test --workspace --no-run failed".into());
+        }
     }
     let t1 = Instant::now();
-    eprintln!("  verify-report and simulate (release)");
-    let ok = cargo()
-        .args(TOOLS)
-        .arg("simulate")
-        .status()
-        .is_ok_and(|s| s.success());
-    if !ok {
-        return Err("cargo build --release (verify-report, simulate) failed".into());
+    let release = |c: &mut Command| {
+        c.args(TOOLS);
+        if !suite {
+            c.args(RELEASE_TESTS);
+        }
+    };
+    if suite {
+        eprintln!("  verify-report and simulate (release)");
+    } else {
+        eprintln!("  verify-report, simulate, state_hashes and bad_input_sweep (release)");
+    }
+    let mut c = cargo();
+    release(&mut c);
+    if !c.status().is_ok_and(|s| s.success()) {
+        return Err("cargo build --release (the tools) failed".into());
     }
     let t2 = Instant::now();
     let json = |c: &mut Command| {
@@ -72,29 +101,68 @@ pub fn build() -> Result<Built, String> {
             Err("listing the built executables (--message-format=json) failed".to_string())
         }
     };
-    let tests = json(cargo().args(["test", "--workspace", "--no-run"]))?;
-    let tools = json(cargo().args(TOOLS).arg("simulate"))?;
+    let tests = if suite {
+        json(cargo().args(["test", "--workspace", "--no-run"]))?
+    } else {
+        Vec::new()
+    };
+    let mut c = cargo();
+    release(&mut c);
+    let tools = json(&mut c)?;
     let find = |list: &[Artifact], name: &str, test: bool| -> Result<(PathBuf, PathBuf), String> {
         list.iter()
             .find(|a| a.name == name && a.test == test)
             .map(|a| (a.executable.clone(), a.package_dir.clone()))
             .ok_or_else(|| format!("the build has no executable `{name}`"))
     };
-    let (bad_input_sweep, bad_input_sweep_dir) = find(&tests, "bad_input_sweep", true)?;
+    let (bad_input_sweep, verify_dir) =
+        find(if suite { &tests } else { &tools }, "bad_input_sweep", true)?;
     let built = Built {
         verify_report: find(&tools, "verify-report", false)?.0,
         simulate: find(&tools, "simulate", false)?.0,
         bad_input_sweep,
-        bad_input_sweep_dir,
+        verify_dir,
+        pins: if suite {
+            None
+        } else {
+            Some(find(&tools, "state_hashes", true)?.0)
+        },
         tests: tests.iter().filter(|a| a.test).count(),
     };
-    eprintln!(
-        "  built {} test executables in {:.0} s, the tools in {:.0} s",
-        built.tests,
-        (t1 - t0).as_secs_f64(),
-        (t2 - t1).as_secs_f64()
-    );
+    if suite {
+        eprintln!(
+            "  built {} test executables in {:.0} s, the tools in {:.0} s",
+            built.tests,
+            (t1 - t0).as_secs_f64(),
+            (t2 - t1).as_secs_f64()
+        );
+    } else {
+        eprintln!("  built in {:.0} s", (t2 - t1).as_secs_f64());
+    }
     Ok(built)
+}
+
+/// The state-hash pins' release executable, when built: returns success and the test
+/// harness's result line (`test result: ok. 7 passed; …`), its output passed through.
+pub fn run_pins(built: &Built) -> (bool, String) {
+    let Some(exe) = &built.pins else {
+        return (false, "not built".to_string());
+    };
+    let (ok, text) = output(Command::new(exe).current_dir(&built.verify_dir));
+    eprint!("{text}");
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("test result:"))
+        .map_or_else(
+            || "no result line".to_string(),
+            |l| {
+                let l = l.trim_start_matches("test result:").trim();
+                // `ok. 7 passed; 0 failed; …; finished in 1.2s` without the timing.
+                let l = l.split("; finished").next().unwrap_or(l);
+                format!("release build: {l}")
+            },
+        );
+    (ok, line)
 }
 
 /// `cargo test --workspace --no-fail-fast` (plus `env`), its output passed
@@ -144,12 +212,13 @@ pub fn run_tests(built: &Built, env: &[(&str, &str)]) -> bool {
     child.wait().is_ok_and(|s| s.success())
 }
 
-/// The bad-input sweep's executable with `--nocapture`, from its package directory;
+/// The bad-input sweep's executable with `--nocapture`, from its package directory
+/// (release by default, dev with `--ci`);
 /// returns success and stdout.
 pub fn run_bad_input_sweep(built: &Built) -> (bool, String) {
     output(
         Command::new(&built.bad_input_sweep)
-            .current_dir(&built.bad_input_sweep_dir)
+            .current_dir(&built.verify_dir)
             .arg("--nocapture"),
     )
 }

@@ -41,11 +41,13 @@ use std::process::ExitCode;
 const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
-  verify [--quick | --full] [--mujoco]
-                     checks, one release build, tests, no_std build, packaging, sweeps and the
-                     real models; writes target/verify/report.md (12 min on two cores once built);
-                     --quick: CI's shorter model runs; --full: denser sweeps, 2048 proptest
-                     cases, each library crate built from its .crate;
+  verify [--ci | --full] [--mujoco]
+                     the report: one release build, the state-hash pins, no_std build,
+                     packaging, sweeps and the real models; writes target/verify/report.md
+                     (aim: ten minutes on a fresh two-core machine);
+                     --ci adds fmt, clippy, rustdoc and the whole test suite (what CI runs);
+                     --full: denser sweeps, 5 s model runs, 2048 proptest cases, each library
+                     crate built from its .crate (implies --ci);
                      --mujoco also regenerates scenes/reference/ in MuJoCo and checks it
   no-std             build constraint-core and constraint-lagrange for thumbv7em-none-eabihf without std
   package [--no-verify]

@@ -1,15 +1,24 @@
-//! `cargo xtask verify [--quick | --full] [--mujoco]`: everything CI checks, and the report.
+//! `cargo xtask verify [--ci | --full] [--mujoco]`: the report, and with `--ci` everything
+//! CI checks.
 //!
-//! Stages, each timed and shown as it runs (`[k/N, elapsed] what`):
-//! 1. `cargo fmt --all -- --check`
-//! 2. `cargo clippy --workspace --all-targets -- -D warnings`
-//! 3. `cargo doc --no-deps` of the library crates with `RUSTDOCFLAGS=-D warnings`, with
-//!    default and with all features (broken intra-doc links, missing docs)
-//! 4. the builds (see `build.rs`): the test suite as `cargo test --workspace`
-//!    builds it (dev profile, shared with the README's test command), and
-//!    `verify-report` and `simulate` in one release build that the sweeps and the real
-//!    models run directly
-//! 5. `cargo test --workspace --no-fail-fast`, each test executable announced as
+//! The default is a newcomer's first command: the report with every chart and table,
+//! sized to answer within ten minutes on a fresh two-core machine. The test suite is the
+//! README's second command (`cargo test --workspace`); `--ci` runs it here too, with the
+//! lints and the docs, and is what `.ci/run` calls.
+//!
+//! Stages, each timed and shown as it runs (`[k/N, elapsed] what`); those marked *ci* run
+//! only with `--ci` (or `--full`):
+//! 1. *ci* `cargo fmt --all -- --check`
+//! 2. *ci* `cargo clippy --workspace --all-targets -- -D warnings`
+//! 3. *ci* `cargo doc --no-deps` of the library crates with `RUSTDOCFLAGS=-D warnings`,
+//!    with default and with all features (broken intra-doc links, missing docs)
+//! 4. the builds (see `build.rs`): `verify-report` and `simulate` in one release build
+//!    that the sweeps and the real models run directly; by default the same build makes
+//!    the state-hash pins' and the bad-input sweep's test executables; with `--ci` the
+//!    test suite is built as `cargo test --workspace` builds it instead (dev profile,
+//!    shared with the README's test command)
+//! 5. by default the state-hash pins (`verify/tests/state_hashes.rs`, release build);
+//!    *ci* `cargo test --workspace --no-fail-fast`, each test executable announced as
 //!    `[tests k/N, elapsed]` (`--full`: `PROPTEST_CASES=2048`, else 256)
 //! 6. the `no_std` build of `constraint-core` (see `no_std.rs`)
 //! 7. `cargo xtask package` (see `package.rs`): every library crate packed and its file
@@ -17,9 +26,8 @@
 //!    a target directory that builds the dependencies again at the published crates'
 //!    own profile, minutes); otherwise `--no-verify` (about 2 s)
 //! 8. the sweeps (`verify-report`): stability maps, work-precision charts, drift, the
-//!    contact and articulated sections; the default plan (also CI's; `--quick` names
-//!    the default) aims at the whole command answering within ten minutes on two
-//!    cores, `--full` runs the dense one (about 18 minutes of sweeps)
+//!    contact and articulated sections; the default plan (also CI's), `--full` the
+//!    dense one (about 18 minutes of sweeps)
 //! 9. the real models (`cargo xtask models run --quick`: 0.5 s runs, one repeat;
 //!    `--full`: 5 s runs, MuJoCo's median of 3):
 //!    the 33 gymnasium and dm_control models in MuJoCo and here, per-model checks, the
@@ -66,14 +74,13 @@ fn git_head() -> String {
 /// tests' cases and whether packages are built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Mode {
-    /// A newcomer's first command, and CI's (`--quick` names the same): every chart and
-    /// table from the small plans, 0.5 s model runs, 256 proptest cases, packages packed
-    /// but not built. Measured on a fresh 2-core machine: 11 min 52 s once the tests were
-    /// built (242 s of it the sweeps), against a ten-minute aim.
+    /// The default, a newcomer's first command (`--ci` adds the checks to it; `--quick`,
+    /// its old name, is still accepted): every chart and table from the small plans,
+    /// 0.5 s model runs, 256 proptest cases with `--ci`, packages packed but not built.
     Standard,
     /// `--full`: the dense plans (about 18 minutes of sweeps), 5 s model runs with
     /// MuJoCo's median of 3, 2048 proptest cases, each library crate built from its
-    /// `.crate`.
+    /// `.crate`; implies `--ci`.
     Full,
 }
 
@@ -107,105 +114,132 @@ pub fn main(args: &[String]) -> Result<(), String> {
     }
     for a in args {
         match a.as_str() {
-            "--quick" | "--full" | "--mujoco" => {}
+            "--quick" | "--full" | "--ci" | "--mujoco" => {}
             _ => {
                 return Err(format!(
-                    "unknown argument {a:?} (expected --quick, --full, --mujoco)"
+                    "unknown argument {a:?} (expected --ci, --full, --mujoco)"
                 ))
             }
         }
     }
+    // The lints, the docs and the whole test suite: CI's checks, not the report's.
+    let checks = mode == Mode::Full || args.iter().any(|a| a == "--ci");
     let out = root().join("target/verify");
     std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
-    let total = if with_mujoco { 10 } else { 9 };
+    let total = 6 + if checks { 3 } else { 0 } + usize::from(with_mujoco);
     let mut stages: Vec<Stage> = Vec::new();
     let started = std::time::Instant::now();
-    let begin = |k: usize, name: &str| {
+    let mut k = 0;
+    let mut begin = |name: &str| {
+        k += 1;
         eprintln!(
             "\n[{k}/{total}, {:.0} s] {name}",
             started.elapsed().as_secs_f64()
         )
     };
 
-    begin(1, "format (cargo fmt --check)");
-    let (ok, secs) = status(cargo().args(["fmt", "--all", "--", "--check"]));
-    stages.push(Stage {
-        name: "cargo fmt --check",
-        ok,
-        secs,
-        note: String::new(),
-    });
+    if checks {
+        begin("format (cargo fmt --check)");
+        let (ok, secs) = status(cargo().args(["fmt", "--all", "--", "--check"]));
+        stages.push(Stage {
+            name: "cargo fmt --check",
+            ok,
+            secs,
+            note: String::new(),
+        });
 
-    begin(2, "lint (cargo clippy -D warnings)");
-    let (ok, secs) = status(cargo().args([
-        "clippy",
-        "--workspace",
-        "--all-targets",
-        "--",
-        "-D",
-        "warnings",
-    ]));
-    stages.push(Stage {
-        name: "cargo clippy --workspace --all-targets -D warnings",
-        ok,
-        secs,
-        note: String::new(),
-    });
+        begin("lint (cargo clippy -D warnings)");
+        let (ok, secs) = status(cargo().args([
+            "clippy",
+            "--workspace",
+            "--all-targets",
+            "--",
+            "-D",
+            "warnings",
+        ]));
+        stages.push(Stage {
+            name: "cargo clippy --workspace --all-targets -D warnings",
+            ok,
+            secs,
+            note: String::new(),
+        });
 
-    begin(3, "docs (cargo doc of the library crates, -D warnings)");
-    let t0 = std::time::Instant::now();
-    let mut ok = true;
-    // Default features, then all: a link can resolve under one set and not the other.
-    for all in [false, true] {
-        let mut doc = cargo();
-        doc.args(["doc", "--no-deps"]);
-        for (c, _) in crate::package::CRATES {
-            doc.args(["-p", c]);
+        begin("docs (cargo doc of the library crates, -D warnings)");
+        let t0 = std::time::Instant::now();
+        let mut ok = true;
+        // Default features, then all: a link can resolve under one set and not the other.
+        for all in [false, true] {
+            let mut doc = cargo();
+            doc.args(["doc", "--no-deps"]);
+            for (c, _) in crate::package::CRATES {
+                doc.args(["-p", c]);
+            }
+            if all {
+                doc.arg("--all-features");
+            }
+            doc.env("RUSTDOCFLAGS", "-D warnings");
+            ok &= status(&mut doc).0;
         }
-        if all {
-            doc.arg("--all-features");
-        }
-        doc.env("RUSTDOCFLAGS", "-D warnings");
-        ok &= status(&mut doc).0;
+        stages.push(Stage {
+            name: "cargo doc (library crates) -D warnings",
+            ok,
+            secs: t0.elapsed().as_secs_f64(),
+            note: "default and all features".to_string(),
+        });
     }
-    stages.push(Stage {
-        name: "cargo doc (library crates) -D warnings",
-        ok,
-        secs: t0.elapsed().as_secs_f64(),
-        note: "default and all features".to_string(),
-    });
 
-    begin(
-        4,
-        "build: the test suite (cargo test --no-run), verify-report and simulate (release)",
-    );
+    begin(if checks {
+        "build: the test suite (cargo test --no-run), verify-report and simulate (release)"
+    } else {
+        "build (release): verify-report, simulate, the pins' and the bad-input sweep's tests"
+    });
     let t0 = std::time::Instant::now();
-    let built = crate::build::build();
+    let built = crate::build::build(checks);
     stages.push(Stage {
-        name: "build (tests; verify-report and simulate in release)",
+        name: if checks {
+            "build (tests; verify-report and simulate in release)"
+        } else {
+            "build (release: tools, pins, bad-input sweep)"
+        },
         ok: built.is_ok(),
         secs: t0.elapsed().as_secs_f64(),
         note: match &built {
-            Ok(b) => format!("{} test executables", b.tests),
+            Ok(b) if checks => format!("{} test executables", b.tests),
+            Ok(_) => "the test suite is `cargo test --workspace` (or `--ci`)".to_string(),
             Err(e) => e.clone(),
         },
     });
     let built = built.ok();
 
-    begin(5, "tests (cargo test --workspace)");
-    let t0 = std::time::Instant::now();
-    let cases = if mode == Mode::Full { "2048" } else { "256" };
-    let ok = built
-        .as_ref()
-        .is_some_and(|b| crate::build::run_tests(b, &[("PROPTEST_CASES", cases)]));
-    stages.push(Stage {
-        name: "cargo test --workspace",
-        ok,
-        secs: t0.elapsed().as_secs_f64(),
-        note: format!("proptest: {cases} cases"),
-    });
+    if checks {
+        begin("tests (cargo test --workspace)");
+        let t0 = std::time::Instant::now();
+        let cases = if mode == Mode::Full { "2048" } else { "256" };
+        let ok = built
+            .as_ref()
+            .is_some_and(|b| crate::build::run_tests(b, &[("PROPTEST_CASES", cases)]));
+        stages.push(Stage {
+            name: "cargo test --workspace",
+            ok,
+            secs: t0.elapsed().as_secs_f64(),
+            note: format!("proptest: {cases} cases"),
+        });
+    } else {
+        begin("state-hash pins (verify/tests/state_hashes.rs)");
+        let t0 = std::time::Instant::now();
+        let (ok, note) = match built.as_ref().map(crate::build::run_pins) {
+            Some((ok, line)) => (ok, line),
+            None => (false, "the build failed".to_string()),
+        };
+        stages.push(Stage {
+            name: "state-hash pins",
+            ok,
+            secs: t0.elapsed().as_secs_f64(),
+            note,
+        });
+    }
 
-    begin(6, "no_std build of constraint-core");
+    begin("no_std build of constraint-core");
     let t0 = std::time::Instant::now();
     let (ok, note) = match no_std::main(&[]) {
         Ok(no_std::Outcome::Embedded) => (true, format!("built for {}", no_std::TARGET)),
@@ -225,7 +259,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
         note,
     });
 
-    begin(7, "packaging (cargo xtask package)");
+    begin("packaging (cargo xtask package)");
     let t0 = std::time::Instant::now();
     // Building each packed crate alone compiles the dependencies again at the
     // published crates' own profile (minutes on a fresh machine): `--full` and CI do
@@ -251,13 +285,10 @@ pub fn main(args: &[String]) -> Result<(), String> {
         note,
     });
 
-    begin(
-        8,
-        &format!(
-            "sweeps: stability maps and work-precision ({} plan)",
-            mode.name()
-        ),
-    );
+    begin(&format!(
+        "sweeps: stability maps and work-precision ({} plan)",
+        mode.name()
+    ));
     let t0 = std::time::Instant::now();
     let ok = built.as_ref().is_some_and(|b| {
         let mut sweep = Command::new(&b.verify_report);
@@ -275,10 +306,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
         note: format!("{} plan", mode.name()),
     });
 
-    begin(
-        9,
-        "real models: gymnasium and dm_control in MuJoCo and here",
-    );
+    begin("real models: gymnasium and dm_control in MuJoCo and here");
     let t0 = std::time::Instant::now();
     let (ok, note, models_md) = match &built {
         Some(b) => real_models(mode, b, &out),
@@ -296,10 +324,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
     });
 
     if with_mujoco {
-        begin(
-            10,
-            "MuJoCo references regenerated and compared with scenes/reference/",
-        );
+        begin("MuJoCo references regenerated and compared with scenes/reference/");
         let t0 = std::time::Instant::now();
         let (ok, note) = match crate::mujoco::check_references(&out.join("mujoco"), 1e-9) {
             Ok(lines) => (true, format!("{} scenes within 1e-9", lines.len())),
@@ -317,10 +342,15 @@ pub fn main(args: &[String]) -> Result<(), String> {
     let _ = writeln!(md, "# Verification report\n");
     let _ = writeln!(
         md,
-        "Commit `{}`, mode `{}`. Reproduce with `cargo xtask verify{}{}`.\n",
+        "Commit `{}`, mode `{}`. Reproduce with `cargo xtask verify{}{}{}`.\n",
         git_head(),
         mode.name(),
         mode.flag(),
+        if checks && mode != Mode::Full {
+            " --ci"
+        } else {
+            ""
+        },
         if with_mujoco { " --mujoco" } else { "" }
     );
     let _ = writeln!(
