@@ -13,8 +13,8 @@
 use constraint_articulated::{Joint, JointKind, Method, MjcfScene, RigidBody, World};
 use constraint_contact::geometry::{Collider, Shape};
 use constraint_contact::lcp::{
-    fischer_newton, lemke, pgs, solve_rows, solve_rows_sparse, Lcp, LemkeSettings, NewtonSettings,
-    PgsSettings, RowBound, RowSettings, SparseRows,
+    fischer_newton, lemke, pgs, row_residual, solve_rows, solve_rows_sparse, Lcp, LemkeSettings,
+    NewtonSettings, PgsSettings, RowBound, RowSettings, SparseRows,
 };
 use constraint_contact::rigid::{
     ContactSettings, ContactSolver, ContactWorld, FrictionModel, SleepSettings, SoftStepSettings,
@@ -2028,7 +2028,8 @@ fn lcp_solve_all(s: &mut Sweep, label: &str, lcp: &Lcp) {
 /// One row-solver case: label, `A` (row-major), `q`, bounds, warm start.
 type RowCase = (String, Vec<f64>, Vec<f64>, Vec<RowBound>, Vec<f64>);
 
-/// The staggered row solvers, dense (`solve_rows`) and sparse (`solve_rows_sparse`), on
+/// The staggered row solvers, dense (`solve_rows`) and sparse (`solve_rows_sparse`), and
+/// their residual (`row_residual`), on
 /// one contact (a normal row and two friction rows) and a boxed row: a bad value in
 /// each slot of `A`, `q`, `z`, `μ` and the box, wrong lengths, and hand-built sparse
 /// rows that break their invariants (a column out of range, unsorted columns, short
@@ -2139,6 +2140,9 @@ fn row_solver_cases(s: &mut Sweep) {
         z0.clone(),
     ));
     for (label, aa, qq, bb, zz) in cases {
+        s.case(format!("row_residual {label}"), || {
+            of(row_residual(&aa, &qq, &bb, &zz))
+        });
         s.case(format!("solve_rows {label}"), || {
             let mut z = zz.clone();
             of(solve_rows(&aa, &qq, &bb, &RowSettings::default(), &mut z).map(|st| (z, st)))

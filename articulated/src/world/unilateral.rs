@@ -470,7 +470,10 @@ impl World {
                         }
                     }
                 }
-                Ok((stats, row_residual(&a, &q, &bounds, z)))
+                // The shapes were built here and checked by the solve: no error.
+                row_residual(&a, &q, &bounds, z)
+                    .map(|r| (stats, r))
+                    .map_err(ArticulatedError::Unilateral)
             }
             Err(e) => Err(ArticulatedError::Unilateral(e)),
         };

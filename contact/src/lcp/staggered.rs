@@ -142,7 +142,36 @@ pub struct RowStats {
 /// `|z_i − P_i(z_i − w_i)|` over the rows, `w = A z + q`, `P_i` the projection on row
 /// `i`'s bounds (`[0, ∞)`, `[−μ z_n, μ z_n]`, `[lo, hi]`; zero exactly at a solution),
 /// relative to `max(1, max |q|)`.
-pub fn row_residual(a: &[f64], q: &[f64], bounds: &[RowBound], z: &[f64]) -> f64 {
+///
+/// # Errors
+/// The shapes [`solve_rows`] checks: `a` not `n × n`, `bounds` or `z` not of length
+/// `n = q.len()` ([`LcpError::DimensionMismatch`]), a friction row whose normal is not a
+/// unilateral row ([`LcpError::BadSettings`]); a residual that is not finite
+/// ([`LcpError::NonFinite`] naming the first non-finite entry of `a`, `q` or `z`, or
+/// `"residual"` when the entries are finite and a product overflowed).
+pub fn row_residual(a: &[f64], q: &[f64], bounds: &[RowBound], z: &[f64]) -> Result<f64, LcpError> {
+    let m = q.len();
+    if a.len() != m * m {
+        return Err(LcpError::DimensionMismatch {
+            what: "a",
+            expected: m * m,
+            found: a.len(),
+        });
+    }
+    check_rows(m, bounds, z.len())?;
+    let r = dense_residual(a, q, bounds, z);
+    if r.is_finite() {
+        return Ok(r);
+    }
+    let first = [("a", a), ("q", q), ("z", z)]
+        .into_iter()
+        .find_map(|(what, v)| v.iter().position(|x| !x.is_finite()).map(|i| (what, i)));
+    let (what, index) = first.unwrap_or(("residual", 0));
+    Err(LcpError::NonFinite { what, index })
+}
+
+/// [`row_residual`] on checked shapes.
+fn dense_residual(a: &[f64], q: &[f64], bounds: &[RowBound], z: &[f64]) -> f64 {
     let m = q.len();
     let scale = q.iter().fold(1.0f64, |s, v| s.max(v.abs()));
     let mut worst: f64 = 0.0;
@@ -153,6 +182,35 @@ pub fn row_residual(a: &[f64], q: &[f64], bounds: &[RowBound], z: &[f64]) -> f64
         worst = worst.max((z[i] - p).abs());
     }
     worst / scale
+}
+
+/// The shapes every row solve needs: `bounds` and `z` (of length `z_len`) of length
+/// `n`, and each friction row's normal a unilateral row of the problem (found by the
+/// bad-input sweep: an index out of range, or a friction row as the normal, panicked or
+/// chained bounds).
+fn check_rows(n: usize, bounds: &[RowBound], z_len: usize) -> Result<(), LcpError> {
+    for (what, len) in [("bounds", bounds.len()), ("z", z_len)] {
+        if len != n {
+            return Err(LcpError::DimensionMismatch {
+                what,
+                expected: n,
+                found: len,
+            });
+        }
+    }
+    let normals_ok = bounds.iter().all(|b| match *b {
+        RowBound::Friction { normal, .. } => {
+            matches!(bounds.get(normal), Some(RowBound::Unilateral))
+        }
+        _ => true,
+    });
+    if normals_ok {
+        Ok(())
+    } else {
+        Err(LcpError::BadSettings(
+            "a friction row's normal must be a unilateral row of the problem",
+        ))
+    }
 }
 
 /// [`row_residual`] with `A` as sparse rows (the same bits: the products run over
@@ -209,32 +267,10 @@ pub fn solve_rows_sparse(
     if n == 0 {
         return Ok(stats);
     }
-    for (what, len) in [("bounds", bounds.len()), ("z", z.len())] {
-        if len != n {
-            return Err(LcpError::DimensionMismatch {
-                what,
-                expected: n,
-                found: len,
-            });
-        }
-    }
+    check_rows(n, bounds, z.len())?;
     if !a.is_valid(n) {
         return Err(LcpError::BadSettings(
             "sparse rows of A inconsistent with q",
-        ));
-    }
-    // A friction row's bound is `μ z_normal`: its normal must be a one-sided row of
-    // this problem (found by the bad-input sweep: an index out of range, or a friction
-    // row as the normal, panicked or chained bounds).
-    let normals_ok = bounds.iter().all(|b| match *b {
-        RowBound::Friction { normal, .. } => {
-            matches!(bounds.get(normal), Some(RowBound::Unilateral))
-        }
-        _ => true,
-    });
-    if !normals_ok {
-        return Err(LcpError::BadSettings(
-            "a friction row's normal must be a unilateral row of the problem",
         ));
     }
     let pgs_settings = PgsSettings {
@@ -597,7 +633,7 @@ mod tests {
                 }
                 // A real answer, not only the same one: measured 5.9e-9 (staggered, 5
                 // sweeps, all three methods) and 1.4e-11 (boxed PGS); tolerance 1e-8.
-                let r = row_residual(&a, &q, &bounds, &z_dense);
+                let r = row_residual(&a, &q, &bounds, &z_dense).unwrap();
                 println!(
                     "{method:?} {coupling:?}: residual {r:e}, {} sweeps",
                     dense.sweeps
