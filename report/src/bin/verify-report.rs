@@ -15,11 +15,10 @@
 //!
 //! `cargo run --release -p constraint-report --bin verify-report -- [--full] [--out DIR]`
 //! (normally called by `cargo xtask verify`). Two plans: the default one, sized so that
-//! `cargo xtask verify` answers in about ten minutes on two cores (every chart, fewer
-//! points: 242 s of sweeps in the last measurement, 153 s of it one contact map cell,
-//! boxed PGS under a 1e4:1 box at h = 1e-4), and `--full` (denser grids, finer
-//! references, best of three timings: about 18 minutes of sweeps). `--quick`, what CI
-//! passes, is the default plan.
+//! `cargo xtask verify` answers within ten minutes on two cores (every chart, fewer
+//! points: 82 s of sweeps on a fresh clone on two quiet cores, the whole command 6 min
+//! 27 s), and `--full` (denser grids, finer references, best of three timings: about 18
+//! minutes of sweeps). `--quick` is the default plan.
 //!
 //! `verify-report --models MODELS.csv DIR [HOW]` only writes the real-models section
 //! (`DIR/models_section.md`, `models_time_ratio.svg`, `models_smooth_error.svg`; see
