@@ -156,10 +156,13 @@ pub fn run_pins(built: &Built) -> (bool, String) {
         .map_or_else(
             || "no result line".to_string(),
             |l| {
-                let l = l.trim_start_matches("test result:").trim();
-                // `ok. 7 passed; 0 failed; …; finished in 1.2s` without the timing.
-                let l = l.split("; finished").next().unwrap_or(l);
-                format!("release build: {l}")
+                // `ok. 7 passed; 0 failed; 0 ignored; …`: the two counts that matter.
+                let counts: Vec<&str> = l
+                    .split(['.', ';'])
+                    .map(str::trim)
+                    .filter(|p| p.ends_with(" passed") || p.ends_with(" failed"))
+                    .collect();
+                format!("{} (release build)", counts.join(", "))
             },
         );
     (ok, line)
