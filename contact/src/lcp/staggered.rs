@@ -151,13 +151,7 @@ pub struct RowStats {
 /// `"residual"` when the entries are finite and a product overflowed).
 pub fn row_residual(a: &[f64], q: &[f64], bounds: &[RowBound], z: &[f64]) -> Result<f64, LcpError> {
     let m = q.len();
-    if a.len() != m * m {
-        return Err(LcpError::DimensionMismatch {
-            what: "a",
-            expected: m * m,
-            found: a.len(),
-        });
-    }
+    check_square(a, m)?;
     check_rows(m, bounds, z.len())?;
     let r = dense_residual(a, q, bounds, z);
     if r.is_finite() {
@@ -182,6 +176,19 @@ fn dense_residual(a: &[f64], q: &[f64], bounds: &[RowBound], z: &[f64]) -> f64 {
         worst = worst.max((z[i] - p).abs());
     }
     worst / scale
+}
+
+/// A dense row-major `A` must be `n × n`.
+fn check_square(a: &[f64], n: usize) -> Result<(), LcpError> {
+    if a.len() == n * n {
+        Ok(())
+    } else {
+        Err(LcpError::DimensionMismatch {
+            what: "a",
+            expected: n * n,
+            found: a.len(),
+        })
+    }
 }
 
 /// The shapes every row solve needs: `bounds` and `z` (of length `z_len`) of length
@@ -240,13 +247,7 @@ pub fn solve_rows(
     z: &mut [f64],
 ) -> Result<RowStats, LcpError> {
     let n = q.len();
-    if a.len() != n * n {
-        return Err(LcpError::DimensionMismatch {
-            what: "a",
-            expected: n * n,
-            found: a.len(),
-        });
-    }
+    check_square(a, n)?;
     solve_rows_sparse(&SparseRows::from_dense(a, n), q, bounds, settings, z)
 }
 
