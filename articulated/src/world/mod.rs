@@ -260,6 +260,8 @@ pub struct World {
     fluid: Option<Fluid>,
     /// Per body: principal axes (body frame) and inertia-box half-sizes.
     fluid_boxes: Vec<(DMat3, DVec3)>,
+    /// Per body: the fluid's force and torque at the last evaluation (scratch).
+    fluid_last: Vec<(DVec3, DVec3)>,
     /// Limits per joint and degree of freedom.
     limits: Vec<[Option<[f64; 2]>; constraint_core::compound::MAX_DOF]>,
     /// Settings of the one-sided rows (limits, contacts).
@@ -360,6 +362,7 @@ impl World {
             tendon_spans: equality::Spans::default(),
             fluid: None,
             fluid_boxes: Vec::new(),
+            fluid_last: Vec::new(),
             unilateral: UnilateralSettings::default(),
             ustats: UnilateralStats::default(),
             urows: Vec::new(),

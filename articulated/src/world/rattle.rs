@@ -193,12 +193,15 @@ impl World {
         self.body_rhs_with(!reused, |b, _, iw| {
             (b.v * b.mass() + g * (b.mass() * s), *iw * b.omega)
         });
+        // The forces at `v` are kept for stage 2, which adds them again at the same
+        // state (positions and velocities do not change between the stages).
+        let mut dof_any = false;
         if forces {
             self.add_spring_rhs(s);
-            self.add_dof_forces(s);
+            dof_any = self.add_dof_forces_part(s, ForcePart::Full);
             self.add_fluid_rhs(s);
         } else if explicit {
-            self.add_dof_forces_part(s, part);
+            dof_any = self.add_dof_forces_part(s, part);
             self.add_fluid_rhs(s);
         }
         let loops = self.assemble_with(s, Rates::Full, Soft::Free, !reused, None);
@@ -244,8 +247,8 @@ impl World {
                 -core::f64::consts::SQRT_2 * tau,
                 (1.0 + core::f64::consts::FRAC_1_SQRT_2) * tau,
             );
-            self.add_dof_forces_part(w_v, part);
-            self.add_fluid_rhs(w_v);
+            self.reapply_dof_forces(w_v, dof_any);
+            self.reapply_fluid_rhs(w_v);
             // f(v₁): the forces read the bodies' velocities; swap v₁ in and back.
             let swap = |bodies: &mut [RigidBody], v1: &mut [(DVec3, DVec3)]| {
                 for (b, (v, w)) in bodies.iter_mut().zip(v1.iter_mut()) {
@@ -258,8 +261,8 @@ impl World {
             self.add_fluid_rhs(w_v1);
             swap(&mut self.bodies, &mut v1);
         } else if forces {
-            self.add_dof_forces(s);
-            self.add_fluid_rhs(s);
+            self.reapply_dof_forces(s, dof_any);
+            self.reapply_fluid_rhs(s);
         }
         self.armature_rhs(s, &stage);
         self.rattle.stage = stage;
