@@ -70,6 +70,10 @@ type WarmContact = ((usize, usize, u64), (f64, DVec3));
 /// Loop-closure rows of one assembly: `(a, b, row)`, compliance, right-hand side.
 type LoopRows = (Vec<(Option<usize>, usize, [DVec3; 4])>, Vec<f64>, Vec<f64>);
 
+/// An assembly's writer of a joint's right-hand side: `(joint index, joint, its rows,
+/// the right-hand side of its rows)`.
+type JointRhs<'a> = dyn FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]) + 'a;
+
 /// Which rate rows (one per degree of freedom) an assembly gives the joints.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Rates {
@@ -860,7 +864,7 @@ impl World {
         rates: Rates,
         soft: Soft,
         matrix: bool,
-        mut joint_rhs: Option<&mut dyn FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64])>,
+        mut joint_rhs: Option<&mut JointRhs<'_>>,
     ) -> LoopRows {
         if matrix {
             self.factors.forget_current();
