@@ -198,32 +198,52 @@ impl Joint {
             }
         }
         if rates {
-            match &self.kind {
-                JointKind::Spherical(_) => {
-                    for e in [DVec3::X, DVec3::Y, DVec3::Z] {
-                        out.push_rate([DVec3::ZERO, -e, DVec3::ZERO, e]);
-                    }
+            let first = out.rows[0];
+            self.push_rates(a, b, first, &mut out);
+        }
+        out
+    }
+
+    /// The rate rows alone, as [`Self::rows_with`] gives them (the same bits), after
+    /// `hard_rows()` zero hard rows (value 0, Jacobian 0): for a right-hand side that
+    /// reads only the rate rows, without the cost of the hard rows' Jacobian.
+    pub(crate) fn rate_rows_only(&self, a: &Pose, b: &Pose) -> JointRows {
+        let mut out = JointRows::new();
+        out.n = self.hard_rows();
+        out.n_hard = out.n;
+        // A distance joint's rate row is its hard row.
+        let first = match &self.kind {
+            JointKind::Distance(c) => c.jacobian(a, b).rows[0],
+            _ => [DVec3::ZERO; 4],
+        };
+        self.push_rates(a, b, first, &mut out);
+        out
+    }
+
+    /// Appends the rate rows (one per degree of freedom) to `out`; `first` is the first
+    /// hard row (a distance joint's rate row).
+    fn push_rates(&self, a: &Pose, b: &Pose, first: [DVec3; 4], out: &mut JointRows) {
+        match &self.kind {
+            JointKind::Spherical(_) => {
+                for e in [DVec3::X, DVec3::Y, DVec3::Z] {
+                    out.push_rate([DVec3::ZERO, -e, DVec3::ZERO, e]);
                 }
-                JointKind::Hinge(c) => {
-                    let u = b.q * c.axis_b();
-                    out.push_rate([DVec3::ZERO, -u, DVec3::ZERO, u]);
-                }
-                JointKind::Prismatic(c) => out.push_rate(c.displacement_row(a, b)),
-                JointKind::Distance(_) => {
-                    let r = out.rows[0];
-                    out.push_rate(r);
-                }
-                JointKind::Fixed(_) => {}
-                JointKind::Compound(c, _) => {
-                    let q = c.coordinates(a, b, &[0.0; MAX_DOF]);
-                    let rows = c.dof_rows(a, b, &q);
-                    for row in rows.iter().take(c.dof()) {
-                        out.push_rate(*row);
-                    }
+            }
+            JointKind::Hinge(c) => {
+                let u = b.q * c.axis_b();
+                out.push_rate([DVec3::ZERO, -u, DVec3::ZERO, u]);
+            }
+            JointKind::Prismatic(c) => out.push_rate(c.displacement_row(a, b)),
+            JointKind::Distance(_) => out.push_rate(first),
+            JointKind::Fixed(_) => {}
+            JointKind::Compound(c, _) => {
+                let q = c.coordinates(a, b, &[0.0; MAX_DOF]);
+                let rows = c.dof_rows(a, b, &q);
+                for row in rows.iter().take(c.dof()) {
+                    out.push_rate(*row);
                 }
             }
         }
-        out
     }
 
     /// The hard rows' values `C` (first [`Self::hard_rows`] entries).

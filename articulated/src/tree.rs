@@ -79,6 +79,17 @@ pub(crate) struct TreeSolver {
     pub size: usize,
 }
 
+/// The storage of one factor of the tree matrix ([`TreeSolver`]'s `diag`, `dropped`,
+/// `off` and `dinv`), kept aside so that a factor can be set away and brought back by
+/// swapping buffers ([`TreeSolver::swap_factor`]) instead of being computed again.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct FactorStore {
+    diag: Vec<Blk>,
+    dropped: Vec<u8>,
+    off: Vec<Blk>,
+    dinv: Vec<[f64; 6]>,
+}
+
 /// Per-joint topology the solver needs: its bodies and number of rows.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct JointTopo {
@@ -195,6 +206,28 @@ impl TreeSolver {
             loops,
             size,
         }
+    }
+
+    /// Exchanges the solver's factor storage with `store` (four buffer swaps, no copy):
+    /// the factor in the solver goes to `store` and `store`'s comes in. A store of
+    /// another size (a new topology, or the empty default) is first sized to this tree,
+    /// its contents zero.
+    pub fn swap_factor(&mut self, store: &mut FactorStore) {
+        let n = self.dim.len();
+        if store.diag.len() != n {
+            store.diag.clear();
+            store.diag.resize(n, ZERO);
+            store.dropped.clear();
+            store.dropped.resize(n, 0);
+            store.off.clear();
+            store.off.resize(n, ZERO);
+            store.dinv.clear();
+            store.dinv.resize(n, [0.0; 6]);
+        }
+        core::mem::swap(&mut self.diag, &mut store.diag);
+        core::mem::swap(&mut self.dropped, &mut store.dropped);
+        core::mem::swap(&mut self.off, &mut store.off);
+        core::mem::swap(&mut self.dinv, &mut store.dinv);
     }
 
     /// Offset of body `i`'s 6 unknowns `(v, ω)`.

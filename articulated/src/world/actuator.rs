@@ -262,15 +262,27 @@ impl World {
     /// for the others), into `out` (cleared first).
     fn coordinate_table(&self, out: &mut Vec<Option<DofState>>) {
         out.clear();
-        out.extend((0..self.joints.len()).map(|ji| {
-            let (q, rows) = self.coordinates_and_rows(ji)?;
-            let tw = self.twist(&self.joints[ji]);
-            let mut qd = [0.0; MAX_DOF];
-            for k in 0..MAX_DOF {
-                qd[k] = (0..4).map(|s| rows[k][s].dot(tw[s])).sum();
-            }
-            Some((q, qd, rows))
-        }));
+        out.extend((0..self.joints.len()).map(|ji| self.dof_state(ji)));
+    }
+
+    /// Joint `ji`'s entry of the coordinate table: coordinates, rates `q̇ = G v` and
+    /// rate rows `G`; `None` for joints without coordinates.
+    fn dof_state(&self, ji: usize) -> Option<DofState> {
+        let (q, rows) = self.coordinates_and_rows(ji)?;
+        let tw = self.twist(&self.joints[ji]);
+        let mut qd = [0.0; MAX_DOF];
+        for k in 0..MAX_DOF {
+            qd[k] = (0..4).map(|s| rows[k][s].dot(tw[s])).sum();
+        }
+        Some((q, qd, rows))
+    }
+
+    /// Fills joint `ji`'s entry of a lazily built coordinate table (kept if already
+    /// there).
+    fn fill_dof_state(&self, coords: &mut [Option<DofState>], ji: usize) {
+        if coords[ji].is_none() {
+            coords[ji] = self.dof_state(ji);
+        }
     }
 
     /// The coordinates of joint `ji` alone (those of [`Self::coordinates_and_rows`],
@@ -334,9 +346,41 @@ impl World {
         if self.actuators.is_empty() && self.springs.is_empty() && self.tendons.is_empty() {
             return false;
         }
-        self.coordinate_table(coords);
-        let coords = &*coords;
-        let q = |j: usize, d: usize| coords[j].as_ref().map_or((0.0, 0.0), |c| (c.0[d], c.1[d]));
+        // The coordinate table, lazily: first the joints whose coordinates or rates a
+        // force reads (springs; tendons with stiffness or damping, or driven; actuators
+        // with a position or velocity bias `b₁`, `b₂`), after the forces the joints a
+        // nonzero force acts on (their rows). An actuator with `b₁ = b₂ = 0` reads its
+        // `len` and `vel` only in `b₁ gear len` and `b₂ gear vel`, zeros whatever the
+        // coordinate (±0: `τ` starts at +0 and `x + (±0) = x` for `x ≠ 0`, `+0 + (±0) =
+        // +0`, so `τ` has the same bits as with the coordinate read).
+        coords.clear();
+        coords.resize(self.joints.len(), None);
+        for s in &self.springs {
+            self.fill_dof_state(coords, s.joint);
+        }
+        for act in &self.actuators {
+            match act.target {
+                Target::Dof { joint, .. } => {
+                    if act.bias[1] != 0.0 || act.bias[2] != 0.0 {
+                        self.fill_dof_state(coords, joint);
+                    }
+                }
+                Target::Tendon(t) => {
+                    for &(j, _, _) in &self.tendons[t].terms {
+                        self.fill_dof_state(coords, j);
+                    }
+                }
+            }
+        }
+        for t in &self.tendons {
+            if t.stiffness != 0.0 || t.damping != 0.0 {
+                for &(j, _, _) in &t.terms {
+                    self.fill_dof_state(coords, j);
+                }
+            }
+        }
+        let table = &*coords;
+        let q = |j: usize, d: usize| table[j].as_ref().map_or((0.0, 0.0), |c| (c.0[d], c.1[d]));
         tau.clear();
         tau.resize(self.joints.len(), [0.0; MAX_DOF]);
         if self.paths.any() {
@@ -402,6 +446,11 @@ impl World {
                 *p += f;
             }
         }
+        for (ji, t) in tau.iter().enumerate() {
+            if t.iter().any(|v| *v != 0.0) {
+                self.fill_dof_state(coords, ji);
+            }
+        }
         true
     }
 
@@ -422,8 +471,10 @@ impl World {
                 .is_some_and(|f| f.density != 0.0 || f.viscosity != 0.0)
     }
 
-    /// [`Self::add_dof_forces`] for one part of the forces ([`ForcePart`]).
-    pub(super) fn add_dof_forces_part(&mut self, scale: f64, part: ForcePart) {
+    /// [`Self::add_dof_forces`] for one part of the forces ([`ForcePart`]). Returns
+    /// whether any force acts; the forces stay in the world's buffers for
+    /// [`Self::reapply_dof_forces`].
+    pub(super) fn add_dof_forces_part(&mut self, scale: f64, part: ForcePart) -> bool {
         let mut tau = core::mem::take(&mut self.dof_tau);
         let mut coords = core::mem::take(&mut self.dof_table);
         let mut path_f = core::mem::take(&mut self.paths.force);
@@ -433,6 +484,23 @@ impl World {
             self.apply_dof_impulses(&tau, &coords, scale);
             self.apply_path_forces(scale, None);
         }
+        self.dof_tau = tau;
+        self.dof_table = coords;
+        any
+    }
+
+    /// Adds the forces of the last [`Self::add_dof_forces_part`] (`any`: what it
+    /// returned) again, over `scale`: `scale · Σ_k G_kᵀ τ_k` with the same `τ` and rows,
+    /// for a second right-hand side at the same state (the damping flow's second stage
+    /// at `v`, `rattle.rs`), bit for bit what evaluating them again would add.
+    pub(super) fn reapply_dof_forces(&mut self, scale: f64, any: bool) {
+        if !any {
+            return;
+        }
+        let tau = core::mem::take(&mut self.dof_tau);
+        let coords = core::mem::take(&mut self.dof_table);
+        self.apply_dof_impulses(&tau, &coords, scale);
+        self.apply_path_forces(scale, None);
         self.dof_tau = tau;
         self.dof_table = coords;
     }
@@ -475,6 +543,11 @@ impl World {
         let any = self.generalized_forces(&mut tau, &mut coords, &mut path_f, ForcePart::Full);
         self.paths.force = path_f;
         if any {
+            // Every joint's rows, as before the table was built lazily (the loop below
+            // adds each joint's rows times its force, zero or not).
+            for ji in 0..self.joints.len() {
+                self.fill_dof_state(&mut coords, ji);
+            }
             f.clear();
             f.resize(self.bodies.len(), (DVec3::ZERO, DVec3::ZERO));
             for ji in 0..self.joints.len() {

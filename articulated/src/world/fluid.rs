@@ -80,17 +80,27 @@ impl World {
         }
     }
 
-    /// Adds `scale ×` the fluid force and torque on every body to the right-hand side.
+    /// Adds `scale ×` the fluid force and torque on every body to the right-hand side
+    /// (the wrenches kept for [`Self::reapply_fluid_rhs`]).
     pub(super) fn add_fluid_rhs(&mut self, scale: f64) {
-        let Some(f) = self.fluid else {
-            return;
-        };
-        if f.density == 0.0 && f.viscosity == 0.0 {
-            return;
+        let mut w = core::mem::take(&mut self.fluid_last);
+        w.clear();
+        if let Some(f) = self
+            .fluid
+            .filter(|f| f.density != 0.0 || f.viscosity != 0.0)
+        {
+            self.ensure_fluid_boxes();
+            w.extend((0..self.bodies.len()).map(|i| self.fluid_wrench(i, &f)));
         }
-        self.ensure_fluid_boxes();
-        for i in 0..self.bodies.len() {
-            let (force, torque) = self.fluid_wrench(i, &f);
+        self.fluid_last = w;
+        self.reapply_fluid_rhs(scale);
+    }
+
+    /// Adds the wrenches of the last [`Self::add_fluid_rhs`] again, over `scale` (a
+    /// second right-hand side at the same state: the damping flow's second stage at
+    /// `v`, `rattle.rs`), bit for bit what evaluating them again would add.
+    pub(super) fn reapply_fluid_rhs(&mut self, scale: f64) {
+        for (i, (force, torque)) in self.fluid_last.iter().enumerate() {
             let o = self.solver.body_offset(i);
             for c in 0..3 {
                 self.rhs[o + c] += force[c] * scale;
@@ -99,7 +109,6 @@ impl World {
         }
     }
 
-    /// The fluid's force and torque on body `i` (world).
     fn fluid_wrench(&self, i: usize, f: &Fluid) -> (DVec3, DVec3) {
         let b = &self.bodies[i];
         let (v_pb, r) = self.fluid_boxes[i];

@@ -41,6 +41,7 @@ mod actuator;
 #[cfg(feature = "contact")]
 mod contact;
 mod equality;
+mod factor_cache;
 mod fluid;
 mod projection;
 mod rattle;
@@ -68,6 +69,10 @@ type WarmContact = ((usize, usize, u64), (f64, DVec3));
 
 /// Loop-closure rows of one assembly: `(a, b, row)`, compliance, right-hand side.
 type LoopRows = (Vec<(Option<usize>, usize, [DVec3; 4])>, Vec<f64>, Vec<f64>);
+
+/// An assembly's writer of a joint's right-hand side: `(joint index, joint, its rows,
+/// the right-hand side of its rows)`.
+type JointRhs<'a> = dyn FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]) + 'a;
 
 /// Which rate rows (one per degree of freedom) an assembly gives the joints.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -259,6 +264,8 @@ pub struct World {
     fluid: Option<Fluid>,
     /// Per body: principal axes (body frame) and inertia-box half-sizes.
     fluid_boxes: Vec<(DMat3, DVec3)>,
+    /// Per body: the fluid's force and torque at the last evaluation (scratch).
+    fluid_last: Vec<(DVec3, DVec3)>,
     /// Limits per joint and degree of freedom.
     limits: Vec<[Option<[f64; 2]>; constraint_core::compound::MAX_DOF]>,
     /// Settings of the one-sided rows (limits, contacts).
@@ -295,6 +302,8 @@ pub struct World {
     last_loops: LoopRows,
     /// Spare loop-row buffers (RATTLE keeps a second set; no allocation across steps).
     spare_loops: LoopRows,
+    /// The factors kept for reuse by assemblies of the same matrix (`factor_cache.rs`).
+    factors: factor_cache::FactorCache,
     /// Colliders (feature `contact`).
     #[cfg(feature = "contact")]
     colliders: Vec<constraint_contact::geometry::Collider>,
@@ -357,6 +366,7 @@ impl World {
             tendon_spans: equality::Spans::default(),
             fluid: None,
             fluid_boxes: Vec::new(),
+            fluid_last: Vec::new(),
             unilateral: UnilateralSettings::default(),
             ustats: UnilateralStats::default(),
             urows: Vec::new(),
@@ -373,6 +383,7 @@ impl World {
             dof_table: Vec::new(),
             last_loops: (Vec::new(), Vec::new(), Vec::new()),
             spare_loops: (Vec::new(), Vec::new(), Vec::new()),
+            factors: factor_cache::FactorCache::default(),
             #[cfg(feature = "contact")]
             colliders: Vec::new(),
             #[cfg(feature = "contact")]
@@ -675,6 +686,7 @@ impl World {
         if self.solver_stale {
             self.solver = TreeSolver::new(self.bodies.len(), &self.topo(true));
             self.solver_stale = false;
+            self.drop_factors();
         }
     }
 
@@ -838,6 +850,25 @@ impl World {
         soft: Soft,
         mut joint_rhs: impl FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]),
     ) -> LoopRows {
+        self.assemble_with(h, rates, soft, true, Some(&mut joint_rhs))
+    }
+
+    /// [`Self::assemble`] with `matrix` false for an assembly whose factor the solver
+    /// already holds ([`Self::reuse_factor`]): the right-hand side and the loop rows
+    /// only. Without `joint_rhs` (hard rows' right-hand side zero) a tree joint without
+    /// armature rows then writes nothing (its right-hand side stays the zeros
+    /// [`Self::body_rhs_with`] left), so its rows are not computed.
+    fn assemble_with(
+        &mut self,
+        h: f64,
+        rates: Rates,
+        soft: Soft,
+        matrix: bool,
+        mut joint_rhs: Option<&mut JointRhs<'_>>,
+    ) -> LoopRows {
+        if matrix {
+            self.factors.forget_current();
+        }
         // Equality rows take part only in the solves of assemblies that load them.
         self.eq.active = false;
         // The loop rows' buffers of the last assembly (and of RATTLE's spare), reused.
@@ -863,7 +894,18 @@ impl World {
                 Rates::Armature => armed,
                 Rates::Full => passive > 0,
             };
-            let mut rows = joint.rows_with(&a, &b, with_rates);
+            let tree = solver.joint_offset(j);
+            // Only the rate rows' right-hand side to write (armature): the hard rows
+            // stay zero, their Jacobian is not needed.
+            let rates_only = !matrix && joint_rhs.is_none() && tree.is_some();
+            if rates_only && !(with_rates && armed) {
+                continue;
+            }
+            let mut rows = if rates_only {
+                joint.rate_rows_only(&a, &b)
+            } else {
+                joint.rows_with(&a, &b, with_rates)
+            };
             let mut comp = [0.0; MAX_ROWS];
             // Rate rows: damping d and armature I_a on the coordinate rate q̇ = G v,
             // `(M + (I_a + h d) GᵀG) v' = M v + h f + I_a GᵀG v`: the row
@@ -905,7 +947,9 @@ impl World {
                 comp[r] = 1.0;
             }
             let mut rhs = [0.0; MAX_ROWS];
-            joint_rhs(j, joint, &rows, &mut rhs[..rows.n]);
+            if let Some(f) = joint_rhs.as_mut() {
+                f(j, joint, &rows, &mut rhs[..rows.n]);
+            }
             for r in rows.n_hard..rows.n {
                 rhs[r] += rate_rhs[r];
             }
@@ -927,9 +971,11 @@ impl World {
                 b: joint.child,
                 rows: n_topo,
             };
-            match solver.joint_offset(j) {
+            match tree {
                 Some(o) => {
-                    solver.set_joint(j, &topo, &rows.rows[..rows.n], &comp[..n_topo]);
+                    if matrix {
+                        solver.set_joint(j, &topo, &rows.rows[..rows.n], &comp[..n_topo]);
+                    }
                     self.rhs[o..o + n_topo].copy_from_slice(&rhs[..n_topo]);
                 }
                 None => {
@@ -957,7 +1003,7 @@ impl World {
             };
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
-            let rows = joint.rows_with(&a, &b, true);
+            let rows = joint.rate_rows_only(&a, &b);
             let tw = |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| twists[i]);
             let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
             for r in rows.n_hard..rows.n {
@@ -990,6 +1036,18 @@ impl World {
         out
     }
 
+    /// [`Self::solve`] for an assembly looked up by [`Self::reuse_factor`]: with the
+    /// solver's factor when `reused`, else factoring and keeping the factor for reuse.
+    fn solve_reusing(&mut self, loops: LoopRows, reused: bool) -> Result<(), ArticulatedError> {
+        if !reused {
+            self.solver.factor()?;
+            self.keep_factor();
+        }
+        let out = self.solve_factored(&loops);
+        self.last_loops = loops;
+        out
+    }
+
     /// Solves with the factor already in the solver (loop rows as assembled with it).
     fn solve_factored(&mut self, loops: &LoopRows) -> Result<(), ArticulatedError> {
         let free_scale = self.loop_free_scale(loops);
@@ -1005,6 +1063,20 @@ impl World {
     /// Loads every body's mass block `diag(m) ⊕ R I Rᵀ` into the solver and its
     /// right-hand side `f(body, R, I_world)`.
     fn body_rhs(&mut self, f: impl Fn(&RigidBody, &DMat3, &DMat3) -> (DVec3, DVec3)) {
+        self.body_rhs_with(true, f);
+    }
+
+    /// [`Self::body_rhs`]; without `matrix` the mass blocks are left as they are (the
+    /// solver holds the factor, [`Self::reuse_factor`]). With it the solver's factor is
+    /// overwritten, so it is no longer known.
+    fn body_rhs_with(
+        &mut self,
+        matrix: bool,
+        f: impl Fn(&RigidBody, &DMat3, &DMat3) -> (DVec3, DVec3),
+    ) {
+        if matrix {
+            self.factors.forget_current();
+        }
         let size = self.solver.size;
         self.rhs.clear();
         self.rhs.resize(size, 0.0);
@@ -1013,7 +1085,9 @@ impl World {
             let o = solver.body_offset(i);
             let r = b.rotation();
             let iw = r * b.inertia() * r.transpose();
-            solver.set_body(i, b.mass(), &iw);
+            if matrix {
+                solver.set_body(i, b.mass(), &iw);
+            }
             let (lin, ang) = f(b, &r, &iw);
             self.rhs[o..o + 3].copy_from_slice(&lin.to_array());
             self.rhs[o + 3..o + 6].copy_from_slice(&ang.to_array());

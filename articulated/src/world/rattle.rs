@@ -187,20 +187,27 @@ impl World {
         } else {
             ForcePart::Velocity
         };
-        // Stage 1: v₁ = BE_{γτ}(v) with the explicit forces at v.
-        self.body_rhs(|b, _, iw| (b.v * b.mass() + g * (b.mass() * s), *iw * b.omega));
+        // Stage 1: v₁ = BE_{γτ}(v) with the explicit forces at v. The matrix is the
+        // previous flow's when the positions have not moved since (`factor_cache.rs`).
+        let reused = self.reuse_factor(s, Rates::Full, Soft::Free);
+        self.body_rhs_with(!reused, |b, _, iw| {
+            (b.v * b.mass() + g * (b.mass() * s), *iw * b.omega)
+        });
+        // The forces at `v` are kept for stage 2, which adds them again at the same
+        // state (positions and velocities do not change between the stages).
+        let mut dof_any = false;
         if forces {
             self.add_spring_rhs(s);
-            self.add_dof_forces(s);
+            dof_any = self.add_dof_forces_part(s, ForcePart::Full);
             self.add_fluid_rhs(s);
         } else if explicit {
-            self.add_dof_forces_part(s, part);
+            dof_any = self.add_dof_forces_part(s, part);
             self.add_fluid_rhs(s);
         }
-        let loops = self.assemble(s, Rates::Full, Soft::Free, |_, _, _, _| {});
+        let loops = self.assemble_with(s, Rates::Full, Soft::Free, !reused, None);
         // Equality rows hold their rate (`E v = 0`) through the damping flow.
         self.load_equalities(|_| 0.0);
-        self.solve(loops)?;
+        self.solve_reusing(loops, reused)?;
         // The same rows for the second solve (kept by `solve`; taken, not cloned).
         let loops_2 = core::mem::take(&mut self.last_loops);
         // Stage 2: v' = BE_{γτ}(v + c (v₁ − v)), same factor; all row right-hand sides 0.
@@ -240,8 +247,8 @@ impl World {
                 -core::f64::consts::SQRT_2 * tau,
                 (1.0 + core::f64::consts::FRAC_1_SQRT_2) * tau,
             );
-            self.add_dof_forces_part(w_v, part);
-            self.add_fluid_rhs(w_v);
+            self.reapply_dof_forces(w_v, dof_any);
+            self.reapply_fluid_rhs(w_v);
             // f(v₁): the forces read the bodies' velocities; swap v₁ in and back.
             let swap = |bodies: &mut [RigidBody], v1: &mut [(DVec3, DVec3)]| {
                 for (b, (v, w)) in bodies.iter_mut().zip(v1.iter_mut()) {
@@ -254,8 +261,8 @@ impl World {
             self.add_fluid_rhs(w_v1);
             swap(&mut self.bodies, &mut v1);
         } else if forces {
-            self.add_dof_forces(s);
-            self.add_fluid_rhs(s);
+            self.reapply_dof_forces(s, dof_any);
+            self.reapply_fluid_rhs(s);
         }
         self.armature_rhs(s, &stage);
         self.rattle.stage = stage;
@@ -302,7 +309,12 @@ impl World {
         let hd = half.abs();
         // 1. Half kick with the constraint impulse that makes the drift land on the
         //    linearised manifold: [M Jᵀ; J −C][v½; λ] = [M v + (h/2) m g; −C(x)/h].
-        self.body_rhs(|b, _, iw| (b.v * b.mass() + g * (b.mass() * half), *iw * b.omega));
+        //    Its matrix is the previous step's second kick's (same x, same |h|/2), kept
+        //    by the factor cache (`factor_cache.rs`).
+        let reused = self.reuse_factor(hd, Rates::Armature, Soft::Free);
+        self.body_rhs_with(!reused, |b, _, iw| {
+            (b.v * b.mass() + g * (b.mass() * half), *iw * b.omega)
+        });
         // Compliant joints: half a kick of their spring force at x (Störmer–Verlet); their
         // rows are left out of the kicks and of SHAKE.
         // With velocity-dependent forces (moved to the damping flow) the kicks take the
@@ -312,15 +324,23 @@ impl World {
             self.add_kick_forces(half, explicit);
         }
         // Armature rows stay (inertia on the coordinates), damping rows out.
-        let loops = self.assemble(hd, Rates::Armature, Soft::Free, |_, _, rows, rhs| {
-            for r in 0..rows.n_hard {
-                rhs[r] = -rows.value[r] / h;
-            }
-        });
+        let mut kick_rhs =
+            |_: usize, _: &Joint, rows: &crate::joint::JointRows, rhs: &mut [f64]| {
+                for r in 0..rows.n_hard {
+                    rhs[r] = -rows.value[r] / h;
+                }
+            };
+        let loops = self.assemble_with(
+            hd,
+            Rates::Armature,
+            Soft::Free,
+            !reused,
+            Some(&mut kick_rhs),
+        );
         // Equality rows as the joints: `−C/h` in the kick, `−C` in SHAKE (with the
         // start-of-step Jacobian), `0` in the final velocity projection.
         self.load_equalities(|c| -c / h);
-        self.solve(loops)?;
+        self.solve_reusing(loops, reused)?;
         // The loop rows of this factor, for SHAKE's solves (their right-hand side is
         // rewritten each iteration).
         let mut loops_n = core::mem::take(&mut self.last_loops);
@@ -341,7 +361,8 @@ impl World {
             }
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
-            let rows = joint.rows_with(&a, &b, true);
+            // Only the rate rows are read (below and in SHAKE's corrections).
+            let rows = joint.rate_rows_only(&a, &b);
             let mut rate = [0.0; MAX_ROWS];
             let tw =
                 |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| self.body_solution(i));
@@ -462,7 +483,10 @@ impl World {
         }
         // 4. Half kick and the velocity constraint at the new configuration:
         //    [M Jᵀ; J −C][v'; μ] = [M v½ + (h/2) m g; 0], angular part L½.
-        self.body_rhs(|b, _, _| (b.v * b.mass() + g * (b.mass() * half), DVec3::ZERO));
+        let reused = self.reuse_factor(hd, Rates::Armature, Soft::Free);
+        self.body_rhs_with(!reused, |b, _, _| {
+            (b.v * b.mass() + g * (b.mass() * half), DVec3::ZERO)
+        });
         {
             let solver = &self.solver;
             for (i, l) in momenta.iter().enumerate() {
@@ -473,7 +497,7 @@ impl World {
         if forces {
             self.add_kick_forces(half, explicit);
         }
-        let loops = self.assemble(hd, Rates::Armature, Soft::Free, |_, _, _, _| {});
+        let loops = self.assemble_with(hd, Rates::Armature, Soft::Free, !reused, None);
         self.load_equalities(|_| 0.0);
         for (j, rows, rate) in &arm {
             if let Some(o) = self.solver.joint_offset(*j) {
@@ -484,7 +508,7 @@ impl World {
                 }
             }
         }
-        self.solve(loops)?;
+        self.solve_reusing(loops, reused)?;
         // Whole-step impulses (both kicks), for the geometric stiffness of a later
         // velocity-level step.
         self.store_impulses();

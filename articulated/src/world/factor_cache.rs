@@ -1,0 +1,178 @@
+//! Reuse of the tree factor between solves of the same matrix.
+//!
+//! RATTLE factors the KKT matrix `[M Jᵀ; J −C]` ([`crate::tree`]) several times per
+//! step, and some of these matrices are equal. With damping or velocity-dependent forces
+//! a step is `B_{h/2} ∘ C⁰_h ∘ B_{h/2}` (`rattle.rs`), four factorizations:
+//!
+//! ```text
+//! B_{h/2} at x_n      (damping rows, compliance 1/(γ h/2 · d))   = the previous step's last
+//! kick 1  at x_n      (armature rows only, |h|/2)                 = the previous step's kick 2
+//! kick 2  at x_{n+1}  (the same assembly)                         new
+//! B_{h/2} at x_{n+1}                                              new
+//! ```
+//!
+//! (SHAKE's iterations and each flow's second stage reuse the factor they follow, as
+//! before.) Between one step's end and the next step's start only the velocities
+//! change, and the matrix does not read them. Without damping the step is `C_h`, two
+//! factorizations, the first equal to the previous step's second.
+//!
+//! The matrix of an assembly is a function of: the bodies' poses (the joints' Jacobians,
+//! the world inertias `R I Rᵀ`), masses and body-frame inertias; the joints, which do
+//! not change after [`World::add_joint`] (adding one rebuilds the solver and drops the
+//! kept factors); the joints' compliances and armatures; and the assembly's `h`, its
+//! rate rows ([`Rates`]) and its treatment of compliant rows ([`Soft`]). A
+//! [`FactorKey`] holds the bits of all of them. The world keeps the factor in the solver
+//! and one factor set aside, each with its key; an assembly whose key equals a kept
+//! one's bit for bit takes that factor instead of computing it — the same operations on
+//! the same bits would give the same factor — so every result is unchanged to the bit.
+//! Assemblies without a key (the velocity level, whose matrix also reads the joint
+//! impulses through the geometric stiffness, the projection, the acceleration level)
+//! mark the solver's factor unknown.
+
+use alloc::vec::Vec;
+
+use crate::body::RigidBody;
+use crate::tree::FactorStore;
+use constraint_core::compound::MAX_DOF;
+
+use super::{Rates, Soft, World};
+
+/// Bits of one body's part of the matrix: position (3), orientation (4), mass (1) and
+/// body-frame inertia (9).
+type BodyBits = [u64; 17];
+
+/// The inputs of one assembly's matrix, as bits (see the module documentation).
+#[derive(Clone, Debug, Default)]
+pub(super) struct FactorKey {
+    /// Whether the key describes a factor (false: the storage holds none known).
+    valid: bool,
+    /// The assembly's `h`, rate rows and treatment of compliant rows.
+    assembly: Option<(u64, Rates, Soft)>,
+    bodies: Vec<BodyBits>,
+    compliance: Vec<u64>,
+    armature: Vec<[u64; MAX_DOF]>,
+}
+
+impl FactorKey {
+    /// Fills the key from an assembly's inputs (buffers reused; marks it valid).
+    fn fill(
+        &mut self,
+        assembly: (f64, Rates, Soft),
+        bodies: &[RigidBody],
+        compliance: &[f64],
+        armature: &[[f64; MAX_DOF]],
+    ) {
+        self.valid = true;
+        self.assembly = Some((assembly.0.to_bits(), assembly.1, assembly.2));
+        self.bodies.clear();
+        self.bodies.extend(bodies.iter().map(|b| {
+            let (x, q, m) = (b.pose.x, b.pose.q, b.inertia());
+            let mut k = [0u64; 17];
+            let vals = [
+                x.x,
+                x.y,
+                x.z,
+                q.x,
+                q.y,
+                q.z,
+                q.w,
+                b.mass(),
+                m.x_axis.x,
+                m.x_axis.y,
+                m.x_axis.z,
+                m.y_axis.x,
+                m.y_axis.y,
+                m.y_axis.z,
+                m.z_axis.x,
+                m.z_axis.y,
+                m.z_axis.z,
+            ];
+            for (k, v) in k.iter_mut().zip(vals) {
+                *k = v.to_bits();
+            }
+            k
+        }));
+        self.compliance.clear();
+        self.compliance
+            .extend(compliance.iter().map(|a| a.to_bits()));
+        self.armature.clear();
+        self.armature
+            .extend(armature.iter().map(|a| a.map(f64::to_bits)));
+    }
+
+    /// Both keys valid and equal bit for bit.
+    fn matches(&self, other: &FactorKey) -> bool {
+        self.valid
+            && other.valid
+            && self.assembly == other.assembly
+            && self.bodies == other.bodies
+            && self.compliance == other.compliance
+            && self.armature == other.armature
+    }
+}
+
+/// The kept factors: the key of the factor in the solver, a factor set aside with its
+/// key, and the key of the assembly being looked up (scratch: no allocation once the
+/// buffers have grown to the world's size).
+#[derive(Clone, Debug, Default)]
+pub(super) struct FactorCache {
+    /// Key of the factor in the solver's storage.
+    current: FactorKey,
+    /// Key of `spare`.
+    spare_key: FactorKey,
+    /// A factor set aside (swapped with the solver's storage, never copied).
+    spare: FactorStore,
+    /// The key of the assembly being looked up.
+    probe: FactorKey,
+}
+
+impl FactorCache {
+    /// Forgets the solver's factor (its storage is about to be overwritten by an
+    /// assembly without a key).
+    pub(super) fn forget_current(&mut self) {
+        self.current.valid = false;
+    }
+}
+
+impl World {
+    /// Looks up the factor of the assembly `(h, rates, soft)` at the current bodies:
+    /// `true` when the solver now holds it (it was there, or set aside and swapped in),
+    /// so the assembly writes only its right-hand side and the solve skips the
+    /// factorization ([`World::solve_reusing`]). On `false` the solver's factor, if
+    /// known, is set aside (replacing the one there) and the assembly writes and factors
+    /// into the other storage.
+    pub(super) fn reuse_factor(&mut self, h: f64, rates: Rates, soft: Soft) -> bool {
+        let c = &mut self.factors;
+        c.probe.fill(
+            (h, rates, soft),
+            &self.bodies,
+            &self.compliance,
+            &self.armature,
+        );
+        if c.current.matches(&c.probe) {
+            return true;
+        }
+        let spare_hit = c.spare_key.matches(&c.probe);
+        if spare_hit || c.current.valid {
+            self.solver.swap_factor(&mut c.spare);
+            core::mem::swap(&mut c.current, &mut c.spare_key);
+        }
+        if !spare_hit {
+            c.current.valid = false;
+        }
+        spare_hit
+    }
+
+    /// Records the factor just computed for the assembly last looked up by
+    /// [`Self::reuse_factor`] as the solver's.
+    pub(super) fn keep_factor(&mut self) {
+        let c = &mut self.factors;
+        core::mem::swap(&mut c.current, &mut c.probe);
+    }
+
+    /// Drops every kept factor (a new solver: another topology).
+    pub(super) fn drop_factors(&mut self) {
+        self.factors.current.valid = false;
+        self.factors.spare_key.valid = false;
+    }
+}
