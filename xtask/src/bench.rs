@@ -814,60 +814,86 @@ fn write_report(dir: &Path, md: &str) -> Result<PathBuf, String> {
 /// The sections of a run, in the report's order.
 const SECTIONS: [&str; 5] = ["chains", "contact", "mjcf", "models", "cloth"];
 
-/// The command line of `cargo xtask bench`.
+/// The options of `cargo xtask bench`: its own flags first, then everything for
+/// criterion.
+#[derive(clap::Args, Clone, Debug, Default, PartialEq, Eq)]
+pub struct Options {
+    /// Leave MuJoCo out: the chains and the MJCF scenes run ours only, the real models
+    /// not at all [default: off, MuJoCo runs (pip-installed on first use)].
+    #[arg(long)]
+    pub no_mujoco: bool,
+    /// The peer comparisons only: every section but cloth [default: off].
+    #[arg(long)]
+    pub peers_only: bool,
+    /// The sections to run, comma-separated, from chains, contact, mjcf, models, cloth
+    /// (given twice, the last counts) [default: all of them].
+    #[arg(
+        long,
+        value_name = "SECTIONS",
+        value_delimiter = ',',
+        action = clap::ArgAction::Set,
+        value_parser = section
+    )]
+    pub only: Vec<&'static str>,
+    /// Passed to every criterion bench, after xtask's own options (`--quick`, a filter, …)
+    /// [default: none].
+    #[arg(
+        value_name = "CRITERION ARGS",
+        num_args = 0..,
+        trailing_var_arg = true,
+        allow_hyphen_values = true
+    )]
+    pub criterion_args: Vec<String>,
+}
+
+/// A section name of `--only` ([`SECTIONS`]), spaces around it ignored.
+fn section(s: &str) -> Result<&'static str, String> {
+    let s = s.trim();
+    SECTIONS
+        .into_iter()
+        .find(|x| *x == s)
+        .ok_or_else(|| format!("unknown section (sections: {})", SECTIONS.join(", ")))
+}
+
+/// What a run of `cargo xtask bench` does, from its [`Options`].
 #[derive(Debug, PartialEq)]
-struct Options {
+struct Plan {
     mujoco: bool,
     /// Sections to run, a subset of [`SECTIONS`] in its order.
     sections: Vec<&'static str>,
-    /// Everything else, for criterion.
-    criterion_args: Vec<String>,
 }
 
-fn parse_args(args: &[String]) -> Result<Options, String> {
-    let mut mujoco = true;
-    let mut peers_only = false;
-    let mut only: Option<Vec<String>> = None;
-    let mut criterion_args = Vec::new();
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--no-mujoco" => mujoco = false,
-            "--peers-only" => peers_only = true,
-            "--only" => {
-                let v = it.next().ok_or("--only needs a value (e.g. mjcf,cloth)")?;
-                only = Some(v.split(',').map(|s| s.trim().to_string()).collect());
-            }
-            s if s.starts_with("--only=") => {
-                only = Some(s[7..].split(',').map(|s| s.trim().to_string()).collect());
-            }
-            _ => criterion_args.push(a.clone()),
-        }
-    }
-    if let Some(only) = &only {
-        if let Some(bad) = only.iter().find(|s| !SECTIONS.contains(&s.as_str())) {
+impl Plan {
+    /// The sections `o` selects, in the report's order. xtask's own flags go before
+    /// criterion's arguments (clap passes everything from the first argument it does
+    /// not know to criterion): one found among them is an error, not criterion's.
+    fn of(o: &Options) -> Result<Plan, String> {
+        if let Some(a) = o.criterion_args.iter().find(|a| {
+            ["--no-mujoco", "--peers-only", "--only"].contains(&a.as_str())
+                || a.starts_with("--only=")
+        }) {
             return Err(format!(
-                "--only: unknown section {bad:?} (sections: {})",
-                SECTIONS.join(", ")
+                "{a} comes after criterion's arguments ({}): give xtask's options first",
+                o.criterion_args[0]
             ));
         }
+        let sections = SECTIONS
+            .into_iter()
+            .filter(|s| o.only.is_empty() || o.only.contains(s))
+            .filter(|s| !(o.peers_only && *s == "cloth"))
+            .collect();
+        Ok(Plan {
+            mujoco: !o.no_mujoco,
+            sections,
+        })
     }
-    let sections = SECTIONS
-        .into_iter()
-        .filter(|s| only.as_ref().is_none_or(|o| o.iter().any(|x| x == s)))
-        .filter(|s| !(peers_only && *s == "cloth"))
-        .collect();
-    Ok(Options {
-        mujoco,
-        sections,
-        criterion_args,
-    })
 }
 
-pub fn main(args: &[String]) -> Result<(), String> {
-    let o = parse_args(args)?;
+/// Runs the sections of `opts` and writes `target/bench/ratios.md`.
+pub fn main(opts: &Options) -> Result<(), String> {
+    let o = Plan::of(opts)?;
     let _ = RUN_START.set(SystemTime::now());
-    let args = &o.criterion_args;
+    let args = &opts.criterion_args;
     let run = |s: &str| o.sections.contains(&s);
     let cloth = if run("cloth") {
         Some(bench_cloth::run(args)?)
@@ -954,24 +980,41 @@ mod tests {
         assert_eq!(json_number(j, "missing"), None);
     }
 
-    fn args(s: &str) -> Vec<String> {
-        s.split_whitespace().map(String::from).collect()
+    /// `cargo xtask bench LINE`'s options and plan, or the error rendered.
+    fn parse_args(line: &str) -> Result<(Options, Plan), String> {
+        match crate::parse(&format!("bench {line}")) {
+            Ok(Some(crate::Command::Bench(o))) => Plan::of(&o).map(|p| (o, p)),
+            Ok(other) => panic!("{line}: parsed as {other:?}"),
+            Err(e) => Err(e.to_string()),
+        }
     }
 
     #[test]
     fn parses_sections_and_passes_the_rest_to_criterion() {
-        let o = parse_args(&args("--quick --no-mujoco")).unwrap();
-        assert_eq!(o.sections, SECTIONS);
-        assert!(!o.mujoco);
+        let (o, p) = parse_args("--no-mujoco --quick").unwrap();
+        assert_eq!(p.sections, SECTIONS);
+        assert!(!p.mujoco);
         assert_eq!(o.criterion_args, ["--quick"]);
-        let o = parse_args(&args("--peers-only --only cloth,mjcf")).unwrap();
-        assert_eq!(o.sections, ["mjcf"]);
-        assert!(o.mujoco);
-        let o = parse_args(&args("--only=cloth,chains filter")).unwrap();
-        assert_eq!(o.sections, ["chains", "cloth"]);
+        let (_, p) = parse_args("--peers-only --only cloth,mjcf").unwrap();
+        assert_eq!(p.sections, ["mjcf"]);
+        assert!(p.mujoco);
+        let (o, p) = parse_args("--only=cloth,chains filter").unwrap();
+        assert_eq!(p.sections, ["chains", "cloth"]);
         assert_eq!(o.criterion_args, ["filter"]);
-        assert!(parse_args(&args("--only rigid")).is_err());
-        assert!(parse_args(&args("--only")).is_err());
+        let (o, p) = parse_args("--only mjcf --only cloth --warm-up-time 1 x").unwrap();
+        assert_eq!(p.sections, ["cloth"], "the last --only counts");
+        assert_eq!(o.criterion_args, ["--warm-up-time", "1", "x"]);
+        let (o, p) = parse_args("").unwrap();
+        assert_eq!((p.sections.len(), p.mujoco), (5, true));
+        assert!(o.criterion_args.is_empty());
+        assert!(parse_args("--only rigid")
+            .unwrap_err()
+            .contains("unknown section"));
+        assert!(parse_args("--only").is_err());
+        // xtask's options after criterion's are an error, not criterion's.
+        let e = parse_args("--quick --no-mujoco").unwrap_err();
+        assert!(e.contains("give xtask's options first"), "{e}");
+        assert!(parse_args("filter --only=cloth").is_err());
     }
 
     #[test]
