@@ -65,15 +65,20 @@ pub(crate) fn estimate(group: &str, name: &str, param: impl std::fmt::Display) -
         }
     }
     let s = std::fs::read_to_string(p).ok()?;
-    // The file is small JSON; read `"median":{..."point_estimate":X`.
-    let m = s.find("\"median\"")?;
-    let rest = &s[m..];
-    let k = rest.find("\"point_estimate\":")? + "\"point_estimate\":".len();
-    let num: String = rest[k..]
-        .chars()
-        .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '-' | '+'))
-        .collect();
-    num.parse::<f64>().ok().map(|ns| ns * 1e-9)
+    let e: Estimates = serde_json::from_str(&s).ok()?;
+    Some(e.median.point_estimate * 1e-9)
+}
+
+/// The part of criterion's `estimates.json` read here: the median's point estimate (ns).
+#[derive(serde::Deserialize)]
+struct Estimates {
+    median: Estimate,
+}
+
+/// One estimate of criterion's `estimates.json`.
+#[derive(serde::Deserialize)]
+struct Estimate {
+    point_estimate: f64,
 }
 
 /// Least-squares slope of log t against log n.
@@ -167,23 +172,23 @@ fn read_accuracy(p: &mut Peers) {
     }
 }
 
-/// `"seconds_per_step": X` from a timing file of `cargo xtask mujoco --timing`.
-pub(crate) fn json_number(text: &str, key: &str) -> Option<f64> {
-    let k = text.find(&format!("\"{key}\""))?;
-    let rest = &text[k + key.len() + 2..];
-    let rest = rest[rest.find(':')? + 1..].trim_start();
-    let num: String = rest
-        .chars()
-        .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '-' | '+'))
-        .collect();
-    num.parse().ok()
+/// The fields read of a timing file of `cargo xtask mujoco --timing` (JSON written by
+/// `xtask/mujoco_run.py`); a key that is missing is `None`.
+#[derive(Clone, Debug, Default, PartialEq, serde::Deserialize)]
+pub(crate) struct Timing {
+    /// Steps of the timed rollout.
+    pub steps: Option<usize>,
+    /// Best time per step in MuJoCo's C loop (s).
+    pub seconds_per_step: Option<f64>,
+    /// MuJoCo's version.
+    pub mujoco_version: Option<String>,
 }
 
-pub(crate) fn json_string(text: &str, key: &str) -> Option<String> {
-    let k = text.find(&format!("\"{key}\""))?;
-    let rest = &text[k + key.len() + 2..];
-    let rest = rest[rest.find(':')? + 1..].trim_start().strip_prefix('"')?;
-    Some(rest[..rest.find('"')?].to_string())
+impl Timing {
+    /// Parses a timing file's text; a file that is not such JSON has no fields.
+    pub(crate) fn parse(text: &str) -> Timing {
+        serde_json::from_str(text).unwrap_or_default()
+    }
 }
 
 /// The MuJoCo side: generate the MJCF chains and time each in MuJoCo's C loop.
@@ -235,7 +240,7 @@ fn mujoco_chains(p: &mut Peers) {
             std::fs::read_to_string(&timing).map_err(|e| format!("{}: {e}", timing.display()))
         });
         match text {
-            Ok(text) => match json_number(&text, "seconds_per_step") {
+            Ok(text) => match Timing::parse(&text).seconds_per_step {
                 Some(t) => {
                     eprintln!(
                         "  {n} links: {:.3e} s/step ({:.0} s with loading)",
@@ -243,7 +248,7 @@ fn mujoco_chains(p: &mut Peers) {
                         t0.elapsed().as_secs_f64()
                     );
                     p.time.push(("mujoco".into(), n, t));
-                    version = version.or_else(|| json_string(&text, "mujoco_version"));
+                    version = version.or_else(|| Timing::parse(&text).mujoco_version);
                 }
                 None => p
                     .notes
@@ -974,10 +979,24 @@ mod tests {
 
     #[test]
     fn reads_numbers_and_strings_from_the_timing_json() {
-        let j = "{\n  \"scene\": \"a.xml\",\n  \"seconds_per_step\": 2.5e-05,\n  \"mujoco_version\": \"4.0.0\"\n}";
-        assert_eq!(json_number(j, "seconds_per_step"), Some(2.5e-5));
-        assert_eq!(json_string(j, "mujoco_version").as_deref(), Some("4.0.0"));
-        assert_eq!(json_number(j, "missing"), None);
+        // As xtask/mujoco_run.py writes it (json.dump, indent 2).
+        let j = "{\n  \"scene\": \"a.xml\",\n  \"integrator\": \"euler\",\n  \"dt\": 0.001,\n  \
+                 \"steps\": 1000,\n  \"seconds_per_step\": 2.5e-05,\n  \"repeats\": 3,\n  \
+                 \"mujoco_version\": \"4.0.0\"\n}\n";
+        let t = Timing::parse(j);
+        assert_eq!(t.seconds_per_step, Some(2.5e-5));
+        assert_eq!(t.steps, Some(1000));
+        assert_eq!(t.mujoco_version.as_deref(), Some("4.0.0"));
+        let missing = Timing::parse("{\"scene\": \"a.xml\"}");
+        assert_eq!((missing.seconds_per_step, missing.steps), (None, None));
+        assert_eq!(Timing::parse("not json"), Timing::default());
+    }
+
+    #[test]
+    fn reads_the_median_of_criterions_estimates() {
+        let j = r#"{"mean":{"confidence_interval":{"confidence_level":0.95,"lower_bound":1.0,"upper_bound":3.0},"point_estimate":2.0,"standard_error":0.1},"median":{"confidence_interval":{"confidence_level":0.95,"lower_bound":1400.0,"upper_bound":1600.0},"point_estimate":1500.0,"standard_error":5.0},"median_abs_dev":{"confidence_interval":{"confidence_level":0.95,"lower_bound":1.0,"upper_bound":2.0},"point_estimate":1.5,"standard_error":0.1},"slope":null,"std_dev":{"confidence_interval":{"confidence_level":0.95,"lower_bound":1.0,"upper_bound":2.0},"point_estimate":1.5,"standard_error":0.1}}"#;
+        let e: Estimates = serde_json::from_str(j).unwrap();
+        assert_eq!(e.median.point_estimate, 1500.0);
     }
 
     /// `cargo xtask bench LINE`'s options and plan, or the error rendered.

@@ -18,8 +18,9 @@
 //! 15: well-kept crates instead of hand-written tooling). MuJoCo runs through Python,
 //! never at build time; `simulate` and `compare` are `constraint-scene`'s binaries, run
 //! with the arguments as given, so their own `--help` lists their options. The JSON
-//! xtask reads (flat objects from its own Python scripts and from `simulate --summary`)
-//! is read by key.
+//! xtask reads (cargo's `--message-format=json` lines, criterion's `estimates.json`, the
+//! timing files of `mujoco --timing`, `simulate --summary`) is deserialized with
+//! `serde_json` into just the fields used, numbers read exactly (`float_roundtrip`).
 
 mod bench;
 mod bench_cloth;
