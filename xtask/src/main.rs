@@ -25,9 +25,10 @@
 //! The price is the first `cargo xtask` on a fresh clone, which now compiles clap,
 //! serde, serde_json and their proc-macros before printing anything: a fresh `cargo
 //! build -p xtask` took 17–20 s wall (10–12 s CPU) std-only and 170–174 s wall (106–109
-//! s CPU) with them, on two cores shared with other builds (load 5–7); 8.7 s std-only
-//! at load 2. The workspace's dev profile builds every dependency at `opt-level = 2`,
-//! proc-macros included, which is part of that.
+//! s CPU) with them while the dev profile built every dependency at `opt-level = 2`,
+//! proc-macros included, and 61–65 s wall (48 s CPU) with the proc-macros unoptimised
+//! (the workspace `Cargo.toml`), on two cores shared with other builds (load 5–7);
+//! 8.7 s std-only at load 2.
 
 mod bench;
 mod bench_cloth;
