@@ -457,8 +457,46 @@ fn the_summary_reports_the_runs_figures() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// A `--method` the run does not know is clap's usage error, on one line, naming every
+/// accepted value, before the scene file is read (this one does not exist); every name
+/// of the run's lists is accepted.
+#[test]
+fn an_unknown_method_is_a_usage_error_naming_the_methods() {
+    let d = dir().join("method");
+    std::fs::create_dir_all(&d).expect("dir");
+    let out = d.join("out.csv").to_string_lossy().to_string();
+    let missing = d.join("missing.xml").to_string_lossy().to_string();
+    let args = [
+        &missing,
+        "--duration",
+        "1",
+        "--method",
+        "magic",
+        "--out",
+        &out,
+    ];
+    let (ok, err, _) = simulate(&args);
+    assert!(!ok, "{err}");
+    let line = one_line("unknown method", "simulate: ", &err)[0];
+    assert!(
+        line.contains("invalid value 'magic' for '--method <M>'")
+            && line.contains("[possible values: velocity, projected, shake, baumgarte,")
+            && line.contains("free-contact, soft-step]"),
+        "{line}"
+    );
+    for (m, _) in constraint_scene::run::METHODS
+        .iter()
+        .chain(&constraint_scene::run::FREE_BODY_METHODS)
+    {
+        let args = [&missing, "--duration", "1", "--method", m, "--out", &out];
+        let (ok, err, _) = simulate(&args);
+        assert!(!ok && err.contains("missing.xml"), "{m}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// `--help` (and `-h`) of `simulate`: exit 0, every option listed with its default (or
-/// marked required), and every `--method` name with its description.
+/// marked required), and every `--method` name (with its description for `--help`).
 #[test]
 fn simulate_help_lists_every_option_and_its_default() {
     for flag in ["--help", "-h"] {
@@ -478,15 +516,18 @@ fn simulate_help_lists_every_option_and_its_default() {
             "--summary",
         ] {
             // The option's own paragraph: its line and the indented lines up to the next
-            // option or heading.
+            // option or heading (with --help, blank lines and the `- value:` lines of a
+            // list of possible values are inside it: the default comes after the list).
             let lines: Vec<&str> = out.lines().collect();
             let at = lines
                 .iter()
                 .position(|l| l.trim_start().starts_with(&format!("{opt} ")))
                 .unwrap_or_else(|| panic!("{flag}: {opt} not listed:\n{out}"));
-            let rest = lines[at + 1..]
-                .iter()
-                .take_while(|l| l.starts_with("  ") && !l.trim_start().starts_with('-'));
+            let rest = lines[at + 1..].iter().take_while(|l| {
+                let t = l.trim_start();
+                (l.starts_with("  ") || (flag == "--help" && t.is_empty()))
+                    && (!t.starts_with('-') || t.starts_with("- "))
+            });
             let para = std::iter::once(&lines[at])
                 .chain(rest)
                 .copied()
@@ -498,11 +539,24 @@ fn simulate_help_lists_every_option_and_its_default() {
             );
         }
         assert!(out.contains("[default: 1]") && out.contains("[default: rattle]"));
-        for (m, _) in constraint_scene::run::METHODS
+        // clap's list of `--method`'s values: names only with -h, each with its
+        // description with --help.
+        let methods = constraint_scene::run::METHODS
             .iter()
-            .chain(&constraint_scene::run::FREE_BODY_METHODS)
-        {
-            assert!(out.contains(&format!("  {m} ")), "{flag}: method {m}");
+            .chain(&constraint_scene::run::FREE_BODY_METHODS);
+        if flag == "-h" {
+            let names: Vec<&str> = methods.map(|m| m.0).collect();
+            let list = format!("[possible values: {}]", names.join(", "));
+            assert!(out.contains(&list), "{flag}: {list} not in\n{out}");
+        } else {
+            for (m, about) in methods {
+                let line = format!("- {m}:");
+                let at = out
+                    .lines()
+                    .find(|l| l.trim_start().starts_with(&line))
+                    .unwrap_or_else(|| panic!("{flag}: method {m} not listed:\n{out}"));
+                assert!(at.ends_with(about), "{flag}: {at:?} lacks {about:?}");
+            }
         }
     }
 }

@@ -65,15 +65,20 @@ pub(crate) fn estimate(group: &str, name: &str, param: impl std::fmt::Display) -
         }
     }
     let s = std::fs::read_to_string(p).ok()?;
-    // The file is small JSON; read `"median":{..."point_estimate":X`.
-    let m = s.find("\"median\"")?;
-    let rest = &s[m..];
-    let k = rest.find("\"point_estimate\":")? + "\"point_estimate\":".len();
-    let num: String = rest[k..]
-        .chars()
-        .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '-' | '+'))
-        .collect();
-    num.parse::<f64>().ok().map(|ns| ns * 1e-9)
+    let e: Estimates = serde_json::from_str(&s).ok()?;
+    Some(e.median.point_estimate * 1e-9)
+}
+
+/// The part of criterion's `estimates.json` read here: the median's point estimate (ns).
+#[derive(serde::Deserialize)]
+struct Estimates {
+    median: Estimate,
+}
+
+/// One estimate of criterion's `estimates.json`.
+#[derive(serde::Deserialize)]
+struct Estimate {
+    point_estimate: f64,
 }
 
 /// Least-squares slope of log t against log n.
@@ -167,23 +172,23 @@ fn read_accuracy(p: &mut Peers) {
     }
 }
 
-/// `"seconds_per_step": X` from a timing file of `cargo xtask mujoco --timing`.
-pub(crate) fn json_number(text: &str, key: &str) -> Option<f64> {
-    let k = text.find(&format!("\"{key}\""))?;
-    let rest = &text[k + key.len() + 2..];
-    let rest = rest[rest.find(':')? + 1..].trim_start();
-    let num: String = rest
-        .chars()
-        .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '-' | '+'))
-        .collect();
-    num.parse().ok()
+/// The fields read of a timing file of `cargo xtask mujoco --timing` (JSON written by
+/// `xtask/mujoco_run.py`); a key that is missing is `None`.
+#[derive(Clone, Debug, Default, PartialEq, serde::Deserialize)]
+pub(crate) struct Timing {
+    /// Steps of the timed rollout.
+    pub steps: Option<usize>,
+    /// Best time per step in MuJoCo's C loop (s).
+    pub seconds_per_step: Option<f64>,
+    /// MuJoCo's version.
+    pub mujoco_version: Option<String>,
 }
 
-pub(crate) fn json_string(text: &str, key: &str) -> Option<String> {
-    let k = text.find(&format!("\"{key}\""))?;
-    let rest = &text[k + key.len() + 2..];
-    let rest = rest[rest.find(':')? + 1..].trim_start().strip_prefix('"')?;
-    Some(rest[..rest.find('"')?].to_string())
+impl Timing {
+    /// Parses a timing file's text; a file that is not such JSON has no fields.
+    pub(crate) fn parse(text: &str) -> Timing {
+        serde_json::from_str(text).unwrap_or_default()
+    }
 }
 
 /// The MuJoCo side: generate the MJCF chains and time each in MuJoCo's C loop.
@@ -235,7 +240,7 @@ fn mujoco_chains(p: &mut Peers) {
             std::fs::read_to_string(&timing).map_err(|e| format!("{}: {e}", timing.display()))
         });
         match text {
-            Ok(text) => match json_number(&text, "seconds_per_step") {
+            Ok(text) => match Timing::parse(&text).seconds_per_step {
                 Some(t) => {
                     eprintln!(
                         "  {n} links: {:.3e} s/step ({:.0} s with loading)",
@@ -243,7 +248,7 @@ fn mujoco_chains(p: &mut Peers) {
                         t0.elapsed().as_secs_f64()
                     );
                     p.time.push(("mujoco".into(), n, t));
-                    version = version.or_else(|| json_string(&text, "mujoco_version"));
+                    version = version.or_else(|| Timing::parse(&text).mujoco_version);
                 }
                 None => p
                     .notes
@@ -814,60 +819,86 @@ fn write_report(dir: &Path, md: &str) -> Result<PathBuf, String> {
 /// The sections of a run, in the report's order.
 const SECTIONS: [&str; 5] = ["chains", "contact", "mjcf", "models", "cloth"];
 
-/// The command line of `cargo xtask bench`.
+/// The options of `cargo xtask bench`: its own flags first, then everything for
+/// criterion.
+#[derive(clap::Args, Clone, Debug, Default, PartialEq, Eq)]
+pub struct Options {
+    /// Leave MuJoCo out: the chains and the MJCF scenes run ours only, the real models
+    /// not at all [default: off, MuJoCo runs (pip-installed on first use)].
+    #[arg(long)]
+    pub no_mujoco: bool,
+    /// The peer comparisons only: every section but cloth [default: off].
+    #[arg(long)]
+    pub peers_only: bool,
+    /// The sections to run, comma-separated, from chains, contact, mjcf, models, cloth
+    /// (given twice, the last counts) [default: all of them].
+    #[arg(
+        long,
+        value_name = "SECTIONS",
+        value_delimiter = ',',
+        action = clap::ArgAction::Set,
+        value_parser = section
+    )]
+    pub only: Vec<&'static str>,
+    /// Passed to every criterion bench, after xtask's own options (`--quick`, a filter, …)
+    /// [default: none].
+    #[arg(
+        value_name = "CRITERION ARGS",
+        num_args = 0..,
+        trailing_var_arg = true,
+        allow_hyphen_values = true
+    )]
+    pub criterion_args: Vec<String>,
+}
+
+/// A section name of `--only` ([`SECTIONS`]), spaces around it ignored.
+fn section(s: &str) -> Result<&'static str, String> {
+    let s = s.trim();
+    SECTIONS
+        .into_iter()
+        .find(|x| *x == s)
+        .ok_or_else(|| format!("unknown section (sections: {})", SECTIONS.join(", ")))
+}
+
+/// What a run of `cargo xtask bench` does, from its [`Options`].
 #[derive(Debug, PartialEq)]
-struct Options {
+struct Plan {
     mujoco: bool,
     /// Sections to run, a subset of [`SECTIONS`] in its order.
     sections: Vec<&'static str>,
-    /// Everything else, for criterion.
-    criterion_args: Vec<String>,
 }
 
-fn parse_args(args: &[String]) -> Result<Options, String> {
-    let mut mujoco = true;
-    let mut peers_only = false;
-    let mut only: Option<Vec<String>> = None;
-    let mut criterion_args = Vec::new();
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--no-mujoco" => mujoco = false,
-            "--peers-only" => peers_only = true,
-            "--only" => {
-                let v = it.next().ok_or("--only needs a value (e.g. mjcf,cloth)")?;
-                only = Some(v.split(',').map(|s| s.trim().to_string()).collect());
-            }
-            s if s.starts_with("--only=") => {
-                only = Some(s[7..].split(',').map(|s| s.trim().to_string()).collect());
-            }
-            _ => criterion_args.push(a.clone()),
-        }
-    }
-    if let Some(only) = &only {
-        if let Some(bad) = only.iter().find(|s| !SECTIONS.contains(&s.as_str())) {
+impl Plan {
+    /// The sections `o` selects, in the report's order. xtask's own flags go before
+    /// criterion's arguments (clap passes everything from the first argument it does
+    /// not know to criterion): one found among them is an error, not criterion's.
+    fn of(o: &Options) -> Result<Plan, String> {
+        if let Some(a) = o.criterion_args.iter().find(|a| {
+            ["--no-mujoco", "--peers-only", "--only"].contains(&a.as_str())
+                || a.starts_with("--only=")
+        }) {
             return Err(format!(
-                "--only: unknown section {bad:?} (sections: {})",
-                SECTIONS.join(", ")
+                "{a} comes after criterion's arguments ({}): give xtask's options first",
+                o.criterion_args[0]
             ));
         }
+        let sections = SECTIONS
+            .into_iter()
+            .filter(|s| o.only.is_empty() || o.only.contains(s))
+            .filter(|s| !(o.peers_only && *s == "cloth"))
+            .collect();
+        Ok(Plan {
+            mujoco: !o.no_mujoco,
+            sections,
+        })
     }
-    let sections = SECTIONS
-        .into_iter()
-        .filter(|s| only.as_ref().is_none_or(|o| o.iter().any(|x| x == s)))
-        .filter(|s| !(peers_only && *s == "cloth"))
-        .collect();
-    Ok(Options {
-        mujoco,
-        sections,
-        criterion_args,
-    })
 }
 
-pub fn main(args: &[String]) -> Result<(), String> {
-    let o = parse_args(args)?;
+/// Runs the sections of `opts` and writes `target/bench/ratios.md`.
+pub fn main(opts: &Options) -> Result<(), String> {
+    let o = Plan::of(opts)?;
     let _ = RUN_START.set(SystemTime::now());
-    let args = &o.criterion_args;
+    let args = &opts.criterion_args;
     let run = |s: &str| o.sections.contains(&s);
     let cloth = if run("cloth") {
         Some(bench_cloth::run(args)?)
@@ -948,30 +979,61 @@ mod tests {
 
     #[test]
     fn reads_numbers_and_strings_from_the_timing_json() {
-        let j = "{\n  \"scene\": \"a.xml\",\n  \"seconds_per_step\": 2.5e-05,\n  \"mujoco_version\": \"4.0.0\"\n}";
-        assert_eq!(json_number(j, "seconds_per_step"), Some(2.5e-5));
-        assert_eq!(json_string(j, "mujoco_version").as_deref(), Some("4.0.0"));
-        assert_eq!(json_number(j, "missing"), None);
+        // As xtask/mujoco_run.py writes it (json.dump, indent 2).
+        let j = "{\n  \"scene\": \"a.xml\",\n  \"integrator\": \"euler\",\n  \"dt\": 0.001,\n  \
+                 \"steps\": 1000,\n  \"seconds_per_step\": 2.5e-05,\n  \"repeats\": 3,\n  \
+                 \"mujoco_version\": \"4.0.0\"\n}\n";
+        let t = Timing::parse(j);
+        assert_eq!(t.seconds_per_step, Some(2.5e-5));
+        assert_eq!(t.steps, Some(1000));
+        assert_eq!(t.mujoco_version.as_deref(), Some("4.0.0"));
+        let missing = Timing::parse("{\"scene\": \"a.xml\"}");
+        assert_eq!((missing.seconds_per_step, missing.steps), (None, None));
+        assert_eq!(Timing::parse("not json"), Timing::default());
     }
 
-    fn args(s: &str) -> Vec<String> {
-        s.split_whitespace().map(String::from).collect()
+    #[test]
+    fn reads_the_median_of_criterions_estimates() {
+        let j = r#"{"mean":{"confidence_interval":{"confidence_level":0.95,"lower_bound":1.0,"upper_bound":3.0},"point_estimate":2.0,"standard_error":0.1},"median":{"confidence_interval":{"confidence_level":0.95,"lower_bound":1400.0,"upper_bound":1600.0},"point_estimate":1500.0,"standard_error":5.0},"median_abs_dev":{"confidence_interval":{"confidence_level":0.95,"lower_bound":1.0,"upper_bound":2.0},"point_estimate":1.5,"standard_error":0.1},"slope":null,"std_dev":{"confidence_interval":{"confidence_level":0.95,"lower_bound":1.0,"upper_bound":2.0},"point_estimate":1.5,"standard_error":0.1}}"#;
+        let e: Estimates = serde_json::from_str(j).unwrap();
+        assert_eq!(e.median.point_estimate, 1500.0);
+    }
+
+    /// `cargo xtask bench LINE`'s options and plan, or the error rendered.
+    fn parse_args(line: &str) -> Result<(Options, Plan), String> {
+        match crate::parse(&format!("bench {line}")) {
+            Ok(Some(crate::Command::Bench(o))) => Plan::of(&o).map(|p| (o, p)),
+            Ok(other) => panic!("{line}: parsed as {other:?}"),
+            Err(e) => Err(e.to_string()),
+        }
     }
 
     #[test]
     fn parses_sections_and_passes_the_rest_to_criterion() {
-        let o = parse_args(&args("--quick --no-mujoco")).unwrap();
-        assert_eq!(o.sections, SECTIONS);
-        assert!(!o.mujoco);
+        let (o, p) = parse_args("--no-mujoco --quick").unwrap();
+        assert_eq!(p.sections, SECTIONS);
+        assert!(!p.mujoco);
         assert_eq!(o.criterion_args, ["--quick"]);
-        let o = parse_args(&args("--peers-only --only cloth,mjcf")).unwrap();
-        assert_eq!(o.sections, ["mjcf"]);
-        assert!(o.mujoco);
-        let o = parse_args(&args("--only=cloth,chains filter")).unwrap();
-        assert_eq!(o.sections, ["chains", "cloth"]);
+        let (_, p) = parse_args("--peers-only --only cloth,mjcf").unwrap();
+        assert_eq!(p.sections, ["mjcf"]);
+        assert!(p.mujoco);
+        let (o, p) = parse_args("--only=cloth,chains filter").unwrap();
+        assert_eq!(p.sections, ["chains", "cloth"]);
         assert_eq!(o.criterion_args, ["filter"]);
-        assert!(parse_args(&args("--only rigid")).is_err());
-        assert!(parse_args(&args("--only")).is_err());
+        let (o, p) = parse_args("--only mjcf --only cloth --warm-up-time 1 x").unwrap();
+        assert_eq!(p.sections, ["cloth"], "the last --only counts");
+        assert_eq!(o.criterion_args, ["--warm-up-time", "1", "x"]);
+        let (o, p) = parse_args("").unwrap();
+        assert_eq!((p.sections.len(), p.mujoco), (5, true));
+        assert!(o.criterion_args.is_empty());
+        assert!(parse_args("--only rigid")
+            .unwrap_err()
+            .contains("unknown section"));
+        assert!(parse_args("--only").is_err());
+        // xtask's options after criterion's are an error, not criterion's.
+        let e = parse_args("--quick --no-mujoco").unwrap_err();
+        assert!(e.contains("give xtask's options first"), "{e}");
+        assert!(parse_args("filter --only=cloth").is_err());
     }
 
     #[test]

@@ -10,7 +10,7 @@
 //! same window in its C loop (`mujoco.rollout`). [`markdown`] is the section of
 //! `target/bench/ratios.md`.
 
-use crate::bench::{estimate, fmt_ratio, fmt_time, json_number, json_string};
+use crate::bench::{estimate, fmt_ratio, fmt_time, Timing};
 use crate::mujoco::{run as run_mujoco, RunOptions};
 use crate::run::{cargo, root};
 use std::fmt::Write as _;
@@ -218,8 +218,9 @@ fn mujoco_scenes(res: &mut MjcfResults) {
         });
         match out {
             Ok(text) => {
-                let steps = json_number(&text, "steps").map(|s| s as usize);
-                match json_number(&text, "seconds_per_step") {
+                let timing = Timing::parse(&text);
+                let steps = timing.steps;
+                match timing.seconds_per_step {
                     Some(t) if steps == Some(r.steps) => {
                         eprintln!("  {}: {t:.3e} s/step", r.scene);
                         res.mujoco.push(MujocoTime {
@@ -228,7 +229,7 @@ fn mujoco_scenes(res: &mut MjcfResults) {
                             steps: r.steps,
                         });
                         if res.mujoco_version.is_none() {
-                            res.mujoco_version = json_string(&text, "mujoco_version");
+                            res.mujoco_version = timing.mujoco_version.clone();
                         }
                     }
                     Some(_) => res.notes.push(format!(

@@ -235,32 +235,44 @@ struct Artifact {
     package_dir: PathBuf,
 }
 
+/// The fields read of one line of `cargo --message-format=json` (every message kind:
+/// the fields a kind lacks are `None`).
+#[derive(serde::Deserialize)]
+struct Message {
+    reason: String,
+    target: Option<Target>,
+    profile: Option<Profile>,
+    executable: Option<PathBuf>,
+    manifest_path: Option<PathBuf>,
+}
+
+/// The target of a `compiler-artifact` message.
+#[derive(serde::Deserialize)]
+struct Target {
+    name: String,
+}
+
+/// The profile of a `compiler-artifact` message.
+#[derive(serde::Deserialize)]
+struct Profile {
+    /// Built as a test harness (the target has a `test` key of its own, which is true
+    /// for binaries too).
+    test: bool,
+}
+
 impl Artifact {
-    /// Reads the fields by key: the messages are cargo's, one object per line, and the
-    /// values read here (target name, paths) hold no escaped quotes on the platforms
-    /// this runs on; a line that does not parse is skipped.
+    /// An artifact from one line of cargo's JSON messages: `None` for a line that is not
+    /// a `compiler-artifact` message of an executable, or that does not parse.
     fn parse(line: &str) -> Option<Self> {
-        if !line.contains("\"reason\":\"compiler-artifact\"") {
+        let m: Message = serde_json::from_str(line).ok()?;
+        if m.reason != "compiler-artifact" {
             return None;
         }
-        let string = |key: &str| {
-            let start = line.find(&format!("\"{key}\":\""))? + key.len() + 4;
-            let len = line[start..].find('"')?;
-            Some(line[start..start + len].to_string())
-        };
-        let executable = PathBuf::from(string("executable")?);
-        let manifest = PathBuf::from(string("manifest_path")?);
         Some(Self {
-            // The first `"name"` is the target's (the package id spells its name
-            // differently).
-            name: string("name")?,
-            // The profile's `test` (the target object has a `test` key of its own).
-            test: line
-                .split_once("\"profile\":{")
-                .and_then(|(_, p)| p.split_once('}'))
-                .is_some_and(|(p, _)| p.contains("\"test\":true")),
-            executable,
-            package_dir: manifest.parent()?.to_path_buf(),
+            name: m.target?.name,
+            test: m.profile?.test,
+            executable: m.executable?,
+            package_dir: m.manifest_path?.parent()?.to_path_buf(),
         })
     }
 }
@@ -289,5 +301,12 @@ mod tests {
             .replace("bad_input_sweep", "simulate");
         assert!(!Artifact::parse(&bin).expect("parses").test);
         assert!(Artifact::parse(r#"{"reason":"build-finished","success":true}"#).is_none());
+        // A library: no executable.
+        let lib = line.replace(
+            r#""executable":"/w/target/release/deps/bad_input_sweep-1""#,
+            r#""executable":null"#,
+        );
+        assert!(Artifact::parse(&lib).is_none());
+        assert!(Artifact::parse("warning: not JSON").is_none());
     }
 }

@@ -155,7 +155,7 @@ pub fn format_report(rep: &Report) -> String {
 }
 
 /// `cargo xtask compare ARGS`: the `compare` binary, its exit status passed through.
-pub fn main(args: &[String]) -> Result<(), String> {
+pub fn main(args: &[std::ffi::OsString]) -> Result<(), String> {
     let status = scene_bin("compare")
         .args(args)
         .status()

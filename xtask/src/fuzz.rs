@@ -46,29 +46,25 @@ fn executions(log: &str) -> Option<u64> {
         .find_map(|l| l.split_whitespace().next()?.parse().ok())
 }
 
-pub fn main(args: &[String]) -> Result<(), String> {
-    let mut seconds = 60u64;
-    let mut targets: Vec<String> = Vec::new();
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--seconds" => {
-                seconds = it
-                    .next()
-                    .and_then(|s| s.parse().ok())
-                    .ok_or("--seconds takes a whole number")?;
-            }
-            t if TARGETS.contains(&t) => targets.push(t.to_string()),
-            other => {
-                return Err(format!(
-                    "unknown argument {other:?} (expected --seconds N or one of {TARGETS:?})"
-                ))
-            }
-        }
-    }
-    if targets.is_empty() {
-        targets = TARGETS.iter().map(|s| s.to_string()).collect();
-    }
+/// The options of `cargo xtask fuzz`.
+#[derive(clap::Args, Clone, Debug, PartialEq, Eq)]
+pub struct Options {
+    /// Seconds of fuzzing per target.
+    #[arg(long, value_name = "N", default_value_t = 60)]
+    pub seconds: u64,
+    /// The targets to run, in this order [default: all six, in the order listed].
+    #[arg(value_name = "TARGET", value_parser = clap::builder::PossibleValuesParser::new(TARGETS))]
+    pub targets: Vec<String>,
+}
+
+/// Runs each target of `o` for its seconds; `Err` names the targets that crashed.
+pub fn main(o: &Options) -> Result<(), String> {
+    let seconds = o.seconds;
+    let targets: Vec<String> = if o.targets.is_empty() {
+        TARGETS.iter().map(|s| s.to_string()).collect()
+    } else {
+        o.targets.clone()
+    };
     let fuzz_dir = root().join("fuzz");
 
     if !has(Command::new("cargo").args(["fuzz", "--version"])) {

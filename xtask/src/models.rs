@@ -1025,23 +1025,6 @@ pub struct RunArgs {
     pub simulate: Option<PathBuf>,
 }
 
-pub fn parse_run_args(args: &[String]) -> Result<RunArgs, String> {
-    let mut a = RunArgs {
-        quick: false,
-        out: models_dir(),
-        simulate: None,
-    };
-    let mut it = args.iter();
-    while let Some(s) = it.next() {
-        match s.as_str() {
-            "--quick" => a.quick = true,
-            "--out" => a.out = PathBuf::from(it.next().ok_or("--out needs a directory")?),
-            other => return Err(format!("unknown argument {other:?}")),
-        }
-    }
-    Ok(a)
-}
-
 /// What a whole run produced.
 pub struct Suite {
     pub rows: Vec<Row>,
@@ -1274,41 +1257,74 @@ fn run_models(a: &RunArgs, models: &[(&str, &str)]) -> Result<Suite, String> {
 /// A model of [`MODELS`]: `(suite, name)`.
 type Model = (&'static str, &'static str);
 
-/// Takes `--only SUITE/NAME[,SUITE/NAME...]` out of `run`'s arguments: the models of
-/// [`MODELS`] it names (all without it). Errors: a name not in [`MODELS`], no value.
-pub fn split_only(args: &[String]) -> Result<(Vec<String>, Vec<Model>), String> {
-    let mut rest = Vec::new();
-    let mut only: Option<Vec<Model>> = None;
-    let mut it = args.iter();
-    while let Some(s) = it.next() {
-        if s != "--only" {
-            rest.push(s.clone());
-            continue;
-        }
-        let list = it.next().ok_or("--only needs SUITE/NAME[,SUITE/NAME...]")?;
-        let chosen = only.get_or_insert_with(Vec::new);
-        for key in list.split(',') {
-            let m = MODELS
-                .iter()
-                .find(|(s, n)| format!("{s}/{n}") == key)
-                .ok_or_else(|| {
-                    format!("--only: no model {key:?} (see `cargo xtask models list`)")
-                })?;
-            if !chosen.contains(m) {
-                chosen.push(*m);
-            }
+/// A model of `--only`: `SUITE/NAME` of [`MODELS`].
+fn model(key: &str) -> Result<Model, String> {
+    MODELS
+        .iter()
+        .find(|(s, n)| format!("{s}/{n}") == key)
+        .copied()
+        .ok_or_else(|| "no such model (see `cargo xtask models list`)".into())
+}
+
+/// The options of `cargo xtask models`.
+#[derive(clap::Args, Clone, Debug, PartialEq)]
+pub struct Options {
+    /// What to do with the models.
+    #[command(subcommand)]
+    pub command: Subcommand,
+}
+
+/// The subcommands of `cargo xtask models`.
+#[derive(clap::Subcommand, Clone, Debug, PartialEq)]
+pub enum Subcommand {
+    /// Download the pinned gymnasium and dm_control wheels (PyPI, no dependencies) and
+    /// extract their 33 MJCF models into target/models/ (once; stamp file)
+    Fetch,
+    /// Fetch, then print the pinned models with their paths
+    List,
+    /// Fetch, then run every model in MuJoCo and in our simulate binary: models.md and
+    /// models.csv
+    ///
+    /// Each model passive from qpos0 and from a seeded perturbed state, and under a seeded
+    /// control sequence, in MuJoCo (mujoco.rollout) and in the simulate binary of
+    /// constraint-scene, with per-model checks and time per step.
+    Run(RunOptions),
+}
+
+/// The options of `cargo xtask models run`.
+#[derive(clap::Args, Clone, Debug, PartialEq)]
+pub struct RunOptions {
+    /// 0.5 s runs, one repeat [default: off: 5 s passive and perturbed, 2 s controlled,
+    /// MuJoCo's median of 3].
+    #[arg(long)]
+    pub quick: bool,
+    /// Where models.md and models.csv go.
+    #[arg(long, value_name = "DIR", default_value_os_t = models_dir())]
+    pub out: PathBuf,
+    /// Run these models alone, SUITE/NAME comma-separated or repeated, e.g.
+    /// gymnasium/ant,dm_control/humanoid [default: all 33].
+    #[arg(long, value_name = "SUITE/NAME,...", value_delimiter = ',', value_parser = model)]
+    pub only: Vec<Model>,
+}
+
+impl RunOptions {
+    /// The run's arguments (our `simulate` built by the run).
+    pub fn args(&self) -> RunArgs {
+        RunArgs {
+            quick: self.quick,
+            out: self.out.clone(),
+            simulate: None,
         }
     }
-    // In the suite's order.
-    let models = match only {
-        Some(chosen) => MODELS
+
+    /// The models of `--only`, each once, in [`MODELS`]' order (all without it).
+    pub fn models(&self) -> Vec<Model> {
+        MODELS
             .iter()
-            .filter(|m| chosen.contains(m))
+            .filter(|m| self.only.is_empty() || self.only.contains(m))
             .copied()
-            .collect(),
-        None => MODELS.to_vec(),
-    };
-    Ok((rest, models))
+            .collect()
+    }
 }
 
 fn run(a: &RunArgs, models: &[(&str, &str)]) -> Result<(), String> {
@@ -1325,13 +1341,11 @@ fn run(a: &RunArgs, models: &[(&str, &str)]) -> Result<(), String> {
     }
 }
 
-pub const USAGE: &str =
-    "usage: cargo xtask models fetch | list | run [--quick] [--out DIR] [--only SUITE/NAME,...]";
-
-pub fn main(args: &[String]) -> Result<(), String> {
-    match args.first().map(String::as_str) {
-        Some("fetch") if args.len() == 1 => fetch().map(|_| ()),
-        Some("list") if args.len() == 1 => {
+/// Runs `cargo xtask models <subcommand>`.
+pub fn main(o: &Options) -> Result<(), String> {
+    match &o.command {
+        Subcommand::Fetch => fetch().map(|_| ()),
+        Subcommand::List => {
             fetch()?;
             let dir = models_dir();
             for (s, n) in MODELS {
@@ -1339,16 +1353,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
             }
             Ok(())
         }
-        Some("run") => {
-            let usage = |e: String| format!("{e}\n{USAGE}");
-            let (rest, models) = split_only(&args[1..]).map_err(usage)?;
-            run(&parse_run_args(&rest).map_err(usage)?, &models)
-        }
-        Some("-h" | "--help" | "help") => {
-            println!("{USAGE}");
-            Ok(())
-        }
-        _ => Err(USAGE.into()),
+        Subcommand::Run(r) => run(&r.args(), &r.models()),
     }
 }
 
@@ -1751,34 +1756,69 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
-    #[test]
-    fn only_selects_models_in_suite_order() {
-        let args = |s: &str| s.split_whitespace().map(String::from).collect::<Vec<_>>();
-        let (rest, m) = split_only(&args(
-            "--quick --only dm_control/humanoid,gymnasium/ant --out x",
-        ))
-        .unwrap();
-        assert_eq!(rest, args("--quick --out x"));
-        assert_eq!(m, [("gymnasium", "ant"), ("dm_control", "humanoid")]);
-        let (rest, m) = split_only(&args("--quick")).unwrap();
-        assert_eq!(rest, args("--quick"));
-        assert_eq!(m.len(), MODELS.len());
-        assert!(split_only(&args("--only gymnasium/nothing")).is_err());
-        assert!(split_only(&args("--only")).is_err());
+    /// `cargo xtask models LINE`'s options, or the error rendered.
+    fn parse(line: &str) -> Result<Subcommand, String> {
+        match crate::parse(&format!("models {line}")) {
+            Ok(Some(crate::Command::Models(o))) => Ok(o.command),
+            Ok(other) => panic!("{line}: parsed as {other:?}"),
+            Err(e) => Err(e.to_string()),
+        }
+    }
+
+    /// `cargo xtask models run LINE`'s options.
+    fn run_options(line: &str) -> RunOptions {
+        match parse(&format!("run {line}")) {
+            Ok(Subcommand::Run(r)) => r,
+            other => panic!("{line}: {other:?}"),
+        }
     }
 
     #[test]
+    fn only_selects_models_in_suite_order() {
+        let r = run_options("--quick --only dm_control/humanoid,gymnasium/ant --out x");
+        assert!(r.quick);
+        assert_eq!(r.out, PathBuf::from("x"));
+        assert_eq!(
+            r.models(),
+            [("gymnasium", "ant"), ("dm_control", "humanoid")]
+        );
+        // Repeated, and a model named twice, runs once.
+        let r = run_options("--only dm_control/humanoid --only gymnasium/ant,gymnasium/ant");
+        assert_eq!(
+            r.models(),
+            [("gymnasium", "ant"), ("dm_control", "humanoid")]
+        );
+        assert_eq!(run_options("--quick").models().len(), MODELS.len());
+        assert!(parse("run --only gymnasium/nothing")
+            .unwrap_err()
+            .contains("no such model"));
+        assert!(parse("run --only").is_err());
+    }
+
+    /// README.md's and verify's `models` lines, the defaults, and what is refused.
+    #[test]
     fn run_arguments() {
-        let args = |s: &str| s.split_whitespace().map(String::from).collect::<Vec<_>>();
-        let a = parse_run_args(&args("--quick --out x")).unwrap();
-        assert!(a.quick);
-        assert_eq!(a.out, PathBuf::from("x"));
-        assert!(!parse_run_args(&[]).unwrap().quick);
-        assert!(parse_run_args(&args("--out"))
+        let r = run_options("--quick --out x");
+        assert!(r.quick);
+        assert_eq!(r.out, PathBuf::from("x"));
+        let r = run_options("");
+        assert!(!r.quick);
+        assert_eq!(r.out, models_dir());
+        assert_eq!(
+            r.args(),
+            RunArgs {
+                quick: false,
+                out: models_dir(),
+                simulate: None
+            }
+        );
+        assert_eq!(parse("fetch"), Ok(Subcommand::Fetch));
+        assert_eq!(parse("list"), Ok(Subcommand::List));
+        assert!(parse("run --out")
             .unwrap_err()
-            .contains("needs"));
-        assert!(parse_run_args(&args("--slow"))
-            .unwrap_err()
-            .contains("unknown"));
+            .contains("a value is required"));
+        assert!(parse("run --slow").unwrap_err().contains("--slow"));
+        assert!(parse("fetch now").is_err());
+        assert!(parse("").is_err());
     }
 }

@@ -16,84 +16,52 @@ pub const PENETRATION_TOL: f64 = 1e-3;
 /// without contact (RATTLE's energy error oscillates, bounded; damping only removes).
 pub const ENERGY_REL_TOL: f64 = 1e-4;
 
-/// What `simulate --summary FILE.json` writes (see `constraint_verify::scene::Summary`).
-#[derive(Clone, Debug, Default, PartialEq)]
+/// What `simulate --summary FILE.json` writes (see `constraint_scene::run::Summary`),
+/// the fields the checks read. Every key is required but the two an older binary did
+/// not write (`first_contact_time`, `root_height`); other keys are ignored.
+#[derive(Clone, Debug, Default, PartialEq, serde::Deserialize)]
 pub struct Summary {
     pub steps: u64,
+    /// `null` when no step was taken.
+    #[serde(deserialize_with = "nullable")]
     pub us_per_step: Option<f64>,
     pub finite: bool,
+    #[serde(deserialize_with = "figure")]
     pub max_joint_separation: f64,
+    #[serde(deserialize_with = "figure")]
     pub max_penetration: f64,
+    #[serde(deserialize_with = "figure")]
     pub settled_penetration: f64,
+    #[serde(deserialize_with = "figure")]
     pub energy_initial: f64,
+    #[serde(deserialize_with = "figure")]
     pub max_energy_increase: f64,
     pub max_contacts: usize,
     /// Time of the first state with a contact (s).
+    #[serde(default)]
     pub first_contact_time: Option<f64>,
     /// Height of the first body's origin at the end (m).
+    #[serde(default)]
     pub root_height: Option<f64>,
     pub actuators: usize,
     pub colliders: usize,
 }
 
+/// A required number that may be `null` (serde_json writes a non-finite `f64` so).
+fn nullable<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    <Option<f64> as serde::Deserialize>::deserialize(d)
+}
+
+/// A figure a check holds to a tolerance: `null` (non-finite) becomes infinity, so the
+/// check fails.
+fn figure<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    nullable(d).map(|v| v.unwrap_or(f64::INFINITY))
+}
+
 /// Parses the flat JSON object of `simulate --summary` (numbers, booleans, `null`).
 /// Errors name the missing or malformed key.
 pub fn parse_summary(text: &str) -> Result<Summary, String> {
-    let body = text
-        .trim()
-        .strip_prefix('{')
-        .and_then(|s| s.strip_suffix('}'))
-        .ok_or("summary: not a JSON object")?;
-    let mut fields = Vec::new();
-    for kv in body.split(',').filter(|s| !s.trim().is_empty()) {
-        let (k, v) = kv
-            .split_once(':')
-            .ok_or(format!("summary: {kv:?} is not key:value"))?;
-        fields.push((k.trim().trim_matches('"').to_string(), v.trim().to_string()));
-    }
-    let get = |k: &str| {
-        fields
-            .iter()
-            .find(|(n, _)| n == k)
-            .map(|(_, v)| v.as_str())
-            .ok_or(format!("summary: no {k:?}"))
-    };
-    let num = |k: &str| -> Result<Option<f64>, String> {
-        match get(k)? {
-            "null" => Ok(None),
-            v => v
-                .parse::<f64>()
-                .map(Some)
-                .map_err(|_| format!("summary: {k}: {v:?} is not a number")),
-        }
-    };
-    // A non-finite figure (`null`) makes the check fail: it becomes infinity.
-    let fig = |k: &str| num(k).map(|v| v.unwrap_or(f64::INFINITY));
-    let count = |k: &str| {
-        get(k)?
-            .parse::<u64>()
-            .map_err(|_| format!("summary: {k}: not a count"))
-    };
-    Ok(Summary {
-        steps: count("steps")?,
-        us_per_step: num("us_per_step")?,
-        finite: match get("finite")? {
-            "true" => true,
-            "false" => false,
-            v => return Err(format!("summary: finite: {v:?} is not a boolean")),
-        },
-        max_joint_separation: fig("max_joint_separation")?,
-        max_penetration: fig("max_penetration")?,
-        settled_penetration: fig("settled_penetration")?,
-        energy_initial: fig("energy_initial")?,
-        max_energy_increase: fig("max_energy_increase")?,
-        max_contacts: count("max_contacts")? as usize,
-        // Optional keys (a summary of an older binary has neither).
-        first_contact_time: num("first_contact_time").unwrap_or(None),
-        root_height: num("root_height").unwrap_or(None),
-        actuators: count("actuators")? as usize,
-        colliders: count("colliders")? as usize,
-    })
+    serde_json::from_str(text).map_err(|e| format!("summary: {e}"))
 }
 
 /// Whether the energy check applies to a case: no control (`passive`, `perturbed`) and
@@ -187,15 +155,37 @@ mod tests {
         assert_eq!(s.max_joint_separation, f64::INFINITY);
         assert_eq!(checks("passive", &s).len(), 1);
         for (bad, want) in [
-            ("[]", "not a JSON object"),
-            ("{\"steps\":1}", "no \"us_per_step\""),
-            ("{\"steps\":x}", "not a count"),
+            ("[]", "expected struct Summary"),
+            ("{\"steps\":1}", "missing field `us_per_step`"),
+            (
+                "{\"steps\":1.5}",
+                "invalid type: floating point `1.5`, expected u64",
+            ),
+            ("{\"steps\":x}", "expected value"),
         ] {
             let e = parse_summary(bad).unwrap_err();
             assert!(e.contains(want), "{bad}: {e}");
         }
-        let e = parse_summary(&JSON.replace("true", "yes")).unwrap_err();
-        assert!(e.contains("not a boolean"), "{e}");
+        let e = parse_summary(&JSON.replace("true", "\"yes\"")).unwrap_err();
+        assert!(e.contains("expected a boolean"), "{e}");
+        // Numbers are read exactly (serde_json's `float_roundtrip`): without it these
+        // two, from real summaries, came out one ulp off.
+        let exact = JSON
+            .replace("1.1e-16", "9.962517892747503e-13")
+            .replace("216.2,\"max", "11.281500000000001,\"max");
+        let s = parse_summary(&exact).unwrap();
+        assert_eq!(
+            s.max_joint_separation,
+            "9.962517892747503e-13".parse::<f64>().unwrap()
+        );
+        assert_eq!(
+            s.energy_initial,
+            "11.281500000000001".parse::<f64>().unwrap()
+        );
+        // An older binary's summary, without the two later keys.
+        let old = JSON.replace(",\"first_contact_time\":0.0125,\"root_height\":1.3", "");
+        let s = parse_summary(&old).unwrap();
+        assert_eq!((s.first_contact_time, s.root_height), (None, None));
     }
 
     #[test]

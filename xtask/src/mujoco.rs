@@ -24,22 +24,58 @@ const SCRIPT: &str = include_str!("../mujoco_run.py");
 /// Integrators `--integrator` accepts.
 pub const INTEGRATORS: [&str; 3] = ["euler", "implicitfast", "rk4"];
 
-/// One MuJoCo run.
-#[derive(Clone, Debug, Default)]
+/// One MuJoCo run: the options of `cargo xtask mujoco`. Every value is taken as given,
+/// a leading minus sign included (`--qvel -1,2`), and passed to the Python script as
+/// written.
+#[derive(clap::Args, Clone, Debug, Default, PartialEq)]
 pub struct RunOptions {
+    /// The MJCF scene file.
+    #[arg(value_name = "SCENE.xml")]
     pub scene: PathBuf,
+    /// Start from this keyframe of the file [default: the model's qpos0, at rest].
+    #[arg(long, value_name = "NAME", allow_hyphen_values = true)]
     pub keyframe: Option<String>,
-    /// Overrides the file's `option timestep`.
+    /// The time step, s, overriding the file's [default: the file's option timestep].
+    #[arg(long, value_name = "DT", allow_hyphen_values = true, value_parser = positive)]
     pub dt: Option<String>,
+    /// Simulated time, s (required).
+    #[arg(long, value_name = "T", allow_hyphen_values = true, value_parser = non_negative)]
     pub duration: String,
+    /// Write every K-th step.
+    #[arg(
+        long,
+        value_name = "K",
+        default_value_t = 1,
+        allow_hyphen_values = true,
+        value_parser = at_least_one
+    )]
     pub every: usize,
+    /// MuJoCo's integrator [default: the file's option integrator].
+    #[arg(
+        long,
+        value_name = "I",
+        allow_hyphen_values = true,
+        value_parser = clap::builder::PossibleValuesParser::new(INTEGRATORS)
+    )]
     pub integrator: Option<String>,
+    /// The trajectory as CSV (required).
+    #[arg(long, value_name = "FILE.csv", allow_hyphen_values = true)]
     pub out: PathBuf,
+    /// Also time the same rollout in MuJoCo's C loop (mujoco.rollout) and write seconds
+    /// per step as JSON [default: none].
+    #[arg(long, value_name = "FILE.json", allow_hyphen_values = true)]
     pub timing: Option<PathBuf>,
-    /// Initial `qpos` / `qvel` (comma-separated, MuJoCo's order; after the keyframe).
+    /// Initial positions in MuJoCo's generalized coordinates, comma-separated, after the
+    /// keyframe [default: the keyframe's or qpos0; missing trailing values: unchanged].
+    #[arg(long, value_name = "V,V,...", allow_hyphen_values = true)]
     pub qpos: Option<String>,
+    /// Initial velocities, comma-separated [default: the keyframe's or 0; missing
+    /// trailing values: unchanged].
+    #[arg(long, value_name = "V,V,...", allow_hyphen_values = true)]
     pub qvel: Option<String>,
-    /// Control CSV `t,<actuator>...` (zero-order hold), as `simulate --ctrl`.
+    /// Controls: CSV `t,<actuator>...`, each row held until the next, as `simulate --ctrl`
+    /// [default: none, zero].
+    #[arg(long, value_name = "FILE.csv", allow_hyphen_values = true)]
     pub ctrl: Option<PathBuf>,
 }
 
@@ -276,86 +312,28 @@ pub fn run(o: &RunOptions) -> Result<(), String> {
     Ok(())
 }
 
-fn positive(flag: &str, v: &str) -> Result<String, String> {
+/// `--dt`: a positive finite number, kept as written.
+fn positive(v: &str) -> Result<String, String> {
     match v.parse::<f64>() {
         Ok(x) if x > 0.0 && x.is_finite() => Ok(v.to_string()),
-        _ => Err(format!("{flag} needs a positive number, got {v:?}")),
+        _ => Err("not a positive number".into()),
     }
 }
 
-/// Parses the command line of `cargo xtask mujoco`.
-pub fn parse_args(args: &[String]) -> Result<RunOptions, String> {
-    let mut o = RunOptions {
-        every: 1,
-        ..RunOptions::default()
-    };
-    let mut scene = None;
-    let mut duration = None;
-    let mut out = None;
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut value = |flag: &str| {
-            it.next()
-                .cloned()
-                .ok_or_else(|| format!("{flag} needs a value"))
-        };
-        match a.as_str() {
-            "--keyframe" => o.keyframe = Some(value("--keyframe")?),
-            "--qpos" => o.qpos = Some(value("--qpos")?),
-            "--qvel" => o.qvel = Some(value("--qvel")?),
-            "--ctrl" => o.ctrl = Some(PathBuf::from(value("--ctrl")?)),
-            "--dt" => o.dt = Some(positive("--dt", &value("--dt")?)?),
-            "--duration" => {
-                let v = value("--duration")?;
-                match v.parse::<f64>() {
-                    Ok(x) if x >= 0.0 && x.is_finite() => duration = Some(v),
-                    _ => return Err(format!("--duration needs a number >= 0, got {v:?}")),
-                }
-            }
-            "--every" => {
-                let v = value("--every")?;
-                o.every = v
-                    .parse()
-                    .ok()
-                    .filter(|&k: &usize| k >= 1)
-                    .ok_or_else(|| format!("--every needs a whole number >= 1, got {v:?}"))?;
-            }
-            "--integrator" => {
-                let v = value("--integrator")?;
-                if !INTEGRATORS.contains(&v.as_str()) {
-                    return Err(format!(
-                        "--integrator must be one of {}, got {v:?}",
-                        INTEGRATORS.join("|")
-                    ));
-                }
-                o.integrator = Some(v);
-            }
-            "--out" => out = Some(PathBuf::from(value("--out")?)),
-            "--timing" => o.timing = Some(PathBuf::from(value("--timing")?)),
-            s if s.starts_with('-') => return Err(format!("unknown option {s:?}")),
-            s => {
-                if scene.replace(PathBuf::from(s)).is_some() {
-                    return Err(format!("more than one scene given ({s:?})"));
-                }
-            }
-        }
+/// `--duration`: a finite number >= 0, kept as written.
+fn non_negative(v: &str) -> Result<String, String> {
+    match v.parse::<f64>() {
+        Ok(x) if x >= 0.0 && x.is_finite() => Ok(v.to_string()),
+        _ => Err("not a number >= 0".into()),
     }
-    o.scene = scene.ok_or("no SCENE.xml given")?;
-    o.duration = duration.ok_or("--duration T is required")?;
-    o.out = out.ok_or("--out FILE.csv is required")?;
-    Ok(o)
 }
 
-pub const USAGE: &str = "usage: cargo xtask mujoco SCENE.xml [--keyframe NAME] [--dt DT] \
---duration T [--every K] [--integrator euler|implicitfast|rk4] --out FILE.csv [--timing FILE.json]";
-
-pub fn main(args: &[String]) -> Result<(), String> {
-    if args.iter().any(|a| a == "-h" || a == "--help") {
-        println!("{USAGE}");
-        return Ok(());
-    }
-    let o = parse_args(args).map_err(|e| format!("{e}\n{USAGE}"))?;
-    run(&o)
+/// `--every`: a whole number >= 1.
+fn at_least_one(v: &str) -> Result<usize, String> {
+    v.parse()
+        .ok()
+        .filter(|&k: &usize| k >= 1)
+        .ok_or_else(|| "not a whole number >= 1".into())
 }
 
 /// Regenerates every reference into `dir` and compares each with the committed
@@ -425,16 +403,21 @@ pub fn check_references(dir: &Path, tol: f64) -> Result<Vec<String>, String> {
 mod tests {
     use super::*;
 
-    fn args(s: &str) -> Vec<String> {
-        s.split_whitespace().map(String::from).collect()
+    /// `cargo xtask mujoco LINE`'s options, or clap's error rendered.
+    fn parse_args(line: &str) -> Result<RunOptions, String> {
+        match crate::parse(&format!("mujoco {line}")) {
+            Ok(Some(crate::Command::Mujoco(o))) => Ok(o),
+            Ok(other) => panic!("{line}: parsed as {other:?}"),
+            Err(e) => Err(e.to_string()),
+        }
     }
 
     #[test]
     fn parses_a_full_command_line() {
-        let o = parse_args(&args(
+        let o = parse_args(
             "scenes/chain20.xml --keyframe start --dt 1e-3 --duration 2 --every 10 \
              --integrator rk4 --out a.csv --timing a.json",
-        ))
+        )
         .unwrap();
         assert_eq!(o.scene, PathBuf::from("scenes/chain20.xml"));
         assert_eq!(o.keyframe.as_deref(), Some("start"));
@@ -444,23 +427,82 @@ mod tests {
         assert_eq!(o.integrator.as_deref(), Some("rk4"));
         assert_eq!(o.out, PathBuf::from("a.csv"));
         assert_eq!(o.timing, Some(PathBuf::from("a.json")));
+        // The defaults: every step, no keyframe, the file's step and integrator.
+        let o = parse_args("s.xml --duration 1 --out a.csv").unwrap();
+        assert_eq!(o.every, 1);
+        assert_eq!((o.keyframe, o.dt, o.integrator), (None, None, None));
+    }
+
+    /// The command lines of scenes/reference/README.md (the committed references), the
+    /// actuated one with a negative velocity.
+    #[test]
+    fn parses_the_reference_command_lines() {
+        let o = parse_args(
+            "scenes/actuated.xml --qpos 0.1,0.5 --qvel 0.2,-1 --ctrl scenes/actuated_ctrl.csv \
+             --dt 1e-5 --duration 2 --every 1000 --integrator rk4 \
+             --out scenes/reference/actuated_ctrl.csv",
+        )
+        .unwrap();
+        assert_eq!(o.qpos.as_deref(), Some("0.1,0.5"));
+        assert_eq!(o.qvel.as_deref(), Some("0.2,-1"));
+        assert_eq!(o.ctrl, Some(PathBuf::from("scenes/actuated_ctrl.csv")));
+        assert_eq!((o.dt.as_deref(), o.every), (Some("1e-5"), 1000));
+        let o = parse_args(
+            "scenes/box_stack.xml --duration 2 --every 20 --integrator euler \
+             --out scenes/reference/contact/box_stack.csv",
+        )
+        .unwrap();
+        assert_eq!(o.integrator.as_deref(), Some("euler"));
+        assert_eq!(o.keyframe, None);
+        // Each committed reference, as `verify --mujoco` runs it, spelled as a command line.
+        for r in &REFERENCES {
+            let line = format!(
+                "scenes/{0}.xml --keyframe start --dt {1} --duration {2} --every {3} \
+                 --integrator rk4 --out {0}.csv",
+                r.scene, r.dt, r.duration, r.every
+            );
+            let out = PathBuf::from(format!("{}.csv", r.scene));
+            let mut want = r.options(out);
+            want.scene = PathBuf::from(format!("scenes/{}.xml", r.scene));
+            assert_eq!(parse_args(&line).unwrap(), want, "{line}");
+        }
     }
 
     #[test]
     fn rejects_bad_command_lines() {
         for (line, want) in [
-            ("s.xml --out a.csv", "--duration"),
-            ("s.xml --duration 1", "--out"),
-            ("--duration 1 --out a.csv", "SCENE"),
-            ("s.xml --duration 1 --out a.csv --dt 0", "positive"),
-            ("s.xml --duration -1 --out a.csv", ">= 0"),
-            ("s.xml --duration 1 --out a.csv --every 0", ">= 1"),
-            ("s.xml --duration 1 --out a.csv --integrator rk45", "one of"),
-            ("s.xml --duration 1 --out a.csv --bogus", "unknown option"),
-            ("s.xml t.xml --duration 1 --out a.csv", "more than one"),
-            ("s.xml --duration", "needs a value"),
+            ("s.xml --out a.csv", "--duration <T>"),
+            ("s.xml --duration 1", "--out <FILE.csv>"),
+            ("--duration 1 --out a.csv", "<SCENE.xml>"),
+            (
+                "s.xml --duration 1 --out a.csv --dt 0",
+                "not a positive number",
+            ),
+            (
+                "s.xml --duration 1 --out a.csv --dt -1e-3",
+                "not a positive number",
+            ),
+            ("s.xml --duration -1 --out a.csv", "not a number >= 0"),
+            ("s.xml --duration inf --out a.csv", "not a number >= 0"),
+            (
+                "s.xml --duration 1 --out a.csv --every 0",
+                "not a whole number >= 1",
+            ),
+            (
+                "s.xml --duration 1 --out a.csv --integrator rk45",
+                "possible values",
+            ),
+            (
+                "s.xml --duration 1 --out a.csv --bogus",
+                "unexpected argument '--bogus'",
+            ),
+            (
+                "s.xml t.xml --duration 1 --out a.csv",
+                "unexpected argument 't.xml'",
+            ),
+            ("s.xml --duration", "a value is required"),
         ] {
-            let e = parse_args(&args(line)).expect_err(line);
+            let e = parse_args(line).expect_err(line);
             assert!(e.contains(want), "{line}: {want:?} not in {e:?}");
         }
     }

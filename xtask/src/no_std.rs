@@ -34,7 +34,7 @@ fn target_installed() -> bool {
 }
 
 /// Runs the check; `Err` when the build fails.
-pub fn main(_args: &[String]) -> Result<Outcome, String> {
+pub fn main() -> Result<Outcome, String> {
     if !target_installed() {
         eprintln!("  rustup target add {TARGET}");
         let _ = status(Command::new("rustup").args(["target", "add", TARGET]));

@@ -8,9 +8,10 @@
 //! one line and this command exits non-zero without adding another.
 
 use crate::compare::scene_bin;
+use std::ffi::OsString;
 
 /// Runs the simulate binary with `args`, passing its exit status through.
-pub fn main(args: &[String]) -> Result<(), String> {
+pub fn main(args: &[OsString]) -> Result<(), String> {
     let status = scene_bin("simulate")
         .args(args)
         .status()

@@ -101,29 +101,35 @@ impl Mode {
     }
 }
 
-pub fn main(args: &[String]) -> Result<(), String> {
-    let with_mujoco = args.iter().any(|a| a == "--mujoco");
-    let quick = args.iter().any(|a| a == "--quick");
-    let mode = if args.iter().any(|a| a == "--full") {
-        Mode::Full
-    } else {
-        Mode::Standard
-    };
-    if quick && mode == Mode::Full {
-        return Err("--quick and --full exclude each other".into());
-    }
-    for a in args {
-        match a.as_str() {
-            "--quick" | "--full" | "--ci" | "--mujoco" => {}
-            _ => {
-                return Err(format!(
-                    "unknown argument {a:?} (expected --ci, --full, --mujoco)"
-                ))
-            }
-        }
-    }
+/// The options of `cargo xtask verify`.
+#[derive(clap::Args, Clone, Debug, Default, PartialEq, Eq)]
+pub struct Options {
+    /// Add the checks CI runs: cargo fmt --check, clippy and rustdoc with -D warnings, and
+    /// the whole test suite in the dev profile (what .ci/run calls) [default: off, the
+    /// report only].
+    #[arg(long)]
+    pub ci: bool,
+    /// The dense plan: finer sweeps (about 18 minutes of them), 5 s model runs, 2048
+    /// proptest cases, each library crate built from its .crate; implies --ci [default:
+    /// off, the standard plan].
+    #[arg(long, conflicts_with = "quick")]
+    pub full: bool,
+    /// The standard plan's old name, still accepted (it is the default).
+    #[arg(long, hide = true)]
+    pub quick: bool,
+    /// Also regenerate scenes/reference/ in MuJoCo into target/verify/mujoco/ and check it
+    /// against the committed files (needs Python) [default: off].
+    #[arg(long)]
+    pub mujoco: bool,
+}
+
+/// Runs every stage of `o`'s plan; `Err` when one failed.
+pub fn main(o: &Options) -> Result<(), String> {
+    let with_mujoco = o.mujoco;
+    // `--quick` is the default's old name (clap rejects it with `--full`).
+    let mode = if o.full { Mode::Full } else { Mode::Standard };
     // The lints, the docs and the whole test suite: CI's checks, not the report's.
-    let checks = mode == Mode::Full || args.iter().any(|a| a == "--ci");
+    let checks = mode == Mode::Full || o.ci;
     let out = root().join("target/verify");
     std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
     let total = 6 + if checks { 3 } else { 0 } + usize::from(with_mujoco);
@@ -241,7 +247,7 @@ pub fn main(args: &[String]) -> Result<(), String> {
 
     begin("no_std build of constraint-core");
     let t0 = std::time::Instant::now();
-    let (ok, note) = match no_std::main(&[]) {
+    let (ok, note) = match no_std::main() {
         Ok(no_std::Outcome::Embedded) => (true, format!("built for {}", no_std::TARGET)),
         Ok(no_std::Outcome::HostFallback) => (
             true,
@@ -264,10 +270,8 @@ pub fn main(args: &[String]) -> Result<(), String> {
     // Building each packed crate alone compiles the dependencies again at the
     // published crates' own profile (minutes on a fresh machine): `--full` and CI do
     // it (`.ci/run` runs `cargo xtask package`), the default packs and checks the lists.
-    let package_args = if mode == Mode::Full {
-        Vec::new()
-    } else {
-        vec!["--no-verify".to_string()]
+    let package_args = crate::package::Options {
+        no_verify: mode != Mode::Full,
     };
     let (ok, note) = match crate::package::main(&package_args) {
         Ok(()) if mode != Mode::Full => (

@@ -13,6 +13,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{CommandFactory, FromArgMatches, Parser};
 use constraint_scene::run::{run, run_with_summary, RunOptions, FREE_BODY_METHODS, METHODS};
 use constraint_scene::scene_view;
@@ -51,8 +52,14 @@ struct Cli {
         allow_hyphen_values = true
     )]
     every: String,
-    /// The formulation (listed below).
-    #[arg(long, value_name = "M", default_value = "rattle")]
+    /// The formulation: a step method of the one rigid world, or, for files of free
+    /// bodies only, the contact crate's world.
+    #[arg(
+        long,
+        value_name = "M",
+        default_value = "rattle",
+        value_parser = PossibleValuesParser::new(method_values())
+    )]
     method: String,
     /// The trajectory as CSV (t, per body x,y,z, qw,qx,qy,qz, cx,cy,cz, energies)
     /// [default: none; --out or --html is required].
@@ -71,13 +78,14 @@ struct Cli {
     summary: Option<PathBuf>,
 }
 
-/// `--method` values with their descriptions, for `--help`.
-fn methods_help() -> String {
-    let mut s = String::from("Methods (--method M):\n");
-    for (n, d) in METHODS.iter().chain(&FREE_BODY_METHODS) {
-        s += &format!("  {n:<13} {d}\n");
-    }
-    s + "\nAt least one of --out and --html is required."
+/// The names `--method` accepts, with their descriptions: the run's [`METHODS`] and
+/// [`FREE_BODY_METHODS`], so a name the run does not know is clap's error and `--help`
+/// lists them.
+fn method_values() -> impl Iterator<Item = PossibleValue> {
+    METHODS
+        .iter()
+        .chain(&FREE_BODY_METHODS)
+        .map(|&(name, about)| PossibleValue::new(name).help(about))
 }
 
 /// A number of option `name`, with the hand parser's message on failure.
@@ -103,7 +111,7 @@ struct Args {
 
 impl Cli {
     /// Checks what clap leaves as text (numbers keep their option-named messages; the
-    /// run itself checks ranges: positive step, finite duration, known method).
+    /// run itself checks ranges: positive step, finite duration; clap checked the method).
     fn check(self) -> Result<Args, String> {
         let scene = self.scene.ok_or("missing SCENE.xml")?;
         if self.out.is_none() && self.html.is_none() {
@@ -147,7 +155,7 @@ impl Cli {
 
 /// Parses the command line: `Ok(None)` when `--help` or `--version` was printed.
 fn parse() -> Result<Option<Args>, String> {
-    let cmd = Cli::command().after_help(methods_help());
+    let cmd = Cli::command().after_help("At least one of --out and --html is required.");
     let matches = match cmd.try_get_matches() {
         Ok(m) => m,
         Err(e) => return one_line(e).map(|()| None),
