@@ -6,10 +6,9 @@ use alloc::vec::Vec;
 use super::*;
 
 /// Buffers of the dense path kept between steps (no per-step allocation of the
-/// `n × n` Delassus matrix or of the row buckets once they have grown).
+/// Delassus rows or of the row buckets once they have grown).
 #[derive(Clone, Debug, Default)]
 pub(super) struct DenseScratch {
-    a: Vec<f64>,
     start: Vec<usize>,
     fill: Vec<usize>,
     bucket: Vec<usize>,
@@ -18,31 +17,59 @@ pub(super) struct DenseScratch {
     sparse: SparseRows,
 }
 
+/// `A_ij = Σ_b J_ib M_b⁻¹ J_jbᵀ` over the bodies `b` rows `i` and `j` share, summed in
+/// the order of `i`'s bodies then `j`'s (`a` before `b`), from `s = 0`: the bits of
+/// the all-pairs assembly (`J_i M⁻¹ J_jᵀ` with every body term; `M⁻¹ J_jᵀ` is kept in
+/// `Row::mj`). Row `i` is the lower-indexed one of the pair (the product is not
+/// symmetric in floating point).
+#[inline]
+fn entry(ri: &Row, rj: &Row) -> f64 {
+    let term = |si: usize, sj: usize| ri.j[si].dot(rj.mj[sj]) + ri.j[si + 1].dot(rj.mj[sj + 1]);
+    let mut s = 0.0;
+    if let Some(b) = ri.a {
+        if rj.a == Some(b) {
+            s += term(0, 0);
+        }
+        if rj.b == Some(b) {
+            s += term(0, 2);
+        }
+    }
+    if let Some(b) = ri.b {
+        if rj.a == Some(b) {
+            s += term(2, 0);
+        }
+        if rj.b == Some(b) {
+            s += term(2, 2);
+        }
+    }
+    s
+}
+
 impl ContactWorld {
-    /// Delassus matrix `A = J M⁻¹ Jᵀ` (dense, row-major) and `q = J v_free − b`.
+    /// Delassus matrix `A = J M⁻¹ Jᵀ` as sparse rows, and `q = J v_free − b`.
     ///
-    /// Only row pairs that share a body are visited (`A_ij = 0` otherwise, as `J_i`
-    /// and `M⁻¹ J_jᵀ` then have no body in common): the rows are bucketed by body, and
-    /// each body's bucket is crossed with itself, so the work is `Σ_b deg(b)²` instead
-    /// of `n²` (entries non-zero: 40 % on a six-box stack, 27 % on a ten-box pyramid).
-    /// An entry whose rows share two
-    /// bodies is reached twice and written once, from the lower body's bucket (summing
-    /// both bodies' terms in the order of the all-pairs loop); one that shares one body
-    /// takes that body's term directly.
+    /// `A_ij = 0` unless rows `i` and `j` share a body (`J_i` and `M⁻¹ J_jᵀ` then have
+    /// no body in common), so row `i`'s columns are the union of its bodies' rows: the
+    /// rows are bucketed by body (a counting sort, deterministic), and each row's
+    /// columns are the merge of its two buckets (both ascending; the rows of one body
+    /// pair, the three of a contact and the contacts of one face, share them: merged
+    /// once). The entries are then computed straight into those rows, each pair once:
+    /// row `i` computes its entries `j ≥ i` ([`entry`] with `i` first) and writes the
+    /// mirror `A_ji` at row `j`'s next free lower slot (rows are done in ascending order,
+    /// so row `j`'s columns below `j` arrive in ascending order). The work is
+    /// `Σ_i deg(i)` entries, no `n × n` array is filled or zeroed (the dense matrix this
+    /// replaced cost 22 % of the ten-box stack's step in `perf`), and every value has
+    /// the bits of the all-pairs loop (test `sparse_assembly_equals_all_pairs_bit_for_bit`).
     ///
-    /// Into kept buffers: `A` in `scratch.a`, and its rows over the columns of rows
-    /// that share a body (the only possible non-zeros) in `scratch.sparse`; returns `q`.
+    /// Into kept buffers (`scratch.sparse`); returns `q`.
     fn delassus_into(&self, scratch: &mut DenseScratch) -> Vec<f64> {
         let n = self.rows.len();
         let DenseScratch {
-            a,
             start,
             fill,
             bucket,
             sparse,
         } = scratch;
-        a.clear();
-        a.resize(n * n, 0.0);
         // Rows of each body, ascending (counting sort by body: deterministic).
         let nb = self.bodies.len();
         start.clear();
@@ -64,55 +91,10 @@ impl ContactWorld {
                 fill[b] += 1;
             }
         }
-        let entry = |ri: &Row, rj: &Row| {
-            let mut s = 0.0;
-            for (si, bi) in [(0usize, ri.a), (2usize, ri.b)] {
-                let Some(bi) = bi else { continue };
-                for (sj, bj) in [(0usize, rj.a), (2usize, rj.b)] {
-                    if Some(bi) == bj {
-                        s += ri.j[si].dot(rj.mj[sj]) + ri.j[si + 1].dot(rj.mj[sj + 1]);
-                    }
-                }
-            }
-            s
-        };
-        for b in 0..nb {
-            let rows = &bucket[start[b]..start[b + 1]];
-            for (k, &i) in rows.iter().enumerate() {
-                let ri = &self.rows[i];
-                let (si, other) = if ri.a == Some(b) {
-                    (0, ri.b)
-                } else {
-                    (2, ri.a)
-                };
-                for &j in &rows[k..] {
-                    let rj = &self.rows[j];
-                    let s = match other {
-                        // Both bodies shared: the two terms in `entry`'s order, written
-                        // from the lower body's bucket only (the pair is in both, in the
-                        // same order).
-                        Some(o) if Some(o) == rj.a || Some(o) == rj.b => {
-                            if o < b {
-                                continue;
-                            }
-                            entry(ri, rj)
-                        }
-                        // Only body b shared: `entry`'s one term, the same bits.
-                        _ => {
-                            let sj = if rj.a == Some(b) { 0 } else { 2 };
-                            0.0 + (ri.j[si].dot(rj.mj[sj]) + ri.j[si + 1].dot(rj.mj[sj + 1]))
-                        }
-                    };
-                    a[i * n + j] = s;
-                    a[j * n + i] = s;
-                }
-            }
-        }
-        // Sparse rows: row i's columns are the union of its bodies' buckets (both
-        // ascending: a merge), with the values just assembled.
+        // The pattern: row i's columns are the union of its bodies' buckets (both
+        // ascending: a merge).
         sparse.start.clear();
         sparse.cols.clear();
-        sparse.vals.clear();
         sparse.start.push(0);
         let empty: &[usize] = &[];
         // Rows of the same body pair (the three rows of a contact, the contacts of one
@@ -120,16 +102,10 @@ impl ContactWorld {
         // (body pair, first and one-past-last index of its columns in `sparse.cols`)
         type Run = ((Option<usize>, Option<usize>), usize, usize);
         let mut last: Option<Run> = None;
-        for (i, r) in self.rows.iter().enumerate() {
-            let row = &a[i * n..(i + 1) * n];
+        for r in &self.rows {
             if let Some((pair, s, e)) = last {
                 if pair == (r.a, r.b) {
                     sparse.cols.extend_from_within(s..e);
-                    let at = sparse.vals.len();
-                    sparse.vals.resize(at + (e - s), 0.0);
-                    for (v, &j) in sparse.vals[at..].iter_mut().zip(&sparse.cols[s..e]) {
-                        *v = row[j];
-                    }
                     sparse.start.push(sparse.cols.len());
                     continue;
                 }
@@ -159,10 +135,29 @@ impl ContactWorld {
                     (None, None) => break,
                 };
                 sparse.cols.push(j);
-                sparse.vals.push(row[j]);
             }
             sparse.start.push(sparse.cols.len());
             last = Some(((r.a, r.b), begin, sparse.cols.len()));
+        }
+        // The values, each pair once: row i's entries from its diagonal on, mirrored
+        // into row j's next lower slot (`fill[j]`, from row j's start).
+        sparse.vals.clear();
+        sparse.vals.resize(sparse.cols.len(), 0.0);
+        fill.clear();
+        fill.extend_from_slice(&sparse.start[..n]);
+        for (i, ri) in self.rows.iter().enumerate() {
+            // Row i's columns below i were written by the rows before: `fill[i]` is at
+            // its diagonal (absent only for a row of no body, whose row is empty).
+            for p in fill[i]..sparse.start[i + 1] {
+                let j = sparse.cols[p];
+                let v = entry(ri, &self.rows[j]);
+                sparse.vals[p] = v;
+                if j > i {
+                    debug_assert_eq!(sparse.cols[fill[j]], i);
+                    sparse.vals[fill[j]] = v;
+                    fill[j] += 1;
+                }
+            }
         }
         self.rows
             .iter()
@@ -265,22 +260,17 @@ mod tests {
             assert!(w.rows.len() >= 60, "{} rows", w.rows.len());
             let mut scratch = DenseScratch::default();
             w.delassus_into(&mut scratch);
-            let a = scratch.a;
             let reference = all_pairs(&w);
+            // The sparse rows list every non-zero with its bits (and the entries they
+            // leave out are the all-pairs loop's +0), and only columns of rows that
+            // share a body.
+            let n = w.rows.len();
+            assert!(scratch.sparse.is_valid(n));
+            let a = scratch.sparse.to_dense();
             assert!(a
                 .iter()
                 .zip(&reference)
                 .all(|(x, y)| x.to_bits() == y.to_bits()));
-            // The sparse rows list every non-zero (with its bits) and only columns of
-            // rows that share a body.
-            let n = w.rows.len();
-            assert!(scratch.sparse.is_valid(n));
-            assert!(scratch
-                .sparse
-                .to_dense()
-                .iter()
-                .zip(&reference)
-                .all(|(x, y)| x.to_bits() == y.to_bits() || (*x == 0.0 && *y == 0.0)));
             let shares = |i: usize, j: usize| {
                 let (ri, rj) = (&w.rows[i], &w.rows[j]);
                 [ri.a, ri.b]
