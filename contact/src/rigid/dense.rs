@@ -4,6 +4,7 @@
 use alloc::vec::Vec;
 
 use super::*;
+use crate::lcp::staggered::{solve_rows_in, RowScratch};
 
 /// Buffers of the dense path kept between steps (no per-step allocation of the
 /// Delassus rows or of the row buckets once they have grown).
@@ -13,8 +14,12 @@ pub(super) struct DenseScratch {
     fill: Vec<usize>,
     bucket: Vec<usize>,
     /// `A`'s rows restricted to the columns of rows that share a body with them (the
-    /// only possible non-zeros), for [`solve_rows_sparse`].
+    /// only possible non-zeros), for the staggered solve.
     sparse: SparseRows,
+    /// The rows' bounds.
+    bounds: Vec<RowBound>,
+    /// The staggered solve's blocks and couplings.
+    rows: RowScratch,
 }
 
 /// `A_ij = Σ_b J_ib M_b⁻¹ J_jbᵀ` over the bodies `b` rows `i` and `j` share, summed in
@@ -69,6 +74,7 @@ impl ContactWorld {
             fill,
             bucket,
             sparse,
+            ..
         } = scratch;
         // Rows of each body, ascending (counting sort by body: deterministic).
         let nb = self.bodies.len();
@@ -180,18 +186,17 @@ impl ContactWorld {
         let q = self.delassus_into(&mut scratch);
         let s = self.settings;
         // Rows 3k: normal; 3k + 1, 3k + 2: friction bounded by μ_k z_3k.
-        let bounds: Vec<RowBound> = (0..n)
-            .map(|i| {
-                if i % 3 == 0 {
-                    RowBound::Unilateral
-                } else {
-                    RowBound::Friction {
-                        normal: i - i % 3,
-                        mu: self.mu(i / 3),
-                    }
+        scratch.bounds.clear();
+        scratch.bounds.extend((0..n).map(|i| {
+            if i % 3 == 0 {
+                RowBound::Unilateral
+            } else {
+                RowBound::Friction {
+                    normal: i - i % 3,
+                    mu: self.mu(i / 3),
                 }
-            })
-            .collect();
+            }
+        }));
         let settings = RowSettings {
             method: match solver {
                 ContactSolver::Lemke => RowMethod::Lemke,
@@ -210,7 +215,13 @@ impl ContactWorld {
             max_sweeps: 0,
         };
         let mut z = z0;
-        let solved = solve_rows_sparse(&scratch.sparse, &q, &bounds, &settings, &mut z);
+        let DenseScratch {
+            sparse,
+            bounds,
+            rows,
+            ..
+        } = &mut scratch;
+        let solved = solve_rows_in(rows, sparse, &q, bounds, &settings, &mut z);
         self.dense = scratch;
         let stats = solved.map_err(ContactError::Lcp)?;
         self.path.boxed_pgs = stats.boxed_pgs;

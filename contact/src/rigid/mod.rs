@@ -51,9 +51,7 @@ pub use path::{RowsSolver, SolverPath};
 pub use sleep::SleepSettings;
 pub use soft_step::{SoftStepSettings, Softness, MAX_SUBSTEPS};
 
-use crate::lcp::{
-    solve_rows_sparse, Coupling, LcpError, RowBound, RowMethod, RowSettings, SparseRows,
-};
+use crate::lcp::{Coupling, LcpError, RowBound, RowMethod, RowSettings, SparseRows};
 
 /// Which solver handles the contact LCP.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
