@@ -273,7 +273,7 @@ pub fn solve_rows_sparse(
             "sparse rows of A inconsistent with q",
         ));
     }
-    solve_rows_in(&mut RowScratch::default(), a, q, bounds, settings, z)
+    solve_rows_in(&mut RowScratch::default(), a, q, bounds, settings, z, false)
 }
 
 /// Buffers of the staggered solve kept between calls (the dense contact path keeps one
@@ -301,11 +301,21 @@ pub(crate) struct RowScratch {
     cross_start: Vec<usize>,
     cross_cols: Vec<usize>,
     cross_vals: Vec<f64>,
+    /// Where each entry of `sn`, `st` and the couplings comes from in `A`'s values.
+    sn_src: Vec<usize>,
+    st_src: Vec<usize>,
+    cross_src: Vec<usize>,
+    /// The buffers hold the last call's split in full (blocks given back), so a call
+    /// with the same pattern and classes refills the values only.
+    split: bool,
 }
 
 /// [`solve_rows_sparse`] on rows the caller has built consistent (`a.is_valid(n)`,
 /// `n = q.len()`, checked in debug builds only: the Delassus assembly lists them by
 /// construction; the check was 3 % of the ten-box stack's step), with kept buffers.
+/// `same_pattern`: `A`'s columns and the rows' classes (one-sided or not) are those
+/// of the previous call with this scratch (a resting stack keeps its contacts), so
+/// the split into blocks refills values at the places it found last time.
 pub(crate) fn solve_rows_in(
     scratch: &mut RowScratch,
     a: &SparseRows,
@@ -313,9 +323,12 @@ pub(crate) fn solve_rows_in(
     bounds: &[RowBound],
     settings: &RowSettings,
     z: &mut [f64],
+    same_pattern: bool,
 ) -> Result<RowStats, LcpError> {
     let n = q.len();
     let mut stats = RowStats::default();
+    let reuse = same_pattern && scratch.split;
+    scratch.split = false;
     if n == 0 {
         return Ok(stats);
     }
@@ -365,7 +378,7 @@ pub(crate) fn solve_rows_in(
         Coupling::Boxed if stats.boxed_fallback => 2,
         Coupling::Boxed => 1,
     };
-    split_rows(scratch, a, bounds);
+    split_rows(scratch, a, bounds, reuse);
     let RowScratch {
         normal,
         tangent,
@@ -376,6 +389,7 @@ pub(crate) fn solve_rows_in(
         cross_start,
         cross_cols,
         cross_vals,
+        split,
         ..
     } = scratch;
     let (normal, tangent) = (&normal[..], &tangent[..]);
@@ -546,15 +560,19 @@ pub(crate) fn solve_rows_in(
         Ok(())
     };
     let result = alternate();
-    // The blocks go back to the scratch for the next call.
+    // The blocks go back to the scratch for the next call (a block lost to a failed
+    // build leaves the split to be redone).
+    let mut back = 0;
     for (lcp, parts, (m, sm)) in [
         (normal_lcp, ann_parts, (ann, sn)),
         (tangent_lcp, att_parts, (att, st)),
     ] {
         if let Some(parts) = lcp.map(Lcp::into_matrix).or(parts) {
             (*m, *sm) = parts;
+            back += 1;
         }
     }
+    *split = back == 2;
     result.map(|()| stats)
 }
 
@@ -565,7 +583,11 @@ pub(crate) fn solve_rows_in(
 /// its row's block and to the couplings and only the cursor of the one it belongs to
 /// advances (rows alternate normal, friction, friction, so a branch on the class
 /// mispredicted often; this pass with pushes was 12 % of the ten-box stack's step).
-fn split_rows(scratch: &mut RowScratch, a: &SparseRows, bounds: &[RowBound]) {
+///
+/// With `reuse` (the same pattern and classes as the split the buffers hold) only the
+/// values move: each block entry and coupling is gathered from where it came from last
+/// time, and the dense blocks are overwritten at the same places (the rest is still 0).
+fn split_rows(scratch: &mut RowScratch, a: &SparseRows, bounds: &[RowBound], reuse: bool) {
     let RowScratch {
         normal,
         tangent,
@@ -578,7 +600,31 @@ fn split_rows(scratch: &mut RowScratch, a: &SparseRows, bounds: &[RowBound]) {
         cross_start,
         cross_cols,
         cross_vals,
+        sn_src,
+        st_src,
+        cross_src,
+        ..
     } = scratch;
+    if reuse {
+        for (vals, src) in [
+            (&mut sn.vals, &*sn_src),
+            (&mut st.vals, &*st_src),
+            (&mut *cross_vals, &*cross_src),
+        ] {
+            for (v, &k) in vals.iter_mut().zip(src) {
+                *v = a.vals[k];
+            }
+        }
+        for (block, sub, width) in [(ann, &*sn, normal.len()), (att, &*st, tangent.len())] {
+            for r in 0..width {
+                let (cols, vals) = sub.row(r);
+                for (&c, &v) in cols.iter().zip(vals) {
+                    block[r * width + c] = v;
+                }
+            }
+        }
+        return;
+    }
     normal.clear();
     tangent.clear();
     pos.clear();
@@ -608,37 +654,45 @@ fn split_rows(scratch: &mut RowScratch, a: &SparseRows, bounds: &[RowBound]) {
         }
     }
     let size_c = a.cols.len() - size_n - size_t;
-    for (sub, size) in [(&mut *sn, size_n), (&mut *st, size_t)] {
+    for (sub, src, size) in [
+        (&mut *sn, &mut *sn_src, size_n),
+        (&mut *st, &mut *st_src, size_t),
+    ] {
         sub.start.clear();
         sub.start.push(0);
         sub.cols.resize(size + 1, 0);
         sub.vals.resize(size + 1, 0.0);
+        src.resize(size + 1, 0);
     }
     cross_start.clear();
     cross_start.push(0);
     cross_cols.resize(size_c + 1, 0);
     cross_vals.resize(size_c + 1, 0.0);
+    cross_src.resize(size_c + 1, 0);
     let (mut kn, mut kt, mut kc) = (0, 0, 0);
     {
         // Plain slices, so that the loop keeps their pointers in registers.
         let (one_sided, pos) = (&one_sided[..], &pos[..]);
-        let (n_cols, n_vals) = (&mut sn.cols[..], &mut sn.vals[..]);
-        let (t_cols, t_vals) = (&mut st.cols[..], &mut st.vals[..]);
-        let (c_cols, c_vals) = (&mut cross_cols[..], &mut cross_vals[..]);
+        let (n_cols, n_vals, n_src) = (&mut sn.cols[..], &mut sn.vals[..], &mut sn_src[..]);
+        let (t_cols, t_vals, t_src) = (&mut st.cols[..], &mut st.vals[..], &mut st_src[..]);
+        let (c_cols, c_vals, c_src) =
+            (&mut cross_cols[..], &mut cross_vals[..], &mut cross_src[..]);
         for (i, &oi) in one_sided.iter().enumerate() {
             let (cols, vals) = a.row(i);
-            let (out_cols, out_vals, k) = if oi {
-                (&mut *n_cols, &mut *n_vals, &mut kn)
+            let (out_cols, out_vals, out_src, k) = if oi {
+                (&mut *n_cols, &mut *n_vals, &mut *n_src, &mut kn)
             } else {
-                (&mut *t_cols, &mut *t_vals, &mut kt)
+                (&mut *t_cols, &mut *t_vals, &mut *t_src, &mut kt)
             };
             let (mut kk, mut kx) = (*k, kc);
-            for (&j, &v) in cols.iter().zip(vals) {
+            for ((&j, &v), e) in cols.iter().zip(vals).zip(a.start[i]..) {
                 let same = one_sided[j] == oi;
                 out_cols[kk] = pos[j];
                 out_vals[kk] = v;
+                out_src[kk] = e;
                 c_cols[kx] = j;
                 c_vals[kx] = v;
+                c_src[kx] = e;
                 kk += usize::from(same);
                 kx += usize::from(!same);
             }
@@ -651,12 +705,14 @@ fn split_rows(scratch: &mut RowScratch, a: &SparseRows, bounds: &[RowBound]) {
             cross_start.push(kx);
         }
     }
-    for (sub, k) in [(&mut *sn, kn), (&mut *st, kt)] {
+    for (sub, src, k) in [(&mut *sn, &mut *sn_src, kn), (&mut *st, &mut *st_src, kt)] {
         sub.cols.truncate(k);
         sub.vals.truncate(k);
+        src.truncate(k);
     }
     cross_cols.truncate(kc);
     cross_vals.truncate(kc);
+    cross_src.truncate(kc);
     for (block, sub, width) in [(ann, &*sn, normal.len()), (att, &*st, tangent.len())] {
         block.clear();
         block.resize(width * width, 0.0);
