@@ -2,6 +2,24 @@
 
 use alloc::vec::Vec;
 
+/// `max_i |a_i|` over the non-NaN entries (0 if none): the value of the serial fold
+/// `m = max(m, |a_i|)` from `m = 0` (a maximum does not depend on the order, and
+/// `f64::max` passes NaN over in any order), with four independent accumulators so
+/// that the pass is not one chain of dependent `max` latencies.
+fn max_abs(a: &[f64]) -> f64 {
+    let mut m = [0.0_f64; 4];
+    let mut chunks = a.chunks_exact(4);
+    for c in &mut chunks {
+        for (m, &x) in m.iter_mut().zip(c) {
+            *m = m.max(libm::fabs(x));
+        }
+    }
+    for &x in chunks.remainder() {
+        m[0] = m[0].max(libm::fabs(x));
+    }
+    m[0].max(m[1]).max(m[2].max(m[3]))
+}
+
 /// `P A = L U` of a row-major `n × n` matrix, stored in place.
 pub(crate) struct Lu {
     n: usize,
@@ -22,7 +40,7 @@ impl Lu {
     /// 40 × 40 one-sided block the elimination was 6.5 % of the step.
     pub(crate) fn factor(mut a: Vec<f64>, n: usize) -> Option<Lu> {
         debug_assert_eq!(a.len(), n * n);
-        let amax = a.iter().fold(0.0_f64, |m, &x| m.max(libm::fabs(x)));
+        let amax = max_abs(&a);
         if !(amax > 0.0) && n > 0 {
             return None;
         }
@@ -32,10 +50,26 @@ impl Lu {
         let mut hi: Vec<Option<usize>> = (0..n)
             .map(|r| a[r * n..(r + 1) * n].iter().rposition(|x| x.to_bits() != 0))
             .collect();
+        // lo[r]: every a[r][j] with j < lo[r] is +0 (n if all are). A row is updated
+        // only at a column k ≥ lo[r] (its multiplier a_rk ≠ 0) and only to the right of
+        // k, so while k < lo[r] its entry a_rk is still +0: the pivot search passes it
+        // (|+0| > best never holds) and its multiplier is +0 / a_kk, a zero of the
+        // pivot's sign, stored without the division.
+        let mut lo: Vec<usize> = (0..n)
+            .map(|r| {
+                a[r * n..(r + 1) * n]
+                    .iter()
+                    .position(|x| x.to_bits() != 0)
+                    .unwrap_or(n)
+            })
+            .collect();
         for k in 0..n {
             let mut p = k;
             let mut best = libm::fabs(a[k * n + k]);
             for i in k + 1..n {
+                if lo[i] > k {
+                    continue;
+                }
                 let v = libm::fabs(a[i * n + k]);
                 if v > best {
                     best = v;
@@ -51,10 +85,16 @@ impl Lu {
                 }
                 perm.swap(k, p);
                 hi.swap(k, p);
+                lo.swap(k, p);
             }
             let piv = a[k * n + k];
             let hk = hi[k];
+            let zero = 0.0 / piv;
             for i in k + 1..n {
+                if lo[i] > k {
+                    a[i * n + k] = zero;
+                    continue;
+                }
                 let f = a[i * n + k] / piv;
                 a[i * n + k] = f;
                 if f != 0.0 {
