@@ -16,6 +16,8 @@ pub(super) struct DenseScratch {
     /// `A`'s rows restricted to the columns of rows that share a body with them (the
     /// only possible non-zeros), for the staggered solve.
     sparse: SparseRows,
+    /// How each value of `sparse` is computed ([`ContactWorld::plan_into`]).
+    plan: Vec<Slot>,
     /// The body pair of each row when the pattern of `sparse` was built (the pattern
     /// is a function of them alone).
     pairs: Vec<(Option<usize>, Option<usize>)>,
@@ -24,6 +26,22 @@ pub(super) struct DenseScratch {
     /// The staggered solve's blocks and couplings.
     rows: RowScratch,
 }
+
+/// One entry of `A` to compute: rows `i ≤ j`, its slot `p` in row `i` and its mirror
+/// in row `j` (`p` itself on the diagonal), and the one body side of each row the
+/// entry's single term takes (`si`, `sj` ∈ {0, 2}), or `si =` [`GENERAL`].
+#[derive(Clone, Copy, Debug, Default)]
+struct Slot {
+    p: usize,
+    mirror: usize,
+    i: usize,
+    j: usize,
+    si: u8,
+    sj: u8,
+}
+
+/// [`Slot::si`] of an entry that is not one term ([`entry`]'s general sum).
+const GENERAL: u8 = u8::MAX;
 
 /// `A_ij = Σ_b J_ib M_b⁻¹ J_jbᵀ` over the bodies `b` rows `i` and `j` share, summed in
 /// the order of `i`'s bodies then `j`'s (`a` before `b`), from `s = 0`: the bits of
@@ -82,6 +100,7 @@ impl ContactWorld {
             bucket,
             sparse,
             pairs,
+            plan,
             ..
         } = scratch;
         let same = pairs.len() == n
@@ -91,8 +110,9 @@ impl ContactWorld {
             pairs.clear();
             pairs.extend(self.rows.iter().map(|r| (r.a, r.b)));
             self.pattern_into(start, fill, bucket, sparse);
+            self.plan_into(fill, sparse, plan);
         }
-        self.values_into(fill, sparse);
+        self.values_into(plan, sparse);
         let q = self
             .rows
             .iter()
@@ -180,29 +200,71 @@ impl ContactWorld {
         }
     }
 
-    /// The values of `A` on its pattern, each pair once: row i's entries from its
-    /// diagonal on, mirrored into row j's next lower slot (`fill[j]`, from row j's
-    /// start).
-    fn values_into(&self, fill: &mut Vec<usize>, sparse: &mut SparseRows) {
+    /// The computation plan of `A`'s values on its pattern, each pair once: row `i`'s
+    /// entries from its diagonal on, each mirrored into row `j`'s next lower slot
+    /// (`fill[j]`, from row `j`'s start; rows in ascending order, so row `j`'s columns
+    /// below `j` arrive in order). A pair of rows that share exactly one body side
+    /// (`i`'s side `si` and `j`'s side `sj`) is one term, marked with its sides; any
+    /// other pair takes [`entry`]'s general sum. A function of the pattern alone: kept
+    /// with it.
+    fn plan_into(&self, fill: &mut Vec<usize>, sparse: &SparseRows, plan: &mut Vec<Slot>) {
         let n = self.rows.len();
-        // Every slot is written below (row i's from its diagonal on, the others as
-        // mirrors): no zeroing.
-        sparse.vals.resize(sparse.cols.len(), 0.0);
         fill.clear();
         fill.extend_from_slice(&sparse.start[..n]);
+        plan.clear();
         for (i, ri) in self.rows.iter().enumerate() {
-            // Row i's columns below i were written by the rows before: `fill[i]` is at
-            // its diagonal (absent only for a row of no body, whose row is empty).
             for p in fill[i]..sparse.start[i + 1] {
                 let j = sparse.cols[p];
-                let v = entry(ri, &self.rows[j]);
-                sparse.vals[p] = v;
-                if j > i {
+                let rj = &self.rows[j];
+                let mirror = if j > i {
                     debug_assert_eq!(sparse.cols[fill[j]], i);
-                    sparse.vals[fill[j]] = v;
                     fill[j] += 1;
+                    fill[j] - 1
+                } else {
+                    p
+                };
+                // The (si, sj) body sides `entry` adds, in its order.
+                let mut sides = [(0u8, 0u8); 4];
+                let mut count = 0;
+                for (si, bi) in [(0u8, ri.a), (2u8, ri.b)] {
+                    for (sj, bj) in [(0u8, rj.a), (2u8, rj.b)] {
+                        if bi.is_some() && bi == bj {
+                            sides[count] = (si, sj);
+                            count += 1;
+                        }
+                    }
                 }
+                let (si, sj) = if count == 1 { sides[0] } else { (GENERAL, 0) };
+                plan.push(Slot {
+                    p,
+                    mirror,
+                    i,
+                    j,
+                    si,
+                    sj,
+                });
             }
+        }
+    }
+
+    /// `A`'s values by the plan ([`ContactWorld::plan_into`]): a one-term slot is
+    /// `0 + J_i,si · M⁻¹J_j,sjᵀ` (the bits of [`entry`], whose sum starts at 0), chosen
+    /// by the stored sides instead of `entry`'s four body compares per entry.
+    fn values_into(&self, plan: &[Slot], sparse: &mut SparseRows) {
+        // Every slot is written below (each pair and its mirror): no zeroing.
+        sparse.vals.resize(sparse.cols.len(), 0.0);
+        let rows = &self.rows[..];
+        let vals = &mut sparse.vals[..];
+        for s in plan {
+            let (ri, rj) = (&rows[s.i], &rows[s.j]);
+            let v = if s.si == GENERAL {
+                entry(ri, rj)
+            } else {
+                let (si, sj) = (usize::from(s.si), usize::from(s.sj));
+                0.0 + (ri.j[si].dot(rj.mj[sj]) + ri.j[si + 1].dot(rj.mj[sj + 1]))
+            };
+            vals[s.p] = v;
+            vals[s.mirror] = v;
         }
     }
 
