@@ -36,8 +36,9 @@ impl Lu {
     /// runs to `max(hi[i], hi[k])` and leaves that as `hi[i]`). Past both profiles the
     /// update is `+0 − f·(+0) = +0` for finite `f`, so skipping it changes no bit; a
     /// non-finite `f` runs the whole row as before. A Newton matrix of contacts is
-    /// banded (a contact couples with those of its two bodies): on the ten-box stack's
-    /// 40 × 40 one-sided block the elimination was 6.5 % of the step.
+    /// banded (a contact couples with those of its two bodies; on the ten-box stack's
+    /// 40 × 40 one-sided block `hi[k] ≈ k + 8`, where the whole factor was 6.5 % of the
+    /// step's `perf` samples).
     pub(crate) fn factor(mut a: Vec<f64>, n: usize) -> Option<Lu> {
         debug_assert_eq!(a.len(), n * n);
         let amax = max_abs(&a);

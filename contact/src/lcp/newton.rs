@@ -119,8 +119,8 @@ pub fn fischer_newton(
     let mut phi = vec![0.0; n];
     // Units: Φ pairs z with w / α, α the largest diagonal of M, so that the method does
     // not depend on the scale of M (heavy or light bodies).
-    // (`max |M_ij|` only when no diagonal is positive: it is a pass over all of `M`,
-    // 5 % of the ten-box stack's step when taken every call.)
+    // (`max |M_ij|` only when no diagonal is positive: it is a chain of `n²`
+    // dependent `max` over all of `M`, which every call paid before.)
     let dmax = (0..n).fold(0.0_f64, |a, i| a.max(lcp.m_ij(i, i)));
     let alpha = if dmax > 0.0 {
         dmax
