@@ -119,14 +119,18 @@ pub fn fischer_newton(
     let mut phi = vec![0.0; n];
     // Units: Φ pairs z with w / α, α the largest diagonal of M, so that the method does
     // not depend on the scale of M (heavy or light bodies).
+    // (`max |M_ij|` only when no diagonal is positive: it is a chain of `n²`
+    // dependent `max` over all of `M`, which every call paid before.)
     let dmax = (0..n).fold(0.0_f64, |a, i| a.max(lcp.m_ij(i, i)));
-    let mmax = lcp.m().iter().fold(0.0_f64, |a, &x| a.max(libm::fabs(x)));
     let alpha = if dmax > 0.0 {
         dmax
-    } else if mmax > 0.0 {
-        mmax
     } else {
-        1.0
+        let mmax = lcp.m().iter().fold(0.0_f64, |a, &x| a.max(libm::fabs(x)));
+        if mmax > 0.0 {
+            mmax
+        } else {
+            1.0
+        }
     };
     let mut psi = merit(lcp, alpha, &z, &mut w, &mut phi);
     let mut residual = lcp.residual_with(&z, &w);

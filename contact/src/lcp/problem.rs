@@ -432,6 +432,12 @@ impl Lcp {
         }
     }
 
+    /// Gives back `M` (dense row-major) and its sparse rows, for a caller that refills
+    /// the same buffers for its next problem (no allocation once they have grown).
+    pub(crate) fn into_matrix(self) -> (Vec<f64>, SparseRows) {
+        (self.m, self.sparse)
+    }
+
     /// Number of unknowns.
     pub fn n(&self) -> usize {
         self.n
