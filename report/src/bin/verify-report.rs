@@ -16,8 +16,8 @@
 //! `cargo run --release -p constraint-report --bin verify-report -- [--full] [--out DIR]`
 //! (normally called by `cargo xtask verify`). Two plans: the default one, sized so that
 //! `cargo xtask verify` answers within ten minutes on two cores (every chart, fewer
-//! points: 82 s of sweeps on a fresh clone on two quiet cores, the whole command 6 min
-//! 27 s), and `--full` (denser grids, finer references, best of three timings: about 18
+//! points: 106 s of sweeps on a fresh clone on two quiet cores, the whole command 7 min
+//! 18 s), and `--full` (denser grids, finer references, best of three timings: about 18
 //! minutes of sweeps). `--quick` is the default plan.
 //!
 //! `verify-report --models MODELS.csv DIR [HOW]` only writes the real-models section
