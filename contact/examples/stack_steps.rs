@@ -3,7 +3,9 @@
 //! steps at `h = 1/60` and prints the top box's drift: a fixed run for CPU-time
 //! measurements (`perf stat -e task-clock`).
 //!
-//! `cargo run -p constraint-contact --release --example stack_steps -- [STEPS]`
+//! `cargo run -p constraint-contact --release --example stack_steps -- [STEPS] [SUBSTEPS]`
+//! (`SUBSTEPS` given: the soft step, `ContactSolver::SoftStep`, with that many
+//! sub-steps and default soft settings, instead of the dense path).
 
 use constraint_contact::rigid::ContactSolver;
 use constraint_contact::scenes::box_stack;
@@ -14,7 +16,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => 3060,
     };
     let mut w = box_stack(10)?;
-    w.settings.solver = ContactSolver::Auto;
+    w.settings.solver = match std::env::args().nth(2) {
+        Some(s) => ContactSolver::SoftStep {
+            substeps: s.parse()?,
+        },
+        None => ContactSolver::Auto,
+    };
     let h = 1.0 / 60.0;
     // One second to settle, then the measured drift.
     for _ in 0..60 {
