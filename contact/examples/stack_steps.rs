@@ -22,6 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         },
         None => ContactSolver::Auto,
     };
+    let z0 = w.bodies()[w.bodies().len() - 1].pose.x.z;
     let h = 1.0 / 60.0;
     // One second to settle, then the measured drift.
     for _ in 0..60 {
@@ -33,6 +34,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         w.step(h)?;
     }
     let d = (w.bodies()[top].pose.x - x0).length();
-    println!("{steps} steps, top-box drift {d:.3e} m");
+    let sink = z0 - w.bodies()[top].pose.x.z;
+    println!("{steps} steps, top-box drift {d:.3e} m after the first second, sink {sink:.3e} m from the start");
     Ok(())
 }
