@@ -18,6 +18,7 @@ use constraint_contact::lcp::{
 };
 use constraint_contact::rigid::{
     ContactSettings, ContactSolver, ContactWorld, FrictionModel, SleepSettings, SoftStepSettings,
+    MAX_THREADS,
 };
 use constraint_core::{
     Area, DMat3, DQuat, DVec3, Dihedral, Distance, DistanceJoint, Fixed, Hinge, PointOnPlane, Pose,
@@ -2738,6 +2739,33 @@ fn contact_cases(s: &mut Sweep) {
             );
         }
     }
+    // The threaded soft step (issue 14): thread counts out of range are typed errors;
+    // in range they run (the sweep's world is small: the one-thread loop) and a pile
+    // big enough for the threads runs too.
+    for threads in [0, 1, 2, 4, MAX_THREADS, MAX_THREADS + 1, usize::MAX] {
+        s.case(
+            format!("ContactWorld::step SoftStep threads={threads}"),
+            || {
+                let mut w = contact_world();
+                w.settings.solver = ContactSolver::SoftStep { substeps: 4 };
+                w.settings.soft_step.threads = threads;
+                contact_step(&mut w, 1e-2)
+            },
+        );
+    }
+    s.case("ContactWorld::step SoftStep threads=3 pile(300)", || {
+        let Ok(mut w) = constraint_contact::scenes::pile(300, 3) else {
+            return Outcome::StateChanged("pile scene".into());
+        };
+        w.settings.solver = ContactSolver::SoftStep { substeps: 2 };
+        w.settings.soft_step.threads = 3;
+        for _ in 0..40 {
+            if let Err(e) = w.step(1.0 / 60.0) {
+                return Outcome::StateChanged(format!("step failed: {e}"));
+            }
+        }
+        contact_step(&mut w, 1.0 / 60.0)
+    });
     s.case("ContactWorld::add_collider unknown body", || {
         let mut w = contact_world();
         of(w.add_collider(Collider::simple(Some(9), sphere).unwrap()))

@@ -45,6 +45,14 @@ pub(super) struct Colouring {
     out: Vec<usize>,
     /// Colours in use after the last call (the overflow colour counts as one).
     pub(super) colours: usize,
+    /// Groups of points whose manifolds share no moving body, in solve order: where
+    /// each group starts, then the point count. A group is one place of one colour
+    /// (the first points of the colour's manifolds, then their second points, …): two
+    /// points of one manifold share both bodies, so they are never in one group.
+    pub(super) ranges: Vec<usize>,
+    /// The first group of the overflow colour (whose manifolds may share bodies: its
+    /// groups must be solved in order, on one thread); the group count if none.
+    pub(super) serial_from: usize,
 }
 
 impl Colouring {
@@ -133,8 +141,13 @@ impl Colouring {
         }
         // Emit: per colour (its manifolds end at offset[c] now), place by place.
         self.out.clear();
+        self.ranges.clear();
         let mut first = 0;
+        self.serial_from = usize::MAX;
         for c in 0..self.colours {
+            if c == COLOURS as usize {
+                self.serial_from = self.ranges.len();
+            }
             let ms = &self.by_colour[first..self.offset[c]];
             first = self.offset[c];
             let longest = ms
@@ -143,6 +156,7 @@ impl Colouring {
                 .max()
                 .unwrap_or(0);
             for place in 0..longest {
+                self.ranges.push(self.out.len());
                 for &j in ms {
                     let (s, e) = (self.start[j as usize], self.start[j as usize + 1]);
                     if s + place < e {
@@ -151,6 +165,8 @@ impl Colouring {
                 }
             }
         }
+        self.serial_from = self.serial_from.min(self.ranges.len());
+        self.ranges.push(self.out.len());
         core::mem::swap(order, &mut self.out);
     }
 }
@@ -181,6 +197,9 @@ mod tests {
         c.order(&mut order, 8, 4, |k| pairs[k], |k| k as f64);
         assert_eq!(order, [0, 4, 1, 5, 2, 6, 3, 7]);
         assert_eq!(c.colours, 2);
+        // Groups: colour 0's first points, its second points, then colour 1's.
+        assert_eq!(c.ranges, [0, 2, 4, 6, 8]);
+        assert_eq!(c.serial_from, 4);
     }
 
     /// Manifolds of one colour never share a moving body, on a random-ish graph of
@@ -223,5 +242,15 @@ mod tests {
         let colours: Vec<u32> = order.iter().map(|&k| c.colour[pairs[k].0 .0]).collect();
         assert!(colours.windows(2).all(|w| w[0] <= w[1]), "{colours:?}");
         assert!(c.colours >= 2);
+        // Each group lies in one colour and holds at most one point of a manifold.
+        assert_eq!(c.ranges.last(), Some(&pairs.len()));
+        for w in c.ranges.windows(2) {
+            let group = &order[w[0]..w[1]];
+            assert!(!group.is_empty());
+            assert!(colours[w[0]..w[1]].iter().all(|&k| k == colours[w[0]]));
+            let mut manifolds: Vec<usize> = group.iter().map(|&k| pairs[k].0 .0).collect();
+            manifolds.sort_unstable();
+            assert!(manifolds.windows(2).all(|m| m[0] != m[1]), "{group:?}");
+        }
     }
 }

@@ -44,11 +44,13 @@ mod dense;
 mod path;
 mod sequential;
 mod sleep;
+#[cfg(feature = "parallel")]
+mod soft_parallel;
 mod soft_step;
 
 pub use path::{RowsSolver, SolverPath};
 pub use sleep::SleepSettings;
-pub use soft_step::{SoftStepSettings, Softness, MAX_SUBSTEPS};
+pub use soft_step::{SoftStepSettings, Softness, MAX_SUBSTEPS, MAX_THREADS, PARALLEL_MIN_POINTS};
 
 use crate::lcp::{Coupling, LcpError, RowBound, RowMethod, RowSettings, SparseRows};
 

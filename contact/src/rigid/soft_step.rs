@@ -81,6 +81,12 @@ pub struct SoftStepSettings {
     /// without it; with it the heavy box rests, but the light body no longer feels
     /// the heavy one (the ground's impulses carry only the light body's weight).
     pub one_way_mass_ratio: f64,
+    /// Threads of the sub-steps (1, the default: the calling thread only). More than
+    /// one needs the crate's `parallel` feature (a typed error without it) and runs
+    /// the passes colour by colour on that many scoped threads when the step has at
+    /// least [`PARALLEL_MIN_POINTS`] points (the `soft_parallel` module). The result is
+    /// the same, bit for bit, on any number of threads.
+    pub threads: usize,
 }
 
 impl Default for SoftStepSettings {
@@ -99,6 +105,7 @@ impl Default for SoftStepSettings {
             max_push_velocity: 3.0,
             friction_anchors: false,
             one_way_mass_ratio: f64::INFINITY,
+            threads: 1,
         }
     }
 }
@@ -145,59 +152,71 @@ type Warm = ((usize, usize, u64), f64, DVec3, DVec3);
 /// Buffers of the soft step, kept by the world between steps.
 #[derive(Clone, Debug, Default)]
 pub(super) struct SoftState {
-    broad: BroadScratch,
-    poses: Vec<Pose>,
+    pub(super) broad: BroadScratch,
+    pub(super) poses: Vec<Pose>,
     // Bodies, by solver slot (the last slot is the static ground).
-    inv_mass: Vec<f64>,
-    inv_inertia: Vec<DMat3>,
-    v: Vec<DVec3>,
-    w: Vec<DVec3>,
-    dp: Vec<DVec3>,
-    dq: Vec<DQuat>,
+    pub(super) inv_mass: Vec<f64>,
+    pub(super) inv_inertia: Vec<DMat3>,
+    pub(super) v: Vec<DVec3>,
+    pub(super) w: Vec<DVec3>,
+    pub(super) dp: Vec<DVec3>,
+    pub(super) dq: Vec<DQuat>,
     /// `Δq` as a matrix (anchors rotate by it in every gap update).
-    rot: Vec<DMat3>,
+    pub(super) rot: Vec<DMat3>,
     /// Colouring of the manifolds (solve order).
-    colouring: Colouring,
+    pub(super) colouring: Colouring,
     // Points, in solve order (colour-major, see the `colouring` module).
-    order: Vec<usize>,
-    slots: Vec<[usize; 2]>,
+    pub(super) order: Vec<usize>,
+    pub(super) slots: Vec<[usize; 2]>,
     /// Normal then the two tangents.
-    dir: Vec<[DVec3; 3]>,
+    pub(super) dir: Vec<[DVec3; 3]>,
     /// Anchors relative to the body centres at the start of the step.
-    anchor: Vec<[DVec3; 2]>,
+    pub(super) anchor: Vec<[DVec3; 2]>,
     /// Per direction `d`: `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
-    ang: Vec<[[DVec3; 4]; 3]>,
+    pub(super) ang: Vec<[[DVec3; 4]; 3]>,
     /// Effective masses `1/(J M⁻¹ Jᵀ)` of the three rows (0 for a row with none).
-    mass: Vec<[f64; 3]>,
+    pub(super) mass: Vec<[f64; 3]>,
     /// Inverse masses of the two bodies as the point's rows see them (zero for a
     /// body the one-way coupling freezes).
-    im: Vec<[f64; 2]>,
+    pub(super) im: Vec<[f64; 2]>,
     /// Gap `nᵀ(p_b − p_a)` at the start of the step minus `nᵀ(r_b − r_a)`.
-    base_gap: Vec<f64>,
-    soft: Vec<Softness>,
-    friction: Vec<f64>,
-    restitution: Vec<f64>,
+    pub(super) base_gap: Vec<f64>,
+    pub(super) soft: Vec<Softness>,
+    pub(super) friction: Vec<f64>,
+    pub(super) restitution: Vec<f64>,
     /// Normal velocity before the step (restitution).
-    approach: Vec<f64>,
-    impulse: Vec<[f64; 3]>,
-    max_normal: Vec<f64>,
+    pub(super) approach: Vec<f64>,
+    pub(super) impulse: Vec<[f64; 3]>,
+    pub(super) max_normal: Vec<f64>,
     /// Impulses summed over the sub-steps (what [`ContactWorld::impulses`] reports).
-    total: Vec<[f64; 3]>,
-    warm: Vec<Warm>,
-    warm_next: Vec<Warm>,
+    pub(super) total: Vec<[f64; 3]>,
+    pub(super) warm: Vec<Warm>,
+    pub(super) warm_next: Vec<Warm>,
     /// The previous step's impulses of each contact (natural order; zero if new).
-    found: Vec<(f64, DVec3, DVec3)>,
+    pub(super) found: Vec<(f64, DVec3, DVec3)>,
     /// Slip of the friction anchor at the start of the step along the two tangents,
     /// minus the anchors' offset `tᵀ(r_b − r_a)`.
-    slip: Vec<[f64; 2]>,
+    pub(super) slip: Vec<[f64; 2]>,
     /// Sub-step of the impulses in `warm` (they scale with it).
-    warm_h: f64,
+    pub(super) warm_h: f64,
+    /// Buffers of the threaded sub-steps.
+    #[cfg(feature = "parallel")]
+    pub(super) parallel: super::soft_parallel::ParallelState,
 }
 
 /// The most sub-steps one soft step accepts: 4096 (a 60 Hz step cut to 4 µs sub-steps;
 /// Box2D v3 uses 4). Beyond it the step is a typed error rather than a step that
 /// never ends (`usize::MAX` sub-steps would loop for centuries).
 pub const MAX_SUBSTEPS: usize = 4096;
+
+/// The most threads [`SoftStepSettings::threads`] accepts.
+pub const MAX_THREADS: usize = 256;
+
+/// A step with fewer points than this runs its sub-steps on one thread whatever
+/// [`SoftStepSettings::threads`] says: starting the threads and meeting at a barrier
+/// per colour and pass cost more than a small scene's passes (the 10-box stack has
+/// 40 points). The same bits either way.
+pub const PARALLEL_MIN_POINTS: usize = 512;
 
 impl ContactWorld {
     /// Rejects soft-step settings out of range (before any state changes).
@@ -220,6 +239,18 @@ impl ContactWorld {
             return bad(
                 "soft_step.one_way_mass_ratio",
                 "must be at least 1 (infinity: off)",
+            );
+        }
+        if s.threads == 0 {
+            return bad("soft_step.threads", "must be at least 1");
+        }
+        if s.threads > MAX_THREADS {
+            return bad("soft_step.threads", "must be at most MAX_THREADS (256)");
+        }
+        if s.threads > 1 && !cfg!(feature = "parallel") {
+            return bad(
+                "soft_step.threads",
+                "more than 1 needs the crate's `parallel` feature",
             );
         }
         if !(s.max_push_velocity >= 0.0) || !s.max_push_velocity.is_finite() {
@@ -271,10 +302,31 @@ impl ContactWorld {
             RowsSolver::SoftStep
         };
         let g = self.gravity;
+        let s = self.settings.soft_step;
+        #[cfg(feature = "parallel")]
+        if s.threads > 1 && st.slots.len() >= PARALLEL_MIN_POINTS {
+            let pass = |use_bias: bool| Pass {
+                inv_h: 1.0 / hs,
+                use_bias,
+                max_push: if use_bias { s.max_push_velocity } else { 0.0 },
+                anchors: use_bias && s.friction_anchors,
+            };
+            super::soft_parallel::run(
+                &mut st,
+                s.threads,
+                super::soft_parallel::Plan {
+                    substeps,
+                    hs,
+                    gravity: g,
+                    biased: pass(true),
+                    relax: pass(false),
+                },
+            );
+            return Ok(self.finish_soft(st, hs, stats));
+        }
         for _ in 0..substeps {
             integrate_velocities(&mut st, g, hs);
             warm_start(&mut st);
-            let s = self.settings.soft_step;
             solve(&mut st, hs, true, s.max_push_velocity, s.friction_anchors);
             integrate_positions(&mut st, hs);
             solve(&mut st, hs, false, 0.0, false);
@@ -284,11 +336,17 @@ impl ContactWorld {
                 t[2] += z[2];
             }
         }
+        Ok(self.finish_soft(st, hs, stats))
+    }
+
+    /// After the sub-steps: restitution, the residual, the bodies written back and the
+    /// impulses kept.
+    fn finish_soft(&mut self, mut st: SoftState, hs: f64, mut stats: ContactStats) -> ContactStats {
         restitution(&mut st, self.settings.restitution_threshold);
         stats.residual = residual(&st, hs);
         self.store(&mut st, hs);
         self.soft = st;
-        Ok(stats)
+        stats
     }
 
     /// Body slots: inverse masses and world inverse inertias at the start of the step,
@@ -509,50 +567,198 @@ impl ContactWorld {
     }
 }
 
-/// `v += g h` for every moving body (the static slot and asleep bodies, zero inverse
-/// mass, stay at rest).
+/// `v += g h` for one body (the static slot and asleep bodies, zero inverse mass, stay
+/// at rest).
+#[inline(always)]
+pub(super) fn integrate_velocity(v: &mut DVec3, inv_mass: f64, g: DVec3, hs: f64) {
+    if inv_mass > 0.0 {
+        *v += g * hs;
+    }
+}
+
+/// `v += g h` for every moving body (the static slot is last).
 fn integrate_velocities(st: &mut SoftState, g: DVec3, hs: f64) {
     let n = st.v.len() - 1;
     for (v, &m) in st.v[..n].iter_mut().zip(&st.inv_mass) {
-        if m > 0.0 {
-            *v += g * hs;
-        }
+        integrate_velocity(v, m, g, hs);
     }
 }
 
-/// `Δx += v h`, `Δq ← exp(ω h) Δq` (and its matrix) for every moving body (asleep
-/// bodies, zero inverse mass, are skipped).
+/// `Δx += v h`, `Δq ← exp(ω h) Δq` (and its matrix) for one body; an asleep body (zero
+/// inverse mass) is skipped.
+#[inline(always)]
+pub(super) fn integrate_position(
+    dp: &mut DVec3,
+    dq: &mut DQuat,
+    rot: &mut DMat3,
+    (v, w, inv_mass): (DVec3, DVec3, f64),
+    hs: f64,
+) {
+    if !(inv_mass > 0.0) {
+        return; // asleep
+    }
+    *dp += v * hs;
+    *dq = rotate_by(*dq, w * hs);
+    *rot = DMat3::from_quat(*dq);
+}
+
+/// [`integrate_position`] for every moving body (the static slot is last).
 fn integrate_positions(st: &mut SoftState, hs: f64) {
     let n = st.v.len() - 1;
     for i in 0..n {
-        if !(st.inv_mass[i] > 0.0) {
-            continue; // asleep
-        }
-        st.dp[i] += st.v[i] * hs;
-        st.dq[i] = rotate_by(st.dq[i], st.w[i] * hs);
-        st.rot[i] = DMat3::from_quat(st.dq[i]);
+        integrate_position(
+            &mut st.dp[i],
+            &mut st.dq[i],
+            &mut st.rot[i],
+            (st.v[i], st.w[i], st.inv_mass[i]),
+            hs,
+        );
     }
 }
 
+/// The bodies as the point passes see them: velocities they read and write, and the
+/// displacements since the start of the step they read. Plain slices on one thread;
+/// atomics under the `parallel` feature (where the colouring keeps two threads off one
+/// body).
+pub(super) trait Bodies {
+    /// `(v, ω)` of slot `i`.
+    fn velocity(&self, i: usize) -> (DVec3, DVec3);
+    /// Stores `(v, ω)` of slot `i`; never called for the static slot.
+    fn set_velocity(&mut self, i: usize, v: DVec3, w: DVec3);
+    /// `(Δx, Δq as a matrix)` of slot `i`.
+    fn displacement(&self, i: usize) -> (DVec3, DMat3);
+}
+
+/// [`Bodies`] over the state's own slices (the single-thread passes).
+struct Slices<'a> {
+    v: &'a mut [DVec3],
+    w: &'a mut [DVec3],
+    dp: &'a [DVec3],
+    rot: &'a [DMat3],
+}
+
+impl Bodies for Slices<'_> {
+    #[inline(always)]
+    fn velocity(&self, i: usize) -> (DVec3, DVec3) {
+        (self.v[i], self.w[i])
+    }
+    #[inline(always)]
+    fn set_velocity(&mut self, i: usize, v: DVec3, w: DVec3) {
+        self.v[i] = v;
+        self.w[i] = w;
+    }
+    #[inline(always)]
+    fn displacement(&self, i: usize) -> (DVec3, DMat3) {
+        (self.dp[i], self.rot[i])
+    }
+}
+
+/// What the point passes read of each point, borrowed from [`SoftState`] (it does not
+/// change during the sub-steps).
+pub(super) struct Rows<'a> {
+    pub(super) slots: &'a [[usize; 2]],
+    pub(super) dir: &'a [[DVec3; 3]],
+    pub(super) anchor: &'a [[DVec3; 2]],
+    pub(super) ang: &'a [[[DVec3; 4]; 3]],
+    pub(super) mass: &'a [[f64; 3]],
+    pub(super) im: &'a [[f64; 2]],
+    pub(super) base_gap: &'a [f64],
+    pub(super) soft: &'a [Softness],
+    pub(super) friction: &'a [f64],
+    pub(super) slip: &'a [[f64; 2]],
+    /// The static slot (the last): never written.
+    pub(super) fixed: usize,
+}
+
+/// Settings of one Gauss–Seidel pass (see [`solve_point`]).
+#[derive(Clone, Copy)]
+pub(super) struct Pass {
+    pub(super) inv_h: f64,
+    pub(super) use_bias: bool,
+    pub(super) max_push: f64,
+    pub(super) anchors: bool,
+}
+
+/// The [`Rows`] of a `SoftState` place: field borrows only, so the bodies' velocities
+/// can be borrowed mutably beside them.
+macro_rules! rows {
+    ($st:expr) => {
+        Rows {
+            slots: &$st.slots,
+            dir: &$st.dir,
+            anchor: &$st.anchor,
+            ang: &$st.ang,
+            mass: &$st.mass,
+            im: &$st.im,
+            base_gap: &$st.base_gap,
+            soft: &$st.soft,
+            friction: &$st.friction,
+            slip: &$st.slip,
+            fixed: $st.v.len() - 1,
+        }
+    };
+}
+
+#[cfg(feature = "parallel")]
+impl SoftState {
+    /// The rows the passes read.
+    pub(super) fn rows(&self) -> Rows<'_> {
+        rows!(self)
+    }
+}
+
+/// Splits the state into the rows the passes read, the bodies and the points'
+/// impulses.
+macro_rules! split {
+    ($st:expr) => {{
+        let st = $st;
+        (
+            rows!(st),
+            Slices {
+                v: &mut st.v,
+                w: &mut st.w,
+                dp: &st.dp,
+                rot: &st.rot,
+            },
+            &mut st.impulse,
+            &mut st.max_normal,
+        )
+    }};
+}
+
 /// `v += M⁻¹ Jᵀ λ` of the three rows of point `p` with impulses `z`.
-#[inline]
-fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
-    let [a, b] = st.slots[p];
-    let d = st.dir[p];
-    let g = &st.ang[p];
+#[inline(always)]
+pub(super) fn apply_point<B: Bodies>(rows: &Rows, p: usize, z: [f64; 3], vel: &mut B) {
+    let [a, b] = rows.slots[p];
+    let d = rows.dir[p];
+    let g = &rows.ang[p];
     let lin = d[0] * z[0] + d[1] * z[1] + d[2] * z[2];
-    let [ma, mb] = st.im[p];
-    st.v[a] -= lin * ma;
-    st.w[a] -= g[0][2] * z[0] + g[1][2] * z[1] + g[2][2] * z[2];
-    st.v[b] += lin * mb;
-    st.w[b] += g[0][3] * z[0] + g[1][3] * z[1] + g[2][3] * z[2];
+    let [ma, mb] = rows.im[p];
+    let ((va, wa), (vb, wb)) = (vel.velocity(a), vel.velocity(b));
+    let va = va - lin * ma;
+    let wa = wa - (g[0][2] * z[0] + g[1][2] * z[1] + g[2][2] * z[2]);
+    let vb = vb + lin * mb;
+    let wb = wb + (g[0][3] * z[0] + g[1][3] * z[1] + g[2][3] * z[2]);
+    // The static slot's inverse mass and inertia are zero: it stays at rest.
+    if a != rows.fixed {
+        vel.set_velocity(a, va, wa);
+    }
+    if b != rows.fixed {
+        vel.set_velocity(b, vb, wb);
+    }
+}
+
+/// `v += M⁻¹ Jᵀ λ` of point `p` on the state's own velocities (restitution).
+fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
+    let (rows, mut vel, _, _) = split!(st);
+    apply_point(&rows, p, z, &mut vel);
 }
 
 /// Applies the stored impulses of every point (warm start, each sub-step).
 fn warm_start(st: &mut SoftState) {
-    for p in 0..st.slots.len() {
-        let z = st.impulse[p];
-        apply(st, p, z);
+    let (rows, mut vel, impulse, _) = split!(st);
+    for (p, z) in impulse.iter().enumerate() {
+        apply_point(&rows, p, *z, &mut vel);
     }
 }
 
@@ -565,81 +771,108 @@ fn rate(st: &SoftState, p: usize, r: usize) -> f64 {
     d.dot(st.v[b] - st.v[a]) + g[1].dot(st.w[b]) - g[0].dot(st.w[a])
 }
 
-/// One Gauss–Seidel pass over the points: the normal row (soft with bias when
-/// `use_bias`, rigid without), then the two friction rows bounded by `μ λ_n`. Each
-/// point loads its two bodies' velocities once, updates them row by row, and stores
-/// them back (Box2D v3's `b2SolveContact`).
+/// One Gauss–Seidel pass over the points ([`solve_point`] on each, in solve order).
 fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bool) {
-    let inv_h = 1.0 / hs;
-    for p in 0..st.slots.len() {
-        let [a, b] = st.slots[p];
-        let [ra, rb] = st.anchor[p];
-        // Borrowed, not copied: the twelve angular vectors stay in the point's row.
-        let d = &st.dir[p];
-        let g = &st.ang[p];
-        let m = st.mass[p];
-        let [ma, mb] = st.im[p];
-        let (mut va, mut wa, mut vb, mut wb) = (st.v[a], st.w[a], st.v[b], st.w[b]);
-        // Current gap from the displacements since the start of the step (anchors fixed
-        // in the bodies): C = C₀ + nᵀ(Δx_b + Δq_b r_b − Δx_a − Δq_a r_a).
-        let dd = (st.dp[b] + st.rot[b] * rb) - (st.dp[a] + st.rot[a] * ra);
-        let gap = st.base_gap[p] + d[0].dot(dd);
-        let (bias, mass_scale, impulse_scale) = if gap > 0.0 {
-            // Speculative: approach at most to the surface within the sub-step.
-            (gap * inv_h, 1.0, 0.0)
-        } else if use_bias {
-            let s = st.soft[p];
-            (
-                at_least(s.bias_rate * gap, -max_push),
-                s.mass_scale,
-                s.impulse_scale,
-            )
+    let pass = Pass {
+        inv_h: 1.0 / hs,
+        use_bias,
+        max_push,
+        anchors,
+    };
+    let (rows, mut vel, impulse, max_normal) = split!(st);
+    for (p, (z, m)) in impulse.iter_mut().zip(max_normal.iter_mut()).enumerate() {
+        solve_point(&rows, p, z, m, &mut vel, pass);
+    }
+}
+
+/// Point `p`'s rows in one Gauss–Seidel pass: the normal row (soft with bias when
+/// `use_bias`, rigid without), then the two friction rows bounded by `μ λ_n`. The point
+/// loads its two bodies' velocities once, updates them row by row, and stores them
+/// back (Box2D v3's `b2SolveContact`); `z` are its impulses, `max_normal` the largest
+/// normal impulse it has had this step (restitution).
+#[inline(always)]
+pub(super) fn solve_point<B: Bodies>(
+    rows: &Rows,
+    p: usize,
+    z: &mut [f64; 3],
+    max_normal: &mut f64,
+    vel: &mut B,
+    pass: Pass,
+) {
+    let Pass {
+        inv_h,
+        use_bias,
+        max_push,
+        anchors,
+    } = pass;
+    let [a, b] = rows.slots[p];
+    let [ra, rb] = rows.anchor[p];
+    // Borrowed, not copied: the twelve angular vectors stay in the point's row.
+    let d = &rows.dir[p];
+    let g = &rows.ang[p];
+    let m = rows.mass[p];
+    let [ma, mb] = rows.im[p];
+    let ((mut va, mut wa), (mut vb, mut wb)) = (vel.velocity(a), vel.velocity(b));
+    // Current gap from the displacements since the start of the step (anchors fixed
+    // in the bodies): C = C₀ + nᵀ(Δx_b + Δq_b r_b − Δx_a − Δq_a r_a).
+    let ((dpa, rota), (dpb, rotb)) = (vel.displacement(a), vel.displacement(b));
+    let dd = (dpb + rotb * rb) - (dpa + rota * ra);
+    let gap = rows.base_gap[p] + d[0].dot(dd);
+    let (bias, mass_scale, impulse_scale) = if gap > 0.0 {
+        // Speculative: approach at most to the surface within the sub-step.
+        (gap * inv_h, 1.0, 0.0)
+    } else if use_bias {
+        let s = rows.soft[p];
+        (
+            at_least(s.bias_rate * gap, -max_push),
+            s.mass_scale,
+            s.impulse_scale,
+        )
+    } else {
+        (0.0, 1.0, 0.0)
+    };
+    // Δλ = −m · mass_scale · (J v + bias) − impulse_scale · λ, then λ ≥ 0.
+    let vn = d[0].dot(vb - va) + g[0][1].dot(wb) - g[0][0].dot(wa);
+    let new = at_least(
+        z[0] - m[0] * mass_scale * (vn + bias) - impulse_scale * z[0],
+        0.0,
+    );
+    let dz = new - z[0];
+    z[0] = new;
+    *max_normal = at_least(new, *max_normal);
+    va -= d[0] * (ma * dz);
+    wa -= g[0][2] * dz;
+    vb += d[0] * (mb * dz);
+    wb += g[0][3] * dz;
+    // Coulomb: |λ_t| ≤ μ λ_n per tangent row (pyramid). With anchors, the biased
+    // pass pulls a sticking pair back along its slip `s_t = s₀ + tᵀ Δd`, as a soft
+    // row: Δλ_t = −m_t · mass_scale · (J_t v + bias_rate · s_t) − impulse_scale · λ_t.
+    let bound = rows.friction[p] * z[0];
+    let anchored = use_bias && anchors && gap <= 0.0;
+    let s = rows.soft[p];
+    for r in 1..3 {
+        let vt = d[r].dot(vb - va) + g[r][1].dot(wb) - g[r][0].dot(wa);
+        let unbounded = if anchored {
+            let slip = rows.slip[p][r - 1] + d[r].dot(dd);
+            let bias = at_least(at_most(s.bias_rate * slip, max_push), -max_push);
+            z[r] - m[r] * s.mass_scale * (vt + bias) - s.impulse_scale * z[r]
         } else {
-            (0.0, 1.0, 0.0)
+            z[r] - m[r] * vt
         };
-        let mut z = st.impulse[p];
-        // Δλ = −m · mass_scale · (J v + bias) − impulse_scale · λ, then λ ≥ 0.
-        let vn = d[0].dot(vb - va) + g[0][1].dot(wb) - g[0][0].dot(wa);
-        let new = at_least(
-            z[0] - m[0] * mass_scale * (vn + bias) - impulse_scale * z[0],
-            0.0,
-        );
-        let dz = new - z[0];
-        z[0] = new;
-        st.max_normal[p] = at_least(new, st.max_normal[p]);
-        va -= d[0] * (ma * dz);
-        wa -= g[0][2] * dz;
-        vb += d[0] * (mb * dz);
-        wb += g[0][3] * dz;
-        // Coulomb: |λ_t| ≤ μ λ_n per tangent row (pyramid). With anchors, the biased
-        // pass pulls a sticking pair back along its slip `s_t = s₀ + tᵀ Δd`, as a soft
-        // row: Δλ_t = −m_t · mass_scale · (J_t v + bias_rate · s_t) − impulse_scale · λ_t.
-        let bound = st.friction[p] * z[0];
-        let anchored = use_bias && anchors && gap <= 0.0;
-        let s = st.soft[p];
-        for r in 1..3 {
-            let vt = d[r].dot(vb - va) + g[r][1].dot(wb) - g[r][0].dot(wa);
-            let unbounded = if anchored {
-                let slip = st.slip[p][r - 1] + d[r].dot(dd);
-                let bias = at_least(at_most(s.bias_rate * slip, max_push), -max_push);
-                z[r] - m[r] * s.mass_scale * (vt + bias) - s.impulse_scale * z[r]
-            } else {
-                z[r] - m[r] * vt
-            };
-            let new = at_least(at_most(unbounded, bound), -bound);
-            let dz = new - z[r];
-            z[r] = new;
-            va -= d[r] * (ma * dz);
-            wa -= g[r][2] * dz;
-            vb += d[r] * (mb * dz);
-            wb += g[r][3] * dz;
-        }
-        st.impulse[p] = z;
-        // The static slot's inverse mass and inertia are zero: it stays at rest.
-        st.v[a] = va;
-        st.w[a] = wa;
-        st.v[b] = vb;
-        st.w[b] = wb;
+        let new = at_least(at_most(unbounded, bound), -bound);
+        let dz = new - z[r];
+        z[r] = new;
+        va -= d[r] * (ma * dz);
+        wa -= g[r][2] * dz;
+        vb += d[r] * (mb * dz);
+        wb += g[r][3] * dz;
+    }
+    // The static slot's inverse mass and inertia are zero: it stays at rest.
+    if a != rows.fixed {
+        vel.set_velocity(a, va, wa);
+    }
+    if b != rows.fixed {
+        vel.set_velocity(b, vb, wb);
     }
 }
 
