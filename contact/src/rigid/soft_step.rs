@@ -220,7 +220,7 @@ pub const PARALLEL_MIN_POINTS: usize = 512;
 
 impl ContactWorld {
     /// Rejects soft-step settings out of range (before any state changes).
-    fn check_soft(&self, substeps: usize) -> Result<(), ContactError> {
+    pub(super) fn check_soft(&self, substeps: usize) -> Result<(), ContactError> {
         let s = &self.settings.soft_step;
         let bad = |name, rule| Err(ContactError::InvalidParameter { name, rule });
         if substeps == 0 {
@@ -292,6 +292,60 @@ impl ContactWorld {
         stats.pair_tests = broad.tests;
         stats.contacts = self.contacts.len();
         stats.max_penetration = self.contacts.iter().map(|c| c.depth).fold(0.0, f64::max);
+        Ok(self.soft_solve(st, h, substeps, stats))
+    }
+
+    /// The soft step on the contacts already in `self.contacts` (found at the start of
+    /// the step; `stats` holds their counts): [`ContactSolver::Auto`] beyond
+    /// [`super::AUTO_DENSE_CONTACTS`] points. The settings were checked.
+    pub(super) fn soft_with_contacts(
+        &mut self,
+        h: f64,
+        substeps: usize,
+        mut stats: ContactStats,
+    ) -> ContactStats {
+        stats.solver = Some(ContactSolver::SoftStep { substeps });
+        stats.iterations = substeps;
+        let st = core::mem::take(&mut self.soft);
+        self.soft_solve(st, h, substeps, stats)
+    }
+
+    /// Converts the dense path's warm start (impulses over a step `h`) into the soft
+    /// step's (its impulses scale with the sub-step: stored as over `h`, used as
+    /// `h_s / h` of them), when `Auto` moves to the soft step.
+    pub(super) fn warm_dense_to_soft(&mut self, h: f64) {
+        let st = &mut self.soft;
+        st.warm.clear();
+        st.warm.extend(
+            self.warm
+                .iter()
+                .map(|&(key, (zn, ft))| (key, zn, ft, DVec3::ZERO)),
+        );
+        st.warm_h = h;
+    }
+
+    /// Converts the soft step's warm start (impulses over one of `substeps` sub-steps)
+    /// into the dense path's (over the whole step), when `Auto` leaves the soft step.
+    pub(super) fn warm_soft_to_dense(&mut self, substeps: usize) {
+        let k = substeps as f64;
+        self.warm.clear();
+        self.warm.extend(
+            self.soft
+                .warm
+                .iter()
+                .map(|&(key, zn, ft, _)| (key, (zn * k, ft * k))),
+        );
+    }
+
+    /// The sub-steps and the rest of the soft step from the contacts in
+    /// `self.contacts`.
+    fn soft_solve(
+        &mut self,
+        mut st: SoftState,
+        h: f64,
+        substeps: usize,
+        stats: ContactStats,
+    ) -> ContactStats {
         let hs = h / substeps as f64;
         self.load_bodies(&mut st, h);
         self.prepare(&mut st, hs);
@@ -322,7 +376,7 @@ impl ContactWorld {
                     relax: pass(false),
                 },
             );
-            return Ok(self.finish_soft(st, hs, stats));
+            return self.finish_soft(st, hs, stats);
         }
         for _ in 0..substeps {
             integrate_velocities(&mut st, g, hs);
@@ -336,7 +390,7 @@ impl ContactWorld {
                 t[2] += z[2];
             }
         }
-        Ok(self.finish_soft(st, hs, stats))
+        self.finish_soft(st, hs, stats)
     }
 
     /// After the sub-steps: restitution, the residual, the bodies written back and the

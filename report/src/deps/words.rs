@@ -384,7 +384,7 @@ pub fn contact(w: &ContactWorld) -> Vec<&'static str> {
         });
     }
     if configured_auto {
-        out.push("Auto: dense Newton for few contact points, sequential impulses for many");
+        out.push("Auto: dense Newton for few contact points, the soft step for many");
     }
     out.extend(match p.normal {
         Some(RowMethod::Newton) => Some("normal LCP: Fischer–Burmeister Newton"),
