@@ -30,6 +30,15 @@ pub struct PgsSettings {
     pub max_iterations: usize,
     /// Sweeps between residual checks (each check costs about one sweep; default 1).
     pub check_every: usize,
+    /// Stall window (0, the default: off): at a residual check at least this many
+    /// sweeps after the last stall mark, a residual that has not halved since that mark
+    /// ends the solve as if out of sweeps (the round-off acceptance, then
+    /// [`LcpError::IterationLimit`] with the sweeps run). A projected Gauss–Seidel that
+    /// gains less than a factor 2 in 100 sweeps converges at a rate above 0.993 per
+    /// sweep: thousands of sweeps more for each decade, where they rarely help (the
+    /// staggered friction solve of a box face on four coplanar points, whose block is
+    /// only semi-definite, sat at its residual for all its 10,000 sweeps).
+    pub stall_sweeps: usize,
 }
 
 impl Default for PgsSettings {
@@ -39,6 +48,7 @@ impl Default for PgsSettings {
             tolerance: 1e-8,
             max_iterations: 10_000,
             check_every: 1,
+            stall_sweeps: 0,
         }
     }
 }
@@ -89,6 +99,8 @@ pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpS
         return lcp.finish_with(z, w0, 0, None, settings.tolerance);
     }
     let omega = settings.omega;
+    let mut mark = (0, residual);
+    let mut ran = settings.max_iterations;
     for sweep in 1..=settings.max_iterations {
         for i in 0..n {
             let wi = lcp.q()[i] + lcp.row_dot(i, &z);
@@ -107,15 +119,58 @@ pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpS
                     residual,
                 });
             }
+            if settings.stall_sweeps > 0 && sweep - mark.0 >= settings.stall_sweeps {
+                if !(residual <= 0.5 * mark.1) {
+                    ran = sweep;
+                    break;
+                }
+                mark = (sweep, residual);
+            }
         }
     }
-    // Out of sweeps: the answer stands if the residual is down to its round-off floor
-    // (huge impulses; [`Lcp::round_off`]).
+    // Out of sweeps (or stalled): the answer stands if the residual is down to its
+    // round-off floor (huge impulses; [`Lcp::round_off`]).
     if lcp.accepts(&z, residual, settings.tolerance) {
-        return lcp.finish(z, settings.max_iterations, None, settings.tolerance);
+        return lcp.finish(z, ran, None, settings.tolerance);
     }
     Err(LcpError::IterationLimit {
-        iterations: settings.max_iterations,
+        iterations: ran,
         residual,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stall window: Gauss–Seidel on `[[1, 1−ε], [1−ε, 1]] z = −q` (unbounded) gains
+    /// a factor `(1−ε)²` per sweep; at ε = 1e-4 the residual falls by about 2 % in 100
+    /// sweeps, so with `stall_sweeps: 100` the solve stops at sweep 100 instead of
+    /// running all 10,000 (measured: 100 sweeps, residual 0.98 of its start); with a
+    /// window on a fast problem (ε = 0.5) it converges as before (15 sweeps both ways).
+    #[test]
+    fn a_stalled_solve_stops_at_its_window() {
+        let problem = |eps: f64| {
+            let c = 1.0 - eps;
+            let inf = f64::INFINITY;
+            Lcp::boxed(vec![1.0, c, c, 1.0], vec![1.0, -1.0], vec![-inf; 2], vec![inf; 2])
+                .unwrap()
+        };
+        let windowed = PgsSettings {
+            stall_sweeps: 100,
+            ..PgsSettings::default()
+        };
+        match pgs(&problem(1e-4), &windowed, None) {
+            Err(LcpError::IterationLimit { iterations, .. }) => assert_eq!(iterations, 100),
+            other => panic!("{other:?}"),
+        }
+        match pgs(&problem(1e-4), &PgsSettings::default(), None) {
+            Err(LcpError::IterationLimit { iterations, .. }) => assert_eq!(iterations, 10_000),
+            other => panic!("{other:?}"),
+        }
+        let fast = pgs(&problem(0.5), &windowed, None).unwrap();
+        let plain = pgs(&problem(0.5), &PgsSettings::default(), None).unwrap();
+        assert_eq!(fast.iterations, plain.iterations);
+        assert_eq!(fast.z, plain.z);
+    }
 }

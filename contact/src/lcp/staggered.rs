@@ -78,6 +78,10 @@ pub enum Coupling {
     },
 }
 
+/// Stall window of the staggered friction PGS ([`PgsSettings::stall_sweeps`]): a
+/// friction solve whose residual has not halved in this many sweeps stops there.
+pub const FRICTION_STALL_SWEEPS: usize = 100;
+
 /// Settings of [`solve_rows`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RowSettings {
@@ -506,6 +510,7 @@ pub(crate) fn solve_rows_in(
             let friction_settings = PgsSettings {
                 tolerance: settings.friction_tolerance,
                 max_iterations: settings.friction_iterations,
+                stall_sweeps: FRICTION_STALL_SWEEPS,
                 ..PgsSettings::default()
             };
             let lcp = match (&mut tangent_lcp, att_parts.take()) {
@@ -526,10 +531,12 @@ pub(crate) fn solve_rows_in(
                         z[i] = sol.z[k];
                     }
                 }
-                Err(LcpError::IterationLimit { .. }) => {
+                Err(LcpError::IterationLimit { iterations, .. }) => {
+                    // As many sweeps from the warm start as the PGS ran before it
+                    // stalled or ran out (not a second full budget).
                     stats.friction_budget = true;
                     let att = lcp.m();
-                    for _ in 0..settings.friction_iterations {
+                    for _ in 0..iterations.min(settings.friction_iterations) {
                         for (k, &i) in tangent.iter().enumerate() {
                             let d = att[k * nt + k];
                             if !(d > 0.0) {
