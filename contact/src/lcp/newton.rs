@@ -70,7 +70,7 @@ fn fb(a: f64, b: f64) -> f64 {
 
 /// `Ψ = ½|Φ|²` at `z`, with `Φ_i = φ(z_i, w_i / α)`; also stores `w = M z + q`.
 fn merit(lcp: &Lcp, alpha: f64, z: &[f64], w: &mut Vec<f64>, phi: &mut [f64]) -> f64 {
-    *w = lcp.w(z);
+    lcp.w_into(z, w);
     let mut s = 0.0;
     for i in 0..z.len() {
         phi[i] = fb(z[i], w[i] / alpha);

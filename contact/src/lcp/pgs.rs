@@ -93,10 +93,11 @@ pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpS
             }
         }
     }
-    let w0 = lcp.w(&z);
-    let mut residual = lcp.residual_with(&z, &w0);
+    // `w = M z + q` at the residual checks, in one kept buffer.
+    let mut w = lcp.w(&z);
+    let mut residual = lcp.residual_with(&z, &w);
     if residual <= settings.tolerance {
-        return lcp.finish_with(z, w0, 0, None, settings.tolerance);
+        return lcp.finish_with(z, w, 0, None, settings.tolerance);
     }
     let omega = settings.omega;
     let mut mark = (0, residual);
@@ -108,7 +109,7 @@ pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpS
             z[i] = (z[i] - omega * wi * inv_diag[i]).max(lo).min(hi);
         }
         if sweep % settings.check_every == 0 || sweep == settings.max_iterations {
-            let w = lcp.w(&z);
+            lcp.w_into(&z, &mut w);
             residual = lcp.residual_with(&z, &w);
             if residual <= settings.tolerance {
                 return lcp.finish_with(z, w, sweep, None, settings.tolerance);

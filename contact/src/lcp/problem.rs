@@ -544,6 +544,13 @@ impl Lcp {
             .collect()
     }
 
+    /// [`Lcp::w`] into `out` (cleared first; its buffer is kept: no allocation once it
+    /// has grown to `n`).
+    pub fn w_into(&self, z: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        out.extend((0..self.n).map(|i| self.q[i] + self.row_dot(i, z)));
+    }
+
     /// `max(1, |q|_∞)`, the residual's scale.
     pub fn scale(&self) -> f64 {
         self.q.iter().fold(1.0_f64, |a, &x| a.max(libm::fabs(x)))
