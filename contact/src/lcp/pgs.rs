@@ -154,8 +154,13 @@ mod tests {
         let problem = |eps: f64| {
             let c = 1.0 - eps;
             let inf = f64::INFINITY;
-            Lcp::boxed(vec![1.0, c, c, 1.0], vec![1.0, -1.0], vec![-inf; 2], vec![inf; 2])
-                .unwrap()
+            Lcp::boxed(
+                vec![1.0, c, c, 1.0],
+                vec![1.0, -1.0],
+                vec![-inf; 2],
+                vec![inf; 2],
+            )
+            .unwrap()
         };
         let windowed = PgsSettings {
             stall_sweeps: 100,
