@@ -114,6 +114,12 @@ impl Lu {
         Some(Lu { n, a, perm })
     }
 
+    /// The factor's storage back (its values are the factors, not `A`), for the next
+    /// matrix of the same size to reuse.
+    pub(crate) fn into_matrix(self) -> Vec<f64> {
+        self.a
+    }
+
     /// Solves `A x = b`, returning `x`.
     pub(crate) fn solve(&self, b: &[f64]) -> Vec<f64> {
         let n = self.n;

@@ -139,6 +139,11 @@ pub fn fischer_newton(
     let mut phi_trial = vec![0.0; n];
     let mut da = vec![0.0; n];
     let mut db = vec![0.0; n];
+    // The Newton matrix's storage, kept from one iteration to the next (it comes back
+    // from the factor): zeroed in place, not a fresh `n²` allocation per iteration
+    // (above glibc's mmap threshold, 128 KiB or n ≥ 128, each was an mmap and its page
+    // faults).
+    let mut h: Vec<f64> = Vec::new();
     for k in 0..=settings.max_iterations {
         if residual <= settings.tolerance {
             return lcp.finish_with(z, w, k, None, settings.tolerance);
@@ -160,7 +165,8 @@ pub fn fischer_newton(
         // H = D_a + D_b M / α; ∇Ψ = Hᵀ Φ.
         // Over the non-zero M_ij only: an off-diagonal zero gives h_ij = +0 and adds ±0
         // to the gradient (bit-neutral); the diagonal is always written.
-        let mut h = vec![0.0; n * n];
+        h.clear();
+        h.resize(n * n, 0.0);
         let mut grad = vec![0.0; n];
         for i in 0..n {
             let (cols, vals) = lcp.row_nonzeros(i);
@@ -185,7 +191,14 @@ pub fn fischer_newton(
             h[i * n + i] -= mu;
         }
         let minus_phi: Vec<f64> = phi.iter().map(|p| -p).collect();
-        let newton = Lu::factor(h, n).map(|lu| lu.solve(&minus_phi));
+        let newton = match Lu::factor(core::mem::take(&mut h), n) {
+            Some(lu) => {
+                let d = lu.solve(&minus_phi);
+                h = lu.into_matrix();
+                Some(d)
+            }
+            None => None,
+        };
         let gnorm2: f64 = grad.iter().map(|g| g * g).sum();
         let mut directions: Vec<Vec<f64>> = Vec::with_capacity(2);
         if let Some(d) = newton {
