@@ -183,6 +183,9 @@ fuzz_target!(|inp: Input| {
             cw.settings.soft_step.max_push_velocity = inp.param;
             cw.settings.soft_step.one_way_mass_ratio = inp.param;
             cw.settings.soft_step.friction_anchors = inp.param > 1.0;
+            // Thread counts 0 (a typed error) to 4 (the `parallel` feature is on: a
+            // scene this small runs on one thread, with the same bits).
+            cw.settings.soft_step.threads = usize::from(inp.iters % 5);
             ContactSolver::SoftStep { substeps: 4 }
         }
     };
