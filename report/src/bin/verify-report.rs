@@ -24,6 +24,12 @@
 //! (`DIR/models_section.md`, `models_time_ratio.svg`, `models_smooth_error.svg`; see
 //! `constraint_report::models_report`) from what `cargo xtask models run` measured.
 //!
+//! `verify-report --contact-points POINTS.tsv DIR [NOTE]` only draws the contact scenes'
+//! accuracy against time per step, one labelled point per engine setting
+//! (`DIR/contact_<scene>.svg`; see `constraint_report::peer_points`), from the points
+//! `cargo xtask bench` measured; it prints one line per chart written (`scene\tfile`) and
+//! one `note\t…` line per input line left off.
+//!
 //! `verify-report --html REPORT.md [PAGE.html]` only converts a report (default page:
 //! `REPORT.html` beside it), inlining the SVG charts it links; `cargo xtask verify` can
 //! call it once it has written `report.md`, so the page has the checks table too.
@@ -118,6 +124,23 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 let page = dir.join("models_section.md");
                 std::fs::write(&page, md)?;
                 eprintln!("  wrote {}", page.display());
+                return Ok(());
+            }
+            "--contact-points" => {
+                let tsv = PathBuf::from(args.next().ok_or("--contact-points needs a TSV")?);
+                let dir = PathBuf::from(
+                    args.next()
+                        .ok_or("--contact-points needs an output folder")?,
+                );
+                let note = args.next().unwrap_or_default();
+                let (files, notes) =
+                    constraint_report::peer_points::write_charts(&tsv, &dir, &note)?;
+                for (scene, file) in files {
+                    println!("{scene}\t{file}");
+                }
+                for n in notes {
+                    println!("note\t{n}");
+                }
                 return Ok(());
             }
             "--quick" => full = false,
