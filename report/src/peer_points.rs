@@ -43,6 +43,9 @@ pub struct PeerPoint {
     pub seconds: f64,
     /// The scene's error (m; y).
     pub error: f64,
+    /// The step the time is for (s), from the optional column `dt`: charts per simulated
+    /// second divide by it.
+    pub dt: Option<f64>,
 }
 
 /// Why a points file cannot be read at all.
@@ -82,6 +85,7 @@ pub fn parse(text: &str) -> Result<(Vec<PeerPoint>, Vec<String>), PointsError> {
             .position(|h| *h == name)
             .ok_or(PointsError::MissingColumn(name))?;
     }
+    let dt_col = header.iter().position(|h| *h == "dt");
     let mut points = Vec::new();
     let mut notes = Vec::new();
     for (i, line) in lines.enumerate() {
@@ -105,6 +109,10 @@ pub fn parse(text: &str) -> Result<(Vec<PeerPoint>, Vec<String>), PointsError> {
                     setting: se.into(),
                     seconds: t,
                     error: e,
+                    dt: dt_col
+                        .and_then(|c| f.get(c))
+                        .and_then(|v| v.parse::<f64>().ok())
+                        .filter(|v| v.is_finite() && *v > 0.0),
                 })
             }
             _ => notes.push(format!(

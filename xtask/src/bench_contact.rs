@@ -22,13 +22,12 @@ pub(crate) const DURATION: f64 = 10.0;
 /// The sliding box's exact stopping distance `v²/(2μg)` (m): 3 m/s, μ 0.5, g 9.81.
 pub(crate) const SLIDE_EXACT: f64 = 9.0 / (2.0 * 0.5 * 9.81);
 
-/// One MuJoCo setting: engine id (in `ratios.md` and the points file), table label,
-/// chart label, time step as passed to MuJoCo, steps per trajectory row.
+/// One MuJoCo setting: engine id (in `ratios.md` and the points file), label, time step
+/// as passed to MuJoCo, steps per trajectory row.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Setting {
     pub engine: &'static str,
     pub label: &'static str,
-    pub short: &'static str,
     pub dt: &'static str,
     pub every: usize,
 }
@@ -46,14 +45,12 @@ pub(crate) const BOX_SETTINGS: [Setting; 2] = [
     Setting {
         engine: "mujoco",
         label: "MuJoCo (defaults, dt = 1/60)",
-        short: "dt 1/60",
         dt: "0.016666666666666666",
         every: 1,
     },
     Setting {
         engine: "mujoco_240hz",
         label: "MuJoCo (defaults, dt = 1/240)",
-        short: "dt 1/240",
         dt: "0.004166666666666667",
         every: 4,
     },
@@ -65,14 +62,12 @@ pub(crate) const SLIDE_SETTINGS: [Setting; 2] = [
     Setting {
         engine: "mujoco",
         label: "MuJoCo (sliding_box.xml, dt = 1/60)",
-        short: "dt 1/60",
         dt: "0.016666666666666666",
         every: 1,
     },
     Setting {
         engine: "mujoco_1khz",
         label: "MuJoCo (sliding_box.xml, dt = 1 ms)",
-        short: "dt 1 ms",
         dt: "1e-3",
         every: 10,
     },
@@ -357,6 +352,206 @@ pub(crate) fn parse_chart_list(text: &str) -> (Vec<(String, String)>, Vec<String
     (files, notes)
 }
 
+/// One MuJoCo run of the verification report's contact charts, as `verify-report
+/// --contact-mjcf` prints it: `id\txml\tdt\tduration`.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct ReportRun {
+    pub scene: String,
+    pub xml: std::path::PathBuf,
+    /// As printed (passed to MuJoCo as is).
+    pub dt: String,
+    pub duration: String,
+}
+
+/// Parses the lines of `verify-report --contact-mjcf`; a line that is not four fields
+/// with a positive step is an error naming it.
+pub(crate) fn parse_report_runs(text: &str) -> Result<Vec<ReportRun>, String> {
+    let mut runs = Vec::new();
+    for line in text.lines().filter(|l| !l.trim().is_empty()) {
+        let f: Vec<&str> = line.split('\t').collect();
+        let ok = f.len() == 4
+            && f[2].parse::<f64>().is_ok_and(|d| d > 0.0 && d.is_finite())
+            && f[3].parse::<f64>().is_ok_and(|d| d > 0.0 && d.is_finite());
+        if !ok {
+            return Err(format!("not a run line: {line:?}"));
+        }
+        runs.push(ReportRun {
+            scene: f[0].into(),
+            xml: f[1].into(),
+            dt: f[2].into(),
+            duration: f[3].into(),
+        });
+    }
+    Ok(runs)
+}
+
+/// The report's error for scene id `scene` (its charts' y): the top box's largest
+/// displacement on a stack, the largest of any box on a pyramid, the stopping-distance
+/// error on the sliding box.
+fn report_error(scene: &str, f: &Figures) -> f64 {
+    if scene.starts_with("pyramid") {
+        f.worst_displacement
+    } else if scene == "sliding_box" {
+        (f.top_travel - SLIDE_EXACT).abs()
+    } else {
+        f.top_drift
+    }
+}
+
+/// For `cargo xtask verify`: other engines' points on the report's contact scene charts,
+/// written to `out/contact_peers.tsv`: MuJoCo on the runs `verify_report --contact-mjcf`
+/// lists (`full`: the dense plan), and rapier3d's stack of 10 and sliding box from an
+/// earlier `cargo xtask bench` (`target/peers/contact_accuracy.tsv` and criterion's
+/// estimates) when there is one. Returns the file (when written) and a note for the
+/// report saying what is on the charts and why anything is missing. Nothing here fails
+/// the stage.
+pub(crate) fn verify_points(
+    verify_report: &Path,
+    full: bool,
+    out: &Path,
+) -> (Option<std::path::PathBuf>, String) {
+    let t0 = std::time::Instant::now();
+    let dir = out.join("contact_mujoco");
+    let mut rows: Vec<(String, &'static str, String, f64, f64, f64)> = Vec::new();
+    let mut notes = Vec::new();
+    let mut cmd = std::process::Command::new(verify_report);
+    cmd.current_dir(root()).arg("--contact-mjcf").arg(&dir);
+    if full {
+        cmd.arg("--full");
+    }
+    let runs = match cmd.output() {
+        Ok(o) if o.status.success() => parse_report_runs(&String::from_utf8_lossy(&o.stdout)),
+        Ok(o) => Err(crate::mujoco::last_line(&o)),
+        Err(e) => Err(e.to_string()),
+    };
+    match (runs, crate::mujoco::ensure_venv()) {
+        (Err(e), _) => notes.push(format!(
+            "MuJoCo not run (verify-report --contact-mjcf: {e})"
+        )),
+        (_, Err(e)) => notes.push(format!("MuJoCo not run: {e}")),
+        (Ok(runs), Ok(_)) => {
+            let mut version = None;
+            let mut failed = Vec::new();
+            for (k, r) in runs.iter().enumerate() {
+                let csv = dir.join(format!("run{k}.csv"));
+                let timing = dir.join(format!("run{k}.timing.json"));
+                let res = run_mujoco_scene(&RunOptions {
+                    scene: r.xml.clone(),
+                    keyframe: Some("start".into()),
+                    dt: Some(r.dt.clone()),
+                    duration: r.duration.clone(),
+                    every: 1,
+                    out: csv.clone(),
+                    timing: Some(timing.clone()),
+                    ..RunOptions::default()
+                })
+                .and_then(|()| {
+                    let t = std::fs::read_to_string(&timing).map_err(|e| e.to_string())?;
+                    let t = crate::bench::Timing::parse(&t);
+                    let c = std::fs::read_to_string(&csv).map_err(|e| e.to_string())?;
+                    let f = accuracy_from_csv(&c)?;
+                    version = version.clone().or(t.mujoco_version);
+                    Ok((t.seconds_per_step.ok_or("no seconds_per_step")?, f))
+                });
+                let dt: f64 = r.dt.parse().unwrap_or(f64::NAN);
+                match res {
+                    Ok((sps, f)) => rows.push((
+                        r.scene.clone(),
+                        "MuJoCo",
+                        format!("dt 1/{:.0}", 1.0 / dt),
+                        sps,
+                        report_error(&r.scene, &f),
+                        dt,
+                    )),
+                    Err(e) => failed.push(format!("{} at dt {}: {e}", r.scene, r.dt)),
+                }
+            }
+            notes.push(format!(
+                "MuJoCo {} (its defaults: soft contacts, Euler, Newton solver, pyramidal cone; \
+                 the stack and the pyramid written as MJCF from these scenes, the sliding box \
+                 `scenes/sliding_box.xml` with its `solref` 0.005) at each step of the chart, \
+                 run time from its C loop (`mujoco.rollout`) per simulated second; {} runs in \
+                 {:.1} s with Python's start-up{}",
+                version.as_deref().unwrap_or("?"),
+                rows.len(),
+                t0.elapsed().as_secs_f64(),
+                if failed.is_empty() {
+                    String::new()
+                } else {
+                    format!("; failed: {}", failed.join("; "))
+                }
+            ));
+        }
+    }
+    // rapier3d from an earlier `cargo xtask bench`, where the report has the same scene.
+    let acc = root().join("target/peers/contact_accuracy.tsv");
+    let text = std::fs::read_to_string(&acc).ok();
+    let mut rapier = 0;
+    for line in text.as_deref().unwrap_or("").lines().skip(1) {
+        let f: Vec<&str> = line.split('\t').collect();
+        if f.len() < 13 || f[1] != "rapier" || !["stack10", "sliding_box"].contains(&f[0]) {
+            continue;
+        }
+        let (Ok(drift), Ok(worst), Ok(travel)) = (
+            f[5].parse::<f64>(),
+            f[7].parse::<f64>(),
+            f[12].parse::<f64>(),
+        ) else {
+            continue;
+        };
+        let Some(t) = crate::bench::estimate("contact_peers", "rapier", f[0]) else {
+            continue;
+        };
+        let figures = Figures {
+            top_drift: drift,
+            worst_displacement: worst,
+            top_travel: travel,
+            ..Figures::default()
+        };
+        rows.push((
+            f[0].into(),
+            "rapier3d",
+            "bench, 10 s".into(),
+            t,
+            report_error(f[0], &figures),
+            1.0 / 60.0,
+        ));
+        rapier += 1;
+    }
+    notes.push(if rapier > 0 {
+        format!(
+            "rapier3d (labelled `bench, 10 s`) from an earlier `cargo xtask bench` \
+             ({}, criterion's medians in `target/criterion/contact_peers/rapier/`): one \
+             step at dt = 1/60 after 1 s at rest, the error over its 10 s run (this \
+             report's stack runs {} s; the sliding box has stopped long before); on the \
+             stack of 10 and the sliding box only (the bench's pyramid has base 20)",
+            acc.display(),
+            if full { 5 } else { 2 }
+        )
+    } else {
+        format!(
+            "rapier3d not shown: no earlier `cargo xtask bench` with its contact section \
+             ({} and criterion's estimates; rapier stays out of this build)",
+            acc.display()
+        )
+    });
+    let mut tsv =
+        String::from("scene\tscene_label\ty_label\tengine\tsetting\tseconds_per_step\terror\tdt\n");
+    for (scene, engine, setting, t, e, dt) in &rows {
+        let _ = writeln!(
+            tsv,
+            "{scene}\t{scene}\terror (m)\t{engine}\t{setting}\t{t:e}\t{e:e}\t{dt:e}"
+        );
+    }
+    let path = out.join("contact_peers.tsv");
+    let written = std::fs::create_dir_all(out).and_then(|()| std::fs::write(&path, tsv));
+    let note = notes.join(". ") + ".";
+    match written {
+        Ok(()) => (Some(path), note),
+        Err(e) => (None, format!("{note} (points not written: {e})")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -386,6 +581,24 @@ mod tests {
         let e = accuracy_from_csv("t,a.x,a.y,a.z\n0,0,0,nan\n").unwrap_err();
         assert!(e.contains("row 2"), "{e}");
         assert!(accuracy_from_csv("t,a.x,a.y,a.z\n0,0,0\n").is_err());
+    }
+
+    #[test]
+    fn report_runs_parse_and_bad_lines_are_errors() {
+        let r = parse_report_runs("stack10\t/x/stack10.xml\t0.016666666666666666\t2\n\n").unwrap();
+        assert_eq!(r.len(), 1);
+        assert_eq!(r[0].dt, "0.016666666666666666");
+        assert!(parse_report_runs("stack10\t/x.xml\t0\t2\n").is_err());
+        assert!(parse_report_runs("stack10\t/x.xml\n").is_err());
+        let f = Figures {
+            top_drift: 1.0,
+            worst_displacement: 2.0,
+            top_travel: 1.0,
+            top_sink: 0.0,
+        };
+        assert_eq!(report_error("stack10", &f), 1.0);
+        assert_eq!(report_error("pyramid5", &f), 2.0);
+        assert!((report_error("sliding_box", &f) - (1.0 - SLIDE_EXACT)).abs() < 1e-15);
     }
 
     #[test]
