@@ -207,14 +207,14 @@ pub fn scene_chart(
     )
 }
 
+/// What [`write_charts`] wrote: `(scene, file)` per chart, and the notes about lines
+/// left off.
+pub type Written = (Vec<(String, String)>, Vec<String>);
+
 /// Writes one chart per scene of the points file `tsv` into `dir`
 /// (`contact_<scene>.svg`, note `note` under each); returns the files written and the
 /// notes about lines left off.
-pub fn write_charts(
-    tsv: &Path,
-    dir: &Path,
-    note: &str,
-) -> Result<(Vec<(String, String)>, Vec<String>), String> {
+pub fn write_charts(tsv: &Path, dir: &Path, note: &str) -> Result<Written, String> {
     let text = std::fs::read_to_string(tsv).map_err(|e| format!("{}: {e}", tsv.display()))?;
     let (points, notes) = parse(&text).map_err(|e| format!("{}: {e}", tsv.display()))?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;

@@ -304,11 +304,7 @@ pub(crate) fn points_tsv(rows: &[PointRow], scene_label: impl Fn(&str) -> String
 /// Draws one chart per scene of `tsv` into `dir` with the report crate's chart writer
 /// (`cargo run --release -p constraint-report --bin verify-report -- --contact-points`);
 /// returns `(scene, file)` per chart and the notes it printed.
-pub(crate) fn draw_charts(
-    tsv: &Path,
-    dir: &Path,
-    note: &str,
-) -> Result<(Vec<(String, String)>, Vec<String>), String> {
+pub(crate) fn draw_charts(tsv: &Path, dir: &Path, note: &str) -> Result<ChartList, String> {
     let out = cargo()
         .args([
             "run",
@@ -335,9 +331,12 @@ pub(crate) fn draw_charts(
     Ok(parse_chart_list(&String::from_utf8_lossy(&out.stdout)))
 }
 
+/// The charts drawn, `(scene, file)` each, and the notes about points left off.
+pub(crate) type ChartList = (Vec<(String, String)>, Vec<String>);
+
 /// The lines `verify-report --contact-points` prints: `scene\tfile` per chart,
 /// `note\t…` per note.
-pub(crate) fn parse_chart_list(text: &str) -> (Vec<(String, String)>, Vec<String>) {
+pub(crate) fn parse_chart_list(text: &str) -> ChartList {
     let mut files = Vec::new();
     let mut notes = Vec::new();
     for line in text.lines() {
