@@ -6,13 +6,16 @@
 //! `z = 0`), [`constraint_contact::scenes::pyramid`] (rows of unit boxes in the x–z
 //! plane at 1.1 m pitch, `base − k` boxes at level `k`) and
 //! [`constraint_contact::scenes::heavy_on_light`] (a unit box 10⁴ times heavier than the
-//! 0.5 m box it rests on). [`Scene::world`] builds ours;
+//! 0.5 m box it rests on); also a 0.2 m box launched at 3 m/s on μ 0.5
+//! ([`Scene::SlidingBox`], `scenes/sliding_box.xml`'s scene). [`Scene::world`] builds ours;
 //! `rapier::RapierBoxes::from_world` (feature `rapier`) turns that very world into
 //! rapier3d (f64) rigid bodies and colliders, so both engines start from identical poses.
 //!
 //! Accuracy ([`ContactRun`]) is measured on the box centres: the top box (highest at the
 //! start) — its largest displacement over the run (drift) and how far it went down by
-//! the end (sink) — and the largest displacement of any box over the run.
+//! the end (sink) — and the largest displacement of any box over the run, and the top
+//! box's horizontal travel; [`Scene::error`] is the one figure the charts of `cargo
+//! xtask bench` plot per scene. [`mjcf`] writes a scene as MJCF for MuJoCo.
 
 use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld};
 use constraint_contact::scenes;
