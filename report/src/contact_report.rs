@@ -777,6 +777,11 @@ pub fn scene_chart_with_peers(
     let refs: Vec<&PeerPoint> = mine.iter().collect();
     let (series, peer_labels) = peer_series(&refs, |t| t);
     let mut labels = vec![Vec::new(); chart.series.len()];
+    if !series.is_empty() {
+        chart.note.push_str(
+            "\nLabelled points: other engines, time per step over their step (see the report).",
+        );
+    }
     chart.series.extend(series);
     labels.extend(peer_labels);
     (chart, labels)

@@ -275,7 +275,12 @@ pub(crate) fn run_mujoco() -> (Vec<MujocoPoint>, Vec<String>) {
          the start (figures from the trajectory sampled at 60 Hz, 100 Hz for 1 ms); the \
          time is MuJoCo's C loop over the same 10 s (`mujoco.rollout`, best of at least 3) \
          per 1/60 s of simulation (4 steps at 1/240, 16.7 at 1 ms), where ours and \
-         rapier3d are timed on one step after 1 s of warm-up.",
+         rapier3d are timed on one step after 1 s of warm-up. With MuJoCo's default \
+         `margin` 0, two boxes that touch exactly make no contact until they overlap, so \
+         at the start the boxes above the bottom one fall together and the stack is \
+         compressed from below one contact at a time: on the 10-box stack at dt = 1/60 \
+         the top box drops 0.12 m in the first 0.15 s and comes back to within 4 mm, \
+         which is its drift; a smaller step shortens that fall (dt = 1/240).",
         version.as_deref().unwrap_or("?")
     ));
     (points, notes)
@@ -468,7 +473,10 @@ pub(crate) fn verify_points(
             notes.push(format!(
                 "MuJoCo {} (its defaults: soft contacts, Euler, Newton solver, pyramidal cone; \
                  the stack and the pyramid written as MJCF from these scenes, the sliding box \
-                 `scenes/sliding_box.xml` with its `solref` 0.005) at each step of the chart, \
+                 `scenes/sliding_box.xml` with its `solref` 0.005) at each step of the chart \
+                 (with its default `margin` 0, boxes that touch exactly make no contact until \
+                 they overlap: the upper boxes of the stack first fall together, which is \
+                 most of its drift), \
                  run time from its C loop (`mujoco.rollout`) per simulated second; {} runs in \
                  {:.1} s with Python's start-up{}",
                 version.as_deref().unwrap_or("?"),
