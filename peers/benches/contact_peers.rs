@@ -30,6 +30,16 @@
 //! change over the 3 s, deepest penetration at the end and bodies asleep, written to
 //! `target/peers/pile_growth.tsv`. `CONTACT_PEERS_PILE=0` skips the pile.
 //!
+//! `error` is the figure the charts of `cargo xtask bench` plot (`Scene::error`: top-box
+//! drift on the stack and the heavy box, worst displacement on the pyramid, the
+//! stopping-distance error `|travel − v²/(2μg)|` on the sliding box, a 0.2 m box launched
+//! at 3 m/s, which has stopped before the 1 s warm-up ends: its time per step is that of
+//! a box at rest).
+//!
+//! It also writes each box scene as MJCF (`constraint_peers::contact::mjcf`, MuJoCo's
+//! defaults, `timestep` 1/60) to `target/peers/contact_mjcf/SCENE.xml`, which
+//! `cargo xtask bench` runs in MuJoCo.
+//!
 //! `cargo bench -p constraint-peers --features rapier --bench contact_peers`
 //! (`cargo xtask bench` runs it). `CONTACT_PEERS_ACCURACY=0` skips the accuracy runs.
 
@@ -168,7 +178,7 @@ fn bench(c: &mut Criterion) {
 fn row(out: &mut String, scene: Scene, engine: &str, r: &ContactRun) {
     let _ = writeln!(
         out,
-        "{}\t{engine}\t{}\t{DT:e}\t{DURATION}\t{:e}\t{:e}\t{:e}\t{:e}\t{}\t{}\t{}",
+        "{}\t{engine}\t{}\t{DT:e}\t{DURATION}\t{:e}\t{:e}\t{:e}\t{:e}\t{}\t{}\t{}\t{:e}\t{:e}",
         scene.name(),
         scene.boxes(),
         r.top_drift,
@@ -177,7 +187,9 @@ fn row(out: &mut String, scene: Scene, engine: &str, r: &ContactRun) {
         r.worst_at_end,
         r.contacts.map_or("-".into(), |c| c.to_string()),
         r.finite,
-        r.failed_at.map_or("-".into(), |t| format!("{t}"))
+        r.failed_at.map_or("-".into(), |t| format!("{t}")),
+        r.top_travel,
+        scene.error(r)
     );
     println!(
         "{:>10} {engine:>10}: top drift {:.2e} m, top sink {:.2e} m, worst displacement {:.2e} m \
@@ -198,7 +210,7 @@ fn row(out: &mut String, scene: Scene, engine: &str, r: &ContactRun) {
 fn accuracy() {
     let mut out = String::from(
         "scene\tengine\tboxes\tdt\tduration\ttop_drift\ttop_sink\tworst_displacement\t\
-         worst_at_end\tcontacts\tfinite\tfailed_at\n",
+         worst_at_end\tcontacts\tfinite\tfailed_at\ttop_travel\terror\n",
     );
     for scene in Scene::BENCH {
         for (engine, solver) in solvers(scene) {
@@ -423,6 +435,32 @@ fn pile_bench(c: &mut Criterion) {
     g.finish();
 }
 
+/// Each box scene of [`Scene::BENCH`] but the sliding box (MuJoCo runs
+/// `scenes/sliding_box.xml`) as MJCF, into `target/peers/contact_mjcf/`.
+fn write_mjcf() {
+    let dir = out_dir().join("contact_mjcf");
+    for scene in Scene::BENCH {
+        if scene == Scene::SlidingBox {
+            continue;
+        }
+        let name = scene.name();
+        let xml = match scene.world() {
+            Ok(w) => constraint_peers::contact::mjcf(&w, &name, DT),
+            Err(e) => Err(e.to_string()),
+        };
+        let path = dir.join(format!("{name}.xml"));
+        let written = xml.and_then(|x| {
+            std::fs::create_dir_all(&dir)
+                .and_then(|()| std::fs::write(&path, x))
+                .map_err(|e| e.to_string())
+        });
+        match written {
+            Ok(()) => println!("wrote {}", path.display()),
+            Err(e) => println!("{name}: no MJCF: {e}"),
+        }
+    }
+}
+
 fn main() {
     let mut c = Criterion::default().configure_from_args();
     bench(&mut c);
@@ -438,5 +476,8 @@ fn main() {
     let skip = std::env::var("CONTACT_PEERS_ACCURACY").is_ok_and(|v| v == "0");
     if !listing && !skip {
         accuracy();
+    }
+    if !listing {
+        write_mjcf();
     }
 }

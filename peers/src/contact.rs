@@ -6,13 +6,16 @@
 //! `z = 0`), [`constraint_contact::scenes::pyramid`] (rows of unit boxes in the x–z
 //! plane at 1.1 m pitch, `base − k` boxes at level `k`) and
 //! [`constraint_contact::scenes::heavy_on_light`] (a unit box 10⁴ times heavier than the
-//! 0.5 m box it rests on). [`Scene::world`] builds ours;
+//! 0.5 m box it rests on); also a 0.2 m box launched at 3 m/s on μ 0.5
+//! ([`Scene::SlidingBox`], `scenes/sliding_box.xml`'s scene). [`Scene::world`] builds ours;
 //! `rapier::RapierBoxes::from_world` (feature `rapier`) turns that very world into
 //! rapier3d (f64) rigid bodies and colliders, so both engines start from identical poses.
 //!
 //! Accuracy ([`ContactRun`]) is measured on the box centres: the top box (highest at the
 //! start) — its largest displacement over the run (drift) and how far it went down by
-//! the end (sink) — and the largest displacement of any box over the run.
+//! the end (sink) — and the largest displacement of any box over the run, and the top
+//! box's horizontal travel; [`Scene::error`] is the one figure the charts of `cargo
+//! xtask bench` plot per scene. [`mjcf`] writes a scene as MJCF for MuJoCo.
 
 use constraint_contact::rigid::{ContactError, ContactSolver, ContactWorld};
 use constraint_contact::scenes;
@@ -32,19 +35,40 @@ pub enum Scene {
     /// [`scenes::heavy_on_light`]`(1e4)`: a unit box 10⁴ times heavier than the 0.5 m
     /// box under it.
     HeavyOnLight,
+    /// A 0.2 m box (density 1000, friction 0.5) launched along `x` at
+    /// [`SLIDE_SPEED`] on the ground: it stops after `v²/(2μg)` ([`slide_exact`]).
+    SlidingBox,
+}
+
+/// Launch speed of the sliding box (m/s).
+pub const SLIDE_SPEED: f64 = 3.0;
+
+/// Friction coefficient of the sliding box and its ground.
+pub const SLIDE_MU: f64 = 0.5;
+
+/// The sliding box's exact stopping distance `v²/(2μg)` (m), g = 9.81.
+pub fn slide_exact() -> f64 {
+    SLIDE_SPEED * SLIDE_SPEED / (2.0 * SLIDE_MU * 9.81)
 }
 
 impl Scene {
-    /// The scenes of the benchmark: the 10-box stack, the pyramid with base 20 and the
-    /// 10⁴:1 heavy box on a light one.
-    pub const BENCH: [Scene; 3] = [Scene::Stack(10), Scene::Pyramid(20), Scene::HeavyOnLight];
+    /// The scenes of the benchmark: the 10-box stack, the pyramid with base 20, the
+    /// 10⁴:1 heavy box on a light one and the sliding box.
+    pub const BENCH: [Scene; 4] = [
+        Scene::Stack(10),
+        Scene::Pyramid(20),
+        Scene::HeavyOnLight,
+        Scene::SlidingBox,
+    ];
 
-    /// Short name used in benchmark ids and files: `stack10`, `pyramid20`, `heavy1e4`.
+    /// Short name used in benchmark ids and files: `stack10`, `pyramid20`, `heavy1e4`,
+    /// `sliding_box`.
     pub fn name(&self) -> String {
         match self {
             Scene::Stack(n) => format!("stack{n}"),
             Scene::Pyramid(b) => format!("pyramid{b}"),
             Scene::HeavyOnLight => "heavy1e4".into(),
+            Scene::SlidingBox => "sliding_box".into(),
         }
     }
 
@@ -54,6 +78,7 @@ impl Scene {
             Scene::Stack(n) => n,
             Scene::Pyramid(b) => b * (b + 1) / 2,
             Scene::HeavyOnLight => 2,
+            Scene::SlidingBox => 1,
         }
     }
 
@@ -63,6 +88,26 @@ impl Scene {
             Scene::Stack(n) => scenes::box_stack(n),
             Scene::Pyramid(b) => scenes::pyramid(b),
             Scene::HeavyOnLight => scenes::heavy_on_light(1e4),
+            Scene::SlidingBox => {
+                let mut w = ContactWorld::new(constraint_core::DVec3::new(0.0, 0.0, -9.81));
+                scenes::ground(&mut w, SLIDE_MU)?;
+                let half = constraint_core::DVec3::splat(0.1);
+                let x = constraint_core::DVec3::new(0.0, 0.0, 0.1);
+                let b = scenes::add_box(&mut w, half, None, x, SLIDE_MU)?;
+                w.bodies_mut()[b].v = constraint_core::DVec3::new(SLIDE_SPEED, 0.0, 0.0);
+                Ok(w)
+            }
+        }
+    }
+
+    /// The accuracy figure the charts plot for this scene (m): the top box's drift on
+    /// the stack and the heavy box, the worst box displacement on the pyramid, the
+    /// stopping-distance error `|travel − v²/(2μg)|` on the sliding box.
+    pub fn error(&self, r: &ContactRun) -> f64 {
+        match self {
+            Scene::Stack(_) | Scene::HeavyOnLight => r.top_drift,
+            Scene::Pyramid(_) => r.worst_displacement,
+            Scene::SlidingBox => (r.top_travel - slide_exact()).abs(),
         }
     }
 }
@@ -78,6 +123,9 @@ pub struct ContactRun {
     pub worst_displacement: f64,
     /// Largest distance of any box from its start at the end of the run (m).
     pub worst_at_end: f64,
+    /// Horizontal distance of the top box from its start at the end of the run (m): the
+    /// sliding box's stopping distance.
+    pub top_travel: f64,
     /// Contact points at the last step (ours only).
     pub contacts: Option<usize>,
     /// Whether every step succeeded with a finite state.
@@ -145,9 +193,11 @@ impl Tracker {
             .zip(&self.start)
             .map(|(p, p0)| distance(*p, *p0))
             .fold(0.0, f64::max);
+        let (a, b) = (x[self.top], self.start[self.top]);
         ContactRun {
             top_drift: self.top_drift,
             top_sink: self.start[self.top][2] - x[self.top][2],
+            top_travel: ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt(),
             worst_displacement: self.worst,
             worst_at_end,
             contacts,
@@ -211,6 +261,96 @@ pub mod ours {
         }
         Ok(t.finish(&centres(&w), contacts))
     }
+}
+
+/// The scene of `w` (at its start) as MJCF for MuJoCo: one body with a free joint per
+/// body, at the same pose, with one box geom of the same half extents, mass (MuJoCo
+/// then gives it the uniform box's inertia, as ours) and sliding friction; each static
+/// plane a plane geom; MuJoCo's defaults otherwise (Euler, Newton solver, pyramidal
+/// cone, `solref` 0.02 1: soft contacts), `timestep` `dt`. A keyframe `start` holds the
+/// bodies' velocities (`qvel`; the position is the bodies' own). Bodies are named
+/// `box0`, `box1`, … in our body order. Spheres, capsules, colliders offset from their
+/// body, a body with several colliders and a plane on a body are errors.
+pub fn mjcf(w: &ContactWorld, model: &str, dt: f64) -> Result<String, String> {
+    use constraint_contact::geometry::Shape;
+    use std::fmt::Write as _;
+    let mut ground = String::new();
+    let mut geoms: Vec<Option<String>> = vec![None; w.bodies().len()];
+    for (k, c) in w.colliders().iter().enumerate() {
+        if c.local.x.length() > 0.0 || c.local.q.to_scaled_axis().length() > 0.0 {
+            return Err(format!("collider {k}: offset from its body"));
+        }
+        let friction = format!("{:e} 0.005 0.0001", c.friction);
+        match (c.body, c.shape) {
+            (None, Shape::Plane { normal, offset }) => {
+                let p = normal * offset;
+                // MuJoCo's plane normal is its frame's z: rotate z onto `normal`.
+                let q =
+                    constraint_core::DQuat::from_rotation_arc(constraint_core::DVec3::Z, normal);
+                let _ = writeln!(
+                    ground,
+                    r#"    <geom name="ground{k}" type="plane" size="0 0 1" pos="{:e} {:e} {:e}" quat="{:e} {:e} {:e} {:e}" friction="{friction}"/>"#,
+                    p.x, p.y, p.z, q.w, q.x, q.y, q.z
+                );
+            }
+            (Some(b), Shape::Box { half }) => {
+                let slot = geoms
+                    .get_mut(b)
+                    .ok_or_else(|| format!("collider {k}: no body {b}"))?;
+                if slot.is_some() {
+                    return Err(format!("body {b}: more than one collider"));
+                }
+                *slot = Some(format!(
+                    r#"<geom type="box" size="{:e} {:e} {:e}" mass="{:e}" friction="{friction}"/>"#,
+                    half.x,
+                    half.y,
+                    half.z,
+                    w.bodies()[b].mass()
+                ));
+            }
+            (_, s) => return Err(format!("collider {k}: {s:?} not supported")),
+        }
+    }
+    let mut s = String::new();
+    let g = w.gravity;
+    let _ = writeln!(
+        s,
+        "<!-- Written by constraint_peers::contact::mjcf from this library's scene: the same \
+         bodies at the same poses; MuJoCo's default solver and soft contacts. -->\n\
+         <mujoco model=\"{model}\">\n  <option timestep=\"{dt:e}\" gravity=\"{:e} {:e} {:e}\"/>\n  <worldbody>",
+        g.x, g.y, g.z
+    );
+    s.push_str(&ground);
+    let mut qpos = Vec::new();
+    let mut qvel = Vec::new();
+    for (i, (b, geom)) in w.bodies().iter().zip(&geoms).enumerate() {
+        let geom = geom
+            .as_ref()
+            .ok_or_else(|| format!("body {i}: no box collider"))?;
+        let (x, q) = (b.pose.x, b.pose.q);
+        let _ = writeln!(
+            s,
+            r#"    <body name="box{i}" pos="{:e} {:e} {:e}" quat="{:e} {:e} {:e} {:e}"><freejoint/>{geom}</body>"#,
+            x.x, x.y, x.z, q.w, q.x, q.y, q.z
+        );
+        qpos.extend([x.x, x.y, x.z, q.w, q.x, q.y, q.z]);
+        // MuJoCo's free-joint angular velocity is in the body frame.
+        let om = q.inverse() * b.omega;
+        qvel.extend([b.v.x, b.v.y, b.v.z, om.x, om.y, om.z]);
+    }
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:e}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let _ = writeln!(
+        s,
+        "  </worldbody>\n  <keyframe>\n    <key name=\"start\" qpos=\"{}\" qvel=\"{}\"/>\n  </keyframe>\n</mujoco>",
+        list(&qpos),
+        list(&qvel)
+    );
+    Ok(s)
 }
 
 /// Sub-step counts of the soft step in the bench (`ours_soft{n}`), so that accuracy
@@ -499,6 +639,34 @@ mod tests {
         let r = t.finish(&[[0.0, 0.0, 0.5], [0.0, 0.0, 1.25]], None);
         assert_eq!(r.top_sink, 0.25);
         assert_eq!(r.worst_at_end, 0.25);
+    }
+
+    #[test]
+    fn mjcf_has_a_body_per_box_at_its_pose_and_the_keyframe_velocity() {
+        let w = Scene::Stack(3).world().unwrap();
+        let x = mjcf(&w, "stack3", DT).unwrap();
+        assert_eq!(x.matches("<freejoint/>").count(), 3);
+        assert_eq!(x.matches(r#"type="plane""#).count(), 1);
+        assert!(
+            x.contains(r#"<body name="box2" pos="0e0 0e0 2.5e0""#),
+            "{x}"
+        );
+        assert!(x.contains(r#"mass="1e3""#), "{x}");
+        let s = mjcf(&Scene::SlidingBox.world().unwrap(), "slide", DT).unwrap();
+        assert!(s.contains(r#"qvel="3e0 0e0 0e0 0e0 0e0 0e0""#), "{s}");
+        // A sphere is not a box: an error, not a panic.
+        let drop = constraint_contact::scenes::sphere_drop(0.1, 1.0).unwrap();
+        assert!(mjcf(&drop, "drop", DT)
+            .unwrap_err()
+            .contains("not supported"));
+    }
+
+    #[test]
+    fn the_sliding_box_error_is_against_the_stopping_distance() {
+        let r = ours::run(Scene::SlidingBox, ContactSolver::Auto, DT, 1.0).unwrap();
+        assert!(r.finite, "{r:?}");
+        let e = Scene::SlidingBox.error(&r);
+        assert!(e < 0.05 * slide_exact(), "{e} {r:?}");
     }
 
     #[test]

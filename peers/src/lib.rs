@@ -11,8 +11,10 @@
 //! bench `benches/chain_peers.rs` times both and writes the accuracy figures that
 //! `cargo xtask bench` puts next to the times (MuJoCo's side runs through xtask).
 //!
-//! [`contact`] does the same for contact scenes (the 10-box stack and the pyramid with
-//! base 20 of [`constraint_contact::scenes`]), timed by `benches/contact_peers.rs`.
+//! [`contact`] does the same for contact scenes (the 10-box stack, the pyramid with
+//! base 20 and the 10⁴:1 heavy box of [`constraint_contact::scenes`], and a sliding
+//! box), timed by `benches/contact_peers.rs`, and writes the box scenes as MJCF
+//! ([`contact::mjcf`]) for MuJoCo's side.
 //!
 //! [`mjcf`] loads the MJCF scenes of `scenes/*.xml` into this library's worlds, timed by
 //! `benches/mjcf_scenes.rs` against MuJoCo's Euler on the same files (MuJoCo's side runs

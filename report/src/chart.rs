@@ -94,6 +94,17 @@ fn decades(lo: f64, hi: f64) -> (f64, f64) {
 impl LogLogChart {
     /// Renders the chart as a standalone SVG document.
     pub fn to_svg(&self) -> String {
+        self.render(&[])
+    }
+
+    /// [`LogLogChart::to_svg`] with a text label beside each drawn point:
+    /// `labels[k][i]` names point `i` of series `k` (missing or empty: no label; a point
+    /// that is not drawn is not labelled). Each label is a `<text class="label">`.
+    pub fn to_svg_labelled(&self, labels: &[Vec<String>]) -> String {
+        self.render(labels)
+    }
+
+    fn render(&self, labels: &[Vec<String>]) -> String {
         let notes: Vec<&str> = self.note.split('\n').collect();
         let height = H0 + NOTE_LINE * (notes.len() - 1) as f64;
         let pts = || {
@@ -223,6 +234,19 @@ impl LogLogChart {
                     sy(y)
                 );
             }
+            let names = labels.get(k).map_or(&[][..], |v| v.as_slice());
+            for (&(x, y), name) in ser.points.iter().zip(names) {
+                if name.is_empty() || !keep(&(x, y)) {
+                    continue;
+                }
+                let _ = writeln!(
+                    s,
+                    r#"<text class="label" x="{:.1}" y="{:.1}" font-size="10" fill="{c}">{}</text>"#,
+                    sx(x) + 6.0,
+                    sy(y) - 5.0,
+                    esc(name)
+                );
+            }
             let ly = T + 14.0 + 18.0 * k as f64;
             let lx = W - R + 14.0;
             let _ = writeln!(
@@ -350,6 +374,37 @@ mod tests {
         let s = c.to_svg();
         assert_eq!(s.matches("<polyline").count(), 2);
         assert_eq!(s.matches("<circle").count(), 5 + 1);
+    }
+
+    #[test]
+    fn labels_go_beside_drawn_points_only() {
+        let c = LogLogChart {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            series: vec![Series {
+                name: "a".into(),
+                points: vec![
+                    (1e-3, 1e-2),
+                    (f64::NAN, f64::NAN),
+                    (1e-2, 0.0),
+                    (1e-1, 1e-3),
+                ],
+            }],
+            note: String::new(),
+            log_x: true,
+            pareto: false,
+        };
+        let labels = vec![vec![
+            "p<1".into(),
+            "gap".into(),
+            "zero".into(),
+            String::new(),
+        ]];
+        let s = c.to_svg_labelled(&labels);
+        assert_eq!(s.matches(r#"class="label""#).count(), 1);
+        assert!(s.contains(">p&lt;1</text>"));
+        assert_eq!(c.to_svg_labelled(&[]), c.to_svg());
     }
 
     #[test]

@@ -30,6 +30,7 @@ use constraint_contact::scenes::{add_box, box_stack, ground, pyramid, sphere_dro
 use constraint_core::{DMat3, DVec3, Pose};
 
 use crate::chart::{pareto_front, LogLogChart, Series};
+use crate::peer_points::{peer_series, PeerPoint};
 
 /// Step of the settling runs and of the LCP the problems are taken from (s).
 pub const SETTLE_DT: f64 = 1.0 / 60.0;
@@ -522,6 +523,13 @@ impl Scene {
         }
     }
 
+    /// Scene id of the peers' points (the chart's file stem without `contact_`):
+    /// `sphere_drop`, `sliding_box`, `stack10`, `pyramid5`.
+    pub fn id(&self) -> String {
+        let f = self.file();
+        f.strip_prefix("contact_").unwrap_or(&f).to_string()
+    }
+
     /// File stem of the chart.
     pub fn file(&self) -> String {
         match self {
@@ -708,9 +716,75 @@ pub fn sweep_scene(scene: Scene, plan: &Plan, quick: bool) -> (Vec<ScenePoint>, 
     (pts, skipped)
 }
 
+/// MuJoCo's runs for the scene charts (`verify-report --contact-mjcf DIR`): the stack
+/// and the pyramid of `plan` written as MJCF into `dir`
+/// (`constraint_peers::contact::mjcf`, MuJoCo's defaults), the sliding box
+/// `scenes/sliding_box.xml` (`root`-relative); one line per run, `id\txml\tdt\tduration`,
+/// at each of the plan's steps over the scene's horizon. The sphere drop is left out.
+pub fn mujoco_runs(plan: &Plan, dir: &Path, root: &Path) -> Result<Vec<String>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut lines = Vec::new();
+    for scene in scenes(plan) {
+        let xml = match scene {
+            Scene::SphereDrop => continue,
+            Scene::SlidingBox => root.join("scenes/sliding_box.xml"),
+            Scene::Stack(_) | Scene::Pyramid(_) => {
+                let w = scene.world()?;
+                let text = constraint_peers::contact::mjcf(&w, &scene.id(), SETTLE_DT)?;
+                let path = dir.join(format!("{}.xml", scene.id()));
+                std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+                path
+            }
+        };
+        for &dt in &plan.dts {
+            lines.push(format!(
+                "{}\t{}\t{dt:?}\t{}",
+                scene.id(),
+                xml.display(),
+                scene.horizon(plan)
+            ));
+        }
+    }
+    Ok(lines)
+}
+
 fn dt_list(dts: &[f64]) -> String {
     let v: Vec<String> = dts.iter().map(|d| format!("1/{:.0}", 1.0 / d)).collect();
     v.join(", ")
+}
+
+/// The chart of one scene with other engines' points ([`PeerPoint`]s of this scene's
+/// [`Scene::id`], each labelled, time per step over its `dt` (1/60 s when absent) for
+/// the run time per simulated second) after ours; the labels for
+/// [`LogLogChart::to_svg_labelled`].
+pub fn scene_chart_with_peers(
+    scene: Scene,
+    points: &[ScenePoint],
+    plan: &Plan,
+    peers: &[PeerPoint],
+) -> (LogLogChart, Vec<Vec<String>>) {
+    let mut chart = scene_chart(scene, points, plan);
+    let id = scene.id();
+    // Time per step over the step: run time per simulated second, as ours.
+    let mine: Vec<PeerPoint> = peers
+        .iter()
+        .filter(|p| p.scene == id)
+        .map(|p| PeerPoint {
+            seconds: p.seconds / p.dt.unwrap_or(SETTLE_DT),
+            ..p.clone()
+        })
+        .collect();
+    let refs: Vec<&PeerPoint> = mine.iter().collect();
+    let (series, peer_labels) = peer_series(&refs, |t| t);
+    let mut labels = vec![Vec::new(); chart.series.len()];
+    if !series.is_empty() {
+        chart.note.push_str(
+            "\nLabelled points: other engines, time per step over their step (see the report).",
+        );
+    }
+    chart.series.extend(series);
+    labels.extend(peer_labels);
+    (chart, labels)
 }
 
 /// The chart of one scene: error against run time per simulated second, one series per
@@ -779,6 +853,32 @@ fn scene_table(md: &mut String, points: &[ScenePoint], front: &[(f64, f64)]) {
             }
         }
     }
+}
+
+/// The other engines' points of `scene`, one line each (nothing when none).
+fn peer_table(md: &mut String, scene: Scene, peers: &[PeerPoint]) {
+    let id = scene.id();
+    let mine: Vec<&PeerPoint> = peers.iter().filter(|p| p.scene == id).collect();
+    if mine.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "Other engines (on the chart, labelled):\n\n| engine | setting | error (m) | run time / simulated s | µs / step |\n|---|---|---|---|---|"
+    );
+    for p in mine {
+        let dt = p.dt.unwrap_or(SETTLE_DT);
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.2e} | {:.2e} | {:.1} |",
+            p.engine,
+            p.setting,
+            p.error,
+            p.seconds / dt,
+            p.seconds * 1e6
+        );
+    }
+    md.push('\n');
 }
 
 /// The scenes of a plan, in report order.
@@ -907,8 +1007,17 @@ fn lcp_csv(pts: &[LcpPoint]) -> String {
 }
 
 /// Writes the whole section to `md`, its charts and `contact_lcp.csv`,
-/// `contact_scenes.csv` to `out`.
-pub fn section(md: &mut String, out: &Path, quick: bool) -> Result<(), String> {
+/// `contact_scenes.csv` to `out`. `peers` are other engines' points on the scene charts
+/// (see [`scene_chart_with_peers`]; `cargo xtask verify` measures MuJoCo's and takes
+/// rapier3d's from an earlier `cargo xtask bench`), `peer_note` says where they come
+/// from (printed before the scene charts when not empty).
+pub fn section(
+    md: &mut String,
+    out: &Path,
+    quick: bool,
+    peers: &[PeerPoint],
+    peer_note: &str,
+) -> Result<(), String> {
     let plan = Plan::new(quick);
     let _ = writeln!(
         md,
@@ -956,6 +1065,9 @@ pub fn section(md: &mut String, out: &Path, quick: bool) -> Result<(), String> {
     let mut csv = String::from(
         "scene,solver,dt,error_m,seconds_per_step,max_contacts,iterations_per_step,worst_residual,failure\n",
     );
+    if !peer_note.is_empty() {
+        let _ = writeln!(md, "Other engines on these charts: {peer_note}\n");
+    }
     for scene in scenes(&plan) {
         let t0 = Instant::now();
         let (pts, skipped) = sweep_scene(scene, &plan, quick);
@@ -965,7 +1077,7 @@ pub fn section(md: &mut String, out: &Path, quick: bool) -> Result<(), String> {
             pts.len(),
             t0.elapsed().as_secs_f64()
         );
-        let chart = scene_chart(scene, &pts, &plan);
+        let (chart, labels) = scene_chart_with_peers(scene, &pts, &plan, peers);
         let all: Vec<(f64, f64)> = chart
             .series
             .iter()
@@ -973,13 +1085,15 @@ pub fn section(md: &mut String, out: &Path, quick: bool) -> Result<(), String> {
             .collect();
         let front = pareto_front(&all);
         let file = format!("{}.svg", scene.file());
-        std::fs::write(out.join(&file), chart.to_svg()).map_err(|e| e.to_string())?;
+        std::fs::write(out.join(&file), chart.to_svg_labelled(&labels))
+            .map_err(|e| e.to_string())?;
         let _ = writeln!(
             md,
             "#### {}\n\n![{} error against run time]({file})\n",
             scene.name(),
             scene.name()
         );
+        peer_table(md, scene, peers);
         if !skipped.is_empty() {
             let _ = writeln!(
                 md,
@@ -1089,6 +1203,42 @@ mod tests {
             .all(|q| q.reached.is_some() || q.status.starts_with("failed: ")));
         let chart = lcp_chart(&pts, &["stack 2".into()], 0.1);
         assert_eq!(chart.series.len(), LCP_SOLVERS.len());
+    }
+
+    #[test]
+    fn peers_join_the_scene_chart_labelled_per_simulated_second() {
+        let plan = Plan::new(true);
+        let peer = |engine: &str, setting: &str, dt| PeerPoint {
+            scene: "sliding_box".into(),
+            scene_label: String::new(),
+            y_label: String::new(),
+            engine: engine.into(),
+            setting: setting.into(),
+            seconds: 1e-6,
+            error: 1e-3,
+            dt,
+        };
+        let peers = vec![
+            peer("MuJoCo", "dt 1/60", Some(1.0 / 60.0)),
+            peer("MuJoCo", "dt 1/120", Some(1.0 / 120.0)),
+            peer("rapier3d", "bench", None),
+            PeerPoint {
+                scene: "stack10".into(),
+                ..peer("MuJoCo", "other scene", None)
+            },
+        ];
+        let (chart, labels) = scene_chart_with_peers(Scene::SlidingBox, &[], &plan, &peers);
+        assert_eq!(chart.series.len(), 2);
+        assert_eq!(chart.series[0].points.len(), 3, "two points and a break");
+        assert!((chart.series[0].points[2].0 - 120e-6).abs() < 1e-12);
+        let svg = chart.to_svg_labelled(&labels);
+        assert_eq!(svg.matches(r#"class="label""#).count(), 3);
+        let dir = std::env::temp_dir().join(format!("mujoco_runs_{}", std::process::id()));
+        let lines = mujoco_runs(&plan, &dir, Path::new("/r")).unwrap();
+        assert_eq!(lines.len(), 3 * plan.dts.len());
+        assert!(lines[0].starts_with("sliding_box\t/r/scenes/sliding_box.xml\t0.0333"));
+        assert!(dir.join("stack10.xml").exists() && dir.join("pyramid5.xml").exists());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -27,6 +27,9 @@
 //!   classes, heat maps, tables, CSV, summary).
 //! * [`par`] maps cells over threads with results independent of the thread count and
 //!   a panic in one cell caught as that cell's result.
+//! * [`peer_points`] draws the contact scenes' accuracy against time per step, our
+//!   settings next to rapier3d's and MuJoCo's, from the points `cargo xtask bench`
+//!   measured (`verify-report --contact-points`).
 //! * [`models_report`] writes the real-models section from `cargo xtask models`' table.
 //! * [`deps`] lists, per scene, the crate and features it declares, what they compile
 //!   (`cargo tree`) and the stages its steps were seen to run.
@@ -49,6 +52,7 @@ pub mod html;
 pub mod models_report;
 pub mod par;
 pub mod particle_report;
+pub mod peer_points;
 pub mod replays;
 pub mod stability;
 pub mod summary;

@@ -24,7 +24,11 @@
 //!   times one step at dt = 1/60 of the 10-box stack and the pyramid with base 20 with
 //!   this library (`ContactSolver::Auto`, and sequential impulses on the stack) and
 //!   rapier3d in one run, and writes the 10 s accuracy runs (top-box drift and sink, worst
-//!   box displacement) to `target/peers/contact_accuracy.tsv`.
+//!   box displacement; the sliding box's stopping distance) to
+//!   `target/peers/contact_accuracy.tsv`; then MuJoCo on the same scenes
+//!   ([`crate::bench_contact`], left out with `--no-mujoco`) and one chart per scene,
+//!   accuracy against time per step (`target/bench/contact_<scene>.svg`, from
+//!   `target/bench/contact_points.tsv`, drawn by `verify-report --contact-points`).
 //! - `mjcf`: every MJCF scene of `scenes/` (articulated and contact) with this library
 //!   (`cargo bench -p constraint-peers --bench mjcf_scenes`) and MuJoCo's Euler on the same
 //!   files, same dt, same one-second window ([`crate::bench_mjcf`]).
@@ -37,6 +41,7 @@
 //! files, e.g. of a series a filter left out, show as "–").
 
 use crate::bench_cloth::{self, cloth_markdown};
+use crate::bench_contact;
 use crate::bench_mjcf;
 use crate::models;
 use crate::mujoco::{ensure_venv, run as run_mujoco, RunOptions};
@@ -435,14 +440,16 @@ fn ratios_markdown(p: &Peers) -> String {
 }
 
 /// Contact scenes of the contact_peers bench: `(id, label)`.
-const CONTACT_SCENES: [(&str, &str); 3] = [
+const CONTACT_SCENES: [(&str, &str); 4] = [
     ("stack10", "10-box stack"),
     ("pyramid20", "pyramid, base 20 (210 boxes)"),
     ("heavy1e4", "10⁴:1 box on a small one"),
+    ("sliding_box", "sliding box (3 m/s, μ 0.5)"),
 ];
 
-/// Engines of the contact_peers bench: `(id, label)`.
-const CONTACT_ENGINES: [(&str, &str); 12] = [
+/// Engines of the contact scenes: `(id, label)`; the contact_peers bench's, then
+/// MuJoCo's settings ([`bench_contact::BOX_SETTINGS`], [`bench_contact::SLIDE_SETTINGS`]).
+const CONTACT_ENGINES: [(&str, &str); 15] = [
     ("ours_auto", "ours (Auto)"),
     ("ours_si", "ours (SI)"),
     ("ours_soft1", "ours (soft step, 1 sub-step)"),
@@ -467,7 +474,38 @@ const CONTACT_ENGINES: [(&str, &str); 12] = [
         "ours (soft step, 16 sub-steps, 240 Hz)",
     ),
     ("rapier", "rapier3d"),
+    ("mujoco", "MuJoCo (dt = 1/60)"),
+    ("mujoco_240hz", "MuJoCo (dt = 1/240)"),
+    ("mujoco_1khz", "MuJoCo (dt = 1 ms)"),
 ];
+
+/// A point's label on a chart: the setting, short.
+fn short_label(engine: &str) -> String {
+    match engine {
+        "ours_auto" => "Auto".into(),
+        "ours_si" => "SI".into(),
+        "rapier" => "default".into(),
+        "mujoco" => "dt 1/60".into(),
+        "mujoco_240hz" => "dt 1/240".into(),
+        "mujoco_1khz" => "dt 1 ms".into(),
+        e => match e.strip_prefix("ours_soft") {
+            // ours_soft8_120hz_anchors → soft 8, 120hz, anchors
+            Some(rest) => format!("soft {}", rest.replace('_', ", ")),
+            None => e.to_string(),
+        },
+    }
+}
+
+/// The chart series an engine id belongs to.
+fn engine_group(engine: &str) -> &'static str {
+    if engine.starts_with("ours") {
+        "ours"
+    } else if engine.starts_with("rapier") {
+        "rapier3d"
+    } else {
+        "MuJoCo"
+    }
+}
 
 /// One line of `target/peers/contact_accuracy.tsv`.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -477,10 +515,12 @@ struct ContactAccuracy {
     worst_displacement: f64,
     contacts: Option<usize>,
     failed_at: Option<f64>,
+    /// Horizontal distance of the top box from its start at the end (column 13; older
+    /// files lack it).
+    top_travel: Option<f64>,
 }
 
-/// What the contact_peers bench measured.
-#[derive(Default)]
+/// What the contact_peers bench (and MuJoCo on the same scenes) measured.
 struct ContactPeers {
     /// `(engine, scene) → s/step`.
     time: Vec<(String, String, f64)>,
@@ -488,6 +528,19 @@ struct ContactPeers {
     accuracy: Vec<(String, String, ContactAccuracy)>,
     /// Notes for the report.
     notes: Vec<String>,
+    /// The charts written (`(scene, file)` under `target/bench/`), or why none were.
+    charts: Result<Vec<(String, String)>, String>,
+}
+
+impl Default for ContactPeers {
+    fn default() -> Self {
+        Self {
+            time: Vec::new(),
+            accuracy: Vec::new(),
+            notes: Vec::new(),
+            charts: Err("not drawn".into()),
+        }
+    }
 }
 
 impl ContactPeers {
@@ -503,6 +556,35 @@ impl ContactPeers {
             .iter()
             .find(|(e, s, _)| e == engine && s == scene)
             .map(|t| &t.2)
+    }
+
+    /// The chart's figure of `engine` on `scene` (see [`bench_contact::scene_error`]);
+    /// `None` for a failed run.
+    fn error(&self, engine: &str, scene: &str) -> Option<f64> {
+        let a = self.accuracy(engine, scene)?;
+        if a.failed_at.is_some() {
+            return None;
+        }
+        bench_contact::scene_error(scene, a.top_drift, a.worst_displacement, a.top_travel)
+    }
+
+    /// The charts' points: every scene and engine with a time and an error.
+    fn points(&self) -> Vec<bench_contact::PointRow> {
+        let mut rows = Vec::new();
+        for (scene, _) in CONTACT_SCENES {
+            for (engine, _) in CONTACT_ENGINES {
+                if let (Some(t), Some(e)) = (self.time(engine, scene), self.error(engine, scene)) {
+                    rows.push((
+                        scene.to_string(),
+                        engine_group(engine),
+                        short_label(engine),
+                        t,
+                        e,
+                    ));
+                }
+            }
+        }
+        rows
     }
 }
 
@@ -528,6 +610,7 @@ fn parse_contact_accuracy(text: &str) -> Vec<(String, String, ContactAccuracy)> 
                 worst_displacement,
                 contacts: f[9].parse().ok(),
                 failed_at: f[11].parse().ok(),
+                top_travel: f.get(12).and_then(|t| t.parse().ok()),
             },
         ));
     }
@@ -552,15 +635,21 @@ fn contact_markdown(p: &ContactPeers) -> String {
          warm-up (the stacks are at rest by then). Accuracy: a separate untimed run of 10 s \
          at 60 Hz from the start; drift is the top box's largest distance from its start \
          over the run, sink its start height minus its final height, worst displacement \
-         the largest distance of any box from its start over the run. A ratio below 1 \
-         means this library is faster.\n"
+         the largest distance of any box from its start over the run. The sliding box \
+         (`scenes/sliding_box.xml`'s: a 0.2 m box launched at 3 m/s on μ 0.5) is timed at \
+         rest too (it stops after 0.61 s); its accuracy is the stopping-distance error \
+         `|d − v²/(2μg)|`. The last column is what the charts plot: the top box's drift \
+         (stack, heavy box), the worst displacement (pyramid), the stopping-distance error \
+         (sliding box). MuJoCo's rows: the same scenes in MuJoCo (notes below), its time \
+         per 1/60 s. A ratio below 1 means this library is faster.\n"
     );
     let _ = writeln!(
         md,
         "| scene | engine | time per step | ours / rapier3d | top-box drift (max over 10 s) | \
-         top-box sink (at 10 s) | worst box displacement (max over 10 s) | contact points |"
+         top-box sink (at 10 s) | worst box displacement (max over 10 s) | contact points | \
+         chart's accuracy |"
     );
-    let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|---:|");
     for (scene, scene_label) in CONTACT_SCENES {
         let rapier = p.time("rapier", scene);
         for (engine, label) in CONTACT_ENGINES {
@@ -569,7 +658,7 @@ fn contact_markdown(p: &ContactPeers) -> String {
             if t.is_none() && a.is_none() {
                 continue;
             }
-            let ratio = if engine == "rapier" {
+            let ratio = if !engine.starts_with("ours") {
                 "–".to_string()
             } else {
                 fmt_ratio(t, rapier)
@@ -591,8 +680,9 @@ fn contact_markdown(p: &ContactPeers) -> String {
                 .map_or("–".into(), |c| c.to_string());
             let _ = writeln!(
                 md,
-                "| {scene_label} | {label} | {} | {ratio} | {drift} | {sink} | {worst} | {contacts} |",
-                fmt_time(t)
+                "| {scene_label} | {label} | {} | {ratio} | {drift} | {sink} | {worst} | {contacts} | {} |",
+                fmt_time(t),
+                fmt_len(p.error(engine, scene))
             );
         }
     }
@@ -624,18 +714,44 @@ fn contact_markdown(p: &ContactPeers) -> String {
              asleep and cost almost nothing). Contact points: ours only.",
             locked_version("rapier3d-f64").as_deref().unwrap_or("?")
         ),
-        "MuJoCo is not run on these scenes: they are built in code \
-         (`constraint_contact::scenes`), not from MJCF. The MJCF contact scenes \
-         (sphere_drop, sliding_box, box_stack) are compared with MuJoCo in the MJCF \
-         section below."
-            .to_string(),
     ];
     notes.extend(p.notes.iter().cloned());
     for n in notes {
         let _ = writeln!(md, "- {n}");
     }
+    charts_section(&mut md, p);
     pile_section(&mut md, p);
     md
+}
+
+/// The charts: accuracy against time per step per scene, linked from `ratios.md`.
+fn charts_section(md: &mut String, p: &ContactPeers) {
+    let _ = writeln!(
+        md,
+        "\n## Accuracy against time per step\n\n\
+         One chart per scene: the table's last column (log y) against its time per step \
+         (log x), one labelled point per setting of ours (`soft N` is the soft step with N \
+         sub-steps, then its contact frequency, friction anchors or one-way coupling), \
+         rapier3d's and MuJoCo's; the dashed line is the Pareto front. A failed run has \
+         no point.\n"
+    );
+    match &p.charts {
+        Ok(files) if !files.is_empty() => {
+            for (scene, file) in files {
+                let label = CONTACT_SCENES
+                    .iter()
+                    .find(|s| s.0 == scene)
+                    .map_or(scene.as_str(), |s| s.1);
+                let _ = writeln!(md, "- [{label}]({file})\n\n  ![{label}]({file})\n");
+            }
+        }
+        Ok(_) => {
+            let _ = writeln!(md, "No chart: no scene has both a time and an accuracy.");
+        }
+        Err(e) => {
+            let _ = writeln!(md, "No chart: {e}.");
+        }
+    }
 }
 
 /// The piles (issue 14): criterion's time per step on 1000 and 10,000 mixed bodies,
@@ -699,8 +815,9 @@ fn pile_section(md: &mut String, p: &ContactPeers) {
     }
 }
 
-/// The contact scenes: the contact_peers bench and its accuracy file.
-fn contact_peers(criterion_args: &[String]) -> Result<ContactPeers, String> {
+/// The contact scenes: the contact_peers bench and its accuracy file, MuJoCo on the same
+/// scenes (unless `mujoco` is false), then the charts into `target/bench/`.
+fn contact_peers(criterion_args: &[String], mujoco: bool) -> Result<ContactPeers, String> {
     let path = root().join("target/peers/contact_accuracy.tsv");
     // A stale accuracy file must not pass for this run's.
     let _ = std::fs::remove_file(&path);
@@ -745,7 +862,57 @@ fn contact_peers(criterion_args: &[String]) -> Result<ContactPeers, String> {
             .notes
             .push(format!("{}: missing, no accuracy figures", path.display())),
     }
+    if mujoco {
+        let (points, notes) = bench_contact::run_mujoco();
+        for m in points {
+            p.time.push((
+                m.setting.engine.into(),
+                m.scene.clone(),
+                m.seconds_per_60hz_step,
+            ));
+            let f = &m.figures;
+            p.accuracy.push((
+                m.setting.engine.into(),
+                m.scene,
+                ContactAccuracy {
+                    top_drift: f.top_drift,
+                    top_sink: f.top_sink,
+                    worst_displacement: f.worst_displacement,
+                    contacts: None,
+                    failed_at: None,
+                    top_travel: Some(f.top_travel),
+                },
+            ));
+        }
+        p.notes.extend(notes);
+    } else {
+        p.notes
+            .push("MuJoCo skipped on the contact scenes (--no-mujoco)".into());
+    }
+    p.charts = contact_charts(&p);
     Ok(p)
+}
+
+/// Writes `target/bench/contact_points.tsv` and draws its charts.
+fn contact_charts(p: &ContactPeers) -> Result<Vec<(String, String)>, String> {
+    let dir = root().join("target/bench");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let tsv = dir.join("contact_points.tsv");
+    let label = |s: &str| {
+        CONTACT_SCENES
+            .iter()
+            .find(|c| c.0 == s)
+            .map_or(s.to_string(), |c| c.1.to_string())
+    };
+    std::fs::write(&tsv, bench_contact::points_tsv(&p.points(), label))
+        .map_err(|e| format!("{}: {e}", tsv.display()))?;
+    let note = "ours, rapier3d: criterion median of one step at dt = 1/60 after 1 s; MuJoCo: its C loop, time per 1/60 s.\n\
+                Accuracy: 10 s from the start at 60 Hz (cargo xtask bench, target/bench/ratios.md).";
+    let (files, notes) = bench_contact::draw_charts(&tsv, &dir, note)?;
+    for n in notes {
+        eprintln!("xtask: contact charts: {n}");
+    }
+    Ok(files)
 }
 
 /// The chains: the chain_peers bench, then MuJoCo on the same chains.
@@ -911,7 +1078,7 @@ pub fn main(opts: &Options) -> Result<(), String> {
         None
     };
     let contact = if run("contact") {
-        Some(contact_peers(args)?)
+        Some(contact_peers(args, o.mujoco)?)
     } else {
         None
     };
@@ -1086,7 +1253,53 @@ mod tests {
         );
         assert!(md.contains("step failed at t = 2.500 s"), "{md}");
         assert!(md.contains("(800 contact points at the end)"), "{md}");
-        assert!(md.contains("MJCF section below"), "{md}");
         assert!(!md.contains("(210 boxes) | ours (SI)"), "{md}");
+        assert!(md.contains("No chart: not drawn."), "{md}");
+        // The chart's points: a time and an accuracy, failed runs left off.
+        let pts = p.points();
+        assert_eq!(pts.len(), 2, "{pts:?}");
+        assert_eq!(
+            pts[0],
+            ("stack10".into(), "ours", "Auto".into(), 11e-6, 2e-10)
+        );
+        assert_eq!(pts[1].1, "rapier3d");
+        p.charts = Ok(vec![("stack10".into(), "contact_stack10.svg".into())]);
+        let md = contact_markdown(&p);
+        assert!(md.contains("![10-box stack](contact_stack10.svg)"), "{md}");
+    }
+
+    #[test]
+    fn mujoco_rows_and_the_sliding_box_error() {
+        let tsv = "scene\tengine\tboxes\tdt\tduration\ttop_drift\ttop_sink\tworst_displacement\t\
+                   worst_at_end\tcontacts\tfinite\tfailed_at\ttop_travel\terror\n\
+                   sliding_box\tours_auto\t1\t1.6e-2\t10\t0.9\t1e-4\t0.9\t0.9\t4\ttrue\t-\t0.92\t2.6e-3\n";
+        let mut p = ContactPeers {
+            accuracy: parse_contact_accuracy(tsv),
+            ..ContactPeers::default()
+        };
+        p.time
+            .push(("ours_auto".into(), "sliding_box".into(), 1e-6));
+        p.time.push(("mujoco".into(), "sliding_box".into(), 2e-6));
+        p.accuracy.push((
+            "mujoco".into(),
+            "sliding_box".into(),
+            ContactAccuracy {
+                top_travel: Some(0.9),
+                ..ContactAccuracy::default()
+            },
+        ));
+        let e = p.error("ours_auto", "sliding_box").unwrap();
+        assert!((e - (0.92 - bench_contact::SLIDE_EXACT)).abs() < 1e-15);
+        let md = contact_markdown(&p);
+        assert!(
+            md.contains("| sliding box (3 m/s, μ 0.5) | MuJoCo (dt = 1/60) | 2.00 µs | – |"),
+            "{md}"
+        );
+        assert_eq!(
+            short_label("ours_soft8_120hz_anchors"),
+            "soft 8, 120hz, anchors"
+        );
+        assert_eq!(engine_group("mujoco_240hz"), "MuJoCo");
+        assert_eq!(p.points().len(), 2);
     }
 }

@@ -32,6 +32,7 @@
 
 mod bench;
 mod bench_cloth;
+mod bench_contact;
 mod bench_mjcf;
 mod build;
 mod compare;

@@ -26,7 +26,9 @@
 //!    a target directory that builds the dependencies again at the published crates'
 //!    own profile, minutes); otherwise `--no-verify` (about 2 s)
 //! 8. the sweeps (`verify-report`): stability maps, work-precision charts, drift, the
-//!    contact and articulated sections; the default plan (also CI's), `--full` the
+//!    contact and articulated sections (MuJoCo's points on the contact scene charts
+//!    first, and rapier3d's from an earlier `cargo xtask bench`, see
+//!    `bench_contact::verify_points`); the default plan (also CI's), `--full` the
 //!    dense one (about 18 minutes of sweeps)
 //! 9. the real models (`cargo xtask models run --quick`: 0.5 s runs, one repeat;
 //!    `--full`: 5 s runs, MuJoCo's median of 3):
@@ -295,11 +297,19 @@ pub fn main(o: &Options) -> Result<(), String> {
     ));
     let t0 = std::time::Instant::now();
     let ok = built.as_ref().is_some_and(|b| {
+        // Other engines on the contact charts: MuJoCo (a few seconds), rapier3d from an
+        // earlier `cargo xtask bench`.
+        let (points, note) =
+            crate::bench_contact::verify_points(&b.verify_report, mode == Mode::Full, &out);
         let mut sweep = Command::new(&b.verify_report);
         sweep.current_dir(root());
         if mode == Mode::Full {
             sweep.arg("--full");
         }
+        if let Some(p) = points {
+            sweep.arg("--contact-peers").arg(p);
+        }
+        sweep.arg("--contact-peers-note").arg(note);
         sweep.arg("--out").arg(&out);
         status(&mut sweep).0
     });

@@ -24,6 +24,19 @@
 //! (`DIR/models_section.md`, `models_time_ratio.svg`, `models_smooth_error.svg`; see
 //! `constraint_report::models_report`) from what `cargo xtask models run` measured.
 //!
+//! `verify-report --contact-points POINTS.tsv DIR [NOTE]` only draws the contact scenes'
+//! accuracy against time per step, one labelled point per engine setting
+//! (`DIR/contact_<scene>.svg`; see `constraint_report::peer_points`), from the points
+//! `cargo xtask bench` measured; it prints one line per chart written (`scene\tfile`) and
+//! one `note\t…` line per input line left off.
+//!
+//! `verify-report --contact-mjcf DIR [--full]` writes the contact scenes of the report's
+//! plan as MJCF into DIR and prints MuJoCo's runs for their charts, one per line
+//! (`id\txml\tdt\tduration`; `constraint_report::contact_report::mujoco_runs`);
+//! `cargo xtask verify` runs them and passes the points back with `--contact-peers
+//! POINTS.tsv` (and `--contact-peers-note TEXT`, where they come from), which puts them
+//! on the contact scene charts.
+//!
 //! `verify-report --html REPORT.md [PAGE.html]` only converts a report (default page:
 //! `REPORT.html` beside it), inlining the SVG charts it links; `cargo xtask verify` can
 //! call it once it has written `report.md`, so the page has the checks table too.
@@ -88,6 +101,8 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let mut full = false;
     let mut out = PathBuf::from("target/verify");
+    let mut contact_peers: Option<PathBuf> = None;
+    let mut peer_note = String::new();
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -119,6 +134,42 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 std::fs::write(&page, md)?;
                 eprintln!("  wrote {}", page.display());
                 return Ok(());
+            }
+            "--contact-points" => {
+                let tsv = PathBuf::from(args.next().ok_or("--contact-points needs a TSV")?);
+                let dir = PathBuf::from(
+                    args.next()
+                        .ok_or("--contact-points needs an output folder")?,
+                );
+                let note = args.next().unwrap_or_default();
+                let (files, notes) =
+                    constraint_report::peer_points::write_charts(&tsv, &dir, &note)?;
+                for (scene, file) in files {
+                    println!("{scene}\t{file}");
+                }
+                for n in notes {
+                    println!("note\t{n}");
+                }
+                return Ok(());
+            }
+            "--contact-mjcf" => {
+                // `--contact-mjcf DIR [--full]`: MuJoCo's runs for the contact charts.
+                let dir = PathBuf::from(args.next().ok_or("--contact-mjcf needs a folder")?);
+                let quick = args.next().as_deref() != Some("--full");
+                let plan = constraint_report::contact_report::Plan::new(quick);
+                let root = std::env::current_dir()?;
+                for line in constraint_report::contact_report::mujoco_runs(&plan, &dir, &root)? {
+                    println!("{line}");
+                }
+                return Ok(());
+            }
+            "--contact-peers" => {
+                contact_peers = Some(PathBuf::from(
+                    args.next().ok_or("--contact-peers needs a points file")?,
+                ))
+            }
+            "--contact-peers-note" => {
+                peer_note = args.next().ok_or("--contact-peers-note needs a text")?
             }
             "--quick" => full = false,
             "--full" => full = true,
@@ -333,7 +384,20 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         t0.elapsed().as_secs_f64()
     );
     let t0 = Instant::now();
-    constraint_report::contact_report::section(&mut md, &out, quick)?;
+    let (peers, peer_note) = match &contact_peers {
+        Some(path) => {
+            let text =
+                std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            let (points, notes) = constraint_report::peer_points::parse(&text)
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+            for n in notes {
+                eprintln!("  {}: {n}", path.display());
+            }
+            (points, peer_note)
+        }
+        None => (Vec::new(), peer_note),
+    };
+    constraint_report::contact_report::section(&mut md, &out, quick, &peers, &peer_note)?;
     eprintln!(
         "    contact section done in {:.1} s",
         t0.elapsed().as_secs_f64()
