@@ -5,7 +5,7 @@
 //! pyramid with base 20 (`scenes::pyramid(20)`, 210 boxes) and a unit box 10⁴ times
 //! heavier than the 0.5 m box it rests on (`scenes::heavy_on_light(1e4)`, `heavy1e4`):
 //! `contact_peers/ours_auto/SCENE` (`ContactWorld::step`, default settings,
-//! `ContactSolver::Auto`), `contact_peers/ours_si/SCENE` on the stack and the heavy box
+//! `ContactSolver::Auto`), `contact_peers/ours_si/SCENE` on every scene
 //! (`ContactSolver::SequentialImpulses`), `contact_peers/ours_softN/SCENE`
 //! (`ContactSolver::SoftStep { substeps: N }`, N = 1, 2, 4, 8, default soft settings)
 //! the tuned soft steps of [`TUNED`] (`ours_soft8_120hz`, `ours_soft8_120hz_anchors`,
@@ -113,7 +113,7 @@ fn bench(c: &mut Criterion) {
         .sample_size(20);
     for scene in Scene::BENCH {
         let name = scene.name();
-        for (engine, solver) in solvers(scene) {
+        for (engine, solver) in solvers() {
             // A typed failure (the heavy box defeats some solvers) is reported, not timed:
             // the accuracy run records when it happens.
             let mut w = match ours::world(scene, solver, DT, WARM_UP) {
@@ -213,7 +213,7 @@ fn accuracy() {
          worst_at_end\tcontacts\tfinite\tfailed_at\ttop_travel\terror\n",
     );
     for scene in Scene::BENCH {
-        for (engine, solver) in solvers(scene) {
+        for (engine, solver) in solvers() {
             match ours::run(scene, solver, DT, DURATION) {
                 Ok(r) => row(&mut out, scene, engine, &r),
                 Err(e) => panic!("{engine} {}: {e}", scene.name()),

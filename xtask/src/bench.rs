@@ -692,16 +692,16 @@ fn contact_markdown(p: &ContactPeers) -> String {
         .and_then(|a| a.contacts)
         .map_or(String::new(), |c| {
             format!(
-                " On the pyramid ({c} contact points at the end) `Auto` is sequential impulses."
+                " On the pyramid ({c} contact points at the end) `Auto` is the soft step with 4 sub-steps."
             )
         });
     let mut notes = vec![
         format!(
             "ours (Auto) is `ContactSolver::Auto` with default `ContactSettings`: dense \
              Fischer–Burmeister Newton with staggered friction up to 200 contact points, \
-             matrix-free sequential impulses (30 sweeps, 2 shock-propagation sweeps, split \
-             impulses) beyond.{auto_pyramid} ours (SI) forces `ContactSolver::SequentialImpulses` \
-             (stack and heavy box). ours (soft step, N sub-steps) is \
+             the soft step with 4 sub-steps beyond.{auto_pyramid} ours (SI) forces \
+             `ContactSolver::SequentialImpulses` (30 sweeps, 2 shock-propagation sweeps, \
+             split impulses). ours (soft step, N sub-steps) is \
              `ContactSolver::SoftStep {{ substeps: N }}` (Box2D v3's soft step, default \
              `SoftStepSettings`: 30 Hz, damping ratio 10, push-out capped at 3 m/s)."
         ),
