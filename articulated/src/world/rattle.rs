@@ -189,7 +189,8 @@ impl World {
         };
         // Stage 1: v₁ = BE_{γτ}(v) with the explicit forces at v. The matrix is the
         // previous flow's when the positions have not moved since (`factor_cache.rs`).
-        let reused = self.reuse_factor(s, Rates::Full, Soft::Free);
+        let (key_h, key_rates) = self.free_factor_key(s, Rates::Full);
+        let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
         self.body_rhs_with(!reused, |b, _, iw| {
             (b.v * b.mass() + g * (b.mass() * s), *iw * b.omega)
         });
@@ -278,6 +279,26 @@ impl World {
         Ok(())
     }
 
+    /// The factor-cache key `(h, rates)` of an assembly `(h, rates, Soft::Free)`
+    /// ([`World::reuse_factor`]), reduced to what its matrix reads. With compliant rows
+    /// free, `h` enters the matrix only through the rate rows' compliance `1/(I_a + h d)`
+    /// (`World::assemble_with`), and `d` is 0 in a `Rates::Armature` assembly and in
+    /// every assembly of a world without damped joints, where a `Rates::Full` assembly
+    /// also has the same rate rows as a `Rates::Armature` one (a joint has rate rows
+    /// when damped or with armature). Then the matrix is that of `(0, Armature)`, bit
+    /// for bit (`I_a + h · 0 = I_a` for finite `h`), so the kicks `|h|/2` and the
+    /// damping flow's `γτ` of an undamped world with velocity-dependent forces (fluid
+    /// drag, velocity actuators) share one factor per configuration.
+    fn free_factor_key(&self, h: f64, rates: Rates) -> (f64, Rates) {
+        let undamped = rates == Rates::Armature
+            || (rates == Rates::Full && self.joints.iter().all(|j| j.damping_rows() == 0));
+        if undamped && h.is_finite() {
+            (0.0, Rates::Armature)
+        } else {
+            (h, rates)
+        }
+    }
+
     /// A kick's forces over `half`: the compliant joints' springs and the actuator,
     /// spring and tendon forces, at rest only (`τ(q, 0)`) when velocity-dependent forces
     /// are `explicit` in the damping flow, else whole and with the fluid.
@@ -311,7 +332,8 @@ impl World {
         //    linearised manifold: [M Jᵀ; J −C][v½; λ] = [M v + (h/2) m g; −C(x)/h].
         //    Its matrix is the previous step's second kick's (same x, same |h|/2), kept
         //    by the factor cache (`factor_cache.rs`).
-        let reused = self.reuse_factor(hd, Rates::Armature, Soft::Free);
+        let (key_h, key_rates) = self.free_factor_key(hd, Rates::Armature);
+        let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
         self.body_rhs_with(!reused, |b, _, iw| {
             (b.v * b.mass() + g * (b.mass() * half), *iw * b.omega)
         });
@@ -432,8 +454,10 @@ impl World {
                 let c = if self.compliance.get(j).is_some_and(|&a| a > 0.0) {
                     [0.0; MAX_ROWS]
                 } else {
-                    err = err.max(joint.separation(&a, &b));
-                    joint.value(&a, &b)
+                    // `C` once: the separation is read from the same values.
+                    let c = joint.value(&a, &b);
+                    err = err.max(joint.separation_of(&c));
+                    c
                 };
                 let n = joint.hard_rows();
                 match solver.joint_offset(j) {
@@ -483,7 +507,8 @@ impl World {
         }
         // 4. Half kick and the velocity constraint at the new configuration:
         //    [M Jᵀ; J −C][v'; μ] = [M v½ + (h/2) m g; 0], angular part L½.
-        let reused = self.reuse_factor(hd, Rates::Armature, Soft::Free);
+        let (key_h, key_rates) = self.free_factor_key(hd, Rates::Armature);
+        let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
         self.body_rhs_with(!reused, |b, _, _| {
             (b.v * b.mass() + g * (b.mass() * half), DVec3::ZERO)
         });
