@@ -383,8 +383,9 @@ impl World {
             }
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
-            // Only the rate rows are read (below and in SHAKE's corrections).
-            let rows = joint.rate_rows_only(&a, &b);
+            // Only the rate rows are read (below and in SHAKE's corrections); the kick
+            // just assembled them at these poses.
+            let rows = CachedRows::rate_rows(&self.rows_cache, j, joint, &a, &b);
             let mut rate = [0.0; MAX_ROWS];
             let tw =
                 |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| self.body_solution(i));
