@@ -625,18 +625,27 @@ type NodeArgs<'a> = (&'a Blk, &'a [f64; 6], &'a Blk, usize, usize, usize, usize)
 
 /// Forward pass at one node: `u = L⁻¹ y`, `s = d⁻¹ u` (stored), `y_p −= Wᵀ s`.
 /// `N`/`NP` are the compile-time shapes when they match the runtime ones (the generic
-/// fallback instance `<6, 6>` uses the runtime sizes).
+/// fallback instance `<6, 6>` uses the runtime sizes): the body is inlined once with
+/// the constants, so its loops unroll and its copies are moves rather than `memcpy`
+/// calls, and once with the runtime sizes — the same operations in the same order.
 #[inline]
 fn forward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
-    let (d, dinv, w, oi, op, n_rt, np_rt) = args;
-    let (n, np) = if N == n_rt && NP == np_rt {
-        (N, NP)
+    let (n_rt, np_rt) = (args.5, args.6);
+    if N == n_rt && NP == np_rt {
+        forward_sized(args, x, N, NP);
     } else {
-        (n_rt, np_rt)
-    };
+        forward_sized(args, x, n_rt, np_rt);
+    }
+}
+
+/// [`forward`] for `n` rows under a parent of `np` (0: a root).
+#[inline(always)]
+fn forward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
+    let (d, dinv, w, oi, op, _, _) = args;
     let mut u = [0.0; 6];
+    let xi = &mut x[oi..oi + n];
     for r in 0..n {
-        let mut s = x[oi + r];
+        let mut s = xi[r];
         for t in 0..r {
             s -= d[r][t] * u[t];
         }
@@ -645,25 +654,32 @@ fn forward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
     for r in 0..n {
         u[r] *= dinv[r];
     }
-    x[oi..oi + n].copy_from_slice(&u[..n]);
+    xi.copy_from_slice(&u[..n]);
+    let xp = &mut x[op..op + np];
     for c in 0..np {
         let mut s = 0.0;
         for t in 0..n {
             s += w[t][c] * u[t];
         }
-        x[op + c] -= s;
+        xp[c] -= s;
     }
 }
 
-/// Backward pass at one node: `x_i = L⁻ᵀ (s − d⁻¹ W x_p)`.
+/// Backward pass at one node: `x_i = L⁻ᵀ (s − d⁻¹ W x_p)` (shapes as in [`forward`]).
 #[inline]
 fn backward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
-    let (d, dinv, w, oi, op, n_rt, np_rt) = args;
-    let (n, np) = if N == n_rt && NP == np_rt {
-        (N, NP)
+    let (n_rt, np_rt) = (args.5, args.6);
+    if N == n_rt && NP == np_rt {
+        backward_sized(args, x, N, NP);
     } else {
-        (n_rt, np_rt)
-    };
+        backward_sized(args, x, n_rt, np_rt);
+    }
+}
+
+/// [`backward`] for `n` rows under a parent of `np` (0: a root).
+#[inline(always)]
+fn backward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
+    let (d, dinv, w, oi, op, _, _) = args;
     let mut s = [0.0; 6];
     s[..n].copy_from_slice(&x[oi..oi + n]);
     if np > 0 {
