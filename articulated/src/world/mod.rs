@@ -334,7 +334,7 @@ pub struct World {
     impulses: Vec<[f64; MAX_ROWS]>,
     /// Per-body angular momenta (RATTLE scratch).
     momenta: Vec<DVec3>,
-    /// RATTLE scratch: the first kick's joint impulses, the poses at the start of the
+    /// RATTLE scratch: the first kick's joint impulses, the world inertias at the start of the
     /// drift, the armature rows' carried rates, and the damping flow's stage twists.
     rattle: rattle::Scratch,
     /// Acceleration-level scratch.

@@ -64,7 +64,7 @@
 use alloc::vec::Vec;
 
 use constraint_core::rigid::rotate_by;
-use constraint_core::{DVec3, Pose};
+use constraint_core::{DMat3, DVec3, Pose};
 
 use super::actuator::ForcePart;
 
@@ -76,8 +76,8 @@ use super::*;
 pub(super) struct Scratch {
     /// Joint impulses of the first kick.
     first_kick: Vec<[f64; MAX_ROWS]>,
-    /// Body poses at the start of the drift.
-    start: Vec<Pose>,
+    /// Body world inertias `R₀ I R₀ᵀ` at the start of the drift.
+    inertia0: Vec<DMat3>,
     /// Armature rows: joint, its rows at the start, the carried coordinate rates.
     arm: Vec<(usize, crate::joint::JointRows, [f64; MAX_ROWS])>,
     /// The damping flow's second-stage twists `v + (1 + √2)(v₁ − v)`.
@@ -369,9 +369,11 @@ impl World {
         self.store_impulses();
         let mut first_kick = core::mem::take(&mut self.rattle.first_kick);
         first_kick.clone_from(&self.impulses);
-        let mut start = core::mem::take(&mut self.rattle.start);
-        start.clear();
-        start.extend(self.bodies.iter().map(|b| b.pose));
+        // The world inertias at x₀, for the angular momenta `L = I₀ ω½` of the drift and
+        // SHAKE's corrections `I₀ δθ/h` (computed once, not per SHAKE iteration).
+        let mut inertia0 = core::mem::take(&mut self.rattle.inertia0);
+        inertia0.clear();
+        inertia0.extend(self.bodies.iter().map(|b| b.world_inertia()));
         // Armature: the coordinate rates at the half step, `G(x₀) v½`, carried to the
         // second kick like the angular momenta (with SHAKE's corrections), so that its
         // rows close on `I_a q̇' = I_a q̇½ + …` (time-symmetric, second order).
@@ -404,7 +406,7 @@ impl World {
         for i in 0..self.bodies.len() {
             let (v, w) = self.body_solution(i);
             let b = &mut self.bodies[i];
-            let l = b.world_inertia() * w;
+            let l = inertia0[i] * w;
             let q0 = b.pose.q;
             let mut ws = w;
             for _ in 0..4 {
@@ -425,7 +427,7 @@ impl World {
         if !(max_turn <= MAX_TURN) {
             self.momenta = momenta;
             self.rattle.first_kick = first_kick;
-            self.rattle.start = start;
+            self.rattle.inertia0 = inertia0;
             self.rattle.arm = arm;
             return Ok((0, false));
         }
@@ -487,9 +489,7 @@ impl World {
                 b.pose.q = rotate_by(b.pose.q, dth);
                 b.v += dx / h;
                 b.omega += dth / h;
-                let mut b0 = *b;
-                b0.pose = start[i];
-                momenta[i] += b0.world_inertia() * (dth / h);
+                momenta[i] += inertia0[i] * (dth / h);
             }
             for (j, rows, rate) in &mut arm {
                 let joint = &self.joints[*j];
@@ -550,7 +550,7 @@ impl World {
         }
         self.momenta = momenta;
         self.rattle.first_kick = first_kick;
-        self.rattle.start = start;
+        self.rattle.inertia0 = inertia0;
         self.rattle.arm = arm;
         self.rattle.passive = passive;
         self.recycle_loops(loops_n);
