@@ -524,8 +524,24 @@ impl TreeSolver {
 
 /// In-place `LDLᵀ` of the leading `n×n` block (no pivoting): `L` below the diagonal,
 /// `d` on it. Pivots below `1e-12 ·` the largest diagonal magnitude are dropped
-/// (returned as a bit mask, their `d` set to 0 and their column of `L` to 0).
+/// (returned as a bit mask, their `d` set to 0 and their column of `L` to 0). The body
+/// is inlined once per node size with the size as a constant (loops unrolled), the same
+/// operations in the same order as with a runtime size.
 fn ldlt_in_place(a: &mut Blk, n: usize) -> u8 {
+    match n {
+        6 => ldlt_sized(a, 6),
+        5 => ldlt_sized(a, 5),
+        4 => ldlt_sized(a, 4),
+        3 => ldlt_sized(a, 3),
+        2 => ldlt_sized(a, 2),
+        1 => ldlt_sized(a, 1),
+        _ => ldlt_sized(a, n),
+    }
+}
+
+/// [`ldlt_in_place`] of the leading `n×n` block.
+#[inline(always)]
+fn ldlt_sized(a: &mut Blk, n: usize) -> u8 {
     let scale = (0..n).map(|i| a[i][i].abs()).fold(0.0f64, f64::max);
     let tol = 1e-12 * scale;
     let mut mask = 0u8;
