@@ -366,8 +366,8 @@ pub struct World {
     tendon_spans: equality::Spans,
     /// The medium (fluid drag), if any.
     fluid: Option<Fluid>,
-    /// Per body: principal axes (body frame) and inertia-box half-sizes.
-    fluid_boxes: Vec<(DMat3, DVec3)>,
+    /// Per body: principal axes (body frame) and drag factors of its inertia box.
+    fluid_boxes: Vec<fluid::FluidBox>,
     /// Per body: the fluid's force and torque at the last evaluation (scratch).
     fluid_last: Vec<(DVec3, DVec3)>,
     /// Limits per joint and degree of freedom.
