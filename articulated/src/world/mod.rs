@@ -334,6 +334,9 @@ pub struct World {
     impulses: Vec<[f64; MAX_ROWS]>,
     /// Per-body angular momenta (RATTLE scratch).
     momenta: Vec<DVec3>,
+    /// The bodies' world inertias `R I Rᵀ` as the last [`Self::body_rhs_with`] computed
+    /// them (valid while the bodies have not moved since).
+    body_iw: Vec<DMat3>,
     /// RATTLE scratch: the first kick's joint impulses, the world inertias at the start of the
     /// drift, the armature rows' carried rates, and the damping flow's stage twists.
     rattle: rattle::Scratch,
@@ -454,6 +457,7 @@ impl World {
             geometric_stiffness: GeometricStiffness::default(),
             impulses: Vec::new(),
             momenta: Vec::new(),
+            body_iw: Vec::new(),
             rattle: rattle::Scratch::default(),
             accel: acceleration::Scratch::default(),
             proj_base: Vec::new(),
@@ -1194,11 +1198,13 @@ impl World {
         let size = self.solver.size;
         self.rhs.clear();
         self.rhs.resize(size, 0.0);
+        self.body_iw.clear();
         let solver = &mut self.solver;
         for (i, b) in self.bodies.iter().enumerate() {
             let o = solver.body_offset(i);
             let r = b.rotation();
             let iw = r * b.inertia() * r.transpose();
+            self.body_iw.push(iw);
             if matrix {
                 solver.set_body(i, b.mass(), &iw);
             }

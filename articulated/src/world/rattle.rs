@@ -229,8 +229,8 @@ impl World {
         self.rhs.resize(size, 0.0);
         for (i, (v, w)) in stage.iter().enumerate() {
             let b = &self.bodies[i];
-            let r = b.rotation();
-            let iw = r * b.inertia() * r.transpose();
+            // Stage 1's world inertia (same poses).
+            let iw = self.body_iw[i];
             let o = self.solver.body_offset(i);
             let lin = *v * b.mass() + g * (b.mass() * s);
             self.rhs[o..o + 3].copy_from_slice(&lin.to_array());
@@ -370,10 +370,10 @@ impl World {
         let mut first_kick = core::mem::take(&mut self.rattle.first_kick);
         first_kick.clone_from(&self.impulses);
         // The world inertias at x₀, for the angular momenta `L = I₀ ω½` of the drift and
-        // SHAKE's corrections `I₀ δθ/h` (computed once, not per SHAKE iteration).
+        // SHAKE's corrections `I₀ δθ/h`: the kick's, computed by `body_rhs_with` at the
+        // same poses with the operations of `RigidBody::world_inertia`.
         let mut inertia0 = core::mem::take(&mut self.rattle.inertia0);
-        inertia0.clear();
-        inertia0.extend(self.bodies.iter().map(|b| b.world_inertia()));
+        inertia0.clone_from(&self.body_iw);
         // Armature: the coordinate rates at the half step, `G(x₀) v½`, carried to the
         // second kick like the angular momenta (with SHAKE's corrections), so that its
         // rows close on `I_a q̇' = I_a q̇½ + …` (time-symmetric, second order).
