@@ -293,26 +293,27 @@ impl TreeSolver {
         // The body whose blocks are H_{joint, parent} and the child body's H_{child, joint}.
         for (side, body) in [(0usize, topo.a), (1usize, Some(topo.b))] {
             let Some(body) = body else { continue };
-            let blk = |r: usize, c: usize| {
+            // Row r's six entries on this body, `[v; ω]` (zero beyond the given rows).
+            let blk = |r: usize| {
                 if r < given {
-                    rows[r][2 * side + c / 3][c % 3]
+                    let (v, w) = (rows[r][2 * side], rows[r][2 * side + 1]);
+                    [v.x, v.y, v.z, w.x, w.y, w.z]
                 } else {
-                    0.0
+                    [0.0; 6]
                 }
             };
             if body == p {
                 let o = &mut self.off[node];
                 for r in 0..m {
-                    for c in 0..6 {
-                        o[r][c] = blk(r, c);
-                    }
+                    o[r] = blk(r);
                 }
             } else {
                 // body is the joint's child: H_{body, joint} = Jᵀ
                 let o = &mut self.off[body];
-                for c in 0..6 {
-                    for r in 0..m {
-                        o[c][r] = blk(r, c);
+                for r in 0..m {
+                    let row = blk(r);
+                    for c in 0..6 {
+                        o[c][r] = row[c];
                     }
                 }
             }
