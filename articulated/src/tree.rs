@@ -61,6 +61,10 @@ pub(crate) struct TreeSolver {
     pub(crate) parent: Vec<usize>,
     /// Elimination order: every node before its parent.
     pub(crate) order: Vec<usize>,
+    /// The solve kernels' shapes per node in elimination order: `[node, n, offset,
+    /// n_parent, parent offset]` (`0, 0` for a root), read once per node instead of from
+    /// the `dim`, `offset` and `parent` tables.
+    schedule: Vec<[usize; 5]>,
     /// `H_ii` on entry, then the factored `D_i` (unit-lower `L` below the diagonal, `d`
     /// on it).
     pub(crate) diag: Vec<Blk>,
@@ -192,12 +196,25 @@ impl TreeSolver {
             offset.push(size);
             size += d;
         }
+        let schedule = order
+            .iter()
+            .map(|&i| {
+                let p = parent[i];
+                let (np, op) = if p == NONE {
+                    (0, 0)
+                } else {
+                    (dim[p], offset[p])
+                };
+                [i, dim[i], offset[i], np, op]
+            })
+            .collect();
         Self {
             n_bodies,
             dim,
             offset,
             parent,
             order,
+            schedule,
             diag: vec![ZERO; n_nodes],
             dropped: vec![0; n_nodes],
             off: vec![ZERO; n_nodes],
@@ -404,28 +421,16 @@ impl TreeSolver {
                 }
             };
         }
-        for &i in &self.order {
+        for &[i, n, oi, np, op] in &self.schedule {
             if mark.is_some_and(|m| !m[i]) {
                 continue;
             }
-            let (n, oi, p) = (self.dim[i], self.offset[i], self.parent[i]);
-            let (np, op) = if p == NONE {
-                (0, 0)
-            } else {
-                (self.dim[p], self.offset[p])
-            };
             let args = (&self.diag[i], &self.dinv[i], &self.off[i], oi, op, n, np);
             dispatch!(forward, n, np, args, x;
                 6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
                 1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
         }
-        for &i in self.order.iter().rev() {
-            let (n, oi, p) = (self.dim[i], self.offset[i], self.parent[i]);
-            let (np, op) = if p == NONE {
-                (0, 0)
-            } else {
-                (self.dim[p], self.offset[p])
-            };
+        for &[i, n, oi, np, op] in self.schedule.iter().rev() {
             let args = (&self.diag[i], &self.dinv[i], &self.off[i], oi, op, n, np);
             dispatch!(backward, n, np, args, x;
                 6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
