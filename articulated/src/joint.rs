@@ -267,7 +267,12 @@ impl Joint {
     /// position rows for spherical, hinge and fixed joints, the two sliding-plane rows
     /// for a prismatic joint, `|C|` for a distance joint.
     pub fn separation(&self, a: &Pose, b: &Pose) -> f64 {
-        let v = self.value(a, b);
+        self.separation_of(&self.value(a, b))
+    }
+
+    /// [`Self::separation`] from the hard rows' values `v` ([`Self::value`] at the same
+    /// poses), bit for bit: for a caller that needs both without evaluating `C` twice.
+    pub fn separation_of(&self, v: &[f64; MAX_ROWS]) -> f64 {
         match &self.kind {
             JointKind::Prismatic(_) => libm::sqrt(v[0] * v[0] + v[1] * v[1]),
             JointKind::Distance(_) => v[0].abs(),

@@ -61,6 +61,10 @@ pub(crate) struct TreeSolver {
     pub(crate) parent: Vec<usize>,
     /// Elimination order: every node before its parent.
     pub(crate) order: Vec<usize>,
+    /// The solve kernels' shapes per node in elimination order: `[node, n, offset,
+    /// n_parent, parent offset]` (`0, 0` for a root), read once per node instead of from
+    /// the `dim`, `offset` and `parent` tables.
+    schedule: Vec<[usize; 5]>,
     /// `H_ii` on entry, then the factored `D_i` (unit-lower `L` below the diagonal, `d`
     /// on it).
     pub(crate) diag: Vec<Blk>,
@@ -192,12 +196,25 @@ impl TreeSolver {
             offset.push(size);
             size += d;
         }
+        let schedule = order
+            .iter()
+            .map(|&i| {
+                let p = parent[i];
+                let (np, op) = if p == NONE {
+                    (0, 0)
+                } else {
+                    (dim[p], offset[p])
+                };
+                [i, dim[i], offset[i], np, op]
+            })
+            .collect();
         Self {
             n_bodies,
             dim,
             offset,
             parent,
             order,
+            schedule,
             diag: vec![ZERO; n_nodes],
             dropped: vec![0; n_nodes],
             off: vec![ZERO; n_nodes],
@@ -293,26 +310,27 @@ impl TreeSolver {
         // The body whose blocks are H_{joint, parent} and the child body's H_{child, joint}.
         for (side, body) in [(0usize, topo.a), (1usize, Some(topo.b))] {
             let Some(body) = body else { continue };
-            let blk = |r: usize, c: usize| {
+            // Row r's six entries on this body, `[v; ω]` (zero beyond the given rows).
+            let blk = |r: usize| {
                 if r < given {
-                    rows[r][2 * side + c / 3][c % 3]
+                    let (v, w) = (rows[r][2 * side], rows[r][2 * side + 1]);
+                    [v.x, v.y, v.z, w.x, w.y, w.z]
                 } else {
-                    0.0
+                    [0.0; 6]
                 }
             };
             if body == p {
                 let o = &mut self.off[node];
                 for r in 0..m {
-                    for c in 0..6 {
-                        o[r][c] = blk(r, c);
-                    }
+                    o[r] = blk(r);
                 }
             } else {
                 // body is the joint's child: H_{body, joint} = Jᵀ
                 let o = &mut self.off[body];
-                for c in 0..6 {
-                    for r in 0..m {
-                        o[c][r] = blk(r, c);
+                for r in 0..m {
+                    let row = blk(r);
+                    for c in 0..6 {
+                        o[c][r] = row[c];
                     }
                 }
             }
@@ -403,28 +421,16 @@ impl TreeSolver {
                 }
             };
         }
-        for &i in &self.order {
+        for &[i, n, oi, np, op] in &self.schedule {
             if mark.is_some_and(|m| !m[i]) {
                 continue;
             }
-            let (n, oi, p) = (self.dim[i], self.offset[i], self.parent[i]);
-            let (np, op) = if p == NONE {
-                (0, 0)
-            } else {
-                (self.dim[p], self.offset[p])
-            };
             let args = (&self.diag[i], &self.dinv[i], &self.off[i], oi, op, n, np);
             dispatch!(forward, n, np, args, x;
                 6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
                 1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
         }
-        for &i in self.order.iter().rev() {
-            let (n, oi, p) = (self.dim[i], self.offset[i], self.parent[i]);
-            let (np, op) = if p == NONE {
-                (0, 0)
-            } else {
-                (self.dim[p], self.offset[p])
-            };
+        for &[i, n, oi, np, op] in self.schedule.iter().rev() {
             let args = (&self.diag[i], &self.dinv[i], &self.off[i], oi, op, n, np);
             dispatch!(backward, n, np, args, x;
                 6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
@@ -524,8 +530,24 @@ impl TreeSolver {
 
 /// In-place `LDLᵀ` of the leading `n×n` block (no pivoting): `L` below the diagonal,
 /// `d` on it. Pivots below `1e-12 ·` the largest diagonal magnitude are dropped
-/// (returned as a bit mask, their `d` set to 0 and their column of `L` to 0).
+/// (returned as a bit mask, their `d` set to 0 and their column of `L` to 0). The body
+/// is inlined once per node size with the size as a constant (loops unrolled), the same
+/// operations in the same order as with a runtime size.
 fn ldlt_in_place(a: &mut Blk, n: usize) -> u8 {
+    match n {
+        6 => ldlt_sized(a, 6),
+        5 => ldlt_sized(a, 5),
+        4 => ldlt_sized(a, 4),
+        3 => ldlt_sized(a, 3),
+        2 => ldlt_sized(a, 2),
+        1 => ldlt_sized(a, 1),
+        _ => ldlt_sized(a, n),
+    }
+}
+
+/// [`ldlt_in_place`] of the leading `n×n` block.
+#[inline(always)]
+fn ldlt_sized(a: &mut Blk, n: usize) -> u8 {
     let scale = (0..n).map(|i| a[i][i].abs()).fold(0.0f64, f64::max);
     let tol = 1e-12 * scale;
     let mut mask = 0u8;
@@ -625,18 +647,27 @@ type NodeArgs<'a> = (&'a Blk, &'a [f64; 6], &'a Blk, usize, usize, usize, usize)
 
 /// Forward pass at one node: `u = L⁻¹ y`, `s = d⁻¹ u` (stored), `y_p −= Wᵀ s`.
 /// `N`/`NP` are the compile-time shapes when they match the runtime ones (the generic
-/// fallback instance `<6, 6>` uses the runtime sizes).
+/// fallback instance `<6, 6>` uses the runtime sizes): the body is inlined once with
+/// the constants, so its loops unroll and its copies are moves rather than `memcpy`
+/// calls, and once with the runtime sizes — the same operations in the same order.
 #[inline]
 fn forward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
-    let (d, dinv, w, oi, op, n_rt, np_rt) = args;
-    let (n, np) = if N == n_rt && NP == np_rt {
-        (N, NP)
+    let (n_rt, np_rt) = (args.5, args.6);
+    if N == n_rt && NP == np_rt {
+        forward_sized(args, x, N, NP);
     } else {
-        (n_rt, np_rt)
-    };
+        forward_sized(args, x, n_rt, np_rt);
+    }
+}
+
+/// [`forward`] for `n` rows under a parent of `np` (0: a root).
+#[inline(always)]
+fn forward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
+    let (d, dinv, w, oi, op, _, _) = args;
     let mut u = [0.0; 6];
+    let xi = &mut x[oi..oi + n];
     for r in 0..n {
-        let mut s = x[oi + r];
+        let mut s = xi[r];
         for t in 0..r {
             s -= d[r][t] * u[t];
         }
@@ -645,25 +676,32 @@ fn forward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
     for r in 0..n {
         u[r] *= dinv[r];
     }
-    x[oi..oi + n].copy_from_slice(&u[..n]);
+    xi.copy_from_slice(&u[..n]);
+    let xp = &mut x[op..op + np];
     for c in 0..np {
         let mut s = 0.0;
         for t in 0..n {
             s += w[t][c] * u[t];
         }
-        x[op + c] -= s;
+        xp[c] -= s;
     }
 }
 
-/// Backward pass at one node: `x_i = L⁻ᵀ (s − d⁻¹ W x_p)`.
+/// Backward pass at one node: `x_i = L⁻ᵀ (s − d⁻¹ W x_p)` (shapes as in [`forward`]).
 #[inline]
 fn backward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
-    let (d, dinv, w, oi, op, n_rt, np_rt) = args;
-    let (n, np) = if N == n_rt && NP == np_rt {
-        (N, NP)
+    let (n_rt, np_rt) = (args.5, args.6);
+    if N == n_rt && NP == np_rt {
+        backward_sized(args, x, N, NP);
     } else {
-        (n_rt, np_rt)
-    };
+        backward_sized(args, x, n_rt, np_rt);
+    }
+}
+
+/// [`backward`] for `n` rows under a parent of `np` (0: a root).
+#[inline(always)]
+fn backward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
+    let (d, dinv, w, oi, op, _, _) = args;
     let mut s = [0.0; 6];
     s[..n].copy_from_slice(&x[oi..oi + n]);
     if np > 0 {

@@ -25,6 +25,25 @@ fn p4(x: f64) -> f64 {
     x2 * x2
 }
 
+/// One body's inertia box in the fluid: its principal frame and the velocity-free
+/// factors of the drag formulas (module documentation), computed once per body and
+/// fluid. Each is the leading factor of its product as the formula is evaluated left
+/// to right (`(−2 ρ r_j r_k) |v_i| v_i`), so the wrench has the bits of evaluating the
+/// whole formula at every call.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct FluidBox {
+    /// Body frame → principal axes.
+    axes: DMat3,
+    /// `−2 ρ r_j r_k` per principal axis `i`.
+    quad_force: [f64; 3],
+    /// `6 β π r_eq`.
+    lin_force: f64,
+    /// `−½ ρ r_i (r_j⁴ + r_k⁴)` per principal axis `i`.
+    quad_torque: [f64; 3],
+    /// `8 β π r_eq³`.
+    lin_torque: f64,
+}
+
 /// The medium of [`World::fluid`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fluid {
@@ -63,20 +82,37 @@ impl World {
         self.fluid
     }
 
-    /// Each body's principal frame (body frame → principal axes) and box half-sizes.
-    fn ensure_fluid_boxes(&mut self) {
+    /// Each body's principal frame (body frame → principal axes) and drag factors, from
+    /// its box half-sizes and the fluid `f` (kept until the fluid is set again).
+    fn ensure_fluid_boxes(&mut self, f: &Fluid) {
         if self.fluid_boxes.len() == self.bodies.len() {
             return;
         }
         self.fluid_boxes.clear();
+        let (rho, beta) = (f.density, f.viscosity);
+        let pi = core::f64::consts::PI;
         for b in &self.bodies {
             let (lam, v) = symmetric_eigen(&b.inertia());
             let m = b.mass();
             let half = |i: usize, j: usize, k: usize| {
                 libm::sqrt((1.5 / m * (lam[j] + lam[k] - lam[i])).max(0.0))
             };
-            let r = DVec3::new(half(0, 1, 2), half(1, 2, 0), half(2, 0, 1));
-            self.fluid_boxes.push((v, r));
+            let rr = [half(0, 1, 2), half(1, 2, 0), half(2, 0, 1)];
+            let req = (rr[0] + rr[1] + rr[2]) / 3.0;
+            let mut quad_force = [0.0; 3];
+            let mut quad_torque = [0.0; 3];
+            for i in 0..3 {
+                let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+                quad_force[i] = -2.0 * rho * rr[j] * rr[k];
+                quad_torque[i] = -0.5 * rho * rr[i] * (p4(rr[j]) + p4(rr[k]));
+            }
+            self.fluid_boxes.push(FluidBox {
+                axes: v,
+                quad_force,
+                lin_force: 6.0 * beta * pi * req,
+                quad_torque,
+                lin_torque: 8.0 * beta * pi * req * req * req,
+            });
         }
     }
 
@@ -89,7 +125,7 @@ impl World {
             .fluid
             .filter(|f| f.density != 0.0 || f.viscosity != 0.0)
         {
-            self.ensure_fluid_boxes();
+            self.ensure_fluid_boxes(&f);
             w.extend((0..self.bodies.len()).map(|i| self.fluid_wrench(i, &f)));
         }
         self.fluid_last = w;
@@ -109,24 +145,20 @@ impl World {
         }
     }
 
+    /// The fluid's force and torque on body `i` (the formulas of the module
+    /// documentation, with the factors of its [`FluidBox`]).
     fn fluid_wrench(&self, i: usize, f: &Fluid) -> (DVec3, DVec3) {
         let b = &self.bodies[i];
-        let (v_pb, r) = self.fluid_boxes[i];
-        let frame: DMat3 = b.rotation() * v_pb; // principal axes in the world
+        let fb = &self.fluid_boxes[i];
+        let frame: DMat3 = b.rotation() * fb.axes; // principal axes in the world
         let v = frame.transpose() * (b.v - f.wind);
         let w = frame.transpose() * b.omega;
-        let (rho, beta) = (f.density, f.viscosity);
-        let req = (r.x + r.y + r.z) / 3.0;
-        let pi = core::f64::consts::PI;
-        let rr = [r.x, r.y, r.z];
         let mut fl = [0.0; 3];
         let mut tl = [0.0; 3];
         for i in 0..3 {
-            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
             let (vi, wi) = (v[i], w[i]);
-            fl[i] = -2.0 * rho * rr[j] * rr[k] * vi.abs() * vi - 6.0 * beta * pi * req * vi;
-            tl[i] = -0.5 * rho * rr[i] * (p4(rr[j]) + p4(rr[k])) * wi.abs() * wi
-                - 8.0 * beta * pi * req * req * req * wi;
+            fl[i] = fb.quad_force[i] * vi.abs() * vi - fb.lin_force * vi;
+            tl[i] = fb.quad_torque[i] * wi.abs() * wi - fb.lin_torque * wi;
         }
         (frame * DVec3::from_array(fl), frame * DVec3::from_array(tl))
     }

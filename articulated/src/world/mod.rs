@@ -74,6 +74,110 @@ type LoopRows = (Vec<(Option<usize>, usize, [DVec3; 4])>, Vec<f64>, Vec<f64>);
 /// the right-hand side of its rows)`.
 type JointRhs<'a> = dyn FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]) + 'a;
 
+/// One joint's rows ([`Joint::rows_with`]) at one configuration: the bits of the two
+/// poses (`x`, `q` of the parent, the world's identity without one, then of the child),
+/// whether the rate rows were computed, the rows. A joint's rows are a function of its
+/// kind (fixed once added: joints are only appended) and of these poses alone, so an
+/// assembly at poses equal bit for bit takes the kept rows — the same bits the
+/// computation would give. RATTLE assembles at each configuration up to three times
+/// (its second kick and the damping flow at `x_{n+1}`, the next step's first kick at the
+/// same `x_{n+1}`), the rows of a hinge cost about a thousand instructions, the key
+/// fourteen comparisons.
+#[derive(Clone, Copy, Debug)]
+struct CachedRows {
+    /// Whether the entry holds rows (false: never filled).
+    valid: bool,
+    /// Bits of the parent's and the child's `x` and `q`.
+    key: [u64; 14],
+    /// Whether `rows` has the rate rows.
+    rates: bool,
+    rows: crate::joint::JointRows,
+}
+
+impl CachedRows {
+    /// The bits of the poses `a` (parent) and `b` (child).
+    fn key_of(a: &Pose, b: &Pose) -> [u64; 14] {
+        [
+            a.x.x, a.x.y, a.x.z, a.q.x, a.q.y, a.q.z, a.q.w, b.x.x, b.x.y, b.x.z, b.q.x, b.q.y,
+            b.q.z, b.q.w,
+        ]
+        .map(f64::to_bits)
+    }
+
+    /// `rows` as `rows_with(.., false)` gives them: the hard rows, zeros after them.
+    fn hard_only(mut rows: crate::joint::JointRows) -> crate::joint::JointRows {
+        for r in rows.n_hard..rows.n {
+            rows.value[r] = 0.0;
+            rows.rows[r] = [DVec3::ZERO; 4];
+        }
+        rows.n = rows.n_hard;
+        rows
+    }
+
+    /// `joint.rows_with(a, b, rates)`, from `cache[j]` when it holds the rows at the same
+    /// poses (with the rate rows, when asked for), else computed — with the rate rows
+    /// when `keep_rates` (a joint that has them in some assemblies: the next assembly at
+    /// these poses may ask for them) — and kept there (`cache` grows to the joint count).
+    fn rows(
+        cache: &mut Vec<CachedRows>,
+        j: usize,
+        joint: &Joint,
+        (a, b): (&Pose, &Pose),
+        rates: bool,
+        keep_rates: bool,
+    ) -> crate::joint::JointRows {
+        let key = Self::key_of(a, b);
+        if let Some(e) = cache.get(j) {
+            if e.valid && e.key == key && (e.rates || !rates) {
+                return if rates {
+                    e.rows
+                } else {
+                    Self::hard_only(e.rows)
+                };
+            }
+        }
+        let with = rates || keep_rates;
+        let kept = joint.rows_with(a, b, with);
+        let rows = if rates { kept } else { Self::hard_only(kept) };
+        if cache.len() <= j {
+            cache.resize(
+                j + 1,
+                CachedRows {
+                    valid: false,
+                    key: [0; 14],
+                    rates: false,
+                    rows,
+                },
+            );
+        }
+        cache[j] = CachedRows {
+            valid: true,
+            key,
+            rates: with,
+            rows: kept,
+        };
+        rows
+    }
+
+    /// `joint.rate_rows_only(a, b)`'s rate rows: from `cache[j]` when it holds the rows
+    /// with rates at the same poses (its hard rows, which the caller does not read, are
+    /// then the joint's Jacobian rather than zeros), else computed (not kept).
+    fn rate_rows(
+        cache: &[CachedRows],
+        j: usize,
+        joint: &Joint,
+        a: &Pose,
+        b: &Pose,
+    ) -> crate::joint::JointRows {
+        if let Some(e) = cache.get(j) {
+            if e.valid && e.rates && e.key == Self::key_of(a, b) {
+                return e.rows;
+            }
+        }
+        joint.rate_rows_only(a, b)
+    }
+}
+
 /// Which rate rows (one per degree of freedom) an assembly gives the joints.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Rates {
@@ -230,7 +334,10 @@ pub struct World {
     impulses: Vec<[f64; MAX_ROWS]>,
     /// Per-body angular momenta (RATTLE scratch).
     momenta: Vec<DVec3>,
-    /// RATTLE scratch: the first kick's joint impulses, the poses at the start of the
+    /// The bodies' world inertias `R I Rᵀ` as the last [`Self::body_rhs_with`] computed
+    /// them (valid while the bodies have not moved since).
+    body_iw: Vec<DMat3>,
+    /// RATTLE scratch: the first kick's joint impulses, the world inertias at the start of the
     /// drift, the armature rows' carried rates, and the damping flow's stage twists.
     rattle: rattle::Scratch,
     /// Acceleration-level scratch.
@@ -262,8 +369,8 @@ pub struct World {
     tendon_spans: equality::Spans,
     /// The medium (fluid drag), if any.
     fluid: Option<Fluid>,
-    /// Per body: principal axes (body frame) and inertia-box half-sizes.
-    fluid_boxes: Vec<(DMat3, DVec3)>,
+    /// Per body: principal axes (body frame) and drag factors of its inertia box.
+    fluid_boxes: Vec<fluid::FluidBox>,
     /// Per body: the fluid's force and torque at the last evaluation (scratch).
     fluid_last: Vec<(DVec3, DVec3)>,
     /// Limits per joint and degree of freedom.
@@ -302,6 +409,8 @@ pub struct World {
     last_loops: LoopRows,
     /// Spare loop-row buffers (RATTLE keeps a second set; no allocation across steps).
     spare_loops: LoopRows,
+    /// Per joint, its rows at the poses of its last assembly ([`CachedRows`]).
+    rows_cache: Vec<CachedRows>,
     /// The factors kept for reuse by assemblies of the same matrix (`factor_cache.rs`).
     factors: factor_cache::FactorCache,
     /// Colliders (feature `contact`).
@@ -348,6 +457,7 @@ impl World {
             geometric_stiffness: GeometricStiffness::default(),
             impulses: Vec::new(),
             momenta: Vec::new(),
+            body_iw: Vec::new(),
             rattle: rattle::Scratch::default(),
             accel: acceleration::Scratch::default(),
             proj_base: Vec::new(),
@@ -382,6 +492,7 @@ impl World {
             dof_tau: Vec::new(),
             dof_table: Vec::new(),
             last_loops: (Vec::new(), Vec::new(), Vec::new()),
+            rows_cache: Vec::new(),
             spare_loops: (Vec::new(), Vec::new(), Vec::new()),
             factors: factor_cache::FactorCache::default(),
             #[cfg(feature = "contact")]
@@ -902,9 +1013,16 @@ impl World {
                 continue;
             }
             let mut rows = if rates_only {
-                joint.rate_rows_only(&a, &b)
+                CachedRows::rate_rows(&self.rows_cache, j, joint, &a, &b)
             } else {
-                joint.rows_with(&a, &b, with_rates)
+                CachedRows::rows(
+                    &mut self.rows_cache,
+                    j,
+                    joint,
+                    (&a, &b),
+                    with_rates,
+                    passive > 0,
+                )
             };
             let mut comp = [0.0; MAX_ROWS];
             // Rate rows: damping d and armature I_a on the coordinate rate q̇ = G v,
@@ -1003,7 +1121,7 @@ impl World {
             };
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
-            let rows = joint.rate_rows_only(&a, &b);
+            let rows = CachedRows::rate_rows(&self.rows_cache, j, joint, &a, &b);
             let tw = |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| twists[i]);
             let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
             for r in rows.n_hard..rows.n {
@@ -1080,11 +1198,13 @@ impl World {
         let size = self.solver.size;
         self.rhs.clear();
         self.rhs.resize(size, 0.0);
+        self.body_iw.clear();
         let solver = &mut self.solver;
         for (i, b) in self.bodies.iter().enumerate() {
             let o = solver.body_offset(i);
             let r = b.rotation();
             let iw = r * b.inertia() * r.transpose();
+            self.body_iw.push(iw);
             if matrix {
                 solver.set_body(i, b.mass(), &iw);
             }

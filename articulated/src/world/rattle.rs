@@ -64,7 +64,7 @@
 use alloc::vec::Vec;
 
 use constraint_core::rigid::rotate_by;
-use constraint_core::{DVec3, Pose};
+use constraint_core::{DMat3, DVec3, Pose};
 
 use super::actuator::ForcePart;
 
@@ -76,8 +76,8 @@ use super::*;
 pub(super) struct Scratch {
     /// Joint impulses of the first kick.
     first_kick: Vec<[f64; MAX_ROWS]>,
-    /// Body poses at the start of the drift.
-    start: Vec<Pose>,
+    /// Body world inertias `R₀ I R₀ᵀ` at the start of the drift.
+    inertia0: Vec<DMat3>,
     /// Armature rows: joint, its rows at the start, the carried coordinate rates.
     arm: Vec<(usize, crate::joint::JointRows, [f64; MAX_ROWS])>,
     /// The damping flow's second-stage twists `v + (1 + √2)(v₁ − v)`.
@@ -189,7 +189,8 @@ impl World {
         };
         // Stage 1: v₁ = BE_{γτ}(v) with the explicit forces at v. The matrix is the
         // previous flow's when the positions have not moved since (`factor_cache.rs`).
-        let reused = self.reuse_factor(s, Rates::Full, Soft::Free);
+        let (key_h, key_rates) = self.free_factor_key(s, Rates::Full);
+        let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
         self.body_rhs_with(!reused, |b, _, iw| {
             (b.v * b.mass() + g * (b.mass() * s), *iw * b.omega)
         });
@@ -228,8 +229,8 @@ impl World {
         self.rhs.resize(size, 0.0);
         for (i, (v, w)) in stage.iter().enumerate() {
             let b = &self.bodies[i];
-            let r = b.rotation();
-            let iw = r * b.inertia() * r.transpose();
+            // Stage 1's world inertia (same poses).
+            let iw = self.body_iw[i];
             let o = self.solver.body_offset(i);
             let lin = *v * b.mass() + g * (b.mass() * s);
             self.rhs[o..o + 3].copy_from_slice(&lin.to_array());
@@ -278,6 +279,26 @@ impl World {
         Ok(())
     }
 
+    /// The factor-cache key `(h, rates)` of an assembly `(h, rates, Soft::Free)`
+    /// ([`World::reuse_factor`]), reduced to what its matrix reads. With compliant rows
+    /// free, `h` enters the matrix only through the rate rows' compliance `1/(I_a + h d)`
+    /// (`World::assemble_with`), and `d` is 0 in a `Rates::Armature` assembly and in
+    /// every assembly of a world without damped joints, where a `Rates::Full` assembly
+    /// also has the same rate rows as a `Rates::Armature` one (a joint has rate rows
+    /// when damped or with armature). Then the matrix is that of `(0, Armature)`, bit
+    /// for bit (`I_a + h · 0 = I_a` for finite `h`), so the kicks `|h|/2` and the
+    /// damping flow's `γτ` of an undamped world with velocity-dependent forces (fluid
+    /// drag, velocity actuators) share one factor per configuration.
+    fn free_factor_key(&self, h: f64, rates: Rates) -> (f64, Rates) {
+        let undamped = rates == Rates::Armature
+            || (rates == Rates::Full && self.joints.iter().all(|j| j.damping_rows() == 0));
+        if undamped && h.is_finite() {
+            (0.0, Rates::Armature)
+        } else {
+            (h, rates)
+        }
+    }
+
     /// A kick's forces over `half`: the compliant joints' springs and the actuator,
     /// spring and tendon forces, at rest only (`τ(q, 0)`) when velocity-dependent forces
     /// are `explicit` in the damping flow, else whole and with the fluid.
@@ -311,7 +332,8 @@ impl World {
         //    linearised manifold: [M Jᵀ; J −C][v½; λ] = [M v + (h/2) m g; −C(x)/h].
         //    Its matrix is the previous step's second kick's (same x, same |h|/2), kept
         //    by the factor cache (`factor_cache.rs`).
-        let reused = self.reuse_factor(hd, Rates::Armature, Soft::Free);
+        let (key_h, key_rates) = self.free_factor_key(hd, Rates::Armature);
+        let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
         self.body_rhs_with(!reused, |b, _, iw| {
             (b.v * b.mass() + g * (b.mass() * half), *iw * b.omega)
         });
@@ -347,9 +369,11 @@ impl World {
         self.store_impulses();
         let mut first_kick = core::mem::take(&mut self.rattle.first_kick);
         first_kick.clone_from(&self.impulses);
-        let mut start = core::mem::take(&mut self.rattle.start);
-        start.clear();
-        start.extend(self.bodies.iter().map(|b| b.pose));
+        // The world inertias at x₀, for the angular momenta `L = I₀ ω½` of the drift and
+        // SHAKE's corrections `I₀ δθ/h`: the kick's, computed by `body_rhs_with` at the
+        // same poses with the operations of `RigidBody::world_inertia`.
+        let mut inertia0 = core::mem::take(&mut self.rattle.inertia0);
+        inertia0.clone_from(&self.body_iw);
         // Armature: the coordinate rates at the half step, `G(x₀) v½`, carried to the
         // second kick like the angular momenta (with SHAKE's corrections), so that its
         // rows close on `I_a q̇' = I_a q̇½ + …` (time-symmetric, second order).
@@ -361,8 +385,9 @@ impl World {
             }
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
-            // Only the rate rows are read (below and in SHAKE's corrections).
-            let rows = joint.rate_rows_only(&a, &b);
+            // Only the rate rows are read (below and in SHAKE's corrections); the kick
+            // just assembled them at these poses.
+            let rows = CachedRows::rate_rows(&self.rows_cache, j, joint, &a, &b);
             let mut rate = [0.0; MAX_ROWS];
             let tw =
                 |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| self.body_solution(i));
@@ -381,7 +406,7 @@ impl World {
         for i in 0..self.bodies.len() {
             let (v, w) = self.body_solution(i);
             let b = &mut self.bodies[i];
-            let l = b.world_inertia() * w;
+            let l = inertia0[i] * w;
             let q0 = b.pose.q;
             let mut ws = w;
             for _ in 0..4 {
@@ -402,7 +427,7 @@ impl World {
         if !(max_turn <= MAX_TURN) {
             self.momenta = momenta;
             self.rattle.first_kick = first_kick;
-            self.rattle.start = start;
+            self.rattle.inertia0 = inertia0;
             self.rattle.arm = arm;
             return Ok((0, false));
         }
@@ -432,8 +457,10 @@ impl World {
                 let c = if self.compliance.get(j).is_some_and(|&a| a > 0.0) {
                     [0.0; MAX_ROWS]
                 } else {
-                    err = err.max(joint.separation(&a, &b));
-                    joint.value(&a, &b)
+                    // `C` once: the separation is read from the same values.
+                    let c = joint.value(&a, &b);
+                    err = err.max(joint.separation_of(&c));
+                    c
                 };
                 let n = joint.hard_rows();
                 match solver.joint_offset(j) {
@@ -462,9 +489,7 @@ impl World {
                 b.pose.q = rotate_by(b.pose.q, dth);
                 b.v += dx / h;
                 b.omega += dth / h;
-                let mut b0 = *b;
-                b0.pose = start[i];
-                momenta[i] += b0.world_inertia() * (dth / h);
+                momenta[i] += inertia0[i] * (dth / h);
             }
             for (j, rows, rate) in &mut arm {
                 let joint = &self.joints[*j];
@@ -483,7 +508,8 @@ impl World {
         }
         // 4. Half kick and the velocity constraint at the new configuration:
         //    [M Jᵀ; J −C][v'; μ] = [M v½ + (h/2) m g; 0], angular part L½.
-        let reused = self.reuse_factor(hd, Rates::Armature, Soft::Free);
+        let (key_h, key_rates) = self.free_factor_key(hd, Rates::Armature);
+        let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
         self.body_rhs_with(!reused, |b, _, _| {
             (b.v * b.mass() + g * (b.mass() * half), DVec3::ZERO)
         });
@@ -524,7 +550,7 @@ impl World {
         }
         self.momenta = momenta;
         self.rattle.first_kick = first_kick;
-        self.rattle.start = start;
+        self.rattle.inertia0 = inertia0;
         self.rattle.arm = arm;
         self.rattle.passive = passive;
         self.recycle_loops(loops_n);
