@@ -317,6 +317,18 @@ impl LogLogChart {
     }
 }
 
+/// The distinct `keys`, in the order they first appear (chart legends and scene
+/// lists: a few dozen entries, so a linear search).
+pub fn first_appearances<'a>(keys: impl IntoIterator<Item = &'a str>) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for k in keys {
+        if !out.iter().any(|o| o == k) {
+            out.push(k.to_string());
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

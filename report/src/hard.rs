@@ -213,13 +213,7 @@ pub fn cloth_strain_vs_time(
 
 /// Names used in the chart legend, in order of first appearance.
 pub fn series_names(pts: &[StrainPoint]) -> Vec<String> {
-    let mut names: Vec<String> = Vec::new();
-    for p in pts {
-        if !names.contains(&p.method) {
-            names.push(p.method.clone());
-        }
-    }
-    names
+    crate::chart::first_appearances(pts.iter().map(|p| p.method.as_str()))
 }
 
 /// One row of the hard-versus-soft volume comparison on the jelly.

@@ -127,13 +127,7 @@ pub fn parse(text: &str) -> Result<(Vec<PeerPoint>, Vec<String>), PointsError> {
 
 /// Scene ids in the order they first appear.
 pub fn scenes(points: &[PeerPoint]) -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
-    for p in points {
-        if !out.contains(&p.scene) {
-            out.push(p.scene.clone());
-        }
-    }
-    out
+    crate::chart::first_appearances(points.iter().map(|p| p.scene.as_str()))
 }
 
 /// The points of `points` as series, one per engine in order of first appearance, each

@@ -509,15 +509,15 @@ fn engine_group(engine: &str) -> &'static str {
 
 /// One line of `target/peers/contact_accuracy.tsv`.
 #[derive(Clone, Debug, Default, PartialEq)]
-struct ContactAccuracy {
-    top_drift: f64,
-    top_sink: f64,
-    worst_displacement: f64,
-    contacts: Option<usize>,
-    failed_at: Option<f64>,
+pub(crate) struct ContactAccuracy {
+    pub(crate) top_drift: f64,
+    pub(crate) top_sink: f64,
+    pub(crate) worst_displacement: f64,
+    pub(crate) contacts: Option<usize>,
+    pub(crate) failed_at: Option<f64>,
     /// Horizontal distance of the top box from its start at the end (column 13; older
     /// files lack it).
-    top_travel: Option<f64>,
+    pub(crate) top_travel: Option<f64>,
 }
 
 /// What the contact_peers bench (and MuJoCo on the same scenes) measured.
@@ -589,7 +589,7 @@ impl ContactPeers {
 }
 
 /// Parses `target/peers/contact_accuracy.tsv` (header line first).
-fn parse_contact_accuracy(text: &str) -> Vec<(String, String, ContactAccuracy)> {
+pub(crate) fn parse_contact_accuracy(text: &str) -> Vec<(String, String, ContactAccuracy)> {
     let mut out = Vec::new();
     for line in text.lines().skip(1) {
         let f: Vec<&str> = line.split('\t').collect();

@@ -494,33 +494,29 @@ pub(crate) fn verify_points(
     let acc = root().join("target/peers/contact_accuracy.tsv");
     let text = std::fs::read_to_string(&acc).ok();
     let mut rapier = 0;
-    for line in text.as_deref().unwrap_or("").lines().skip(1) {
-        let f: Vec<&str> = line.split('\t').collect();
-        if f.len() < 13 || f[1] != "rapier" || !["stack10", "sliding_box"].contains(&f[0]) {
+    let accuracy = crate::bench::parse_contact_accuracy(text.as_deref().unwrap_or(""));
+    for (engine, scene, a) in &accuracy {
+        if engine != "rapier" || !["stack10", "sliding_box"].contains(&scene.as_str()) {
             continue;
         }
-        let (Ok(drift), Ok(worst), Ok(travel)) = (
-            f[5].parse::<f64>(),
-            f[7].parse::<f64>(),
-            f[12].parse::<f64>(),
+        let (Some(travel), Some(t)) = (
+            a.top_travel,
+            crate::bench::estimate("contact_peers", "rapier", scene),
         ) else {
             continue;
         };
-        let Some(t) = crate::bench::estimate("contact_peers", "rapier", f[0]) else {
-            continue;
-        };
         let figures = Figures {
-            top_drift: drift,
-            worst_displacement: worst,
+            top_drift: a.top_drift,
+            worst_displacement: a.worst_displacement,
             top_travel: travel,
             ..Figures::default()
         };
         rows.push((
-            f[0].into(),
+            scene.clone(),
             "rapier3d",
             "bench, 10 s".into(),
             t,
-            report_error(f[0], &figures),
+            report_error(scene, &figures),
             1.0 / 60.0,
         ));
         rapier += 1;
