@@ -268,22 +268,37 @@ impl World {
     /// Joint `ji`'s entry of the coordinate table: coordinates, rates `q̇ = G v` and
     /// rate rows `G`; `None` for joints without coordinates.
     fn dof_state(&self, ji: usize) -> Option<DofState> {
-        let (q, rows) = self.coordinates_and_rows(ji)?;
-        let mut state = DofState {
-            key: self.pose_key(ji),
+        let mut slot = None;
+        self.write_dof_state(ji, &mut slot);
+        slot
+    }
+
+    /// [`Self::dof_state`] written into `slot` in place (an entry of the same joint, or
+    /// `None`; the entries beyond the joint's degrees of freedom are zero in both).
+    fn write_dof_state(&self, ji: usize, slot: &mut Option<DofState>) {
+        if self.dofs_of(ji) == 0 {
+            *slot = None;
+            return;
+        }
+        let key = self.pose_key(ji);
+        let e = slot.get_or_insert(DofState {
+            key,
             live: true,
-            q,
+            q: [0.0; MAX_DOF],
             qd: [0.0; MAX_DOF],
-            rows,
-        };
-        self.fill_rates(ji, &mut state);
-        Some(state)
+            rows: [[DVec3::ZERO; 4]; MAX_DOF],
+        });
+        e.key = key;
+        e.live = true;
+        self.compute_coordinates(ji, &mut e.q, &mut e.rows);
+        self.fill_rates(ji, e);
     }
 
     /// The bits of joint `ji`'s parent and child poses ([`CachedRows::key_of`]).
     fn pose_key(&self, ji: usize) -> [u64; 14] {
         let j = &self.joints[ji];
-        CachedRows::key_of(&self.pose(j.parent), &self.pose(Some(j.child)))
+        let a = j.parent.map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+        CachedRows::key_of(a, &self.bodies[j.child].pose)
     }
 
     /// The rates `q̇_k = G_k v` of `state`'s rows at the current velocities, for the
@@ -309,7 +324,7 @@ impl World {
                 e.live = true;
                 self.fill_rates(ji, e);
             }
-            slot => *slot = self.dof_state(ji),
+            slot => self.write_dof_state(ji, slot),
         }
     }
 
@@ -352,26 +367,40 @@ impl World {
         if let Some(e) = self.cached_coordinates(ji) {
             return Some((e.q, e.rows));
         }
-        let j = &self.joints[ji];
-        let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
         let mut q = [0.0; MAX_DOF];
         let mut rows = [[DVec3::ZERO; 4]; MAX_DOF];
+        self.compute_coordinates(ji, &mut q, &mut rows)
+            .then_some((q, rows))
+    }
+
+    /// Joint `ji`'s coordinates and rate rows written into `q` and `rows` (the entries
+    /// of its degrees of freedom; the others are left as they are, zero in every
+    /// caller); false for joints without coordinates.
+    fn compute_coordinates(
+        &self,
+        ji: usize,
+        q: &mut [f64; MAX_DOF],
+        rows: &mut [[DVec3; 4]; MAX_DOF],
+    ) -> bool {
+        let j = &self.joints[ji];
+        let a = j.parent.map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+        let b = &self.bodies[j.child].pose;
         match &j.kind {
             JointKind::Hinge(c) => {
-                q[0] = c.angle(&a, &b);
-                rows[0] = c.angle_row(&b);
+                q[0] = c.angle(a, b);
+                rows[0] = c.angle_row(b);
             }
             JointKind::Prismatic(c) => {
-                q[0] = c.displacement(&a, &b);
-                rows[0] = c.displacement_row(&a, &b);
+                q[0] = c.displacement(a, b);
+                rows[0] = c.displacement_row(a, b);
             }
             JointKind::Compound(c, _) => {
-                q = c.coordinates(&a, &b, &q);
-                rows = c.dof_rows(&a, &b, &q);
+                *q = c.coordinates(a, b, &[0.0; MAX_DOF]);
+                *rows = c.dof_rows(a, b, q);
             }
-            _ => return None,
+            _ => return false,
         }
-        Some((q, rows))
+        true
     }
 
     /// The generalized force on every degree of freedom at the current state
@@ -570,7 +599,8 @@ impl World {
                 continue;
             };
             let (parent, child) = (self.joints[ji].parent, self.joints[ji].child);
-            for k in 0..MAX_DOF {
+            // Forces act on the joint's own degrees of freedom only.
+            for k in 0..self.dofs_of(ji) {
                 if tau[ji][k] == 0.0 {
                     continue;
                 }
