@@ -290,7 +290,13 @@ impl World {
         });
         e.key = key;
         e.live = true;
-        self.compute_coordinates(ji, &mut e.q, &mut e.rows);
+        // The world's table when it holds this configuration (a caller with a table of
+        // its own, `spring_energy`), else computed.
+        if let Some(c) = self.cached_coordinates(ji) {
+            (e.q, e.rows) = (c.q, c.rows);
+        } else {
+            self.compute_coordinates(ji, &mut e.q, &mut e.rows);
+        }
         self.fill_rates(ji, e);
     }
 
@@ -549,6 +555,17 @@ impl World {
             || self
                 .fluid
                 .is_some_and(|f| f.density != 0.0 || f.viscosity != 0.0)
+    }
+
+    /// Whether the actuator, spring and tendon forces read the coordinate rates: an
+    /// actuator with a velocity term `b₂ ≠ 0` or a damped tendon. Otherwise `τ(q, q̇)`
+    /// is the same at any velocities of one configuration, bit for bit: the rates
+    /// enter only as `b₂ · g · q̇` and `d · L̇` with `b₂ = d = 0`, signed zeros that
+    /// leave every nonzero sum as it is, and each `τ` entry, starting at `+0`, stays
+    /// `+0` under added zeros of either sign.
+    pub(super) fn dof_forces_read_rates(&self) -> bool {
+        self.actuators.iter().any(|a| a.bias[2] != 0.0)
+            || self.tendons.iter().any(|t| t.damping != 0.0)
     }
 
     /// [`Self::add_dof_forces`] for one part of the forces ([`ForcePart`]). Returns
