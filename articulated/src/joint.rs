@@ -257,7 +257,7 @@ impl Joint {
             JointKind::Distance(c) => v[..1].copy_from_slice(&c.value(a, b)),
             JointKind::Compound(c, _) => {
                 let n = c.rows();
-                v[..n].copy_from_slice(&c.jacobian6(a, b).value[..n]);
+                v[..n].copy_from_slice(&c.value6(a, b)[..n]);
             }
         }
         v

@@ -525,6 +525,47 @@ impl Compound {
         j
     }
 
+    /// The values of the `6 − dof` rows of [`Self::jacobian6`] alone (the rest zero):
+    /// the same dot products of the same frame vectors, so the same bits, without the
+    /// Jacobian rows (`dot_grad`), for callers that need `C` only (SHAKE's residual,
+    /// the separation checks).
+    pub fn value6(&self, a: &Pose, b: &Pose) -> [f64; MAX_DOF] {
+        let mut v = [0.0; MAX_DOF];
+        let mut r = 0;
+        let d = self.point.sep(a, b).value;
+        if let Some(delta) = self.skew {
+            let ea = a.q * self.e1_a;
+            let eb = b.q * self.axes[1];
+            let s = 0.5 / delta;
+            v[0] = ea.dot(d);
+            v[1] = d.dot(eb);
+            v[2] = (d.dot(d) - delta * delta) * s;
+            v[3] = ea.dot(eb) - self.c0;
+            return v;
+        }
+        for k in 0..3 - self.n_slides {
+            v[r] = (a.q * self.normals[k]).dot(d);
+            r += 1;
+        }
+        match self.n_hinges {
+            0 => self.orient.values(a, b, &mut v[r..r + 3]),
+            1 => {
+                let ub = b.q * self.axes[0];
+                for p in &self.perp {
+                    v[r] = (a.q * *p).dot(ub);
+                    r += 1;
+                }
+            }
+            2 => {
+                let ea = a.q * self.e1_a;
+                let eb = b.q * self.axes[1];
+                v[r] = ea.dot(eb) - self.c0;
+            }
+            _ => {}
+        }
+        v
+    }
+
     /// `Σ_r w_r ∂²C_r` of the rows (`w` beyond [`Self::rows`] ignored).
     pub fn curvature6(&self, a: &Pose, b: &Pose, w: &[f64; MAX_DOF]) -> TwistCurvature {
         let mut h = TwistCurvature::ZERO;
@@ -566,12 +607,63 @@ impl Compound {
 /// The rows padded to six (unused rows zero), so the generic derivative checks apply.
 impl BodyConstraint<MAX_DOF> for Compound {
     fn value(&self, a: &Pose, b: &Pose) -> [f64; MAX_DOF] {
-        self.jacobian6(a, b).value
+        self.value6(a, b)
     }
     fn jacobian(&self, a: &Pose, b: &Pose) -> TwistJacobian<MAX_DOF> {
         self.jacobian6(a, b)
     }
     fn curvature(&self, a: &Pose, b: &Pose, w: &[f64; MAX_DOF]) -> TwistCurvature {
         self.curvature6(a, b, w)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `value6` gives the bits of `jacobian6`'s value for every slide and hinge count
+    /// and for hinges on skew lines, at poses off the manifold.
+    #[test]
+    fn value6_is_jacobian6_value_bit_for_bit() {
+        let a0 = Pose::new(DVec3::new(0.1, -0.2, 0.3), DQuat::from_rotation_y(0.3)).unwrap();
+        let b0 = Pose::new(DVec3::new(0.4, 0.1, -0.2), DQuat::from_rotation_x(-0.7)).unwrap();
+        let a = Pose::new(
+            a0.x + DVec3::new(0.01, 0.02, -0.03),
+            (DQuat::from_rotation_z(0.2) * a0.q).normalize(),
+        )
+        .unwrap();
+        let b = Pose::new(
+            b0.x + DVec3::new(-0.02, 0.05, 0.01),
+            (DQuat::from_rotation_x(0.4) * DQuat::from_rotation_y(-0.3) * b0.q).normalize(),
+        )
+        .unwrap();
+        let axes = [
+            DVec3::X,
+            DVec3::new(0.0, 1.0, 0.2).normalize(),
+            DVec3::new(0.3, 0.1, 1.0).normalize(),
+        ];
+        let anchor = DVec3::new(0.2, 0.0, 0.1);
+        let check = |j: &Compound| {
+            let (v, jac) = (j.value6(&a, &b), j.jacobian6(&a, &b).value);
+            assert_eq!(v.map(f64::to_bits), jac.map(f64::to_bits));
+            assert!(v[..j.rows()].iter().any(|x| *x != 0.0) || j.rows() == 0);
+        };
+        for ns in 0..=3 {
+            for nh in 0..=3 - ns {
+                check(&Compound::from_world(&a0, &b0, anchor, &axes[..ns], &axes[..nh]).unwrap());
+            }
+        }
+        let skew = Compound::from_lines(
+            &a0,
+            &b0,
+            &[],
+            &[
+                (anchor, axes[0]),
+                (anchor + DVec3::new(0.0, 0.1, 0.05), axes[1]),
+            ],
+        )
+        .unwrap();
+        assert!(skew.skew_distance().is_some());
+        check(&skew);
     }
 }

@@ -132,6 +132,14 @@ impl Orientation {
             rows[k] = dot_grad(&ea, &fb);
         }
     }
+    /// The values of [`Self::rows`] alone (the same operations, so the same bits),
+    /// without the Jacobian.
+    pub(crate) fn values(&self, a: &Pose, b: &Pose, value: &mut [f64]) {
+        for k in 0..3 {
+            let (ea, fb) = self.exprs(a, b, k);
+            value[k] = ea.value.dot(fb.value);
+        }
+    }
     pub(crate) fn curvature(&self, a: &Pose, b: &Pose, w: &[f64], h: &mut TwistCurvature) {
         for k in 0..3 {
             let (ea, fb) = self.exprs(a, b, k);

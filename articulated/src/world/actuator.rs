@@ -236,7 +236,7 @@ impl World {
         }
         let mut coords = Vec::new();
         self.coordinate_table(&mut coords);
-        let q = |j: usize, d: usize| coords[j].as_ref().map_or(0.0, |c| c.0[d]);
+        let q = |j: usize, d: usize| coords[j].as_ref().map_or(0.0, |c| c.q[d]);
         let joints: f64 = self
             .springs
             .iter()
@@ -268,21 +268,79 @@ impl World {
     /// Joint `ji`'s entry of the coordinate table: coordinates, rates `q̇ = G v` and
     /// rate rows `G`; `None` for joints without coordinates.
     fn dof_state(&self, ji: usize) -> Option<DofState> {
-        let (q, rows) = self.coordinates_and_rows(ji)?;
-        let tw = self.twist(&self.joints[ji]);
-        let mut qd = [0.0; MAX_DOF];
-        for k in 0..MAX_DOF {
-            qd[k] = (0..4).map(|s| rows[k][s].dot(tw[s])).sum();
+        let mut slot = None;
+        self.write_dof_state(ji, &mut slot);
+        slot
+    }
+
+    /// [`Self::dof_state`] written into `slot` in place (an entry of the same joint, or
+    /// `None`; the entries beyond the joint's degrees of freedom are zero in both).
+    fn write_dof_state(&self, ji: usize, slot: &mut Option<DofState>) {
+        if self.dofs_of(ji) == 0 {
+            *slot = None;
+            return;
         }
-        Some((q, qd, rows))
+        let key = self.pose_key(ji);
+        let e = slot.get_or_insert(DofState {
+            key,
+            live: true,
+            q: [0.0; MAX_DOF],
+            qd: [0.0; MAX_DOF],
+            rows: [[DVec3::ZERO; 4]; MAX_DOF],
+        });
+        e.key = key;
+        e.live = true;
+        // The world's table when it holds this configuration (a caller with a table of
+        // its own, `spring_energy`), else computed.
+        if let Some(c) = self.cached_coordinates(ji) {
+            (e.q, e.rows) = (c.q, c.rows);
+        } else {
+            self.compute_coordinates(ji, &mut e.q, &mut e.rows);
+        }
+        self.fill_rates(ji, e);
+    }
+
+    /// The bits of joint `ji`'s parent and child poses ([`CachedRows::key_of`]).
+    fn pose_key(&self, ji: usize) -> [u64; 14] {
+        let j = &self.joints[ji];
+        let a = j.parent.map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+        CachedRows::key_of(a, &self.bodies[j.child].pose)
+    }
+
+    /// The rates `q̇_k = G_k v` of `state`'s rows at the current velocities, for the
+    /// joint's degrees of freedom (the rest are never read: forces name existing
+    /// degrees of freedom only).
+    fn fill_rates(&self, ji: usize, state: &mut DofState) {
+        let tw = self.twist(&self.joints[ji]);
+        for k in 0..self.dofs_of(ji) {
+            state.qd[k] = (0..4).map(|s| state.rows[k][s].dot(tw[s])).sum();
+        }
     }
 
     /// Fills joint `ji`'s entry of a lazily built coordinate table (kept if already
-    /// there).
+    /// live). An entry of an earlier evaluation at the same poses (the bits of both
+    /// poses, [`CachedRows::key_of`]) keeps its coordinates and rows — the same
+    /// operations on the same bits would give the same values — and takes new rates
+    /// `q̇ = G v` (the velocities change between evaluations at one configuration: the
+    /// kicks and the damping flow's stages).
     fn fill_dof_state(&self, coords: &mut [Option<DofState>], ji: usize) {
-        if coords[ji].is_none() {
-            coords[ji] = self.dof_state(ji);
+        match &mut coords[ji] {
+            Some(e) if e.live => {}
+            Some(e) if e.key == self.pose_key(ji) => {
+                e.live = true;
+                self.fill_rates(ji, e);
+            }
+            slot => self.write_dof_state(ji, slot),
         }
+    }
+
+    /// The coordinates and rate rows of joint `ji` from the coordinate table of the
+    /// last force evaluation when they are at the current poses (same bits as
+    /// computing them), else `None`.
+    fn cached_coordinates(&self, ji: usize) -> Option<&DofState> {
+        let e = self.dof_table.get(ji)?.as_ref()?;
+        let j = &self.joints[ji];
+        (e.key == CachedRows::key_of(&self.pose(j.parent), &self.pose(Some(j.child)))).then_some(e)
     }
 
     /// The coordinates of joint `ji` alone (those of [`Self::coordinates_and_rows`],
@@ -290,6 +348,9 @@ impl World {
     /// coordinates, and the projection's error needs only these); `None` for joints
     /// without coordinates.
     pub(super) fn coordinates_of(&self, ji: usize) -> Option<[f64; MAX_DOF]> {
+        if let Some(e) = self.cached_coordinates(ji) {
+            return Some(e.q);
+        }
         let j = &self.joints[ji];
         let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
         let mut q = [0.0; MAX_DOF];
@@ -309,26 +370,43 @@ impl World {
         &self,
         ji: usize,
     ) -> Option<([f64; MAX_DOF], [[DVec3; 4]; MAX_DOF])> {
-        let j = &self.joints[ji];
-        let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
+        if let Some(e) = self.cached_coordinates(ji) {
+            return Some((e.q, e.rows));
+        }
         let mut q = [0.0; MAX_DOF];
         let mut rows = [[DVec3::ZERO; 4]; MAX_DOF];
+        self.compute_coordinates(ji, &mut q, &mut rows)
+            .then_some((q, rows))
+    }
+
+    /// Joint `ji`'s coordinates and rate rows written into `q` and `rows` (the entries
+    /// of its degrees of freedom; the others are left as they are, zero in every
+    /// caller); false for joints without coordinates.
+    fn compute_coordinates(
+        &self,
+        ji: usize,
+        q: &mut [f64; MAX_DOF],
+        rows: &mut [[DVec3; 4]; MAX_DOF],
+    ) -> bool {
+        let j = &self.joints[ji];
+        let a = j.parent.map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+        let b = &self.bodies[j.child].pose;
         match &j.kind {
             JointKind::Hinge(c) => {
-                q[0] = c.angle(&a, &b);
-                rows[0] = c.angle_row(&b);
+                q[0] = c.angle(a, b);
+                rows[0] = c.angle_row(b);
             }
             JointKind::Prismatic(c) => {
-                q[0] = c.displacement(&a, &b);
-                rows[0] = c.displacement_row(&a, &b);
+                q[0] = c.displacement(a, b);
+                rows[0] = c.displacement_row(a, b);
             }
             JointKind::Compound(c, _) => {
-                q = c.coordinates(&a, &b, &q);
-                rows = c.dof_rows(&a, &b, &q);
+                *q = c.coordinates(a, b, &[0.0; MAX_DOF]);
+                *rows = c.dof_rows(a, b, q);
             }
-            _ => return None,
+            _ => return false,
         }
-        Some((q, rows))
+        true
     }
 
     /// The generalized force on every degree of freedom at the current state
@@ -353,8 +431,11 @@ impl World {
         // `len` and `vel` only in `b₁ gear len` and `b₂ gear vel`, zeros whatever the
         // coordinate (±0: `τ` starts at +0 and `x + (±0) = x` for `x ≠ 0`, `+0 + (±0) =
         // +0`, so `τ` has the same bits as with the coordinate read).
-        coords.clear();
+        // Entries of earlier evaluations stay as a cache (`fill_dof_state`), not live.
         coords.resize(self.joints.len(), None);
+        for e in coords.iter_mut().flatten() {
+            e.live = false;
+        }
         for s in &self.springs {
             self.fill_dof_state(coords, s.joint);
         }
@@ -380,7 +461,12 @@ impl World {
             }
         }
         let table = &*coords;
-        let q = |j: usize, d: usize| table[j].as_ref().map_or((0.0, 0.0), |c| (c.0[d], c.1[d]));
+        let q = |j: usize, d: usize| {
+            table[j]
+                .as_ref()
+                .filter(|c| c.live)
+                .map_or((0.0, 0.0), |c| (c.q[d], c.qd[d]))
+        };
         tau.clear();
         tau.resize(self.joints.len(), [0.0; MAX_DOF]);
         if self.paths.any() {
@@ -471,6 +557,17 @@ impl World {
                 .is_some_and(|f| f.density != 0.0 || f.viscosity != 0.0)
     }
 
+    /// Whether the actuator, spring and tendon forces read the coordinate rates: an
+    /// actuator with a velocity term `b₂ ≠ 0` or a damped tendon. Otherwise `τ(q, q̇)`
+    /// is the same at any velocities of one configuration, bit for bit: the rates
+    /// enter only as `b₂ · g · q̇` and `d · L̇` with `b₂ = d = 0`, signed zeros that
+    /// leave every nonzero sum as it is, and each `τ` entry, starting at `+0`, stays
+    /// `+0` under added zeros of either sign.
+    pub(super) fn dof_forces_read_rates(&self) -> bool {
+        self.actuators.iter().any(|a| a.bias[2] != 0.0)
+            || self.tendons.iter().any(|t| t.damping != 0.0)
+    }
+
     /// [`Self::add_dof_forces`] for one part of the forces ([`ForcePart`]). Returns
     /// whether any force acts; the forces stay in the world's buffers for
     /// [`Self::reapply_dof_forces`].
@@ -512,11 +609,15 @@ impl World {
         scale: f64,
     ) {
         for ji in 0..self.joints.len() {
-            let Some((_, _, rows)) = &coords[ji] else {
+            let Some(DofState {
+                live: true, rows, ..
+            }) = &coords[ji]
+            else {
                 continue;
             };
             let (parent, child) = (self.joints[ji].parent, self.joints[ji].child);
-            for k in 0..MAX_DOF {
+            // Forces act on the joint's own degrees of freedom only.
+            for k in 0..self.dofs_of(ji) {
                 if tau[ji][k] == 0.0 {
                     continue;
                 }
@@ -551,7 +652,10 @@ impl World {
             f.clear();
             f.resize(self.bodies.len(), (DVec3::ZERO, DVec3::ZERO));
             for ji in 0..self.joints.len() {
-                let Some((_, _, rows)) = &coords[ji] else {
+                let Some(DofState {
+                    live: true, rows, ..
+                }) = &coords[ji]
+                else {
                     continue;
                 };
                 let (parent, child) = (self.joints[ji].parent, self.joints[ji].child);
@@ -573,5 +677,21 @@ impl World {
     }
 }
 
-/// A joint's coordinates, their rates and the rate rows.
-pub(super) type DofState = ([f64; MAX_DOF], [f64; MAX_DOF], [[DVec3; 4]; MAX_DOF]);
+/// A joint's entry of the coordinate table: its coordinates, their rates and the rate
+/// rows, with the bits of the poses they are of. The table is kept between force
+/// evaluations; an entry is `live` when filled by the current one (the others are a
+/// cache for evaluations at the same poses: the two kicks and the damping flow around
+/// one configuration, the limit rows at the start of the next step).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct DofState {
+    /// Bits of the parent's and the child's poses ([`CachedRows::key_of`]).
+    key: [u64; 14],
+    /// Filled by the current evaluation.
+    live: bool,
+    /// Coordinates `q`.
+    q: [f64; MAX_DOF],
+    /// Rates `q̇ = G v` (at the velocities of the evaluation that filled the entry).
+    qd: [f64; MAX_DOF],
+    /// Rate rows `G`.
+    rows: [[DVec3; 4]; MAX_DOF],
+}

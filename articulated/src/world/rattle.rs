@@ -258,7 +258,14 @@ impl World {
                 }
             };
             swap(&mut self.bodies, &mut v1);
-            self.add_dof_forces_part(w_v1, part);
+            if self.dof_forces_read_rates() {
+                self.add_dof_forces_part(w_v1, part);
+            } else {
+                // τ(q, q̇) does not read q̇ (no b₂ ≠ 0, no damped tendon): τ(q, v₁) is
+                // stage 1's τ(q, v), the same bits (`World::dof_forces_read_rates`),
+                // applied again with the weight of f(v₁).
+                self.reapply_dof_forces(w_v1, dof_any);
+            }
             self.add_fluid_rhs(w_v1);
             swap(&mut self.bodies, &mut v1);
         } else if forces {
