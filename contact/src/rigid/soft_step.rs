@@ -241,6 +241,9 @@ pub(super) struct SoftState {
     pub(super) impulse: Vec<[f64; 3]>,
     /// Preloaded impulse `λ_pre` of each point (see [`SoftStepSettings::preload`]).
     pub(super) preload: Vec<f64>,
+    /// `γ/(1 − γ) · m h ω²` of each point: the preload is capped at this times the
+    /// penetration.
+    pub(super) preload_cap: Vec<f64>,
     /// Mean previous normal impulse of each contact's manifold (natural order).
     pub(super) mean: Vec<f64>,
     /// Block normal solve of each manifold in colour order (see [`Block`]).
@@ -580,13 +583,22 @@ impl ContactWorld {
                 j += 1;
             }
             let m = sum / (j - i) as f64;
-            st.mean.extend(core::iter::repeat(m).take(j - i));
+            st.mean.extend(core::iter::repeat_n(m, j - i));
             i = j;
         }
         let preload = if self.settings.warm_start {
             s.preload * scale
         } else {
             0.0
+        };
+        // Spring stiffness over the sub-step, `h ω²` per unit effective mass, and the
+        // cap's ratio `γ/(1 − γ)` (the ratio of preload to spring force at rest).
+        let omega2 = (TAU * hertz) * (TAU * hertz);
+        let omega2_fixed = 4.0 * omega2;
+        let kappa = if s.preload < 1.0 {
+            s.preload / (1.0 - s.preload)
+        } else {
+            f64::INFINITY
         };
         macro_rules! clear {
             ($($f:ident),*) => { $(st.$f.clear();)* };
@@ -607,7 +619,8 @@ impl ContactWorld {
             total,
             slip,
             im,
-            preload
+            preload,
+            preload_cap
         );
         for &k in &st.order {
             let c = &contacts[k];
@@ -675,6 +688,12 @@ impl ContactWorld {
             st.approach.push(vn);
             st.impulse.push(z);
             st.preload.push(preload * st.mean[k]);
+            let omega2 = if a == nb || b == nb {
+                omega2_fixed
+            } else {
+                omega2
+            };
+            st.preload_cap.push(kappa * mass[0] * hs * omega2);
             st.max_normal.push(0.0);
 
             st.total.push([0.0; 3]);
@@ -919,6 +938,8 @@ pub(super) struct Rows<'a> {
     pub(super) slip: &'a [[f64; 2]],
     /// `λ_pre` of each point ([`SoftStepSettings::preload`]).
     pub(super) preload: &'a [f64],
+    /// Its cap per metre of penetration.
+    pub(super) preload_cap: &'a [f64],
     /// The static slot (the last): never written.
     pub(super) fixed: usize,
 }
@@ -948,6 +969,7 @@ macro_rules! rows {
             friction: &$st.friction,
             slip: &$st.slip,
             preload: &$st.preload,
+            preload_cap: &$st.preload_cap,
             fixed: $st.v.len() - 1,
         }
     };
@@ -1166,7 +1188,8 @@ fn solve_block<B: Bodies>(
         }
         let vn = d[0].dot(vb - va) + g[0][1].dot(wb) - g[0][0].dot(wa);
         let bias = at_least(s.bias_rate * gap, -pass.max_push);
-        r[i] = vn + bias + blk.c[i] * (z[i][0] - rows.preload[p]);
+        let pre = at_most(rows.preload[p], rows.preload_cap[p] * -gap);
+        r[i] = vn + bias + blk.c[i] * (z[i][0] - pre);
     }
     // Δλ = −K⁻¹ r (the padding of K⁻¹ is the identity, and r is zero there).
     let mut dz = [0.0; N];
@@ -1300,10 +1323,18 @@ pub(super) fn solve_point<B: Bodies>(
     } else {
         (0.0, 1.0, 0.0)
     };
-    // Δλ = −m · mass_scale · (J v + bias) − impulse_scale · λ, then λ ≥ 0.
+    // Δλ = −m · mass_scale · (J v + bias) − impulse_scale · (λ − λ_pre), then λ ≥ 0,
+    // with the preload capped at `γ/(1 − γ) · m h ω²` times the penetration (only a
+    // penetrating point is preloaded, and no more than the spring at rest would be:
+    // an impact's impulse does not become a push the next step).
+    let pre = if gap > 0.0 {
+        0.0
+    } else {
+        at_most(rows.preload[p], rows.preload_cap[p] * -gap)
+    };
     let vn = d[0].dot(vb - va) + g[0][1].dot(wb) - g[0][0].dot(wa);
     let new = at_least(
-        z[0] - m[0] * mass_scale * (vn + bias) - impulse_scale * (z[0] - rows.preload[p]),
+        z[0] - m[0] * mass_scale * (vn + bias) - impulse_scale * (z[0] - pre),
         0.0,
     );
     let dz = new - z[0];
