@@ -58,8 +58,8 @@ pub(super) struct Colouring {
     /// Where each colour's manifolds start in the manifold order, then the manifold
     /// count (the overflow colour, if used, is the last).
     pub(super) colour_start: Vec<usize>,
-    /// Solve position of each contact (natural order; scratch of the manifold lists).
-    position: Vec<usize>,
+    /// Solve position of each contact (natural order).
+    pub(super) position: Vec<usize>,
     /// The first group of the overflow colour (whose manifolds may share bodies: its
     /// groups must be solved in order, on one thread); the group count if none.
     pub(super) serial_from: usize,

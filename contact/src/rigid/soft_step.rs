@@ -717,8 +717,11 @@ impl ContactWorld {
         st.warm_next.clear();
         self.impulses.clear();
         self.impulses.resize(3 * self.contacts.len(), 0.0);
-        for (p, &k) in st.order.iter().enumerate() {
-            let c = &self.contacts[k];
+        // In natural order (the contacts come sorted by pair, and within a pair by
+        // point id as the narrow phase numbers them), so that `warm` is sorted by key
+        // without a sort; checked, and sorted if it is not.
+        for (k, c) in self.contacts.iter().enumerate() {
+            let p = st.colouring.position[k];
             let [zn, z1, z2] = st.impulse[p];
             let [_, t1, t2] = st.dir[p];
             // The anchor's slip at the end of the step; forgotten when the friction
@@ -737,8 +740,10 @@ impl ContactWorld {
             st.warm_next.push((c.key(), zn, t1 * z1 + t2 * z2, slip));
             self.impulses[3 * k..3 * k + 3].copy_from_slice(&st.total[p]);
         }
-        // Keys are unique: the unstable sort is deterministic.
-        st.warm_next.sort_unstable_by_key(|e| e.0);
+        if !st.warm_next.is_sorted_by_key(|e| e.0) {
+            // Keys are unique: the unstable sort is deterministic.
+            st.warm_next.sort_unstable_by_key(|e| e.0);
+        }
         core::mem::swap(&mut st.warm, &mut st.warm_next);
         st.warm_h = hs;
     }
@@ -1310,27 +1315,23 @@ pub(super) fn solve_point<B: Bodies>(
     let ((dpa, rota), (dpb, rotb)) = (vel.displacement(a), vel.displacement(b));
     let dd = (dpb + rotb * rb) - (dpa + rota * ra);
     let gap = rows.base_gap[p] + d[0].dot(dd);
-    let (bias, mass_scale, impulse_scale) = if gap > 0.0 {
+    // Δλ = −m · mass_scale · (J v + bias) − impulse_scale · (λ − λ_pre), then λ ≥ 0,
+    // with the preload capped at `γ/(1 − γ) · m h ω²` times the penetration (only a
+    // penetrating point is preloaded, and no more than the spring at rest would be:
+    // an impact's impulse does not become a push the next step).
+    let (bias, mass_scale, impulse_scale, pre) = if gap > 0.0 {
         // Speculative: approach at most to the surface within the sub-step.
-        (gap * inv_h, 1.0, 0.0)
+        (gap * inv_h, 1.0, 0.0, 0.0)
     } else if use_bias {
         let s = rows.soft[p];
         (
             at_least(s.bias_rate * gap, -max_push),
             s.mass_scale,
             s.impulse_scale,
+            at_most(rows.preload[p], rows.preload_cap[p] * -gap),
         )
     } else {
-        (0.0, 1.0, 0.0)
-    };
-    // Δλ = −m · mass_scale · (J v + bias) − impulse_scale · (λ − λ_pre), then λ ≥ 0,
-    // with the preload capped at `γ/(1 − γ) · m h ω²` times the penetration (only a
-    // penetrating point is preloaded, and no more than the spring at rest would be:
-    // an impact's impulse does not become a push the next step).
-    let pre = if gap > 0.0 {
-        0.0
-    } else {
-        at_most(rows.preload[p], rows.preload_cap[p] * -gap)
+        (0.0, 1.0, 0.0, 0.0)
     };
     let vn = d[0].dot(vb - va) + g[0][1].dot(wb) - g[0][0].dot(wa);
     let new = at_least(
