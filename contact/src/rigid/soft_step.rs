@@ -20,6 +20,15 @@
 //! Δλ = −m · mass_scale · (J v + bias_rate · C) − impulse_scale · λ
 //! ```
 //!
+//! Two changes to that row, both on by default ([`SoftStepSettings::block_normal`],
+//! [`SoftStepSettings::preload`]): the biased pass solves the normal rows of a
+//! manifold (a box face's four corners) together, `(A + diag c) Δλ = −(J v + b +
+//! c∘(λ − λ_pre))` with `c = impulse_scale/(mass_scale · m)` (the rows' own soft
+//! equation, coupled as in Box2D v2.4's block solver), and the leak `impulse_scale ·
+//! λ` becomes `impulse_scale · (λ − λ_pre)`, `λ_pre` a share `γ` of the manifold's
+//! previous mean normal impulse (capped by the penetration), which shifts the
+//! spring's rest length so that a carried load sinks `1 − γ` times as far.
+//!
 //! (`C ≤ 0` the penetration, capped at `max_push_velocity`; a separated pair `C > 0`
 //! gets the speculative target `C/h` and no softness). The separation `C` is updated
 //! each sub-step from the bodies' displacements since the start of the step, with the
