@@ -60,6 +60,8 @@ pub(super) struct Colouring {
     pub(super) colour_start: Vec<usize>,
     /// Solve position of each contact (natural order).
     pub(super) position: Vec<usize>,
+    /// Height of each contact along −gravity (natural order; read by the sorts).
+    height: Vec<f64>,
     /// The first group of the overflow colour (whose manifolds may share bodies: its
     /// groups must be solved in order, on one thread); the group count if none.
     pub(super) serial_from: usize,
@@ -86,7 +88,11 @@ impl Colouring {
         F: Fn(usize) -> ((usize, usize), [usize; 2]),
         H: Fn(usize) -> f64,
     {
-        let below = |p: usize, q: usize| height(p).total_cmp(&height(q)).then(p.cmp(&q));
+        // Heights once per contact, not once per comparison.
+        self.height.clear();
+        self.height.extend((0..n).map(height));
+        let heights = &self.height;
+        let below = |p: usize, q: usize| heights[p].total_cmp(&heights[q]).then(p.cmp(&q));
         // Manifolds: runs of equal pairs in natural order.
         self.start.clear();
         let mut last = None;
