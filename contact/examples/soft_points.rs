@@ -7,10 +7,13 @@
 //!
 //! `cargo run -p constraint-contact --release --example soft_points -- SCENE STEPS SUBSTEPS [KEY=VALUE ...]`
 //!
-//! `SCENE`: `stack10` (`scenes::box_stack(10)`), `pyramid20` (`scenes::pyramid(20)`) or
-//! `heavy1e4` (`scenes::heavy_on_light(1e4)`); keys: `hertz`, `zeta`, `push`,
+//! `SCENE`: `stack10` (`scenes::box_stack(10)`), `pyramid20` (`scenes::pyramid(20)`),
+//! `heavy1e4` (`scenes::heavy_on_light(1e4)`) or `pile1000`; keys: `hertz`, `zeta`, `push`,
 //! `anchors` (0/1), `oneway` (the one-way mass ratio), `block` (0/1), `preload`,
-//! `relax` (relax passes), `residual` (0/1), `threads` (the `SoftStepSettings` fields).
+//! `relax` (relax passes), `residual` (0/1), `threads` (the `SoftStepSettings` fields);
+//! `pile1000` (`scenes::pile(1000, 1)`) prints the deepest penetration of the last
+//! step. `TRACE=1` prints the top box's displacement every 20 steps (and each of the
+//! first 20), `WORST=1` the five most displaced boxes at the end.
 
 use constraint_contact::rigid::{ContactSolver, ContactWorld};
 use constraint_contact::scenes::{box_stack, heavy_on_light, pile, pyramid};
