@@ -2694,6 +2694,13 @@ fn contact_cases(s: &mut Sweep) {
                     ..Default::default()
                 },
             ),
+            (
+                "preload",
+                SoftStepSettings {
+                    preload: v,
+                    ..Default::default()
+                },
+            ),
         ];
         // Sleeping (issue 14) on, with each bad threshold, under the dense default and
         // the soft step.

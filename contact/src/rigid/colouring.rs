@@ -50,6 +50,18 @@ pub(super) struct Colouring {
     /// (the first points of the colour's manifolds, then their second points, …): two
     /// points of one manifold share both bodies, so they are never in one group.
     pub(super) ranges: Vec<usize>,
+    /// Manifolds in solve order (colour-major, bottom-up within a colour): where each
+    /// manifold's points start in [`Colouring::manifold_points`], then their count.
+    pub(super) manifold_start: Vec<usize>,
+    /// The solve positions of each manifold's points (bottom-up within a manifold).
+    pub(super) manifold_points: Vec<usize>,
+    /// Where each colour's manifolds start in the manifold order, then the manifold
+    /// count (the overflow colour, if used, is the last).
+    pub(super) colour_start: Vec<usize>,
+    /// Solve position of each contact (natural order).
+    pub(super) position: Vec<usize>,
+    /// Height of each contact along −gravity (natural order; read by the sorts).
+    height: Vec<f64>,
     /// The first group of the overflow colour (whose manifolds may share bodies: its
     /// groups must be solved in order, on one thread); the group count if none.
     pub(super) serial_from: usize,
@@ -76,7 +88,11 @@ impl Colouring {
         F: Fn(usize) -> ((usize, usize), [usize; 2]),
         H: Fn(usize) -> f64,
     {
-        let below = |p: usize, q: usize| height(p).total_cmp(&height(q)).then(p.cmp(&q));
+        // Heights once per contact, not once per comparison.
+        self.height.clear();
+        self.height.extend((0..n).map(height));
+        let heights = &self.height;
+        let below = |p: usize, q: usize| heights[p].total_cmp(&heights[q]).then(p.cmp(&q));
         // Manifolds: runs of equal pairs in natural order.
         self.start.clear();
         let mut last = None;
@@ -144,7 +160,9 @@ impl Colouring {
         self.ranges.clear();
         let mut first = 0;
         self.serial_from = usize::MAX;
+        self.colour_start.clear();
         for c in 0..self.colours {
+            self.colour_start.push(first);
             if c == COLOURS as usize {
                 self.serial_from = self.ranges.len();
             }
@@ -167,6 +185,25 @@ impl Colouring {
         }
         self.serial_from = self.serial_from.min(self.ranges.len());
         self.ranges.push(self.out.len());
+        // Manifolds in colour order with their points' solve positions (the block
+        // normal solve walks a colour manifold by manifold: within a colour the
+        // manifolds touch disjoint moving bodies, so this is the same order of work).
+        self.position.clear();
+        self.position.resize(n, 0);
+        for (pos, &k) in self.out.iter().enumerate() {
+            self.position[k] = pos;
+        }
+        self.manifold_start.clear();
+        self.manifold_points.clear();
+        for &j in &self.by_colour {
+            self.manifold_start.push(self.manifold_points.len());
+            let (s, e) = (self.start[j as usize], self.start[j as usize + 1]);
+            for &k in &order[s..e] {
+                self.manifold_points.push(self.position[k]);
+            }
+        }
+        self.manifold_start.push(self.manifold_points.len());
+        self.colour_start.push(m);
         core::mem::swap(order, &mut self.out);
     }
 }
@@ -200,6 +237,11 @@ mod tests {
         // Groups: colour 0's first points, its second points, then colour 1's.
         assert_eq!(c.ranges, [0, 2, 4, 6, 8]);
         assert_eq!(c.serial_from, 4);
+        // Manifolds in colour order: (0,1), (2,3), then (1,2), (3,4); each one's points
+        // at their solve positions.
+        assert_eq!(c.colour_start, [0, 2, 4]);
+        assert_eq!(c.manifold_start, [0, 2, 4, 6, 8]);
+        assert_eq!(c.manifold_points, [0, 2, 1, 3, 4, 6, 5, 7]);
     }
 
     /// Manifolds of one colour never share a moving body, on a random-ish graph of

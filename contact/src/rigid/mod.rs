@@ -50,7 +50,10 @@ mod soft_step;
 
 pub use path::{RowsSolver, SolverPath};
 pub use sleep::SleepSettings;
-pub use soft_step::{SoftStepSettings, Softness, MAX_SUBSTEPS, MAX_THREADS, PARALLEL_MIN_POINTS};
+pub use soft_step::{
+    SoftStepSettings, Softness, BLOCK_POINTS, MAX_RELAX_PASSES, MAX_SUBSTEPS, MAX_THREADS,
+    PARALLEL_MIN_POINTS,
+};
 
 use crate::lcp::{Coupling, LcpError, RowBound, RowMethod, RowSettings, SparseRows};
 

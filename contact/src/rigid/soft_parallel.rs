@@ -9,10 +9,13 @@
 //! both bodies) — each group cut into one contiguous chunk per thread, and all threads
 //! meet at a barrier before the next group. The per-body
 //! stages (gravity, positions) are cut the same way over the bodies. The overflow
-//! colour, whose manifolds may share bodies, is solved in order by one thread.
+//! colour, whose manifolds may share bodies, is solved in order by one thread. With
+//! block normal solves ([`super::SoftStepSettings::block_normal`]) the biased pass
+//! runs colour by colour over whole manifolds instead ([`solve_manifold`], the
+//! one-thread pass's order), each colour's manifolds cut into one chunk per thread.
 //!
 //! **Same bits on any thread count.** Every point and body is updated by exactly the
-//! arithmetic of the one-thread passes (the same [`solve_point`], [`apply_point`],
+//! arithmetic of the one-thread passes (the same [`solve_point`], [`solve_manifold`], [`apply_point`],
 //! [`integrate_velocity`], [`integrate_position`]) on the same values: inside a group
 //! no point reads what another writes, and between groups the barrier orders them, in
 //! the one-thread order. So
@@ -33,7 +36,8 @@ use core::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use constraint_core::{DMat3, DQuat, DVec3};
 
 use super::soft_step::{
-    apply_point, integrate_position, integrate_velocity, solve_point, Bodies, Pass, SoftState,
+    apply_point, integrate_position, integrate_velocity, solve_manifold, solve_point, Bodies, Pass,
+    PointImpulses, SoftState,
 };
 
 /// A barrier the threads spin on (then yield): a colour's pass takes microseconds, too
@@ -166,6 +170,21 @@ impl Bodies for SharedBodies<'_> {
     }
 }
 
+/// [`PointImpulses`] over the shared buffers.
+struct SharedImpulses<'a>(&'a ParallelState);
+
+impl PointImpulses for SharedImpulses<'_> {
+    #[inline(always)]
+    fn get(&self, p: usize) -> ([f64; 3], f64) {
+        (self.0.impulse.vec3(p).to_array(), self.0.max_normal.get(p))
+    }
+    #[inline(always)]
+    fn set(&mut self, p: usize, z: [f64; 3], max_normal: f64) {
+        self.0.impulse.set_vec3(p, DVec3::from_array(z));
+        self.0.max_normal.set(p, max_normal);
+    }
+}
+
 /// The `t`-th of `threads` contiguous chunks of `lo..hi`.
 fn chunk(lo: usize, hi: usize, t: usize, threads: usize) -> core::ops::Range<usize> {
     let n = hi - lo;
@@ -180,6 +199,8 @@ pub(super) struct Plan {
     pub(super) gravity: DVec3,
     pub(super) biased: Pass,
     pub(super) relax: Pass,
+    /// Relax passes per sub-step.
+    pub(super) relax_passes: usize,
 }
 
 /// The point groups of a step (the colouring's `ranges`) and the threads' barrier.
@@ -217,6 +238,32 @@ impl Colours<'_> {
     }
 }
 
+/// Thread `t`'s share of one pass over the manifolds (block normal solves): colour by
+/// colour, its chunk of each colour's manifolds, each colour followed by the barrier;
+/// the overflow colour (the last if `serial`) all on thread 0, in order.
+#[inline(always)]
+fn each_manifold(
+    colour_start: &[usize],
+    serial: bool,
+    t: usize,
+    threads: usize,
+    barrier: &SpinBarrier,
+    mut f: impl FnMut(usize),
+) {
+    let colours = colour_start.len().saturating_sub(1);
+    for c in 0..colours {
+        let (lo, hi) = (colour_start[c], colour_start[c + 1]);
+        if serial && c + 1 == colours {
+            if t == 0 {
+                (lo..hi).for_each(&mut f);
+            }
+        } else {
+            chunk(lo, hi, t, threads).for_each(&mut f);
+        }
+        barrier.wait();
+    }
+}
+
 /// Runs the sub-steps of [`super::ContactWorld::soft_step`] on `threads` threads: per
 /// sub-step gravity, warm start, the biased pass, positions, the relax pass and the
 /// impulse totals, as the one-thread loop does, with the same bits.
@@ -233,6 +280,10 @@ pub(super) fn run(st: &mut SoftState, threads: usize, plan: Plan) {
     };
     let rows = st.rows();
     let inv_mass = &st.inv_mass;
+    let blocks = &st.blocks;
+    let cl = &st.colouring;
+    // The overflow colour is in use when some group is serial.
+    let serial = cl.serial_from + 1 < cl.ranges.len();
     let par_ref = &par;
     let worker = |t: usize| {
         let shared = par_ref;
@@ -261,7 +312,30 @@ pub(super) fn run(st: &mut SoftState, threads: usize, plan: Plan) {
                 let z = shared.impulse.vec3(p).to_array();
                 apply_point(&rows, p, z, &mut SharedBodies(shared));
             });
-            pass(plan.biased);
+            if blocks.is_empty() {
+                pass(plan.biased);
+            } else {
+                each_manifold(
+                    &cl.colour_start,
+                    serial,
+                    t,
+                    threads,
+                    &colours.barrier,
+                    |j| {
+                        let pts =
+                            &cl.manifold_points[cl.manifold_start[j]..cl.manifold_start[j + 1]];
+                        let mut io = SharedImpulses(shared);
+                        solve_manifold(
+                            &rows,
+                            &blocks[j],
+                            pts,
+                            &mut io,
+                            &mut SharedBodies(shared),
+                            plan.biased,
+                        );
+                    },
+                );
+            }
             for i in chunk(0, moving, t, threads) {
                 let (mut dp, rot) = SharedBodies(shared).displacement(i);
                 let mut rot = rot;
@@ -283,7 +357,9 @@ pub(super) fn run(st: &mut SoftState, threads: usize, plan: Plan) {
                 }
             }
             colours.barrier.wait();
-            pass(plan.relax);
+            for _ in 0..plan.relax_passes {
+                pass(plan.relax);
+            }
             for p in chunk(0, points, t, threads) {
                 let (tot, z) = (shared.total.vec3(p), shared.impulse.vec3(p));
                 shared.total.set_vec3(p, tot + z);

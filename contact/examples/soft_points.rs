@@ -1,0 +1,108 @@
+//! One measured point of the soft step (`ContactSolver::SoftStep`): runs a scene for a
+//! number of steps at `h = 1/60` from the start and prints the figures the peer
+//! comparison records (`constraint-peers`' `Tracker`): the top box's largest
+//! displacement from its start (drift), its final sink, and the worst displacement of
+//! any box. A fixed run for instruction counts (`valgrind --tool=callgrind`; subtract a
+//! shorter run for the count per step).
+//!
+//! `cargo run -p constraint-contact --release --example soft_points -- SCENE STEPS SUBSTEPS [KEY=VALUE ...]`
+//!
+//! `SCENE`: `stack10` (`scenes::box_stack(10)`), `pyramid20` (`scenes::pyramid(20)`),
+//! `heavy1e4` (`scenes::heavy_on_light(1e4)`) or `pile1000`; keys: `hertz`, `zeta`, `push`,
+//! `anchors` (0/1), `oneway` (the one-way mass ratio), `block` (0/1), `preload`,
+//! `relax` (relax passes), `residual` (0/1), `threads` (the `SoftStepSettings` fields);
+//! `pile1000` (`scenes::pile(1000, 1)`) prints the deepest penetration of the last
+//! step. `TRACE=1` prints the top box's displacement every 20 steps (and each of the
+//! first 20), `WORST=1` the five most displaced boxes at the end.
+
+use constraint_contact::rigid::{ContactSolver, ContactWorld};
+use constraint_contact::scenes::{box_stack, heavy_on_light, pile, pyramid};
+
+fn centres(w: &ContactWorld) -> Vec<[f64; 3]> {
+    w.bodies().iter().map(|b| b.pose.x.to_array()).collect()
+}
+
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let scene = args.first().map_or("stack10", String::as_str);
+    let steps: usize = args.get(1).map_or(Ok(600), |s| s.parse())?;
+    let substeps: usize = args.get(2).map_or(Ok(4), |s| s.parse())?;
+    let mut w = match scene {
+        "stack10" => box_stack(10)?,
+        "pyramid20" => pyramid(20)?,
+        "heavy1e4" => heavy_on_light(1e4)?,
+        "pile1000" => pile(1000, 1)?,
+        other => return Err(format!("unknown scene {other}").into()),
+    };
+    w.settings.solver = ContactSolver::SoftStep { substeps };
+    let s = &mut w.settings.soft_step;
+    for kv in args.iter().skip(3) {
+        let (k, v) = kv.split_once('=').ok_or("expected KEY=VALUE")?;
+        let x: f64 = v.parse()?;
+        match k {
+            "hertz" => s.hertz = x,
+            "zeta" => s.damping_ratio = x,
+            "push" => s.max_push_velocity = x,
+            "anchors" => s.friction_anchors = x != 0.0,
+            "oneway" => s.one_way_mass_ratio = x,
+            "block" => s.block_normal = x != 0.0,
+            "preload" => s.preload = x,
+            "relax" => s.relax_passes = x as usize,
+            "residual" => s.residual = x != 0.0,
+            "threads" => s.threads = x as usize,
+            other => return Err(format!("unknown key {other}").into()),
+        }
+    }
+    let x0 = centres(&w);
+    let top = (0..x0.len()).fold(0, |t, i| if x0[i][2] > x0[t][2] { i } else { t });
+    let (mut drift, mut worst) = (0.0f64, 0.0f64);
+    let h = 1.0 / 60.0;
+    let trace = std::env::var("TRACE").is_ok();
+    let mut depth = 0.0;
+    for k in 0..steps {
+        depth = w.step(h)?.max_penetration;
+        if trace && (k < 20 || k % 20 == 0) {
+            let x = w.bodies()[top].pose.x;
+            println!(
+                "{k} top {:.4e} {:.4e} {:.4e}",
+                x.x - x0[top][0],
+                x.y - x0[top][1],
+                x.z - x0[top][2]
+            );
+        }
+        for (i, (p, p0)) in centres(&w).iter().zip(&x0).enumerate() {
+            let d = distance(*p, *p0);
+            let d = if d.is_finite() { d } else { f64::INFINITY };
+            worst = worst.max(d);
+            if i == top {
+                drift = drift.max(d);
+            }
+        }
+    }
+    if std::env::var("WORST").is_ok() {
+        let x = centres(&w);
+        let mut v: Vec<(f64, usize)> = x
+            .iter()
+            .zip(&x0)
+            .enumerate()
+            .map(|(i, (p, p0))| (distance(*p, *p0), i))
+            .collect();
+        v.sort_by(|a, b| b.0.total_cmp(&a.0));
+        for &(d, i) in v.iter().take(5) {
+            println!(
+                "box {i} at {:?}: end displacement {d:.3e} = {:.3e} {:.3e} {:.3e}",
+                x0[i],
+                x[i][0] - x0[i][0],
+                x[i][1] - x0[i][1],
+                x[i][2] - x0[i][2]
+            );
+        }
+    }
+    let sink = x0[top][2] - w.bodies()[top].pose.x.z;
+    println!("{scene} {steps} steps soft{substeps}: drift {drift:.3e} m, sink {sink:.3e} m, worst {worst:.3e} m, deepest at the end {depth:.3e} m");
+    Ok(())
+}
