@@ -213,6 +213,9 @@ pub fn classify(cell: &Cell) -> CellResult {
             return r;
         }
     };
+    // The map reports each cell's worst residual: the soft step computes it only on
+    // request (`SoftStepSettings::residual`; NaN otherwise).
+    w.settings.soft_step.residual = true;
     let bound = BLOWUP_EXTENT * (cell.boxes as f64 + 1.0) * SIZE;
     let mut iters = 0usize;
     // Per step: the farthest box from rest and the deepest contact, for the second half

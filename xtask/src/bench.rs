@@ -449,7 +449,7 @@ const CONTACT_SCENES: [(&str, &str); 4] = [
 
 /// Engines of the contact scenes: `(id, label)`; the contact_peers bench's, then
 /// MuJoCo's settings ([`bench_contact::BOX_SETTINGS`], [`bench_contact::SLIDE_SETTINGS`]).
-const CONTACT_ENGINES: [(&str, &str); 15] = [
+const CONTACT_ENGINES: [(&str, &str); 17] = [
     ("ours_auto", "ours (Auto)"),
     ("ours_si", "ours (SI)"),
     ("ours_soft1", "ours (soft step, 1 sub-step)"),
@@ -460,18 +460,29 @@ const CONTACT_ENGINES: [(&str, &str); 15] = [
         "ours_soft4_oneway",
         "ours (soft step, 4 sub-steps, one-way above 100:1)",
     ),
-    ("ours_soft8_120hz", "ours (soft step, 8 sub-steps, 120 Hz)"),
+    (
+        "ours_soft4_relax2",
+        "ours (soft step, 4 sub-steps, 2 relax passes)",
+    ),
+    (
+        "ours_soft8_90hz",
+        "ours (soft step, 8 sub-steps, 90 Hz, no preload)",
+    ),
+    (
+        "ours_soft8_120hz",
+        "ours (soft step, 8 sub-steps, 120 Hz, no preload)",
+    ),
     (
         "ours_soft8_120hz_anchors",
-        "ours (soft step, 8 sub-steps, 120 Hz, friction anchors)",
+        "ours (soft step, 8 sub-steps, 120 Hz, friction anchors, no preload)",
     ),
     (
         "ours_soft12_150hz",
-        "ours (soft step, 12 sub-steps, 150 Hz)",
+        "ours (soft step, 12 sub-steps, 150 Hz, no preload)",
     ),
     (
         "ours_soft16_240hz",
-        "ours (soft step, 16 sub-steps, 240 Hz)",
+        "ours (soft step, 16 sub-steps, 240 Hz, no preload)",
     ),
     ("rapier", "rapier3d"),
     ("mujoco", "MuJoCo (dt = 1/60)"),
