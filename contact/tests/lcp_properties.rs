@@ -236,13 +236,18 @@ proptest! {
         }
     }
 
-    /// Friction-structured planted boxed problems: PGS reaches the tolerance; Lemke and
-    /// Newton refuse them (typed).
+    /// Friction-structured planted boxed problems: PGS reaches the tolerance or reports
+    /// a typed iteration limit; Lemke and Newton refuse them (typed).
     #[test]
     fn planted_friction_pgs(seed in any::<u64>()) {
         let (lcp, _) = planted_friction(seed);
-        let p = pgs(&lcp, &pgs_s(PGS_TOL), None).unwrap();
-        prop_assert!(p.residual <= PGS_TOL);
+        // About 1 in 20,000 of these problems stalls (friction bounds that move with the
+        // normal impulses have no PGS convergence guarantee): a typed limit, never a
+        // wrong answer; how rare is `planted_friction_pgs_converges_on_almost_all`.
+        match pgs(&lcp, &pgs_s(PGS_TOL), None) {
+            Ok(p) => prop_assert!(p.residual <= PGS_TOL),
+            Err(e) => prop_assert!(matches!(e, LcpError::IterationLimit { .. }), "{}", e),
+        }
         prop_assert!(matches!(lemke(&lcp, &lemke_s(), None), Err(LcpError::Unsupported(_))));
     }
 
@@ -506,4 +511,25 @@ fn pgs_fused_check_returns_the_first_converged_sweep() {
     }
     println!("compared {compared} runs, at most {most} sweeps");
     assert!(compared >= 100, "only {compared} runs converged");
+}
+
+/// Projected Gauss–Seidel on friction-coupled bounds (`|z_t| ≤ μ z_n`, moving with the
+/// normal impulses) has no convergence guarantee: the proptest above accepts a typed
+/// `IterationLimit`. How often it converges is this test's property: on 5,000 seeded
+/// planted problems, at least 4,990 reach the tolerance (measured: all 5,000; over
+/// 200,000 seeds 10 did not, e.g. seed 13474028506244343468, 12 rows, which stalls at
+/// residual 6.7e-2).
+#[test]
+fn planted_friction_pgs_converges_on_almost_all() {
+    let mut rng = Rng(7);
+    let mut converged = 0;
+    for _ in 0..5000 {
+        let (lcp, _) = planted_friction(rng.next_u64());
+        if let Ok(p) = pgs(&lcp, &pgs_s(PGS_TOL), None) {
+            assert!(p.residual <= PGS_TOL, "{:e}", p.residual);
+            converged += 1;
+        }
+    }
+    println!("PGS converged on {converged} of 5000 planted friction problems");
+    assert!(converged >= 4990, "{converged}");
 }
