@@ -433,16 +433,17 @@ impl World {
             self.umark = mark;
             return Err(e);
         }
-        // A = G Y, q = G x_free − bias. Every entry of `a` is written below: no zeroing.
-        // A body row's entries read its two bodies' six unknowns of each column
-        // (`gather_at`, the same sums as `gather`); a tendon limit's go through its spans.
+        // A = G Y, q = G x_free − bias: the lower triangle `a_ik = G_i Y_k`, `k ≤ i`,
+        // then mirrored; every entry of `a` is written, so it is not zeroed. A body
+        // row's entries read its two bodies' six unknowns of each column (`gather_at`,
+        // the same sums as `gather`); a tendon limit's go through its spans.
         let mut a = core::mem::take(&mut self.udel);
         a.resize(m * m, 0.0);
         a.truncate(m * m);
         let mut q = core::mem::take(&mut self.uq);
         q.clear();
         for (i, ri) in rows.iter().enumerate() {
-            let a_row = &mut a[i * m..(i + 1) * m];
+            let a_row = &mut a[i * m..i * m + i + 1];
             match row_offsets(&self.solver, ri) {
                 Some(off) => {
                     for (k, e) in a_row.iter_mut().enumerate() {
@@ -458,12 +459,11 @@ impl World {
             }
             q.push(gather(&self.solver, &self.tendon_spans, &self.rhs, ri) - ri.bias);
         }
-        // Symmetrise the round-off (A is symmetric in exact arithmetic).
+        // A = G H⁻¹ Gᵀ is symmetric: the upper triangle is the lower one mirrored (half
+        // the gathers of computing both and averaging their round-off).
         for i in 0..m {
             for k in i + 1..m {
-                let s = 0.5 * (a[i * m + k] + a[k * m + i]);
-                a[i * m + k] = s;
-                a[k * m + i] = s;
+                a[i * m + k] = a[k * m + i];
             }
         }
         let mut bounds = core::mem::take(&mut self.ubounds);
