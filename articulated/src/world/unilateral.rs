@@ -433,25 +433,37 @@ impl World {
             self.umark = mark;
             return Err(e);
         }
-        // A = G Y, q = G x_free − bias.
+        // A = G Y, q = G x_free − bias: the lower triangle `a_ik = G_i Y_k`, `k ≤ i`,
+        // then mirrored; every entry of `a` is written, so it is not zeroed. A body
+        // row's entries read its two bodies' six unknowns of each column (`gather_at`,
+        // the same sums as `gather`); a tendon limit's go through its spans.
         let mut a = core::mem::take(&mut self.udel);
-        a.clear();
         a.resize(m * m, 0.0);
+        a.truncate(m * m);
         let mut q = core::mem::take(&mut self.uq);
         q.clear();
         for (i, ri) in rows.iter().enumerate() {
-            for k in 0..m {
-                let col = &ycols[k * size..(k + 1) * size];
-                a[i * m + k] = gather(&self.solver, &self.tendon_spans, col, ri);
+            let a_row = &mut a[i * m..i * m + i + 1];
+            match row_offsets(&self.solver, ri) {
+                Some(off) => {
+                    for (k, e) in a_row.iter_mut().enumerate() {
+                        *e = gather_at(&ycols[k * size..(k + 1) * size], off, &ri.j);
+                    }
+                }
+                None => {
+                    for (k, e) in a_row.iter_mut().enumerate() {
+                        let col = &ycols[k * size..(k + 1) * size];
+                        *e = gather(&self.solver, &self.tendon_spans, col, ri);
+                    }
+                }
             }
             q.push(gather(&self.solver, &self.tendon_spans, &self.rhs, ri) - ri.bias);
         }
-        // Symmetrise the round-off (A is symmetric in exact arithmetic).
+        // A = G H⁻¹ Gᵀ is symmetric: the upper triangle is the lower one mirrored (half
+        // the gathers of computing both and averaging their round-off).
         for i in 0..m {
             for k in i + 1..m {
-                let s = 0.5 * (a[i * m + k] + a[k * m + i]);
-                a[i * m + k] = s;
-                a[k * m + i] = s;
+                a[i * m + k] = a[k * m + i];
             }
         }
         let mut bounds = core::mem::take(&mut self.ubounds);
@@ -572,6 +584,38 @@ pub(super) fn gather(
         let o = solver.body_offset(body);
         s += r.j[2 * side].dot(DVec3::new(x[o], x[o + 1], x[o + 2]))
             + r.j[2 * side + 1].dot(DVec3::new(x[o + 3], x[o + 4], x[o + 5]));
+    }
+    s
+}
+
+/// The unknowns' offsets `[o_a, o_b]` of a body row's two sides (`usize::MAX` for the
+/// static world), for [`gather_at`]; `None` for a tendon limit (its spans) or a body
+/// beyond the tree.
+fn row_offsets(solver: &crate::tree::TreeSolver, r: &URow) -> Option<[usize; 2]> {
+    if matches!(r.source, RowSource::TendonLimit { .. }) {
+        return None;
+    }
+    let off = |b: Option<usize>| match b {
+        None => Some(usize::MAX),
+        Some(i) => solver.offset.get(i).copied(),
+    };
+    Some([off(r.a)?, off(r.b)?])
+}
+
+/// [`gather`] of a body row at the offsets [`row_offsets`] gave: `G x` summed in the
+/// same order (side `a`, then `b`; each `j_v · v + j_ω · ω`), so the values are the same
+/// to the bit, without the per-call source match and offset look-up (the dense
+/// Delassus assembly calls it `m²` times a step).
+#[inline(always)]
+fn gather_at(x: &[f64], off: [usize; 2], j: &[DVec3; 4]) -> f64 {
+    let mut s = 0.0;
+    for (side, &o) in off.iter().enumerate() {
+        if o == usize::MAX {
+            continue;
+        }
+        let v = &x[o..o + 6];
+        s += j[2 * side].dot(DVec3::new(v[0], v[1], v[2]))
+            + j[2 * side + 1].dot(DVec3::new(v[3], v[4], v[5]));
     }
     s
 }
