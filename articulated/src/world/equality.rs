@@ -32,7 +32,10 @@
 //! complement keeps the loop code and the one-sided solve unchanged, and the one-sided
 //! rows see the equalities through the same correction of their columns
 //! (`y ← y − Y_E S⁺ E y`, [`EqRows::correct`]), so limits, contacts and equalities hold
-//! in one solve. Right-hand sides: `r_E = −β C/h` at the velocity level, `−C` in the
+//! in one solve. A velocity-level step with one-sided rows and no loop joints solves
+//! the same rows in the active set instead (`world/active_set.rs`): always-active
+//! Schur rows over the factor of the tree and the active one-sided rows, with the
+//! same `ν`; the dense path above is its fallback. Right-hand sides: `r_E = −β C/h` at the velocity level, `−C` in the
 //! Newton position projection (which also counts `|C|` in its error, so
 //! `VelocityProjected` drives `C → 0` at the position level).
 //!
@@ -363,7 +366,8 @@ impl World {
     }
 
     /// The multipliers `ν` (impulses, N·s or N·m·s) of the equality rows in the last
-    /// solve that had them, before the one-sided rows' correction.
+    /// solve that had them: on the dense path before the one-sided rows' correction,
+    /// from the active set (`world/active_set.rs`) with the one-sided rows' impulses.
     pub fn equality_impulses(&self) -> &[f64] {
         &self.eq.nu
     }
