@@ -44,6 +44,14 @@
 //! dense path's `x = x_free − Y_E ν`), never in the status update. An equality row the
 //! others leave unreachable by more than the tolerance (a redundant row whose target
 //! disagrees) sends the step to the dense path, whose minimum-norm solve takes it.
+//! Measured (issue 13, dm_control's manipulator and stacker, one `equality/tendon`
+//! coupling the fingers; 1 s passive, RATTLE): `World::step` 0.575M → 0.556M and
+//! 1.240M → 0.756M instructions per step against sending their steps to the dense
+//! path; manipulator 766 tries, 19 failed, 83 steps skipped by the back-off, stacker
+//! 723, 28, 62 (5 s: 4 765, 22, 84 and 4 723, 28, 62). The same models without the
+//! equality: 0.500M and 0.716M, with the same active-set instructions, so the rows
+//! cost the active set next to nothing; the rest is the projection's equality
+//! complement.
 //!
 //! A step with a row neither kind holds (a tendon limit), with loop joints, whose set
 //! does not settle within [`MAX_ITERATIONS`] or returns to a set met
