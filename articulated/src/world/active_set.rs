@@ -105,6 +105,11 @@ use crate::tree_rows::{ExtraRow, RowTree};
 /// about three dense steps, so the cap is 12 (it was 20: dm_control's humanoid, 1 s
 /// passive, 815M → 783M instructions, the same trajectory to the last printed digit;
 /// humanoid_CMU, 2 s passive, the same penetration, root height within 2.5e-5 m).
+/// Tried and left out (issue 13, `World::step` instructions per step, 1 s passive):
+/// 8 (stacker 0.756M → 0.714M, manipulator 0.556M → 0.553M, dm_control's humanoid
+/// 3.12M → 3.02M, humanoid_CMU 3.93M → 3.89M), but a random limited chain of
+/// `tests/active_set.rs` then needs more and goes to the dense path; 20 (stacker
+/// 0.801M, manipulator 0.559M).
 pub const MAX_ITERATIONS: usize = 12;
 
 /// Most steps [`World::solve_unilateral_sparse`]'s back-off sends to the dense path
