@@ -37,8 +37,27 @@
 //! and checked by value. The same primal–dual iteration decides the statuses of both
 //! kinds.
 //!
-//! A step with a row neither kind holds (a tendon limit), with loop joints or equality
-//! rows, whose set does not settle within [`MAX_ITERATIONS`] or returns to a set met
+//! Equality rows ([`super::equality`], MuJoCo's `equality/joint` and `equality/tendon`:
+//! rows over several bodies, so neither a tree node's row nor a two-body one) are
+//! Schur rows too, always active and two-sided: appended after the coupled rows in
+//! every iteration, with the target `r_E = −β C/h`, their multipliers `ν = ζ` (the
+//! dense path's `x = x_free − Y_E ν`), never in the status update. An equality row the
+//! others leave unreachable by more than the tolerance (a redundant row whose target
+//! disagrees) sends the step to the dense path, whose minimum-norm solve takes it.
+//! Measured (issue 13, dm_control's manipulator and stacker, one `equality/tendon`
+//! coupling the fingers; 1 s passive, RATTLE): `World::step` 0.575M → 0.556M and
+//! 1.240M → 0.756M instructions per step against sending their steps to the dense
+//! path; manipulator 766 tries, 19 failed, 83 steps skipped by the back-off, stacker
+//! 723, 28, 62 (5 s: 4 765, 22, 84 and 4 723, 28, 62). The same models without the
+//! equality: 0.500M and 0.716M, with the same active-set instructions, so the rows
+//! cost the active set next to nothing; of the rest (manipulator, 56K per step) 23K
+//! is the position projection's equality complement, the remainder the rows' assembly
+//! and the dense steps. The failures (5 s) are sets not settled within
+//! [`MAX_ITERATIONS`] (manipulator 12, stacker 24), cycles (9, 3) and a dependent
+//! one-sided row (1, 1); no step failed on an unreachable equality row.
+//!
+//! A step with a row neither kind holds (a tendon limit), with loop joints, whose set
+//! does not settle within [`MAX_ITERATIONS`] or returns to a set met
 //! earlier in the step (the update cycles), with more than
 //! [`MAX_SCHUR`] Schur rows, or where a dependent row's value cannot be held, goes to
 //! the dense path unchanged (counted in [`super::UnilateralStats`]); after three or
@@ -86,6 +105,11 @@ use crate::tree_rows::{ExtraRow, RowTree};
 /// about three dense steps, so the cap is 12 (it was 20: dm_control's humanoid, 1 s
 /// passive, 815M → 783M instructions, the same trajectory to the last printed digit;
 /// humanoid_CMU, 2 s passive, the same penetration, root height within 2.5e-5 m).
+/// Tried and left out (issue 13, `World::step` instructions per step, 1 s passive):
+/// 8 (stacker 0.756M → 0.714M, manipulator 0.556M → 0.553M, dm_control's humanoid
+/// 3.12M → 3.02M, humanoid_CMU 3.93M → 3.89M), but a random limited chain of
+/// `tests/active_set.rs` then needs more and goes to the dense path; 20 (stacker
+/// 0.801M, manipulator 0.559M).
 pub const MAX_ITERATIONS: usize = 12;
 
 /// Most steps [`World::solve_unilateral_sparse`]'s back-off sends to the dense path
@@ -306,7 +330,10 @@ impl World {
             st.status.push(s);
             st.z.push(z);
         }
-        let bias_scale = self.urows.iter().fold(1.0f64, |s, r| s.max(r.bias.abs()));
+        let bias_scale = (0..self.eq.len())
+            .map(|e| self.eq.target(e))
+            .chain(self.urows.iter().map(|r| r.bias))
+            .fold(1.0f64, |s, b| s.max(b.abs()));
         let tol_w = self.unilateral.solver.tolerance * bias_scale;
         let mut iterations = 0;
         let mut settled = false;
@@ -378,7 +405,7 @@ impl World {
                 st.z[i] = -st.x[f.row_position(k)];
             }
             for (c, &i) in st.schur.iter().enumerate() {
-                if st.schur_pos[c] == usize::MAX {
+                if st.schur_pos[c] == usize::MAX && i < m {
                     st.z[i] = -st.zeta[c];
                 }
             }
@@ -394,6 +421,14 @@ impl World {
             // mended here; a boxed or friction one slides, to the bound against its rate.
             let mut changed = false;
             for &i in &st.schur {
+                if i >= m {
+                    // An equality row the others make unreachable (a redundant row
+                    // whose target disagrees): the dense path's minimum-norm solve.
+                    if (self.schur_gather(f, &st.x, i) - self.schur_bias(i)).abs() > tol_w {
+                        return false;
+                    }
+                    continue;
+                }
                 let w = st.w[i];
                 match self.urows[i].bound {
                     RowBound::Unilateral if w < -tol_w => return false,
@@ -480,6 +515,18 @@ impl World {
         self.mu.clear();
         self.uz.clear();
         self.uz.extend_from_slice(&st.z);
+        // The equality multipliers ν = ζ of their Schur rows (x = x_A − Y ζ, as the
+        // dense complement's x = x_free − Y_E ν); zero where the others held them.
+        let ne = self.eq.len();
+        if ne > 0 {
+            let (schur, zeta) = (&st.schur, &st.zeta);
+            self.eq.set_impulses((0..ne).map(|e| {
+                schur
+                    .iter()
+                    .position(|&i| i == m + e)
+                    .map_or(0.0, |c| zeta.get(c).copied().unwrap_or(0.0))
+            }));
+        }
         self.ustats.sparse = true;
         self.ustats.solver.iterations = iterations;
         let mut worst: f64 = 0.0;
@@ -561,7 +608,7 @@ impl World {
             if d > 0 {
                 st.s_rhs.clear();
                 for &i in &st.schur {
-                    st.s_rhs.push(gather(f, col, &self.urows[i]));
+                    st.s_rhs.push(self.schur_gather(f, col, i));
                 }
                 if !st.s_fac.apply(&st.s_rhs, &mut st.zeta) {
                     return;
@@ -668,15 +715,21 @@ impl World {
                 st.schur_pos.push(usize::MAX);
             }
         }
+        // The equality rows, always active (two-sided, never dropped): row `m + e`.
+        let m = self.urows.len();
+        for e in 0..self.eq.len() {
+            st.schur.push(m + e);
+            st.schur_pos.push(usize::MAX);
+        }
         let d = st.schur.len();
         st.s_ready = false;
         st.zeta.clear();
         st.zeta.resize(d, 0.0);
         // Rows the others already hold (|w| ≤ tol) need nothing more.
-        let held = st.schur.iter().all(|&i| {
-            let r = &self.urows[i];
-            (gather(f, &st.x, r) - r.bias).abs() <= tol_w
-        });
+        let held = st
+            .schur
+            .iter()
+            .all(|&i| (self.schur_gather(f, &st.x, i) - self.schur_bias(i)).abs() <= tol_w);
         if held {
             return true;
         }
@@ -694,10 +747,10 @@ impl World {
             st.y_schur.extend_from_slice(&st.schur);
         }
         let f = &st.factor;
-        let row = |a: usize| &self.urows[st.schur[a]];
         st.s_rhs.clear();
-        for a in 0..d {
-            st.s_rhs.push(gather(f, &st.x, row(a)) - row(a).bias);
+        for &i in &st.schur {
+            st.s_rhs
+                .push(self.schur_gather(f, &st.x, i) - self.schur_bias(i));
         }
         if st.s_rhs.iter().any(|v| !v.is_finite()) || !st.s_fac.apply(&st.s_rhs, &mut st.zeta) {
             return false;
@@ -732,21 +785,11 @@ impl World {
         st.ycols.resize(d * size, 0.0);
         let mut free_scale: f64 = 0.0;
         for (c, &i) in st.schur.iter().enumerate() {
-            let r = &self.urows[i];
             let col = &mut st.ycols[c * size..(c + 1) * size];
-            scatter(f, col, r, 1.0);
+            self.schur_scatter(f, col, i, 1.0);
             f.solve(&self.solver, col);
-            let mut g = 0.0;
-            for (side, body) in [(0usize, r.a), (1usize, r.b)] {
-                if let Some(i) = body {
-                    let b = &self.bodies[i];
-                    g += r.j[2 * side].length_squared() / b.mass()
-                        + r.j[2 * side + 1].dot(b.world_inv_inertia() * r.j[2 * side + 1]);
-                }
-            }
-            free_scale = free_scale.max(g);
+            free_scale = free_scale.max(self.schur_free_scale(i));
         }
-        let row = |a: usize| &self.urows[st.schur[a]];
         st.s_mat.clear();
         st.s_mat.resize(d * d, 0.0);
         for a in 0..d {
@@ -755,7 +798,8 @@ impl World {
                     &st.ycols[a * size..(a + 1) * size],
                     &st.ycols[b * size..(b + 1) * size],
                 );
-                let v = 0.5 * (gather(f, yb, row(a)) + gather(f, ya, row(b)));
+                let (ra, rb) = (st.schur[a], st.schur[b]);
+                let v = 0.5 * (self.schur_gather(f, yb, ra) + self.schur_gather(f, ya, rb));
                 st.s_mat[a * d + b] = v;
                 st.s_mat[b * d + a] = v;
             }
@@ -764,6 +808,60 @@ impl World {
             return false;
         }
         st.s_fac.factor(&mut st.s_mat, d, 1e-10 * free_scale)
+    }
+
+    /// `G x` of Schur row `i` in the augmented layout: one-sided row `i` below
+    /// `m = urows.len()`, equality row `i − m` ([`super::equality`], `E x`, a sum of
+    /// two-body segments) from `m` on.
+    fn schur_gather(&self, f: &RowTree, x: &[f64], i: usize) -> f64 {
+        let m = self.urows.len();
+        match self.urows.get(i) {
+            Some(r) => gather(f, x, r),
+            None => self
+                .eq
+                .segments(i - m)
+                .iter()
+                .map(|(a, b, j)| gather_seg(f, x, *a, Some(*b), j))
+                .sum(),
+        }
+    }
+
+    /// `x += s · Gᵀ` for Schur row `i` ([`Self::schur_gather`]'s numbering).
+    fn schur_scatter(&self, f: &RowTree, x: &mut [f64], i: usize, s: f64) {
+        let m = self.urows.len();
+        match self.urows.get(i) {
+            Some(r) => scatter(f, x, r, s),
+            None => {
+                for (a, b, j) in self.eq.segments(i - m) {
+                    scatter_seg(f, x, *a, Some(*b), j, s);
+                }
+            }
+        }
+    }
+
+    /// Schur row `i`'s target: the one-sided row's bias, the equality's `r_E = −β C/h`.
+    fn schur_bias(&self, i: usize) -> f64 {
+        match self.urows.get(i) {
+            Some(r) => r.bias,
+            None => self.eq.target(i - self.urows.len()),
+        }
+    }
+
+    /// `G M⁻¹ Gᵀ` of Schur row `i` with its bodies free (the rows' scale without the
+    /// tree, for the truncation floor of `S`).
+    fn schur_free_scale(&self, i: usize) -> f64 {
+        let Some(r) = self.urows.get(i) else {
+            return self.eq.row_free_scale(&self.bodies, i - self.urows.len());
+        };
+        let mut g = 0.0;
+        for (side, body) in [(0usize, r.a), (1usize, r.b)] {
+            if let Some(k) = body {
+                let b = &self.bodies[k];
+                g += r.j[2 * side].length_squared() / b.mass()
+                    + r.j[2 * side + 1].dot(b.world_inv_inertia() * r.j[2 * side + 1]);
+            }
+        }
+        g
     }
 
     /// After a dense solve: the statuses its impulses imply, for the next step's warm
@@ -815,24 +913,41 @@ fn bounds(b: &RowBound, z: &[f64]) -> (f64, f64) {
 
 /// `x += s · Gᵀ` on the row's bodies' unknowns in the augmented layout.
 fn scatter(f: &RowTree, x: &mut [f64], r: &URow, s: f64) {
-    for (side, body) in [(0usize, r.a), (1usize, r.b)] {
+    scatter_seg(f, x, r.a, r.b, &r.j, s);
+}
+
+/// `x += s · gᵀ` for a two-body row `g = [v_a, ω_a, v_b, ω_b]` in the augmented layout.
+fn scatter_seg(
+    f: &RowTree,
+    x: &mut [f64],
+    a: Option<usize>,
+    b: Option<usize>,
+    j: &[DVec3; 4],
+    s: f64,
+) {
+    for (side, body) in [(0usize, a), (1usize, b)] {
         let Some(body) = body else { continue };
         let o = f.node_offset(body);
         for c in 0..3 {
-            x[o + c] += s * r.j[2 * side][c];
-            x[o + 3 + c] += s * r.j[2 * side + 1][c];
+            x[o + c] += s * j[2 * side][c];
+            x[o + 3 + c] += s * j[2 * side + 1][c];
         }
     }
 }
 
 /// `G x` on the row's bodies' unknowns in the augmented layout.
 fn gather(f: &RowTree, x: &[f64], r: &URow) -> f64 {
+    gather_seg(f, x, r.a, r.b, &r.j)
+}
+
+/// `g x` for a two-body row `g = [v_a, ω_a, v_b, ω_b]` in the augmented layout.
+fn gather_seg(f: &RowTree, x: &[f64], a: Option<usize>, b: Option<usize>, j: &[DVec3; 4]) -> f64 {
     let mut s = 0.0;
-    for (side, body) in [(0usize, r.a), (1usize, r.b)] {
+    for (side, body) in [(0usize, a), (1usize, b)] {
         let Some(body) = body else { continue };
         let o = f.node_offset(body);
-        s += r.j[2 * side].dot(DVec3::new(x[o], x[o + 1], x[o + 2]))
-            + r.j[2 * side + 1].dot(DVec3::new(x[o + 3], x[o + 4], x[o + 5]));
+        s += j[2 * side].dot(DVec3::new(x[o], x[o + 1], x[o + 2]))
+            + j[2 * side + 1].dot(DVec3::new(x[o + 3], x[o + 4], x[o + 5]));
     }
     s
 }

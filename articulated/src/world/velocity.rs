@@ -21,9 +21,9 @@ impl World {
             // The one-sided rows in the tree factor by an active set; the dense path
             // where that does not apply or does not settle.
             let loops = self.velocity_assemble(ctx, beta);
-            // Loop joints and equality rows go by their Schur complement on the dense
-            // path only.
-            if loops.0.is_empty() && !self.eq.active && self.solve_unilateral_sparse() {
+            // Loop joints go by their Schur complement on the dense path only; equality
+            // rows are the active set's always-active Schur rows (`world/active_set.rs`).
+            if loops.0.is_empty() && self.solve_unilateral_sparse() {
                 self.last_loops = loops;
             } else {
                 self.ustats.dense_fallback = true;
