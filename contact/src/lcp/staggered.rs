@@ -14,8 +14,8 @@ use alloc::vec;
 use alloc::vec::Vec;
 
 use super::{
-    fischer_newton, lemke, pgs, Lcp, LcpError, LemkeSettings, NewtonSettings, PgsSettings,
-    SparseRows,
+    fischer_newton, lemke, pgs, pgs::pgs_keep, Lcp, LcpError, LemkeSettings, NewtonSettings,
+    PgsSettings, SparseRows,
 };
 
 /// The bound of one row.
@@ -397,7 +397,7 @@ pub(crate) fn solve_rows_in(
         ..
     } = scratch;
     let (normal, tangent) = (&normal[..], &tangent[..]);
-    let (nn, nt) = (normal.len(), tangent.len());
+    let nn = normal.len();
     let coupled = |i: usize, z: &[f64]| -> f64 {
         let (s, e) = (cross_start[i], cross_start[i + 1]);
         cross_cols[s..e]
@@ -524,36 +524,27 @@ pub(crate) fn solve_rows_in(
             };
             let lcp = &*lcp;
             stats.friction_pgs = true;
-            match pgs(lcp, &friction_settings, Some(&zt0)) {
+            match pgs_keep(lcp, &friction_settings, Some(&zt0)) {
                 Ok(sol) => {
                     stats.iterations += sol.iterations;
                     for (k, &i) in tangent.iter().enumerate() {
                         z[i] = sol.z[k];
                     }
                 }
-                Err(LcpError::IterationLimit { iterations, .. }) => {
-                    // As many sweeps from the warm start as the PGS ran before it
-                    // stalled or ran out (not a second full budget).
+                Err((LcpError::IterationLimit { iterations, .. }, last)) => {
+                    // The budget answer: the iterate the sweeps reached before they
+                    // stalled or ran out (without one, a non-finite residual, the warm
+                    // start projected into the boxes).
                     stats.friction_budget = true;
-                    let att = lcp.m();
-                    for _ in 0..iterations.min(settings.friction_iterations) {
-                        for (k, &i) in tangent.iter().enumerate() {
-                            let d = att[k * nt + k];
-                            if !(d > 0.0) {
-                                continue;
-                            }
-                            let mut w = qt[k];
-                            for (l, &j) in tangent.iter().enumerate() {
-                                w += att[k * nt + l] * z[j];
-                            }
-                            let (lo, hi) = bound(i, z);
-                            // `min`/`max`, not `clamp`: NaN bounds must not panic.
-                            z[i] = (z[i] - w / d).min(hi).max(lo);
-                        }
-                        stats.iterations += 1;
+                    stats.iterations += iterations;
+                    for (k, &i) in tangent.iter().enumerate() {
+                        let (lo, hi) = bound(i, z);
+                        let zk = last.as_ref().map_or(z[i], |l| l[k]);
+                        // `min`/`max`, not `clamp`: NaN bounds must not panic.
+                        z[i] = zk.min(hi).max(lo);
                     }
                 }
-                Err(e) => return Err(e),
+                Err((e, _)) => return Err(e),
             }
             done += 1;
             stats.sweeps = done;
