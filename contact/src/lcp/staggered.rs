@@ -511,6 +511,7 @@ pub(crate) fn solve_rows_in(
                 tolerance: settings.friction_tolerance,
                 max_iterations: settings.friction_iterations,
                 stall_sweeps: FRICTION_STALL_SWEEPS,
+                check_every: 4,
                 ..PgsSettings::default()
             };
             let lcp = match (&mut tangent_lcp, att_parts.take()) {
