@@ -14,8 +14,8 @@ use alloc::vec;
 use alloc::vec::Vec;
 
 use super::{
-    fischer_newton, lemke, pgs, pgs::pgs_keep, Lcp, LcpError, LemkeSettings, NewtonSettings,
-    PgsSettings, SparseRows,
+    dense::Lu, fischer_newton, lemke, pgs, pgs::pgs_keep, Lcp, LcpError, LcpSolution,
+    LemkeSettings, NewtonSettings, PgsSettings, SparseRows,
 };
 
 /// The bound of one row.
@@ -140,6 +140,10 @@ pub struct RowStats {
     pub friction_budget: bool,
     /// Normal/friction alternations of the staggered coupling.
     pub sweeps: usize,
+    /// One-sided solves answered by the active-set guess ([`RowMethod::Newton`] only):
+    /// the linear solve on the rows the warm start holds active passed the Newton
+    /// method's residual check, so no Newton step ran.
+    pub active_set: usize,
 }
 
 /// The residual of a solution of [`solve_rows`]'s problem: the largest
@@ -433,6 +437,9 @@ pub(crate) fn solve_rows_in(
     };
     let max_sweeps = settings.max_sweeps.max(sweeps);
     let mut done = 0;
+    // The factor of the last active-set guess's block, kept over the alternations
+    // (`A`'s one-sided block does not change between them).
+    let mut guess: Option<ActiveSet> = None;
     let mut alternate = || -> Result<(), LcpError> {
         loop {
             let final_normal = done == max_sweeps;
@@ -468,7 +475,17 @@ pub(crate) fn solve_rows_in(
                     RowMethod::Pgs => [RowMethod::Pgs, RowMethod::Newton, RowMethod::Lemke],
                 };
                 let mut result = Err(LcpError::BadSettings("no solver ran"));
+                if settings.method == RowMethod::Newton && !stats.boxed_fallback {
+                    if let Some(sol) = active_set_guess(lcp, &zn0, &mut guess, settings.tolerance) {
+                        stats.active_set += 1;
+                        stats.accepted = Some(RowMethod::Newton);
+                        result = Ok(sol);
+                    }
+                }
                 for which in order {
+                    if result.is_ok() {
+                        break;
+                    }
                     result = match which {
                         RowMethod::Lemke => lemke(lcp, &lemke_settings, None),
                         RowMethod::Newton => fischer_newton(lcp, &newton_settings, Some(&zn0)),
@@ -573,6 +590,63 @@ pub(crate) fn solve_rows_in(
     }
     *split = back == 2;
     result.map(|()| stats)
+}
+
+/// The active set of a guess and its block's factor (`None`: numerically singular).
+struct ActiveSet {
+    rows: Vec<usize>,
+    lu: Option<Lu>,
+}
+
+/// The active-set guess for the standard LCP `lcp` (`w = M z + q`, `z ≥ 0`, `w ≥ 0`,
+/// `zᵀw = 0`) from the warm start `z0`: with `S = {k : z0_k > 0}`, solve
+/// `M_SS z_S = −q_S`, `z = 0` off `S` (the LCP's solution when `S` is its active set:
+/// `w_S = 0` and complementarity hold by construction), and accept it only if its
+/// natural-map residual (`z ≥ 0`, `w ≥ 0` off `S`) meets `tolerance` — the check the
+/// Newton answer passes. Once the staggered alternations settle, the normals keep
+/// their active set and only `q` moves: one triangular solve with the factor kept in
+/// `cache` (refactored when `S` changes) replaces the Newton iterations, each of
+/// which refactors the whole block (Júdice's block pivoting takes the same guess).
+fn active_set_guess(
+    lcp: &Lcp,
+    z0: &[f64],
+    cache: &mut Option<ActiveSet>,
+    tolerance: f64,
+) -> Option<LcpSolution> {
+    let n = lcp.n();
+    let same = cache.as_ref().is_some_and(|c| {
+        let mut k = 0;
+        z0.iter().enumerate().all(|(i, &z)| {
+            let active = z > 0.0;
+            let listed = c.rows.get(k) == Some(&i);
+            k += usize::from(listed);
+            active == listed
+        }) && k == c.rows.len()
+    });
+    if !same {
+        let rows: Vec<usize> = (0..n).filter(|&i| z0[i] > 0.0).collect();
+        let s = rows.len();
+        let m = lcp.m();
+        let mut block = Vec::with_capacity(s * s);
+        for &i in &rows {
+            block.extend(rows.iter().map(|&j| m[i * n + j]));
+        }
+        let lu = if s == 0 { None } else { Lu::factor(block, s) };
+        *cache = Some(ActiveSet { rows, lu });
+    }
+    let set = cache.as_ref()?;
+    let lu = set.lu.as_ref()?;
+    let rhs: Vec<f64> = set.rows.iter().map(|&i| -lcp.q()[i]).collect();
+    let x = lu.solve(&rhs);
+    let mut z = vec![0.0; n];
+    for (&i, &v) in set.rows.iter().zip(&x) {
+        z[i] = v;
+    }
+    let w = lcp.w(&z);
+    if !(lcp.residual_with(&z, &w) <= tolerance) {
+        return None;
+    }
+    lcp.finish_with(z, w, 0, None, tolerance).ok()
 }
 
 /// Splits `A`'s rows by class into `scratch`: the one-sided block and the other rows'
