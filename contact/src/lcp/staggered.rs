@@ -14,8 +14,8 @@ use alloc::vec;
 use alloc::vec::Vec;
 
 use super::{
-    dense::Lu, fischer_newton, lemke, pgs, pgs::pgs_keep, Lcp, LcpError, LcpSolution,
-    LemkeSettings, NewtonSettings, PgsSettings, SparseRows,
+    fischer_newton, lemke, pgs, pgs::pgs_keep, Lcp, LcpError, LcpSolution, LemkeSettings,
+    NewtonSettings, PgsSettings, SparseRows,
 };
 
 /// The bound of one row.
@@ -140,7 +140,8 @@ pub struct RowStats {
     pub friction_budget: bool,
     /// Normal/friction alternations of the staggered coupling.
     pub sweeps: usize,
-    /// One-sided solves answered by the active-set guess ([`RowMethod::Newton`] only):
+    /// One-sided solves answered by the active-set guess ([`RowMethod::Newton`] in the
+    /// residual-driven mode, [`RowSettings::max_sweeps`], only):
     /// the linear solve on the rows the warm start holds active passed the Newton
     /// method's residual check, so no Newton step ran.
     pub active_set: usize,
@@ -440,6 +441,7 @@ pub(crate) fn solve_rows_in(
     // The factor of the last active-set guess's block, kept over the alternations
     // (`A`'s one-sided block does not change between them).
     let mut guess: Option<ActiveSet> = None;
+    let residual_driven = max_sweeps > sweeps;
     let mut alternate = || -> Result<(), LcpError> {
         loop {
             let final_normal = done == max_sweeps;
@@ -475,7 +477,12 @@ pub(crate) fn solve_rows_in(
                     RowMethod::Pgs => [RowMethod::Pgs, RowMethod::Newton, RowMethod::Lemke],
                 };
                 let mut result = Err(LcpError::BadSettings("no solver ran"));
-                if settings.method == RowMethod::Newton && !stats.boxed_fallback {
+                // Residual-driven mode only (the whole problem's residual decides the
+                // alternations anyway; the fixed-sweep mode keeps the contact world's
+                // pinned trajectories, and on its pyramid a guess's answer from a
+                // semi-definite block led later to a step no solver answered).
+                if residual_driven && settings.method == RowMethod::Newton && !stats.boxed_fallback
+                {
                     if let Some(sol) = active_set_guess(lcp, &zn0, &mut guess, settings.tolerance) {
                         stats.active_set += 1;
                         stats.accepted = Some(RowMethod::Newton);
@@ -528,7 +535,10 @@ pub(crate) fn solve_rows_in(
                 tolerance: settings.friction_tolerance,
                 max_iterations: settings.friction_iterations,
                 stall_sweeps: FRICTION_STALL_SWEEPS,
-                check_every: 4,
+                // A residual check costs about a sweep: in the residual-driven mode
+                // (where the whole problem's residual decides) every 4th sweep (the
+                // fixed-sweep mode keeps every sweep and its pinned trajectories).
+                check_every: if residual_driven { 4 } else { 1 },
                 ..PgsSettings::default()
             };
             let lcp = match (&mut tangent_lcp, att_parts.take()) {
@@ -592,10 +602,61 @@ pub(crate) fn solve_rows_in(
     result.map(|()| stats)
 }
 
-/// The active set of a guess and its block's factor (`None`: numerically singular).
+/// The active set of a guess and its block's Cholesky factor (`None`: not safely
+/// positive definite).
 struct ActiveSet {
     rows: Vec<usize>,
-    lu: Option<Lu>,
+    chol: Option<Cholesky>,
+}
+
+/// Smallest pivot of an active-set guess's Cholesky factor, relative to the block's
+/// largest diagonal entry: below it the block counts as singular and Newton answers.
+/// Coplanar contact points (a face on four corners) make the one-sided block only
+/// semi-definite; a guess on it picks one of many solutions, possibly with large
+/// opposing impulses, whose warm start later failed every solver on the contact
+/// crate's pyramid (with a plain LU's `1e-13` pivot test).
+const GUESS_PIVOT: f64 = 1e-8;
+
+/// `A = L Lᵀ` of a symmetric positive definite block, `L` lower triangular row-major.
+struct Cholesky {
+    n: usize,
+    l: Vec<f64>,
+}
+
+impl Cholesky {
+    /// `l_jj = √(a_jj − Σ_{k<j} l_jk²)`, `l_ij = (a_ij − Σ_{k<j} l_ik l_jk) / l_jj`
+    /// (Golub & Van Loan, Alg. 4.2.1); `None` when a pivot `l_jj²` is below
+    /// `GUESS_PIVOT · max a_jj` or not finite.
+    fn factor(mut a: Vec<f64>, n: usize) -> Option<Self> {
+        let dmax = (0..n).fold(0.0f64, |m, i| m.max(a[i * n + i]));
+        let tiny = GUESS_PIVOT * dmax;
+        for j in 0..n {
+            let d = a[j * n + j] - (0..j).map(|k| a[j * n + k] * a[j * n + k]).sum::<f64>();
+            if !(d > tiny && d.is_finite()) {
+                return None;
+            }
+            let ljj = libm::sqrt(d);
+            a[j * n + j] = ljj;
+            for i in j + 1..n {
+                let s = a[i * n + j] - (0..j).map(|k| a[i * n + k] * a[j * n + k]).sum::<f64>();
+                a[i * n + j] = s / ljj;
+            }
+        }
+        Some(Self { n, l: a })
+    }
+
+    /// Solves `L Lᵀ x = b` in place (forward, then back substitution).
+    fn solve(&self, x: &mut [f64]) {
+        let (n, l) = (self.n, &self.l);
+        for i in 0..n {
+            let s = x[i] - (0..i).map(|k| l[i * n + k] * x[k]).sum::<f64>();
+            x[i] = s / l[i * n + i];
+        }
+        for i in (0..n).rev() {
+            let s = x[i] - (i + 1..n).map(|k| l[k * n + i] * x[k]).sum::<f64>();
+            x[i] = s / l[i * n + i];
+        }
+    }
 }
 
 /// The active-set guess for the standard LCP `lcp` (`w = M z + q`, `z ≥ 0`, `w ≥ 0`,
@@ -607,6 +668,9 @@ struct ActiveSet {
 /// their active set and only `q` moves: one triangular solve with the factor kept in
 /// `cache` (refactored when `S` changes) replaces the Newton iterations, each of
 /// which refactors the whole block (Júdice's block pivoting takes the same guess).
+/// `M_SS` is a principal block of a symmetric positive semi-definite Delassus matrix:
+/// factored by Cholesky, and a block that is not safely definite ([`GUESS_PIVOT`])
+/// makes no guess.
 fn active_set_guess(
     lcp: &Lcp,
     z0: &[f64],
@@ -631,13 +695,17 @@ fn active_set_guess(
         for &i in &rows {
             block.extend(rows.iter().map(|&j| m[i * n + j]));
         }
-        let lu = if s == 0 { None } else { Lu::factor(block, s) };
-        *cache = Some(ActiveSet { rows, lu });
+        let chol = if s == 0 {
+            None
+        } else {
+            Cholesky::factor(block, s)
+        };
+        *cache = Some(ActiveSet { rows, chol });
     }
     let set = cache.as_ref()?;
-    let lu = set.lu.as_ref()?;
-    let rhs: Vec<f64> = set.rows.iter().map(|&i| -lcp.q()[i]).collect();
-    let x = lu.solve(&rhs);
+    let chol = set.chol.as_ref()?;
+    let mut x: Vec<f64> = set.rows.iter().map(|&i| -lcp.q()[i]).collect();
+    chol.solve(&mut x);
     let mut z = vec![0.0; n];
     for (&i, &v) in set.rows.iter().zip(&x) {
         z[i] = v;
