@@ -202,7 +202,7 @@ fn chain20_floor_scene_matches_dense() {
         // on the resting chain's nearly dependent rows: their difference is the
         // problem's conditioning, not a different solution.
         assert!(dv <= 1e-8, "dv {dv:e}"); // measured 4.4e-13 (1.1e-9 before the dense path iterated its friction to 1e-6)
-        assert!(dz <= 1e-8, "dz {dz:e}"); // measured 8.7e-9
+        assert!(dz <= 3e-8, "dz {dz:e}"); // measured 1.4e-8 (8.7e-9 before the dense staggered solve took the active-set guess and checked its friction every 4th sweep; the dense answer is iterated to a residual of 1e-6 only)
         assert!(res <= 1e-10, "residual {res:e}"); // measured 1.0e-13
     }
 }

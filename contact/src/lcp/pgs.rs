@@ -61,17 +61,33 @@ impl Default for PgsSettings {
 /// Errors: [`LcpError::IterationLimit`] with the last residual, [`LcpError::NonPositiveDiagonal`],
 /// [`LcpError::BadSettings`], and length / finiteness errors for `z0`.
 pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpSolution, LcpError> {
-    check_tolerance(settings.tolerance)?;
+    pgs_keep(lcp, settings, z0).map_err(|(e, _)| e)
+}
+
+/// [`pgs`], keeping the last iterate when the sweeps run out or stall: the error comes
+/// with the `z` the sweeps reached (`None` for the other errors). The staggered friction
+/// solve keeps that iterate as its budget answer instead of sweeping the same budget
+/// again from the warm start (which reached the same point, up to round-off, at twice
+/// the cost).
+pub(crate) fn pgs_keep(
+    lcp: &Lcp,
+    settings: &PgsSettings,
+    z0: Option<&[f64]>,
+) -> Result<LcpSolution, (LcpError, Option<Vec<f64>>)> {
+    let plain = |e: LcpError| (e, None);
+    check_tolerance(settings.tolerance).map_err(plain)?;
     if !(settings.omega > 0.0 && settings.omega < 2.0) {
-        return Err(LcpError::BadSettings("PGS relaxation ω must lie in (0, 2)"));
+        return Err(plain(LcpError::BadSettings(
+            "PGS relaxation ω must lie in (0, 2)",
+        )));
     }
     if settings.check_every == 0 {
-        return Err(LcpError::BadSettings("PGS check_every must be ≥ 1"));
+        return Err(plain(LcpError::BadSettings("PGS check_every must be ≥ 1")));
     }
     let n = lcp.n();
     let mut z = match z0 {
         Some(z0) => {
-            lcp.check_vector("z0", z0)?;
+            lcp.check_vector("z0", z0).map_err(plain)?;
             z0.to_vec()
         }
         None => vec![0.0; n],
@@ -80,7 +96,7 @@ pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpS
     for i in 0..n {
         let d = lcp.m_ij(i, i);
         if !(d > 0.0) {
-            return Err(LcpError::NonPositiveDiagonal { index: i });
+            return Err(plain(LcpError::NonPositiveDiagonal { index: i }));
         }
         inv_diag.push(1.0 / d);
     }
@@ -97,7 +113,9 @@ pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpS
     let mut w = lcp.w(&z);
     let mut residual = lcp.residual_with(&z, &w);
     if residual <= settings.tolerance {
-        return lcp.finish_with(z, w, 0, None, settings.tolerance);
+        return lcp
+            .finish_with(z, w, 0, None, settings.tolerance)
+            .map_err(plain);
     }
     let omega = settings.omega;
     let mut mark = (0, residual);
@@ -112,13 +130,16 @@ pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpS
             lcp.w_into(&z, &mut w);
             residual = lcp.residual_with(&z, &w);
             if residual <= settings.tolerance {
-                return lcp.finish_with(z, w, sweep, None, settings.tolerance);
+                return lcp
+                    .finish_with(z, w, sweep, None, settings.tolerance)
+                    .map_err(plain);
             }
             if !residual.is_finite() {
-                return Err(LcpError::IterationLimit {
+                // Nothing worth keeping.
+                return Err(plain(LcpError::IterationLimit {
                     iterations: sweep,
                     residual,
-                });
+                }));
             }
             if settings.stall_sweeps > 0 && sweep - mark.0 >= settings.stall_sweeps {
                 if !(residual <= 0.5 * mark.1) {
@@ -132,12 +153,15 @@ pub fn pgs(lcp: &Lcp, settings: &PgsSettings, z0: Option<&[f64]>) -> Result<LcpS
     // Out of sweeps (or stalled): the answer stands if the residual is down to its
     // round-off floor (huge impulses; [`Lcp::round_off`]).
     if lcp.accepts(&z, residual, settings.tolerance) {
-        return lcp.finish(z, ran, None, settings.tolerance);
+        return lcp.finish(z, ran, None, settings.tolerance).map_err(plain);
     }
-    Err(LcpError::IterationLimit {
-        iterations: ran,
-        residual,
-    })
+    Err((
+        LcpError::IterationLimit {
+            iterations: ran,
+            residual,
+        },
+        Some(z),
+    ))
 }
 
 #[cfg(test)]

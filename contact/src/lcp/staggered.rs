@@ -14,8 +14,8 @@ use alloc::vec;
 use alloc::vec::Vec;
 
 use super::{
-    fischer_newton, lemke, pgs, Lcp, LcpError, LemkeSettings, NewtonSettings, PgsSettings,
-    SparseRows,
+    fischer_newton, lemke, pgs, pgs::pgs_keep, Lcp, LcpError, LcpSolution, LemkeSettings,
+    NewtonSettings, PgsSettings, SparseRows,
 };
 
 /// The bound of one row.
@@ -140,6 +140,11 @@ pub struct RowStats {
     pub friction_budget: bool,
     /// Normal/friction alternations of the staggered coupling.
     pub sweeps: usize,
+    /// One-sided solves answered by the active-set guess ([`RowMethod::Newton`] in the
+    /// residual-driven mode, [`RowSettings::max_sweeps`], only):
+    /// the linear solve on the rows the warm start holds active passed the Newton
+    /// method's residual check, so no Newton step ran.
+    pub active_set: usize,
 }
 
 /// The residual of a solution of [`solve_rows`]'s problem: the largest
@@ -397,7 +402,7 @@ pub(crate) fn solve_rows_in(
         ..
     } = scratch;
     let (normal, tangent) = (&normal[..], &tangent[..]);
-    let (nn, nt) = (normal.len(), tangent.len());
+    let nn = normal.len();
     let coupled = |i: usize, z: &[f64]| -> f64 {
         let (s, e) = (cross_start[i], cross_start[i + 1]);
         cross_cols[s..e]
@@ -433,6 +438,10 @@ pub(crate) fn solve_rows_in(
     };
     let max_sweeps = settings.max_sweeps.max(sweeps);
     let mut done = 0;
+    // The factor of the last active-set guess's block, kept over the alternations
+    // (`A`'s one-sided block does not change between them).
+    let mut guess: Option<ActiveSet> = None;
+    let residual_driven = max_sweeps > sweeps;
     let mut alternate = || -> Result<(), LcpError> {
         loop {
             let final_normal = done == max_sweeps;
@@ -468,7 +477,22 @@ pub(crate) fn solve_rows_in(
                     RowMethod::Pgs => [RowMethod::Pgs, RowMethod::Newton, RowMethod::Lemke],
                 };
                 let mut result = Err(LcpError::BadSettings("no solver ran"));
+                // Residual-driven mode only (the whole problem's residual decides the
+                // alternations anyway; the fixed-sweep mode keeps the contact world's
+                // pinned trajectories, and on its pyramid a guess's answer from a
+                // semi-definite block led later to a step no solver answered).
+                if residual_driven && settings.method == RowMethod::Newton && !stats.boxed_fallback
+                {
+                    if let Some(sol) = active_set_guess(lcp, &zn0, &mut guess, settings.tolerance) {
+                        stats.active_set += 1;
+                        stats.accepted = Some(RowMethod::Newton);
+                        result = Ok(sol);
+                    }
+                }
                 for which in order {
+                    if result.is_ok() {
+                        break;
+                    }
                     result = match which {
                         RowMethod::Lemke => lemke(lcp, &lemke_settings, None),
                         RowMethod::Newton => fischer_newton(lcp, &newton_settings, Some(&zn0)),
@@ -511,6 +535,10 @@ pub(crate) fn solve_rows_in(
                 tolerance: settings.friction_tolerance,
                 max_iterations: settings.friction_iterations,
                 stall_sweeps: FRICTION_STALL_SWEEPS,
+                // A residual check costs about a sweep: in the residual-driven mode
+                // (where the whole problem's residual decides) every 4th sweep (the
+                // fixed-sweep mode keeps every sweep and its pinned trajectories).
+                check_every: if residual_driven { 4 } else { 1 },
                 ..PgsSettings::default()
             };
             let lcp = match (&mut tangent_lcp, att_parts.take()) {
@@ -524,36 +552,27 @@ pub(crate) fn solve_rows_in(
             };
             let lcp = &*lcp;
             stats.friction_pgs = true;
-            match pgs(lcp, &friction_settings, Some(&zt0)) {
+            match pgs_keep(lcp, &friction_settings, Some(&zt0)) {
                 Ok(sol) => {
                     stats.iterations += sol.iterations;
                     for (k, &i) in tangent.iter().enumerate() {
                         z[i] = sol.z[k];
                     }
                 }
-                Err(LcpError::IterationLimit { iterations, .. }) => {
-                    // As many sweeps from the warm start as the PGS ran before it
-                    // stalled or ran out (not a second full budget).
+                Err((LcpError::IterationLimit { iterations, .. }, last)) => {
+                    // The budget answer: the iterate the sweeps reached before they
+                    // stalled or ran out (without one, a non-finite residual, the warm
+                    // start projected into the boxes).
                     stats.friction_budget = true;
-                    let att = lcp.m();
-                    for _ in 0..iterations.min(settings.friction_iterations) {
-                        for (k, &i) in tangent.iter().enumerate() {
-                            let d = att[k * nt + k];
-                            if !(d > 0.0) {
-                                continue;
-                            }
-                            let mut w = qt[k];
-                            for (l, &j) in tangent.iter().enumerate() {
-                                w += att[k * nt + l] * z[j];
-                            }
-                            let (lo, hi) = bound(i, z);
-                            // `min`/`max`, not `clamp`: NaN bounds must not panic.
-                            z[i] = (z[i] - w / d).min(hi).max(lo);
-                        }
-                        stats.iterations += 1;
+                    stats.iterations += iterations;
+                    for (k, &i) in tangent.iter().enumerate() {
+                        let (lo, hi) = bound(i, z);
+                        let zk = last.as_ref().map_or(z[i], |l| l[k]);
+                        // `min`/`max`, not `clamp`: NaN bounds must not panic.
+                        z[i] = zk.min(hi).max(lo);
                     }
                 }
-                Err(e) => return Err(e),
+                Err((e, _)) => return Err(e),
             }
             done += 1;
             stats.sweeps = done;
@@ -581,6 +600,121 @@ pub(crate) fn solve_rows_in(
     }
     *split = back == 2;
     result.map(|()| stats)
+}
+
+/// The active set of a guess and its block's Cholesky factor (`None`: not safely
+/// positive definite).
+struct ActiveSet {
+    rows: Vec<usize>,
+    chol: Option<Cholesky>,
+}
+
+/// Smallest pivot of an active-set guess's Cholesky factor, relative to the block's
+/// largest diagonal entry: below it the block counts as singular and Newton answers.
+/// Coplanar contact points (a face on four corners) make the one-sided block only
+/// semi-definite; a guess on it picks one of many solutions, possibly with large
+/// opposing impulses, whose warm start later failed every solver on the contact
+/// crate's pyramid (with a plain LU's `1e-13` pivot test).
+const GUESS_PIVOT: f64 = 1e-8;
+
+/// `A = L Lᵀ` of a symmetric positive definite block, `L` lower triangular row-major.
+struct Cholesky {
+    n: usize,
+    l: Vec<f64>,
+}
+
+impl Cholesky {
+    /// `l_jj = √(a_jj − Σ_{k<j} l_jk²)`, `l_ij = (a_ij − Σ_{k<j} l_ik l_jk) / l_jj`
+    /// (Golub & Van Loan, Alg. 4.2.1); `None` when a pivot `l_jj²` is below
+    /// `GUESS_PIVOT · max a_jj` or not finite.
+    fn factor(mut a: Vec<f64>, n: usize) -> Option<Self> {
+        let dmax = (0..n).fold(0.0f64, |m, i| m.max(a[i * n + i]));
+        let tiny = GUESS_PIVOT * dmax;
+        for j in 0..n {
+            let d = a[j * n + j] - (0..j).map(|k| a[j * n + k] * a[j * n + k]).sum::<f64>();
+            if !(d > tiny && d.is_finite()) {
+                return None;
+            }
+            let ljj = libm::sqrt(d);
+            a[j * n + j] = ljj;
+            for i in j + 1..n {
+                let s = a[i * n + j] - (0..j).map(|k| a[i * n + k] * a[j * n + k]).sum::<f64>();
+                a[i * n + j] = s / ljj;
+            }
+        }
+        Some(Self { n, l: a })
+    }
+
+    /// Solves `L Lᵀ x = b` in place (forward, then back substitution).
+    fn solve(&self, x: &mut [f64]) {
+        let (n, l) = (self.n, &self.l);
+        for i in 0..n {
+            let s = x[i] - (0..i).map(|k| l[i * n + k] * x[k]).sum::<f64>();
+            x[i] = s / l[i * n + i];
+        }
+        for i in (0..n).rev() {
+            let s = x[i] - (i + 1..n).map(|k| l[k * n + i] * x[k]).sum::<f64>();
+            x[i] = s / l[i * n + i];
+        }
+    }
+}
+
+/// The active-set guess for the standard LCP `lcp` (`w = M z + q`, `z ≥ 0`, `w ≥ 0`,
+/// `zᵀw = 0`) from the warm start `z0`: with `S = {k : z0_k > 0}`, solve
+/// `M_SS z_S = −q_S`, `z = 0` off `S` (the LCP's solution when `S` is its active set:
+/// `w_S = 0` and complementarity hold by construction), and accept it only if its
+/// natural-map residual (`z ≥ 0`, `w ≥ 0` off `S`) meets `tolerance` — the check the
+/// Newton answer passes. Once the staggered alternations settle, the normals keep
+/// their active set and only `q` moves: one triangular solve with the factor kept in
+/// `cache` (refactored when `S` changes) replaces the Newton iterations, each of
+/// which refactors the whole block (Júdice's block pivoting takes the same guess).
+/// `M_SS` is a principal block of a symmetric positive semi-definite Delassus matrix:
+/// factored by Cholesky, and a block that is not safely definite ([`GUESS_PIVOT`])
+/// makes no guess.
+fn active_set_guess(
+    lcp: &Lcp,
+    z0: &[f64],
+    cache: &mut Option<ActiveSet>,
+    tolerance: f64,
+) -> Option<LcpSolution> {
+    let n = lcp.n();
+    let same = cache.as_ref().is_some_and(|c| {
+        let mut k = 0;
+        z0.iter().enumerate().all(|(i, &z)| {
+            let active = z > 0.0;
+            let listed = c.rows.get(k) == Some(&i);
+            k += usize::from(listed);
+            active == listed
+        }) && k == c.rows.len()
+    });
+    if !same {
+        let rows: Vec<usize> = (0..n).filter(|&i| z0[i] > 0.0).collect();
+        let s = rows.len();
+        let m = lcp.m();
+        let mut block = Vec::with_capacity(s * s);
+        for &i in &rows {
+            block.extend(rows.iter().map(|&j| m[i * n + j]));
+        }
+        let chol = if s == 0 {
+            None
+        } else {
+            Cholesky::factor(block, s)
+        };
+        *cache = Some(ActiveSet { rows, chol });
+    }
+    let set = cache.as_ref()?;
+    let chol = set.chol.as_ref()?;
+    let mut x: Vec<f64> = set.rows.iter().map(|&i| -lcp.q()[i]).collect();
+    chol.solve(&mut x);
+    let mut z = vec![0.0; n];
+    for (&i, &v) in set.rows.iter().zip(&x) {
+        z[i] = v;
+    }
+    let w = lcp.w(&z);
+    if !(lcp.residual_with(&z, &w) <= tolerance) {
+        return None;
+    }
+    lcp.finish_with(z, w, 0, None, tolerance).ok()
 }
 
 /// Splits `A`'s rows by class into `scratch`: the one-sided block and the other rows'
