@@ -86,6 +86,31 @@ pub(crate) struct RowTree {
     pub size: usize,
     /// Next free slot per node while grouping.
     fill: Vec<usize>,
+    /// Per node in elimination order, its shape and offsets ([`NodeShape`]), read once
+    /// per node by the factor and the solve instead of from six tables.
+    schedule: Vec<NodeShape>,
+}
+
+/// One node's shape and offsets in the flat arenas, built by [`RowTree::assemble`]
+/// (`np = 0`, `xp = op = 0` for a root).
+#[derive(Clone, Copy, Debug, Default)]
+struct NodeShape {
+    /// The tree node.
+    k: usize,
+    /// Base rows (the tree's node dimension).
+    base: usize,
+    /// Total rows (base plus extra).
+    n: usize,
+    /// The parent's total rows (0: a root).
+    np: usize,
+    /// Offset of the diagonal block in `diag`.
+    dp: usize,
+    /// Offset of the node's unknowns.
+    xo: usize,
+    /// Offset of the parent's unknowns.
+    xp: usize,
+    /// Offset of the off-diagonal block in `off`.
+    op: usize,
 }
 
 impl RowTree {
@@ -141,31 +166,59 @@ impl RowTree {
             }
         }
         self.size = x;
-        self.diag.clear();
+        // Every element of `diag` and `off` is written below (the tree's block, zeros
+        // elsewhere), so the arenas are only resized, not cleared and zero-filled first.
         self.diag.resize(d, 0.0);
-        self.off.clear();
         self.off.resize(o, 0.0);
         self.dinv.clear();
         self.dinv.resize(x, 0.0);
         self.pos.clear();
         self.pos.resize(rows.len(), 0);
-        // The tree's blocks.
+        // The tree's blocks, zero-padded to the node's (and its parent's) total rows.
         for k in 0..nn {
             let (b, n, dp) = (self.base[k], self.n[k], self.dpos[k]);
-            for r in 0..b {
-                for c in 0..b {
-                    self.diag[dp + r * n + c] = tree.diag[k][r][c];
+            let blk = &mut self.diag[dp..dp + n * n];
+            for (r, dst) in blk.chunks_exact_mut(n).enumerate() {
+                if r < b {
+                    dst[..b].copy_from_slice(&tree.diag[k][r][..b]);
+                    dst[b..].fill(0.0);
+                } else {
+                    dst.fill(0.0);
                 }
             }
             let p = tree.parent[k];
             if p != NONE {
                 let (bp, np, op) = (self.base[p], self.n[p], self.opos[k]);
-                for r in 0..b {
-                    for c in 0..bp {
-                        self.off[op + r * np + c] = tree.off[k][r][c];
+                let blk = &mut self.off[op..op + n * np];
+                for (r, dst) in blk.chunks_exact_mut(np).enumerate() {
+                    if r < b {
+                        dst[..bp].copy_from_slice(&tree.off[k][r][..bp]);
+                        dst[bp..].fill(0.0);
+                    } else {
+                        dst.fill(0.0);
                     }
                 }
             }
+        }
+        // The schedule the factor and the solve walk.
+        self.schedule.clear();
+        for &k in &tree.order {
+            let p = tree.parent[k];
+            let (np, xp, op) = if p == NONE {
+                (0, 0, 0)
+            } else {
+                (self.n[p], self.xoff[p], self.opos[k])
+            };
+            self.schedule.push(NodeShape {
+                k,
+                base: self.base[k],
+                n: self.n[k],
+                np,
+                dp: self.dpos[k],
+                xo: self.xoff[k],
+                xp,
+                op,
+            });
         }
         // The extra rows.
         for k in 0..nn {
@@ -232,20 +285,27 @@ impl RowTree {
     /// base pivots must be positive ([`ArticulatedError::Singular`] otherwise).
     pub fn factor(&mut self, tree: &TreeSolver) -> Result<(), ArticulatedError> {
         let nb = tree.n_bodies;
-        for &k in &tree.order {
-            let (b, n, dp, xo) = (self.base[k], self.n[k], self.dpos[k], self.xoff[k]);
+        for &NodeShape {
+            k,
+            base: b,
+            n,
+            np,
+            dp,
+            xo,
+            op,
+            ..
+        } in &self.schedule
+        {
             let blk = &mut self.diag[dp..dp + n * n];
             let dinv = &mut self.dinv[xo..xo + n];
             ldlt_two_segment(blk, n, b, dinv);
             if k < nb && (0..b).any(|r| !(blk[r * n + r] > 0.0) || dinv[r] == 0.0) {
                 return Err(ArticulatedError::Singular { node: k });
             }
-            let p = tree.parent[k];
-            if p == NONE {
+            if np == 0 {
                 continue;
             }
-            let np = self.n[p];
-            let (op, dpp) = (self.opos[k], self.dpos[p]);
+            let dpp = self.dpos[tree.parent[k]];
             let w = &mut self.off[op..op + n * np];
             let (blk, dpar) = if dp < dpp {
                 let (lo, hi) = self.diag.split_at_mut(dpp);
@@ -272,8 +332,9 @@ impl RowTree {
 
     /// Solves the augmented system in place (`x` of length [`Self::size`], laid out
     /// node by node, base rows first): forward `s = d⁻¹ L⁻¹ y`, `y_p −= Wᵀ s`; backward
-    /// `x = L⁻ᵀ (s − d⁻¹ W x_p)`.
-    pub fn solve(&self, tree: &TreeSolver, x: &mut [f64]) {
+    /// `x = L⁻ᵀ (s − d⁻¹ W x_p)`. The tree's structure is read from the schedule
+    /// [`Self::assemble`] built from `_tree` (the same tree).
+    pub fn solve(&self, _tree: &TreeSolver, x: &mut [f64]) {
         macro_rules! dispatch {
             ($f:ident, $n:expr, $np:expr, $args:expr; $($a:literal, $b:literal);*) => {
                 match ($n, $np) {
@@ -282,29 +343,33 @@ impl RowTree {
                 }
             };
         }
-        for &k in &tree.order {
-            let args = self.node_args(tree, k, x);
-            dispatch!(forward, args.n, args.np, args;
+        for s in &self.schedule {
+            let args = self.node_args(s, x);
+            dispatch!(forward, s.n, s.np, args;
                 6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 12;
                 3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 12, 6);
         }
-        for &k in tree.order.iter().rev() {
-            let args = self.node_args(tree, k, x);
-            dispatch!(backward, args.n, args.np, args;
+        for s in self.schedule.iter().rev() {
+            let args = self.node_args(s, x);
+            dispatch!(backward, s.n, s.np, args;
                 6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 12;
                 3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 12, 6);
         }
     }
 
-    /// Node `k`'s blocks and its own and its parent's unknowns, split from `x`.
-    fn node_args<'a>(&'a self, tree: &TreeSolver, k: usize, x: &'a mut [f64]) -> NodeArgs<'a> {
-        let (n, dp, xo) = (self.n[k], self.dpos[k], self.xoff[k]);
-        let p = tree.parent[k];
-        let (np, xp, op) = if p == NONE {
-            (0, 0, 0)
-        } else {
-            (self.n[p], self.xoff[p], self.opos[k])
-        };
+    /// Node `s`'s blocks and its own and its parent's unknowns, split from `x`
+    /// (inlined into both passes: a call per node cost a fifth of the solve).
+    #[inline(always)]
+    fn node_args<'a>(&'a self, s: &NodeShape, x: &'a mut [f64]) -> NodeArgs<'a> {
+        let NodeShape {
+            n,
+            np,
+            dp,
+            xo,
+            xp,
+            op,
+            ..
+        } = *s;
         // A parent's unknowns never overlap its child's.
         let (xi, xpar) = if np == 0 {
             (&mut x[xo..xo + n], &mut [][..])
@@ -470,6 +535,24 @@ const MAX_NEGATIVE_PIVOTS: usize = 6;
 /// humanoid_CMU lying on the floor, 46 of the active set's tries in its 5 s passive
 /// run, each sending its step to the dense path and up to 15 more by the back-off).
 fn ldlt_two_segment(a: &mut [f64], n: usize, base: usize, dinv: &mut [f64]) {
+    // The body inlined once per common node size with the size a constant (loops
+    // unroll, bounds checks fold), the same operations in the same order as with the
+    // runtime size.
+    match n {
+        3 => ldlt_two_segment_sized(a, 3, base, dinv),
+        4 => ldlt_two_segment_sized(a, 4, base, dinv),
+        5 => ldlt_two_segment_sized(a, 5, base, dinv),
+        6 => ldlt_two_segment_sized(a, 6, base, dinv),
+        7 => ldlt_two_segment_sized(a, 7, base, dinv),
+        8 => ldlt_two_segment_sized(a, 8, base, dinv),
+        _ => ldlt_two_segment_sized(a, n, base, dinv),
+    }
+}
+
+/// [`ldlt_two_segment`] of an `n × n` block.
+#[inline(always)]
+fn ldlt_two_segment_sized(a: &mut [f64], n: usize, base: usize, dinv: &mut [f64]) {
+    let (a, dinv) = (&mut a[..n * n], &mut dinv[..n]);
     let scale = (0..base).map(|i| a[i * n + i].abs()).fold(0.0f64, f64::max);
     let mut tol = 1e-12 * scale;
     let mut negative = 0usize;
