@@ -539,18 +539,93 @@ fn ldlt_two_segment(a: &mut [f64], n: usize, base: usize, dinv: &mut [f64]) {
     // unroll, bounds checks fold), the same operations in the same order as with the
     // runtime size.
     match n {
-        3 => ldlt_two_segment_sized(a, 3, base, dinv),
-        4 => ldlt_two_segment_sized(a, 4, base, dinv),
-        5 => ldlt_two_segment_sized(a, 5, base, dinv),
-        6 => ldlt_two_segment_sized(a, 6, base, dinv),
-        7 => ldlt_two_segment_sized(a, 7, base, dinv),
-        8 => ldlt_two_segment_sized(a, 8, base, dinv),
+        3 => ldlt_two_segment_fixed::<3>(a, base, dinv),
+        4 => ldlt_two_segment_fixed::<4>(a, base, dinv),
+        5 => ldlt_two_segment_fixed::<5>(a, base, dinv),
+        6 => ldlt_two_segment_fixed::<6>(a, base, dinv),
+        7 => ldlt_two_segment_fixed::<7>(a, base, dinv),
+        8 => ldlt_two_segment_fixed::<8>(a, base, dinv),
         _ => ldlt_two_segment_sized(a, n, base, dinv),
     }
 }
 
-/// [`ldlt_two_segment`] of an `n × n` block.
+/// [`ldlt_two_segment`] for `N ≤ 8`, one column at a time with the column a constant
+/// (every loop a constant trip count, unrolled; with the size alone a constant the
+/// triangular loops stayed loops). The same operations in the same order as
+/// [`ldlt_two_segment_sized`].
 #[inline(always)]
+fn ldlt_two_segment_fixed<const N: usize>(a: &mut [f64], base: usize, dinv: &mut [f64]) {
+    let (a, dinv) = (&mut a[..N * N], &mut dinv[..N]);
+    let scale = (0..base).map(|i| a[i * N + i].abs()).fold(0.0f64, f64::max);
+    let mut st = TwoSegment {
+        base,
+        tol: 1e-12 * scale,
+        negative: 0,
+    };
+    two_segment_column::<0, N>(a, dinv, &mut st);
+    two_segment_column::<1, N>(a, dinv, &mut st);
+    two_segment_column::<2, N>(a, dinv, &mut st);
+    two_segment_column::<3, N>(a, dinv, &mut st);
+    two_segment_column::<4, N>(a, dinv, &mut st);
+    two_segment_column::<5, N>(a, dinv, &mut st);
+    two_segment_column::<6, N>(a, dinv, &mut st);
+    two_segment_column::<7, N>(a, dinv, &mut st);
+}
+
+/// The running state of [`ldlt_two_segment_fixed`]: the base size, the current
+/// pivot tolerance and the negative pivots kept so far.
+struct TwoSegment {
+    base: usize,
+    tol: f64,
+    negative: usize,
+}
+
+/// Column `J` of [`ldlt_two_segment_sized`] on an `N × N` block (nothing when
+/// `J ≥ N`), the loop body of that function with `j = J`.
+#[inline(always)]
+fn two_segment_column<const J: usize, const N: usize>(
+    a: &mut [f64],
+    dinv: &mut [f64],
+    st: &mut TwoSegment,
+) {
+    if J >= N {
+        return;
+    }
+    let base = st.base;
+    if J == base && base < N {
+        // The extra rows' scale (see `ldlt_two_segment_sized`).
+        let s = (base..N).map(|i| a[i * N + i].abs()).fold(0.0f64, f64::max);
+        st.tol = 1e-12 * s;
+    }
+    let mut d = a[J * N + J];
+    for k in 0..J {
+        d -= a[J * N + k] * a[J * N + k] * a[k * N + k];
+    }
+    let wrong_sign = J >= base && d > 0.0;
+    let beyond_rank = J >= base && st.negative >= MAX_NEGATIVE_PIVOTS;
+    if !(d.abs() > st.tol) || wrong_sign || beyond_rank {
+        dinv[J] = 0.0;
+        a[J * N + J] = 0.0;
+        for i in J + 1..N {
+            a[i * N + J] = 0.0;
+        }
+        return;
+    }
+    if d < 0.0 {
+        st.negative += 1;
+    }
+    a[J * N + J] = d;
+    dinv[J] = 1.0 / d;
+    for i in J + 1..N {
+        let mut s = a[i * N + J];
+        for k in 0..J {
+            s -= a[i * N + k] * a[J * N + k] * a[k * N + k];
+        }
+        a[i * N + J] = s / d;
+    }
+}
+
+/// [`ldlt_two_segment`] of an `n × n` block (any size).
 fn ldlt_two_segment_sized(a: &mut [f64], n: usize, base: usize, dinv: &mut [f64]) {
     let (a, dinv) = (&mut a[..n * n], &mut dinv[..n]);
     let scale = (0..base).map(|i| a[i * n + i].abs()).fold(0.0f64, f64::max);
@@ -648,5 +723,45 @@ mod tests {
         assert_eq!(kept, 6, "dinv {dinv:?}");
         assert!(dinv[..6].iter().all(|d| *d < 0.0), "dinv {dinv:?}");
         assert_eq!(&dinv[6..], &[0.0, 0.0]);
+    }
+
+    /// The unrolled [`ldlt_two_segment_fixed`] gives [`ldlt_two_segment_sized`]'s
+    /// factor and inverse pivots to the bit, on blocks of every unrolled size 3..8 and
+    /// every split `base` (positive definite base rows, then extra rows of the
+    /// `−g D⁻¹ gᵀ` sign, one of them dependent on the first: a dropped pivot).
+    #[test]
+    fn unrolled_two_segment_matches_the_loop_to_the_bit() {
+        for n in 3..=8 {
+            for base in 1..=n {
+                let mut a = alloc::vec![0.0f64; n * n];
+                for i in 0..n {
+                    for j in 0..=i {
+                        let v = 0.2 * libm::sin(0.4 + 1.3 * i as f64 + 0.7 * j as f64);
+                        a[i * n + j] = v;
+                        a[j * n + i] = v;
+                    }
+                    a[i * n + i] += if i < base { 4.0 } else { -4.0 };
+                }
+                if base + 1 < n {
+                    // The last extra row a copy of the first extra row.
+                    let (r, c) = (n - 1, base);
+                    for j in 0..n {
+                        a[r * n + j] = a[c * n + j];
+                        a[j * n + r] = a[j * n + c];
+                    }
+                    a[r * n + r] = a[c * n + c];
+                }
+                let (mut fixed, mut looped) = (a.clone(), a);
+                let (mut dinv_f, mut dinv_l) = (alloc::vec![0.0; n], alloc::vec![0.0; n]);
+                ldlt_two_segment(&mut fixed, n, base, &mut dinv_f);
+                ldlt_two_segment_sized(&mut looped, n, base, &mut dinv_l);
+                if base + 1 < n {
+                    assert_eq!(dinv_l[n - 1], 0.0, "n {n} base {base}: dependent row kept");
+                }
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&fixed), bits(&looped), "n {n} base {base}");
+                assert_eq!(bits(&dinv_f), bits(&dinv_l), "n {n} base {base}");
+            }
+        }
     }
 }
