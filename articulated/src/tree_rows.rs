@@ -180,8 +180,7 @@ impl RowTree {
             let blk = &mut self.diag[dp..dp + n * n];
             for (r, dst) in blk.chunks_exact_mut(n).enumerate() {
                 if r < b {
-                    dst[..b].copy_from_slice(&tree.diag[k][r][..b]);
-                    dst[b..].fill(0.0);
+                    copy_padded(dst, &tree.diag[k][r], b);
                 } else {
                     dst.fill(0.0);
                 }
@@ -192,8 +191,7 @@ impl RowTree {
                 let blk = &mut self.off[op..op + n * np];
                 for (r, dst) in blk.chunks_exact_mut(np).enumerate() {
                     if r < b {
-                        dst[..bp].copy_from_slice(&tree.off[k][r][..bp]);
-                        dst[bp..].fill(0.0);
+                        copy_padded(dst, &tree.off[k][r], bp);
                     } else {
                         dst.fill(0.0);
                     }
@@ -388,6 +386,25 @@ impl RowTree {
             w: &self.off[op..op + n * np],
             xi,
             xp: xpar,
+        }
+    }
+}
+
+/// `dst = [src[..len], 0, …, 0]`: a tree block's row into a node row of `dst.len() ≥
+/// len` unknowns. A full row (`len = 6`, every body row) is copied as a fixed-size
+/// array (moves, not a `memcpy` call).
+#[inline(always)]
+fn copy_padded(dst: &mut [f64], src: &[f64; 6], len: usize) {
+    match dst.split_first_chunk_mut::<6>() {
+        Some((head, tail)) if len == 6 => {
+            *head = *src;
+            for v in tail {
+                *v = 0.0;
+            }
+        }
+        _ => {
+            dst[..len].copy_from_slice(&src[..len]);
+            dst[len..].fill(0.0);
         }
     }
 }
