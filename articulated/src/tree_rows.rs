@@ -86,6 +86,31 @@ pub(crate) struct RowTree {
     pub size: usize,
     /// Next free slot per node while grouping.
     fill: Vec<usize>,
+    /// Per node in elimination order, its shape and offsets ([`NodeShape`]), read once
+    /// per node by the factor and the solve instead of from six tables.
+    schedule: Vec<NodeShape>,
+}
+
+/// One node's shape and offsets in the flat arenas, built by [`RowTree::assemble`]
+/// (`np = 0`, `xp = op = 0` for a root).
+#[derive(Clone, Copy, Debug, Default)]
+struct NodeShape {
+    /// The tree node.
+    k: usize,
+    /// Base rows (the tree's node dimension).
+    base: usize,
+    /// Total rows (base plus extra).
+    n: usize,
+    /// The parent's total rows (0: a root).
+    np: usize,
+    /// Offset of the diagonal block in `diag`.
+    dp: usize,
+    /// Offset of the node's unknowns.
+    xo: usize,
+    /// Offset of the parent's unknowns.
+    xp: usize,
+    /// Offset of the off-diagonal block in `off`.
+    op: usize,
 }
 
 impl RowTree {
@@ -141,31 +166,57 @@ impl RowTree {
             }
         }
         self.size = x;
-        self.diag.clear();
+        // Every element of `diag` and `off` is written below (the tree's block, zeros
+        // elsewhere), so the arenas are only resized, not cleared and zero-filled first.
         self.diag.resize(d, 0.0);
-        self.off.clear();
         self.off.resize(o, 0.0);
         self.dinv.clear();
         self.dinv.resize(x, 0.0);
         self.pos.clear();
         self.pos.resize(rows.len(), 0);
-        // The tree's blocks.
+        // The tree's blocks, zero-padded to the node's (and its parent's) total rows.
         for k in 0..nn {
             let (b, n, dp) = (self.base[k], self.n[k], self.dpos[k]);
-            for r in 0..b {
-                for c in 0..b {
-                    self.diag[dp + r * n + c] = tree.diag[k][r][c];
+            let blk = &mut self.diag[dp..dp + n * n];
+            for (r, dst) in blk.chunks_exact_mut(n).enumerate() {
+                if r < b {
+                    copy_padded(dst, &tree.diag[k][r], b);
+                } else {
+                    dst.fill(0.0);
                 }
             }
             let p = tree.parent[k];
             if p != NONE {
                 let (bp, np, op) = (self.base[p], self.n[p], self.opos[k]);
-                for r in 0..b {
-                    for c in 0..bp {
-                        self.off[op + r * np + c] = tree.off[k][r][c];
+                let blk = &mut self.off[op..op + n * np];
+                for (r, dst) in blk.chunks_exact_mut(np).enumerate() {
+                    if r < b {
+                        copy_padded(dst, &tree.off[k][r], bp);
+                    } else {
+                        dst.fill(0.0);
                     }
                 }
             }
+        }
+        // The schedule the factor and the solve walk.
+        self.schedule.clear();
+        for &k in &tree.order {
+            let p = tree.parent[k];
+            let (np, xp, op) = if p == NONE {
+                (0, 0, 0)
+            } else {
+                (self.n[p], self.xoff[p], self.opos[k])
+            };
+            self.schedule.push(NodeShape {
+                k,
+                base: self.base[k],
+                n: self.n[k],
+                np,
+                dp: self.dpos[k],
+                xo: self.xoff[k],
+                xp,
+                op,
+            });
         }
         // The extra rows.
         for k in 0..nn {
@@ -232,20 +283,27 @@ impl RowTree {
     /// base pivots must be positive ([`ArticulatedError::Singular`] otherwise).
     pub fn factor(&mut self, tree: &TreeSolver) -> Result<(), ArticulatedError> {
         let nb = tree.n_bodies;
-        for &k in &tree.order {
-            let (b, n, dp, xo) = (self.base[k], self.n[k], self.dpos[k], self.xoff[k]);
+        for &NodeShape {
+            k,
+            base: b,
+            n,
+            np,
+            dp,
+            xo,
+            op,
+            ..
+        } in &self.schedule
+        {
             let blk = &mut self.diag[dp..dp + n * n];
             let dinv = &mut self.dinv[xo..xo + n];
             ldlt_two_segment(blk, n, b, dinv);
             if k < nb && (0..b).any(|r| !(blk[r * n + r] > 0.0) || dinv[r] == 0.0) {
                 return Err(ArticulatedError::Singular { node: k });
             }
-            let p = tree.parent[k];
-            if p == NONE {
+            if np == 0 {
                 continue;
             }
-            let np = self.n[p];
-            let (op, dpp) = (self.opos[k], self.dpos[p]);
+            let dpp = self.dpos[tree.parent[k]];
             let w = &mut self.off[op..op + n * np];
             let (blk, dpar) = if dp < dpp {
                 let (lo, hi) = self.diag.split_at_mut(dpp);
@@ -272,8 +330,9 @@ impl RowTree {
 
     /// Solves the augmented system in place (`x` of length [`Self::size`], laid out
     /// node by node, base rows first): forward `s = d⁻¹ L⁻¹ y`, `y_p −= Wᵀ s`; backward
-    /// `x = L⁻ᵀ (s − d⁻¹ W x_p)`.
-    pub fn solve(&self, tree: &TreeSolver, x: &mut [f64]) {
+    /// `x = L⁻ᵀ (s − d⁻¹ W x_p)`. The tree's structure is read from the schedule
+    /// [`Self::assemble`] built from `_tree` (the same tree).
+    pub fn solve(&self, _tree: &TreeSolver, x: &mut [f64]) {
         macro_rules! dispatch {
             ($f:ident, $n:expr, $np:expr, $args:expr; $($a:literal, $b:literal);*) => {
                 match ($n, $np) {
@@ -282,29 +341,33 @@ impl RowTree {
                 }
             };
         }
-        for &k in &tree.order {
-            let args = self.node_args(tree, k, x);
-            dispatch!(forward, args.n, args.np, args;
+        for s in &self.schedule {
+            let args = self.node_args(s, x);
+            dispatch!(forward, s.n, s.np, args;
                 6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 12;
                 3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 12, 6);
         }
-        for &k in tree.order.iter().rev() {
-            let args = self.node_args(tree, k, x);
-            dispatch!(backward, args.n, args.np, args;
+        for s in self.schedule.iter().rev() {
+            let args = self.node_args(s, x);
+            dispatch!(backward, s.n, s.np, args;
                 6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 12;
                 3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 12, 6);
         }
     }
 
-    /// Node `k`'s blocks and its own and its parent's unknowns, split from `x`.
-    fn node_args<'a>(&'a self, tree: &TreeSolver, k: usize, x: &'a mut [f64]) -> NodeArgs<'a> {
-        let (n, dp, xo) = (self.n[k], self.dpos[k], self.xoff[k]);
-        let p = tree.parent[k];
-        let (np, xp, op) = if p == NONE {
-            (0, 0, 0)
-        } else {
-            (self.n[p], self.xoff[p], self.opos[k])
-        };
+    /// Node `s`'s blocks and its own and its parent's unknowns, split from `x`
+    /// (inlined into both passes: a call per node cost a fifth of the solve).
+    #[inline(always)]
+    fn node_args<'a>(&'a self, s: &NodeShape, x: &'a mut [f64]) -> NodeArgs<'a> {
+        let NodeShape {
+            n,
+            np,
+            dp,
+            xo,
+            xp,
+            op,
+            ..
+        } = *s;
         // A parent's unknowns never overlap its child's.
         let (xi, xpar) = if np == 0 {
             (&mut x[xo..xo + n], &mut [][..])
@@ -323,6 +386,25 @@ impl RowTree {
             w: &self.off[op..op + n * np],
             xi,
             xp: xpar,
+        }
+    }
+}
+
+/// `dst = [src[..len], 0, …, 0]`: a tree block's row into a node row of `dst.len() ≥
+/// len` unknowns. A full row (`len = 6`, every body row) is copied as a fixed-size
+/// array (moves, not a `memcpy` call).
+#[inline(always)]
+fn copy_padded(dst: &mut [f64], src: &[f64; 6], len: usize) {
+    match dst.split_first_chunk_mut::<6>() {
+        Some((head, tail)) if len == 6 => {
+            *head = *src;
+            for v in tail {
+                *v = 0.0;
+            }
+        }
+        _ => {
+            dst[..len].copy_from_slice(&src[..len]);
+            dst[len..].fill(0.0);
         }
     }
 }
@@ -470,6 +552,99 @@ const MAX_NEGATIVE_PIVOTS: usize = 6;
 /// humanoid_CMU lying on the floor, 46 of the active set's tries in its 5 s passive
 /// run, each sending its step to the dense path and up to 15 more by the back-off).
 fn ldlt_two_segment(a: &mut [f64], n: usize, base: usize, dinv: &mut [f64]) {
+    // The body inlined once per common node size with the size a constant (loops
+    // unroll, bounds checks fold), the same operations in the same order as with the
+    // runtime size.
+    match n {
+        3 => ldlt_two_segment_fixed::<3>(a, base, dinv),
+        4 => ldlt_two_segment_fixed::<4>(a, base, dinv),
+        5 => ldlt_two_segment_fixed::<5>(a, base, dinv),
+        6 => ldlt_two_segment_fixed::<6>(a, base, dinv),
+        7 => ldlt_two_segment_fixed::<7>(a, base, dinv),
+        8 => ldlt_two_segment_fixed::<8>(a, base, dinv),
+        _ => ldlt_two_segment_sized(a, n, base, dinv),
+    }
+}
+
+/// [`ldlt_two_segment`] for `N ≤ 8`, one column at a time with the column a constant
+/// (every loop a constant trip count, unrolled; with the size alone a constant the
+/// triangular loops stayed loops). The same operations in the same order as
+/// [`ldlt_two_segment_sized`].
+#[inline(always)]
+fn ldlt_two_segment_fixed<const N: usize>(a: &mut [f64], base: usize, dinv: &mut [f64]) {
+    let (a, dinv) = (&mut a[..N * N], &mut dinv[..N]);
+    let scale = (0..base).map(|i| a[i * N + i].abs()).fold(0.0f64, f64::max);
+    let mut st = TwoSegment {
+        base,
+        tol: 1e-12 * scale,
+        negative: 0,
+    };
+    two_segment_column::<0, N>(a, dinv, &mut st);
+    two_segment_column::<1, N>(a, dinv, &mut st);
+    two_segment_column::<2, N>(a, dinv, &mut st);
+    two_segment_column::<3, N>(a, dinv, &mut st);
+    two_segment_column::<4, N>(a, dinv, &mut st);
+    two_segment_column::<5, N>(a, dinv, &mut st);
+    two_segment_column::<6, N>(a, dinv, &mut st);
+    two_segment_column::<7, N>(a, dinv, &mut st);
+}
+
+/// The running state of [`ldlt_two_segment_fixed`]: the base size, the current
+/// pivot tolerance and the negative pivots kept so far.
+struct TwoSegment {
+    base: usize,
+    tol: f64,
+    negative: usize,
+}
+
+/// Column `J` of [`ldlt_two_segment_sized`] on an `N × N` block (nothing when
+/// `J ≥ N`), the loop body of that function with `j = J`.
+#[inline(always)]
+fn two_segment_column<const J: usize, const N: usize>(
+    a: &mut [f64],
+    dinv: &mut [f64],
+    st: &mut TwoSegment,
+) {
+    if J >= N {
+        return;
+    }
+    let base = st.base;
+    if J == base && base < N {
+        // The extra rows' scale (see `ldlt_two_segment_sized`).
+        let s = (base..N).map(|i| a[i * N + i].abs()).fold(0.0f64, f64::max);
+        st.tol = 1e-12 * s;
+    }
+    let mut d = a[J * N + J];
+    for k in 0..J {
+        d -= a[J * N + k] * a[J * N + k] * a[k * N + k];
+    }
+    let wrong_sign = J >= base && d > 0.0;
+    let beyond_rank = J >= base && st.negative >= MAX_NEGATIVE_PIVOTS;
+    if !(d.abs() > st.tol) || wrong_sign || beyond_rank {
+        dinv[J] = 0.0;
+        a[J * N + J] = 0.0;
+        for i in J + 1..N {
+            a[i * N + J] = 0.0;
+        }
+        return;
+    }
+    if d < 0.0 {
+        st.negative += 1;
+    }
+    a[J * N + J] = d;
+    dinv[J] = 1.0 / d;
+    for i in J + 1..N {
+        let mut s = a[i * N + J];
+        for k in 0..J {
+            s -= a[i * N + k] * a[J * N + k] * a[k * N + k];
+        }
+        a[i * N + J] = s / d;
+    }
+}
+
+/// [`ldlt_two_segment`] of an `n × n` block (any size).
+fn ldlt_two_segment_sized(a: &mut [f64], n: usize, base: usize, dinv: &mut [f64]) {
+    let (a, dinv) = (&mut a[..n * n], &mut dinv[..n]);
     let scale = (0..base).map(|i| a[i * n + i].abs()).fold(0.0f64, f64::max);
     let mut tol = 1e-12 * scale;
     let mut negative = 0usize;
@@ -565,5 +740,45 @@ mod tests {
         assert_eq!(kept, 6, "dinv {dinv:?}");
         assert!(dinv[..6].iter().all(|d| *d < 0.0), "dinv {dinv:?}");
         assert_eq!(&dinv[6..], &[0.0, 0.0]);
+    }
+
+    /// The unrolled [`ldlt_two_segment_fixed`] gives [`ldlt_two_segment_sized`]'s
+    /// factor and inverse pivots to the bit, on blocks of every unrolled size 3..8 and
+    /// every split `base` (positive definite base rows, then extra rows of the
+    /// `−g D⁻¹ gᵀ` sign, one of them dependent on the first: a dropped pivot).
+    #[test]
+    fn unrolled_two_segment_matches_the_loop_to_the_bit() {
+        for n in 3..=8 {
+            for base in 1..=n {
+                let mut a = alloc::vec![0.0f64; n * n];
+                for i in 0..n {
+                    for j in 0..=i {
+                        let v = 0.2 * libm::sin(0.4 + 1.3 * i as f64 + 0.7 * j as f64);
+                        a[i * n + j] = v;
+                        a[j * n + i] = v;
+                    }
+                    a[i * n + i] += if i < base { 4.0 } else { -4.0 };
+                }
+                if base + 1 < n {
+                    // The last extra row a copy of the first extra row.
+                    let (r, c) = (n - 1, base);
+                    for j in 0..n {
+                        a[r * n + j] = a[c * n + j];
+                        a[j * n + r] = a[j * n + c];
+                    }
+                    a[r * n + r] = a[c * n + c];
+                }
+                let (mut fixed, mut looped) = (a.clone(), a);
+                let (mut dinv_f, mut dinv_l) = (alloc::vec![0.0; n], alloc::vec![0.0; n]);
+                ldlt_two_segment(&mut fixed, n, base, &mut dinv_f);
+                ldlt_two_segment_sized(&mut looped, n, base, &mut dinv_l);
+                if base + 1 < n {
+                    assert_eq!(dinv_l[n - 1], 0.0, "n {n} base {base}: dependent row kept");
+                }
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&fixed), bits(&looped), "n {n} base {base}");
+                assert_eq!(bits(&dinv_f), bits(&dinv_l), "n {n} base {base}");
+            }
+        }
     }
 }
