@@ -159,11 +159,21 @@ pub(super) struct ActiveSet {
     x: Vec<f64>,
     /// The rows solved by their Schur complement this iteration (row indices): the
     /// active rows whose pivot the factor dropped, then the active coupled rows; their
-    /// factor positions (`usize::MAX` for a coupled row), their columns `H_A⁻¹ Gᵀ`, and
-    /// the small system `S ζ = r` with its solution.
+    /// factor positions (`usize::MAX` for a coupled row), their forward-pass columns
+    /// `s = D⁺ L⁻¹ Gᵀ` and `u = L⁻¹ Gᵀ` on the paths to the root
+    /// ([`World::schur_columns`]), and the small system `S ζ = r` with its solution.
     schur: Vec<usize>,
     schur_pos: Vec<usize>,
     ycols: Vec<f64>,
+    ucols: Vec<f64>,
+    /// Per Schur row: its path nodes (a row's bodies and their ancestors) in
+    /// `path_nodes[path_start[c]..path_start[c + 1]]`; `mark` flags the nodes of the
+    /// path being built (all clear between uses).
+    path_nodes: Vec<usize>,
+    path_start: Vec<usize>,
+    mark: Vec<bool>,
+    /// `H_A⁻¹ G_Dᵀ ζ` (one factor solve), the Schur rows' correction of a solution.
+    corr: Vec<f64>,
     s_mat: Vec<f64>,
     s_rhs: Vec<f64>,
     zeta: Vec<f64>,
@@ -613,14 +623,9 @@ impl World {
                 if !st.s_fac.apply(&st.s_rhs, &mut st.zeta) {
                     return;
                 }
-                for c in 0..d {
-                    let z = st.zeta[c];
-                    if z != 0.0 {
-                        let y = &st.ycols[c * size..(c + 1) * size];
-                        for (x, yv) in col.iter_mut().zip(y) {
-                            *x -= z * yv;
-                        }
-                    }
+                self.schur_correction(f, &st.schur, &st.zeta, &mut st.corr);
+                for (x, y) in col.iter_mut().zip(&st.corr) {
+                    *x -= y;
                 }
             }
             // The normals' response: −x at a factor row, −ζ at a Schur row.
@@ -736,7 +741,6 @@ impl World {
         if d > MAX_SCHUR {
             return false;
         }
-        let size = f.size;
         if !(st.y_current && st.y_schur == st.schur) {
             st.y_current = false;
             if !self.schur_columns(st) {
@@ -756,13 +760,10 @@ impl World {
             return false;
         }
         st.s_ready = true;
-        for (c, z) in st.zeta.iter().enumerate() {
-            if *z != 0.0 {
-                let col = &st.ycols[c * size..(c + 1) * size];
-                for (x, y) in st.x.iter_mut().zip(col) {
-                    *x -= z * y;
-                }
-            }
+        // x = x_A − H_A⁻¹ G_Dᵀ ζ: one factor solve.
+        self.schur_correction(&st.factor, &st.schur, &st.zeta, &mut st.corr);
+        for (x, y) in st.x.iter_mut().zip(&st.corr) {
+            *x -= y;
         }
         for (c, &p) in st.schur_pos.iter().enumerate() {
             if p != usize::MAX {
@@ -772,34 +773,63 @@ impl World {
         true
     }
 
-    /// The Schur rows' columns `Y = H_A⁻¹ G_Dᵀ` (one factor solve each), `S = G_D Y`
-    /// (symmetrised) in its pivoted Cholesky factor ([`PsdFactor`]) truncated at the
-    /// floor `1e-10 max g M⁻¹ gᵀ`, for [`Self::schur_rows`]; they depend on the factor
-    /// and the Schur rows only, so iterations that keep both reuse them. `false` when
-    /// `S` or its factor is not finite.
+    /// `S = G_D H_A⁻¹ G_Dᵀ` of the Schur rows in its pivoted Cholesky factor
+    /// ([`PsdFactor`]) truncated at the floor `1e-10 max g M⁻¹ gᵀ`, for
+    /// [`Self::schur_rows`]; it depends on the factor and the Schur rows only, so
+    /// iterations that keep both reuse it. With the factor `H_A = L D Lᵀ` (leaves
+    /// first), `g H_A⁻¹ g'ᵀ = uᵀ D⁺ u'` for `u = L⁻¹ gᵀ`, and the forward pass of a row
+    /// on one or two bodies touches only those bodies and their ancestors
+    /// ([`RowTree::forward_marked`]): per row a pass over its paths to the root
+    /// (about a quarter of a humanoid's nodes, no backward pass) instead of a whole
+    /// factor solve, and `S_ab = Σ u_a s_b` over `a`'s path (`s = D⁺ u`, the pass's
+    /// output; `D⁺`: zero at a dropped pivot). `false` when `S` or its factor is not
+    /// finite.
     fn schur_columns(&self, st: &mut ActiveSet) -> bool {
         let f = &st.factor;
         let d = st.schur.len();
         let size = f.size;
+        let nodes = self.solver.parent.len();
         st.ycols.clear();
         st.ycols.resize(d * size, 0.0);
+        st.ucols.clear();
+        st.ucols.resize(d * size, 0.0);
+        st.mark.clear();
+        st.mark.resize(nodes, false);
+        st.path_nodes.clear();
+        st.path_start.clear();
         let mut free_scale: f64 = 0.0;
         for (c, &i) in st.schur.iter().enumerate() {
+            st.path_start.push(st.path_nodes.len());
             let col = &mut st.ycols[c * size..(c + 1) * size];
             self.schur_scatter(f, col, i, 1.0);
-            f.solve(&self.solver, col);
+            self.schur_path(i, &mut st.mark, &mut st.path_nodes);
+            f.forward_marked(&self.solver, col, &st.mark);
+            let ucol = &mut st.ucols[c * size..(c + 1) * size];
+            for &k in &st.path_nodes[st.path_start[c]..] {
+                st.mark[k] = false;
+                let o = f.node_offset(k);
+                for u in o..o + f.node_len(k) {
+                    let di = f.pivot_inverse(u);
+                    ucol[u] = if di != 0.0 { col[u] / di } else { 0.0 };
+                }
+            }
             free_scale = free_scale.max(self.schur_free_scale(i));
         }
+        st.path_start.push(st.path_nodes.len());
         st.s_mat.clear();
         st.s_mat.resize(d * d, 0.0);
         for a in 0..d {
+            let ua = &st.ucols[a * size..(a + 1) * size];
+            let path = &st.path_nodes[st.path_start[a]..st.path_start[a + 1]];
             for b in 0..=a {
-                let (ya, yb) = (
-                    &st.ycols[a * size..(a + 1) * size],
-                    &st.ycols[b * size..(b + 1) * size],
-                );
-                let (ra, rb) = (st.schur[a], st.schur[b]);
-                let v = 0.5 * (self.schur_gather(f, yb, ra) + self.schur_gather(f, ya, rb));
+                let sb = &st.ycols[b * size..(b + 1) * size];
+                let mut v = 0.0;
+                for &k in path {
+                    let o = f.node_offset(k);
+                    for u in o..o + f.node_len(k) {
+                        v += ua[u] * sb[u];
+                    }
+                }
                 st.s_mat[a * d + b] = v;
                 st.s_mat[b * d + a] = v;
             }
@@ -808,6 +838,51 @@ impl World {
             return false;
         }
         st.s_fac.factor(&mut st.s_mat, d, 1e-10 * free_scale)
+    }
+
+    /// Marks Schur row `i`'s bodies and their ancestors in `mark` and appends the
+    /// newly marked nodes to `nodes` (a walk stops at a node already marked: its
+    /// ancestors are).
+    fn schur_path(&self, i: usize, mark: &mut [bool], nodes: &mut Vec<usize>) {
+        let parent = &self.solver.parent;
+        let mut walk = |body: usize| {
+            let mut k = body;
+            while k < mark.len() && !mark[k] {
+                mark[k] = true;
+                nodes.push(k);
+                k = parent[k];
+            }
+        };
+        let m = self.urows.len();
+        match self.urows.get(i) {
+            Some(r) => {
+                for body in [r.a, r.b].into_iter().flatten() {
+                    walk(body);
+                }
+            }
+            None => {
+                for (a, b, _) in self.eq.segments(i - m) {
+                    if let Some(a) = a {
+                        walk(*a);
+                    }
+                    walk(*b);
+                }
+            }
+        }
+    }
+
+    /// `corr = H_A⁻¹ G_Dᵀ ζ` for the Schur rows `schur` and their `ζ` (one factor solve
+    /// with the factor `f` of `H_A`).
+    fn schur_correction(&self, f: &RowTree, schur: &[usize], zeta: &[f64], corr: &mut Vec<f64>) {
+        corr.clear();
+        corr.resize(f.size, 0.0);
+        for (c, &i) in schur.iter().enumerate() {
+            let z = zeta[c];
+            if z != 0.0 {
+                self.schur_scatter(f, corr, i, z);
+            }
+        }
+        f.solve(&self.solver, corr);
     }
 
     /// `G x` of Schur row `i` in the augmented layout: one-sided row `i` below
