@@ -159,19 +159,26 @@ pub(super) struct ActiveSet {
     x: Vec<f64>,
     /// The rows solved by their Schur complement this iteration (row indices): the
     /// active rows whose pivot the factor dropped, then the active coupled rows; their
-    /// factor positions (`usize::MAX` for a coupled row), their forward-pass columns
-    /// `s = D⁺ L⁻¹ Gᵀ` and `u = L⁻¹ Gᵀ` on the paths to the root
+    /// factor positions (`usize::MAX` for a coupled row), their forward-pass values
+    /// `s = D⁺ L⁻¹ Gᵀ` and `u = L⁻¹ Gᵀ` on their paths to the root
     /// ([`World::schur_columns`]), and the small system `S ζ = r` with its solution.
     schur: Vec<usize>,
     schur_pos: Vec<usize>,
-    ycols: Vec<f64>,
-    ucols: Vec<f64>,
-    /// Per Schur row: its path nodes (a row's bodies and their ancestors) in
-    /// `path_nodes[path_start[c]..path_start[c + 1]]`; `mark` flags the nodes of the
-    /// path being built (all clear between uses).
+    /// Per Schur row `c`: its path nodes (its bodies and their ancestors) in
+    /// `path_nodes[path_start[c]..path_start[c + 1]]`, their unknowns' `s` and `u`
+    /// packed node after node from `path_s[val_start[c]..]`, `path_u[val_start[c]..]`.
     path_nodes: Vec<usize>,
     path_start: Vec<usize>,
+    val_start: Vec<usize>,
+    path_s: Vec<f64>,
+    path_u: Vec<f64>,
+    /// Per tree node: whether it is on the path being built, and where the Schur row
+    /// at hand keeps its values (`usize::MAX`: not on its path); both clear between
+    /// uses.
     mark: Vec<bool>,
+    node_slot: Vec<usize>,
+    /// A full-length column for one forward pass, zero between uses.
+    col: Vec<f64>,
     /// `H_A⁻¹ G_Dᵀ ζ` (one factor solve), the Schur rows' correction of a solution.
     corr: Vec<f64>,
     s_mat: Vec<f64>,
@@ -194,7 +201,7 @@ pub(super) struct ActiveSet {
     /// was built in this step: an iteration with the same rows reuses it.
     factor_map: Vec<usize>,
     factor_current: bool,
-    /// The Schur rows whose `ycols` and factor of `S` (`s_fac`) were built on the
+    /// The Schur rows whose path values and factor of `S` (`s_fac`) were built on the
     /// current factor; `y_current` says
     /// they are valid (cleared when the factor is rebuilt).
     y_schur: Vec<usize>,
@@ -787,30 +794,35 @@ impl World {
     fn schur_columns(&self, st: &mut ActiveSet) -> bool {
         let f = &st.factor;
         let d = st.schur.len();
-        let size = f.size;
         let nodes = self.solver.parent.len();
-        st.ycols.clear();
-        st.ycols.resize(d * size, 0.0);
-        st.ucols.clear();
-        st.ucols.resize(d * size, 0.0);
+        st.col.clear();
+        st.col.resize(f.size, 0.0);
         st.mark.clear();
         st.mark.resize(nodes, false);
+        st.node_slot.clear();
+        st.node_slot.resize(nodes, usize::MAX);
         st.path_nodes.clear();
         st.path_start.clear();
+        st.val_start.clear();
+        st.path_s.clear();
+        st.path_u.clear();
         let mut free_scale: f64 = 0.0;
-        for (c, &i) in st.schur.iter().enumerate() {
-            st.path_start.push(st.path_nodes.len());
-            let col = &mut st.ycols[c * size..(c + 1) * size];
-            self.schur_scatter(f, col, i, 1.0);
+        for &i in &st.schur {
+            let first = st.path_nodes.len();
+            st.path_start.push(first);
+            st.val_start.push(st.path_s.len());
+            self.schur_scatter(f, &mut st.col, i, 1.0);
             self.schur_path(i, &mut st.mark, &mut st.path_nodes);
-            f.forward_marked(&self.solver, col, &st.mark);
-            let ucol = &mut st.ucols[c * size..(c + 1) * size];
-            for &k in &st.path_nodes[st.path_start[c]..] {
+            f.forward_marked(&self.solver, &mut st.col, &st.mark);
+            // Keep s and u = s / d⁻¹ on the path; leave `col` and `mark` clear.
+            for &k in &st.path_nodes[first..] {
                 st.mark[k] = false;
                 let o = f.node_offset(k);
                 for u in o..o + f.node_len(k) {
-                    let di = f.pivot_inverse(u);
-                    ucol[u] = if di != 0.0 { col[u] / di } else { 0.0 };
+                    let (sv, di) = (st.col[u], f.pivot_inverse(u));
+                    st.path_s.push(sv);
+                    st.path_u.push(if di != 0.0 { sv / di } else { 0.0 });
+                    st.col[u] = 0.0;
                 }
             }
             free_scale = free_scale.max(self.schur_free_scale(i));
@@ -818,20 +830,31 @@ impl World {
         st.path_start.push(st.path_nodes.len());
         st.s_mat.clear();
         st.s_mat.resize(d * d, 0.0);
-        for a in 0..d {
-            let ua = &st.ucols[a * size..(a + 1) * size];
-            let path = &st.path_nodes[st.path_start[a]..st.path_start[a + 1]];
-            for b in 0..=a {
-                let sb = &st.ycols[b * size..(b + 1) * size];
+        for b in 0..d {
+            // Where b's values of each node on its path are.
+            let mut off = st.val_start[b];
+            for &k in &st.path_nodes[st.path_start[b]..st.path_start[b + 1]] {
+                st.node_slot[k] = off;
+                off += f.node_len(k);
+            }
+            for a in b..d {
                 let mut v = 0.0;
-                for &k in path {
-                    let o = f.node_offset(k);
-                    for u in o..o + f.node_len(k) {
-                        v += ua[u] * sb[u];
+                let mut oa = st.val_start[a];
+                for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
+                    let n = f.node_len(k);
+                    let ob = st.node_slot[k];
+                    if ob != usize::MAX {
+                        for t in 0..n {
+                            v += st.path_u[oa + t] * st.path_s[ob + t];
+                        }
                     }
+                    oa += n;
                 }
                 st.s_mat[a * d + b] = v;
                 st.s_mat[b * d + a] = v;
+            }
+            for &k in &st.path_nodes[st.path_start[b]..st.path_start[b + 1]] {
+                st.node_slot[k] = usize::MAX;
             }
         }
         if st.s_mat.iter().any(|v| !v.is_finite()) {
