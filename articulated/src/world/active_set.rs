@@ -30,7 +30,8 @@
 //! tree joints, contacts with the static world) go into the factor. Contacts between
 //! two bodies (a humanoid's hand on its thigh) would close a loop: they are *coupled*
 //! rows, held outside the factor; active, they are solved by their Schur complement
-//! `G_C H_A⁻¹ G_Cᵀ` after each factor solve (one tree solve per active coupled row),
+//! `G_C H_A⁻¹ G_Cᵀ` after each factor solve (per active coupled row one forward pass
+//! over its bodies' paths to the root, [`World::schur_columns`]),
 //! together with the active rows whose pivot the factor drops (more rows at a node
 //! than its subtree has freedoms), as loop rows are; at a bound their impulse is on
 //! the right-hand side as any row's. Rows still unsatisfied after it are dependent
@@ -89,6 +90,28 @@
 //! instead: 5.12 → 5.21M instructions per step), probing with two iterations during
 //! the back-off (6.06M), truncating the Schur rows' factor at `1e-6` or `1e-3` of its
 //! largest pivot instead of `1e-10` (5.11M, 5.05M).
+//!
+//! Measured again (issue 13, main ed085de, dm_control's humanoid 2 s passive, 400
+//! steps): 185 tries, 150 settled, 176 steps skipped; of the 35 failures 22 a dependent
+//! one-sided row short by 2.1e-10 to 5.0e-4 m/s (tolerance 1e-10 to 3.8e-10), each with
+//! one to four dependent one-sided Schur rows the minimum-norm solve left beyond their
+//! targets (`w > tol`); 12 not settled, where both feet's normals and friction rows
+//! repeat a period-8 pattern (a normal pulled by friction at bounds from the last
+//! normals leaves, comes back with `w < 0`, its friction rows re-enter at `|w|` of
+//! 1e-9) that the cycle fingerprint misses, the normals' values differing; 1 cycle.
+//! Tried and left out (one trajectory is chaotic: any change of bits moves the tries
+//! and failures, so each lever was also run on an ensemble of four 2 s runs per
+//! humanoid, passive, controlled and two root kicks; instructions per step of
+//! `World::step`): releasing the over-satisfied dependent one-sided rows when one is
+//! short (the primal–dual rule for `w > 0` while active) turned the failures into
+//! non-settling updates (28: 2 dependent, 19 not settled, 7 cycles; 71 settled tries,
+//! 262 skipped steps); moving `ζ` along `S`'s null space to make the minimum-norm
+//! split non-negative (Goldfarb–Idnani's step for a dependent constraint) found the
+//! dependencies among the Schur rows themselves (`H_A⁻¹ G_Dᵀ n` of norm 2e-15) and
+//! changed little (35 failures, 19 dependent, 75 settled tries); a dependent row's
+//! allowance of 10 and 100 × the tolerance (3.18M → 3.83M and 3.19M, chaotic); no
+//! back-off (ensemble sum, dm_control 18.01M → 20.26M, gymnasium 6.06M → 6.09M) and a
+//! back-off capped at 3 steps (18.75M, 6.08M).
 
 use alloc::vec::Vec;
 
@@ -702,12 +725,14 @@ impl World {
     /// of a node beyond the rank its child's unknowns give it (a foot's contacts under
     /// its hinge, more rows than the foot has freedoms): not dependent in the whole
     /// system, only in the subtree below it. Both kinds are solved as loop rows are
-    /// ([`crate::tree`]): with `Y = H_A⁻¹ G_Dᵀ` (one solve of the factor without them
-    /// per row), `(G_D Y) ζ_D = G_D x_A − bias_D` for the minimum-norm `ζ_D`
+    /// ([`crate::tree`]): with `S = G_D H_A⁻¹ G_Dᵀ` ([`Self::schur_columns`]: one
+    /// forward pass of the factor without them per row, on the row's paths to the
+    /// root), `S ζ_D = G_D x_A − bias_D` for the minimum-norm `ζ_D`
     /// ([`PsdFactor`]: pivots below `1e-10 ×` the rows' scale without joints,
     /// `max g M⁻¹ gᵀ`, or of the largest diagonal, are truncated: those directions are
     /// dependent and `ζ` has no part along them),
-    /// then `x = x_A − Y ζ_D`, and the rows' impulses are `z = −ζ`; skipped when the
+    /// then `x = x_A − H_A⁻¹ G_Dᵀ ζ_D` (one factor solve), and the rows' impulses are
+    /// `z = −ζ`; skipped when the
     /// other rows already hold every one of them (`|w| ≤ tol_w`). `false` when the small
     /// solve fails or there are too many such rows (more than [`MAX_SCHUR`]: the dense
     /// path is as cheap).
