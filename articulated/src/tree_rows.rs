@@ -355,6 +355,44 @@ impl RowTree {
         }
     }
 
+    /// [`Self::solve`]'s forward pass (`s = d⁻¹ L⁻¹ y` at each node, `y_p −= Wᵀ s`) at
+    /// the nodes marked in `mark` only, in the elimination order. For a right-hand side
+    /// zero outside the marked nodes, with the marked set closed under parents (a row's
+    /// bodies and their ancestors), the result equals the full pass's: the other nodes
+    /// hold zero and send nothing up. `gᵀ H_A⁻¹ g' = Σ_u s_u s'_u / d⁻¹_u` over the
+    /// unknowns with [`Self::pivot_inverse`] non-zero then needs only the paths to the
+    /// root (`world/active_set.rs`'s Schur rows).
+    pub fn forward_marked(&self, _tree: &TreeSolver, x: &mut [f64], mark: &[bool]) {
+        macro_rules! dispatch {
+            ($f:ident, $n:expr, $np:expr, $args:expr; $($a:literal, $b:literal);*) => {
+                match ($n, $np) {
+                    $(($a, $b) => $f::<$a, $b>($args),)*
+                    _ => $f::<0, 0>($args),
+                }
+            };
+        }
+        for s in &self.schedule {
+            if mark.get(s.k).copied().unwrap_or(false) {
+                let args = self.node_args(s, x);
+                dispatch!(forward, s.n, s.np, args;
+                    6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 12;
+                    3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 12, 6);
+            }
+        }
+    }
+
+    /// Node `k`'s number of unknowns (base and extra rows).
+    #[inline]
+    pub fn node_len(&self, k: usize) -> usize {
+        self.n[k]
+    }
+
+    /// Unknown `u`'s inverse pivot `d⁻¹` (zero: dropped).
+    #[inline]
+    pub fn pivot_inverse(&self, u: usize) -> f64 {
+        self.dinv[u]
+    }
+
     /// Node `s`'s blocks and its own and its parent's unknowns, split from `x`
     /// (inlined into both passes: a call per node cost a fifth of the solve).
     #[inline(always)]

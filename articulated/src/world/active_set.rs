@@ -30,7 +30,8 @@
 //! tree joints, contacts with the static world) go into the factor. Contacts between
 //! two bodies (a humanoid's hand on its thigh) would close a loop: they are *coupled*
 //! rows, held outside the factor; active, they are solved by their Schur complement
-//! `G_C H_A⁻¹ G_Cᵀ` after each factor solve (one tree solve per active coupled row),
+//! `G_C H_A⁻¹ G_Cᵀ` after each factor solve (per active coupled row one forward pass
+//! over its bodies' paths to the root, [`World::schur_columns`]),
 //! together with the active rows whose pivot the factor drops (more rows at a node
 //! than its subtree has freedoms), as loop rows are; at a bound their impulse is on
 //! the right-hand side as any row's. Rows still unsatisfied after it are dependent
@@ -89,6 +90,28 @@
 //! instead: 5.12 → 5.21M instructions per step), probing with two iterations during
 //! the back-off (6.06M), truncating the Schur rows' factor at `1e-6` or `1e-3` of its
 //! largest pivot instead of `1e-10` (5.11M, 5.05M).
+//!
+//! Measured again (issue 13, main ed085de, dm_control's humanoid 2 s passive, 400
+//! steps): 185 tries, 150 settled, 176 steps skipped; of the 35 failures 22 a dependent
+//! one-sided row short by 2.1e-10 to 5.0e-4 m/s (tolerance 1e-10 to 3.8e-10), each with
+//! one to four dependent one-sided Schur rows the minimum-norm solve left beyond their
+//! targets (`w > tol`); 12 not settled, where both feet's normals and friction rows
+//! repeat a period-8 pattern (a normal pulled by friction at bounds from the last
+//! normals leaves, comes back with `w < 0`, its friction rows re-enter at `|w|` of
+//! 1e-9) that the cycle fingerprint misses, the normals' values differing; 1 cycle.
+//! Tried and left out (one trajectory is chaotic: any change of bits moves the tries
+//! and failures, so each lever was also run on an ensemble of four 2 s runs per
+//! humanoid, passive, controlled and two root kicks; instructions per step of
+//! `World::step`): releasing the over-satisfied dependent one-sided rows when one is
+//! short (the primal–dual rule for `w > 0` while active) turned the failures into
+//! non-settling updates (28: 2 dependent, 19 not settled, 7 cycles; 71 settled tries,
+//! 262 skipped steps); moving `ζ` along `S`'s null space to make the minimum-norm
+//! split non-negative (Goldfarb–Idnani's step for a dependent constraint) found the
+//! dependencies among the Schur rows themselves (`H_A⁻¹ G_Dᵀ n` of norm 2e-15) and
+//! changed little (35 failures, 19 dependent, 75 settled tries); a dependent row's
+//! allowance of 10 and 100 × the tolerance (3.18M → 3.83M and 3.19M, chaotic); no
+//! back-off (ensemble sum, dm_control 18.01M → 20.26M, gymnasium 6.06M → 6.09M) and a
+//! back-off capped at 3 steps (18.75M, 6.08M).
 
 use alloc::vec::Vec;
 
@@ -159,11 +182,28 @@ pub(super) struct ActiveSet {
     x: Vec<f64>,
     /// The rows solved by their Schur complement this iteration (row indices): the
     /// active rows whose pivot the factor dropped, then the active coupled rows; their
-    /// factor positions (`usize::MAX` for a coupled row), their columns `H_A⁻¹ Gᵀ`, and
-    /// the small system `S ζ = r` with its solution.
+    /// factor positions (`usize::MAX` for a coupled row), their forward-pass values
+    /// `s = D⁺ L⁻¹ Gᵀ` and `u = L⁻¹ Gᵀ` on their paths to the root
+    /// ([`World::schur_columns`]), and the small system `S ζ = r` with its solution.
     schur: Vec<usize>,
     schur_pos: Vec<usize>,
-    ycols: Vec<f64>,
+    /// Per Schur row `c`: its path nodes (its bodies and their ancestors) in
+    /// `path_nodes[path_start[c]..path_start[c + 1]]`, their unknowns' `s` and `u`
+    /// packed node after node from `path_s[val_start[c]..]`, `path_u[val_start[c]..]`.
+    path_nodes: Vec<usize>,
+    path_start: Vec<usize>,
+    val_start: Vec<usize>,
+    path_s: Vec<f64>,
+    path_u: Vec<f64>,
+    /// Per tree node: whether it is on the path being built, and where the Schur row
+    /// at hand keeps its values (`usize::MAX`: not on its path); both clear between
+    /// uses.
+    mark: Vec<bool>,
+    node_slot: Vec<usize>,
+    /// A full-length column for one forward pass, zero between uses.
+    col: Vec<f64>,
+    /// `H_A⁻¹ G_Dᵀ ζ` (one factor solve), the Schur rows' correction of a solution.
+    corr: Vec<f64>,
     s_mat: Vec<f64>,
     s_rhs: Vec<f64>,
     zeta: Vec<f64>,
@@ -184,7 +224,7 @@ pub(super) struct ActiveSet {
     /// was built in this step: an iteration with the same rows reuses it.
     factor_map: Vec<usize>,
     factor_current: bool,
-    /// The Schur rows whose `ycols` and factor of `S` (`s_fac`) were built on the
+    /// The Schur rows whose path values and factor of `S` (`s_fac`) were built on the
     /// current factor; `y_current` says
     /// they are valid (cleared when the factor is rebuilt).
     y_schur: Vec<usize>,
@@ -613,14 +653,9 @@ impl World {
                 if !st.s_fac.apply(&st.s_rhs, &mut st.zeta) {
                     return;
                 }
-                for c in 0..d {
-                    let z = st.zeta[c];
-                    if z != 0.0 {
-                        let y = &st.ycols[c * size..(c + 1) * size];
-                        for (x, yv) in col.iter_mut().zip(y) {
-                            *x -= z * yv;
-                        }
-                    }
+                self.schur_correction(f, &st.schur, &st.zeta, &mut st.corr);
+                for (x, y) in col.iter_mut().zip(&st.corr) {
+                    *x -= y;
                 }
             }
             // The normals' response: −x at a factor row, −ζ at a Schur row.
@@ -690,12 +725,14 @@ impl World {
     /// of a node beyond the rank its child's unknowns give it (a foot's contacts under
     /// its hinge, more rows than the foot has freedoms): not dependent in the whole
     /// system, only in the subtree below it. Both kinds are solved as loop rows are
-    /// ([`crate::tree`]): with `Y = H_A⁻¹ G_Dᵀ` (one solve of the factor without them
-    /// per row), `(G_D Y) ζ_D = G_D x_A − bias_D` for the minimum-norm `ζ_D`
+    /// ([`crate::tree`]): with `S = G_D H_A⁻¹ G_Dᵀ` ([`Self::schur_columns`]: one
+    /// forward pass of the factor without them per row, on the row's paths to the
+    /// root), `S ζ_D = G_D x_A − bias_D` for the minimum-norm `ζ_D`
     /// ([`PsdFactor`]: pivots below `1e-10 ×` the rows' scale without joints,
     /// `max g M⁻¹ gᵀ`, or of the largest diagonal, are truncated: those directions are
     /// dependent and `ζ` has no part along them),
-    /// then `x = x_A − Y ζ_D`, and the rows' impulses are `z = −ζ`; skipped when the
+    /// then `x = x_A − H_A⁻¹ G_Dᵀ ζ_D` (one factor solve), and the rows' impulses are
+    /// `z = −ζ`; skipped when the
     /// other rows already hold every one of them (`|w| ≤ tol_w`). `false` when the small
     /// solve fails or there are too many such rows (more than [`MAX_SCHUR`]: the dense
     /// path is as cheap).
@@ -736,7 +773,6 @@ impl World {
         if d > MAX_SCHUR {
             return false;
         }
-        let size = f.size;
         if !(st.y_current && st.y_schur == st.schur) {
             st.y_current = false;
             if !self.schur_columns(st) {
@@ -756,13 +792,10 @@ impl World {
             return false;
         }
         st.s_ready = true;
-        for (c, z) in st.zeta.iter().enumerate() {
-            if *z != 0.0 {
-                let col = &st.ycols[c * size..(c + 1) * size];
-                for (x, y) in st.x.iter_mut().zip(col) {
-                    *x -= z * y;
-                }
-            }
+        // x = x_A − H_A⁻¹ G_Dᵀ ζ: one factor solve.
+        self.schur_correction(&st.factor, &st.schur, &st.zeta, &mut st.corr);
+        for (x, y) in st.x.iter_mut().zip(&st.corr) {
+            *x -= y;
         }
         for (c, &p) in st.schur_pos.iter().enumerate() {
             if p != usize::MAX {
@@ -772,42 +805,132 @@ impl World {
         true
     }
 
-    /// The Schur rows' columns `Y = H_A⁻¹ G_Dᵀ` (one factor solve each), `S = G_D Y`
-    /// (symmetrised) in its pivoted Cholesky factor ([`PsdFactor`]) truncated at the
-    /// floor `1e-10 max g M⁻¹ gᵀ`, for [`Self::schur_rows`]; they depend on the factor
-    /// and the Schur rows only, so iterations that keep both reuse them. `false` when
-    /// `S` or its factor is not finite.
+    /// `S = G_D H_A⁻¹ G_Dᵀ` of the Schur rows in its pivoted Cholesky factor
+    /// ([`PsdFactor`]) truncated at the floor `1e-10 max g M⁻¹ gᵀ`, for
+    /// [`Self::schur_rows`]; it depends on the factor and the Schur rows only, so
+    /// iterations that keep both reuse it. With the factor `H_A = L D Lᵀ` (leaves
+    /// first), `g H_A⁻¹ g'ᵀ = uᵀ D⁺ u'` for `u = L⁻¹ gᵀ`, and the forward pass of a row
+    /// on one or two bodies touches only those bodies and their ancestors
+    /// ([`RowTree::forward_marked`]): per row a pass over its paths to the root
+    /// (about a quarter of a humanoid's nodes, no backward pass) instead of a whole
+    /// factor solve, and `S_ab = Σ u_a s_b` over `a`'s path (`s = D⁺ u`, the pass's
+    /// output; `D⁺`: zero at a dropped pivot). `false` when `S` or its factor is not
+    /// finite.
     fn schur_columns(&self, st: &mut ActiveSet) -> bool {
         let f = &st.factor;
         let d = st.schur.len();
-        let size = f.size;
-        st.ycols.clear();
-        st.ycols.resize(d * size, 0.0);
+        let nodes = self.solver.parent.len();
+        st.col.clear();
+        st.col.resize(f.size, 0.0);
+        st.mark.clear();
+        st.mark.resize(nodes, false);
+        st.node_slot.clear();
+        st.node_slot.resize(nodes, usize::MAX);
+        st.path_nodes.clear();
+        st.path_start.clear();
+        st.val_start.clear();
+        st.path_s.clear();
+        st.path_u.clear();
         let mut free_scale: f64 = 0.0;
-        for (c, &i) in st.schur.iter().enumerate() {
-            let col = &mut st.ycols[c * size..(c + 1) * size];
-            self.schur_scatter(f, col, i, 1.0);
-            f.solve(&self.solver, col);
+        for &i in &st.schur {
+            let first = st.path_nodes.len();
+            st.path_start.push(first);
+            st.val_start.push(st.path_s.len());
+            self.schur_scatter(f, &mut st.col, i, 1.0);
+            self.schur_path(i, &mut st.mark, &mut st.path_nodes);
+            f.forward_marked(&self.solver, &mut st.col, &st.mark);
+            // Keep s and u = s / d⁻¹ on the path; leave `col` and `mark` clear.
+            for &k in &st.path_nodes[first..] {
+                st.mark[k] = false;
+                let o = f.node_offset(k);
+                for u in o..o + f.node_len(k) {
+                    let (sv, di) = (st.col[u], f.pivot_inverse(u));
+                    st.path_s.push(sv);
+                    st.path_u.push(if di != 0.0 { sv / di } else { 0.0 });
+                    st.col[u] = 0.0;
+                }
+            }
             free_scale = free_scale.max(self.schur_free_scale(i));
         }
+        st.path_start.push(st.path_nodes.len());
         st.s_mat.clear();
         st.s_mat.resize(d * d, 0.0);
-        for a in 0..d {
-            for b in 0..=a {
-                let (ya, yb) = (
-                    &st.ycols[a * size..(a + 1) * size],
-                    &st.ycols[b * size..(b + 1) * size],
-                );
-                let (ra, rb) = (st.schur[a], st.schur[b]);
-                let v = 0.5 * (self.schur_gather(f, yb, ra) + self.schur_gather(f, ya, rb));
+        for b in 0..d {
+            // Where b's values of each node on its path are.
+            let mut off = st.val_start[b];
+            for &k in &st.path_nodes[st.path_start[b]..st.path_start[b + 1]] {
+                st.node_slot[k] = off;
+                off += f.node_len(k);
+            }
+            for a in b..d {
+                let mut v = 0.0;
+                let mut oa = st.val_start[a];
+                for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
+                    let n = f.node_len(k);
+                    let ob = st.node_slot[k];
+                    if ob != usize::MAX {
+                        for t in 0..n {
+                            v += st.path_u[oa + t] * st.path_s[ob + t];
+                        }
+                    }
+                    oa += n;
+                }
                 st.s_mat[a * d + b] = v;
                 st.s_mat[b * d + a] = v;
+            }
+            for &k in &st.path_nodes[st.path_start[b]..st.path_start[b + 1]] {
+                st.node_slot[k] = usize::MAX;
             }
         }
         if st.s_mat.iter().any(|v| !v.is_finite()) {
             return false;
         }
         st.s_fac.factor(&mut st.s_mat, d, 1e-10 * free_scale)
+    }
+
+    /// Marks Schur row `i`'s bodies and their ancestors in `mark` and appends the
+    /// newly marked nodes to `nodes` (a walk stops at a node already marked: its
+    /// ancestors are).
+    fn schur_path(&self, i: usize, mark: &mut [bool], nodes: &mut Vec<usize>) {
+        let parent = &self.solver.parent;
+        let mut walk = |body: usize| {
+            let mut k = body;
+            while k < mark.len() && !mark[k] {
+                mark[k] = true;
+                nodes.push(k);
+                k = parent[k];
+            }
+        };
+        let m = self.urows.len();
+        match self.urows.get(i) {
+            Some(r) => {
+                for body in [r.a, r.b].into_iter().flatten() {
+                    walk(body);
+                }
+            }
+            None => {
+                for (a, b, _) in self.eq.segments(i - m) {
+                    if let Some(a) = a {
+                        walk(*a);
+                    }
+                    walk(*b);
+                }
+            }
+        }
+    }
+
+    /// `corr = H_A⁻¹ G_Dᵀ ζ` for the Schur rows `schur` and their `ζ` (one factor solve
+    /// with the factor `f` of `H_A`).
+    fn schur_correction(&self, f: &RowTree, schur: &[usize], zeta: &[f64], corr: &mut Vec<f64>) {
+        corr.clear();
+        corr.resize(f.size, 0.0);
+        for (c, &i) in schur.iter().enumerate() {
+            let z = zeta[c];
+            if z != 0.0 {
+                self.schur_scatter(f, corr, i, z);
+            }
+        }
+        f.solve(&self.solver, corr);
     }
 
     /// `G x` of Schur row `i` in the augmented layout: one-sided row `i` below
