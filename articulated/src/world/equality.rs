@@ -630,7 +630,9 @@ impl World {
     }
 }
 
-#[cfg(all(test, feature = "mjcf"))]
+// The tests load MJCF text: they need the `mjcf` feature too.
+#[cfg(test)]
+#[cfg(feature = "mjcf")]
 mod tests {
     use super::*;
     use crate::MjcfScene;
