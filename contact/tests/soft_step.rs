@@ -63,23 +63,42 @@ fn stack_of_ten_stands_and_settles_as_the_contact_springs_predict() {
     ); // measured 2.5536e-2 against 2.5538e-2 (0.01 %)
 }
 
-/// The same stack at the defaults (preload 0.9): each manifold's spring carries 0.9 of
-/// its previous load as preload, so the stack settles by a tenth of what the springs
-/// predict, `(1 − γ)(2·45 + 2.5) g/ω²` = 2.55 mm, and the top's largest displacement
-/// (its sink while the preload builds up in the first second) drops threefold.
+/// The same stack at the defaults (preload 0.95): each manifold's spring carries 0.95
+/// of its previous load as preload, so the stack settles by a twentieth of what the
+/// springs predict, `(1 − γ)(2·45 + 2.5) g/ω²` = 1.28 mm, and the top's largest
+/// displacement is little more than that: the new manifolds start from their static
+/// load estimate, which also floors their preload, so there is no start-up sink (9.05
+/// mm at 0.9 before the estimate, 2.56 mm of it the final sink).
 #[test]
-fn the_preload_cuts_the_stack_sink_tenfold() {
+fn the_preload_cuts_the_stack_sink_twentyfold() {
     let mut w = soft(box_stack(10).unwrap(), 4);
     let gamma = w.settings.soft_step.preload;
     let (drift, sink, worst) = run(&mut w, 600);
     let omega = std::f64::consts::TAU * SoftStepSettings::default().hertz;
     let predicted = (1.0 - gamma) * 92.5 * G / (omega * omega);
-    assert!(drift < 1.2e-2, "top drift {drift:e} m"); // measured 9.05e-3
-    assert!(worst < 1.2e-2, "worst displacement {worst:e} m"); // measured 9.05e-3
+    assert!(drift < 2e-3, "top drift {drift:e} m"); // measured 1.455e-3
+    assert!(worst < 2e-3, "worst displacement {worst:e} m"); // measured 1.455e-3
     assert!(
         (sink - predicted).abs() < 1e-2 * predicted,
         "sink {sink:e} m, springs predict {predicted:e} m"
-    ); // measured 2.557e-3 against 2.554e-3 (0.1 %)
+    ); // measured 1.2771e-3 against 1.2769e-3 (0.02 %)
+}
+
+/// A freshly built stack starts from the static load estimate: its manifolds are all
+/// new, and their warm start is the weight each carries at rest, so the first step
+/// leaves the top box of ten almost where it was. From zero impulses one Gauss–Seidel
+/// pass per sub-step moves the weight down one box per sub-step and the top box falls
+/// nearly freely for the first step (`g h²/2` = 1.36 mm).
+#[test]
+fn a_new_stack_starts_from_its_static_loads() {
+    let mut w = soft(box_stack(10).unwrap(), 4);
+    let z = |w: &ContactWorld| w.bodies().iter().map(|b| b.pose.x.z).collect::<Vec<_>>();
+    let z0 = z(&w);
+    let top = (0..z0.len()).fold(0, |t, i| if z0[i] > z0[t] { i } else { t });
+    let z0 = z0[top];
+    w.step(DT).unwrap();
+    let first = z0 - w.bodies()[top].pose.x.z;
+    assert!(first.abs() < 1e-4, "first step {first:e} m"); // measured 2.74e-5 (1.69e-3 without the estimate)
 }
 
 /// The block normal solve on a stiff stack (ten boxes at 120 Hz with 8 sub-steps, no
@@ -129,8 +148,8 @@ fn a_box_dropped_on_a_stack_stays_on_it() {
         w.step(DT).unwrap();
     }
     let x = w.bodies()[b].pose.x;
-    assert!((x.z - 4.5).abs() < 1e-2, "{x}"); // measured 4.4985
-    assert!(x.truncate().length() < 0.3, "{x}"); // measured 0.141
+    assert!((x.z - 4.5).abs() < 1e-2, "{x}"); // measured 4.4988 (4.4985 before the load estimate)
+    assert!(x.truncate().length() < 0.3, "{x}"); // measured 0.218 (0.141 before the load estimate: the impact is chaotic)
     assert!((0..5).all(|i| w.is_asleep(i)), "not asleep");
 }
 
@@ -139,7 +158,7 @@ fn a_box_dropped_on_a_stack_stays_on_it() {
 fn pyramid_holds() {
     let mut w = soft(pyramid(10).unwrap(), 4);
     let (_, _, worst) = run(&mut w, 600);
-    assert!(worst < 1e-2, "worst displacement {worst:e} m"); // measured 4.10e-3 (8.30e-3 without block solve and preload)
+    assert!(worst < 1e-2, "worst displacement {worst:e} m"); // measured 4.48e-3 (4.10e-3 at preload 0.9 without the load estimate, 8.30e-3 without block solve and preload)
 }
 
 /// A unit box sliding at 3 m/s on μ = 0.5 for 2 s with 4 sub-steps, friction anchors

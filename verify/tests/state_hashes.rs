@@ -684,11 +684,13 @@ const CONTACT_PINNED: &[(&str, u64)] = &[
     ("pyramid3/lemke", 0x47420406281c3ebe),
     ("pyramid3/newton", 0x75579f16fec89e21),
     // Re-pinned (issue 14, the soft step's new defaults): block normal solve per
-    // manifold and spring preload 0.9 (`SoftStepSettings::block_normal`, `preload`):
-    // the boxes and the resting sphere sink a tenth of the contact springs' sink.
-    ("box_stack3/soft-step", 0xd1a1054746b69ba9),
-    ("pyramid3/soft-step", 0x08172659d7d0e6f2),
-    ("sphere_drop/soft-step", 0x77f2f882f4bfe5fb),
+    // manifold and spring preload (`SoftStepSettings::block_normal`, `preload`); then
+    // (soft25) preload 0.95 and new manifolds warm-started from their static load
+    // estimate, which floors their preload: the boxes and the resting sphere sink a
+    // twentieth of the contact springs' sink and start at rest.
+    ("box_stack3/soft-step", 0x287e3429eae9913f),
+    ("pyramid3/soft-step", 0xca9c699831c988ee),
+    ("sphere_drop/soft-step", 0xa31733ba2ea00717),
     ("sphere_drop/auto", 0x4b2f136f76e77280),
     ("sphere_drop/sequential-impulses", 0x2a692d2698677c7d),
     ("sphere_drop/pgs", 0xf393206177213288),

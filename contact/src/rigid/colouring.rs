@@ -68,6 +68,13 @@ pub(super) struct Colouring {
 }
 
 impl Colouring {
+    /// The manifolds of the last [`Colouring::order`] bottom-up (by their lowest
+    /// point, ties by index; natural-order manifold indices), and where each
+    /// manifold's contacts start in natural order, then the contact count.
+    pub(super) fn bottom_up(&self) -> (&[u32], &[usize]) {
+        (&self.by_rank, &self.start)
+    }
+
     /// Writes into `order` the solve order of the `n` contacts: colour-major, and
     /// within a colour the manifolds' first points (bottom-up by manifold), then
     /// their second points, and so on. `pair(k)` gives contact `k`'s collider pair

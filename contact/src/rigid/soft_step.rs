@@ -27,7 +27,9 @@
 //! equation, coupled as in Box2D v2.4's block solver), and the leak `impulse_scale ·
 //! λ` becomes `impulse_scale · (λ − λ_pre)`, `λ_pre` a share `γ` of the manifold's
 //! previous mean normal impulse (capped by the penetration), which shifts the
-//! spring's rest length so that a carried load sinks `1 − γ` times as far.
+//! spring's rest length so that a carried load sinks `1 − γ` times as far. A manifold
+//! met for the first time is warm-started from its static load estimate (the weight
+//! it carries at rest, shared top-down), which also floors its preload for a while.
 //!
 //! (`C ≤ 0` the penetration, capped at `max_push_velocity`; a separated pair `C > 0`
 //! gets the speculative target `C/h` and no softness). The separation `C` is updated
@@ -104,21 +106,36 @@ pub struct SoftStepSettings {
     /// over the corners of a face leaves the face rocking (the top box of the 10-box
     /// stack sways by about 1 cm at the defaults); the block solve does not.
     pub block_normal: bool,
-    /// Spring preload `γ ∈ [0, 1]` (0.9 by default; 0: off): the soft normal rows leak
+    /// Spring preload `γ ∈ [0, 1]` (0.95 by default; 0: off): the soft normal rows leak
     /// `impulse_scale · (λ − λ_pre)` instead of `impulse_scale · λ`, with `λ_pre = γ ·`
     /// the mean normal impulse of the point's manifold at the end of the previous
     /// step. A soft row at rest carries `λ` with a penetration `(λ − λ_pre)/(m h ω²)`:
     /// the spring keeps its stiffness and damping against changes of load, but the
     /// load it already carried sinks it `1 − γ` times as far (a stack's sink, `Σk g/ω²`
-    /// at `γ = 0`, is cut tenfold at 0.9). It acts per manifold (the same `λ_pre` on
-    /// every point of a face) and lags a step: per point (tilting a face feeds back)
-    /// or at `γ` near 1 (no spring left against the one-pass coupling of a stack) it
-    /// rocks the 10-box stack by several centimetres.
+    /// at `γ = 0`, is cut twentyfold at 0.95). It acts per manifold (the same `λ_pre`
+    /// on every point of a face) and lags a step: per point (tilting a face feeds
+    /// back) or at `γ` near 1 (no spring left against the one-pass coupling of a
+    /// stack) it rocks the 10-box stack by several centimetres.
+    ///
+    /// `λ_pre` is capped at what the spring at rest would carry at the point's
+    /// penetration, `γ/(1 − γ) · m h ω² · (−C)` (an impact's impulse does not become
+    /// the next step's push), but not below the manifold's *floor*: when a manifold is
+    /// met for the first time its rows start from its static load estimate (the
+    /// weight it carries at rest, shared top-down over the supports as
+    /// [`ContactWorld`]'s soft step documents in `estimate_loads`) as their warm start,
+    /// and `γ` times that estimate is its floor, fading by [`PRELOAD_FLOOR_DECAY`] per
+    /// step. Without it a new stack falls for the first sub-steps (one Gauss–Seidel
+    /// pass moves the weight down one box per sub-step) and the cap holds the preload
+    /// back until the penetration has built up: the 10-box stack's top sank 9 mm in
+    /// its first 4 steps and rang for about 0.3 s; with it, it starts at rest.
     pub preload: f64,
     /// Relax passes per sub-step (1, Box2D v3's count, by default; at most
     /// [`MAX_RELAX_PASSES`]). A second one costs about a fifth of the step and
     /// converges the friction rows further: on the pyramid of 210 boxes it halves the
-    /// creep of the boxes on the flanks (worst displacement 2.7 cm → 1.4 cm over 10 s).
+    /// creep of the boxes on the flanks (worst displacement 2.7 cm → 1.4 cm over 10 s;
+    /// at preload 0.95 with the load estimate 3.1 cm → 8.9 mm, and 3.1 mm with
+    /// [`SoftStepSettings::friction_anchors`] as well, for 22 % and 25 % more
+    /// instructions per step).
     pub relax_passes: usize,
     /// Computes [`ContactStats::residual`] after the step (off by default: it costs as
     /// much as a pass over the points, 6 % of the 10-box stack's step; when off the
@@ -129,11 +146,11 @@ pub struct SoftStepSettings {
 impl Default for SoftStepSettings {
     /// Box2D v3's defaults: `hertz` 30, `damping_ratio` 10, `max_push_velocity` 3 m/s,
     /// one relax pass; no friction anchors, no one-way coupling, one thread; and this
-    /// library's block normal solve and spring preload 0.9, the residual not computed.
+    /// library's block normal solve and spring preload 0.95, the residual not computed.
     /// A soft contact is a spring of stiffness `m ω²` (`m` the row's effective mass):
     /// carrying the weight of `k` unit boxes it settles by about `k g/ω²` (0.28 mm per
     /// box at 30 Hz; half of it against the ground, which gets twice the frequency),
-    /// a tenth of that with the preload. Stiffer contacts need more sub-steps: one
+    /// a twentieth of that with the preload. Stiffer contacts need more sub-steps: one
     /// Gauss–Seidel pass per sub-step does not converge a stack's coupling at a quarter
     /// of the sub-step rate (a 3-box stack at 60 Hz with 4 sub-steps of 1/240 s keeps
     /// rocking at 0.1 m/s; at 30 Hz it rests), and they want the preload off (it rocks
@@ -147,7 +164,7 @@ impl Default for SoftStepSettings {
             one_way_mass_ratio: f64::INFINITY,
             threads: 1,
             block_normal: true,
-            preload: 0.9,
+            preload: 0.95,
             relax_passes: 1,
             residual: false,
         }
@@ -189,9 +206,10 @@ impl Softness {
 }
 
 /// A previous step's impulses of one point, for warm starting: key, normal impulse
-/// per sub-step, tangent impulse per sub-step as a world vector, and the friction
-/// anchor's slip (world vector, zero when sliding or anchors are off).
-type Warm = ((usize, usize, u64), f64, DVec3, DVec3);
+/// per sub-step, tangent impulse per sub-step as a world vector, the friction
+/// anchor's slip (world vector, zero when sliding or anchors are off), and the
+/// preload floor per sub-step (see [`SoftStepSettings::preload`]).
+type Warm = ((usize, usize, u64), f64, DVec3, DVec3, f64);
 
 /// One manifold's normal rows solved together (at most [`BLOCK_POINTS`] points).
 #[derive(Clone, Copy, Debug, Default)]
@@ -209,6 +227,16 @@ pub(super) struct Block {
 /// Largest manifold the block normal solve takes ([`SoftStepSettings::block_normal`]):
 /// 4 points, a box face.
 pub const BLOCK_POINTS: usize = 4;
+
+/// Per-step factor of a manifold's preload floor after its first step (see
+/// [`SoftStepSettings::preload`]): the floor, `γ` times the manifold's static load
+/// estimate when it is met, fades by this factor every step (time constant 100 steps,
+/// 1.7 s at 60 Hz), by when the spring has settled at the penetration whose cap
+/// carries the same preload. Measured (10 s at 60 Hz, soft 4, γ 0.95): 0.9 let the
+/// 10-box stack's transient back (top drift 3.6 mm at γ 0.9), 0.97 gave 1.97 mm, 0.99
+/// 1.46 mm; without the fade (the floor kept) a box resting off centre on a stack
+/// never stops creeping (a uniform floor over a face whose load is not uniform).
+pub const PRELOAD_FLOOR_DECAY: f64 = 0.99;
 
 /// The most relax passes per sub-step [`SoftStepSettings::relax_passes`] accepts.
 pub const MAX_RELAX_PASSES: usize = 64;
@@ -236,7 +264,13 @@ pub(super) struct SoftState {
     pub(super) dir: Vec<[DVec3; 3]>,
     /// Anchors relative to the body centres at the start of the step.
     pub(super) anchor: Vec<[DVec3; 2]>,
-    /// Per direction `d`: `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
+    /// Per direction `d`: `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`
+    /// (288 B of the point's ≈ 600). Stored as `f32` (144 B, the effective masses
+    /// from the rounded vectors) they cut the 3000-body pile's misses per step by
+    /// 10 % in D1 and 24 % in an 8 MB last level (cachegrind, 3 steps after 2 s) for
+    /// 4.3 % more instructions (6.5 % on the stack and pyramid: a conversion per
+    /// component), but the box dropped on a 4-stack then slept again 58 steps later
+    /// (step 407: `sleep_allocations` waits 400), so they are kept in `f64`.
     pub(super) ang: Vec<[[DVec3; 4]; 3]>,
     /// Effective masses `1/(J M⁻¹ Jᵀ)` of the three rows (0 for a row with none).
     pub(super) mass: Vec<[f64; 3]>,
@@ -256,6 +290,8 @@ pub(super) struct SoftState {
     /// `γ/(1 − γ) · m h ω²` of each point: the preload is capped at this times the
     /// penetration.
     pub(super) preload_cap: Vec<f64>,
+    /// Floor of the cap: `γ ·` the static load estimate of each point (per sub-step).
+    pub(super) preload_floor: Vec<f64>,
     /// Mean previous normal impulse of each contact's manifold (natural order).
     pub(super) mean: Vec<f64>,
     /// Block normal solve of each manifold in colour order (see [`Block`]).
@@ -266,7 +302,20 @@ pub(super) struct SoftState {
     pub(super) warm: Vec<Warm>,
     pub(super) warm_next: Vec<Warm>,
     /// The previous step's impulses of each contact (natural order; zero if new).
-    pub(super) found: Vec<(f64, DVec3, DVec3)>,
+    pub(super) found: Vec<(f64, DVec3, DVec3, f64)>,
+    /// Whether each contact (natural order) was found in the previous step.
+    pub(super) found_hit: Vec<bool>,
+    /// Static load estimate of each contact (natural order), as a normal impulse per
+    /// sub-step (see [`ContactWorld::estimate_loads`]); zero where not estimated.
+    pub(super) estimate: Vec<f64>,
+    /// Load (N) each body passes down to its supports, by solver slot (scratch of the
+    /// estimate).
+    pub(super) load: Vec<f64>,
+    /// Sum of `n · up` over each body's supporting manifolds (scratch of the estimate).
+    pub(super) support: Vec<f64>,
+    /// Upper and lower slot and `n · up` of each manifold (natural order; `n · up` 0
+    /// where it does not support; scratch of the estimate).
+    pub(super) supports: Vec<(usize, usize, f64)>,
     /// Slip of the friction anchor at the start of the step along the two tangents,
     /// minus the anchors' offset `tᵀ(r_b − r_a)`.
     pub(super) slip: Vec<[f64; 2]>,
@@ -404,7 +453,7 @@ impl ContactWorld {
         st.warm.extend(
             self.warm
                 .iter()
-                .map(|&(key, (zn, ft))| (key, zn, ft, DVec3::ZERO)),
+                .map(|&(key, (zn, ft))| (key, zn, ft, DVec3::ZERO, 0.0)),
         );
         st.warm_h = h;
     }
@@ -418,7 +467,7 @@ impl ContactWorld {
             self.soft
                 .warm
                 .iter()
-                .map(|&(key, zn, ft, _)| (key, (zn * k, ft * k))),
+                .map(|&(key, zn, ft, _, _)| (key, (zn * k, ft * k))),
         );
     }
 
@@ -561,11 +610,11 @@ impl ContactWorld {
         let hertz = s.hertz.min(0.25 / hs);
         let dynamic = Softness::new(hertz, s.damping_ratio, hs);
         let fixed = Softness::new(2.0 * hertz, s.damping_ratio, hs);
-        let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
         // Warm start by key: the contacts come in pair order `(a, b)` and `warm` is
         // sorted by key, so one forward merge finds every previous point (the same
         // matches as a search per point, reading `warm` once, in order).
         st.found.clear();
+        st.found_hit.clear();
         let mut cursor = 0;
         for c in contacts {
             let (a, b, id) = c.key();
@@ -576,28 +625,37 @@ impl ContactWorld {
                 .iter()
                 .take_while(|e| e.0 .0 == a && e.0 .1 == b)
                 .find(|e| e.0 .2 == id);
-            st.found.push(
-                hit.map_or((0.0, DVec3::ZERO, DVec3::ZERO), |&(_, zn, ft, sl)| {
-                    (zn, ft, sl)
-                }),
-            );
+            st.found_hit.push(hit.is_some());
+            st.found.push(hit.map_or(
+                (0.0, DVec3::ZERO, DVec3::ZERO, 0.0),
+                |&(_, zn, ft, sl, fl)| (zn, ft, sl, fl),
+            ));
         }
+        let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
         // Preload: the mean previous normal impulse of each manifold (a run of one
-        // collider pair in natural order), the same on each of its points.
+        // collider pair in natural order), the same on each of its points; a new
+        // manifold's is its estimate.
         st.mean.clear();
         let mut i = 0;
         while i < contacts.len() {
             let pair = (contacts[i].a, contacts[i].b);
             let mut j = i;
             let mut sum = 0.0;
+            let mut hits = false;
             while j < contacts.len() && (contacts[j].a, contacts[j].b) == pair {
                 sum += st.found[j].0;
+                hits |= st.found_hit[j];
                 j += 1;
             }
             let m = sum / (j - i) as f64;
             st.mean.extend(core::iter::repeat_n(m, j - i));
+            // From here on `found_hit` marks the points of known manifolds.
+            st.found_hit[i..j].fill(hits);
             i = j;
         }
+        // A manifold met for the first time starts from the static load estimate
+        // instead of zero (see `estimate_loads`).
+        let new_manifolds = self.settings.warm_start && self.estimate_loads(st, up, hs);
         let preload = if self.settings.warm_start {
             s.preload * scale
         } else {
@@ -632,7 +690,8 @@ impl ContactWorld {
             slip,
             im,
             preload,
-            preload_cap
+            preload_cap,
+            preload_floor
         );
         for &k in &st.order {
             let c = &contacts[k];
@@ -673,8 +732,11 @@ impl ContactWorld {
             let vn = n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a]);
             let mut z = [0.0; 3];
             if self.settings.warm_start {
-                let (zn, ft, _) = st.found[k];
+                let (zn, ft, _, _) = st.found[k];
                 z = [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale];
+                if new_manifolds && !st.found_hit[k] {
+                    z[0] = st.estimate[k];
+                }
             }
             let sl = if s.friction_anchors {
                 st.found[k].2
@@ -699,13 +761,24 @@ impl ContactWorld {
             st.restitution.push(ca.restitution.max(cb.restitution));
             st.approach.push(vn);
             st.impulse.push(z);
-            st.preload.push(preload * st.mean[k]);
+            st.preload.push(if new_manifolds && !st.found_hit[k] {
+                s.preload * st.estimate[k]
+            } else {
+                preload * st.mean[k]
+            });
             let omega2 = if a == nb || b == nb {
                 omega2_fixed
             } else {
                 omega2
             };
             st.preload_cap.push(kappa * mass[0] * hs * omega2);
+            st.preload_floor.push(if !self.settings.warm_start {
+                0.0
+            } else if new_manifolds && !st.found_hit[k] {
+                s.preload * st.estimate[k]
+            } else {
+                st.found[k].3 * scale * PRELOAD_FLOOR_DECAY
+            });
             st.max_normal.push(0.0);
 
             st.total.push([0.0; 3]);
@@ -714,6 +787,81 @@ impl ContactWorld {
         if s.block_normal {
             build_blocks(st);
         }
+    }
+
+    /// Static load estimate of the contacts, for the manifolds met for the first time
+    /// (false, having estimated nothing, when every contact was found in the previous
+    /// step). A new manifold has no previous impulse to warm start from: from zero, one
+    /// Gauss–Seidel pass per sub-step moves a stack's weight down one box per sub-step,
+    /// so a freshly built 10-box stack falls for the first sub-steps and its springs
+    /// then overshoot (the top box sank 9 mm in the first 4 steps). The estimate is the
+    /// weight each manifold carries at rest, found top-down as shock propagation orders
+    /// its bodies (Guendelman et al. 2003): a manifold supports its upper body (along
+    /// `up`) when `n · up ≥ 1/2` (within 60° of vertical); each moving body's load `L`
+    /// (its weight `m |g|` plus what the manifolds it supports pass down) is shared by
+    /// its supports with one normal force `F = L / Σ n·up` each (so that their
+    /// vertical components sum to `L`), which adds `F n·up` to the lower body's load
+    /// (not where [`SoftStepSettings::one_way_mass_ratio`] has the lower body not
+    /// feel the upper one).
+    /// Statically indeterminate supports (a box on two boxes) get equal forces, exact
+    /// for the symmetric stack and pyramid; the solve corrects the rest. The estimate
+    /// of a point is `F h_s / points` (an impulse per sub-step). Deterministic: the
+    /// manifolds are taken by falling upper-body height, ties by contact index.
+    fn estimate_loads(&self, st: &mut SoftState, up: DVec3, hs: f64) -> bool {
+        let contacts = &self.contacts;
+        if st.found_hit.iter().all(|&hit| hit) {
+            return false;
+        }
+        let nb = self.bodies.len();
+        let g = self.gravity.length();
+        let ratio = self.settings.soft_step.one_way_mass_ratio;
+        st.estimate.clear();
+        st.estimate.resize(contacts.len(), 0.0);
+        st.load.clear();
+        st.load.extend(
+            st.inv_mass
+                .iter()
+                .map(|&im| if im > 0.0 { g / im } else { 0.0 }),
+        );
+        st.support.clear();
+        st.support.resize(nb + 1, 0.0);
+        st.supports.clear();
+        let (by_rank, start) = st.colouring.bottom_up();
+        let slot = |k: usize| self.colliders[k].body.unwrap_or(nb);
+        for j in 0..by_rank.len() {
+            let c = &contacts[start[j]];
+            // The normal points from a to b: b is the upper body when n·up > 0.
+            let n_up = c.normal.dot(up);
+            let (upper, lower, n_up) = if n_up > 0.0 {
+                (slot(c.b), slot(c.a), n_up)
+            } else {
+                (slot(c.a), slot(c.b), -n_up)
+            };
+            let supports = n_up >= 0.5 && upper != nb && st.inv_mass[upper] > 0.0;
+            if supports {
+                st.support[upper] += n_up;
+            }
+            st.supports
+                .push((upper, lower, if supports { n_up } else { 0.0 }));
+        }
+        // Top-down (manifolds by falling lowest point): a body's load is complete once
+        // the manifolds above it are taken.
+        for &j in by_rank.iter().rev() {
+            let j = j as usize;
+            let (upper, lower, n_up) = st.supports[j];
+            if n_up == 0.0 {
+                continue;
+            }
+            let force = st.load[upper] / st.support[upper];
+            // One-way coupling: the lower body does not feel the upper one.
+            let one_way = st.inv_mass[lower] > ratio * st.inv_mass[upper];
+            if lower != nb && st.inv_mass[lower] > 0.0 && !one_way {
+                st.load[lower] += force * n_up;
+            }
+            let (i, end) = (start[j], start[j + 1]);
+            st.estimate[i..end].fill(force * hs / (end - i) as f64);
+        }
+        true
     }
 
     /// Writes the bodies back (`x = x₀ + Δx`, `q = Δq q₀`) and keeps the impulses for
@@ -749,7 +897,8 @@ impl ContactWorld {
             } else {
                 DVec3::ZERO
             };
-            st.warm_next.push((c.key(), zn, t1 * z1 + t2 * z2, slip));
+            st.warm_next
+                .push((c.key(), zn, t1 * z1 + t2 * z2, slip, st.preload_floor[p]));
             self.impulses[3 * k..3 * k + 3].copy_from_slice(&st.total[p]);
         }
         if !st.warm_next.is_sorted_by_key(|e| e.0) {
@@ -957,6 +1106,8 @@ pub(super) struct Rows<'a> {
     pub(super) preload: &'a [f64],
     /// Its cap per metre of penetration.
     pub(super) preload_cap: &'a [f64],
+    /// The cap's floor.
+    pub(super) preload_floor: &'a [f64],
     /// The static slot (the last): never written.
     pub(super) fixed: usize,
 }
@@ -987,6 +1138,7 @@ macro_rules! rows {
             slip: &$st.slip,
             preload: &$st.preload,
             preload_cap: &$st.preload_cap,
+            preload_floor: &$st.preload_floor,
             fixed: $st.v.len() - 1,
         }
     };
@@ -1205,7 +1357,10 @@ fn solve_block<B: Bodies>(
         }
         let vn = d[0].dot(vb - va) + g[0][1].dot(wb) - g[0][0].dot(wa);
         let bias = at_least(s.bias_rate * gap, -pass.max_push);
-        let pre = at_most(rows.preload[p], rows.preload_cap[p] * -gap);
+        let pre = at_most(
+            rows.preload[p],
+            at_least(rows.preload_cap[p] * -gap, rows.preload_floor[p]),
+        );
         r[i] = vn + bias + blk.c[i] * (z[i][0] - pre);
     }
     // Δλ = −K⁻¹ r (the padding of K⁻¹ is the identity, and r is zero there).
@@ -1340,7 +1495,10 @@ pub(super) fn solve_point<B: Bodies>(
             at_least(s.bias_rate * gap, -max_push),
             s.mass_scale,
             s.impulse_scale,
-            at_most(rows.preload[p], rows.preload_cap[p] * -gap),
+            at_most(
+                rows.preload[p],
+                at_least(rows.preload_cap[p] * -gap, rows.preload_floor[p]),
+            ),
         )
     } else {
         (0.0, 1.0, 0.0, 0.0)
