@@ -631,7 +631,7 @@ fn run_scene(
     w.settings.friction = cfg.friction;
     w.settings.iterations = cfg.iterations;
     // The table reports the worst residual: the soft step computes it only on request
-    // (`SoftStepSettings::residual`; NaN otherwise).
+    // (`SoftStepSettings::residual`; `None` otherwise, counted as infinite here).
     w.settings.soft_step.residual = true;
     let x0: Vec<DVec3> = w.bodies().iter().map(|b| b.pose.x).collect();
     let steps = (horizon / dt).round() as u64;
@@ -643,7 +643,7 @@ fn run_scene(
             .map_err(|e| format!("t = {:.3} s: {e}", k as f64 * dt))?;
         max_contacts = max_contacts.max(s.contacts);
         iters += s.iterations;
-        res = res.max(s.residual);
+        res = res.max(s.residual.unwrap_or(f64::INFINITY));
         match scene {
             Scene::Stack(n) => {
                 worst = worst.max((w.bodies()[n - 1].pose.x - x0[n - 1]).length());

@@ -214,7 +214,7 @@ pub fn classify(cell: &Cell) -> CellResult {
         }
     };
     // The map reports each cell's worst residual: the soft step computes it only on
-    // request (`SoftStepSettings::residual`; NaN otherwise).
+    // request (`SoftStepSettings::residual`; `None` otherwise, counted as infinite).
     w.settings.soft_step.residual = true;
     let bound = BLOWUP_EXTENT * (cell.boxes as f64 + 1.0) * SIZE;
     let mut iters = 0usize;
@@ -237,7 +237,7 @@ pub fn classify(cell: &Cell) -> CellResult {
         };
         r.steps = k;
         iters += stats.iterations;
-        r.residual = r.residual.max(stats.residual);
+        r.residual = r.residual.max(stats.residual.unwrap_or(f64::INFINITY));
         let far = max_drift(&w);
         if !(far <= bound) || !w.energy().is_finite() {
             r.class = CellClass::BlowUp;

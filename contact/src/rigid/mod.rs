@@ -173,8 +173,9 @@ pub struct ContactStats {
     /// Solver iterations (sweeps, pivots or Newton steps).
     pub iterations: usize,
     /// Natural-map residual of the contact LCP at the returned impulses,
-    /// `|z − mid(lo, z − w, hi)|∞ / max(1, |q|∞)`.
-    pub residual: f64,
+    /// `|z − mid(lo, z − w, hi)|∞ / max(1, |q|∞)`; `None` where the step did not compute
+    /// it (the soft step computes it only on request, [`SoftStepSettings::residual`]).
+    pub residual: Option<f64>,
     /// Deepest penetration before the step (m).
     pub max_penetration: f64,
     /// The solver that ran ([`ContactSolver::Auto`] resolved by contact count).
@@ -517,7 +518,7 @@ impl ContactWorld {
                 apply(&mut self.bodies, r, *zi);
             }
         }
-        stats.residual = self.residual(&z);
+        stats.residual = Some(self.residual(&z));
         self.store_warm(&z);
         self.impulses = z;
         let pseudo = if self.settings.split_impulse {

@@ -139,7 +139,7 @@ pub struct SoftStepSettings {
     pub relax_passes: usize,
     /// Computes [`ContactStats::residual`] after the step (off by default: it costs as
     /// much as a pass over the points, 6 % of the 10-box stack's step; when off the
-    /// statistic is NaN, not computed).
+    /// statistic is `None`).
     pub residual: bool,
 }
 
@@ -534,11 +534,7 @@ impl ContactWorld {
     /// impulses kept.
     fn finish_soft(&mut self, mut st: SoftState, hs: f64, mut stats: ContactStats) -> ContactStats {
         restitution(&mut st, self.settings.restitution_threshold);
-        stats.residual = if self.settings.soft_step.residual {
-            residual(&st, hs)
-        } else {
-            f64::NAN
-        };
+        stats.residual = self.settings.soft_step.residual.then(|| residual(&st, hs));
         self.store(&mut st, hs);
         self.soft = st;
         stats
