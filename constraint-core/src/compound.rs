@@ -506,6 +506,26 @@ impl Compound {
         rows
     }
 
+    /// The Gram determinant `det(WᵀW)` of the current world hinge axes
+    /// `w_k = R_a R_off J₁ ⋯ J_{k−1} e_k` at coordinates `q` (1 without hinges): `cos² q₂`
+    /// for three orthogonal hinges, zero at their gimbal lock. Below [`SINGULAR_GRAM`]
+    /// with three hinges, [`Self::dof_rows`] damps the hinges' rows (exact above).
+    pub fn hinge_gram(&self, a: &Pose, q: &[f64; MAX_DOF]) -> f64 {
+        let (ns, nh) = (self.n_slides, self.n_hinges);
+        let mut m = a.q * self.rel0;
+        let mut w = [DVec3::ZERO; 3];
+        for k in 0..nh {
+            w[k] = m * self.axes[k];
+            m *= DQuat::from_axis_angle(self.axes[k], q[ns + k]);
+        }
+        match nh {
+            0 => 1.0,
+            1 => w[0].length_squared(),
+            2 => w[0].cross(w[1]).length_squared(),
+            _ => w[0].dot(w[1].cross(w[2])).powi(2),
+        }
+    }
+
     /// Value and Jacobian of the `6 − dof` rows (the rest of the arrays zero).
     pub fn jacobian6(&self, a: &Pose, b: &Pose) -> TwistJacobian<MAX_DOF> {
         let mut j = TwistJacobian {
