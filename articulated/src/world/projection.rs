@@ -31,8 +31,18 @@ impl World {
         self.load_projection_contacts();
         // Compliant joints are not projected (their separation is their spring's).
         // Equality rows are projected with the joints: `[M Eᵀ; E 0][δ; ν] = [0; −C_E]`.
-        let mut err = self.projection_error();
+        // Violated joint limits join as equalities until an iteration with them finds no
+        // decrease; then the joints are projected without them (as without contacts).
+        let mut limits = true;
+        let mut err = self.projection_error(limits);
         for it in 0..max_iterations {
+            // Half the iterations spent with the limits and still not converged (the
+            // damped rate rows near a gimbal lock are not the coordinates' exact
+            // gradients, constraint_core::compound): the rest project the joints alone.
+            if limits && 2 * it >= max_iterations && err > tolerance {
+                limits = false;
+                err = self.projection_error(limits);
+            }
             if err <= tolerance {
                 return Ok(it);
             }
@@ -42,7 +52,9 @@ impl World {
                     rhs[r] = -rows.value[r];
                 }
             });
-            self.push_violated_limits(&mut loops);
+            if limits {
+                self.push_violated_limits(&mut loops);
+            }
             self.load_equalities(|c| -c);
             self.push_violated_tendon_limits();
             self.solve(loops)?;
@@ -50,7 +62,7 @@ impl World {
             // goes on without them (the error then leaves them out too).
             #[cfg(feature = "contact")]
             if !self.push_contacts_apart() {
-                err = self.projection_error();
+                err = self.projection_error(limits);
             }
             // Backtracking: a full Newton step can overshoot far from the manifold (light
             // bodies turned by large angles); halve it until the separation decreases.
@@ -73,7 +85,7 @@ impl World {
                         b.omega = w + dth * (alpha / h);
                     }
                 }
-                let trial = self.projection_error();
+                let trial = self.projection_error(limits);
                 if trial < err {
                     err = trial;
                     accepted = true;
@@ -95,7 +107,20 @@ impl World {
                 #[cfg(feature = "contact")]
                 if !self.projection.contacts.is_empty() {
                     self.projection.contacts.clear();
-                    err = self.projection_error();
+                    err = self.projection_error(limits);
+                    continue;
+                }
+                // Limits that the joints do not let back to their bounds: a three-hinge
+                // joint near its gimbal lock (humanoid_CMU's shoulders have their
+                // `ry` limit at 90°, the lock itself) has rate rows growing as
+                // `1/cos q₂`, and with them the Newton step of the limit rows is lost
+                // to round-off: no trial decreased the error, and the joints were left
+                // apart (up to 8e-4 m). The iteration again without the limits, so the
+                // joints are still projected; the limits stay with the next step's
+                // velocity-level rows.
+                if limits {
+                    limits = false;
+                    err = self.projection_error(limits);
                     continue;
                 }
                 return Ok(it + 1);
@@ -107,11 +132,17 @@ impl World {
     /// What the projection drives to zero: the hard joints' separation, the
     /// equalities' `|C|`, the joint limits' violations `max(lo − q, q − hi)` (m or
     /// rad) and the tendon ranges' `max(lo − L, L − hi)`.
-    fn projection_error(&self) -> f64 {
+    /// Without `limits`, the joint limits' violations are left out.
+    fn projection_error(&self, limits: bool) -> f64 {
+        let limit = if limits {
+            self.max_limit_violation()
+        } else {
+            0.0
+        };
         let err = self
             .max_hard_separation()
             .max(self.max_equality_violation())
-            .max(self.max_limit_violation())
+            .max(limit)
             .max(self.max_tendon_limit_violation());
         #[cfg(feature = "contact")]
         let err = err.max(self.max_contact_violation());
