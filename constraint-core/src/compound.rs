@@ -492,7 +492,9 @@ impl Compound {
             // bounded by `1/(2λ₀)` at the lock.
             let mut lambda2 = 0.0;
             if nh == 3 {
-                let det = w[0].dot(w[1].cross(w[2])).powi(2);
+                // det(WᵀW) = (w₁ · w₂ × w₃)² (`powi` is not in `core`).
+                let triple = w[0].dot(w[1].cross(w[2]));
+                let det = triple * triple;
                 if det < SINGULAR_GRAM {
                     lambda2 = SINGULAR_DAMPING * (1.0 - det / SINGULAR_GRAM);
                 }
@@ -522,7 +524,10 @@ impl Compound {
             0 => 1.0,
             1 => w[0].length_squared(),
             2 => w[0].cross(w[1]).length_squared(),
-            _ => w[0].dot(w[1].cross(w[2])).powi(2),
+            _ => {
+                let triple = w[0].dot(w[1].cross(w[2]));
+                triple * triple
+            }
         }
     }
 
