@@ -19,7 +19,7 @@
 use constraint_core::DVec3;
 use wide::f64x2;
 
-use super::soft_step::Rows;
+use super::soft_step::{Block, Bodies, Pass, PointImpulses, Rows, BLOCK_POINTS};
 
 /// Two 3-vectors, one per lane.
 #[derive(Clone, Copy)]
@@ -211,4 +211,136 @@ pub(super) fn relax_pair(rows: &Rows, p: usize, q: usize, io: &mut RelaxIo, inv_
             io.w[b] = wb.lane(lane);
         }
     }
+}
+
+/// The biased pass over manifolds `b0` and `b1` (of one colour: no shared moving
+/// body) with their normal rows solved as blocks, one manifold per lane: exactly
+/// `solve_block` on each (`(A + diag c) Δλ = −(J v + b + c∘(λ − λ_pre))`, then the
+/// friction rows point by point), for two blocks of the same point count without
+/// friction anchors. Returns false, having changed nothing, where the lanes do not
+/// apply or where `solve_block` would decline for either manifold (a separated
+/// point, an impulse turning negative): the caller then solves both one at a time
+/// (the same bits either way, the two manifolds being independent).
+#[inline(always)]
+pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
+    rows: &Rows,
+    blk: [&Block; 2],
+    io: &mut I,
+    vel: &mut B,
+    pass: Pass,
+) -> bool {
+    const N: usize = BLOCK_POINTS;
+    let len = blk[0].len;
+    if len == 0 || blk[1].len != len || pass.anchors {
+        return false;
+    }
+    let mut gap = [f64x2::splat(0.0); N];
+    for (i, g) in gap.iter_mut().enumerate().take(len) {
+        let (g0, g1) = (io.gap(blk[0].pts[i]), io.gap(blk[1].pts[i]));
+        if g0 > 0.0 || g1 > 0.0 {
+            return false;
+        }
+        *g = pair(g0, g1);
+    }
+    let p0 = [blk[0].pts[0], blk[1].pts[0]];
+    let ([a0, b0], [a1, b1]) = (rows.slots[p0[0]], rows.slots[p0[1]]);
+    let ((va0, wa0), (vb0, wb0)) = (vel.velocity(a0), vel.velocity(b0));
+    let ((va1, wa1), (vb1, wb1)) = (vel.velocity(a1), vel.velocity(b1));
+    let (mut va, mut wa) = (Lanes3::of(va0, va1), Lanes3::of(wa0, wa1));
+    let (mut vb, mut wb) = (Lanes3::of(vb0, vb1), Lanes3::of(wb0, wb1));
+    let (s0, s1) = (rows.soft[p0[0]], rows.soft[p0[1]]);
+    let bias_rate = pair(s0.bias_rate, s1.bias_rate);
+    let max_push = -f64x2::splat(pass.max_push);
+    let zero = f64x2::splat(0.0);
+    // The points' impulses and largest normal impulses, lane by lane.
+    let mut z = [[zero; 3]; N];
+    let mut most = [zero; N];
+    for i in 0..len {
+        let ((z0, m0), (z1, m1)) = (io.get(blk[0].pts[i]), io.get(blk[1].pts[i]));
+        z[i] = [pair(z0[0], z1[0]), pair(z0[1], z1[1]), pair(z0[2], z1[2])];
+        most[i] = pair(m0, m1);
+    }
+    // r = J v + b + c∘(λ − λ_pre), zero in the padding.
+    let mut r = [zero; N];
+    for i in 0..len {
+        let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
+        let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
+        let d0 = Lanes3::of(rows.dir[p][0], rows.dir[q][0]);
+        let vn = d0.dot(vb.sub(va)) + Lanes3::of(gp[0][1], gq[0][1]).dot(wb)
+            - Lanes3::of(gp[0][0], gq[0][0]).dot(wa);
+        let bias = at_least(bias_rate * gap[i], max_push);
+        let pre = at_most(
+            pair(rows.preload[p], rows.preload[q]),
+            at_least(
+                pair(rows.preload_cap[p], rows.preload_cap[q]) * -gap[i],
+                pair(rows.preload_floor[p], rows.preload_floor[q]),
+            ),
+        );
+        r[i] = vn + bias + pair(blk[0].c[i], blk[1].c[i]) * (z[i][0] - pre);
+    }
+    // Δλ = −K⁻¹ r over all N rows (the padding of K⁻¹ is the identity).
+    let mut dz = [zero; N];
+    for (i, dz) in dz.iter_mut().enumerate() {
+        let k = |l: usize| pair(blk[0].kinv[i * N + l], blk[1].kinv[i * N + l]);
+        *dz = -(k(0) * r[0] + k(1) * r[1] + k(2) * r[2] + k(3) * r[3]);
+        let after = (z[i][0] + *dz).to_array();
+        if !(after[0] >= 0.0 && after[1] >= 0.0) {
+            return false;
+        }
+    }
+    for i in 0..len {
+        let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
+        let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
+        let d0 = Lanes3::of(rows.dir[p][0], rows.dir[q][0]);
+        let (ip, iq) = (rows.im[p], rows.im[q]);
+        z[i][0] = z[i][0] + dz[i];
+        most[i] = at_least(z[i][0], most[i]);
+        va = va.sub(d0.scale(pair(ip[0], iq[0]) * dz[i]));
+        wa = wa.sub(Lanes3::of(gp[0][2], gq[0][2]).scale(dz[i]));
+        vb = vb.add(d0.scale(pair(ip[1], iq[1]) * dz[i]));
+        wb = wb.add(Lanes3::of(gp[0][3], gq[0][3]).scale(dz[i]));
+    }
+    // Friction point by point (no anchors: velocity rows, |λ_t| ≤ μ λ_n).
+    for (i, zi) in z.iter_mut().enumerate().take(len) {
+        let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
+        let (dp, dq) = (&rows.dir[p], &rows.dir[q]);
+        let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
+        let (ip, iq) = (rows.im[p], rows.im[q]);
+        let (ma, mb) = (pair(ip[0], iq[0]), pair(ip[1], iq[1]));
+        let (mp, mq) = (rows.mass[p], rows.mass[q]);
+        let bound = pair(rows.friction[p], rows.friction[q]) * zi[0];
+        for rr in 1..3 {
+            let d = Lanes3::of(dp[rr], dq[rr]);
+            let vt = d.dot(vb.sub(va)) + Lanes3::of(gp[rr][1], gq[rr][1]).dot(wb)
+                - Lanes3::of(gp[rr][0], gq[rr][0]).dot(wa);
+            let unbounded = zi[rr] - pair(mp[rr], mq[rr]) * vt;
+            let new = at_least(at_most(unbounded, bound), -bound);
+            let dz = new - zi[rr];
+            zi[rr] = new;
+            va = va.sub(d.scale(ma * dz));
+            wa = wa.sub(Lanes3::of(gp[rr][2], gq[rr][2]).scale(dz));
+            vb = vb.add(d.scale(mb * dz));
+            wb = wb.add(Lanes3::of(gp[rr][3], gq[rr][3]).scale(dz));
+        }
+    }
+    for lane in 0..2 {
+        for i in 0..len {
+            let zi = [
+                z[i][0].as_array()[lane],
+                z[i][1].as_array()[lane],
+                z[i][2].as_array()[lane],
+            ];
+            io.set(blk[lane].pts[i], zi, most[i].as_array()[lane]);
+        }
+    }
+    // The static slot's inverse mass and inertia are zero: it stays at rest.
+    for (lane, (a, b)) in [(a0, b0), (a1, b1)].into_iter().enumerate() {
+        if a != rows.fixed {
+            vel.set_velocity(a, va.lane(lane), wa.lane(lane));
+        }
+        if b != rows.fixed {
+            vel.set_velocity(b, vb.lane(lane), wb.lane(lane));
+        }
+    }
+    true
 }

@@ -55,7 +55,7 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DQuat, DVec3, Pose};
 
 use super::colouring::Colouring;
-use super::soft_lanes::{relax_pair, RelaxIo};
+use super::soft_lanes::{block_pair, relax_pair, RelaxIo};
 use super::{ContactError, ContactSolver, ContactStats, ContactWorld, RowsSolver, SolverPath};
 use crate::geometry::BroadScratch;
 
@@ -1274,14 +1274,36 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
         {
             let (rows, mut vel, impulse, max_normal) = split!(&mut *st);
             let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
-            for (j, blk) in blocks.iter().enumerate() {
+            let mut io = PointSlices {
+                impulse: &mut *impulse,
+                max_normal: &mut *max_normal,
+                gap: &gap,
+            };
+            let one = |j: usize, io: &mut PointSlices, vel: &mut Slices| {
                 let pts = &pts[mp[j]..mp[j + 1]];
-                let mut io = PointSlices {
-                    impulse: &mut *impulse,
-                    max_normal: &mut *max_normal,
-                    gap: &gap,
-                };
-                solve_manifold(&rows, blk, pts, &mut io, &mut vel, pass);
+                solve_manifold(&rows, &blocks[j], pts, io, vel, pass);
+            };
+            // Colour by colour, two manifolds at a time in SIMD lanes
+            // ([`block_pair`]: the same bits as one at a time), except in the
+            // overflow colour (the last, if in use), whose manifolds may share bodies.
+            let starts = &colouring.colour_start;
+            let colours = starts.len().saturating_sub(1);
+            let serial = colouring.serial_from + 1 < colouring.ranges.len();
+            for c in 0..colours {
+                let (mut j, hi) = (starts[c], starts[c + 1]);
+                if !(serial && c + 1 == colours) {
+                    while j + 1 < hi {
+                        let pair = [&blocks[j], &blocks[j + 1]];
+                        if !block_pair(&rows, pair, &mut io, &mut vel, pass) {
+                            one(j, &mut io, &mut vel);
+                            one(j + 1, &mut io, &mut vel);
+                        }
+                        j += 2;
+                    }
+                }
+                for j in j..hi {
+                    one(j, &mut io, &mut vel);
+                }
             }
         }
         st.blocks = blocks;
