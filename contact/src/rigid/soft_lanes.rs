@@ -293,7 +293,7 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
         let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
         let d0 = Lanes3::of(rows.dir[p][0], rows.dir[q][0]);
         let (ip, iq) = (rows.im[p], rows.im[q]);
-        z[i][0] = z[i][0] + dz[i];
+        z[i][0] += dz[i];
         most[i] = at_least(z[i][0], most[i]);
         va = va.sub(d0.scale(pair(ip[0], iq[0]) * dz[i]));
         wa = wa.sub(Lanes3::of(gp[0][2], gq[0][2]).scale(dz[i]));
