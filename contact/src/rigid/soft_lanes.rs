@@ -22,7 +22,7 @@ use wide::f64x2;
 use super::soft_step::{Block, Bodies, Pass, PointImpulses, Rows, BLOCK_POINTS};
 
 /// Two 3-vectors, one per lane.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Lanes3 {
     x: f64x2,
     y: f64x2,
@@ -131,6 +131,76 @@ fn at_most(x: f64x2, hi: f64x2) -> f64x2 {
     }
 }
 
+/// The rows of two points side by side, one per lane (copied from the state's
+/// arrays once per step, so that the passes load each pair of values at once
+/// instead of gathering it from two places).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PairRows {
+    /// Normal and tangents.
+    dir: [Lanes3; 3],
+    /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
+    ang: [[Lanes3; 4]; 3],
+    /// Effective masses of the three rows.
+    mass: [f64x2; 3],
+    /// Inverse masses of the two bodies as the rows see them.
+    im: [f64x2; 2],
+    friction: f64x2,
+}
+
+/// The points the relax pass and the warm start take two at a time: consecutive
+/// pairs `(p, p + 1)` within each colouring group of the colours before the overflow
+/// colour (no shared moving body), with their packed rows; the other points (a
+/// group's odd one, the overflow colour's) go one at a time. Kept buffers: no
+/// allocation once grown.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Paired {
+    /// First point of each pair, in solve order.
+    pub(super) start: Vec<usize>,
+    rows: Vec<PairRows>,
+}
+
+impl Paired {
+    /// Pairs up the points of `ranges` (the colouring's groups, the first
+    /// `serial_from` of which may be paired) and packs their rows.
+    pub(super) fn build(&mut self, rows: &Rows, ranges: &[usize], serial_from: usize) {
+        self.start.clear();
+        self.rows.clear();
+        let groups = ranges.len().saturating_sub(1);
+        let paired = serial_from.min(groups);
+        for g in 0..paired {
+            let (mut p, hi) = (ranges[g], ranges[g + 1]);
+            while p + 1 < hi {
+                self.start.push(p);
+                self.rows.push(pack(rows, p, p + 1));
+                p += 2;
+            }
+        }
+    }
+
+    /// The packed rows of pair `k`.
+    #[inline(always)]
+    pub(super) fn rows(&self, k: usize) -> &PairRows {
+        &self.rows[k]
+    }
+}
+
+/// The rows of points `p` and `q`, one per lane.
+#[inline(always)]
+fn pack(rows: &Rows, p: usize, q: usize) -> PairRows {
+    let (dp, dq) = (&rows.dir[p], &rows.dir[q]);
+    let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
+    let (mp, mq) = (rows.mass[p], rows.mass[q]);
+    let (ip, iq) = (rows.im[p], rows.im[q]);
+    let ang = |r: usize| [0, 1, 2, 3].map(|k| Lanes3::of(gp[r][k], gq[r][k]));
+    PairRows {
+        dir: [0, 1, 2].map(|r| Lanes3::of(dp[r], dq[r])),
+        ang: [ang(0), ang(1), ang(2)],
+        mass: [0, 1, 2].map(|r| pair(mp[r], mq[r])),
+        im: [pair(ip[0], iq[0]), pair(ip[1], iq[1])],
+        friction: pair(rows.friction[p], rows.friction[q]),
+    }
+}
+
 /// The velocities and impulses the relax pass writes (the single-thread state's own
 /// slices).
 pub(super) struct RelaxIo<'a> {
@@ -147,17 +217,21 @@ pub(super) struct RelaxIo<'a> {
 /// separated, else no bias: `Δλ = −m (J v + b)`, `λ ≥ 0`), then the two friction rows
 /// bounded by `μ λ_n` (`|λ_t| ≤ μ λ_n`), as `solve_point` with `use_bias` false.
 #[inline(always)]
-pub(super) fn relax_pair(rows: &Rows, p: usize, q: usize, io: &mut RelaxIo, inv_h: f64) {
+pub(super) fn relax_pair(
+    rows: &Rows,
+    pr: &PairRows,
+    p: usize,
+    q: usize,
+    io: &mut RelaxIo,
+    inv_h: f64,
+) {
     let ([a0, b0], [a1, b1]) = (rows.slots[p], rows.slots[q]);
     let mut va = Lanes3::of(io.v[a0], io.v[a1]);
     let mut wa = Lanes3::of(io.w[a0], io.w[a1]);
     let mut vb = Lanes3::of(io.v[b0], io.v[b1]);
     let mut wb = Lanes3::of(io.w[b0], io.w[b1]);
-    let (dp, dq) = (&rows.dir[p], &rows.dir[q]);
-    let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
-    let (mp, mq) = (rows.mass[p], rows.mass[q]);
-    let (ip, iq) = (rows.im[p], rows.im[q]);
-    let (ma, mb) = (pair(ip[0], iq[0]), pair(ip[1], iq[1]));
+    let g = &pr.ang;
+    let [ma, mb] = pr.im;
     let (zp, zq) = (io.impulse[p], io.impulse[q]);
     // Speculative where separated: approach at most to the surface within the
     // sub-step; rigid (mass_scale 1, impulse_scale 0, no preload) either way.
@@ -165,32 +239,32 @@ pub(super) fn relax_pair(rows: &Rows, p: usize, q: usize, io: &mut RelaxIo, inv_
     let bias = pair(spec(io.gap[p]), spec(io.gap[q]));
     let (one, zero) = (f64x2::splat(1.0), f64x2::splat(0.0));
     let z0 = pair(zp[0], zq[0]);
-    let d0 = Lanes3::of(dp[0], dq[0]);
-    let vn = d0.dot(vb.sub(va)) + Lanes3::of(gp[0][1], gq[0][1]).dot(wb)
-        - Lanes3::of(gp[0][0], gq[0][0]).dot(wa);
-    let m0 = pair(mp[0], mq[0]);
-    let new = at_least(z0 - m0 * one * (vn + bias) - zero * (z0 - zero), zero);
+    let d0 = pr.dir[0];
+    let vn = d0.dot(vb.sub(va)) + g[0][1].dot(wb) - g[0][0].dot(wa);
+    let new = at_least(
+        z0 - pr.mass[0] * one * (vn + bias) - zero * (z0 - zero),
+        zero,
+    );
     let dz = new - z0;
     let max_normal = at_least(new, pair(io.max_normal[p], io.max_normal[q]));
     va = va.sub(d0.scale(ma * dz));
-    wa = wa.sub(Lanes3::of(gp[0][2], gq[0][2]).scale(dz));
+    wa = wa.sub(g[0][2].scale(dz));
     vb = vb.add(d0.scale(mb * dz));
-    wb = wb.add(Lanes3::of(gp[0][3], gq[0][3]).scale(dz));
-    let bound = pair(rows.friction[p], rows.friction[q]) * new;
+    wb = wb.add(g[0][3].scale(dz));
+    let bound = pr.friction * new;
     let mut z = [new, zero, zero];
     for r in 1..3 {
-        let d = Lanes3::of(dp[r], dq[r]);
+        let d = pr.dir[r];
         let zr = pair(zp[r], zq[r]);
-        let vt = d.dot(vb.sub(va)) + Lanes3::of(gp[r][1], gq[r][1]).dot(wb)
-            - Lanes3::of(gp[r][0], gq[r][0]).dot(wa);
-        let unbounded = zr - pair(mp[r], mq[r]) * vt;
+        let vt = d.dot(vb.sub(va)) + g[r][1].dot(wb) - g[r][0].dot(wa);
+        let unbounded = zr - pr.mass[r] * vt;
         let new = at_least(at_most(unbounded, bound), -bound);
         let dz = new - zr;
         z[r] = new;
         va = va.sub(d.scale(ma * dz));
-        wa = wa.sub(Lanes3::of(gp[r][2], gq[r][2]).scale(dz));
+        wa = wa.sub(g[r][2].scale(dz));
         vb = vb.add(d.scale(mb * dz));
-        wb = wb.add(Lanes3::of(gp[r][3], gq[r][3]).scale(dz));
+        wb = wb.add(g[r][3].scale(dz));
     }
     for (lane, point) in [p, q].into_iter().enumerate() {
         io.impulse[point] = [
@@ -343,4 +417,46 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
         }
     }
     true
+}
+
+/// The warm start of points `p` and `q` (a pair of [`Paired`]), one per lane, as
+/// `apply_point`: `v += M⁻¹ Jᵀ λ`, the linear part `d₀λ₀ + d₁λ₁ + d₂λ₂` and the
+/// angular parts `Σ_r I⁻¹(r × d_r) λ_r` summed left to right.
+#[inline(always)]
+pub(super) fn warm_pair(
+    rows: &Rows,
+    pr: &PairRows,
+    p: usize,
+    q: usize,
+    v: &mut [DVec3],
+    w: &mut [DVec3],
+    impulse: &[[f64; 3]],
+) {
+    let ([a0, b0], [a1, b1]) = (rows.slots[p], rows.slots[q]);
+    let (zp, zq) = (impulse[p], impulse[q]);
+    let z = [pair(zp[0], zq[0]), pair(zp[1], zq[1]), pair(zp[2], zq[2])];
+    let (d, g) = (&pr.dir, &pr.ang);
+    let lin = d[0].scale(z[0]).add(d[1].scale(z[1])).add(d[2].scale(z[2]));
+    let ang = |k: usize| {
+        g[0][k]
+            .scale(z[0])
+            .add(g[1][k].scale(z[1]))
+            .add(g[2][k].scale(z[2]))
+    };
+    let [ma, mb] = pr.im;
+    let va = Lanes3::of(v[a0], v[a1]).sub(lin.scale(ma));
+    let wa = Lanes3::of(w[a0], w[a1]).sub(ang(2));
+    let vb = Lanes3::of(v[b0], v[b1]).add(lin.scale(mb));
+    let wb = Lanes3::of(w[b0], w[b1]).add(ang(3));
+    // The static slot's inverse mass and inertia are zero: it stays at rest.
+    for (lane, (a, b)) in [(a0, b0), (a1, b1)].into_iter().enumerate() {
+        if a != rows.fixed {
+            v[a] = va.lane(lane);
+            w[a] = wa.lane(lane);
+        }
+        if b != rows.fixed {
+            v[b] = vb.lane(lane);
+            w[b] = wb.lane(lane);
+        }
+    }
 }

@@ -55,7 +55,7 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DQuat, DVec3, Pose};
 
 use super::colouring::Colouring;
-use super::soft_lanes::{block_pair, relax_pair, RelaxIo};
+use super::soft_lanes::{block_pair, relax_pair, warm_pair, Paired, RelaxIo};
 use super::{ContactError, ContactSolver, ContactStats, ContactWorld, RowsSolver, SolverPath};
 use crate::geometry::BroadScratch;
 
@@ -301,6 +301,9 @@ pub(super) struct SoftState {
     pub(super) mean: Vec<f64>,
     /// Block normal solve of each manifold in colour order (see [`Block`]).
     pub(super) blocks: Vec<Block>,
+    /// The points the relax pass and the warm start take two at a time in SIMD lanes,
+    /// with their rows packed per pair (the `soft_lanes` module).
+    pub(super) paired: Paired,
     pub(super) max_normal: Vec<f64>,
     /// Impulses summed over the sub-steps (what [`ContactWorld::impulses`] reports).
     pub(super) total: Vec<[f64; 3]>,
@@ -794,6 +797,7 @@ impl ContactWorld {
             build_blocks(st);
         }
         update_gaps(st);
+        pack_pairs(st);
     }
 
     /// Static load estimate of the contacts, for the manifolds met for the first time
@@ -1226,12 +1230,39 @@ fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
     apply_point(&rows, p, z, &mut vel);
 }
 
-/// Applies the stored impulses of every point (warm start, each sub-step).
+/// Applies the stored impulses of every point (warm start, each sub-step) in solve
+/// order, the pairs of [`Paired`] two at a time in SIMD lanes ([`warm_pair`]: the same
+/// bits as [`apply_point`] one at a time).
 fn warm_start(st: &mut SoftState) {
-    let (rows, mut vel, impulse, _) = split!(st);
-    for (p, z) in impulse.iter().enumerate() {
-        apply_point(&rows, p, *z, &mut vel);
+    let paired = core::mem::take(&mut st.paired);
+    {
+        let (rows, mut vel, impulse, _) = split!(&mut *st);
+        let n = rows.slots.len();
+        let (mut k, mut p) = (0, 0);
+        while p < n {
+            if k < paired.start.len() && paired.start[k] == p {
+                warm_pair(&rows, paired.rows(k), p, p + 1, vel.v, vel.w, impulse);
+                k += 1;
+                p += 2;
+            } else {
+                apply_point(&rows, p, impulse[p], &mut vel);
+                p += 1;
+            }
+        }
     }
+    st.paired = paired;
+}
+
+/// Pairs up the points for the SIMD lanes and packs their rows ([`Paired::build`]).
+fn pack_pairs(st: &mut SoftState) {
+    let mut paired = core::mem::take(&mut st.paired);
+    let colouring = core::mem::take(&mut st.colouring);
+    {
+        let (rows, _, _, _) = split!(&mut *st);
+        paired.build(&rows, &colouring.ranges, colouring.serial_from);
+    }
+    st.colouring = colouring;
+    st.paired = paired;
 }
 
 /// Every point's gap at the current displacements into `st.gap` (once per
@@ -1309,9 +1340,7 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
         st.blocks = blocks;
         st.colouring = colouring;
     } else if !use_bias {
-        let colouring = core::mem::take(&mut st.colouring);
-        relax_in_lanes(st, &colouring, &gap, pass);
-        st.colouring = colouring;
+        relax_in_lanes(st, &gap, pass);
     } else {
         let (rows, mut vel, impulse, max_normal) = split!(&mut *st);
         for (p, (z, m)) in impulse.iter_mut().zip(max_normal.iter_mut()).enumerate() {
@@ -1326,48 +1355,49 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
 /// ([`super::soft_lanes::relax_pair`]: the same bits as one at a time); a group's odd
 /// point and the overflow colour's groups (whose manifolds may share bodies) one by
 /// one.
-fn relax_in_lanes(st: &mut SoftState, colouring: &Colouring, gap: &[f64], pass: Pass) {
-    let (rows, mut vel, impulse, max_normal) = split!(&mut *st);
-    let ranges = &colouring.ranges;
-    let groups = ranges.len().saturating_sub(1);
-    let paired = colouring.serial_from.min(groups);
-    for g in 0..paired {
-        let (mut p, hi) = (ranges[g], ranges[g + 1]);
-        while p + 1 < hi {
-            let mut io = RelaxIo {
-                v: &mut *vel.v,
-                w: &mut *vel.w,
-                impulse: &mut *impulse,
-                max_normal: &mut *max_normal,
-                gap,
-            };
-            relax_pair(&rows, p, p + 1, &mut io, pass.inv_h);
-            p += 2;
-        }
-        if p < hi {
-            solve_point(
-                &rows,
-                p,
-                gap[p],
-                &mut impulse[p],
-                &mut max_normal[p],
-                &mut vel,
-                pass,
-            );
+fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
+    let paired = core::mem::take(&mut st.paired);
+    {
+        let (rows, vel, impulse, max_normal) = split!(&mut *st);
+        let mut io = RelaxIo {
+            v: &mut *vel.v,
+            w: &mut *vel.w,
+            impulse: &mut *impulse,
+            max_normal: &mut *max_normal,
+            gap,
+        };
+        // Pairs and single points in solve order (the pairs' points commute with
+        // each other; each single point comes after the pairs of its group and
+        // before the next group's, or in the overflow colour after them all).
+        let mut k = 0;
+        let n = rows.slots.len();
+        let mut p = 0;
+        while p < n {
+            if k < paired.start.len() && paired.start[k] == p {
+                relax_pair(&rows, paired.rows(k), p, p + 1, &mut io, pass.inv_h);
+                k += 1;
+                p += 2;
+            } else {
+                let mut one = Slices {
+                    v: &mut *io.v,
+                    w: &mut *io.w,
+                    dp: vel.dp,
+                    rot: vel.rot,
+                };
+                solve_point(
+                    &rows,
+                    p,
+                    gap[p],
+                    &mut io.impulse[p],
+                    &mut io.max_normal[p],
+                    &mut one,
+                    pass,
+                );
+                p += 1;
+            }
         }
     }
-    let rest = ranges[paired]..ranges[groups];
-    for p in rest {
-        solve_point(
-            &rows,
-            p,
-            gap[p],
-            &mut impulse[p],
-            &mut max_normal[p],
-            &mut vel,
-            pass,
-        );
-    }
+    st.paired = paired;
 }
 
 /// The points' impulses as the manifold passes see them: plain slices on one
