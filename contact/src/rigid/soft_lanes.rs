@@ -30,6 +30,12 @@ struct Lanes3 {
 }
 
 impl Lanes3 {
+    const ZERO: Self = Self {
+        x: f64x2::ZERO,
+        y: f64x2::ZERO,
+        z: f64x2::ZERO,
+    };
+
     #[inline(always)]
     fn of(p: DVec3, q: DVec3) -> Self {
         Self {
@@ -157,6 +163,8 @@ pub(super) struct Paired {
     /// First point of each pair, in solve order.
     pub(super) start: Vec<usize>,
     rows: Vec<PairRows>,
+    /// Pair of each point it starts (`u32::MAX` where none), by solve position.
+    pair_of: Vec<u32>,
 }
 
 impl Paired {
@@ -165,11 +173,15 @@ impl Paired {
     pub(super) fn build(&mut self, rows: &Rows, ranges: &[usize], serial_from: usize) {
         self.start.clear();
         self.rows.clear();
+        self.pair_of.clear();
+        self.pair_of
+            .resize(ranges.last().copied().unwrap_or(0), u32::MAX);
         let groups = ranges.len().saturating_sub(1);
         let paired = serial_from.min(groups);
         for g in 0..paired {
             let (mut p, hi) = (ranges[g], ranges[g + 1]);
             while p + 1 < hi {
+                self.pair_of[p] = self.start.len() as u32;
                 self.start.push(p);
                 self.rows.push(pack(rows, p, p + 1));
                 p += 2;
@@ -182,7 +194,23 @@ impl Paired {
     pub(super) fn rows(&self, k: usize) -> &PairRows {
         &self.rows[k]
     }
+
+    /// The packed rows of points `p` and `q` if they are a pair.
+    #[inline(always)]
+    fn rows_of(&self, p: usize, q: usize) -> Option<&PairRows> {
+        let k = *self.pair_of.get(p)?;
+        (k != u32::MAX && q == p + 1).then(|| &self.rows[k as usize])
+    }
 }
+
+/// Rows of zeros (the padding of a block beyond its points; never read).
+const EMPTY: PairRows = PairRows {
+    dir: [Lanes3::ZERO; 3],
+    ang: [[Lanes3::ZERO; 4]; 3],
+    mass: [f64x2::ZERO; 3],
+    im: [f64x2::ZERO; 2],
+    friction: f64x2::ZERO,
+};
 
 /// The rows of points `p` and `q`, one per lane.
 #[inline(always)]
@@ -298,6 +326,7 @@ pub(super) fn relax_pair(
 #[inline(always)]
 pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
     rows: &Rows,
+    paired: &Paired,
     blk: [&Block; 2],
     io: &mut I,
     vel: &mut B,
@@ -334,14 +363,26 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
         z[i] = [pair(z0[0], z1[0]), pair(z0[1], z1[1]), pair(z0[2], z1[2])];
         most[i] = pair(m0, m1);
     }
+    // The points' rows side by side: packed where the two points are a pair of
+    // `paired` (manifolds of equal point counts line up with the groups), else
+    // gathered here.
+    let mut local = [None; N];
+    let mut packed = [None; N];
+    for i in 0..len {
+        let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
+        packed[i] = paired.rows_of(p, q);
+        if packed[i].is_none() {
+            local[i] = Some(pack(rows, p, q));
+        }
+    }
+    let pr: [&PairRows; N] =
+        core::array::from_fn(|i| packed[i].or(local[i].as_ref()).unwrap_or(&EMPTY));
     // r = J v + b + c∘(λ − λ_pre), zero in the padding.
     let mut r = [zero; N];
     for i in 0..len {
         let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
-        let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
-        let d0 = Lanes3::of(rows.dir[p][0], rows.dir[q][0]);
-        let vn = d0.dot(vb.sub(va)) + Lanes3::of(gp[0][1], gq[0][1]).dot(wb)
-            - Lanes3::of(gp[0][0], gq[0][0]).dot(wa);
+        let (g, d0) = (&pr[i].ang, pr[i].dir[0]);
+        let vn = d0.dot(vb.sub(va)) + g[0][1].dot(wb) - g[0][0].dot(wa);
         let bias = at_least(bias_rate * gap[i], max_push);
         let pre = at_most(
             pair(rows.preload[p], rows.preload[q]),
@@ -363,38 +404,30 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
         }
     }
     for i in 0..len {
-        let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
-        let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
-        let d0 = Lanes3::of(rows.dir[p][0], rows.dir[q][0]);
-        let (ip, iq) = (rows.im[p], rows.im[q]);
+        let (g, d0) = (&pr[i].ang, pr[i].dir[0]);
+        let [ma, mb] = pr[i].im;
         z[i][0] += dz[i];
         most[i] = at_least(z[i][0], most[i]);
-        va = va.sub(d0.scale(pair(ip[0], iq[0]) * dz[i]));
-        wa = wa.sub(Lanes3::of(gp[0][2], gq[0][2]).scale(dz[i]));
-        vb = vb.add(d0.scale(pair(ip[1], iq[1]) * dz[i]));
-        wb = wb.add(Lanes3::of(gp[0][3], gq[0][3]).scale(dz[i]));
+        va = va.sub(d0.scale(ma * dz[i]));
+        wa = wa.sub(g[0][2].scale(dz[i]));
+        vb = vb.add(d0.scale(mb * dz[i]));
+        wb = wb.add(g[0][3].scale(dz[i]));
     }
     // Friction point by point (no anchors: velocity rows, |λ_t| ≤ μ λ_n).
     for (i, zi) in z.iter_mut().enumerate().take(len) {
-        let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
-        let (dp, dq) = (&rows.dir[p], &rows.dir[q]);
-        let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
-        let (ip, iq) = (rows.im[p], rows.im[q]);
-        let (ma, mb) = (pair(ip[0], iq[0]), pair(ip[1], iq[1]));
-        let (mp, mq) = (rows.mass[p], rows.mass[q]);
-        let bound = pair(rows.friction[p], rows.friction[q]) * zi[0];
+        let (g, [ma, mb]) = (&pr[i].ang, pr[i].im);
+        let bound = pr[i].friction * zi[0];
         for rr in 1..3 {
-            let d = Lanes3::of(dp[rr], dq[rr]);
-            let vt = d.dot(vb.sub(va)) + Lanes3::of(gp[rr][1], gq[rr][1]).dot(wb)
-                - Lanes3::of(gp[rr][0], gq[rr][0]).dot(wa);
-            let unbounded = zi[rr] - pair(mp[rr], mq[rr]) * vt;
+            let d = pr[i].dir[rr];
+            let vt = d.dot(vb.sub(va)) + g[rr][1].dot(wb) - g[rr][0].dot(wa);
+            let unbounded = zi[rr] - pr[i].mass[rr] * vt;
             let new = at_least(at_most(unbounded, bound), -bound);
             let dz = new - zi[rr];
             zi[rr] = new;
             va = va.sub(d.scale(ma * dz));
-            wa = wa.sub(Lanes3::of(gp[rr][2], gq[rr][2]).scale(dz));
+            wa = wa.sub(g[rr][2].scale(dz));
             vb = vb.add(d.scale(mb * dz));
-            wb = wb.add(Lanes3::of(gp[rr][3], gq[rr][3]).scale(dz));
+            wb = wb.add(g[rr][3].scale(dz));
         }
     }
     for lane in 0..2 {

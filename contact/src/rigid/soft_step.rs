@@ -1302,6 +1302,7 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
     if use_bias && !st.blocks.is_empty() {
         let blocks = core::mem::take(&mut st.blocks);
         let colouring = core::mem::take(&mut st.colouring);
+        let paired = core::mem::take(&mut st.paired);
         {
             let (rows, mut vel, impulse, max_normal) = split!(&mut *st);
             let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
@@ -1325,7 +1326,7 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
                 if !(serial && c + 1 == colours) {
                     while j + 1 < hi {
                         let pair = [&blocks[j], &blocks[j + 1]];
-                        if !block_pair(&rows, pair, &mut io, &mut vel, pass) {
+                        if !block_pair(&rows, &paired, pair, &mut io, &mut vel, pass) {
                             one(j, &mut io, &mut vel);
                             one(j + 1, &mut io, &mut vel);
                         }
@@ -1339,6 +1340,7 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
         }
         st.blocks = blocks;
         st.colouring = colouring;
+        st.paired = paired;
     } else if !use_bias {
         relax_in_lanes(st, &gap, pass);
     } else {
