@@ -1077,7 +1077,8 @@ pub(super) fn separation<B: Bodies>(rows: &Rows, p: usize, vel: &B) -> DVec3 {
 }
 
 /// Current gap of point `p` from the displacements since the start of the step:
-/// `C = C₀ + nᵀ Δd` ([`separation`]).
+/// `C = C₀ + nᵀ Δd` ([`separation`]; the threaded passes' gap stage).
+#[cfg(feature = "parallel")]
 #[inline(always)]
 pub(super) fn gap_of<B: Bodies>(rows: &Rows, p: usize, vel: &B) -> f64 {
     rows.base_gap[p] + rows.dir[p][0].dot(separation(rows, p, vel))
@@ -1267,14 +1268,33 @@ fn pack_pairs(st: &mut SoftState) {
 
 /// Every point's gap at the current displacements into `st.gap` (once per
 /// sub-step, after the positions: the relax passes and the next biased pass share
-/// it, where each pass computed it before; the same bits).
+/// it, where each pass computed it before; the same bits). Manifold by manifold, so
+/// that the two bodies' displacements are loaded once for all of its points: the
+/// same arithmetic as [`gap_of`].
 fn update_gaps(st: &mut SoftState) {
     let mut gap = core::mem::take(&mut st.gap);
+    let colouring = core::mem::take(&mut st.colouring);
     gap.clear();
+    gap.resize(st.slots.len(), 0.0);
     {
         let (rows, vel, _, _) = split!(&mut *st);
-        gap.extend((0..rows.slots.len()).map(|p| gap_of(&rows, p, &vel)));
+        let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
+        for j in 0..mp.len().saturating_sub(1) {
+            let pts = &pts[mp[j]..mp[j + 1]];
+            let Some(&first) = pts.first() else {
+                continue;
+            };
+            // The points of one manifold share their two bodies.
+            let [a, b] = rows.slots[first];
+            let ((dpa, rota), (dpb, rotb)) = (vel.displacement(a), vel.displacement(b));
+            for &p in pts {
+                let [ra, rb] = rows.anchor[p];
+                let dd = (dpb + rotb * rb) - (dpa + rota * ra);
+                gap[p] = rows.base_gap[p] + rows.dir[p][0].dot(dd);
+            }
+        }
     }
+    st.colouring = colouring;
     st.gap = gap;
 }
 
