@@ -16,6 +16,8 @@
 //! of structures (two loads per pair of values) and scatters the two bodies'
 //! velocities back.
 
+use alloc::vec::Vec;
+
 use constraint_core::DVec3;
 use wide::f64x2;
 
