@@ -47,6 +47,15 @@
 //! displacements and inverse masses in dense arrays indexed by solver slot, with a
 //! last, static slot (zero inverse mass) for the ground. Every buffer lives in [`SoftState`] and is reused: a step allocates nothing
 //! once the buffers have grown to the scene.
+//!
+//! SIMD lanes (the `soft_lanes` module, `wide::f64x2`): on one thread the warm start
+//! and the relax pass take the points of a colouring group two at a time, their rows
+//! packed side by side once per step, and the biased pass takes the manifolds of a
+//! colour two at a time (block normal solve and friction). Each lane does the scalar
+//! pass's operations in the same order on independent bodies, so the bits are those
+//! of one point (manifold) at a time, and of the threaded passes, which stay scalar.
+//! The gaps are computed once per sub-step, after the positions, for the relax passes
+//! and the next biased pass.
 
 use alloc::vec::Vec;
 use core::f64::consts::TAU;
@@ -280,9 +289,10 @@ pub(super) struct SoftState {
     pub(super) im: Vec<[f64; 2]>,
     /// Gap `nᵀ(p_b − p_a)` at the start of the step minus `nᵀ(r_b − r_a)`.
     pub(super) base_gap: Vec<f64>,
-    /// Gap of each point at the bodies' current displacements ([`gap_of`]): set in
-    /// `prepare` and after each sub-step's positions, read by the relax passes and the
-    /// next sub-step's biased pass (the positions do not change between them).
+    /// Gap of each point at the bodies' current displacements (`C₀ + nᵀ Δd`,
+    /// [`separation`]): set in `prepare` and after each sub-step's positions, read by
+    /// the relax passes and the next sub-step's biased pass (the positions do not
+    /// change between them).
     pub(super) gap: Vec<f64>,
     pub(super) soft: Vec<Softness>,
     pub(super) friction: Vec<f64>,
@@ -1270,7 +1280,7 @@ fn pack_pairs(st: &mut SoftState) {
 /// sub-step, after the positions: the relax passes and the next biased pass share
 /// it, where each pass computed it before; the same bits). Manifold by manifold, so
 /// that the two bodies' displacements are loaded once for all of its points: the
-/// same arithmetic as [`gap_of`].
+/// same arithmetic as `C₀ + nᵀ Δd` ([`separation`]).
 fn update_gaps(st: &mut SoftState) {
     let mut gap = core::mem::take(&mut st.gap);
     let colouring = core::mem::take(&mut st.colouring);
