@@ -44,6 +44,7 @@ mod dense;
 mod path;
 mod sequential;
 mod sleep;
+mod soft_lanes;
 #[cfg(feature = "parallel")]
 mod soft_parallel;
 mod soft_step;

@@ -8,7 +8,8 @@
 //! colour's manifolds, then their second points, … (two points of one manifold share
 //! both bodies) — each group cut into one contiguous chunk per thread, and all threads
 //! meet at a barrier before the next group. The per-body
-//! stages (gravity, positions) are cut the same way over the bodies. The overflow
+//! stages (gravity, positions) are cut the same way over the bodies, and the points'
+//! gaps at the new positions over the points. The overflow
 //! colour, whose manifolds may share bodies, is solved in order by one thread. With
 //! block normal solves ([`super::SoftStepSettings::block_normal`]) the biased pass
 //! runs colour by colour over whole manifolds instead ([`solve_manifold`], the
@@ -36,8 +37,8 @@ use core::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use constraint_core::{DMat3, DQuat, DVec3};
 
 use super::soft_step::{
-    apply_point, integrate_position, integrate_velocity, solve_manifold, solve_point, Bodies, Pass,
-    PointImpulses, SoftState,
+    apply_point, gap_of, integrate_position, integrate_velocity, solve_manifold, solve_point,
+    Bodies, Pass, PointImpulses, SoftState,
 };
 
 /// A barrier the threads spin on (then yield): a colour's pass takes microseconds, too
@@ -130,10 +131,11 @@ pub(super) struct ParallelState {
     dp: Shared,
     dq: Shared,
     rot: Shared,
-    /// Per point: impulses (3), largest normal impulse, impulse totals (3).
+    /// Per point: impulses (3), largest normal impulse, impulse totals (3), gap.
     impulse: Shared,
     max_normal: Shared,
     total: Shared,
+    gap: Shared,
 }
 
 impl Clone for ParallelState {
@@ -182,6 +184,10 @@ impl PointImpulses for SharedImpulses<'_> {
     fn set(&mut self, p: usize, z: [f64; 3], max_normal: f64) {
         self.0.impulse.set_vec3(p, DVec3::from_array(z));
         self.0.max_normal.set(p, max_normal);
+    }
+    #[inline(always)]
+    fn gap(&self, p: usize) -> f64 {
+        self.0.gap.get(p)
     }
 }
 
@@ -296,7 +302,16 @@ pub(super) fn run(st: &mut SoftState, threads: usize, plan: Plan) {
                     shared.impulse.get(3 * p + 2),
                 ];
                 let mut m = shared.max_normal.get(p);
-                solve_point(&rows, p, &mut z, &mut m, &mut SharedBodies(shared), pass);
+                let gap = shared.gap.get(p);
+                solve_point(
+                    &rows,
+                    p,
+                    gap,
+                    &mut z,
+                    &mut m,
+                    &mut SharedBodies(shared),
+                    pass,
+                );
                 shared.impulse.set_vec3(p, DVec3::from_array(z));
                 shared.max_normal.set(p, m);
             });
@@ -357,6 +372,11 @@ pub(super) fn run(st: &mut SoftState, threads: usize, plan: Plan) {
                 }
             }
             colours.barrier.wait();
+            // The gaps at the new positions (each point its own: no conflicts).
+            for p in chunk(0, points, t, threads) {
+                shared.gap.set(p, gap_of(&rows, p, &SharedBodies(shared)));
+            }
+            colours.barrier.wait();
             for _ in 0..plan.relax_passes {
                 pass(plan.relax);
             }
@@ -390,6 +410,7 @@ fn copy_in(par: &mut ParallelState, st: &SoftState) {
     par.impulse.fill_from(st.impulse.iter().flatten().copied());
     par.max_normal.fill_from(st.max_normal.iter().copied());
     par.total.fill_from(st.total.iter().flatten().copied());
+    par.gap.fill_from(st.gap.iter().copied());
 }
 
 /// The shared buffers back into the state.

@@ -47,6 +47,15 @@
 //! displacements and inverse masses in dense arrays indexed by solver slot, with a
 //! last, static slot (zero inverse mass) for the ground. Every buffer lives in [`SoftState`] and is reused: a step allocates nothing
 //! once the buffers have grown to the scene.
+//!
+//! SIMD lanes (the `soft_lanes` module, `wide::f64x2`): on one thread the warm start
+//! and the relax pass take the points of a colouring group two at a time, their rows
+//! packed side by side once per step, and the biased pass takes the manifolds of a
+//! colour two at a time (block normal solve and friction). Each lane does the scalar
+//! pass's operations in the same order on independent bodies, so the bits are those
+//! of one point (manifold) at a time, and of the threaded passes, which stay scalar.
+//! The gaps are computed once per sub-step, after the positions, for the relax passes
+//! and the next biased pass.
 
 use alloc::vec::Vec;
 use core::f64::consts::TAU;
@@ -55,6 +64,7 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DQuat, DVec3, Pose};
 
 use super::colouring::Colouring;
+use super::soft_lanes::{block_pair, relax_pair, warm_pair, Paired, RelaxIo};
 use super::{ContactError, ContactSolver, ContactStats, ContactWorld, RowsSolver, SolverPath};
 use crate::geometry::BroadScratch;
 
@@ -279,6 +289,11 @@ pub(super) struct SoftState {
     pub(super) im: Vec<[f64; 2]>,
     /// Gap `nᵀ(p_b − p_a)` at the start of the step minus `nᵀ(r_b − r_a)`.
     pub(super) base_gap: Vec<f64>,
+    /// Gap of each point at the bodies' current displacements (`C₀ + nᵀ Δd`,
+    /// [`separation`]): set in `prepare` and after each sub-step's positions, read by
+    /// the relax passes and the next sub-step's biased pass (the positions do not
+    /// change between them).
+    pub(super) gap: Vec<f64>,
     pub(super) soft: Vec<Softness>,
     pub(super) friction: Vec<f64>,
     pub(super) restitution: Vec<f64>,
@@ -296,6 +311,9 @@ pub(super) struct SoftState {
     pub(super) mean: Vec<f64>,
     /// Block normal solve of each manifold in colour order (see [`Block`]).
     pub(super) blocks: Vec<Block>,
+    /// The points the relax pass and the warm start take two at a time in SIMD lanes,
+    /// with their rows packed per pair (the `soft_lanes` module).
+    pub(super) paired: Paired,
     pub(super) max_normal: Vec<f64>,
     /// Impulses summed over the sub-steps (what [`ContactWorld::impulses`] reports).
     pub(super) total: Vec<[f64; 3]>,
@@ -460,6 +478,8 @@ impl ContactWorld {
 
     /// Converts the soft step's warm start (impulses over one of `substeps` sub-steps)
     /// into the dense path's (over the whole step), when `Auto` leaves the soft step.
+    /// The soft step keeps its own sorted by collider pair only (see `store`); the
+    /// dense path searches by the whole key, so it is sorted here.
     pub(super) fn warm_soft_to_dense(&mut self, substeps: usize) {
         let k = substeps as f64;
         self.warm.clear();
@@ -469,6 +489,8 @@ impl ContactWorld {
                 .iter()
                 .map(|&(key, zn, ft, _, _)| (key, (zn * k, ft * k))),
         );
+        // Keys are unique: the unstable sort is deterministic.
+        self.warm.sort_unstable_by_key(|e| e.0);
     }
 
     /// The sub-steps and the rest of the soft step from the contacts in
@@ -518,6 +540,7 @@ impl ContactWorld {
             warm_start(&mut st);
             solve(&mut st, hs, true, s.max_push_velocity, s.friction_anchors);
             integrate_positions(&mut st, hs);
+            update_gaps(&mut st);
             for _ in 0..s.relax_passes {
                 solve(&mut st, hs, false, 0.0, false);
             }
@@ -607,7 +630,7 @@ impl ContactWorld {
         let dynamic = Softness::new(hertz, s.damping_ratio, hs);
         let fixed = Softness::new(2.0 * hertz, s.damping_ratio, hs);
         // Warm start by key: the contacts come in pair order `(a, b)` and `warm` is
-        // sorted by key, so one forward merge finds every previous point (the same
+        // sorted by pair, so one forward merge finds every previous point (the same
         // matches as a search per point, reading `warm` once, in order).
         st.found.clear();
         st.found_hit.clear();
@@ -783,6 +806,8 @@ impl ContactWorld {
         if s.block_normal {
             build_blocks(st);
         }
+        update_gaps(st);
+        pack_pairs(st);
     }
 
     /// Static load estimate of the contacts, for the manifolds met for the first time
@@ -861,7 +886,7 @@ impl ContactWorld {
     }
 
     /// Writes the bodies back (`x = x₀ + Δx`, `q = Δq q₀`) and keeps the impulses for
-    /// the next step's warm start, sorted by contact key.
+    /// the next step's warm start, sorted by collider pair.
     fn store(&mut self, st: &mut SoftState, hs: f64) {
         let anchors = self.settings.soft_step.friction_anchors;
         for (i, b) in self.bodies.iter_mut().enumerate() {
@@ -873,9 +898,12 @@ impl ContactWorld {
         st.warm_next.clear();
         self.impulses.clear();
         self.impulses.resize(3 * self.contacts.len(), 0.0);
-        // In natural order (the contacts come sorted by pair, and within a pair by
-        // point id as the narrow phase numbers them), so that `warm` is sorted by key
-        // without a sort; checked, and sorted if it is not.
+        // In natural order: the contacts come sorted by collider pair, which is all
+        // the merge in `prepare` needs (it finds a point by id within its pair's run),
+        // so `warm` needs no sort. Within a pair the narrow phase's point ids are not
+        // ascending (a box face's clipped corners), and sorting by the whole key cost
+        // 4.5 % of the 210-box pyramid's step; checked by pair, and sorted if the
+        // pairs are not in order.
         for (k, c) in self.contacts.iter().enumerate() {
             let p = st.colouring.position[k];
             let [zn, z1, z2] = st.impulse[p];
@@ -897,7 +925,7 @@ impl ContactWorld {
                 .push((c.key(), zn, t1 * z1 + t2 * z2, slip, st.preload_floor[p]));
             self.impulses[3 * k..3 * k + 3].copy_from_slice(&st.total[p]);
         }
-        if !st.warm_next.is_sorted_by_key(|e| e.0) {
+        if !st.warm_next.is_sorted_by_key(|e| (e.0 .0, e.0 .1)) {
             // Keys are unique: the unstable sort is deterministic.
             st.warm_next.sort_unstable_by_key(|e| e.0);
         }
@@ -1048,6 +1076,24 @@ fn integrate_positions(st: &mut SoftState, hs: f64) {
     }
 }
 
+/// Separation `Δd = (Δx_b + Δq_b r_b) − (Δx_a + Δq_a r_a)` of point `p`'s anchors
+/// since the start of the step (the anchors fixed in the bodies).
+#[inline(always)]
+pub(super) fn separation<B: Bodies>(rows: &Rows, p: usize, vel: &B) -> DVec3 {
+    let [a, b] = rows.slots[p];
+    let [ra, rb] = rows.anchor[p];
+    let ((dpa, rota), (dpb, rotb)) = (vel.displacement(a), vel.displacement(b));
+    (dpb + rotb * rb) - (dpa + rota * ra)
+}
+
+/// Current gap of point `p` from the displacements since the start of the step:
+/// `C = C₀ + nᵀ Δd` ([`separation`]; the threaded passes' gap stage).
+#[cfg(feature = "parallel")]
+#[inline(always)]
+pub(super) fn gap_of<B: Bodies>(rows: &Rows, p: usize, vel: &B) -> f64 {
+    rows.base_gap[p] + rows.dir[p][0].dot(separation(rows, p, vel))
+}
+
 /// The bodies as the point passes see them: velocities they read and write, and the
 /// displacements since the start of the step they read. Plain slices on one thread;
 /// atomics under the `parallel` feature (where the colouring keeps two threads off one
@@ -1195,12 +1241,71 @@ fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
     apply_point(&rows, p, z, &mut vel);
 }
 
-/// Applies the stored impulses of every point (warm start, each sub-step).
+/// Applies the stored impulses of every point (warm start, each sub-step) in solve
+/// order, the pairs of [`Paired`] two at a time in SIMD lanes ([`warm_pair`]: the same
+/// bits as [`apply_point`] one at a time).
 fn warm_start(st: &mut SoftState) {
-    let (rows, mut vel, impulse, _) = split!(st);
-    for (p, z) in impulse.iter().enumerate() {
-        apply_point(&rows, p, *z, &mut vel);
+    let paired = core::mem::take(&mut st.paired);
+    {
+        let (rows, mut vel, impulse, _) = split!(&mut *st);
+        let n = rows.slots.len();
+        let (mut k, mut p) = (0, 0);
+        while p < n {
+            if k < paired.start.len() && paired.start[k] == p {
+                warm_pair(&rows, paired.rows(k), p, p + 1, vel.v, vel.w, impulse);
+                k += 1;
+                p += 2;
+            } else {
+                apply_point(&rows, p, impulse[p], &mut vel);
+                p += 1;
+            }
+        }
     }
+    st.paired = paired;
+}
+
+/// Pairs up the points for the SIMD lanes and packs their rows ([`Paired::build`]).
+fn pack_pairs(st: &mut SoftState) {
+    let mut paired = core::mem::take(&mut st.paired);
+    let colouring = core::mem::take(&mut st.colouring);
+    {
+        let (rows, _, _, _) = split!(&mut *st);
+        paired.build(&rows, &colouring.ranges, colouring.serial_from);
+    }
+    st.colouring = colouring;
+    st.paired = paired;
+}
+
+/// Every point's gap at the current displacements into `st.gap` (once per
+/// sub-step, after the positions: the relax passes and the next biased pass share
+/// it, where each pass computed it before; the same bits). Manifold by manifold, so
+/// that the two bodies' displacements are loaded once for all of its points: the
+/// same arithmetic as `C₀ + nᵀ Δd` ([`separation`]).
+fn update_gaps(st: &mut SoftState) {
+    let mut gap = core::mem::take(&mut st.gap);
+    let colouring = core::mem::take(&mut st.colouring);
+    gap.clear();
+    gap.resize(st.slots.len(), 0.0);
+    {
+        let (rows, vel, _, _) = split!(&mut *st);
+        let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
+        for j in 0..mp.len().saturating_sub(1) {
+            let pts = &pts[mp[j]..mp[j + 1]];
+            let Some(&first) = pts.first() else {
+                continue;
+            };
+            // The points of one manifold share their two bodies.
+            let [a, b] = rows.slots[first];
+            let ((dpa, rota), (dpb, rotb)) = (vel.displacement(a), vel.displacement(b));
+            for &p in pts {
+                let [ra, rb] = rows.anchor[p];
+                let dd = (dpb + rotb * rb) - (dpa + rota * ra);
+                gap[p] = rows.base_gap[p] + rows.dir[p][0].dot(dd);
+            }
+        }
+    }
+    st.colouring = colouring;
+    st.gap = gap;
 }
 
 /// Rate `J v` of row `r` of point `p`.
@@ -1223,29 +1328,108 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
         max_push,
         anchors,
     };
+    let gap = core::mem::take(&mut st.gap);
     if use_bias && !st.blocks.is_empty() {
         let blocks = core::mem::take(&mut st.blocks);
         let colouring = core::mem::take(&mut st.colouring);
+        let paired = core::mem::take(&mut st.paired);
         {
             let (rows, mut vel, impulse, max_normal) = split!(&mut *st);
             let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
-            for (j, blk) in blocks.iter().enumerate() {
+            let mut io = PointSlices {
+                impulse: &mut *impulse,
+                max_normal: &mut *max_normal,
+                gap: &gap,
+            };
+            let one = |j: usize, io: &mut PointSlices, vel: &mut Slices| {
                 let pts = &pts[mp[j]..mp[j + 1]];
-                let mut io = PointSlices {
-                    impulse: &mut *impulse,
-                    max_normal: &mut *max_normal,
-                };
-                solve_manifold(&rows, blk, pts, &mut io, &mut vel, pass);
+                solve_manifold(&rows, &blocks[j], pts, io, vel, pass);
+            };
+            // Colour by colour, two manifolds at a time in SIMD lanes
+            // ([`block_pair`]: the same bits as one at a time), except in the
+            // overflow colour (the last, if in use), whose manifolds may share bodies.
+            let starts = &colouring.colour_start;
+            let colours = starts.len().saturating_sub(1);
+            let serial = colouring.serial_from + 1 < colouring.ranges.len();
+            for c in 0..colours {
+                let (mut j, hi) = (starts[c], starts[c + 1]);
+                if !(serial && c + 1 == colours) {
+                    while j + 1 < hi {
+                        let pair = [&blocks[j], &blocks[j + 1]];
+                        if !block_pair(&rows, &paired, pair, &mut io, &mut vel, pass) {
+                            one(j, &mut io, &mut vel);
+                            one(j + 1, &mut io, &mut vel);
+                        }
+                        j += 2;
+                    }
+                }
+                for j in j..hi {
+                    one(j, &mut io, &mut vel);
+                }
             }
         }
         st.blocks = blocks;
         st.colouring = colouring;
-        return;
+        st.paired = paired;
+    } else if !use_bias {
+        relax_in_lanes(st, &gap, pass);
+    } else {
+        let (rows, mut vel, impulse, max_normal) = split!(&mut *st);
+        for (p, (z, m)) in impulse.iter_mut().zip(max_normal.iter_mut()).enumerate() {
+            solve_point(&rows, p, gap[p], z, m, &mut vel, pass);
+        }
     }
-    let (rows, mut vel, impulse, max_normal) = split!(st);
-    for (p, (z, m)) in impulse.iter_mut().zip(max_normal.iter_mut()).enumerate() {
-        solve_point(&rows, p, z, m, &mut vel, pass);
+    st.gap = gap;
+}
+
+/// The relax pass ([`solve_point`] without bias on every point, in solve order) with
+/// the points of each colouring group taken two at a time in SIMD lanes
+/// ([`super::soft_lanes::relax_pair`]: the same bits as one at a time); a group's odd
+/// point and the overflow colour's groups (whose manifolds may share bodies) one by
+/// one.
+fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
+    let paired = core::mem::take(&mut st.paired);
+    {
+        let (rows, vel, impulse, max_normal) = split!(&mut *st);
+        let mut io = RelaxIo {
+            v: &mut *vel.v,
+            w: &mut *vel.w,
+            impulse: &mut *impulse,
+            max_normal: &mut *max_normal,
+            gap,
+        };
+        // Pairs and single points in solve order (the pairs' points commute with
+        // each other; each single point comes after the pairs of its group and
+        // before the next group's, or in the overflow colour after them all).
+        let mut k = 0;
+        let n = rows.slots.len();
+        let mut p = 0;
+        while p < n {
+            if k < paired.start.len() && paired.start[k] == p {
+                relax_pair(&rows, paired.rows(k), p, p + 1, &mut io, pass.inv_h);
+                k += 1;
+                p += 2;
+            } else {
+                let mut one = Slices {
+                    v: &mut *io.v,
+                    w: &mut *io.w,
+                    dp: vel.dp,
+                    rot: vel.rot,
+                };
+                solve_point(
+                    &rows,
+                    p,
+                    gap[p],
+                    &mut io.impulse[p],
+                    &mut io.max_normal[p],
+                    &mut one,
+                    pass,
+                );
+                p += 1;
+            }
+        }
     }
+    st.paired = paired;
 }
 
 /// The points' impulses as the manifold passes see them: plain slices on one
@@ -1255,12 +1439,15 @@ pub(super) trait PointImpulses {
     fn get(&self, p: usize) -> ([f64; 3], f64);
     /// Stores them.
     fn set(&mut self, p: usize, z: [f64; 3], max_normal: f64);
+    /// Gap of point `p` at the current displacements ([`SoftState::gap`]).
+    fn gap(&self, p: usize) -> f64;
 }
 
 /// [`PointImpulses`] over the state's own slices.
 struct PointSlices<'a> {
     impulse: &'a mut [[f64; 3]],
     max_normal: &'a mut [f64],
+    gap: &'a [f64],
 }
 
 impl PointImpulses for PointSlices<'_> {
@@ -1272,6 +1459,10 @@ impl PointImpulses for PointSlices<'_> {
     fn set(&mut self, p: usize, z: [f64; 3], max_normal: f64) {
         self.impulse[p] = z;
         self.max_normal[p] = max_normal;
+    }
+    #[inline(always)]
+    fn gap(&self, p: usize) -> f64 {
+        self.gap[p]
     }
 }
 
@@ -1293,7 +1484,11 @@ pub(super) fn solve_manifold<B: Bodies, I: PointImpulses>(
         for i in 0..blk.len {
             (z[i], m[i]) = io.get(blk.pts[i]);
         }
-        if solve_block(rows, blk, &mut z, &mut m, vel, pass) {
+        let mut gap = [0.0; BLOCK_POINTS];
+        for i in 0..blk.len {
+            gap[i] = io.gap(blk.pts[i]);
+        }
+        if solve_block(rows, blk, &gap, &mut z, &mut m, vel, pass) {
             for i in 0..blk.len {
                 io.set(blk.pts[i], z[i], m[i]);
             }
@@ -1302,7 +1497,7 @@ pub(super) fn solve_manifold<B: Bodies, I: PointImpulses>(
     }
     for &p in pts {
         let (mut z, mut m) = io.get(p);
-        solve_point(rows, p, &mut z, &mut m, vel, pass);
+        solve_point(rows, p, io.gap(p), &mut z, &mut m, vel, pass);
         io.set(p, z, m);
     }
 }
@@ -1326,6 +1521,7 @@ pub(super) fn solve_manifold<B: Bodies, I: PointImpulses>(
 fn solve_block<B: Bodies>(
     rows: &Rows,
     blk: &Block,
+    gaps: &[f64; BLOCK_POINTS],
     z: &mut [[f64; 3]; BLOCK_POINTS],
     max_normal: &mut [f64; BLOCK_POINTS],
     vel: &mut B,
@@ -1335,7 +1531,6 @@ fn solve_block<B: Bodies>(
     let len = blk.len;
     let p0 = blk.pts[0];
     let [a, b] = rows.slots[p0];
-    let ((dpa, rota), (dpb, rotb)) = (vel.displacement(a), vel.displacement(b));
     let ((mut va, mut wa), (mut vb, mut wb)) = (vel.velocity(a), vel.velocity(b));
     let s = rows.soft[p0];
     // r = J v + b + c∘(λ − λ_pre), with the gap of each point as in `solve_point`.
@@ -1343,11 +1538,9 @@ fn solve_block<B: Bodies>(
     let mut dd = [DVec3::ZERO; N];
     for i in 0..len {
         let p = blk.pts[i];
-        let [ra, rb] = rows.anchor[p];
         let d = &rows.dir[p];
         let g = &rows.ang[p];
-        dd[i] = (dpb + rotb * rb) - (dpa + rota * ra);
-        let gap = rows.base_gap[p] + d[0].dot(dd[i]);
+        let gap = gaps[i];
         if gap > 0.0 {
             return false;
         }
@@ -1382,7 +1575,13 @@ fn solve_block<B: Bodies>(
         vb += d[0] * (mb * dz[i]);
         wb += g[0][3] * dz[i];
     }
-    // Every point penetrates (gap ≤ 0): anchored friction where anchors are on.
+    // Every point penetrates (gap ≤ 0): anchored friction where anchors are on (the
+    // slip needs the anchors' separation).
+    if pass.anchors {
+        for i in 0..len {
+            dd[i] = separation(rows, blk.pts[i], vel);
+        }
+    }
     for i in 0..len {
         friction_rows(
             rows,
@@ -1454,6 +1653,7 @@ fn friction_rows(
 pub(super) fn solve_point<B: Bodies>(
     rows: &Rows,
     p: usize,
+    gap: f64,
     z: &mut [f64; 3],
     max_normal: &mut f64,
     vel: &mut B,
@@ -1466,18 +1666,19 @@ pub(super) fn solve_point<B: Bodies>(
         ..
     } = pass;
     let [a, b] = rows.slots[p];
-    let [ra, rb] = rows.anchor[p];
     // Borrowed, not copied: the twelve angular vectors stay in the point's row.
     let d = &rows.dir[p];
     let g = &rows.ang[p];
     let m = rows.mass[p];
     let [ma, mb] = rows.im[p];
     let ((mut va, mut wa), (mut vb, mut wb)) = (vel.velocity(a), vel.velocity(b));
-    // Current gap from the displacements since the start of the step (anchors fixed
-    // in the bodies): C = C₀ + nᵀ(Δx_b + Δq_b r_b − Δx_a − Δq_a r_a).
-    let ((dpa, rota), (dpb, rotb)) = (vel.displacement(a), vel.displacement(b));
-    let dd = (dpb + rotb * rb) - (dpa + rota * ra);
-    let gap = rows.base_gap[p] + d[0].dot(dd);
+    // `gap`: the current gap C = C₀ + nᵀ Δd ([`gap_of`]); the anchors' separation Δd
+    // itself only where anchored friction reads the slip.
+    let dd = if use_bias && pass.anchors {
+        separation(rows, p, vel)
+    } else {
+        DVec3::ZERO
+    };
     // Δλ = −m · mass_scale · (J v + bias) − impulse_scale · (λ − λ_pre), then λ ≥ 0,
     // with the preload capped at `γ/(1 − γ) · m h ω²` times the penetration (only a
     // penetrating point is preloaded, and no more than the spring at rest would be:

@@ -1,0 +1,497 @@
+//! The soft step's relax pass two points at a time, one per SIMD lane (`wide::f64x2`;
+//! Box2D v3 solves its contact constraints in SIMD lanes the same way,
+//! `contact_solver.c`, `b2SolveContactTwoPointsTask`).
+//!
+//! The colouring's groups (one place of one colour: see the `colouring` module) hold
+//! points whose manifolds share no moving body, so within a group the Gauss–Seidel
+//! updates of two points commute: solving them side by side in two lanes is the same
+//! work as solving them one after the other. Each lane does exactly the arithmetic of
+//! [`solve_point`](super::soft_step::solve_point) in the relax pass (`use_bias`
+//! false), operation for operation and in the same order (IEEE-754 lanes round as the
+//! scalar operations do; `at_least`/`at_most` keep the scalar compare-and-select),
+//! so the result is the same, bit for bit, as the one-point pass (and as the threaded
+//! passes, which stay one point at a time: `verify/tests/determinism.rs`).
+//!
+//! Nothing is stored twice: each lane gathers its point's rows from the state's arrays
+//! of structures (two loads per pair of values) and scatters the two bodies'
+//! velocities back.
+
+use alloc::vec::Vec;
+
+use constraint_core::DVec3;
+use wide::f64x2;
+
+use super::soft_step::{Block, Bodies, Pass, PointImpulses, Rows, BLOCK_POINTS};
+
+/// Two 3-vectors, one per lane.
+#[derive(Clone, Copy, Debug)]
+struct Lanes3 {
+    x: f64x2,
+    y: f64x2,
+    z: f64x2,
+}
+
+impl Lanes3 {
+    const ZERO: Self = Self {
+        x: f64x2::ZERO,
+        y: f64x2::ZERO,
+        z: f64x2::ZERO,
+    };
+
+    #[inline(always)]
+    fn of(p: DVec3, q: DVec3) -> Self {
+        Self {
+            x: f64x2::new([p.x, q.x]),
+            y: f64x2::new([p.y, q.y]),
+            z: f64x2::new([p.z, q.z]),
+        }
+    }
+
+    #[inline(always)]
+    fn lane(self, i: usize) -> DVec3 {
+        DVec3::new(
+            self.x.as_array()[i],
+            self.y.as_array()[i],
+            self.z.as_array()[i],
+        )
+    }
+
+    /// `xx' + yy' + zz'`, summed left to right as `DVec3::dot` does.
+    #[inline(always)]
+    fn dot(self, o: Self) -> f64x2 {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        Self {
+            x: self.x - o.x,
+            y: self.y - o.y,
+            z: self.z - o.z,
+        }
+    }
+
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        Self {
+            x: self.x + o.x,
+            y: self.y + o.y,
+            z: self.z + o.z,
+        }
+    }
+
+    #[inline(always)]
+    fn scale(self, s: f64x2) -> Self {
+        Self {
+            x: self.x * s,
+            y: self.y * s,
+            z: self.z * s,
+        }
+    }
+}
+
+#[inline(always)]
+fn pair(p: f64, q: f64) -> f64x2 {
+    f64x2::new([p, q])
+}
+
+/// `max(x, lo)` per lane as the scalar `at_least`: `x` if `x > lo`, else `lo` (x86
+/// `MAXPD` is exactly that, NaN and signed zeros included).
+#[inline(always)]
+fn at_least(x: f64x2, lo: f64x2) -> f64x2 {
+    #[cfg(all(
+        any(target_arch = "x86", target_arch = "x86_64"),
+        target_feature = "sse2"
+    ))]
+    {
+        x.fast_max(lo)
+    }
+    #[cfg(not(all(
+        any(target_arch = "x86", target_arch = "x86_64"),
+        target_feature = "sse2"
+    )))]
+    {
+        let (x, lo) = (x.to_array(), lo.to_array());
+        let pick = |i: usize| if x[i] > lo[i] { x[i] } else { lo[i] };
+        pair(pick(0), pick(1))
+    }
+}
+
+/// `min(x, hi)` per lane as the scalar `at_most`: `x` if `x < hi`, else `hi` (x86
+/// `MINPD`).
+#[inline(always)]
+fn at_most(x: f64x2, hi: f64x2) -> f64x2 {
+    #[cfg(all(
+        any(target_arch = "x86", target_arch = "x86_64"),
+        target_feature = "sse2"
+    ))]
+    {
+        x.fast_min(hi)
+    }
+    #[cfg(not(all(
+        any(target_arch = "x86", target_arch = "x86_64"),
+        target_feature = "sse2"
+    )))]
+    {
+        let (x, hi) = (x.to_array(), hi.to_array());
+        let pick = |i: usize| if x[i] < hi[i] { x[i] } else { hi[i] };
+        pair(pick(0), pick(1))
+    }
+}
+
+/// The rows of two points side by side, one per lane (copied from the state's
+/// arrays once per step, so that the passes load each pair of values at once
+/// instead of gathering it from two places).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PairRows {
+    /// Normal and tangents.
+    dir: [Lanes3; 3],
+    /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
+    ang: [[Lanes3; 4]; 3],
+    /// Effective masses of the three rows.
+    mass: [f64x2; 3],
+    /// Inverse masses of the two bodies as the rows see them.
+    im: [f64x2; 2],
+    friction: f64x2,
+}
+
+/// The points the relax pass and the warm start take two at a time: consecutive
+/// pairs `(p, p + 1)` within each colouring group of the colours before the overflow
+/// colour (no shared moving body), with their packed rows; the other points (a
+/// group's odd one, the overflow colour's) go one at a time. Kept buffers: no
+/// allocation once grown.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Paired {
+    /// First point of each pair, in solve order.
+    pub(super) start: Vec<usize>,
+    rows: Vec<PairRows>,
+    /// Pair of each point it starts (`u32::MAX` where none), by solve position.
+    pair_of: Vec<u32>,
+}
+
+impl Paired {
+    /// Pairs up the points of `ranges` (the colouring's groups, the first
+    /// `serial_from` of which may be paired) and packs their rows.
+    pub(super) fn build(&mut self, rows: &Rows, ranges: &[usize], serial_from: usize) {
+        self.start.clear();
+        self.rows.clear();
+        self.pair_of.clear();
+        self.pair_of
+            .resize(ranges.last().copied().unwrap_or(0), u32::MAX);
+        let groups = ranges.len().saturating_sub(1);
+        let paired = serial_from.min(groups);
+        for g in 0..paired {
+            let (mut p, hi) = (ranges[g], ranges[g + 1]);
+            while p + 1 < hi {
+                self.pair_of[p] = self.start.len() as u32;
+                self.start.push(p);
+                self.rows.push(pack(rows, p, p + 1));
+                p += 2;
+            }
+        }
+    }
+
+    /// The packed rows of pair `k`.
+    #[inline(always)]
+    pub(super) fn rows(&self, k: usize) -> &PairRows {
+        &self.rows[k]
+    }
+
+    /// The packed rows of points `p` and `q` if they are a pair.
+    #[inline(always)]
+    fn rows_of(&self, p: usize, q: usize) -> Option<&PairRows> {
+        let k = *self.pair_of.get(p)?;
+        (k != u32::MAX && q == p + 1).then(|| &self.rows[k as usize])
+    }
+}
+
+/// Rows of zeros (the padding of a block beyond its points; never read).
+const EMPTY: PairRows = PairRows {
+    dir: [Lanes3::ZERO; 3],
+    ang: [[Lanes3::ZERO; 4]; 3],
+    mass: [f64x2::ZERO; 3],
+    im: [f64x2::ZERO; 2],
+    friction: f64x2::ZERO,
+};
+
+/// The rows of points `p` and `q`, one per lane.
+#[inline(always)]
+fn pack(rows: &Rows, p: usize, q: usize) -> PairRows {
+    let (dp, dq) = (&rows.dir[p], &rows.dir[q]);
+    let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
+    let (mp, mq) = (rows.mass[p], rows.mass[q]);
+    let (ip, iq) = (rows.im[p], rows.im[q]);
+    let ang = |r: usize| [0, 1, 2, 3].map(|k| Lanes3::of(gp[r][k], gq[r][k]));
+    PairRows {
+        dir: [0, 1, 2].map(|r| Lanes3::of(dp[r], dq[r])),
+        ang: [ang(0), ang(1), ang(2)],
+        mass: [0, 1, 2].map(|r| pair(mp[r], mq[r])),
+        im: [pair(ip[0], iq[0]), pair(ip[1], iq[1])],
+        friction: pair(rows.friction[p], rows.friction[q]),
+    }
+}
+
+/// The velocities and impulses the relax pass writes (the single-thread state's own
+/// slices).
+pub(super) struct RelaxIo<'a> {
+    pub(super) v: &'a mut [DVec3],
+    pub(super) w: &'a mut [DVec3],
+    pub(super) impulse: &'a mut [[f64; 3]],
+    pub(super) max_normal: &'a mut [f64],
+    /// Gaps at the current displacements.
+    pub(super) gap: &'a [f64],
+}
+
+/// Points `p` and `q` (of one colouring group: no shared moving body) in one relax
+/// pass, one per lane: the rigid normal row (the speculative target `C/h` where
+/// separated, else no bias: `Δλ = −m (J v + b)`, `λ ≥ 0`), then the two friction rows
+/// bounded by `μ λ_n` (`|λ_t| ≤ μ λ_n`), as `solve_point` with `use_bias` false.
+#[inline(always)]
+pub(super) fn relax_pair(
+    rows: &Rows,
+    pr: &PairRows,
+    p: usize,
+    q: usize,
+    io: &mut RelaxIo,
+    inv_h: f64,
+) {
+    let ([a0, b0], [a1, b1]) = (rows.slots[p], rows.slots[q]);
+    let mut va = Lanes3::of(io.v[a0], io.v[a1]);
+    let mut wa = Lanes3::of(io.w[a0], io.w[a1]);
+    let mut vb = Lanes3::of(io.v[b0], io.v[b1]);
+    let mut wb = Lanes3::of(io.w[b0], io.w[b1]);
+    let g = &pr.ang;
+    let [ma, mb] = pr.im;
+    let (zp, zq) = (io.impulse[p], io.impulse[q]);
+    // Speculative where separated: approach at most to the surface within the
+    // sub-step; rigid (mass_scale 1, impulse_scale 0, no preload) either way.
+    let spec = |gap: f64| if gap > 0.0 { gap * inv_h } else { 0.0 };
+    let bias = pair(spec(io.gap[p]), spec(io.gap[q]));
+    let (one, zero) = (f64x2::splat(1.0), f64x2::splat(0.0));
+    let z0 = pair(zp[0], zq[0]);
+    let d0 = pr.dir[0];
+    let vn = d0.dot(vb.sub(va)) + g[0][1].dot(wb) - g[0][0].dot(wa);
+    let new = at_least(
+        z0 - pr.mass[0] * one * (vn + bias) - zero * (z0 - zero),
+        zero,
+    );
+    let dz = new - z0;
+    let max_normal = at_least(new, pair(io.max_normal[p], io.max_normal[q]));
+    va = va.sub(d0.scale(ma * dz));
+    wa = wa.sub(g[0][2].scale(dz));
+    vb = vb.add(d0.scale(mb * dz));
+    wb = wb.add(g[0][3].scale(dz));
+    let bound = pr.friction * new;
+    let mut z = [new, zero, zero];
+    for r in 1..3 {
+        let d = pr.dir[r];
+        let zr = pair(zp[r], zq[r]);
+        let vt = d.dot(vb.sub(va)) + g[r][1].dot(wb) - g[r][0].dot(wa);
+        let unbounded = zr - pr.mass[r] * vt;
+        let new = at_least(at_most(unbounded, bound), -bound);
+        let dz = new - zr;
+        z[r] = new;
+        va = va.sub(d.scale(ma * dz));
+        wa = wa.sub(g[r][2].scale(dz));
+        vb = vb.add(d.scale(mb * dz));
+        wb = wb.add(g[r][3].scale(dz));
+    }
+    for (lane, point) in [p, q].into_iter().enumerate() {
+        io.impulse[point] = [
+            z[0].as_array()[lane],
+            z[1].as_array()[lane],
+            z[2].as_array()[lane],
+        ];
+        io.max_normal[point] = max_normal.as_array()[lane];
+    }
+    // The static slot's inverse mass and inertia are zero: it stays at rest.
+    for (lane, (a, b)) in [(a0, b0), (a1, b1)].into_iter().enumerate() {
+        if a != rows.fixed {
+            io.v[a] = va.lane(lane);
+            io.w[a] = wa.lane(lane);
+        }
+        if b != rows.fixed {
+            io.v[b] = vb.lane(lane);
+            io.w[b] = wb.lane(lane);
+        }
+    }
+}
+
+/// The biased pass over manifolds `b0` and `b1` (of one colour: no shared moving
+/// body) with their normal rows solved as blocks, one manifold per lane: exactly
+/// `solve_block` on each (`(A + diag c) Δλ = −(J v + b + c∘(λ − λ_pre))`, then the
+/// friction rows point by point), for two blocks of the same point count without
+/// friction anchors. Returns false, having changed nothing, where the lanes do not
+/// apply or where `solve_block` would decline for either manifold (a separated
+/// point, an impulse turning negative): the caller then solves both one at a time
+/// (the same bits either way, the two manifolds being independent).
+#[inline(always)]
+pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
+    rows: &Rows,
+    paired: &Paired,
+    blk: [&Block; 2],
+    io: &mut I,
+    vel: &mut B,
+    pass: Pass,
+) -> bool {
+    const N: usize = BLOCK_POINTS;
+    let len = blk[0].len;
+    if len == 0 || blk[1].len != len || pass.anchors {
+        return false;
+    }
+    let mut gap = [f64x2::splat(0.0); N];
+    for (i, g) in gap.iter_mut().enumerate().take(len) {
+        let (g0, g1) = (io.gap(blk[0].pts[i]), io.gap(blk[1].pts[i]));
+        if g0 > 0.0 || g1 > 0.0 {
+            return false;
+        }
+        *g = pair(g0, g1);
+    }
+    let p0 = [blk[0].pts[0], blk[1].pts[0]];
+    let ([a0, b0], [a1, b1]) = (rows.slots[p0[0]], rows.slots[p0[1]]);
+    let ((va0, wa0), (vb0, wb0)) = (vel.velocity(a0), vel.velocity(b0));
+    let ((va1, wa1), (vb1, wb1)) = (vel.velocity(a1), vel.velocity(b1));
+    let (mut va, mut wa) = (Lanes3::of(va0, va1), Lanes3::of(wa0, wa1));
+    let (mut vb, mut wb) = (Lanes3::of(vb0, vb1), Lanes3::of(wb0, wb1));
+    let (s0, s1) = (rows.soft[p0[0]], rows.soft[p0[1]]);
+    let bias_rate = pair(s0.bias_rate, s1.bias_rate);
+    let max_push = -f64x2::splat(pass.max_push);
+    let zero = f64x2::splat(0.0);
+    // The points' impulses and largest normal impulses, lane by lane.
+    let mut z = [[zero; 3]; N];
+    let mut most = [zero; N];
+    for i in 0..len {
+        let ((z0, m0), (z1, m1)) = (io.get(blk[0].pts[i]), io.get(blk[1].pts[i]));
+        z[i] = [pair(z0[0], z1[0]), pair(z0[1], z1[1]), pair(z0[2], z1[2])];
+        most[i] = pair(m0, m1);
+    }
+    // The points' rows side by side: packed where the two points are a pair of
+    // `paired` (manifolds of equal point counts line up with the groups), else
+    // gathered here.
+    let mut local = [None; N];
+    let mut packed = [None; N];
+    for i in 0..len {
+        let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
+        packed[i] = paired.rows_of(p, q);
+        if packed[i].is_none() {
+            local[i] = Some(pack(rows, p, q));
+        }
+    }
+    let pr: [&PairRows; N] =
+        core::array::from_fn(|i| packed[i].or(local[i].as_ref()).unwrap_or(&EMPTY));
+    // r = J v + b + c∘(λ − λ_pre), zero in the padding.
+    let mut r = [zero; N];
+    for i in 0..len {
+        let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
+        let (g, d0) = (&pr[i].ang, pr[i].dir[0]);
+        let vn = d0.dot(vb.sub(va)) + g[0][1].dot(wb) - g[0][0].dot(wa);
+        let bias = at_least(bias_rate * gap[i], max_push);
+        let pre = at_most(
+            pair(rows.preload[p], rows.preload[q]),
+            at_least(
+                pair(rows.preload_cap[p], rows.preload_cap[q]) * -gap[i],
+                pair(rows.preload_floor[p], rows.preload_floor[q]),
+            ),
+        );
+        r[i] = vn + bias + pair(blk[0].c[i], blk[1].c[i]) * (z[i][0] - pre);
+    }
+    // Δλ = −K⁻¹ r over all N rows (the padding of K⁻¹ is the identity).
+    let mut dz = [zero; N];
+    for (i, dz) in dz.iter_mut().enumerate() {
+        let k = |l: usize| pair(blk[0].kinv[i * N + l], blk[1].kinv[i * N + l]);
+        *dz = -(k(0) * r[0] + k(1) * r[1] + k(2) * r[2] + k(3) * r[3]);
+        let after = (z[i][0] + *dz).to_array();
+        if !(after[0] >= 0.0 && after[1] >= 0.0) {
+            return false;
+        }
+    }
+    for i in 0..len {
+        let (g, d0) = (&pr[i].ang, pr[i].dir[0]);
+        let [ma, mb] = pr[i].im;
+        z[i][0] += dz[i];
+        most[i] = at_least(z[i][0], most[i]);
+        va = va.sub(d0.scale(ma * dz[i]));
+        wa = wa.sub(g[0][2].scale(dz[i]));
+        vb = vb.add(d0.scale(mb * dz[i]));
+        wb = wb.add(g[0][3].scale(dz[i]));
+    }
+    // Friction point by point (no anchors: velocity rows, |λ_t| ≤ μ λ_n).
+    for (i, zi) in z.iter_mut().enumerate().take(len) {
+        let (g, [ma, mb]) = (&pr[i].ang, pr[i].im);
+        let bound = pr[i].friction * zi[0];
+        for rr in 1..3 {
+            let d = pr[i].dir[rr];
+            let vt = d.dot(vb.sub(va)) + g[rr][1].dot(wb) - g[rr][0].dot(wa);
+            let unbounded = zi[rr] - pr[i].mass[rr] * vt;
+            let new = at_least(at_most(unbounded, bound), -bound);
+            let dz = new - zi[rr];
+            zi[rr] = new;
+            va = va.sub(d.scale(ma * dz));
+            wa = wa.sub(g[rr][2].scale(dz));
+            vb = vb.add(d.scale(mb * dz));
+            wb = wb.add(g[rr][3].scale(dz));
+        }
+    }
+    for lane in 0..2 {
+        for i in 0..len {
+            let zi = [
+                z[i][0].as_array()[lane],
+                z[i][1].as_array()[lane],
+                z[i][2].as_array()[lane],
+            ];
+            io.set(blk[lane].pts[i], zi, most[i].as_array()[lane]);
+        }
+    }
+    // The static slot's inverse mass and inertia are zero: it stays at rest.
+    for (lane, (a, b)) in [(a0, b0), (a1, b1)].into_iter().enumerate() {
+        if a != rows.fixed {
+            vel.set_velocity(a, va.lane(lane), wa.lane(lane));
+        }
+        if b != rows.fixed {
+            vel.set_velocity(b, vb.lane(lane), wb.lane(lane));
+        }
+    }
+    true
+}
+
+/// The warm start of points `p` and `q` (a pair of [`Paired`]), one per lane, as
+/// `apply_point`: `v += M⁻¹ Jᵀ λ`, the linear part `d₀λ₀ + d₁λ₁ + d₂λ₂` and the
+/// angular parts `Σ_r I⁻¹(r × d_r) λ_r` summed left to right.
+#[inline(always)]
+pub(super) fn warm_pair(
+    rows: &Rows,
+    pr: &PairRows,
+    p: usize,
+    q: usize,
+    v: &mut [DVec3],
+    w: &mut [DVec3],
+    impulse: &[[f64; 3]],
+) {
+    let ([a0, b0], [a1, b1]) = (rows.slots[p], rows.slots[q]);
+    let (zp, zq) = (impulse[p], impulse[q]);
+    let z = [pair(zp[0], zq[0]), pair(zp[1], zq[1]), pair(zp[2], zq[2])];
+    let (d, g) = (&pr.dir, &pr.ang);
+    let lin = d[0].scale(z[0]).add(d[1].scale(z[1])).add(d[2].scale(z[2]));
+    let ang = |k: usize| {
+        g[0][k]
+            .scale(z[0])
+            .add(g[1][k].scale(z[1]))
+            .add(g[2][k].scale(z[2]))
+    };
+    let [ma, mb] = pr.im;
+    let va = Lanes3::of(v[a0], v[a1]).sub(lin.scale(ma));
+    let wa = Lanes3::of(w[a0], w[a1]).sub(ang(2));
+    let vb = Lanes3::of(v[b0], v[b1]).add(lin.scale(mb));
+    let wb = Lanes3::of(w[b0], w[b1]).add(ang(3));
+    // The static slot's inverse mass and inertia are zero: it stays at rest.
+    for (lane, (a, b)) in [(a0, b0), (a1, b1)].into_iter().enumerate() {
+        if a != rows.fixed {
+            v[a] = va.lane(lane);
+            w[a] = wa.lane(lane);
+        }
+        if b != rows.fixed {
+            v[b] = vb.lane(lane);
+            w[b] = wb.lane(lane);
+        }
+    }
+}
