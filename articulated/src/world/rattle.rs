@@ -419,10 +419,16 @@ impl World {
             let l = inertia0[i] * w;
             let q0 = b.pose.q;
             let mut ws = w;
+            // `R I⁻¹ Rᵀ` as `RigidBody::world_inv_inertia` computes it, at `q_mid`.
+            let inv = b.inv_inertia();
             for _ in 0..4 {
-                let mut mid = *b;
-                mid.pose.q = rotate_by(q0, ws * half);
-                ws = mid.world_inv_inertia() * l;
+                let r = DMat3::from_quat(rotate_by(q0, ws * half));
+                let next = r * inv * r.transpose() * l;
+                // A fixed point to the bit: the later sweeps would repeat these bits.
+                if next.to_array().map(f64::to_bits) == ws.to_array().map(f64::to_bits) {
+                    break;
+                }
+                ws = next;
             }
             b.v = v;
             b.omega = ws;
