@@ -250,12 +250,12 @@ pub fn generate_contacts_awake(
                 });
             }
         }
-        let pose = pose_of(c);
-        let b = c.aabb(&pose, 0.5 * margin);
-        if let Some((n, d)) = tilted_plane(c, &pose, &b) {
-            tilted.push((k, n, d));
+        aabbs.push(c.aabb(&pose_of(c), 0.5 * margin));
+        if matches!(c.shape, Shape::Plane { .. }) {
+            if let Some((n, d)) = tilted_plane(c, &pose_of(c), &aabbs[k]) {
+                tilted.push((k, n, d));
+            }
         }
-        aabbs.push(b);
     }
     is_static.clear();
     is_static.extend(colliders.iter().map(|c| {
@@ -263,17 +263,27 @@ pub fn generate_contacts_awake(
             .is_none_or(|b| asleep.get(b).copied().unwrap_or(false))
     }));
     let stats = grid_pairs(aabbs, is_static, grid, pairs);
-    for &(i, j) in pairs.iter() {
-        let (a, b) = (&colliders[i], &colliders[j]);
-        if a.body == b.body
-            || (!tilted.is_empty()
-                && (beyond_plane(tilted, i, &aabbs[j], margin)
-                    || beyond_plane(tilted, j, &aabbs[i], margin)))
-            || !keep(i, j)
-        {
-            continue;
+    // Tilted planes' pairs beyond them skipped (a separate loop: the usual scene has
+    // none, and its loop stays as it was).
+    let beyond = |i: usize, j: usize| {
+        beyond_plane(tilted, i, &aabbs[j], margin) || beyond_plane(tilted, j, &aabbs[i], margin)
+    };
+    if tilted.is_empty() {
+        for &(i, j) in pairs.iter() {
+            let (a, b) = (&colliders[i], &colliders[j]);
+            if a.body == b.body || !keep(i, j) {
+                continue;
+            }
+            collide((i, j), a, &pose_of(a), b, &pose_of(b), margin, out);
         }
-        collide((i, j), a, &pose_of(a), b, &pose_of(b), margin, out);
+    } else {
+        for &(i, j) in pairs.iter() {
+            let (a, b) = (&colliders[i], &colliders[j]);
+            if a.body == b.body || beyond(i, j) || !keep(i, j) {
+                continue;
+            }
+            collide((i, j), a, &pose_of(a), b, &pose_of(b), margin, out);
+        }
     }
     Ok(stats)
 }
