@@ -95,10 +95,28 @@ impl FrameExpr {
         ]
     }
 
-    /// Adds `s · ∂²(w · A)` into `h`.
+    /// Whether each block of [`Self::jac`] can be non-zero (`s ≠ 0`, `p ≠ 0`): a block
+    /// that is not has only `±0` entries (with finite operands, so does every product
+    /// with it).
+    #[inline]
+    pub fn live_blocks(&self) -> [bool; 4] {
+        [
+            self.s_a != 0.0,
+            self.p_a != DVec3::ZERO,
+            self.s_b != 0.0,
+            self.p_b != DVec3::ZERO,
+        ]
+    }
+
+    /// Adds `s · ∂²(w · A)` into `h` (a term with `p = 0` adds only zeros and is skipped,
+    /// see [`add_dot_hessian`]).
     pub fn add_hessian(&self, w: DVec3, s: f64, h: &mut TwistCurvature) {
-        h.blocks[1][1] += rot_hessian(w, self.p_a) * s;
-        h.blocks[3][3] += rot_hessian(w, self.p_b) * s;
+        if self.p_a != DVec3::ZERO {
+            h.blocks[1][1] += rot_hessian(w, self.p_a) * s;
+        }
+        if self.p_b != DVec3::ZERO {
+            h.blocks[3][3] += rot_hessian(w, self.p_b) * s;
+        }
     }
 }
 
@@ -116,13 +134,28 @@ pub(crate) fn dot_grad(a: &FrameExpr, b: &FrameExpr) -> [DVec3; 4] {
     [ga[0] + gb[0], ga[1] + gb[1], ga[2] + gb[2], ga[3] + gb[3]]
 }
 
-/// Adds `s · ∂²(A · B)` into `h`.
+/// Adds `s · ∂²(A · B)` into `h`: `(J_Aᵢᵀ J_Bⱼ + J_Bᵢᵀ J_Aⱼ) s` into block `(i, j)`, then
+/// `H_A[B] + H_B[A]` (module documentation).
+///
+/// Terms with a zero block of `J_A` or `J_B` ([`FrameExpr::live_blocks`]: a direction
+/// fixed in one body has one live block of four) are skipped: each of their entries
+/// is `±0`, and adding `±0` changes no entry of `h` — every `h` here starts at
+/// [`TwistCurvature::ZERO`] and only receives sums, so its entries are non-zero or
+/// `+0` (`x + (−x) = +0`, `+0 + (±0) = +0`). The result is the full product's to the
+/// bit (finite poses); a Hinge's two direction rows take 2 block products instead of 32.
 pub(crate) fn add_dot_hessian(a: &FrameExpr, b: &FrameExpr, s: f64, h: &mut TwistCurvature) {
     let ja = a.jac();
     let jb = b.jac();
+    let (la, lb) = (a.live_blocks(), b.live_blocks());
     for i in 0..4 {
         for j in 0..4 {
-            h.blocks[i][j] += (ja[i].transpose() * jb[j] + jb[i].transpose() * ja[j]) * s;
+            let m = match (la[i] && lb[j], lb[i] && la[j]) {
+                (true, true) => ja[i].transpose() * jb[j] + jb[i].transpose() * ja[j],
+                (true, false) => ja[i].transpose() * jb[j],
+                (false, true) => jb[i].transpose() * ja[j],
+                (false, false) => continue,
+            };
+            h.blocks[i][j] += m * s;
         }
     }
     a.add_hessian(b.value, s, h);
@@ -138,9 +171,13 @@ pub(crate) fn add_norm_hessian(a: &FrameExpr, s: f64, h: &mut TwistCurvature) {
     let n = a.value / len;
     let p = (DMat3::IDENTITY - outer(n, n)) * (1.0 / len);
     let ja = a.jac();
+    // Products with a zero block skipped, as in `add_dot_hessian`.
+    let la = a.live_blocks();
     for i in 0..4 {
         for j in 0..4 {
-            h.blocks[i][j] += ja[i].transpose() * p * ja[j] * s;
+            if la[i] && la[j] {
+                h.blocks[i][j] += ja[i].transpose() * p * ja[j] * s;
+            }
         }
     }
     a.add_hessian(n, s, h);

@@ -432,6 +432,7 @@ impl World {
             eq.rhs.push(rhs(c));
         }
         eq.active = !self.equalities.is_empty();
+        self.eq_cache.untag();
         self.eq = eq;
     }
 
@@ -480,11 +481,66 @@ impl World {
         let k = eq.value.len();
         let size = self.solver.size;
         eq.size = size;
+        let free_scale = self.loop_free_scale(loops);
+        // Singular values below 1e-10 of the rows' free scale are dropped (a row that
+        // repeats a joint or another equality), as for the loop rows.
+        let floor = 1e-10 * eq.spans.free_scale(&self.bodies);
+        let inputs = super::eq_cache::EqInputs {
+            bodies: &self.bodies,
+            compliance: &self.compliance,
+            armature: &self.armature,
+            size,
+            loops,
+            segs: &eq.spans.segs,
+            ranges: &eq.spans.ranges,
+            scales: [free_scale, floor],
+        };
+        let solved = match self.eq_cache.lookup(&inputs, &mut eq.cols, &mut eq.pinv) {
+            Some(solved) => solved,
+            None => {
+                let solved = self.complement_matrix(eq, loops, free_scale, floor)?;
+                self.eq_cache.store(&eq.cols, &eq.pinv, solved);
+                solved
+            }
+        };
+        let b: Vec<f64> = (0..k)
+            .map(|i| eq.spans.gather(&self.solver, &self.rhs, i) - eq.rhs[i])
+            .collect();
+        if b.iter().any(|v| !v.is_finite()) {
+            return Err(ArticulatedError::LoopSolve);
+        }
+        eq.nu.clear();
+        eq.nu.resize(k, 0.0);
+        if solved {
+            for i in 0..k {
+                eq.nu[i] = (0..k).map(|j| eq.pinv[i * k + j] * b[j]).sum();
+            }
+        }
+        for (r, nu) in eq.nu.iter().enumerate() {
+            let col = &eq.cols[r * size..(r + 1) * size];
+            for (x, y) in self.rhs.iter_mut().zip(col) {
+                *x -= nu * y;
+            }
+        }
+        Ok(())
+    }
+
+    /// `Y_E = H⁻¹ Eᵀ` into `eq.cols` and `S⁺` (`S = E Y_E`, singular values below
+    /// `floor` dropped) into `eq.pinv`; returns whether `S` had one above `floor` (else
+    /// `S⁺ = 0`, `ν = 0`).
+    fn complement_matrix(
+        &self,
+        eq: &mut EqRows,
+        loops: &LoopRows,
+        free_scale: f64,
+        floor: f64,
+    ) -> Result<bool, ArticulatedError> {
+        let k = eq.value.len();
+        let size = eq.size;
         eq.cols.clear();
         eq.cols.resize(k * size, 0.0);
         eq.zero.clear();
         eq.zero.resize(loops.2.len(), 0.0);
-        let free_scale = self.loop_free_scale(loops);
         for r in 0..k {
             let col = &mut eq.cols[r * size..(r + 1) * size];
             eq.spans.scatter(&self.solver, col, r, 1.0);
@@ -502,49 +558,33 @@ impl World {
                 s.set(j, i, m);
             }
         }
-        let b: Vec<f64> = (0..k)
-            .map(|i| eq.spans.gather(&self.solver, &self.rhs, i) - eq.rhs[i])
-            .collect();
-        if !s.is_finite() || b.iter().any(|v| !v.is_finite()) {
+        if !s.is_finite() {
             return Err(ArticulatedError::LoopSolve);
         }
-        // Singular values below 1e-10 of the rows' free scale are dropped (a row that
-        // repeats a joint or another equality), as for the loop rows.
-        let floor = 1e-10 * eq.spans.free_scale(&self.bodies);
         let svd = SvdSolver::new(&s, 1e-10).map_err(|_| ArticulatedError::LoopSolve)?;
         let smax = svd.singular_values().first().copied().unwrap_or(0.0);
         eq.pinv.clear();
         eq.pinv.resize(k * k, 0.0);
-        eq.nu.clear();
-        eq.nu.resize(k, 0.0);
-        if smax > floor {
-            let svd = if floor > 1e-10 * smax {
-                SvdSolver::new(&s, floor / smax).map_err(|_| ArticulatedError::LoopSolve)?
-            } else {
-                svd
-            };
-            let mut unit = alloc::vec![0.0; k];
-            let mut col = alloc::vec![0.0; k];
-            for j in 0..k {
-                unit.iter_mut().for_each(|u| *u = 0.0);
-                unit[j] = 1.0;
-                svd.solve_min_norm(&unit, &mut col)
-                    .map_err(|_| ArticulatedError::LoopSolve)?;
-                for i in 0..k {
-                    eq.pinv[i * k + j] = col[i];
-                }
-            }
+        if !(smax > floor) {
+            return Ok(false);
+        }
+        let svd = if floor > 1e-10 * smax {
+            SvdSolver::new(&s, floor / smax).map_err(|_| ArticulatedError::LoopSolve)?
+        } else {
+            svd
+        };
+        let mut unit = alloc::vec![0.0; k];
+        let mut col = alloc::vec![0.0; k];
+        for j in 0..k {
+            unit.iter_mut().for_each(|u| *u = 0.0);
+            unit[j] = 1.0;
+            svd.solve_min_norm(&unit, &mut col)
+                .map_err(|_| ArticulatedError::LoopSolve)?;
             for i in 0..k {
-                eq.nu[i] = (0..k).map(|j| eq.pinv[i * k + j] * b[j]).sum();
+                eq.pinv[i * k + j] = col[i];
             }
         }
-        for (r, nu) in eq.nu.iter().enumerate() {
-            let col = &eq.cols[r * size..(r + 1) * size];
-            for (x, y) in self.rhs.iter_mut().zip(col) {
-                *x -= nu * y;
-            }
-        }
-        Ok(())
+        Ok(true)
     }
 
     /// The largest violation of a tendon range, `max(lo − L, L − hi, 0)` (0 without
@@ -583,6 +623,7 @@ impl World {
                     eq.value.push(c);
                     eq.rhs.push(-c);
                     eq.active = true;
+                    self.eq_cache.untag();
                 }
             }
         }

@@ -40,6 +40,7 @@ mod active_set;
 mod actuator;
 #[cfg(feature = "contact")]
 mod contact;
+mod eq_cache;
 mod equality;
 mod factor_cache;
 mod fluid;
@@ -365,6 +366,8 @@ pub struct World {
     equalities: Vec<Equality>,
     /// The equality rows of the current assembly and their complement (scratch).
     eq: equality::EqRows,
+    /// Kept equality complements (`eq_cache.rs`).
+    eq_cache: eq_cache::EqCache,
     /// The tendon-limit rows' segments, one range per tendon (scratch).
     tendon_spans: equality::Spans,
     /// The medium (fluid drag), if any.
@@ -473,6 +476,7 @@ impl World {
             tendon_ranges: Vec::new(),
             equalities: Vec::new(),
             eq: equality::EqRows::default(),
+            eq_cache: eq_cache::EqCache::default(),
             tendon_spans: equality::Spans::default(),
             fluid: None,
             fluid_boxes: Vec::new(),

@@ -208,6 +208,8 @@ impl World {
         let loops = self.assemble_with(s, Rates::Full, Soft::Free, !reused, None);
         // Equality rows hold their rate (`E v = 0`) through the damping flow.
         self.load_equalities(|_| 0.0);
+        // Their complement is kept with the factor (`eq_cache.rs`).
+        self.tag_equality_factor(key_h, key_rates);
         self.solve_reusing(loops, reused)?;
         // The same rows for the second solve (kept by `solve`; taken, not cloned).
         let loops_2 = core::mem::take(&mut self.last_loops);
@@ -369,6 +371,7 @@ impl World {
         // Equality rows as the joints: `−C/h` in the kick, `−C` in SHAKE (with the
         // start-of-step Jacobian), `0` in the final velocity projection.
         self.load_equalities(|c| -c / h);
+        self.tag_equality_factor(key_h, key_rates);
         self.solve_reusing(loops, reused)?;
         // The loop rows of this factor, for SHAKE's solves (their right-hand side is
         // rewritten each iteration).
@@ -416,10 +419,16 @@ impl World {
             let l = inertia0[i] * w;
             let q0 = b.pose.q;
             let mut ws = w;
+            // `R I⁻¹ Rᵀ` as `RigidBody::world_inv_inertia` computes it, at `q_mid`.
+            let inv = b.inv_inertia();
             for _ in 0..4 {
-                let mut mid = *b;
-                mid.pose.q = rotate_by(q0, ws * half);
-                ws = mid.world_inv_inertia() * l;
+                let r = DMat3::from_quat(rotate_by(q0, ws * half));
+                let next = r * inv * r.transpose() * l;
+                // A fixed point to the bit: the later sweeps would repeat these bits.
+                if next.to_array().map(f64::to_bits) == ws.to_array().map(f64::to_bits) {
+                    break;
+                }
+                ws = next;
             }
             b.v = v;
             b.omega = ws;
@@ -532,6 +541,7 @@ impl World {
         }
         let loops = self.assemble_with(hd, Rates::Armature, Soft::Free, !reused, None);
         self.load_equalities(|_| 0.0);
+        self.tag_equality_factor(key_h, key_rates);
         for (j, rows, rate) in &arm {
             if let Some(o) = self.solver.joint_offset(*j) {
                 for r in rows.n_hard..rows.n {
