@@ -42,6 +42,7 @@ mod imp {
         at_cap: usize,
         stalled: usize,
         budget: usize,
+        guesses: usize,
         sweeps: Vec<usize>,
         iterations: Vec<usize>,
         worst_residual: f64,
@@ -69,6 +70,7 @@ mod imp {
             t.at_cap += usize::from(u.solver.capped);
             t.stalled += usize::from(u.solver.stalled);
             t.budget += usize::from(u.solver.friction_budget);
+            t.guesses += u.solver.active_set;
             t.sweeps.push(u.solver.sweeps);
             t.iterations.push(u.solver.iterations);
             t.worst_residual = t.worst_residual.max(u.residual);
@@ -188,7 +190,7 @@ mod imp {
         let total: usize = t.iterations.iter().sum();
         println!(
             "{file} [{variant}]: {steps} steps after {warm} s: dense {} sparse {} (max rows {}), \
-             sweeps median {} unconverged {} stalled {}, friction budget {}, LCP iterations \
+             sweeps median {} unconverged {} stalled {}, friction budget {}, one-sided solves by the active-set guess {} of {}, LCP iterations \
              median {} total {total}, worst residual {:.3e}, worst penetration {:.3e} m, \
              energy {:?}, pose hash {hash:016x}",
             t.dense,
@@ -198,6 +200,8 @@ mod imp {
             t.at_cap,
             t.stalled,
             t.budget,
+            t.guesses,
+            t.sweeps.iter().map(|k| k + 1).sum::<usize>(),
             median(&mut t.iterations),
             t.worst_residual,
             t.worst_penetration,
