@@ -263,6 +263,11 @@ pub struct Summary {
     pub actuators: usize,
     /// Colliders of the world.
     pub colliders: usize,
+    /// Steps whose one-sided rows went to the dense path and ended above its tolerance
+    /// (`RowStats::capped`: the staggered alternations reached their cap or stalled).
+    pub unconverged_steps: u64,
+    /// The largest residual of those steps (`UnilateralStats::residual`; 0: none).
+    pub worst_unconverged_residual: f64,
 }
 
 impl Summary {
@@ -391,6 +396,11 @@ fn run_inner(
                     sum.settled_penetration = sum.settled_penetration.max(st.max_penetration);
                 }
                 sum.max_contacts = sum.max_contacts.max(st.contacts);
+                if !st.sparse && st.solver.capped {
+                    sum.unconverged_steps += 1;
+                    sum.worst_unconverged_residual =
+                        sum.worst_unconverged_residual.max(st.residual);
+                }
                 if st.contacts > 0 && sum.first_contact_time.is_none() {
                     sum.first_contact_time = Some((i - 1) as f64 * h);
                 }
@@ -536,7 +546,7 @@ mod tests {
         assert!((per - 38.75).abs() < 1e-12, "{per}");
         assert!(v["energy_final"].is_null() && v["root_height"].is_null());
         assert!(v["first_contact_time"].is_null());
-        assert_eq!(v.as_object().map(|o| o.len()), Some(16), "{text}");
+        assert_eq!(v.as_object().map(|o| o.len()), Some(18), "{text}");
         assert!(Summary::default()
             .to_json()
             .contains("\"us_per_step\":null"));

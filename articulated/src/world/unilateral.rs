@@ -69,14 +69,17 @@ pub struct UnilateralSettings {
 
 impl Default for UnilateralSettings {
     /// Staggered friction with Newton on the one-sided rows; the friction PGS capped at
-    /// 20 sweeps per alternation (a contact patch of several points under joints gives a
+    /// 10 sweeps per alternation (a contact patch of several points under joints gives a
     /// semi-definite friction block on which PGS creeps: at the contact crate's
     /// 10,000-sweep cap the dm_control hopper spent 800 µs a step in it; with the
     /// alternations below warm-starting each other, 20 rather than 100 took
-    /// humanoid_CMU from 2.7 to 1.7 ms a step with the ragdoll's energy unchanged), to a
-    /// residual of 1e-6; the
+    /// humanoid_CMU from 2.7 to 1.7 ms a step with the ragdoll's energy unchanged, and
+    /// 10 rather than 20, with the alternations' stall window, 56 → 42 M instructions a
+    /// step lying on the floor, `examples/dense_stats.rs`), to a residual of 1e-6; the
     /// staggered alternation kept up while the whole problem's residual is above 1e-6,
-    /// up to 50 sweeps, then ended on the one-sided rows. Two fixed sweeps left a knee of
+    /// up to 50 sweeps or until it stalls
+    /// ([`constraint_contact::lcp::staggered::ALTERNATION_STALL_SWEEPS`]), then ended on
+    /// the one-sided rows ([`RowStats::capped`] says so). Two fixed sweeps left a knee of
     /// `scenes/ragdoll.xml` 0.012 rad past its stop with a residual of 1.6 at landing, and
     /// the next step gained 11 J; now 2.5e-8 J at worst (`tests/one_world.rs`); a tolerance
     /// of 1e-8 cost the gymnasium humanoid 5× its time for no visible gain. Baumgarte 0.2,
@@ -86,7 +89,7 @@ impl Default for UnilateralSettings {
     fn default() -> Self {
         Self {
             solver: RowSettings {
-                friction_iterations: 20,
+                friction_iterations: 10,
                 pgs_iterations: 1000,
                 max_sweeps: 50,
                 friction_tolerance: 1e-6,
@@ -161,7 +164,9 @@ pub struct UnilateralStats {
     pub contacts: usize,
     /// What the complementarity solver did.
     pub solver: RowStats,
-    /// Natural-map residual of the row problem at the returned impulses.
+    /// Natural-map residual of the row problem at the returned impulses (on the dense
+    /// path above `friction_tolerance` where [`RowStats::capped`]: the alternations
+    /// ended at their cap or stalled).
     pub residual: f64,
     /// Deepest contact penetration at the start of the step (m).
     pub max_penetration: f64,

@@ -73,7 +73,9 @@ struct Cli {
     /// Also write the run's figures as one JSON object: steps, dt, seconds_stepping,
     /// us_per_step, finite, max_joint_separation, max_penetration, settled_penetration
     /// (second half), energy_initial, max_energy_increase, energy_final, max_contacts,
-    /// first_contact_time, root_height, actuators, colliders [default: none].
+    /// first_contact_time, root_height, actuators, colliders, unconverged_steps and
+    /// worst_unconverged_residual (dense one-sided solves that ended above their
+    /// tolerance) [default: none].
     #[arg(long, value_name = "FILE.json")]
     summary: Option<PathBuf>,
 }
