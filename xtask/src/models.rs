@@ -796,22 +796,25 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64, ctrl_seconds:
          {ENERGY_REL_TOL:.0e}·(1 + |E₀|), on the runs without control and without contact), \
          time of the first contact and height of the first (root) body at the end in both \
          engines (what both must agree on when their contacts differ: MuJoCo's are soft, \
-         ours hard), time per step against MuJoCo's on the same case.\n"
+         ours hard), time per step against MuJoCo's on the same case, and the steps whose \
+         contact solve went to the dense path and ended above its tolerance (the staggered \
+         alternations capped or stalled; the answer is kept and counted here, and the \
+         penetration and energy checks judge it).\n"
     );
     let _ = writeln!(
         md,
-        "| model | case | ours: ran? | ours µs/step | MuJoCo µs/step | ours / MuJoCo | joints (m) | settled penetration (m) | contacts | first contact (s), ours / MuJoCo | root z at the end (m), ours / MuJoCo | energy rise (J) | checks |"
+        "| model | case | ours: ran? | ours µs/step | MuJoCo µs/step | ours / MuJoCo | joints (m) | settled penetration (m) | contacts | first contact (s), ours / MuJoCo | root z at the end (m), ours / MuJoCo | energy rise (J) | unconverged dense steps (worst residual) | checks |"
     );
     let _ = writeln!(
         md,
-        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
     );
     for r in rows.iter().filter(|r| r.loads()) {
         for c in &r.cases {
             let s = c.ours.summary.as_ref();
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} / {} | {} / {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} / {} | {} / {} | {} | {} | {} |",
                 cell(&format!("{}/{}", r.suite, r.name)),
                 c.mujoco.case,
                 cell(&ours_status(&c.ours)),
@@ -826,6 +829,7 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64, ctrl_seconds:
                 height(s.and_then(|s| s.root_height)),
                 height(c.mujoco.root_z),
                 sci(s.map(|s| s.max_energy_increase)),
+                unconverged(s),
                 cell(&checks_cell(c)),
             );
         }
@@ -922,12 +926,25 @@ pub fn csv_field(s: &str) -> String {
     }
 }
 
+/// The dense steps that ended above their tolerance, with the worst residual: `0`,
+/// `N (r)`, or `–` where the binary did not report them.
+fn unconverged(s: Option<&Summary>) -> String {
+    match s.and_then(|s| {
+        s.unconverged_steps
+            .map(|n| (n, s.worst_unconverged_residual))
+    }) {
+        None => "–".into(),
+        Some((0, _)) => "0".into(),
+        Some((n, r)) => format!("{n} ({})", sci(r)),
+    }
+}
+
 pub const CSV_HEADER: &str = "model,suite,case,nbody,njnt,nq,nv,nu,timestep,integrator,steps,\
 max_ncon,max_nlimit,mujoco_status,mujoco_us_per_step,ours_loads,ours_error,ours_panicked,\
 ours_us_per_step,ratio,finite,max_joint_separation,max_penetration,settled_penetration,\
 energy_initial,max_energy_increase,ours_max_contacts,energy_checked,checks,fatal,\
 smooth_ours_com,smooth_euler_com,smooth_note,ours_first_contact,mujoco_first_contact,\
-ours_root_z,mujoco_root_z";
+ours_root_z,mujoco_root_z,ours_unconverged_steps,ours_worst_unconverged_residual";
 
 /// `models.csv`: one line per model and case (the smooth figures on the perturbed line),
 /// empty fields where there is none. `constraint_verify::models_report` reads it.
@@ -982,6 +999,8 @@ pub fn csv(rows: &[Row]) -> String {
                 g(m.first_contact),
                 g(s.and_then(|s| s.root_height)),
                 g(m.root_z),
+                e(s.and_then(|s| s.unconverged_steps).map(|v| v.to_string())),
+                g(s.and_then(|s| s.worst_unconverged_residual)),
             ];
             let line: Vec<String> = f.iter().map(|s| csv_field(s)).collect();
             out.push_str(&line.join(","));
