@@ -576,19 +576,16 @@ impl Poly {
     }
 }
 
-/// Sutherland–Hodgman against the half-space `m·p ≤ o` (side feature `label`).
-fn clip(input: &Poly, m: DVec3, o: f64, label: u8) -> Poly {
-    let mut out = Poly {
-        v: [Vtx {
-            p: DVec3::ZERO,
-            inn: 0,
-            out: 0,
-        }; 12],
-        n: 0,
-    };
-    for idx in 0..input.n {
+/// Sutherland–Hodgman against the half-space `m·p ≤ o` (side feature `label`), from
+/// `input` into `out` (emptied first). Two buffers taken in turn by the caller: no
+/// polygon is zeroed or copied per plane (that was 1.9 % of the 210-box pyramid's
+/// step, callgrind).
+fn clip(input: &Poly, m: DVec3, o: f64, label: u8, out: &mut Poly) {
+    out.n = 0;
+    let n = input.n;
+    for idx in 0..n {
         let cur = input.v[idx];
-        let next = input.v[(idx + 1) % input.n];
+        let next = input.v[if idx + 1 == n { 0 } else { idx + 1 }];
         let dc = m.dot(cur.p) - o;
         let dn = m.dot(next.p) - o;
         let cross = |c: &Vtx, n: &Vtx| {
@@ -613,7 +610,6 @@ fn clip(input: &Poly, m: DVec3, o: f64, label: u8) -> Poly {
             (false, false) => {}
         }
     }
-    out
 }
 
 /// Relative slack of the reference face's side planes in box–box clipping: a point may
@@ -742,13 +738,18 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
     let e1 = ui[k1] * hi[k1];
     let e2 = ui[k2] * hi[k2];
     let corners = [fc + e1 + e2, fc - e1 + e2, fc - e1 - e2, fc + e1 - e2];
+    let empty = Vtx {
+        p: DVec3::ZERO,
+        inn: 0,
+        out: 0,
+    };
     let mut poly = Poly {
-        v: [Vtx {
-            p: DVec3::ZERO,
-            inn: 0,
-            out: 0,
-        }; 12],
+        v: [empty; 12],
         n: 4,
+    };
+    let mut spare = Poly {
+        v: [empty; 12],
+        n: 0,
     };
     for (c, &p) in corners.iter().enumerate() {
         poly.v[c] = Vtx {
@@ -762,9 +763,21 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
     // half extent, so an incident vertex lying on a side (equal boxes stacked flush)
     // stays a vertex, whatever the rounding, and keeps its id.
     let slack = CLIP_SLACK * hr.min_element();
-    for (label, m, sg) in [(4u8, i1, 1.0), (5, i1, -1.0), (6, i2, 1.0), (7, i2, -1.0)] {
-        let dir = ur[m] * sg;
-        poly = clip(&poly, dir, dir.dot(fr.x) + hr[m] + slack, label);
+    // Each side pair clips `poly` into `spare` and back: the result ends in `poly`.
+    for (m, label) in [(i1, 4u8), (i2, 6)] {
+        let dir = ur[m];
+        clip(&poly, dir, dir.dot(fr.x) + hr[m] + slack, label, &mut spare);
+        if spare.n == 0 {
+            return;
+        }
+        let dir = -ur[m];
+        clip(
+            &spare,
+            dir,
+            dir.dot(fr.x) + hr[m] + slack,
+            label + 1,
+            &mut poly,
+        );
         if poly.n == 0 {
             return;
         }
