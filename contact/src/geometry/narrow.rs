@@ -626,12 +626,24 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
         h.x * u[0].dot(l).abs() + h.y * u[1].dot(l).abs() + h.z * u[2].dot(l).abs()
     };
     let sep = |l: DVec3| t.dot(l).abs() - proj(ha, &ua, l) - proj(hb, &ub, l);
+    // The 15 axes' separations from `R_ij = u_a,i · u_b,j` and `t` in both frames
+    // (Gottschalk et al. 1996, OBBTree, table 1): the same quantities as `sep` on
+    // each axis (up to rounding) for 9 dot products instead of 6 per axis. They only
+    // choose the axis (and stop early); the edge case's depth is `sep` of the chosen
+    // axis, as before.
+    let row = |a: DVec3| [a.dot(ub[0]), a.dot(ub[1]), a.dot(ub[2])];
+    let r = [row(ua[0]), row(ua[1]), row(ua[2])];
+    let abs = |x: [f64; 3]| [x[0].abs(), x[1].abs(), x[2].abs()];
+    let ar = [abs(r[0]), abs(r[1]), abs(r[2])];
+    let ta = [t.dot(ua[0]), t.dot(ua[1]), t.dot(ua[2])];
+    let tb = [t.dot(ub[0]), t.dot(ub[1]), t.dot(ub[2])];
     // Best face of A, face of B, edge pair.
     let mut face_a = (f64::NEG_INFINITY, 0usize);
     let mut face_b = (f64::NEG_INFINITY, 0usize);
-    let mut edge = (f64::NEG_INFINITY, 0usize, 0usize, DVec3::ZERO);
+    let mut edge = (f64::NEG_INFINITY, 0usize, 0usize);
     for i in 0..3 {
-        let s = sep(ua[i]);
+        // |t·a_i| − h_a,i − Σ_j h_b,j |R_ij|
+        let s = ta[i].abs() - ha[i] - (hb.x * ar[i][0] + hb.y * ar[i][1] + hb.z * ar[i][2]);
         if s > sink.margin {
             return;
         }
@@ -640,7 +652,8 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
         }
     }
     for j in 0..3 {
-        let s = sep(ub[j]);
+        // |t·b_j| − Σ_i h_a,i |R_ij| − h_b,j
+        let s = tb[j].abs() - (ha.x * ar[0][j] + ha.y * ar[1][j] + ha.z * ar[2][j]) - hb[j];
         if s > sink.margin {
             return;
         }
@@ -649,19 +662,26 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
         }
     }
     for i in 0..3 {
+        let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
         for j in 0..3 {
-            let l = ua[i].cross(ub[j]);
-            let len = l.length();
+            let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
+            // a_i × b_j in A's frame is (0, −R_i2,j, R_i1,j) at (i, i1, i2).
+            let len = sqrt(r[i2][j] * r[i2][j] + r[i1][j] * r[i1][j]);
             if len < 1e-6 {
                 continue;
             }
-            let l = l / len;
-            let s = sep(l);
+            // (|t·l| − h_a,i1 |R_i2,j| − h_a,i2 |R_i1,j| − h_b,j1 |R_i,j2|
+            //  − h_b,j2 |R_i,j1|) / |l|
+            let tl = ta[i2] * r[i1][j] - ta[i1] * r[i2][j];
+            let s = (tl.abs()
+                - (ha[i1] * ar[i2][j] + ha[i2] * ar[i1][j])
+                - (hb[j1] * ar[i][j2] + hb[j2] * ar[i][j1]))
+                / len;
             if s > sink.margin {
                 return;
             }
             if s > edge.0 {
-                edge = (s, i, j, l);
+                edge = (s, i, j);
             }
         }
     }
@@ -675,7 +695,10 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
     };
     if edge.0 > face_sep + 0.05 * face_sep.abs() + tol {
         // Edge–edge: the supporting edges of A (towards +n) and B (towards −n).
-        let (s, i, j, mut l) = edge;
+        let (_, i, j) = edge;
+        let l = ua[i].cross(ub[j]);
+        let mut l = l / l.length();
+        let s = sep(l);
         if t.dot(l) < 0.0 {
             l = -l;
         }
