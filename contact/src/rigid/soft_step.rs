@@ -896,7 +896,7 @@ impl ContactWorld {
             b.omega = st.w[i];
         }
         st.warm_next.clear();
-        self.impulses.clear();
+        // Every contact's three entries are written below: no clear.
         self.impulses.resize(3 * self.contacts.len(), 0.0);
         // In natural order: the contacts come sorted by collider pair, which is all
         // the merge in `prepare` needs (it finds a point by id within its pair's run),
@@ -1284,7 +1284,8 @@ fn pack_pairs(st: &mut SoftState) {
 fn update_gaps(st: &mut SoftState) {
     let mut gap = core::mem::take(&mut st.gap);
     let colouring = core::mem::take(&mut st.colouring);
-    gap.clear();
+    // Every point is in one manifold and is written below: no clear (zeroing 8 B a
+    // point per sub-step cost 0.7 % of the 210-box pyramid's step, callgrind).
     gap.resize(st.slots.len(), 0.0);
     {
         let (rows, vel, _, _) = split!(&mut *st);
