@@ -689,30 +689,60 @@ impl ContactWorld {
         } else {
             f64::INFINITY
         };
-        macro_rules! clear {
-            ($($f:ident),*) => { $(st.$f.clear();)* };
+        // The point arrays are sized to the point count (a no-op when it is the last
+        // step's) and every entry is written by position below: a `push` per array
+        // and point cost its length and capacity bookkeeping (≈ 100 instructions a
+        // point over the 18 arrays, 1.7 % of the 210-box pyramid's step, callgrind).
+        let np = st.order.len();
+        macro_rules! size {
+            ($($f:ident: $z:expr),*) => { $(st.$f.resize(np, $z);)* };
         }
-        clear!(
-            slots,
-            dir,
-            anchor,
-            ang,
-            mass,
-            base_gap,
-            soft,
-            friction,
-            restitution,
-            approach,
-            impulse,
-            max_normal,
-            total,
-            slip,
-            im,
-            preload,
-            preload_cap,
-            preload_floor
+        size!(
+            slots: [0; 2],
+            dir: [DVec3::ZERO; 3],
+            anchor: [DVec3::ZERO; 2],
+            ang: [[DVec3::ZERO; 4]; 3],
+            mass: [0.0; 3],
+            base_gap: 0.0,
+            soft: dynamic,
+            friction: 0.0,
+            restitution: 0.0,
+            approach: 0.0,
+            impulse: [0.0; 3],
+            max_normal: 0.0,
+            total: [0.0; 3],
+            slip: [0.0; 2],
+            im: [0.0; 2],
+            preload: 0.0,
+            preload_cap: 0.0,
+            preload_floor: 0.0
         );
-        for &k in &st.order {
+        // Slices of exactly `np` entries: `p < np` needs no bounds check per write.
+        let order = &st.order[..np];
+        let (slots, dir, anchor) = (&mut st.slots[..np], &mut st.dir[..np], &mut st.anchor[..np]);
+        let (ang_out, mass_out, im_out) = (&mut st.ang[..np], &mut st.mass[..np], &mut st.im[..np]);
+        let (base_gap, soft, friction) = (
+            &mut st.base_gap[..np],
+            &mut st.soft[..np],
+            &mut st.friction[..np],
+        );
+        let (restitution, approach, impulse) = (
+            &mut st.restitution[..np],
+            &mut st.approach[..np],
+            &mut st.impulse[..np],
+        );
+        let (max_normal, total, slip) = (
+            &mut st.max_normal[..np],
+            &mut st.total[..np],
+            &mut st.slip[..np],
+        );
+        let (preload_out, preload_cap, preload_floor) = (
+            &mut st.preload[..np],
+            &mut st.preload_cap[..np],
+            &mut st.preload_floor[..np],
+        );
+        for p in 0..np {
+            let k = order[p];
             let c = &contacts[k];
             let (ca, cb) = (&self.colliders[c.a], &self.colliders[c.b]);
             let (a, b) = (ca.body.unwrap_or(nb), cb.body.unwrap_or(nb));
@@ -765,42 +795,40 @@ impl ContactWorld {
             // Stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ Δd` below is the slip
             // (Δd: the anchors' separation vector, as for the gap).
             let r = rb - ra;
-            st.slip
-                .push([sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)]);
-            st.slots.push([a, b]);
-            st.dir.push(dirs);
-            st.anchor.push([ra, rb]);
-            st.ang.push(ang);
-            st.mass.push(mass);
-            st.im.push(im);
-            st.base_gap.push(-c.depth - n.dot(rb - ra));
-            st.soft
-                .push(if a == nb || b == nb { fixed } else { dynamic });
-            st.friction.push(ca.friction.max(cb.friction));
-            st.restitution.push(ca.restitution.max(cb.restitution));
-            st.approach.push(vn);
-            st.impulse.push(z);
-            st.preload.push(if new_manifolds && !st.found_hit[k] {
+            slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
+            slots[p] = [a, b];
+            dir[p] = dirs;
+            anchor[p] = [ra, rb];
+            ang_out[p] = ang;
+            mass_out[p] = mass;
+            im_out[p] = im;
+            base_gap[p] = -c.depth - n.dot(rb - ra);
+            soft[p] = if a == nb || b == nb { fixed } else { dynamic };
+            friction[p] = ca.friction.max(cb.friction);
+            restitution[p] = ca.restitution.max(cb.restitution);
+            approach[p] = vn;
+            impulse[p] = z;
+            preload_out[p] = if new_manifolds && !st.found_hit[k] {
                 s.preload * st.estimate[k]
             } else {
                 preload * st.mean[k]
-            });
+            };
             let omega2 = if a == nb || b == nb {
                 omega2_fixed
             } else {
                 omega2
             };
-            st.preload_cap.push(kappa * mass[0] * hs * omega2);
-            st.preload_floor.push(if !self.settings.warm_start {
+            preload_cap[p] = kappa * mass[0] * hs * omega2;
+            preload_floor[p] = if !self.settings.warm_start {
                 0.0
             } else if new_manifolds && !st.found_hit[k] {
                 s.preload * st.estimate[k]
             } else {
                 st.found[k].3 * scale * PRELOAD_FLOOR_DECAY
-            });
-            st.max_normal.push(0.0);
+            };
+            max_normal[p] = 0.0;
 
-            st.total.push([0.0; 3]);
+            total[p] = [0.0; 3];
         }
         st.blocks.clear();
         if s.block_normal {
