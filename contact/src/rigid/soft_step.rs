@@ -632,10 +632,16 @@ impl ContactWorld {
         // Warm start by key: the contacts come in pair order `(a, b)` and `warm` is
         // sorted by pair, so one forward merge finds every previous point (the same
         // matches as a search per point, reading `warm` once, in order).
-        st.found.clear();
-        st.found_hit.clear();
+        // Sized once and written by position (as the point arrays below).
+        let none = (0.0, DVec3::ZERO, DVec3::ZERO, 0.0);
+        st.found.resize(contacts.len(), none);
+        st.found_hit.resize(contacts.len(), false);
+        let (found, found_hit) = (
+            &mut st.found[..contacts.len()],
+            &mut st.found_hit[..contacts.len()],
+        );
         let mut cursor = 0;
-        for c in contacts {
+        for (j, c) in contacts.iter().enumerate() {
             let (a, b, id) = c.key();
             while cursor < st.warm.len() && (st.warm[cursor].0 .0, st.warm[cursor].0 .1) < (a, b) {
                 cursor += 1;
@@ -644,11 +650,8 @@ impl ContactWorld {
                 .iter()
                 .take_while(|e| e.0 .0 == a && e.0 .1 == b)
                 .find(|e| e.0 .2 == id);
-            st.found_hit.push(hit.is_some());
-            st.found.push(hit.map_or(
-                (0.0, DVec3::ZERO, DVec3::ZERO, 0.0),
-                |&(_, zn, ft, sl, fl)| (zn, ft, sl, fl),
-            ));
+            found_hit[j] = hit.is_some();
+            found[j] = hit.map_or(none, |&(_, zn, ft, sl, fl)| (zn, ft, sl, fl));
         }
         let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
         // Preload: the mean previous normal impulse of each manifold (a run of one
@@ -923,7 +926,10 @@ impl ContactWorld {
             b.v = st.v[i];
             b.omega = st.w[i];
         }
-        st.warm_next.clear();
+        // Sized once and written by position (every contact's entry is written).
+        let nc = self.contacts.len();
+        st.warm_next
+            .resize(nc, ((0, 0, 0), 0.0, DVec3::ZERO, DVec3::ZERO, 0.0));
         // Every contact's three entries are written below: no clear.
         self.impulses.resize(3 * self.contacts.len(), 0.0);
         // In natural order: the contacts come sorted by collider pair, which is all
@@ -949,8 +955,7 @@ impl ContactWorld {
             } else {
                 DVec3::ZERO
             };
-            st.warm_next
-                .push((c.key(), zn, t1 * z1 + t2 * z2, slip, st.preload_floor[p]));
+            st.warm_next[k] = (c.key(), zn, t1 * z1 + t2 * z2, slip, st.preload_floor[p]);
             self.impulses[3 * k..3 * k + 3].copy_from_slice(&st.total[p]);
         }
         if !st.warm_next.is_sorted_by_key(|e| (e.0 .0, e.0 .1)) {
