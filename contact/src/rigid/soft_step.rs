@@ -761,20 +761,21 @@ impl ContactWorld {
             // One-way coupling: the lower of two moving bodies is static for this
             // point when the upper is more than `one_way_mass_ratio` times heavier.
             let mut im = [st.inv_mass[a], st.inv_mass[b]];
-            let mut inertia = [st.inv_inertia[a], st.inv_inertia[b]];
+            // By reference: the two 72-byte matrices are not copied per point.
+            let mut inertia = [&st.inv_inertia[a], &st.inv_inertia[b]];
             if a != nb && b != nb {
                 let (ha, hb) = (self.bodies[a].pose.x.dot(up), self.bodies[b].pose.x.dot(up));
                 let (lower, upper) = if ha < hb { (0, 1) } else { (1, 0) };
                 if im[lower] > s.one_way_mass_ratio * im[upper] {
                     im[lower] = 0.0;
-                    inertia[lower] = DMat3::ZERO;
+                    inertia[lower] = &DMat3::ZERO;
                 }
             }
             let mut ang = [[DVec3::ZERO; 4]; 3];
             let mut mass = [0.0; 3];
             for (r, d) in dirs.iter().enumerate() {
                 let (ua, ub) = (ra.cross(*d), rb.cross(*d));
-                let (ia, ib) = (inertia[0] * ua, inertia[1] * ub);
+                let (ia, ib) = (inertia[0].mul_vec3(ua), inertia[1].mul_vec3(ub));
                 // k = J M⁻¹ Jᵀ = 1/m_a + 1/m_b + (r_a×d)ᵀI_a⁻¹(r_a×d) + (r_b×d)ᵀI_b⁻¹(r_b×d)
                 let k = im[0] + im[1] + ua.dot(ia) + ub.dot(ib);
                 mass[r] = if k > 0.0 { 1.0 / k } else { 0.0 };
