@@ -576,19 +576,16 @@ impl Poly {
     }
 }
 
-/// Sutherland–Hodgman against the half-space `m·p ≤ o` (side feature `label`).
-fn clip(input: &Poly, m: DVec3, o: f64, label: u8) -> Poly {
-    let mut out = Poly {
-        v: [Vtx {
-            p: DVec3::ZERO,
-            inn: 0,
-            out: 0,
-        }; 12],
-        n: 0,
-    };
-    for idx in 0..input.n {
+/// Sutherland–Hodgman against the half-space `m·p ≤ o` (side feature `label`), from
+/// `input` into `out` (emptied first). Two buffers taken in turn by the caller: no
+/// polygon is zeroed or copied per plane (that was 1.9 % of the 210-box pyramid's
+/// step, callgrind).
+fn clip(input: &Poly, m: DVec3, o: f64, label: u8, out: &mut Poly) {
+    out.n = 0;
+    let n = input.n;
+    for idx in 0..n {
         let cur = input.v[idx];
-        let next = input.v[(idx + 1) % input.n];
+        let next = input.v[if idx + 1 == n { 0 } else { idx + 1 }];
         let dc = m.dot(cur.p) - o;
         let dn = m.dot(next.p) - o;
         let cross = |c: &Vtx, n: &Vtx| {
@@ -613,7 +610,6 @@ fn clip(input: &Poly, m: DVec3, o: f64, label: u8) -> Poly {
             (false, false) => {}
         }
     }
-    out
 }
 
 /// Relative slack of the reference face's side planes in box–box clipping: a point may
@@ -630,12 +626,24 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
         h.x * u[0].dot(l).abs() + h.y * u[1].dot(l).abs() + h.z * u[2].dot(l).abs()
     };
     let sep = |l: DVec3| t.dot(l).abs() - proj(ha, &ua, l) - proj(hb, &ub, l);
+    // The 15 axes' separations from `R_ij = u_a,i · u_b,j` and `t` in both frames
+    // (Gottschalk et al. 1996, OBBTree, table 1): the same quantities as `sep` on
+    // each axis (up to rounding) for 9 dot products instead of 6 per axis. They only
+    // choose the axis (and stop early); the edge case's depth is `sep` of the chosen
+    // axis, as before.
+    let row = |a: DVec3| [a.dot(ub[0]), a.dot(ub[1]), a.dot(ub[2])];
+    let r = [row(ua[0]), row(ua[1]), row(ua[2])];
+    let abs = |x: [f64; 3]| [x[0].abs(), x[1].abs(), x[2].abs()];
+    let ar = [abs(r[0]), abs(r[1]), abs(r[2])];
+    let ta = [t.dot(ua[0]), t.dot(ua[1]), t.dot(ua[2])];
+    let tb = [t.dot(ub[0]), t.dot(ub[1]), t.dot(ub[2])];
     // Best face of A, face of B, edge pair.
     let mut face_a = (f64::NEG_INFINITY, 0usize);
     let mut face_b = (f64::NEG_INFINITY, 0usize);
-    let mut edge = (f64::NEG_INFINITY, 0usize, 0usize, DVec3::ZERO);
+    let mut edge = (f64::NEG_INFINITY, 0usize, 0usize);
     for i in 0..3 {
-        let s = sep(ua[i]);
+        // |t·a_i| − h_a,i − Σ_j h_b,j |R_ij|
+        let s = ta[i].abs() - ha[i] - (hb.x * ar[i][0] + hb.y * ar[i][1] + hb.z * ar[i][2]);
         if s > sink.margin {
             return;
         }
@@ -644,7 +652,8 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
         }
     }
     for j in 0..3 {
-        let s = sep(ub[j]);
+        // |t·b_j| − Σ_i h_a,i |R_ij| − h_b,j
+        let s = tb[j].abs() - (ha.x * ar[0][j] + ha.y * ar[1][j] + ha.z * ar[2][j]) - hb[j];
         if s > sink.margin {
             return;
         }
@@ -653,19 +662,26 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
         }
     }
     for i in 0..3 {
+        let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
         for j in 0..3 {
-            let l = ua[i].cross(ub[j]);
-            let len = l.length();
+            let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
+            // a_i × b_j in A's frame is (0, −R_i2,j, R_i1,j) at (i, i1, i2).
+            let len = sqrt(r[i2][j] * r[i2][j] + r[i1][j] * r[i1][j]);
             if len < 1e-6 {
                 continue;
             }
-            let l = l / len;
-            let s = sep(l);
+            // (|t·l| − h_a,i1 |R_i2,j| − h_a,i2 |R_i1,j| − h_b,j1 |R_i,j2|
+            //  − h_b,j2 |R_i,j1|) / |l|
+            let tl = ta[i2] * r[i1][j] - ta[i1] * r[i2][j];
+            let s = (tl.abs()
+                - (ha[i1] * ar[i2][j] + ha[i2] * ar[i1][j])
+                - (hb[j1] * ar[i][j2] + hb[j2] * ar[i][j1]))
+                / len;
             if s > sink.margin {
                 return;
             }
             if s > edge.0 {
-                edge = (s, i, j, l);
+                edge = (s, i, j);
             }
         }
     }
@@ -679,7 +695,10 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
     };
     if edge.0 > face_sep + 0.05 * face_sep.abs() + tol {
         // Edge–edge: the supporting edges of A (towards +n) and B (towards −n).
-        let (s, i, j, mut l) = edge;
+        let (_, i, j) = edge;
+        let l = ua[i].cross(ub[j]);
+        let mut l = l / l.length();
+        let s = sep(l);
         if t.dot(l) < 0.0 {
             l = -l;
         }
@@ -742,13 +761,18 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
     let e1 = ui[k1] * hi[k1];
     let e2 = ui[k2] * hi[k2];
     let corners = [fc + e1 + e2, fc - e1 + e2, fc - e1 - e2, fc + e1 - e2];
+    let empty = Vtx {
+        p: DVec3::ZERO,
+        inn: 0,
+        out: 0,
+    };
     let mut poly = Poly {
-        v: [Vtx {
-            p: DVec3::ZERO,
-            inn: 0,
-            out: 0,
-        }; 12],
+        v: [empty; 12],
         n: 4,
+    };
+    let mut spare = Poly {
+        v: [empty; 12],
+        n: 0,
     };
     for (c, &p) in corners.iter().enumerate() {
         poly.v[c] = Vtx {
@@ -762,9 +786,21 @@ fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
     // half extent, so an incident vertex lying on a side (equal boxes stacked flush)
     // stays a vertex, whatever the rounding, and keeps its id.
     let slack = CLIP_SLACK * hr.min_element();
-    for (label, m, sg) in [(4u8, i1, 1.0), (5, i1, -1.0), (6, i2, 1.0), (7, i2, -1.0)] {
-        let dir = ur[m] * sg;
-        poly = clip(&poly, dir, dir.dot(fr.x) + hr[m] + slack, label);
+    // Each side pair clips `poly` into `spare` and back: the result ends in `poly`.
+    for (m, label) in [(i1, 4u8), (i2, 6)] {
+        let dir = ur[m];
+        clip(&poly, dir, dir.dot(fr.x) + hr[m] + slack, label, &mut spare);
+        if spare.n == 0 {
+            return;
+        }
+        let dir = -ur[m];
+        clip(
+            &spare,
+            dir,
+            dir.dot(fr.x) + hr[m] + slack,
+            label + 1,
+            &mut poly,
+        );
         if poly.n == 0 {
             return;
         }

@@ -33,6 +33,9 @@ pub(super) struct Colouring {
     low: Vec<usize>,
     /// Manifolds bottom-up (by their lowest point).
     by_rank: Vec<u32>,
+    /// Sort keys of `by_rank`: height (as ordered by `f64::total_cmp`), lowest point,
+    /// manifold.
+    keys: Vec<(i64, usize, u32)>,
     /// Colour of each manifold.
     colour: Vec<u32>,
     /// Colours used by each body (bit `c` set: a manifold of colour `c` touches it).
@@ -121,12 +124,25 @@ impl Colouring {
             run.sort_unstable_by(|&p, &q| below(p, q));
             self.low.push(run[0]);
         }
-        // Manifolds bottom-up by their lowest point.
+        // Manifolds bottom-up by their lowest point: sorted on (height as the integer
+        // whose order is `f64::total_cmp`'s, lowest point) keys held beside the
+        // manifold, the same order as `below` on the lowest points (the keys are
+        // unique) without two indirections per comparison (the comparator sort was
+        // 1.5 % of the 210-box pyramid's step, callgrind).
+        let total_order = |x: f64| {
+            let b = x.to_bits() as i64;
+            b ^ ((((b >> 63) as u64) >> 1) as i64)
+        };
+        self.keys.clear();
+        self.keys.extend(
+            self.low
+                .iter()
+                .enumerate()
+                .map(|(j, &p)| (total_order(heights[p]), p, j as u32)),
+        );
+        self.keys.sort_unstable();
         self.by_rank.clear();
-        self.by_rank.extend(0..m as u32);
-        let low = &self.low;
-        self.by_rank
-            .sort_unstable_by(|&i, &j| below(low[i as usize], low[j as usize]));
+        self.by_rank.extend(self.keys.iter().map(|k| k.2));
         // Greedy colours in rank order: the lowest colour free on both moving bodies.
         self.used.clear();
         self.used.resize(bodies, 0);
