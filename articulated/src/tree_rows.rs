@@ -393,6 +393,12 @@ impl RowTree {
         self.dinv[u]
     }
 
+    /// Unknowns `o..o + n`'s inverse pivots `d⁻¹` (zero: dropped), as one slice.
+    #[inline]
+    pub fn pivot_inverses(&self, o: usize, n: usize) -> &[f64] {
+        &self.dinv[o..o + n]
+    }
+
     /// Node `s`'s blocks and its own and its parent's unknowns, split from `x`
     /// (inlined into both passes: a call per node cost a fifth of the solve).
     #[inline(always)]
