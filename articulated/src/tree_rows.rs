@@ -360,7 +360,7 @@ impl RowTree {
     /// zero outside the marked nodes, with the marked set closed under parents (a row's
     /// bodies and their ancestors), the result equals the full pass's: the other nodes
     /// hold zero and send nothing up. `gᵀ H_A⁻¹ g' = Σ_u s_u s'_u / d⁻¹_u` over the
-    /// unknowns with [`Self::pivot_inverse`] non-zero then needs only the paths to the
+    /// unknowns with [`Self::pivot_inverses`] non-zero then needs only the paths to the
     /// root (`world/active_set.rs`'s Schur rows).
     pub fn forward_marked(&self, _tree: &TreeSolver, x: &mut [f64], mark: &[bool]) {
         macro_rules! dispatch {
@@ -385,12 +385,6 @@ impl RowTree {
     #[inline]
     pub fn node_len(&self, k: usize) -> usize {
         self.n[k]
-    }
-
-    /// Unknown `u`'s inverse pivot `d⁻¹` (zero: dropped).
-    #[inline]
-    pub fn pivot_inverse(&self, u: usize) -> f64 {
-        self.dinv[u]
     }
 
     /// Unknowns `o..o + n`'s inverse pivots `d⁻¹` (zero: dropped), as one slice.

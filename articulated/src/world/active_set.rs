@@ -229,7 +229,8 @@ pub(super) struct ActiveSet {
     schur_pos: Vec<usize>,
     /// Per Schur row `c`: its path nodes (its bodies and their ancestors) in
     /// `path_nodes[path_start[c]..path_start[c + 1]]`, their unknowns' `s` and `u`
-    /// packed node after node from `path_s[val_start[c]..]`, `path_u[val_start[c]..]`.
+    /// packed node after node in `path_s[val_start[c]..val_start[c + 1]]`, `path_u[..]`
+    /// likewise (one entry more than the rows: the end).
     path_nodes: Vec<usize>,
     path_start: Vec<usize>,
     val_start: Vec<usize>,
@@ -928,6 +929,7 @@ impl World {
             free_scale = free_scale.max(self.schur_free_scale(i));
         }
         st.path_start.push(st.path_nodes.len());
+        st.val_start.push(st.path_s.len());
         st.s_mat.clear();
         st.s_mat.resize(d * d, 0.0);
         for b in 0..d {
@@ -937,8 +939,25 @@ impl World {
                 st.node_slot[k] = off;
                 off += f.node_len(k);
             }
+            let pb = &st.path_nodes[st.path_start[b]..st.path_start[b + 1]];
             for a in b..d {
                 let mut v = 0.0;
+                let pa = &st.path_nodes[st.path_start[a]..st.path_start[a + 1]];
+                if pa == pb {
+                    // The same path (rows on the same bodies: a foot's contacts): the
+                    // loop below would read both rows' values contiguously, node after
+                    // node in the same order, so one pass over them sums the same
+                    // products in the same order.
+                    let (va, vb) = (st.val_start[a], st.val_start[b]);
+                    let len = st.val_start[a + 1] - va;
+                    let (ua, sb) = (&st.path_u[va..va + len], &st.path_s[vb..vb + len]);
+                    for (x, y) in ua.iter().zip(sb) {
+                        v += x * y;
+                    }
+                    st.s_mat[a * d + b] = v;
+                    st.s_mat[b * d + a] = v;
+                    continue;
+                }
                 let mut oa = st.val_start[a];
                 for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
                     let n = f.node_len(k);
