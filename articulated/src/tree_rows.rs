@@ -322,8 +322,10 @@ impl RowTree {
                     }
                 };
             }
-            dispatch!(6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 11; 6, 12;
-                3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 11, 6; 12, 6);
+            dispatch!(6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 10; 6, 11; 6, 12;
+                6, 13; 6, 14; 6, 15;
+                3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 10, 6; 11, 6; 12, 6; 13, 6; 14, 6;
+                15, 6);
         }
         Ok(())
     }
@@ -344,14 +346,18 @@ impl RowTree {
         for s in &self.schedule {
             let args = self.node_args(s, x);
             dispatch!(forward, s.n, s.np, args;
-                6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 12;
-                3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 12, 6);
+                6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 10; 6, 11; 6, 12;
+                6, 13; 6, 14; 6, 15;
+                3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 10, 6; 11, 6; 12, 6; 13, 6; 14, 6;
+                15, 6; 3, 0; 4, 0; 5, 0; 7, 0; 8, 0; 9, 0);
         }
         for s in self.schedule.iter().rev() {
             let args = self.node_args(s, x);
             dispatch!(backward, s.n, s.np, args;
-                6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 12;
-                3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 12, 6);
+                6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 10; 6, 11; 6, 12;
+                6, 13; 6, 14; 6, 15;
+                3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 10, 6; 11, 6; 12, 6; 13, 6; 14, 6;
+                15, 6; 3, 0; 4, 0; 5, 0; 7, 0; 8, 0; 9, 0);
         }
     }
 
@@ -360,7 +366,7 @@ impl RowTree {
     /// zero outside the marked nodes, with the marked set closed under parents (a row's
     /// bodies and their ancestors), the result equals the full pass's: the other nodes
     /// hold zero and send nothing up. `gᵀ H_A⁻¹ g' = Σ_u s_u s'_u / d⁻¹_u` over the
-    /// unknowns with [`Self::pivot_inverse`] non-zero then needs only the paths to the
+    /// unknowns with [`Self::pivot_inverses`] non-zero then needs only the paths to the
     /// root (`world/active_set.rs`'s Schur rows).
     pub fn forward_marked(&self, _tree: &TreeSolver, x: &mut [f64], mark: &[bool]) {
         macro_rules! dispatch {
@@ -375,8 +381,10 @@ impl RowTree {
             if mark.get(s.k).copied().unwrap_or(false) {
                 let args = self.node_args(s, x);
                 dispatch!(forward, s.n, s.np, args;
-                    6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 12;
-                    3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 12, 6);
+                    6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 10; 6, 11; 6, 12;
+                    6, 13; 6, 14; 6, 15;
+                    3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 10, 6; 11, 6; 12, 6; 13, 6; 14, 6;
+                    15, 6; 3, 0; 4, 0; 5, 0; 7, 0; 8, 0; 9, 0);
             }
         }
     }
@@ -387,10 +395,10 @@ impl RowTree {
         self.n[k]
     }
 
-    /// Unknown `u`'s inverse pivot `d⁻¹` (zero: dropped).
+    /// Unknowns `o..o + n`'s inverse pivots `d⁻¹` (zero: dropped), as one slice.
     #[inline]
-    pub fn pivot_inverse(&self, u: usize) -> f64 {
-        self.dinv[u]
+    pub fn pivot_inverses(&self, o: usize, n: usize) -> &[f64] {
+        &self.dinv[o..o + n]
     }
 
     /// Node `s`'s blocks and its own and its parent's unknowns, split from `x`
@@ -600,11 +608,15 @@ fn ldlt_two_segment(a: &mut [f64], n: usize, base: usize, dinv: &mut [f64]) {
         6 => ldlt_two_segment_fixed::<6>(a, base, dinv),
         7 => ldlt_two_segment_fixed::<7>(a, base, dinv),
         8 => ldlt_two_segment_fixed::<8>(a, base, dinv),
+        9 => ldlt_two_segment_fixed::<9>(a, base, dinv),
+        10 => ldlt_two_segment_fixed::<10>(a, base, dinv),
+        11 => ldlt_two_segment_fixed::<11>(a, base, dinv),
+        12 => ldlt_two_segment_fixed::<12>(a, base, dinv),
         _ => ldlt_two_segment_sized(a, n, base, dinv),
     }
 }
 
-/// [`ldlt_two_segment`] for `N ≤ 8`, one column at a time with the column a constant
+/// [`ldlt_two_segment`] for `N ≤ 12`, one column at a time with the column a constant
 /// (every loop a constant trip count, unrolled; with the size alone a constant the
 /// triangular loops stayed loops). The same operations in the same order as
 /// [`ldlt_two_segment_sized`].
@@ -625,6 +637,10 @@ fn ldlt_two_segment_fixed<const N: usize>(a: &mut [f64], base: usize, dinv: &mut
     two_segment_column::<5, N>(a, dinv, &mut st);
     two_segment_column::<6, N>(a, dinv, &mut st);
     two_segment_column::<7, N>(a, dinv, &mut st);
+    two_segment_column::<8, N>(a, dinv, &mut st);
+    two_segment_column::<9, N>(a, dinv, &mut st);
+    two_segment_column::<10, N>(a, dinv, &mut st);
+    two_segment_column::<11, N>(a, dinv, &mut st);
 }
 
 /// The running state of [`ldlt_two_segment_fixed`]: the base size, the current
@@ -786,7 +802,7 @@ mod tests {
     /// `−g D⁻¹ gᵀ` sign, one of them dependent on the first: a dropped pivot).
     #[test]
     fn unrolled_two_segment_matches_the_loop_to_the_bit() {
-        for n in 3..=8 {
+        for n in 3..=12 {
             for base in 1..=n {
                 let mut a = alloc::vec![0.0f64; n * n];
                 for i in 0..n {

@@ -229,7 +229,8 @@ pub(super) struct ActiveSet {
     schur_pos: Vec<usize>,
     /// Per Schur row `c`: its path nodes (its bodies and their ancestors) in
     /// `path_nodes[path_start[c]..path_start[c + 1]]`, their unknowns' `s` and `u`
-    /// packed node after node from `path_s[val_start[c]..]`, `path_u[val_start[c]..]`.
+    /// packed node after node in `path_s[val_start[c]..val_start[c + 1]]`, `path_u[..]`
+    /// likewise (one entry more than the rows: the end).
     path_nodes: Vec<usize>,
     path_start: Vec<usize>,
     val_start: Vec<usize>,
@@ -908,19 +909,27 @@ impl World {
             self.schur_path(i, &mut st.mark, &mut st.path_nodes);
             f.forward_marked(&self.solver, &mut st.col, &st.mark);
             // Keep s and u = s / d⁻¹ on the path; leave `col` and `mark` clear.
+            // (Whole node slices: a per-unknown push with its bounds and capacity
+            // checks was a third of the step's own instructions on dm hopper.)
             for &k in &st.path_nodes[first..] {
                 st.mark[k] = false;
-                let o = f.node_offset(k);
-                for u in o..o + f.node_len(k) {
-                    let (sv, di) = (st.col[u], f.pivot_inverse(u));
-                    st.path_s.push(sv);
-                    st.path_u.push(if di != 0.0 { sv / di } else { 0.0 });
-                    st.col[u] = 0.0;
-                }
+                let (o, n) = (f.node_offset(k), f.node_len(k));
+                let s = &mut st.col[o..o + n];
+                st.path_s.extend_from_slice(s);
+                st.path_u
+                    .extend(s.iter().zip(f.pivot_inverses(o, n)).map(|(&sv, &di)| {
+                        if di != 0.0 {
+                            sv / di
+                        } else {
+                            0.0
+                        }
+                    }));
+                s.fill(0.0);
             }
             free_scale = free_scale.max(self.schur_free_scale(i));
         }
         st.path_start.push(st.path_nodes.len());
+        st.val_start.push(st.path_s.len());
         st.s_mat.clear();
         st.s_mat.resize(d * d, 0.0);
         for b in 0..d {
@@ -930,15 +939,34 @@ impl World {
                 st.node_slot[k] = off;
                 off += f.node_len(k);
             }
+            let pb = &st.path_nodes[st.path_start[b]..st.path_start[b + 1]];
             for a in b..d {
                 let mut v = 0.0;
+                let pa = &st.path_nodes[st.path_start[a]..st.path_start[a + 1]];
+                if pa == pb {
+                    // The same path (rows on the same bodies: a foot's contacts): the
+                    // loop below would read both rows' values contiguously, node after
+                    // node in the same order, so one pass over them sums the same
+                    // products in the same order.
+                    let (va, vb) = (st.val_start[a], st.val_start[b]);
+                    let len = st.val_start[a + 1] - va;
+                    let (ua, sb) = (&st.path_u[va..va + len], &st.path_s[vb..vb + len]);
+                    for (x, y) in ua.iter().zip(sb) {
+                        v += x * y;
+                    }
+                    st.s_mat[a * d + b] = v;
+                    st.s_mat[b * d + a] = v;
+                    continue;
+                }
                 let mut oa = st.val_start[a];
                 for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
                     let n = f.node_len(k);
                     let ob = st.node_slot[k];
                     if ob != usize::MAX {
-                        for t in 0..n {
-                            v += st.path_u[oa + t] * st.path_s[ob + t];
+                        // The same products summed in the same order, on slices.
+                        let (ua, sb) = (&st.path_u[oa..oa + n], &st.path_s[ob..ob + n]);
+                        for (x, y) in ua.iter().zip(sb) {
+                            v += x * y;
                         }
                     }
                     oa += n;
