@@ -497,11 +497,19 @@ impl Lcp {
     }
 
     /// `Σ_j M_ij z_j` over the non-zero `M_ij` (columns ascending: the bits of the dense
-    /// sum, whose skipped terms are `±0`).
+    /// sum, whose skipped terms are `±0`). A row with all `n` entries listed (a
+    /// Delassus row of a tree whose contacts all share its bodies: humanoid_CMU's) has
+    /// columns `0, 1, …, n−1`, so its values are the dense row: the product runs over the
+    /// contiguous slices `vals · z` without the column gather, the same terms in the
+    /// same order (the same bits).
     #[inline]
     pub fn row_dot(&self, i: usize, z: &[f64]) -> f64 {
         let (cols, vals) = self.sparse.row(i);
-        vals.iter().zip(cols).map(|(v, &j)| v * z[j]).sum()
+        if cols.len() == z.len() {
+            vals.iter().zip(z).map(|(v, x)| v * x).sum()
+        } else {
+            vals.iter().zip(cols).map(|(v, &j)| v * z[j]).sum()
+        }
     }
 
     /// Row `i`'s non-zero entries of `M`: columns (ascending) and values.

@@ -254,7 +254,13 @@ fn sparse_residual(a: &SparseRows, q: &[f64], bounds: &[RowBound], z: &[f64]) ->
     let mut worst: f64 = 0.0;
     for (i, &qi) in q.iter().enumerate() {
         let (cols, vals) = a.row(i);
-        let w: f64 = qi + cols.iter().zip(vals).map(|(&k, v)| v * z[k]).sum::<f64>();
+        // A full row (columns 0, 1, …, n−1) is the dense row: contiguous, no gather.
+        let dot: f64 = if cols.len() == z.len() {
+            vals.iter().zip(z).map(|(v, x)| v * x).sum()
+        } else {
+            cols.iter().zip(vals).map(|(&k, v)| v * z[k]).sum()
+        };
+        let w = qi + dot;
         let (lo, hi) = bounds[i].interval(z);
         let p = (z[i] - w).min(hi).max(lo);
         worst = worst.max((z[i] - p).abs());
