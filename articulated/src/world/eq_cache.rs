@@ -133,28 +133,7 @@ fn fill_key(key: &mut Vec<u64>, h: u64, rates: Rates, inputs: &EqInputs<'_>) {
         inputs.scales[1].to_bits(),
     ]);
     for b in inputs.bodies {
-        let (x, q, m) = (b.pose.x, b.pose.q, b.inertia());
-        let (c0, c1, c2) = (m.x_axis, m.y_axis, m.z_axis);
-        let vals = [
-            x.x,
-            x.y,
-            x.z,
-            q.x,
-            q.y,
-            q.z,
-            q.w,
-            b.mass(),
-            c0.x,
-            c0.y,
-            c0.z,
-            c1.x,
-            c1.y,
-            c1.z,
-            c2.x,
-            c2.y,
-            c2.z,
-        ];
-        key.extend_from_slice(&vals.map(f64::to_bits));
+        key.extend_from_slice(&super::factor_cache::body_bits(b));
     }
     key.push(inputs.compliance.len() as u64);
     key.extend(inputs.compliance.iter().map(|a| a.to_bits()));

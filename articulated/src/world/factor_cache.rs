@@ -41,6 +41,33 @@ use super::{Rates, Soft, World};
 /// body-frame inertia (9).
 type BodyBits = [u64; 17];
 
+/// A body's [`BodyBits`]: what its part of the matrix reads, bit for bit (also a part of
+/// the equality complement's key in `eq_cache`).
+pub(super) fn body_bits(b: &RigidBody) -> BodyBits {
+    let (x, q, m) = (b.pose.x, b.pose.q, b.inertia());
+    let (c0, c1, c2) = (m.x_axis, m.y_axis, m.z_axis);
+    [
+        x.x,
+        x.y,
+        x.z,
+        q.x,
+        q.y,
+        q.z,
+        q.w,
+        b.mass(),
+        c0.x,
+        c0.y,
+        c0.z,
+        c1.x,
+        c1.y,
+        c1.z,
+        c2.x,
+        c2.y,
+        c2.z,
+    ]
+    .map(f64::to_bits)
+}
+
 /// The inputs of one assembly's matrix, as bits (see the module documentation).
 #[derive(Clone, Debug, Default)]
 pub(super) struct FactorKey {
@@ -65,33 +92,7 @@ impl FactorKey {
         self.valid = true;
         self.assembly = Some((assembly.0.to_bits(), assembly.1, assembly.2));
         self.bodies.clear();
-        self.bodies.extend(bodies.iter().map(|b| {
-            let (x, q, m) = (b.pose.x, b.pose.q, b.inertia());
-            let mut k = [0u64; 17];
-            let vals = [
-                x.x,
-                x.y,
-                x.z,
-                q.x,
-                q.y,
-                q.z,
-                q.w,
-                b.mass(),
-                m.x_axis.x,
-                m.x_axis.y,
-                m.x_axis.z,
-                m.y_axis.x,
-                m.y_axis.y,
-                m.y_axis.z,
-                m.z_axis.x,
-                m.z_axis.y,
-                m.z_axis.z,
-            ];
-            for (k, v) in k.iter_mut().zip(vals) {
-                *k = v.to_bits();
-            }
-            k
-        }));
+        self.bodies.extend(bodies.iter().map(body_bits));
         self.compliance.clear();
         self.compliance
             .extend(compliance.iter().map(|a| a.to_bits()));
