@@ -154,9 +154,13 @@ impl World {
     pub(super) fn reapply_fluid_rhs(&mut self, scale: f64) {
         for (i, (force, torque)) in self.fluid_last.iter().enumerate() {
             let o = self.solver.body_offset(i);
+            // The body's six entries as one slice (one bounds check).
+            let Some(r) = self.rhs.get_mut(o..o + 6) else {
+                continue;
+            };
             for c in 0..3 {
-                self.rhs[o + c] += force[c] * scale;
-                self.rhs[o + 3 + c] += torque[c] * scale;
+                r[c] += force[c] * scale;
+                r[3 + c] += torque[c] * scale;
             }
         }
     }
