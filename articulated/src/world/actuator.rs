@@ -625,9 +625,14 @@ impl World {
                 for (side, body) in [(0usize, parent), (1usize, Some(child))] {
                     let Some(i) = body else { continue };
                     let o = self.solver.body_offset(i);
+                    // The body's six entries as one slice (one bounds check).
+                    let Some(r) = self.rhs.get_mut(o..o + 6) else {
+                        continue;
+                    };
+                    let (lin, ang) = (rows[k][2 * side], rows[k][2 * side + 1]);
                     for c in 0..3 {
-                        self.rhs[o + c] += rows[k][2 * side][c] * s;
-                        self.rhs[o + 3 + c] += rows[k][2 * side + 1][c] * s;
+                        r[c] += lin[c] * s;
+                        r[3 + c] += ang[c] * s;
                     }
                 }
             }

@@ -42,6 +42,12 @@ pub(super) struct FluidBox {
     quad_torque: [f64; 3],
     /// `8 β π r_eq³`.
     lin_torque: f64,
+    /// The bits of the body's orientation `q` that `frame` is of (`None`: not yet).
+    frame_key: Option<[u64; 4]>,
+    /// The principal axes in the world, `R(q) · axes`, and its transpose: kept while the
+    /// body's orientation keeps its bits (RATTLE's damping flows evaluate the drag four
+    /// times per configuration, `rattle.rs`), the same bits as computing them again.
+    frame: (DMat3, DMat3),
 }
 
 /// The medium of [`World::fluid`].
@@ -112,6 +118,8 @@ impl World {
                 lin_force: 6.0 * beta * pi * req,
                 quad_torque,
                 lin_torque: 8.0 * beta * pi * req * req * req,
+                frame_key: None,
+                frame: (DMat3::IDENTITY, DMat3::IDENTITY),
             });
         }
     }
@@ -126,6 +134,14 @@ impl World {
             .filter(|f| f.density != 0.0 || f.viscosity != 0.0)
         {
             self.ensure_fluid_boxes(&f);
+            for (fb, b) in self.fluid_boxes.iter_mut().zip(&self.bodies) {
+                let key = b.pose.q.to_array().map(f64::to_bits);
+                if fb.frame_key != Some(key) {
+                    let frame: DMat3 = b.rotation() * fb.axes; // principal axes in the world
+                    fb.frame = (frame, frame.transpose());
+                    fb.frame_key = Some(key);
+                }
+            }
             w.extend((0..self.bodies.len()).map(|i| self.fluid_wrench(i, &f)));
         }
         self.fluid_last = w;
@@ -138,21 +154,26 @@ impl World {
     pub(super) fn reapply_fluid_rhs(&mut self, scale: f64) {
         for (i, (force, torque)) in self.fluid_last.iter().enumerate() {
             let o = self.solver.body_offset(i);
+            // The body's six entries as one slice (one bounds check).
+            let Some(r) = self.rhs.get_mut(o..o + 6) else {
+                continue;
+            };
             for c in 0..3 {
-                self.rhs[o + c] += force[c] * scale;
-                self.rhs[o + 3 + c] += torque[c] * scale;
+                r[c] += force[c] * scale;
+                r[3 + c] += torque[c] * scale;
             }
         }
     }
 
     /// The fluid's force and torque on body `i` (the formulas of the module
-    /// documentation, with the factors of its [`FluidBox`]).
+    /// documentation, with the factors of its [`FluidBox`], whose frame is at the
+    /// body's orientation).
     fn fluid_wrench(&self, i: usize, f: &Fluid) -> (DVec3, DVec3) {
         let b = &self.bodies[i];
         let fb = &self.fluid_boxes[i];
-        let frame: DMat3 = b.rotation() * fb.axes; // principal axes in the world
-        let v = frame.transpose() * (b.v - f.wind);
-        let w = frame.transpose() * b.omega;
+        let (frame, frame_t) = fb.frame;
+        let v = frame_t * (b.v - f.wind);
+        let w = frame_t * b.omega;
         let mut fl = [0.0; 3];
         let mut tl = [0.0; 3];
         for i in 0..3 {
