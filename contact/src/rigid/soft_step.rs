@@ -116,16 +116,19 @@ pub struct SoftStepSettings {
     /// over the corners of a face leaves the face rocking (the top box of the 10-box
     /// stack sways by about 1 cm at the defaults); the block solve does not.
     pub block_normal: bool,
-    /// Spring preload `γ ∈ [0, 1]` (0.95 by default; 0: off): the soft normal rows leak
+    /// Spring preload `γ ∈ [0, 1]` (0.98 by default; 0: off): the soft normal rows leak
     /// `impulse_scale · (λ − λ_pre)` instead of `impulse_scale · λ`, with `λ_pre = γ ·`
-    /// the mean normal impulse of the point's manifold at the end of the previous
-    /// step. A soft row at rest carries `λ` with a penetration `(λ − λ_pre)/(m h ω²)`:
-    /// the spring keeps its stiffness and damping against changes of load, but the
-    /// load it already carried sinks it `1 − γ` times as far (a stack's sink, `Σk g/ω²`
-    /// at `γ = 0`, is cut twentyfold at 0.95). It acts per manifold (the same `λ_pre`
-    /// on every point of a face) and lags a step: per point (tilting a face feeds
-    /// back) or at `γ` near 1 (no spring left against the one-pass coupling of a
-    /// stack) it rocks the 10-box stack by several centimetres.
+    /// the static load estimate of the point's manifold (with
+    /// [`SoftStepSettings::preload_estimate`], the default; where the manifold supports
+    /// nothing, and with it off, the mean normal impulse of the manifold at the end of
+    /// the previous step). A soft row at rest carries `λ` with a penetration
+    /// `(λ − λ_pre)/(m h ω²)`: the spring keeps its stiffness and damping against
+    /// changes of load, but the load it already carried sinks it `1 − γ` times as far
+    /// (a stack's sink, `Σk g/ω²` at `γ = 0`, is cut fiftyfold at 0.98). It acts per
+    /// manifold (the same `λ_pre` on every point of a face). From the previous impulse
+    /// it lags a step: per point (tilting a face feeds back) or at `γ` above 0.95 (no
+    /// spring left against the one-pass coupling of a stack) it rocks the 10-box stack
+    /// by several centimetres; from the estimate it does not.
     ///
     /// `λ_pre` is capped at what the spring at rest would carry at the point's
     /// penetration, `γ/(1 − γ) · m h ω² · (−C)` (an impact's impulse does not become
@@ -151,7 +154,7 @@ pub struct SoftStepSettings {
     /// much as a pass over the points, 6 % of the 10-box stack's step; when off the
     /// statistic is `None`).
     pub residual: bool,
-    /// Preload from the static load estimate every step (off by default): the
+    /// Preload from the static load estimate every step (on by default): the
     /// estimate of [`SoftStepSettings::preload`]'s new manifolds (the weight each
     /// manifold carries at rest, shared top-down) is made for every manifold every
     /// step, and a supporting manifold's `λ_pre` is `γ ·` its estimate instead of `γ ·`
@@ -175,14 +178,14 @@ pub struct SoftStepSettings {
     /// The estimate every step costs 2.5 % of the pyramid's step (0.06 % of the
     /// stack's).
     pub preload_estimate: bool,
-    /// Warm start of a point the narrow phase renamed (off by default): a point whose
+    /// Warm start of a point the narrow phase renamed (on by default): a point whose
     /// id was not in the previous step's contacts, in a manifold (collider pair) some
     /// of whose points were, starts from the mean normal impulse, friction impulse and
     /// preload floor of the points that were found, instead of from zero (and the
     /// manifold's mean impulse for [`SoftStepSettings::preload`] is over those points).
     /// On the 210-box pyramid the clipped face points of a box on two others get new
-    /// ids once the boxes tilt slightly (from step 37 at the defaults; up to 278 of
-    /// 1600 points in one step): each lost its load for that step, and the pyramid
+    /// ids once the boxes tilt slightly (with the estimate at `γ` 0.99, from step 37;
+    /// up to 278 of 1600 points in one step): each lost its load for that step, and the pyramid
     /// sagged by about 7 mm over 10 steps (sink of the bottom row 0.06 → 0.63 mm).
     /// With [`SoftStepSettings::preload_estimate`] it takes the pyramid's worst
     /// displacement over 10 s from 10.3 mm to 4.1 mm (preload 0.97); without it, with
@@ -193,11 +196,12 @@ pub struct SoftStepSettings {
 impl Default for SoftStepSettings {
     /// Box2D v3's defaults: `hertz` 30, `damping_ratio` 10, `max_push_velocity` 3 m/s,
     /// one relax pass; no friction anchors, no one-way coupling, one thread; and this
-    /// library's block normal solve and spring preload 0.95, the residual not computed.
+    /// library's block normal solve, spring preload 0.98 from the static load estimate
+    /// with renamed points refilled, the residual not computed.
     /// A soft contact is a spring of stiffness `m ω²` (`m` the row's effective mass):
     /// carrying the weight of `k` unit boxes it settles by about `k g/ω²` (0.28 mm per
     /// box at 30 Hz; half of it against the ground, which gets twice the frequency),
-    /// a twentieth of that with the preload. Stiffer contacts need more sub-steps: one
+    /// a fiftieth of that with the preload. Stiffer contacts need more sub-steps: one
     /// Gauss–Seidel pass per sub-step does not converge a stack's coupling at a quarter
     /// of the sub-step rate (a 3-box stack at 60 Hz with 4 sub-steps of 1/240 s keeps
     /// rocking at 0.1 m/s; at 30 Hz it rests), and they want the preload off (it rocks
@@ -211,11 +215,11 @@ impl Default for SoftStepSettings {
             one_way_mass_ratio: f64::INFINITY,
             threads: 1,
             block_normal: true,
-            preload: 0.95,
+            preload: 0.98,
             relax_passes: 1,
             residual: false,
-            preload_estimate: false,
-            refill_renamed: false,
+            preload_estimate: true,
+            refill_renamed: true,
         }
     }
 }
