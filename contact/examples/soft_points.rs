@@ -10,10 +10,14 @@
 //! `SCENE`: `stack10` (`scenes::box_stack(10)`), `pyramid20` (`scenes::pyramid(20)`),
 //! `heavy1e4` (`scenes::heavy_on_light(1e4)`) or `pile1000`; keys: `hertz`, `zeta`, `push`,
 //! `anchors` (0/1), `oneway` (the one-way mass ratio), `block` (0/1), `preload`,
-//! `relax` (relax passes), `residual` (0/1), `threads` (the `SoftStepSettings` fields);
+//! `relax` (relax passes), `residual` (0/1), `threads`, `estimate` (0/1:
+//! `preload_estimate`), `refill` (0/1: `refill_renamed`) (the `SoftStepSettings` fields);
 //! `pile1000` (`scenes::pile(1000, 1)`) prints the deepest penetration of the last
 //! step. `TRACE=1` prints the top box's displacement every 20 steps (and each of the
-//! first 20), `WORST=1` the five most displaced boxes at the end.
+//! first 20; `ALL=1`: every step), `BOX=i` traces box `i` instead of the top box (its
+//! drift and sink are then box `i`'s), `COUNT=1` the contacts and deepest penetration of
+//! every step, `LEVELS=1` the mean and lowest vertical displacement of the boxes by start
+//! height at the end, `WORST=1` the five most displaced boxes at the end.
 
 use constraint_contact::rigid::{ContactSolver, ContactWorld};
 use constraint_contact::scenes::{box_stack, heavy_on_light, pile, pyramid};
@@ -54,18 +58,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "relax" => s.relax_passes = x as usize,
             "residual" => s.residual = x != 0.0,
             "threads" => s.threads = x as usize,
+            "estimate" => s.preload_estimate = x != 0.0,
+            "refill" => s.refill_renamed = x != 0.0,
             other => return Err(format!("unknown key {other}").into()),
         }
     }
     let x0 = centres(&w);
     let top = (0..x0.len()).fold(0, |t, i| if x0[i][2] > x0[t][2] { i } else { t });
+    let top = match std::env::var("BOX") {
+        Ok(b) => b.parse()?,
+        Err(_) => top,
+    };
     let (mut drift, mut worst) = (0.0f64, 0.0f64);
     let h = 1.0 / 60.0;
     let trace = std::env::var("TRACE").is_ok();
     let mut depth = 0.0;
     for k in 0..steps {
-        depth = w.step(h)?.max_penetration;
-        if trace && (k < 20 || k % 20 == 0) {
+        let stats = w.step(h)?;
+        depth = stats.max_penetration;
+        if std::env::var("COUNT").is_ok() {
+            println!("{k} contacts {} deepest {:.3e}", stats.contacts, depth);
+        }
+        if trace && (k < 20 || k % 20 == 0 || std::env::var("ALL").is_ok()) {
             let x = w.bodies()[top].pose.x;
             println!(
                 "{k} top {:.4e} {:.4e} {:.4e}",
@@ -82,6 +96,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 drift = drift.max(d);
             }
         }
+    }
+    if std::env::var("LEVELS").is_ok() {
+        // Mean and lowest vertical displacement per start height (pyramid level).
+        let x = centres(&w);
+        let mut rows: Vec<(f64, f64, f64, f64)> = Vec::new();
+        for (p, p0) in x.iter().zip(&x0) {
+            let dz = p[2] - p0[2];
+            match rows.iter_mut().find(|r| (r.0 - p0[2]).abs() < 1e-9) {
+                Some(r) => {
+                    r.1 += dz;
+                    r.2 = r.2.min(dz);
+                    r.3 += 1.0;
+                }
+                None => rows.push((p0[2], dz, dz, 1.0)),
+            }
+        }
+        for r in rows {
+            print!("{:.1}:{:.2}/{:.2} ", r.0, 1e3 * r.1 / r.3, 1e3 * r.2);
+        }
+        println!();
     }
     if std::env::var("WORST").is_ok() {
         let x = centres(&w);
