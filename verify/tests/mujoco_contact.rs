@@ -87,11 +87,11 @@ fn free_body_methods_run_the_contact_world_on_free_bodies_only() {
         let (ours, _) = run(&root().join("scenes/box_stack.xml"), &opts).unwrap();
         let (o, m) = (top(&ours), top(&reference));
         println!("{method}: top box after 2 s {o:.6} m, MuJoCo {m:.6} m");
-        // Measured: free-contact 4.500000 (hard rows; gate 1e-3 m), soft-step 4.499707
-        // (its soft rows, 30 Hz contact springs preloaded with 0.95 of their load and
-        // started from their static load estimate: sink 0.29 mm over five interfaces,
-        // 5.75 mm without the preload; 0.13 mm above MuJoCo; 4.499413 at 0.9 without
-        // the estimate; gate 1e-2 m).
+        // Measured: free-contact 4.500000 (hard rows; gate 1e-3 m), soft-step 4.499883
+        // (its soft rows, 30 Hz contact springs preloaded with 0.98 of their static
+        // load estimate: sink 0.12 mm over five interfaces, 5.75 mm without the
+        // preload; 0.31 mm above MuJoCo's 4.499578; 4.499707 with the previous
+        // default, 0.95 of the last step's load; gate 1e-2 m).
         assert!((o - m).abs() < gate, "{method}");
     }
     // A jointed file is not a free-body scene: a typed error, not a silent switch.

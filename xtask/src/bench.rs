@@ -449,7 +449,7 @@ const CONTACT_SCENES: [(&str, &str); 4] = [
 
 /// Engines of the contact scenes: `(id, label)`; the contact_peers bench's, then
 /// MuJoCo's settings ([`bench_contact::BOX_SETTINGS`], [`bench_contact::SLIDE_SETTINGS`]).
-const CONTACT_ENGINES: [(&str, &str); 17] = [
+const CONTACT_ENGINES: [(&str, &str); 18] = [
     ("ours_auto", "ours (Auto)"),
     ("ours_si", "ours (SI)"),
     ("ours_soft1", "ours (soft step, 1 sub-step)"),
@@ -463,6 +463,10 @@ const CONTACT_ENGINES: [(&str, &str); 17] = [
     (
         "ours_soft4_relax2",
         "ours (soft step, 4 sub-steps, 2 relax passes)",
+    ),
+    (
+        "ours_soft4_lagged",
+        "ours (soft step, 4 sub-steps, the previous default: preload 0.95 of the last step's load)",
     ),
     (
         "ours_soft8_90hz",
