@@ -725,13 +725,18 @@ fn forward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
         u[r] *= dinv[r];
     }
     xi.copy_from_slice(&u[..n]);
+    // `(Wᵀ s)_c = Σ_t w_tc s_t`, each sum from 0 in `t` order, accumulated a row of `W`
+    // at a time (contiguous columns: the sums of two columns share vector lanes).
+    let mut acc = [0.0; 6];
+    for t in 0..n {
+        let ut = u[t];
+        for c in 0..np {
+            acc[c] += w[t][c] * ut;
+        }
+    }
     let xp = &mut x[op..op + np];
     for c in 0..np {
-        let mut s = 0.0;
-        for t in 0..n {
-            s += w[t][c] * u[t];
-        }
-        xp[c] -= s;
+        xp[c] -= acc[c];
     }
 }
 
