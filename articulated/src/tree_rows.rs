@@ -468,7 +468,7 @@ struct NodeArgs<'a> {
 
 /// Forward pass at one node: `s = d⁻¹ L⁻¹ y` (stored), `y_p −= Wᵀ s`; `N`/`NP` the
 /// compile-time shapes (`0, 0`: the runtime ones).
-#[inline]
+#[inline(always)]
 fn forward<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
     let (n, np) = if N == 0 { (a.n, a.np) } else { (N, NP) };
     let (d, dinv, w) = (&a.d[..n * n], &a.dinv[..n], &a.w[..n * np]);
