@@ -180,7 +180,7 @@ impl RowTree {
             let blk = &mut self.diag[dp..dp + n * n];
             for (r, dst) in blk.chunks_exact_mut(n).enumerate() {
                 if r < b {
-                    copy_padded(dst, &tree.diag[k][r], b);
+                    copy_padded(dst, &tree.blocks[k].diag[r], b);
                 } else {
                     dst.fill(0.0);
                 }
@@ -191,7 +191,7 @@ impl RowTree {
                 let blk = &mut self.off[op..op + n * np];
                 for (r, dst) in blk.chunks_exact_mut(np).enumerate() {
                     if r < b {
-                        copy_padded(dst, &tree.off[k][r], bp);
+                        copy_padded(dst, &tree.blocks[k].off[r], bp);
                     } else {
                         dst.fill(0.0);
                     }
