@@ -654,14 +654,45 @@ fn update<const N: usize, const NP: usize>(d: &Blk, dinv: &[f64; 6], w: &mut Blk
             sw[t][c] = w[t][c] * dinv[t];
         }
     }
-    for r in 0..NP {
-        for c in 0..=r {
+    update_rows::<0, N, NP>(w, &sw, dp);
+    update_rows::<2, N, NP>(w, &sw, dp);
+    update_rows::<4, N, NP>(w, &sw, dp);
+}
+
+/// Rows `R0` and `R0 + 1` of [`update`]'s `D_p −= Wᵀ (d⁻¹ W)` (lower triangle), with
+/// `sw = d⁻¹ W`: `(Wᵀ d⁻¹ W)_rc = Σ_t w_tr sw_tc`, each sum from 0 in `t` order. The
+/// two rows side by side (`w_{t,R0}` and `w_{t,R0+1}` are neighbours: the two sums
+/// of a column share vector lanes); row `R0`'s column `R0 + 1` is computed and not
+/// stored. Nothing when `R0 ≥ NP`; row `R0` alone when it is the last.
+#[inline(always)]
+fn update_rows<const R0: usize, const N: usize, const NP: usize>(w: &Blk, sw: &Blk, dp: &mut Blk) {
+    if R0 >= NP {
+        return;
+    }
+    if R0 + 1 >= NP {
+        for c in 0..=R0 {
             let mut s = 0.0;
             for t in 0..N {
-                s += w[t][r] * sw[t][c];
+                s += w[t][R0] * sw[t][c];
             }
-            dp[r][c] -= s;
+            dp[R0][c] -= s;
         }
+        return;
+    }
+    let mut acc = [[0.0; 2]; 6];
+    for t in 0..N {
+        let (a0, a1) = (w[t][R0], w[t][R0 + 1]);
+        for c in 0..=R0 + 1 {
+            let b = sw[t][c];
+            acc[c][0] += a0 * b;
+            acc[c][1] += a1 * b;
+        }
+    }
+    for c in 0..=R0 {
+        dp[R0][c] -= acc[c][0];
+    }
+    for c in 0..=R0 + 1 {
+        dp[R0 + 1][c] -= acc[c][1];
     }
 }
 
