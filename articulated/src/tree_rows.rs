@@ -470,7 +470,11 @@ struct NodeArgs<'a> {
 /// compile-time shapes (`0, 0`: the runtime ones).
 #[inline(always)]
 fn forward<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
-    let (n, np) = if N == 0 { (a.n, a.np) } else { (N, NP) };
+    if N != 0 {
+        forward_fixed::<N, NP>(a);
+        return;
+    }
+    let (n, np) = (a.n, a.np);
     let (d, dinv, w) = (&a.d[..n * n], &a.dinv[..n], &a.w[..n * np]);
     let (xi, xp) = (&mut a.xi[..n], &mut a.xp[..np]);
     for r in 0..n {
@@ -489,6 +493,38 @@ fn forward<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
             xp[c] -= w[t * np + c] * s;
         }
     }
+}
+
+/// [`forward`] for the compile-time shape `N`, `NP`: the node's and the parent's
+/// unknowns worked on in local arrays (registers; the slices' stores would be reloaded,
+/// and the parent's update `y_p −= w_t s_t` row by row then shares vector lanes), the
+/// same operations in the same order.
+#[inline(always)]
+fn forward_fixed<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
+    let (d, dinv, w) = (&a.d[..N * N], &a.dinv[..N], &a.w[..N * NP]);
+    let (xi, xp) = (&mut a.xi[..N], &mut a.xp[..NP]);
+    let mut u = [0.0; N];
+    u.copy_from_slice(xi);
+    for r in 0..N {
+        let mut s = u[r];
+        for t in 0..r {
+            s -= d[r * N + t] * u[t];
+        }
+        u[r] = s;
+    }
+    for r in 0..N {
+        u[r] *= dinv[r];
+    }
+    xi.copy_from_slice(&u);
+    let mut y = [0.0; NP];
+    y.copy_from_slice(xp);
+    for t in 0..N {
+        let s = u[t];
+        for c in 0..NP {
+            y[c] -= w[t * NP + c] * s;
+        }
+    }
+    xp.copy_from_slice(&y);
 }
 
 /// Backward pass at one node: `x = L⁻ᵀ (s − d⁻¹ W x_p)`.
