@@ -530,7 +530,11 @@ fn forward_fixed<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
 /// Backward pass at one node: `x = L⁻ᵀ (s − d⁻¹ W x_p)`.
 #[inline]
 fn backward<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
-    let (n, np) = if N == 0 { (a.n, a.np) } else { (N, NP) };
+    if N != 0 {
+        backward_fixed::<N, NP>(a);
+        return;
+    }
+    let (n, np) = (a.n, a.np);
     let (d, dinv, w) = (&a.d[..n * n], &a.dinv[..n], &a.w[..n * np]);
     let (xi, xp) = (&mut a.xi[..n], &a.xp[..np]);
     for r in 0..n {
@@ -547,6 +551,33 @@ fn backward<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
         }
         xi[r] = v;
     }
+}
+
+/// [`backward`] for the compile-time shape `N`, `NP`, on local arrays (as
+/// [`forward_fixed`]), the same operations in the same order.
+#[inline(always)]
+fn backward_fixed<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
+    let (d, dinv, w) = (&a.d[..N * N], &a.dinv[..N], &a.w[..N * NP]);
+    let (xi, xp) = (&mut a.xi[..N], &a.xp[..NP]);
+    let mut u = [0.0; N];
+    u.copy_from_slice(xi);
+    let mut y = [0.0; NP];
+    y.copy_from_slice(xp);
+    for r in 0..N {
+        let mut acc = 0.0;
+        for c in 0..NP {
+            acc += w[r * NP + c] * y[c];
+        }
+        u[r] -= dinv[r] * acc;
+    }
+    for r in (0..N).rev() {
+        let mut v = u[r];
+        for t in r + 1..N {
+            v -= d[t * N + r] * u[t];
+        }
+        u[r] = v;
+    }
+    xi.copy_from_slice(&u);
 }
 
 /// `W = L⁻¹ W` (`L` the unit lower factor in `blk`) and `D_p −= Wᵀ diag(dinv) W` on
