@@ -48,6 +48,27 @@ use crate::error::ArticulatedError;
 /// A ≤ 6×6 dense block, row-major.
 pub(crate) type Blk = [[f64; 6]; 6];
 const ZERO: Blk = [[0.0; 6]; 6];
+
+/// One node's blocks, side by side (the solve reads all three of a node at once: one
+/// index, one bounds check, one cache neighbourhood).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct NodeBlocks {
+    /// `H_ii` on entry, then the factored `D_i` (unit-lower `L` below the diagonal, `d`
+    /// on it).
+    pub(crate) diag: Blk,
+    /// `H_{i,parent(i)}` (`dim_i × dim_parent`) on assembly; after
+    /// [`TreeSolver::factor`], `W_i = L_i⁻¹ H_{i,parent(i)}` (`L_i` the unit lower
+    /// factor of `D_i`).
+    pub(crate) off: Blk,
+    /// `1/d` of the node's pivots (0 for dropped pivots).
+    dinv: [f64; 6],
+}
+
+const ZERO_NODE: NodeBlocks = NodeBlocks {
+    diag: ZERO,
+    off: ZERO,
+    dinv: [0.0; 6],
+};
 pub(crate) const NONE: usize = usize::MAX;
 
 /// The structure of the tree (built once per topology) and the factor (per step).
@@ -65,16 +86,9 @@ pub(crate) struct TreeSolver {
     /// n_parent, parent offset]` (`0, 0` for a root), read once per node instead of from
     /// the `dim`, `offset` and `parent` tables.
     schedule: Vec<[usize; 5]>,
-    /// `H_ii` on entry, then the factored `D_i` (unit-lower `L` below the diagonal, `d`
-    /// on it).
-    pub(crate) diag: Vec<Blk>,
-    /// Zero-pivot mask per node (bit r set: pivot r dropped).
-    dropped: Vec<u8>,
-    /// `H_{i,parent(i)}` (`dim_i × dim_parent`) on assembly; after [`Self::factor`],
-    /// `W_i = L_i⁻¹ H_{i,parent(i)}` (`L_i` the unit lower factor of `D_i`).
-    pub(crate) off: Vec<Blk>,
-    /// `1/d` of each node's pivots (0 for dropped pivots).
-    dinv: Vec<[f64; 6]>,
+    /// Per node: its diagonal block, its block to the parent and its inverse pivots
+    /// (the factor once [`Self::factor`] ran; a dropped pivot is a zero `1/d`).
+    pub(crate) blocks: Vec<NodeBlocks>,
     /// For joint `j`: its node, or `NONE` for a loop joint.
     pub joint_node: Vec<usize>,
     /// Loop joints, in joint order.
@@ -83,15 +97,12 @@ pub(crate) struct TreeSolver {
     pub size: usize,
 }
 
-/// The storage of one factor of the tree matrix ([`TreeSolver`]'s `diag`, `dropped`,
-/// `off` and `dinv`), kept aside so that a factor can be set away and brought back by
-/// swapping buffers ([`TreeSolver::swap_factor`]) instead of being computed again.
+/// The storage of one factor of the tree matrix ([`TreeSolver`]'s `blocks`), kept
+/// aside so that a factor can be set away and brought back by swapping buffers
+/// ([`TreeSolver::swap_factor`]) instead of being computed again.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct FactorStore {
-    diag: Vec<Blk>,
-    dropped: Vec<u8>,
-    off: Vec<Blk>,
-    dinv: Vec<[f64; 6]>,
+    blocks: Vec<NodeBlocks>,
 }
 
 /// Per-joint topology the solver needs: its bodies and number of rows.
@@ -215,36 +226,24 @@ impl TreeSolver {
             parent,
             order,
             schedule,
-            diag: vec![ZERO; n_nodes],
-            dropped: vec![0; n_nodes],
-            off: vec![ZERO; n_nodes],
-            dinv: vec![[0.0; 6]; n_nodes],
+            blocks: vec![ZERO_NODE; n_nodes],
             joint_node,
             loops,
             size,
         }
     }
 
-    /// Exchanges the solver's factor storage with `store` (four buffer swaps, no copy):
+    /// Exchanges the solver's factor storage with `store` (a buffer swap, no copy):
     /// the factor in the solver goes to `store` and `store`'s comes in. A store of
     /// another size (a new topology, or the empty default) is first sized to this tree,
     /// its contents zero.
     pub fn swap_factor(&mut self, store: &mut FactorStore) {
         let n = self.dim.len();
-        if store.diag.len() != n {
-            store.diag.clear();
-            store.diag.resize(n, ZERO);
-            store.dropped.clear();
-            store.dropped.resize(n, 0);
-            store.off.clear();
-            store.off.resize(n, ZERO);
-            store.dinv.clear();
-            store.dinv.resize(n, [0.0; 6]);
+        if store.blocks.len() != n {
+            store.blocks.clear();
+            store.blocks.resize(n, ZERO_NODE);
         }
-        core::mem::swap(&mut self.diag, &mut store.diag);
-        core::mem::swap(&mut self.dropped, &mut store.dropped);
-        core::mem::swap(&mut self.off, &mut store.off);
-        core::mem::swap(&mut self.dinv, &mut store.dinv);
+        core::mem::swap(&mut self.blocks, &mut store.blocks);
     }
 
     /// Offset of body `i`'s 6 unknowns `(v, ω)`.
@@ -262,7 +261,7 @@ impl TreeSolver {
 
     /// Sets body `i`'s mass block `diag(m, m, m) ⊕ I_world`.
     pub fn set_body(&mut self, i: usize, mass: f64, inertia: &constraint_core::DMat3) {
-        let d = &mut self.diag[i];
+        let d = &mut self.blocks[i].diag;
         *d = ZERO;
         for k in 0..3 {
             d[k][k] = mass;
@@ -279,7 +278,7 @@ impl TreeSolver {
         xx: &constraint_core::DMat3,
         tt: &constraint_core::DMat3,
     ) {
-        let d = &mut self.diag[i];
+        let d = &mut self.blocks[i].diag;
         for k in 0..3 {
             for l in 0..3 {
                 d[k][l] += xx.col(l)[k];
@@ -300,7 +299,7 @@ impl TreeSolver {
     ) {
         let node = self.joint_node[j];
         let m = topo.rows;
-        let d = &mut self.diag[node];
+        let d = &mut self.blocks[node].diag;
         *d = ZERO;
         for r in 0..m {
             d[r][r] = -compliance[r];
@@ -320,13 +319,13 @@ impl TreeSolver {
                 }
             };
             if body == p {
-                let o = &mut self.off[node];
+                let o = &mut self.blocks[node].off;
                 for r in 0..m {
                     o[r] = blk(r);
                 }
             } else {
                 // body is the joint's child: H_{body, joint} = Jᵀ
-                let o = &mut self.off[body];
+                let o = &mut self.blocks[body].off;
                 for r in 0..m {
                     let row = blk(r);
                     for c in 0..6 {
@@ -346,12 +345,12 @@ impl TreeSolver {
             let i = self.order[k];
             let n = self.dim[i];
             let is_body = i < self.n_bodies;
-            let mask = ldlt_in_place(&mut self.diag[i], n);
-            if is_body && (mask != 0 || (0..n).any(|r| !(self.diag[i][r][r] > 0.0))) {
+            let bi = &mut self.blocks[i];
+            let mask = ldlt_in_place(&mut bi.diag, n);
+            if is_body && (mask != 0 || (0..n).any(|r| !(bi.diag[r][r] > 0.0))) {
                 return Err(ArticulatedError::Singular { node: i });
             }
-            self.dropped[i] = mask;
-            let d = &self.diag[i];
+            let d = &bi.diag;
             let mut dinv = [0.0; 6];
             for r in 0..n {
                 dinv[r] = if mask & (1 << r) != 0 {
@@ -360,15 +359,15 @@ impl TreeSolver {
                     1.0 / d[r][r]
                 };
             }
-            self.dinv[i] = dinv;
+            bi.dinv = dinv;
             let p = self.parent[i];
             if p == NONE {
                 continue;
             }
             let np = self.dim[p];
-            let (di, dp) = pair_mut(&mut self.diag, i, p);
+            let (bi, bp) = pair_mut(&mut self.blocks, i, p);
             // W overwrites H_{i,p} in place (set again at every assembly).
-            let w = &mut self.off[i];
+            let (di, w, dp) = (&bi.diag, &mut bi.off, &mut bp.diag);
             // Fixed-size kernels for the shapes of body/joint pairs (the loops unroll).
             macro_rules! dispatch {
                 ($($a:literal, $b:literal);*) => {
@@ -425,13 +424,15 @@ impl TreeSolver {
             if mark.is_some_and(|m| !m[i]) {
                 continue;
             }
-            let args = (&self.diag[i], &self.dinv[i], &self.off[i], oi, op, n, np);
+            let b = &self.blocks[i];
+            let args = (&b.diag, &b.dinv, &b.off, oi, op, n, np);
             dispatch!(forward, n, np, args, x;
                 6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
                 1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
         }
         for &[i, n, oi, np, op] in self.schedule.iter().rev() {
-            let args = (&self.diag[i], &self.dinv[i], &self.off[i], oi, op, n, np);
+            let b = &self.blocks[i];
+            let args = (&b.diag, &b.dinv, &b.off, oi, op, n, np);
             dispatch!(backward, n, np, args, x;
                 6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
                 1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
@@ -625,13 +626,13 @@ fn ldlt_sized(a: &mut Blk, n: usize) -> u8 {
 }
 
 /// Two distinct elements of a slice, mutably.
-fn pair_mut(v: &mut [Blk], i: usize, p: usize) -> (&Blk, &mut Blk) {
+fn pair_mut(v: &mut [NodeBlocks], i: usize, p: usize) -> (&mut NodeBlocks, &mut NodeBlocks) {
     if i < p {
         let (lo, hi) = v.split_at_mut(p);
-        (&lo[i], &mut hi[0])
+        (&mut lo[i], &mut hi[0])
     } else {
         let (lo, hi) = v.split_at_mut(i);
-        (&hi[0], &mut lo[p])
+        (&mut hi[0], &mut lo[p])
     }
 }
 
@@ -653,14 +654,45 @@ fn update<const N: usize, const NP: usize>(d: &Blk, dinv: &[f64; 6], w: &mut Blk
             sw[t][c] = w[t][c] * dinv[t];
         }
     }
-    for r in 0..NP {
-        for c in 0..=r {
+    update_rows::<0, N, NP>(w, &sw, dp);
+    update_rows::<2, N, NP>(w, &sw, dp);
+    update_rows::<4, N, NP>(w, &sw, dp);
+}
+
+/// Rows `R0` and `R0 + 1` of [`update`]'s `D_p −= Wᵀ (d⁻¹ W)` (lower triangle), with
+/// `sw = d⁻¹ W`: `(Wᵀ d⁻¹ W)_rc = Σ_t w_tr sw_tc`, each sum from 0 in `t` order. The
+/// two rows side by side (`w_{t,R0}` and `w_{t,R0+1}` are neighbours: the two sums
+/// of a column share vector lanes); row `R0`'s column `R0 + 1` is computed and not
+/// stored. Nothing when `R0 ≥ NP`; row `R0` alone when it is the last.
+#[inline(always)]
+fn update_rows<const R0: usize, const N: usize, const NP: usize>(w: &Blk, sw: &Blk, dp: &mut Blk) {
+    if R0 >= NP {
+        return;
+    }
+    if R0 + 1 >= NP {
+        for c in 0..=R0 {
             let mut s = 0.0;
             for t in 0..N {
-                s += w[t][r] * sw[t][c];
+                s += w[t][R0] * sw[t][c];
             }
-            dp[r][c] -= s;
+            dp[R0][c] -= s;
         }
+        return;
+    }
+    let mut acc = [[0.0; 2]; 6];
+    for t in 0..N {
+        let (a0, a1) = (w[t][R0], w[t][R0 + 1]);
+        for c in 0..=R0 + 1 {
+            let b = sw[t][c];
+            acc[c][0] += a0 * b;
+            acc[c][1] += a1 * b;
+        }
+    }
+    for c in 0..=R0 {
+        dp[R0][c] -= acc[c][0];
+    }
+    for c in 0..=R0 + 1 {
+        dp[R0 + 1][c] -= acc[c][1];
     }
 }
 
@@ -725,13 +757,18 @@ fn forward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
         u[r] *= dinv[r];
     }
     xi.copy_from_slice(&u[..n]);
+    // `(Wᵀ s)_c = Σ_t w_tc s_t`, each sum from 0 in `t` order, accumulated a row of `W`
+    // at a time (contiguous columns: the sums of two columns share vector lanes).
+    let mut acc = [0.0; 6];
+    for t in 0..n {
+        let ut = u[t];
+        for c in 0..np {
+            acc[c] += w[t][c] * ut;
+        }
+    }
     let xp = &mut x[op..op + np];
     for c in 0..np {
-        let mut s = 0.0;
-        for t in 0..n {
-            s += w[t][c] * u[t];
-        }
-        xp[c] -= s;
+        xp[c] -= acc[c];
     }
 }
 

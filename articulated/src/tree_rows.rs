@@ -180,7 +180,7 @@ impl RowTree {
             let blk = &mut self.diag[dp..dp + n * n];
             for (r, dst) in blk.chunks_exact_mut(n).enumerate() {
                 if r < b {
-                    copy_padded(dst, &tree.diag[k][r], b);
+                    copy_padded(dst, &tree.blocks[k].diag[r], b);
                 } else {
                     dst.fill(0.0);
                 }
@@ -191,7 +191,7 @@ impl RowTree {
                 let blk = &mut self.off[op..op + n * np];
                 for (r, dst) in blk.chunks_exact_mut(np).enumerate() {
                     if r < b {
-                        copy_padded(dst, &tree.off[k][r], bp);
+                        copy_padded(dst, &tree.blocks[k].off[r], bp);
                     } else {
                         dst.fill(0.0);
                     }
@@ -468,9 +468,13 @@ struct NodeArgs<'a> {
 
 /// Forward pass at one node: `s = d⁻¹ L⁻¹ y` (stored), `y_p −= Wᵀ s`; `N`/`NP` the
 /// compile-time shapes (`0, 0`: the runtime ones).
-#[inline]
+#[inline(always)]
 fn forward<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
-    let (n, np) = if N == 0 { (a.n, a.np) } else { (N, NP) };
+    if N != 0 {
+        forward_fixed::<N, NP>(a);
+        return;
+    }
+    let (n, np) = (a.n, a.np);
     let (d, dinv, w) = (&a.d[..n * n], &a.dinv[..n], &a.w[..n * np]);
     let (xi, xp) = (&mut a.xi[..n], &mut a.xp[..np]);
     for r in 0..n {
@@ -491,10 +495,46 @@ fn forward<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
     }
 }
 
+/// [`forward`] for the compile-time shape `N`, `NP`: the node's and the parent's
+/// unknowns worked on in local arrays (registers; the slices' stores would be reloaded,
+/// and the parent's update `y_p −= w_t s_t` row by row then shares vector lanes), the
+/// same operations in the same order.
+#[inline(always)]
+fn forward_fixed<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
+    let (d, dinv, w) = (&a.d[..N * N], &a.dinv[..N], &a.w[..N * NP]);
+    let (xi, xp) = (&mut a.xi[..N], &mut a.xp[..NP]);
+    let mut u = [0.0; N];
+    u.copy_from_slice(xi);
+    for r in 0..N {
+        let mut s = u[r];
+        for t in 0..r {
+            s -= d[r * N + t] * u[t];
+        }
+        u[r] = s;
+    }
+    for r in 0..N {
+        u[r] *= dinv[r];
+    }
+    xi.copy_from_slice(&u);
+    let mut y = [0.0; NP];
+    y.copy_from_slice(xp);
+    for t in 0..N {
+        let s = u[t];
+        for c in 0..NP {
+            y[c] -= w[t * NP + c] * s;
+        }
+    }
+    xp.copy_from_slice(&y);
+}
+
 /// Backward pass at one node: `x = L⁻ᵀ (s − d⁻¹ W x_p)`.
 #[inline]
 fn backward<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
-    let (n, np) = if N == 0 { (a.n, a.np) } else { (N, NP) };
+    if N != 0 {
+        backward_fixed::<N, NP>(a);
+        return;
+    }
+    let (n, np) = (a.n, a.np);
     let (d, dinv, w) = (&a.d[..n * n], &a.dinv[..n], &a.w[..n * np]);
     let (xi, xp) = (&mut a.xi[..n], &a.xp[..np]);
     for r in 0..n {
@@ -513,6 +553,33 @@ fn backward<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
     }
 }
 
+/// [`backward`] for the compile-time shape `N`, `NP`, on local arrays (as
+/// [`forward_fixed`]), the same operations in the same order.
+#[inline(always)]
+fn backward_fixed<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
+    let (d, dinv, w) = (&a.d[..N * N], &a.dinv[..N], &a.w[..N * NP]);
+    let (xi, xp) = (&mut a.xi[..N], &a.xp[..NP]);
+    let mut u = [0.0; N];
+    u.copy_from_slice(xi);
+    let mut y = [0.0; NP];
+    y.copy_from_slice(xp);
+    for r in 0..N {
+        let mut acc = 0.0;
+        for c in 0..NP {
+            acc += w[r * NP + c] * y[c];
+        }
+        u[r] -= dinv[r] * acc;
+    }
+    for r in (0..N).rev() {
+        let mut v = u[r];
+        for t in r + 1..N {
+            v -= d[t * N + r] * u[t];
+        }
+        u[r] = v;
+    }
+    xi.copy_from_slice(&u);
+}
+
 /// `W = L⁻¹ W` (`L` the unit lower factor in `blk`) and `D_p −= Wᵀ diag(dinv) W` on
 /// the lower triangle, for an `N`-row node under an `NP`-row parent.
 #[inline]
@@ -522,6 +589,8 @@ fn update_fixed<const N: usize, const NP: usize>(
     w: &mut [f64],
     dpar: &mut [f64],
 ) {
+    // `update_rows` below covers parent rows 0..16.
+    const { assert!(NP <= 16) };
     let blk = &blk[..N * N];
     let dinv = &dinv[..N];
     let w = &mut w[..N * NP];
@@ -534,14 +603,72 @@ fn update_fixed<const N: usize, const NP: usize>(
             }
         }
     }
+    // `sw_tr = w_tr d_t⁻¹`; `D_p −= Wᵀ d⁻¹ W` two rows of `D_p` at a time
+    // ([`update_rows`]).
+    let mut sw = [[0.0; NP]; N];
     for t in 0..N {
-        let dt = dinv[t];
         for r in 0..NP {
-            let s = w[t * NP + r] * dt;
-            for c in 0..=r {
-                dpar[r * NP + c] -= s * w[t * NP + c];
+            sw[t][r] = w[t * NP + r] * dinv[t];
+        }
+    }
+    let w = &*w;
+    update_rows::<0, N, NP>(w, &sw, dpar);
+    update_rows::<2, N, NP>(w, &sw, dpar);
+    update_rows::<4, N, NP>(w, &sw, dpar);
+    update_rows::<6, N, NP>(w, &sw, dpar);
+    update_rows::<8, N, NP>(w, &sw, dpar);
+    update_rows::<10, N, NP>(w, &sw, dpar);
+    update_rows::<12, N, NP>(w, &sw, dpar);
+    update_rows::<14, N, NP>(w, &sw, dpar);
+}
+
+/// Rows `R0` and `R0 + 1` of [`update_fixed`]'s `D_p −= Wᵀ d⁻¹ W` (lower triangle):
+/// `d_rc −= Σ_t sw_tr w_tc` (`sw = d⁻¹ W`), one term at a time in `t` order from the
+/// stored value, as the row-by-row update. The two rows side by side in local
+/// accumulators (the two rows' terms of a column share vector lanes); row `R0`'s
+/// column `R0 + 1` is computed and not stored. Nothing when `R0 ≥ NP`; row `R0` alone
+/// when it is the last. `NP ≤ 16`.
+#[inline(always)]
+fn update_rows<const R0: usize, const N: usize, const NP: usize>(
+    w: &[f64],
+    sw: &[[f64; NP]; N],
+    dpar: &mut [f64],
+) {
+    if R0 >= NP {
+        return;
+    }
+    if R0 + 1 >= NP {
+        let mut acc = [0.0; NP];
+        acc[..=R0].copy_from_slice(&dpar[R0 * NP..R0 * NP + R0 + 1]);
+        for t in 0..N {
+            let s = sw[t][R0];
+            for c in 0..=R0 {
+                acc[c] -= s * w[t * NP + c];
             }
         }
+        dpar[R0 * NP..R0 * NP + R0 + 1].copy_from_slice(&acc[..=R0]);
+        return;
+    }
+    let mut acc = [[0.0; 2]; NP];
+    for c in 0..=R0 {
+        acc[c][0] = dpar[R0 * NP + c];
+    }
+    for c in 0..=R0 + 1 {
+        acc[c][1] = dpar[(R0 + 1) * NP + c];
+    }
+    for t in 0..N {
+        let (s0, s1) = (sw[t][R0], sw[t][R0 + 1]);
+        for c in 0..=R0 + 1 {
+            let b = w[t * NP + c];
+            acc[c][0] -= s0 * b;
+            acc[c][1] -= s1 * b;
+        }
+    }
+    for c in 0..=R0 {
+        dpar[R0 * NP + c] = acc[c][0];
+    }
+    for c in 0..=R0 + 1 {
+        dpar[(R0 + 1) * NP + c] = acc[c][1];
     }
 }
 
@@ -794,6 +921,54 @@ mod tests {
         assert_eq!(kept, 6, "dinv {dinv:?}");
         assert!(dinv[..6].iter().all(|d| *d < 0.0), "dinv {dinv:?}");
         assert_eq!(&dinv[6..], &[0.0, 0.0]);
+    }
+
+    /// The fixed-shape [`update_fixed`] (two parent rows at a time) gives the
+    /// row-by-row [`update_dyn`]'s `W` and parent block to the bit, for every shape
+    /// the factor dispatches to it (entries all non-zero, so that `update_dyn`'s
+    /// skipped zero terms do not arise). Bits, not a tolerance: the step's results
+    /// depend on it.
+    #[test]
+    fn fixed_update_matches_the_row_by_row_update_to_the_bit() {
+        fn check<const N: usize, const NP: usize>() {
+            let v = |k: usize| 0.3 + 0.5 * libm::sin(0.7 + 1.9 * k as f64);
+            let blk: Vec<f64> = (0..N * N).map(|k| v(k) * 0.4).collect();
+            let dinv: Vec<f64> = (0..N).map(|k| -1.0 / (1.0 + v(k + 50))).collect();
+            let w0: Vec<f64> = (0..N * NP).map(|k| v(k + 100)).collect();
+            let d0: Vec<f64> = (0..NP * NP).map(|k| 2.0 + v(k + 400)).collect();
+            let (mut wf, mut df) = (w0.clone(), d0.clone());
+            let (mut wd, mut dd) = (w0, d0);
+            update_fixed::<N, NP>(&blk, &dinv, &mut wf, &mut df);
+            update_dyn(N, NP, &blk, &dinv, &mut wd, &mut dd);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&wf), bits(&wd), "W, shape {N}×{NP}");
+            assert_eq!(bits(&df), bits(&dd), "D_p, shape {N}×{NP}");
+        }
+        check::<6, 3>();
+        check::<6, 4>();
+        check::<6, 5>();
+        check::<6, 6>();
+        check::<6, 7>();
+        check::<6, 8>();
+        check::<6, 9>();
+        check::<6, 10>();
+        check::<6, 11>();
+        check::<6, 12>();
+        check::<6, 13>();
+        check::<6, 14>();
+        check::<6, 15>();
+        check::<3, 6>();
+        check::<4, 6>();
+        check::<5, 6>();
+        check::<7, 6>();
+        check::<8, 6>();
+        check::<9, 6>();
+        check::<10, 6>();
+        check::<11, 6>();
+        check::<12, 6>();
+        check::<13, 6>();
+        check::<14, 6>();
+        check::<15, 6>();
     }
 
     /// The unrolled [`ldlt_two_segment_fixed`] gives [`ldlt_two_segment_sized`]'s
