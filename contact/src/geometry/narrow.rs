@@ -202,11 +202,31 @@ pub fn collide(
     margin: f64,
     out: &mut Vec<Contact>,
 ) -> usize {
-    let (mut fa, mut fb) = (a.world_pose(pose_a), b.world_pose(pose_b));
-    let (mut sa, mut sb) = (a.shape, b.shape);
+    let (fa, fb) = (a.world_pose(pose_a), b.world_pose(pose_b));
+    let (ra, rb) = (a.rotation(&fa), b.rotation(&fb));
+    collide_framed(pair, (a, &fa, &ra), (b, &fb, &rb), margin, out)
+}
+
+/// A collider with its frame in the world ([`Collider::world_pose`]) and that frame's
+/// [`Collider::rotation`].
+pub(crate) type Framed<'c> = (&'c Collider, &'c Pose, &'c DMat3);
+
+/// [`collide`] from the colliders' world frames and rotations, computed once per step
+/// by the caller (the broad phase computes them for the bounding boxes): the same
+/// contacts, the same bits.
+pub(crate) fn collide_framed(
+    pair: (usize, usize),
+    a: Framed,
+    b: Framed,
+    margin: f64,
+    out: &mut Vec<Contact>,
+) -> usize {
+    let ((ca, mut fa, mut ra), (cb, mut fb, mut rb)) = (a, b);
+    let (mut sa, mut sb) = (ca.shape, cb.shape);
     let flip = rank(&sa) > rank(&sb);
     if flip {
         core::mem::swap(&mut fa, &mut fb);
+        core::mem::swap(&mut ra, &mut rb);
         core::mem::swap(&mut sa, &mut sb);
     }
     let mut sink = Sink {
@@ -219,16 +239,16 @@ pub fn collide(
     };
     match (sa, sb) {
         (Shape::Sphere { radius }, other) => {
-            let cl = closest_point(&other, &fb, fa.x);
+            let cl = closest_point(&other, fb, fa.x);
             let n = -cl.normal;
             sink.push(fa.x + n * radius, cl.surface, n, radius - cl.distance, 0);
         }
         (Shape::Plane { .. }, Shape::Plane { .. }) => {}
         (Shape::Plane { .. }, Shape::Capsule { .. }) => {
-            let (p0, p1, r) = segment(&sb, &fb);
+            let (p0, p1, r) = segment(&sb, fb);
             let ends: &[DVec3] = if p0 == p1 { &[p0] } else { &[p0, p1] };
             for (k, &e) in ends.iter().enumerate() {
-                let cl = closest_point(&sa, &fa, e);
+                let cl = closest_point(&sa, fa, e);
                 sink.push(
                     cl.surface,
                     e - cl.normal * r,
@@ -239,13 +259,15 @@ pub fn collide(
             }
         }
         (Shape::Plane { normal, offset }, Shape::Box { half }) => {
-            plane_box(&fa, normal, offset, &fb, half, &mut sink)
+            plane_box(fa, normal, offset, fb, half, &mut sink)
         }
         (Shape::Capsule { .. }, Shape::Capsule { .. }) => {
-            capsule_capsule(&sa, &fa, &sb, &fb, &mut sink)
+            capsule_capsule(&sa, fa, &sb, fb, &mut sink)
         }
-        (Shape::Capsule { .. }, Shape::Box { half }) => capsule_box(&sa, &fa, half, &fb, &mut sink),
-        (Shape::Box { half: ha }, Shape::Box { half: hb }) => box_box(&fa, ha, &fb, hb, &mut sink),
+        (Shape::Capsule { .. }, Shape::Box { half }) => capsule_box(&sa, fa, half, fb, &mut sink),
+        (Shape::Box { half: ha }, Shape::Box { half: hb }) => {
+            box_box((fa, ra), ha, (fb, rb), hb, &mut sink)
+        }
         // `rank` orders the pair so the first shape never ranks above the second.
         _ => {}
     }
@@ -583,29 +605,34 @@ impl Poly {
 fn clip(input: &Poly, m: DVec3, o: f64, label: u8, out: &mut Poly) {
     out.n = 0;
     let n = input.n;
+    // Each vertex's signed distance once (the loop meets every vertex as `cur` and as
+    // `next`): the same expression, the same bits.
+    let mut dist = [0.0; 12];
+    for (d, v) in dist.iter_mut().zip(&input.v[..n]) {
+        *d = m.dot(v.p) - o;
+    }
     for idx in 0..n {
-        let cur = input.v[idx];
-        let next = input.v[if idx + 1 == n { 0 } else { idx + 1 }];
-        let dc = m.dot(cur.p) - o;
-        let dn = m.dot(next.p) - o;
-        let cross = |c: &Vtx, n: &Vtx| {
+        let nx = if idx + 1 == n { 0 } else { idx + 1 };
+        let (cur, next) = (&input.v[idx], &input.v[nx]);
+        let (dc, dn) = (dist[idx], dist[nx]);
+        let cross = || {
             let t = dc / (dc - dn);
-            c.p + (n.p - c.p) * t
+            cur.p + (next.p - cur.p) * t
         };
         match (dc <= 0.0, dn <= 0.0) {
-            (true, true) => out.push(next),
+            (true, true) => out.push(*next),
             (true, false) => out.push(Vtx {
-                p: cross(&cur, &next),
+                p: cross(),
                 inn: cur.out,
                 out: label,
             }),
             (false, true) => {
                 out.push(Vtx {
-                    p: cross(&cur, &next),
+                    p: cross(),
                     inn: label,
                     out: next.inn,
                 });
-                out.push(next);
+                out.push(*next);
             }
             (false, false) => {}
         }
@@ -616,9 +643,14 @@ fn clip(input: &Poly, m: DVec3, o: f64, label: u8, out: &mut Poly) {
 /// lie this fraction of the reference box's smallest half extent outside the face.
 pub const CLIP_SLACK: f64 = 1e-4;
 
-fn box_box(fa: &Pose, ha: DVec3, fb: &Pose, hb: DVec3, sink: &mut Sink) {
-    let ra = DMat3::from_quat(fa.q);
-    let rb = DMat3::from_quat(fb.q);
+/// Box `a` (frame `fa`, rotation matrix `ra`, half extents `ha`) against box `b`.
+fn box_box(
+    (fa, ra): (&Pose, &DMat3),
+    ha: DVec3,
+    (fb, rb): (&Pose, &DMat3),
+    hb: DVec3,
+    sink: &mut Sink,
+) {
     let ua = [ra.x_axis, ra.y_axis, ra.z_axis];
     let ub = [rb.x_axis, rb.y_axis, rb.z_axis];
     let t = fb.x - fa.x;
