@@ -15,7 +15,7 @@ use glam::DMat3;
 
 use super::contact::Contact;
 use super::grid::{grid_pairs, GridScratch};
-use super::narrow::collide_framed;
+use super::narrow::{collide_framed, ClipBuffers};
 use super::shape::{Aabb, Collider, GeometryError, Shape};
 
 /// What a broad-phase pass did.
@@ -193,6 +193,8 @@ pub struct BroadScratch {
     is_static: Vec<bool>,
     grid: GridScratch,
     pairs: Vec<(usize, usize)>,
+    /// The narrow phase's clipping polygons.
+    clip: ClipBuffers,
 }
 
 /// [`generate_contacts_filtered`] with its buffers in `scratch`: the same contacts in
@@ -243,6 +245,7 @@ pub fn generate_contacts_awake(
         is_static,
         grid,
         pairs,
+        clip,
     } = scratch;
     aabbs.clear();
     frames.clear();
@@ -284,7 +287,7 @@ pub fn generate_contacts_awake(
             if a.body == b.body || !keep(i, j) {
                 continue;
             }
-            collide_framed((i, j), framed(i), framed(j), margin, out);
+            collide_framed((i, j), framed(i), framed(j), margin, clip, out);
         }
     } else {
         for &(i, j) in pairs.iter() {
@@ -292,7 +295,7 @@ pub fn generate_contacts_awake(
             if a.body == b.body || beyond(i, j) || !keep(i, j) {
                 continue;
             }
-            collide_framed((i, j), framed(i), framed(j), margin, out);
+            collide_framed((i, j), framed(i), framed(j), margin, clip, out);
         }
     }
     Ok(stats)
