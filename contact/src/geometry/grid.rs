@@ -35,12 +35,33 @@ use alloc::vec::Vec;
 use super::broad::BroadStats;
 use super::shape::Aabb;
 
-/// Cell coordinates `(z, y, x)` (lexicographic order walks rows of `x`).
-type Cell = (i64, i64, i64);
+/// Cell coordinates `(z, y, x)` packed into one integer, `(z + B) 2^84 + (y + B) 2^42 +
+/// (x + B)` with `B = 2^41`: every coordinate lies within `±(2^40 + 1)` (clamped to
+/// [`CELL_LIMIT`], a neighbour one further), so each field stays in `[0, 2^42)` and
+/// the integer order is the lexicographic order of `(z, y, x)` (rows of `x`); a
+/// neighbour's cell is the key plus `dz 2^84 + dy 2^42 + dx`. One integer comparison
+/// where the tuple took three.
+type Cell = i128;
 
 /// Largest cell coordinate magnitude (keys are clamped to it; clamping is monotone, so
 /// overlapping boxes stay within one cell of each other).
-const CELL_LIMIT: f64 = (1u64 << 40) as f64;
+const CELL_LIMIT: i64 = 1 << 40;
+
+/// The offset `B` of each packed coordinate ([`Cell`]).
+const CELL_BIAS: i64 = 1 << 41;
+
+/// The packed cell `(z, y, x)` ([`Cell`]), `|z|, |y|, |x| ≤ CELL_LIMIT`.
+#[inline]
+fn pack(z: i64, y: i64, x: i64) -> Cell {
+    (i128::from(z + CELL_BIAS) << 84)
+        | (i128::from(y + CELL_BIAS) << 42)
+        | i128::from(x + CELL_BIAS)
+}
+
+/// The packed offset of the neighbouring row `(dz, dy)` ([`Cell`]).
+const fn row_offset(dz: i128, dy: i128) -> Cell {
+    dz * (1 << 84) + dy * (1 << 42)
+}
 
 /// At most this many boxes are paired by testing every pair (`n (n − 1) / 2` box tests,
 /// about 15 instructions each) instead of through the grid: filing, sorting and the
@@ -72,16 +93,40 @@ pub struct GridScratch {
     cursor: [usize; ROWS.len()],
 }
 
-/// The neighbouring rows `(dz, dy)` the sweep walks with cursors: those after the
-/// box's own row `(z, y)` in the sorted order (the own row is walked from the box on;
-/// the other four hold only earlier boxes).
-const ROWS: [(i64, i64); 4] = [(0, 1), (1, -1), (1, 0), (1, 1)];
+/// The neighbouring rows `(dz, dy)` (their packed offsets, [`Cell`]) the sweep walks
+/// with cursors: those after the box's own row `(z, y)` in the sorted order (the own
+/// row is walked from the box on; the other four hold only earlier boxes).
+const ROWS: [Cell; 4] = [
+    row_offset(0, 1),
+    row_offset(1, -1),
+    row_offset(1, 0),
+    row_offset(1, 1),
+];
 
 /// The cell of a lower corner at cell size `s`.
 #[inline]
 fn cell_of(aabb: &Aabb, s: f64) -> Cell {
-    let k = |v: f64| libm::floor(v / s).clamp(-CELL_LIMIT, CELL_LIMIT) as i64;
-    (k(aabb.min.z), k(aabb.min.y), k(aabb.min.x))
+    pack(
+        cell_coordinate(aabb.min.z / s),
+        cell_coordinate(aabb.min.y / s),
+        cell_coordinate(aabb.min.x / s),
+    )
+}
+
+/// `⌊q⌋` clamped to `±CELL_LIMIT` (NaN: 0), exactly: the saturating truncation `t` of
+/// `q` is exact wherever `|q| < 2^63` (below `2^53` it fits the mantissa, above it `q`
+/// is an integer), and `⌊q⌋ = t − 1` where `t > q`. The same integers as
+/// `libm::floor(q).clamp(±2^40) as i64`, for a few instructions instead of a call of
+/// about 25.
+#[inline]
+fn cell_coordinate(q: f64) -> i64 {
+    let t = q as i64;
+    let f = if (t as f64) > q {
+        t.saturating_sub(1)
+    } else {
+        t
+    };
+    f.clamp(-CELL_LIMIT, CELL_LIMIT)
 }
 
 /// Overlapping pairs `(i, j)`, `i < j`, sorted, into `out` (cleared first); pairs of two
@@ -141,7 +186,7 @@ pub fn grid_pairs(
     for (i, b) in aabbs.iter().enumerate() {
         let small = finite(b) && extent(b) <= s;
         g.filed.push(small);
-        g.cell.push(if small { cell_of(b, s) } else { (0, 0, 0) });
+        g.cell.push(if small { cell_of(b, s) } else { 0 });
         if !small {
             g.large.push(i);
         }
@@ -188,17 +233,17 @@ pub fn grid_pairs(
     *cursor = [0; ROWS.len()];
     for p in 0..sorted.len() {
         let i = sorted[p];
-        let (z, y, x) = keys[p];
-        let own = (z, y, x + 1);
+        let key = keys[p];
+        let own = key + 1;
         for q in p + 1..keys.len() {
             if keys[q] > own {
                 break;
             }
             test(i, sorted[q]);
         }
-        for (cur, &(dz, dy)) in cursor.iter_mut().zip(ROWS.iter()) {
-            let lo = (z + dz, y + dy, x - 1);
-            let hi = (z + dz, y + dy, x + 1);
+        for (cur, &row) in cursor.iter_mut().zip(ROWS.iter()) {
+            let lo = key + row - 1;
+            let hi = key + row + 1;
             while *cur < keys.len() && keys[*cur] < lo {
                 *cur += 1;
             }
