@@ -908,13 +908,15 @@ fn box_box(
     let plane = n.dot(fr.x) + hr[i];
     let pts = &mut bufs.pts;
     let mut np = 0;
-    for idx in start..start + poly.n {
-        let v = &poly.v[wrap(idx, poly.n)];
+    let mut at = start;
+    for _ in 0..poly.n {
+        let v = &poly.v[at];
         let depth = plane - n.dot(v.p);
         if depth >= -sink.margin {
             pts[np] = (v.p, depth, u64::from(v.inn) * 8 + u64::from(v.out));
             np += 1;
         }
+        at = wrap(at + 1, poly.n);
     }
     let keep = reduce(&pts[..np], n);
     let base = (u64::from(ref_is_b) << 12) | (ref_face << 9) | (inc_face << 6);
