@@ -11,10 +11,11 @@
 use alloc::vec::Vec;
 
 use constraint_core::{DVec3, Pose};
+use glam::DMat3;
 
 use super::contact::Contact;
 use super::grid::{grid_pairs, GridScratch};
-use super::narrow::collide;
+use super::narrow::{collide_framed, ClipBuffers};
 use super::shape::{Aabb, Collider, GeometryError, Shape};
 
 /// What a broad-phase pass did.
@@ -138,7 +139,7 @@ pub fn brute_force(aabbs: &[Aabb], out: &mut Vec<(usize, usize)>) -> BroadStats 
 }
 
 /// All contacts of a scene: bounding boxes grown by `margin / 2` (so pairs closer than
-/// `margin` meet), [`sweep_and_prune`], then [`collide`] on every overlapping pair except
+/// `margin` meet), [`sweep_and_prune`], then [`collide`](super::narrow::collide) on every overlapping pair except
 /// two colliders on the same body or two static ones. `body_poses[k]` is the pose of
 /// body `k`; static colliders use [`Pose::IDENTITY`]. `out` is cleared first and filled
 /// in pair order `(a, b)`, `a < b`, then in each pair's point order.
@@ -183,12 +184,17 @@ pub fn generate_contacts_filtered(
 #[derive(Clone, Debug, Default)]
 pub struct BroadScratch {
     aabbs: Vec<Aabb>,
+    /// Each collider's world frame and its rotation matrix ([`Collider::rotation`]),
+    /// computed once per call for the bounding box and the narrow phase.
+    frames: Vec<(Pose, DMat3)>,
     /// The planes unbounded in every direction: collider index and world `(n, d)`
     /// ([`beyond_plane`]; usually none).
     tilted: Vec<(usize, DVec3, f64)>,
     is_static: Vec<bool>,
     grid: GridScratch,
     pairs: Vec<(usize, usize)>,
+    /// The narrow phase's clipping polygons.
+    clip: ClipBuffers,
 }
 
 /// [`generate_contacts_filtered`] with its buffers in `scratch`: the same contacts in
@@ -234,12 +240,15 @@ pub fn generate_contacts_awake(
     };
     let BroadScratch {
         aabbs,
+        frames,
         tilted,
         is_static,
         grid,
         pairs,
+        clip,
     } = scratch;
     aabbs.clear();
+    frames.clear();
     tilted.clear();
     for (k, c) in colliders.iter().enumerate() {
         if let Some(b) = c.body {
@@ -250,13 +259,17 @@ pub fn generate_contacts_awake(
                 });
             }
         }
-        aabbs.push(c.aabb(&pose_of(c), 0.5 * margin));
+        let w = c.world_pose(&pose_of(c));
+        let rot = c.rotation(&w);
+        aabbs.push(c.aabb_framed(&w, &rot, 0.5 * margin));
         if matches!(c.shape, Shape::Plane { .. }) {
-            if let Some((n, d)) = tilted_plane(c, &pose_of(c), &aabbs[k]) {
+            if let Some((n, d)) = tilted_plane(c, &w, &aabbs[k]) {
                 tilted.push((k, n, d));
             }
         }
+        frames.push((w, rot));
     }
+    let framed = |k: usize| (&colliders[k], &frames[k].0, &frames[k].1);
     is_static.clear();
     is_static.extend(colliders.iter().map(|c| {
         c.body
@@ -274,7 +287,7 @@ pub fn generate_contacts_awake(
             if a.body == b.body || !keep(i, j) {
                 continue;
             }
-            collide((i, j), a, &pose_of(a), b, &pose_of(b), margin, out);
+            collide_framed((i, j), framed(i), framed(j), margin, clip, out);
         }
     } else {
         for &(i, j) in pairs.iter() {
@@ -282,25 +295,24 @@ pub fn generate_contacts_awake(
             if a.body == b.body || beyond(i, j) || !keep(i, j) {
                 continue;
             }
-            collide((i, j), a, &pose_of(a), b, &pose_of(b), margin, out);
+            collide_framed((i, j), framed(i), framed(j), margin, clip, out);
         }
     }
     Ok(stats)
 }
 
-/// `(n, d)` of a plane collider `c` whose box `own` is unbounded in every direction (a
+/// `(n, d)` of a plane collider `c` (world frame `w`) whose box `own` is unbounded in every direction (a
 /// normal off the axes; the half-space is `n · p ≤ d`), else `None`: the box of a
 /// plane with an axis-aligned normal is bounded on its free side, and the grid
 /// already tests it exactly.
 #[inline]
-fn tilted_plane(c: &Collider, pose: &Pose, own: &Aabb) -> Option<(DVec3, f64)> {
+fn tilted_plane(c: &Collider, w: &Pose, own: &Aabb) -> Option<(DVec3, f64)> {
     let Shape::Plane { normal, offset } = c.shape else {
         return None;
     };
     if own.min.max_element() > f64::NEG_INFINITY || own.max.min_element() < f64::INFINITY {
         return None;
     }
-    let w = c.world_pose(pose);
     let n = w.q * normal;
     Some((n, offset + n.dot(w.x)))
 }
@@ -308,7 +320,7 @@ fn tilted_plane(c: &Collider, pose: &Pose, own: &Aabb) -> Option<(DVec3, f64)> {
 /// Whether collider `k` is one of the `tilted` planes ([`tilted_plane`]) and the box
 /// `other` (another collider's, grown by half the margin) lies outside its half-space
 /// `n · p ≤ d` by more than `margin`: then no point of that collider has `n · p − d ≤ margin`, and the
-/// narrow phase would report no contact (depth `≥ −margin`, [`collide`]). A tilted
+/// narrow phase would report no contact (depth `≥ −margin`, [`collide`](super::narrow::collide)). A tilted
 /// plane's box is unbounded, so the grid pairs it with every collider (dm_control's
 /// manipulator: two walls, 36 narrow tests a step, none in contact); this is the exact
 /// test of the box against the plane, `min_{p ∈ box} n · p − d = n · c − |n| · e − d`

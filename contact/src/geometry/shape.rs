@@ -278,6 +278,23 @@ impl Collider {
     /// A plane's box is unbounded except, for an axis-aligned normal, on its free side.
     pub fn aabb(&self, body: &Pose, margin: f64) -> Aabb {
         let w = self.world_pose(body);
+        self.aabb_framed(&w, &self.rotation(&w), margin)
+    }
+
+    /// The rotation matrix of the collider frame `w` for a box (whose bounding box and
+    /// narrow phase use it), the identity for other shapes (which never read it).
+    #[inline]
+    pub(crate) fn rotation(&self, w: &Pose) -> DMat3 {
+        match self.shape {
+            Shape::Box { .. } => DMat3::from_quat(w.q),
+            _ => DMat3::IDENTITY,
+        }
+    }
+
+    /// [`Collider::aabb`] from the collider frame `w` ([`Collider::world_pose`]) and its
+    /// [`Collider::rotation`] `rot`: the same box, the frame computed once per step for
+    /// the bounding box and the narrow phase.
+    pub(crate) fn aabb_framed(&self, w: &Pose, rot: &DMat3, margin: f64) -> Aabb {
         let m = DVec3::splat(margin);
         match self.shape {
             Shape::Sphere { radius } => {
@@ -288,7 +305,6 @@ impl Collider {
                 }
             }
             Shape::Box { half } => {
-                let rot = DMat3::from_quat(w.q);
                 let e = DVec3::new(
                     rot.row(0).abs().dot(half),
                     rot.row(1).abs().dot(half),
