@@ -34,14 +34,16 @@ impl World {
         // Violated joint limits join as equalities until an iteration with them finds no
         // decrease; then the joints are projected without them (as without contacts).
         let mut limits = true;
-        let mut err = self.projection_error(limits);
+        // The error and whether a limit is violated at the iterate (no limit rows to
+        // look for otherwise: the coordinates are not evaluated again).
+        let (mut err, mut past) = self.projection_error(limits);
         for it in 0..max_iterations {
             // Half the iterations spent with the limits and still not converged (the
             // damped rate rows near a gimbal lock are not the coordinates' exact
             // gradients, constraint_core::compound): the rest project the joints alone.
             if limits && 2 * it >= max_iterations && err > tolerance {
                 limits = false;
-                err = self.projection_error(limits);
+                (err, past) = self.projection_error(limits);
             }
             if err <= tolerance {
                 return Ok(it);
@@ -52,7 +54,7 @@ impl World {
                     rhs[r] = -rows.value[r];
                 }
             });
-            if limits {
+            if limits && past {
                 self.push_violated_limits(&mut loops);
             }
             self.load_equalities(|c| -c);
@@ -62,7 +64,7 @@ impl World {
             // goes on without them (the error then leaves them out too).
             #[cfg(feature = "contact")]
             if !self.push_contacts_apart() {
-                err = self.projection_error(limits);
+                (err, past) = self.projection_error(limits);
             }
             // Backtracking: a full Newton step can overshoot far from the manifold (light
             // bodies turned by large angles); halve it until the separation decreases.
@@ -85,9 +87,9 @@ impl World {
                         b.omega = w + dth * (alpha / h);
                     }
                 }
-                let trial = self.projection_error(limits);
+                let (trial, trial_past) = self.projection_error(limits);
                 if trial < err {
-                    err = trial;
+                    (err, past) = (trial, trial_past);
                     accepted = true;
                     break;
                 }
@@ -107,7 +109,7 @@ impl World {
                 #[cfg(feature = "contact")]
                 if !self.projection.contacts.is_empty() {
                     self.projection.contacts.clear();
-                    err = self.projection_error(limits);
+                    (err, past) = self.projection_error(limits);
                     continue;
                 }
                 // Limits that the joints do not let back to their bounds: a three-hinge
@@ -120,7 +122,7 @@ impl World {
                 // velocity-level rows.
                 if limits {
                     limits = false;
-                    err = self.projection_error(limits);
+                    (err, past) = self.projection_error(limits);
                     continue;
                 }
                 return Ok(it + 1);
@@ -132,8 +134,10 @@ impl World {
     /// What the projection drives to zero: the hard joints' separation, the
     /// equalities' `|C|`, the joint limits' violations `max(lo − q, q − hi)` (m or
     /// rad) and the tendon ranges' `max(lo − L, L − hi)`.
-    /// Without `limits`, the joint limits' violations are left out.
-    fn projection_error(&self, limits: bool) -> f64 {
+    /// Without `limits`, the joint limits' violations are left out. With the error,
+    /// whether a joint limit is violated (`max(lo − q, q − hi) > 0`: exactly when
+    /// [`Self::push_violated_limits`] pushes a row at these poses).
+    fn projection_error(&self, limits: bool) -> (f64, bool) {
         let limit = if limits {
             self.max_limit_violation()
         } else {
@@ -146,7 +150,7 @@ impl World {
             .max(self.max_tendon_limit_violation());
         #[cfg(feature = "contact")]
         let err = err.max(self.max_contact_violation());
-        err
+        (err, limit > 0.0)
     }
 
     /// The largest violation of a joint limit, `max(lo − q, q − hi, 0)`.
