@@ -1221,6 +1221,7 @@ impl PsdFactor {
             return true;
         }
         let mut rank = d;
+        let mut col = core::mem::take(&mut self.tmp);
         for k in 0..d {
             // The pivot: the largest remaining diagonal (the Schur complement's).
             let mut p = k;
@@ -1234,34 +1235,31 @@ impl PsdFactor {
                 break;
             }
             if p != k {
-                for c in 0..d {
-                    a.swap(k * d + c, p * d + c);
-                }
-                for r in 0..d {
-                    a.swap(r * d + k, r * d + p);
-                }
+                swap_lower(a, d, k, p);
                 self.perm.swap(k, p);
             }
             // Column k of L: l_kk = √a_kk, l_ik = a_ik / l_kk; then the Schur
-            // complement a_ij −= l_ik l_jk (i, j > k), kept whole (both triangles)
-            // for the next pivot's row and column swap.
+            // complement a_ij −= l_ik l_jk (k < j ≤ i), its lower triangle only (the
+            // upper one is never read), row by row on slices against column k
+            // gathered once into `col` (the same products in the same order).
             let lkk = libm::sqrt(a[k * d + k]);
             a[k * d + k] = lkk;
+            col.clear();
             for i in k + 1..d {
                 a[i * d + k] /= lkk;
+                col.push(a[i * d + k]);
             }
             for i in k + 1..d {
-                let lik = a[i * d + k];
+                let lik = col[i - k - 1];
                 if lik != 0.0 {
-                    for j in k + 1..=i {
-                        a[i * d + j] -= lik * a[j * d + k];
+                    let row = &mut a[i * d + k + 1..=i * d + i];
+                    for (x, l) in row.iter_mut().zip(&col[..i - k]) {
+                        *x -= lik * l;
                     }
-                }
-                for j in k + 1..i {
-                    a[j * d + i] = a[i * d + j];
                 }
             }
         }
+        self.tmp = col;
         self.rank = rank;
         if rank == d || rank == 0 {
             return (0..d).all(|i| a[i * d + i].is_finite());
@@ -1389,6 +1387,22 @@ impl PsdFactor {
         }
         self.tmp = t;
         zeta.iter().all(|z| z.is_finite())
+    }
+}
+
+/// Swaps rows and columns `k < p` of the symmetric `d × d` row-major `a` held in its
+/// lower triangle (LAPACK's `dsyswapr`, lower): `a ← Π a Πᵀ` for the transposition
+/// `Π = (k p)`, with the factored columns `c < k` (rows of `L`) swapped as rows.
+fn swap_lower(a: &mut [f64], d: usize, k: usize, p: usize) {
+    for c in 0..k {
+        a.swap(k * d + c, p * d + c);
+    }
+    a.swap(k * d + k, p * d + p);
+    for i in k + 1..p {
+        a.swap(i * d + k, p * d + i);
+    }
+    for i in p + 1..d {
+        a.swap(i * d + k, i * d + p);
     }
 }
 
