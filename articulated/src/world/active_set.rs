@@ -150,7 +150,7 @@
 use alloc::vec::Vec;
 
 use constraint_contact::lcp::RowBound;
-use constraint_core::DVec3;
+use constraint_core::{DMat3, DVec3};
 
 use super::unilateral::{RowSource, URow};
 use super::*;
@@ -236,6 +236,10 @@ pub(super) struct ActiveSet {
     val_start: Vec<usize>,
     path_s: Vec<f64>,
     path_u: Vec<f64>,
+    /// Per Schur row: the first Schur row with the same path (equal ids: equal paths;
+    /// a foot's or a box's contact rows share one), and those first rows.
+    path_id: Vec<usize>,
+    path_reps: Vec<usize>,
     /// Per tree node: whether it is on the path being built, and where the Schur row
     /// at hand keeps its values (`usize::MAX`: not on its path); both clear between
     /// uses.
@@ -900,13 +904,25 @@ impl World {
         st.val_start.clear();
         st.path_s.clear();
         st.path_u.clear();
+        st.path_id.clear();
+        st.path_reps.clear();
         let mut free_scale: f64 = 0.0;
-        for &i in &st.schur {
+        let mut inertia = FreeInertia::default();
+        for (c, &i) in st.schur.iter().enumerate() {
             let first = st.path_nodes.len();
             st.path_start.push(first);
             st.val_start.push(st.path_s.len());
             self.schur_scatter(f, &mut st.col, i, 1.0);
             self.schur_path(i, &mut st.mark, &mut st.path_nodes);
+            let path = &st.path_nodes[first..];
+            let rep = st.path_reps.iter().copied().find(|&r| {
+                let (a, b) = (st.path_start[r], st.path_start[r + 1]);
+                st.path_nodes[a..b] == *path
+            });
+            st.path_id.push(rep.unwrap_or(c));
+            if rep.is_none() {
+                st.path_reps.push(c);
+            }
             f.forward_marked(&self.solver, &mut st.col, &st.mark);
             // Keep s and u = s / d⁻¹ on the path; leave `col` and `mark` clear.
             // (Whole node slices: a per-unknown push with its bounds and capacity
@@ -926,12 +942,13 @@ impl World {
                     }));
                 s.fill(0.0);
             }
-            free_scale = free_scale.max(self.schur_free_scale(i));
+            free_scale = free_scale.max(self.schur_free_scale(i, &mut inertia));
         }
         st.path_start.push(st.path_nodes.len());
         st.val_start.push(st.path_s.len());
         st.s_mat.clear();
         st.s_mat.resize(d * d, 0.0);
+        let mut finite = true;
         for b in 0..d {
             // Where b's values of each node on its path are.
             let mut off = st.val_start[b];
@@ -939,11 +956,9 @@ impl World {
                 st.node_slot[k] = off;
                 off += f.node_len(k);
             }
-            let pb = &st.path_nodes[st.path_start[b]..st.path_start[b + 1]];
             for a in b..d {
                 let mut v = 0.0;
-                let pa = &st.path_nodes[st.path_start[a]..st.path_start[a + 1]];
-                if pa == pb {
+                if st.path_id[a] == st.path_id[b] {
                     // The same path (rows on the same bodies: a foot's contacts): the
                     // loop below would read both rows' values contiguously, node after
                     // node in the same order, so one pass over them sums the same
@@ -956,6 +971,7 @@ impl World {
                     }
                     st.s_mat[a * d + b] = v;
                     st.s_mat[b * d + a] = v;
+                    finite &= v.is_finite();
                     continue;
                 }
                 let mut oa = st.val_start[a];
@@ -973,12 +989,13 @@ impl World {
                 }
                 st.s_mat[a * d + b] = v;
                 st.s_mat[b * d + a] = v;
+                finite &= v.is_finite();
             }
             for &k in &st.path_nodes[st.path_start[b]..st.path_start[b + 1]] {
                 st.node_slot[k] = usize::MAX;
             }
         }
-        if st.s_mat.iter().any(|v| !v.is_finite()) {
+        if !finite {
             return false;
         }
         st.s_fac.factor(&mut st.s_mat, d, 1e-10 * free_scale)
@@ -1067,8 +1084,9 @@ impl World {
     }
 
     /// `G M⁻¹ Gᵀ` of Schur row `i` with its bodies free (the rows' scale without the
-    /// tree, for the truncation floor of `S`).
-    fn schur_free_scale(&self, i: usize) -> f64 {
+    /// tree, for the truncation floor of `S`), `|g_v|²/m + g_ωᵀ R I⁻¹ Rᵀ g_ω` per body;
+    /// `R I⁻¹ Rᵀ` from `inertia` where it holds the body's.
+    fn schur_free_scale(&self, i: usize, inertia: &mut FreeInertia) -> f64 {
         let Some(r) = self.urows.get(i) else {
             return self.eq.row_free_scale(&self.bodies, i - self.urows.len());
         };
@@ -1077,7 +1095,7 @@ impl World {
             if let Some(k) = body {
                 let b = &self.bodies[k];
                 g += r.j[2 * side].length_squared() / b.mass()
-                    + r.j[2 * side + 1].dot(b.world_inv_inertia() * r.j[2 * side + 1]);
+                    + r.j[2 * side + 1].dot(inertia.get(k, b) * r.j[2 * side + 1]);
             }
         }
         g
@@ -1106,6 +1124,28 @@ impl World {
         }
         remember(&mut st, &self.uz);
         self.aset = st;
+    }
+}
+
+/// The world inverse inertias `R I⁻¹ Rᵀ` of the last two bodies asked for (a Schur
+/// row's two sides; the rows of one contact pair come together), so that
+/// [`World::schur_free_scale`] forms each once per run of rows rather than per row.
+#[derive(Default)]
+struct FreeInertia {
+    slots: [Option<(usize, DMat3)>; 2],
+}
+
+impl FreeInertia {
+    /// Body `k`'s `R I⁻¹ Rᵀ` (`b`: the body), formed on a miss.
+    fn get(&mut self, k: usize, b: &constraint_core::RigidBody) -> DMat3 {
+        for (j, m) in self.slots.iter().flatten() {
+            if *j == k {
+                return *m;
+            }
+        }
+        let m = b.world_inv_inertia();
+        self.slots = [Some((k, m)), self.slots[0]];
+        m
     }
 }
 
@@ -1221,6 +1261,7 @@ impl PsdFactor {
             return true;
         }
         let mut rank = d;
+        let mut col = core::mem::take(&mut self.tmp);
         for k in 0..d {
             // The pivot: the largest remaining diagonal (the Schur complement's).
             let mut p = k;
@@ -1234,34 +1275,31 @@ impl PsdFactor {
                 break;
             }
             if p != k {
-                for c in 0..d {
-                    a.swap(k * d + c, p * d + c);
-                }
-                for r in 0..d {
-                    a.swap(r * d + k, r * d + p);
-                }
+                swap_lower(a, d, k, p);
                 self.perm.swap(k, p);
             }
             // Column k of L: l_kk = √a_kk, l_ik = a_ik / l_kk; then the Schur
-            // complement a_ij −= l_ik l_jk (i, j > k), kept whole (both triangles)
-            // for the next pivot's row and column swap.
+            // complement a_ij −= l_ik l_jk (k < j ≤ i), its lower triangle only (the
+            // upper one is never read), row by row on slices against column k
+            // gathered once into `col` (the same products in the same order).
             let lkk = libm::sqrt(a[k * d + k]);
             a[k * d + k] = lkk;
+            col.clear();
             for i in k + 1..d {
                 a[i * d + k] /= lkk;
+                col.push(a[i * d + k]);
             }
             for i in k + 1..d {
-                let lik = a[i * d + k];
+                let lik = col[i - k - 1];
                 if lik != 0.0 {
-                    for j in k + 1..=i {
-                        a[i * d + j] -= lik * a[j * d + k];
+                    let row = &mut a[i * d + k + 1..=i * d + i];
+                    for (x, l) in row.iter_mut().zip(&col[..i - k]) {
+                        *x -= lik * l;
                     }
-                }
-                for j in k + 1..i {
-                    a[j * d + i] = a[i * d + j];
                 }
             }
         }
+        self.tmp = col;
         self.rank = rank;
         if rank == d || rank == 0 {
             return (0..d).all(|i| a[i * d + i].is_finite());
@@ -1389,6 +1427,22 @@ impl PsdFactor {
         }
         self.tmp = t;
         zeta.iter().all(|z| z.is_finite())
+    }
+}
+
+/// Swaps rows and columns `k < p` of the symmetric `d × d` row-major `a` held in its
+/// lower triangle (LAPACK's `dsyswapr`, lower): `a ← Π a Πᵀ` for the transposition
+/// `Π = (k p)`, with the factored columns `c < k` (rows of `L`) swapped as rows.
+fn swap_lower(a: &mut [f64], d: usize, k: usize, p: usize) {
+    for c in 0..k {
+        a.swap(k * d + c, p * d + c);
+    }
+    a.swap(k * d + k, p * d + p);
+    for i in k + 1..p {
+        a.swap(i * d + k, p * d + i);
+    }
+    for i in p + 1..d {
+        a.swap(i * d + k, i * d + p);
     }
 }
 
