@@ -91,28 +91,6 @@ pub const FRICTION_STALL_SWEEPS: usize = 100;
 /// factor 2 every 2 to 4 alternations.
 pub const ALTERNATION_STALL_SWEEPS: usize = 8;
 
-/// Relaxation `ω` of the one-sided impulses once an alternation's residual has risen
-/// over the previous one's, or the alternations have stalled with their best residual
-/// above [`RELAX_STALLED_ABOVE`] times the tolerance (residual-driven mode): each
-/// one-sided solve's answer `z_n*` then moves the impulses only to
-/// `z_n + ω (z_n* − z_n)` (the fixed points are the same), with a new stall window
-/// ([`ALTERNATION_STALL_SWEEPS`]). A sliding contact whose friction lifts its own
-/// normal through the joints (`A_nt` large against `A_nn`) makes the plain alternation
-/// a two-cycle: no friction, a large normal impulse; that impulse's friction, no normal
-/// impulse (the gymnasium humanoid under control, μ = 1: residual 0.087, 0.100, 0.087,
-/// …), where the relaxed one converges (ω = 0.5: 1e-6 in 20 alternations on that step;
-/// ω = 0.7 left humanoid_CMU lying on the floor 119 of 139 dense steps unconverged
-/// against 11). Alternations that converge slowly but steadily (the gymnasium humanoid
-/// lying on the floor, stalling around 3e-6) are left unrelaxed: relaxing every stall
-/// there cost 8 % more instructions and converged no more steps
-/// (`examples/dense_stats.rs`).
-pub const ALTERNATION_RELAXATION: f64 = 0.5;
-
-/// Unrelaxed alternations that stall ([`ALTERNATION_STALL_SWEEPS`]) with their best
-/// residual above this many times `friction_tolerance` go on relaxed
-/// ([`ALTERNATION_RELAXATION`]) with a new window instead of ending.
-pub const RELAX_STALLED_ABOVE: f64 = 100.0;
-
 /// Settings of [`solve_rows`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RowSettings {
@@ -193,9 +171,6 @@ pub struct RowStats {
     /// solved against them), whose residual was below that of the final one-sided
     /// solve with the friction clamped into its cones.
     pub best_iterate: bool,
-    /// An alternation's residual rose over the previous one's and the alternations went
-    /// on relaxed ([`ALTERNATION_RELAXATION`]).
-    pub relaxed: bool,
 }
 
 /// The residual of a solution of [`solve_rows`]'s problem: the largest
@@ -505,10 +480,6 @@ pub(crate) fn solve_rows_in(
     // (its normals and the friction solved against them), returned instead of the
     // final one-sided solve when that one's residual is larger.
     let mut best: (f64, Vec<f64>) = (f64::INFINITY, Vec::new());
-    // Relaxation of the one-sided impulses between alternations (1: none).
-    let mut relax = 1.0f64;
-    // The last alternation's residual (the relaxation's trigger).
-    let mut last_r = f64::INFINITY;
     let mut alternate = || -> Result<(), LcpError> {
         loop {
             let final_normal = done == max_sweeps;
@@ -575,14 +546,7 @@ pub(crate) fn solve_rows_in(
                 for (k, &i) in normal.iter().enumerate() {
                     // The solvers return z ≥ 0 up to round-off; clamp so the friction bounds
                     // ±μ z_n stay ordered.
-                    let zk = sol.z[k].max(0.0);
-                    // Relaxed alternations: `z_n ← z_n + ω (z_n* − z_n)` (a convex
-                    // combination of non-negative impulses, so still `≥ 0`).
-                    z[i] = if relax < 1.0 && !final_normal {
-                        zn0[k] + relax * (zk - zn0[k])
-                    } else {
-                        zk
-                    };
+                    z[i] = sol.z[k].max(0.0);
                 }
             }
             if frictionless {
@@ -677,24 +641,9 @@ pub(crate) fn solve_rows_in(
             if r <= 0.5 * stall_mark.1 {
                 stall_mark = (done, r);
             }
-            // A residual that rose is an alternation that oscillates (a two-cycle):
-            // from here on relaxed, with a new stall window.
-            if relax == 1.0 && r > last_r {
-                relax = ALTERNATION_RELAXATION;
-                stats.relaxed = true;
-                stall_mark = (done, r);
-            }
-            last_r = r;
             if done < max_sweeps && done - stall_mark.0 >= ALTERNATION_STALL_SWEEPS {
-                if relax == 1.0 && best.0 > RELAX_STALLED_ABOVE * settings.friction_tolerance {
-                    // Stalled far from the tolerance: relaxed, with a new window.
-                    relax = ALTERNATION_RELAXATION;
-                    stats.relaxed = true;
-                    stall_mark = (done, r);
-                } else {
-                    stats.stalled = true;
-                    done = max_sweeps;
-                }
+                stats.stalled = true;
+                done = max_sweeps;
             }
             stats.capped = done >= max_sweeps;
         }
@@ -1114,34 +1063,6 @@ mod tests {
                 assert!(r <= 1e-8, "{method:?} {coupling:?}: residual {r:e}");
             }
         }
-    }
-
-    /// One sliding contact whose saturated friction lifts its own normal (`A_nt = 1.2 >
-    /// A_nn = 1`, μ = 1): the plain alternation is a two-cycle between `z = (1, 1)` and
-    /// `z = (0, 0)` (residual 0.25 at both), the relaxed one after the stall converges
-    /// to the sliding solution `z_n = z_t = 1/2.2`.
-    #[test]
-    fn a_two_cycle_converges_relaxed() {
-        let a = [1.0, 1.2, 1.2, 2.0];
-        let q = [-1.0, -4.0];
-        let bounds = [
-            RowBound::Unilateral,
-            RowBound::Friction { normal: 0, mu: 1.0 },
-        ];
-        let settings = RowSettings {
-            max_sweeps: 50,
-            friction_tolerance: 1e-6,
-            ..RowSettings::default()
-        };
-        let mut z = [0.0; 2];
-        let stats = solve_rows(&a, &q, &bounds, &settings, &mut z).unwrap();
-        let r = row_residual(&a, &q, &bounds, &z).unwrap();
-        println!("{stats:?}, z {z:?}, residual {r:e}");
-        assert!(stats.relaxed && !stats.capped);
-        // Measured 2.5e-7 after 16 alternations (tolerance 1e-6, the friction tolerance).
-        assert!(r <= 1e-6, "residual {r:e}");
-        // Measured |z_n − 1/2.2| 4.5e-7, z_t = z_n exactly (saturated).
-        assert!((z[0] - 1.0 / 2.2).abs() <= 1e-6 && (z[1] - z[0]).abs() <= 1e-12);
     }
 
     /// Inconsistent sparse rows are a typed error, not a panic.
