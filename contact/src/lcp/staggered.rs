@@ -110,9 +110,7 @@ pub struct RowSettings {
     /// problem's residual ([`row_residual`]) exceeds `friction_tolerance`, up to this
     /// many sweeps in all, and if it still does, end with one more one-sided solve so
     /// that contacts and limits hold exactly against the final friction (which is then
-    /// clamped into its cone), or with the alternation iterate of the smallest residual
-    /// where that one's is smaller ([`RowStats::best_iterate`]). `0` (the default):
-    /// exactly `sweeps` alternations.
+    /// clamped into its cone). `0` (the default): exactly `sweeps` alternations.
     pub max_sweeps: usize,
 }
 
@@ -159,18 +157,12 @@ pub struct RowStats {
     /// Residual-driven mode only ([`RowSettings::max_sweeps`]): the alternations ended
     /// without the whole problem's residual reaching `friction_tolerance` (at
     /// `max_sweeps`, or stalled, [`RowStats::stalled`]); the answer is the last
-    /// one-sided solve against the last friction, clamped into its cones, or the
-    /// alternation iterate of smaller residual ([`RowStats::best_iterate`]), and its
+    /// one-sided solve against the last friction, clamped into its cones, and its
     /// residual ([`row_residual`]) may be far above the tolerance.
     pub capped: bool,
     /// The alternations ended by the stall window ([`ALTERNATION_STALL_SWEEPS`]) before
     /// `max_sweeps` (then [`RowStats::capped`] too).
     pub stalled: bool,
-    /// Where [`RowStats::capped`]: the answer is the alternation iterate with the
-    /// smallest residual ([`row_residual`]: its one-sided impulses and the friction
-    /// solved against them), whose residual was below that of the final one-sided
-    /// solve with the friction clamped into its cones.
-    pub best_iterate: bool,
 }
 
 /// The residual of a solution of [`solve_rows`]'s problem: the largest
@@ -476,10 +468,6 @@ pub(crate) fn solve_rows_in(
     let residual_driven = max_sweeps > sweeps;
     // (alternation, residual) where the best residual last halved (the stall window).
     let mut stall_mark = (0usize, f64::INFINITY);
-    // Residual-driven mode: the alternation iterate with the smallest residual so far
-    // (its normals and the friction solved against them), returned instead of the
-    // final one-sided solve when that one's residual is larger.
-    let mut best: (f64, Vec<f64>) = (f64::INFINITY, Vec::new());
     let mut alternate = || -> Result<(), LcpError> {
         loop {
             let final_normal = done == max_sweeps;
@@ -559,12 +547,6 @@ pub(crate) fn solve_rows_in(
                     let (lo, hi) = bound(i, z);
                     z[i] = z[i].min(hi).max(lo);
                 }
-                // The best alternation iterate when it is closer to a solution than
-                // this answer (the natural-map residual, [`row_residual`]).
-                if best.0 < sparse_residual(a, q, bounds, z) {
-                    z.copy_from_slice(&best.1);
-                    stats.best_iterate = true;
-                }
                 break;
             }
             // The boxed problem of the other rows with the one-sided impulses fixed: PGS on
@@ -629,11 +611,6 @@ pub(crate) fn solve_rows_in(
             let r = sparse_residual(a, q, bounds, z);
             if r <= settings.friction_tolerance {
                 break;
-            }
-            if r < best.0 {
-                best.0 = r;
-                best.1.clear();
-                best.1.extend_from_slice(z);
             }
             // The stall window: the best residual so far must halve within
             // `ALTERNATION_STALL_SWEEPS` alternations, else the last one-sided solve
