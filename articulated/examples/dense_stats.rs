@@ -9,8 +9,12 @@
 //!
 //! ```text
 //! cargo run --release -p constraint-articulated --features contact --example dense_stats -- \
-//!     MODEL.xml [--warm 1.5] [--steps 100]
+//!     MODEL.xml [--warm 1.5] [--steps 100] [--ctrl C.csv] [--print-above R]
 //! ```
+//!
+//! `--ctrl` applies a control file (`t,<actuator>...`, as `simulate --ctrl`) through the
+//! warm-up and the counted steps; `--print-above R` prints each counted dense step whose
+//! residual exceeds `R` (rows, residual, alternations, iterations).
 //!
 //! Needs feature `contact` (without it, main only says so).
 
@@ -28,6 +32,55 @@ fn main() {
 mod imp {
     use constraint_articulated::mjcf::MjcfScene;
     use constraint_articulated::{Method, World};
+
+    /// A control file (`t,<actuator>...`): the change times and each row's values by
+    /// actuator index.
+    #[derive(Default)]
+    struct Ctrl {
+        t: Vec<f64>,
+        rows: Vec<Vec<(usize, f64)>>,
+    }
+
+    impl Ctrl {
+        fn parse(text: &str, names: &[String]) -> Result<Self, String> {
+            let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+            let header: Vec<&str> = lines.next().ok_or("empty ctrl")?.split(',').collect();
+            let idx: Vec<usize> = header[1..]
+                .iter()
+                .map(|c| names.iter().position(|n| n == c.trim()))
+                .collect::<Option<_>>()
+                .ok_or("ctrl: unknown actuator")?;
+            let mut c = Ctrl::default();
+            for l in lines {
+                let v: Vec<f64> = l
+                    .split(',')
+                    .map(|x| x.trim().parse::<f64>().map_err(|e| e.to_string()))
+                    .collect::<Result<_, _>>()?;
+                c.t.push(v[0]);
+                c.rows
+                    .push(idx.iter().copied().zip(v[1..].iter().copied()).collect());
+            }
+            Ok(c)
+        }
+
+        /// Sets the row in force at step `i` (time `i h`), as `simulate` does.
+        fn apply(&self, world: &mut World, i: usize, h: f64) {
+            let k = self.t.partition_point(|&r| r <= i as f64 * h + 1e-12);
+            if let Some(row) = k.checked_sub(1).map(|k| &self.rows[k]) {
+                for &(a, u) in row {
+                    let _ = world.set_ctrl(a, u);
+                }
+            }
+        }
+    }
+
+    /// The counted steps' context: controls, the index of the first counted step, and
+    /// the residual above which a dense step is printed.
+    struct Extra {
+        ctrl: Option<Ctrl>,
+        start: usize,
+        print_above: f64,
+    }
 
     const METHOD: Method = Method::Rattle {
         tolerance: 1e-12,
@@ -52,9 +105,12 @@ mod imp {
 
     /// The counted steps (inside the callgrind toggles `measured0` … `measured3`).
     #[inline(always)]
-    fn measured(world: &mut World, h: f64, steps: usize) -> Result<Tally, String> {
+    fn measured(world: &mut World, h: f64, steps: usize, x: &Extra) -> Result<Tally, String> {
         let mut t = Tally::default();
-        for _ in 0..steps {
+        for k in 0..steps {
+            if let Some(c) = &x.ctrl {
+                c.apply(world, x.start + k, h);
+            }
             world.step(h, METHOD).map_err(|e| e.to_string())?;
             let u = world.unilateral_stats();
             t.worst_penetration = t.worst_penetration.max(u.max_penetration);
@@ -74,6 +130,17 @@ mod imp {
             t.sweeps.push(u.solver.sweeps);
             t.iterations.push(u.solver.iterations);
             t.worst_residual = t.worst_residual.max(u.residual);
+            if u.residual > x.print_above {
+                println!(
+                    "step {}: {} rows, residual {:.3e}, sweeps {}, iterations {}, stalled {}",
+                    x.start + k,
+                    u.rows,
+                    u.residual,
+                    u.solver.sweeps,
+                    u.solver.iterations,
+                    u.solver.stalled
+                );
+            }
         }
         Ok(t)
     }
@@ -86,12 +153,15 @@ mod imp {
     pub fn main() {
         let mut file = None;
         let (mut warm, mut steps) = (1.5, 100usize);
+        let (mut ctrl_file, mut print_above) = (None, f64::INFINITY);
         let mut args = std::env::args().skip(1);
         while let Some(a) = args.next() {
             let v = |x: Option<String>| x.and_then(|s| s.parse::<f64>().ok());
             match a.as_str() {
                 "--warm" => warm = v(args.next()).unwrap_or(warm),
                 "--steps" => steps = v(args.next()).map_or(steps, |s| s as usize),
+                "--ctrl" => ctrl_file = args.next(),
+                "--print-above" => print_above = v(args.next()).unwrap_or(print_above),
                 _ => file = Some(a),
             }
         }
@@ -107,7 +177,23 @@ mod imp {
             }
         };
         let h = s.timestep;
-        for _ in 0..(warm / h).round() as usize {
+        let ctrl = match ctrl_file.map(|f| {
+            std::fs::read_to_string(&f)
+                .map_err(|e| e.to_string())
+                .and_then(|t| Ctrl::parse(&t, &s.actuator_names))
+        }) {
+            Some(Err(e)) => {
+                eprintln!("ctrl: {e}");
+                std::process::exit(1);
+            }
+            Some(Ok(c)) => Some(c),
+            None => None,
+        };
+        let warm_steps = (warm / h).round() as usize;
+        for i in 0..warm_steps {
+            if let Some(c) = &ctrl {
+                c.apply(&mut s.world, i, h);
+            }
             if let Err(e) = s.world.step(h, METHOD) {
                 eprintln!("warm-up: {e}");
                 std::process::exit(1);
@@ -118,6 +204,11 @@ mod imp {
         // of the warmed-up world through its own `measured_k` (callgrind's inclusive cost
         // per variant from one run; a fifth and later share `measured3`); none: the
         // world's own settings.
+        let extra = Extra {
+            ctrl,
+            start: warm_steps,
+            print_above,
+        };
         let spec = std::env::var("DS_VARIANTS").unwrap_or_default();
         let variants: Vec<&str> = if spec.is_empty() {
             vec![""]
@@ -138,7 +229,7 @@ mod imp {
                 }
             }
             let run = [measured0, measured1, measured2, measured3][k.min(3)];
-            let mut t = match run(&mut w, h, steps) {
+            let mut t = match run(&mut w, h, steps, &extra) {
                 Ok(t) => t,
                 Err(e) => {
                     eprintln!("step: {e}");
@@ -150,28 +241,28 @@ mod imp {
     }
 
     #[inline(never)]
-    fn measured0(w: &mut World, h: f64, steps: usize) -> Result<Tally, String> {
+    fn measured0(w: &mut World, h: f64, steps: usize, x: &Extra) -> Result<Tally, String> {
         // Distinct bodies, so that the linker does not fold the four into one symbol.
         std::hint::black_box(0);
-        measured(w, h, steps)
+        measured(w, h, steps, x)
     }
     #[inline(never)]
-    fn measured1(w: &mut World, h: f64, steps: usize) -> Result<Tally, String> {
+    fn measured1(w: &mut World, h: f64, steps: usize, x: &Extra) -> Result<Tally, String> {
         // Distinct bodies, so that the linker does not fold the four into one symbol.
         std::hint::black_box(1);
-        measured(w, h, steps)
+        measured(w, h, steps, x)
     }
     #[inline(never)]
-    fn measured2(w: &mut World, h: f64, steps: usize) -> Result<Tally, String> {
+    fn measured2(w: &mut World, h: f64, steps: usize, x: &Extra) -> Result<Tally, String> {
         // Distinct bodies, so that the linker does not fold the four into one symbol.
         std::hint::black_box(2);
-        measured(w, h, steps)
+        measured(w, h, steps, x)
     }
     #[inline(never)]
-    fn measured3(w: &mut World, h: f64, steps: usize) -> Result<Tally, String> {
+    fn measured3(w: &mut World, h: f64, steps: usize, x: &Extra) -> Result<Tally, String> {
         // Distinct bodies, so that the linker does not fold the four into one symbol.
         std::hint::black_box(3);
-        measured(w, h, steps)
+        measured(w, h, steps, x)
     }
 
     fn report(file: &str, variant: &str, steps: usize, warm: f64, world: &World, t: &mut Tally) {
