@@ -10,11 +10,17 @@
 //! complementarity problem through the factor (`contact.rs`), so the projection pushes
 //! a contact out to the slop and never pulls one in (without them its minimum-norm step
 //! moved feet into the floor freely).
+//!
+//! The first iteration factors the matrix at the iterate; the later ones are chord
+//! steps with that factor (`chord.rs`), refactoring when one contracts slowly.
 
 use constraint_core::rigid::rotate_by;
 use constraint_core::DVec3;
 
+mod chord;
+
 use super::*;
+use chord::CHORD_RATE;
 
 impl World {
     /// Newton projection onto `C(x) = 0` with mass-weighted minimum-norm steps
@@ -37,6 +43,9 @@ impl World {
         // The error and whether a limit is violated at the iterate (no limit rows to
         // look for otherwise: the coordinates are not evaluated again).
         let (mut err, mut past) = self.projection_error(limits);
+        // Whether the solver holds this projection's factor (of an earlier iterate):
+        // the next iteration is then a chord step (`chord.rs`).
+        let mut factored = false;
         for it in 0..max_iterations {
             // Half the iterations spent with the limits and still not converged (the
             // damped rate rows near a gimbal lock are not the coordinates' exact
@@ -48,18 +57,30 @@ impl World {
             if err <= tolerance {
                 return Ok(it);
             }
-            self.body_rhs(|_, _, _| (DVec3::ZERO, DVec3::ZERO));
-            let mut loops = self.assemble(1.0, Rates::None, Soft::Free, |_, _, rows, rhs| {
-                for r in 0..rows.n_hard {
-                    rhs[r] = -rows.value[r];
-                }
-            });
+            let chord = factored;
+            let mut loops = if chord {
+                self.chord_rhs()
+            } else {
+                self.body_rhs(|_, _, _| (DVec3::ZERO, DVec3::ZERO));
+                self.assemble(1.0, Rates::None, Soft::Free, |_, _, rows, rhs| {
+                    for r in 0..rows.n_hard {
+                        rhs[r] = -rows.value[r];
+                    }
+                })
+            };
             if limits && past {
                 self.push_violated_limits(&mut loops);
             }
             self.load_equalities(|c| -c);
             self.push_violated_tendon_limits();
-            self.solve(loops)?;
+            if chord {
+                let out = self.solve_factored(&loops);
+                self.last_loops = loops;
+                out?;
+            } else {
+                self.solve(loops)?;
+                factored = true;
+            }
             // The contacts' rows; where their problem has no solution the projection
             // goes on without them (the error then leaves them out too).
             #[cfg(feature = "contact")]
@@ -73,6 +94,7 @@ impl World {
             let mut base = core::mem::take(&mut self.proj_base);
             base.clear();
             base.extend(self.bodies.iter().map(|b| (b.pose, b.v, b.omega)));
+            let err_before = err;
             let mut alpha = 1.0;
             let mut accepted = false;
             for _ in 0..8 {
@@ -103,6 +125,16 @@ impl World {
                 }
             }
             self.proj_base = base;
+            // A step that contracted the error slowly (`‖C‖` more than `CHORD_RATE` of
+            // what it was: the chord steps would contract at about that rate) or, as a
+            // chord step, did not decrease it: the next iteration refactors at this
+            // iterate (a Newton step), before anything is dropped.
+            if !(accepted && err <= CHORD_RATE * err_before) {
+                factored = false;
+                if chord && !accepted {
+                    continue;
+                }
+            }
             if !accepted {
                 // Contacts that the joints (and limits) do not let out: the iteration
                 // again without them, so the joints are still projected.
