@@ -16,7 +16,8 @@ fn energy(w: &World) -> f64 {
 fn heavy_tip_chain_for_ten_thousand_steps() {
     for (name, m, gate) in [
         // Measured: velocity 6.7e-6 m, projected 1.0e-12 m, default (RATTLE, whose
-        // fallback steps also project) 8.8e-10 m.
+        // fallback steps also project) 9.6e-10 m (8.8e-10 before the projection's chord
+        // iterations).
         ("velocity", Method::Velocity { beta: 1.0 }, 1e-4),
         (
             "projected",
@@ -79,14 +80,19 @@ fn energy_over_twenty_thousand_steps() {
         );
         rows.push((name, worst / scale, end));
     }
-    // Measured: RATTLE max 3.2e-2, −1.35e-2 at 20 s; RATTLE4 max 5.1e-2, −5.0e-2 at 20 s;
+    // Measured: RATTLE max 3.2e-2, −1.35e-2 at 20 s; RATTLE4 max 1.54e-1, −1.54e-1 at 20 s;
     // velocity level −1.8e-1 at 20 s. Between the whip events the symplectic methods hold
     // the energy to ~1e-3 (−6.7e-7 J after 2 s, `dynamics.rs`); the jumps come from single
     // violent steps where the SHAKE chord iteration stops at its cap (RATTLE, t ≈ 9 s) or
     // a step falls back to the dissipative velocity level (RATTLE4, t ≈ 7.1 s). Bounded,
-    // and never gaining energy.
+    // and never gaining energy. How much a fallback step dissipates depends on the whip's
+    // state there, which the chaotic chain makes sensitive to the last bits: RATTLE4's
+    // largest loss over eight starts whose tip velocity differs by k · 1e-14 m/s
+    // (k = 0 … 7) ranged 2.0e-3 … 1.46e-1 (5.1e-2 at k = 0) before the projection's chord
+    // iterations, which changed the bits of the fallback steps (their projections end
+    // within 1e-12 of Newton's) and give 1.54e-1 here; so RATTLE4's gate covers that spread.
     assert!(rows[0].1 < 0.05 && rows[0].2.abs() < 0.03, "{rows:?}");
-    assert!(rows[1].1 < 0.08 && rows[1].2.abs() < 0.08, "{rows:?}");
+    assert!(rows[1].1 < 0.2 && rows[1].2.abs() < 0.2, "{rows:?}");
     // The velocity level dissipates (first order): it loses energy, never gains it.
     assert!(rows[2].2 < 0.0 && rows[2].1 < 0.5, "{rows:?}");
     assert!(rows.iter().all(|r| r.2 <= 1e-3), "energy gained: {rows:?}");
