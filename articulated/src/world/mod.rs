@@ -968,6 +968,19 @@ impl World {
         self.assemble_with(h, rates, soft, true, Some(&mut joint_rhs))
     }
 
+    /// The loop rows' buffers of the last assembly (or RATTLE's spare), emptied for
+    /// reuse: no allocation once they have grown.
+    fn take_loop_buffers(&mut self) -> LoopRows {
+        let (mut rows, mut c, mut r) = core::mem::take(&mut self.last_loops);
+        if rows.capacity() == 0 {
+            (rows, c, r) = core::mem::take(&mut self.spare_loops);
+        }
+        rows.clear();
+        c.clear();
+        r.clear();
+        (rows, c, r)
+    }
+
     /// [`Self::assemble`] with `matrix` false for an assembly whose factor the solver
     /// already holds ([`Self::reuse_factor`]): the right-hand side and the loop rows
     /// only. Without `joint_rhs` (hard rows' right-hand side zero) a tree joint without
@@ -986,14 +999,7 @@ impl World {
         }
         // Equality rows take part only in the solves of assemblies that load them.
         self.eq.active = false;
-        // The loop rows' buffers of the last assembly (and of RATTLE's spare), reused.
-        let (mut loop_rows, mut loop_c, mut loop_rhs) = core::mem::take(&mut self.last_loops);
-        if loop_rows.capacity() == 0 {
-            (loop_rows, loop_c, loop_rhs) = core::mem::take(&mut self.spare_loops);
-        }
-        loop_rows.clear();
-        loop_c.clear();
-        loop_rhs.clear();
+        let (mut loop_rows, mut loop_c, mut loop_rhs) = self.take_loop_buffers();
         let solver = &mut self.solver;
         for (j, joint) in self.joints.iter().enumerate() {
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);

@@ -52,13 +52,6 @@ impl World {
                 *x = -v;
             }
         }
-        let (mut rows, mut c, mut r) = core::mem::take(&mut self.last_loops);
-        if rows.capacity() == 0 {
-            (rows, c, r) = core::mem::take(&mut self.spare_loops);
-        }
-        rows.clear();
-        c.clear();
-        r.clear();
-        (rows, c, r)
+        self.take_loop_buffers()
     }
 }
