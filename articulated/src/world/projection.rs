@@ -22,6 +22,20 @@ mod chord;
 use super::*;
 use chord::CHORD_RATE;
 
+/// The projection's reused buffers (no allocation per iteration once grown).
+#[derive(Clone, Debug, Default)]
+pub(super) struct Scratch {
+    /// Per-body state at the start of an iteration.
+    base: Vec<(Pose, DVec3, DVec3)>,
+    /// The hard joints' `C(x)` ([`Joint::value`]) at the poses of the last
+    /// [`World::projection_error`], per joint (soft joints: not written); a chord step's
+    /// right-hand side `−C(x_k)` reads them when they are at its iterate.
+    values: Vec<[f64; MAX_ROWS]>,
+    /// Whether `values` are at the current poses (no pose changed since they were
+    /// evaluated).
+    values_current: bool,
+}
+
 impl World {
     /// Newton projection onto `C(x) = 0` with mass-weighted minimum-norm steps
     /// `[M Jᵀ; J 0][δ; λ] = [0; −C]` (Goldenthal et al. 2007, fast projection).
@@ -32,6 +46,7 @@ impl World {
         velocity_ctx: Option<&StepContext>,
     ) -> Result<usize, ArticulatedError> {
         let velocity_h = velocity_ctx.map(StepContext::h);
+        self.proj.values_current = false;
         // This step's contacts join as one-sided rows (`d ≥ −slop`, push only).
         #[cfg(feature = "contact")]
         self.load_projection_contacts();
@@ -91,7 +106,7 @@ impl World {
             // bodies turned by large angles); halve it until the separation decreases.
             // The iterate the trials start from, in a reused scratch (no allocation per
             // iteration).
-            let mut base = core::mem::take(&mut self.proj_base);
+            let mut base = core::mem::take(&mut self.proj.base);
             base.clear();
             base.extend(self.bodies.iter().map(|b| (b.pose, b.v, b.omega)));
             let err_before = err;
@@ -118,13 +133,14 @@ impl World {
                 alpha *= 0.5;
             }
             if !accepted {
+                self.proj.values_current = false;
                 for (b, &(pose, v, w)) in self.bodies.iter_mut().zip(&base) {
                     b.pose = pose;
                     b.v = v;
                     b.omega = w;
                 }
             }
-            self.proj_base = base;
+            self.proj.base = base;
             // A step that contracted the error slowly (`‖C‖` more than `CHORD_RATE` of
             // what it was: the chord steps would contract at about that rate) or, as a
             // chord step, did not decrease it: the next iteration refactors at this
@@ -169,20 +185,41 @@ impl World {
     /// Without `limits`, the joint limits' violations are left out. With the error,
     /// whether a joint limit is violated (`max(lo − q, q − hi) > 0`: exactly when
     /// [`Self::push_violated_limits`] pushes a row at these poses).
-    fn projection_error(&self, limits: bool) -> (f64, bool) {
+    /// The hard joints' values are kept for the next chord step (`Scratch::values`).
+    fn projection_error(&mut self, limits: bool) -> (f64, bool) {
         let limit = if limits {
             self.max_limit_violation()
         } else {
             0.0
         };
         let err = self
-            .max_hard_separation()
+            .hard_separation_keeping_values()
             .max(self.max_equality_violation())
             .max(limit)
             .max(self.max_tendon_limit_violation());
         #[cfg(feature = "contact")]
         let err = err.max(self.max_contact_violation());
         (err, limit > 0.0)
+    }
+
+    /// Largest separation of the hard joints (the ones the projection enforces;
+    /// [`Joint::separation`], maxima in joint order), keeping each one's `C(x)` in
+    /// `Scratch::values`.
+    fn hard_separation_keeping_values(&mut self) -> f64 {
+        let mut values = core::mem::take(&mut self.proj.values);
+        values.resize(self.joints.len(), [0.0; MAX_ROWS]);
+        let mut worst = 0.0;
+        for (j, joint) in self.joints.iter().enumerate() {
+            if self.is_soft(j) {
+                continue;
+            }
+            let v = joint.value(&self.pose(joint.parent), &self.pose(Some(joint.child)));
+            worst = f64::max(worst, joint.separation_of(&v));
+            values[j] = v;
+        }
+        self.proj.values = values;
+        self.proj.values_current = true;
+        worst
     }
 
     /// The largest violation of a joint limit, `max(lo − q, q − hi, 0)`.
