@@ -18,6 +18,7 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::DVec3;
 
 mod chord;
+mod limits;
 
 use super::*;
 use chord::CHORD_RATE;
@@ -34,6 +35,8 @@ pub(super) struct Scratch {
     /// Whether `values` are at the current poses (no pose changed since they were
     /// evaluated).
     values_current: bool,
+    /// The hinges' start angles for the limits' error (`limits.rs`).
+    limits: limits::LimitRefs,
 }
 
 impl World {
@@ -47,6 +50,7 @@ impl World {
     ) -> Result<usize, ArticulatedError> {
         let velocity_h = velocity_ctx.map(StepContext::h);
         self.proj.values_current = false;
+        self.start_limit_refs();
         // This step's contacts join as one-sided rows (`d ≥ −slop`, push only).
         #[cfg(feature = "contact")]
         self.load_projection_contacts();
@@ -71,6 +75,10 @@ impl World {
             }
             if err <= tolerance {
                 return Ok(it);
+            }
+            if it == 0 {
+                // The hinges' limits are measured from here (`limits.rs`).
+                self.record_start_orientations();
             }
             let chord = factored;
             let mut loops = if chord {
@@ -187,13 +195,13 @@ impl World {
     /// [`Self::push_violated_limits`] pushes a row at these poses).
     /// The hard joints' values are kept for the next chord step (`Scratch::values`).
     fn projection_error(&mut self, limits: bool) -> (f64, bool) {
+        let separation = self.hard_separation_keeping_values();
         let limit = if limits {
-            self.max_limit_violation()
+            self.max_limit_violation_tracked()
         } else {
             0.0
         };
-        let err = self
-            .hard_separation_keeping_values()
+        let err = separation
             .max(self.max_equality_violation())
             .max(limit)
             .max(self.max_tendon_limit_violation());
@@ -219,25 +227,6 @@ impl World {
         }
         self.proj.values = values;
         self.proj.values_current = true;
-        worst
-    }
-
-    /// The largest violation of a joint limit, `max(lo − q, q − hi, 0)`.
-    pub(super) fn max_limit_violation(&self) -> f64 {
-        let mut worst: f64 = 0.0;
-        for ji in 0..self.joints.len() {
-            if self.limits[ji].iter().all(|l| l.is_none()) {
-                continue;
-            }
-            let Some(q) = self.coordinates_of(ji) else {
-                continue;
-            };
-            for (d, lim) in self.limits[ji].iter().enumerate() {
-                if let Some([lo, hi]) = lim {
-                    worst = worst.max(lo - q[d]).max(q[d] - hi);
-                }
-            }
-        }
         worst
     }
 
