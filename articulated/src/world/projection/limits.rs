@@ -42,13 +42,16 @@ pub(in crate::world) struct LimitRefs {
     recording: bool,
     /// `start` holds this projection's start orientations.
     started: bool,
+    /// The projection's tolerance: a limit closer than it to its bound is active.
+    tolerance: f64,
 }
 
 impl World {
     /// At the start of a projection: the next [`Self::max_limit_violation_tracked`]
     /// (at these poses) records the hinges' angles.
-    pub(in crate::world) fn start_limit_refs(&mut self) {
+    pub(in crate::world) fn start_limit_refs(&mut self, tolerance: f64) {
         let refs = &mut self.proj.limits;
+        refs.tolerance = tolerance;
         refs.q0.clear();
         refs.q0.resize(self.joints.len(), f64::NAN);
         refs.recording = true;
@@ -73,10 +76,11 @@ impl World {
     /// as evaluating every limited joint's coordinates), without the angles of hinges that cannot have
     /// reached a bound since the projection started (module doc). Call after
     /// `hard_separation_keeping_values` at the same poses.
-    pub(in crate::world) fn max_limit_violation_tracked(&mut self) -> f64 {
+    pub(in crate::world) fn max_limit_violation_tracked(&mut self) -> (f64, bool) {
         let recording = self.proj.limits.recording;
         let tracking = !recording && self.proj.limits.started;
         let mut worst: f64 = 0.0;
+        let mut nearest = f64::NEG_INFINITY;
         for ji in 0..self.joints.len() {
             if self.limits[ji].iter().all(|l| l.is_none()) {
                 continue;
@@ -93,11 +97,12 @@ impl World {
             for (d, lim) in self.limits[ji].iter().enumerate() {
                 if let Some([lo, hi]) = lim {
                     worst = worst.max(lo - q[d]).max(q[d] - hi);
+                    nearest = nearest.max(lo - q[d]).max(q[d] - hi);
                 }
             }
         }
         self.proj.limits.recording = false;
-        worst
+        (worst, nearest > -self.proj.limits.tolerance)
     }
 
     /// `(q₀, r₀)` of hinge `ji` at the current poses, `q₀` its angle there (NaN: not
@@ -140,6 +145,7 @@ impl World {
         }
         let reach = FRAC_PI_2 * d / r0 + SLACK;
         let (low, high) = (q0 - reach, q0 + reach);
-        lo < low && high < hi && -PI < low && high < PI
+        let tol = refs.tolerance;
+        lo + tol < low && high + tol < hi && -PI < low && high < PI
     }
 }
