@@ -343,8 +343,8 @@ pub struct World {
     rattle: rattle::Scratch,
     /// Acceleration-level scratch.
     accel: acceleration::Scratch,
-    /// Per-body state at the start of a projection iteration (scratch).
-    proj_base: Vec<(Pose, DVec3, DVec3)>,
+    /// Position projection scratch (`projection.rs`).
+    proj: projection::Scratch,
     /// Positional compliance `α ≥ 0` per joint (0: hard).
     compliance: Vec<f64>,
     /// Dry friction per joint and degree of freedom.
@@ -463,7 +463,7 @@ impl World {
             body_iw: Vec::new(),
             rattle: rattle::Scratch::default(),
             accel: acceleration::Scratch::default(),
-            proj_base: Vec::new(),
+            proj: projection::Scratch::default(),
             compliance: Vec::new(),
             limits: Vec::new(),
             frictionloss: Vec::new(),
@@ -626,16 +626,6 @@ impl World {
     /// Whether joint `j` is compliant (`α > 0`).
     fn is_soft(&self, j: usize) -> bool {
         self.compliance.get(j).is_some_and(|&a| a > 0.0)
-    }
-
-    /// Largest separation of the hard joints (the ones the projections enforce).
-    fn max_hard_separation(&self) -> f64 {
-        self.joints
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| !self.is_soft(*j))
-            .map(|(_, j)| j.separation(&self.pose(j.parent), &self.pose(Some(j.child))))
-            .fold(0.0, f64::max)
     }
 
     /// Kinetic energy, and potential energy: gravitational plus the compliant joints'

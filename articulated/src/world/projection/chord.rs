@@ -21,7 +21,8 @@ pub(super) const CHORD_RATE: f64 = 0.01;
 impl World {
     /// The right-hand side of a chord step at the current poses: zero body rows, the
     /// tree joints' hard rows `−C(x_k)` (compliant joints: zero, as `Soft::Free`
-    /// assembles them), the rate rows zero (`Rates::None`); returns the loop rows, as
+    /// assembles them), the rate rows zero (`Rates::None`), `C(x_k)` as the error last
+    /// evaluated it when at these poses; returns the loop rows, as
     /// [`Self::assemble_with`] returns them (a world with loop joints assembles them
     /// there, without the matrix).
     pub(super) fn chord_rhs(&mut self) -> LoopRows {
@@ -45,9 +46,14 @@ impl World {
             let Some(o) = self.solver.joint_offset(j) else {
                 continue;
             };
-            let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
-            let b = self.bodies[joint.child].pose;
-            let c = joint.value(&a, &b);
+            // The values the error evaluated at this iterate (`Scratch::values`), or anew.
+            let c = if self.proj.values_current {
+                self.proj.values[j]
+            } else {
+                let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
+                let b = self.bodies[joint.child].pose;
+                joint.value(&a, &b)
+            };
             for (x, v) in self.rhs[o..o + joint.hard_rows()].iter_mut().zip(&c) {
                 *x = -v;
             }
