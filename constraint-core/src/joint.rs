@@ -88,6 +88,14 @@ impl Point {
     fn value(&self, a: &Pose, b: &Pose) -> DVec3 {
         a.point(self.r_a) - b.point(self.r_b)
     }
+    /// The values of [`Self::rows`] alone (the same operations, so the same bits),
+    /// without the Jacobian.
+    fn values(&self, a: &Pose, b: &Pose, value: &mut [f64]) {
+        let d = self.sep(a, b);
+        for i in 0..3 {
+            value[i] = -d.value[i];
+        }
+    }
     fn rows(&self, a: &Pose, b: &Pose, value: &mut [f64], rows: &mut [[DVec3; 4]]) {
         let d = self.sep(a, b);
         for (i, e) in [DVec3::X, DVec3::Y, DVec3::Z].into_iter().enumerate() {
@@ -367,7 +375,14 @@ impl Prismatic {
 
 impl BodyConstraint<5> for Prismatic {
     fn value(&self, a: &Pose, b: &Pose) -> [f64; 5] {
-        self.jacobian(a, b).value
+        // The values of `jacobian` (same operations, same bits) without its rows.
+        let mut value = [0.0; 5];
+        let d = self.point.sep(a, b);
+        for k in 0..2 {
+            value[k] = FrameExpr::dir_a(a, self.n[k]).value.dot(d.value);
+        }
+        self.orient.values(a, b, &mut value[2..]);
+        value
     }
     fn jacobian(&self, a: &Pose, b: &Pose) -> TwistJacobian<5> {
         let mut j = TwistJacobian {
@@ -424,7 +439,11 @@ impl Fixed {
 
 impl BodyConstraint<6> for Fixed {
     fn value(&self, a: &Pose, b: &Pose) -> [f64; 6] {
-        self.jacobian(a, b).value
+        // The values of `jacobian` (same operations, same bits) without its rows.
+        let mut value = [0.0; 6];
+        self.point.values(a, b, &mut value[..3]);
+        self.orient.values(a, b, &mut value[3..]);
+        value
     }
     fn jacobian(&self, a: &Pose, b: &Pose) -> TwistJacobian<6> {
         let mut j = TwistJacobian {
