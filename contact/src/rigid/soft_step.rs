@@ -779,7 +779,8 @@ impl ContactWorld {
             im: [0.0; 2],
             preload: 0.0,
             preload_cap: 0.0,
-            preload_floor: 0.0
+            preload_floor: 0.0,
+            gap: 0.0
         );
         // Slices of exactly `np` entries: `p < np` needs no bounds check per write.
         let order = &st.order[..np];
@@ -805,6 +806,10 @@ impl ContactWorld {
             &mut st.preload_cap[..np],
             &mut st.preload_floor[..np],
         );
+        let gap = &mut st.gap[..np];
+        // One-way coupling off (the default, an infinite ratio): `im[lower] > ∞ ·
+        // im[upper]` never holds (∞ · 0 is NaN), so the heights need not be read.
+        let one_way = s.one_way_mass_ratio < f64::INFINITY;
         for p in 0..np {
             let k = order[p];
             let c = &contacts[k];
@@ -824,7 +829,7 @@ impl ContactWorld {
             let mut im = [st.inv_mass[a], st.inv_mass[b]];
             // By reference: the two 72-byte matrices are not copied per point.
             let mut inertia = [&st.inv_inertia[a], &st.inv_inertia[b]];
-            if a != nb && b != nb {
+            if one_way && a != nb && b != nb {
                 let (ha, hb) = (self.bodies[a].pose.x.dot(up), self.bodies[b].pose.x.dot(up));
                 let (lower, upper) = if ha < hb { (0, 1) } else { (1, 0) };
                 if im[lower] > s.one_way_mass_ratio * im[upper] {
@@ -867,7 +872,12 @@ impl ContactWorld {
             ang_out[p] = ang;
             mass_out[p] = mass;
             im_out[p] = im;
-            base_gap[p] = -c.depth - n.dot(rb - ra);
+            // The gap at the start of the step, `C₀ = base_gap + nᵀ(r_b − r_a)` (what
+            // `update_gaps` gives at zero displacements, where `Δx + Δq r = r`: the
+            // same bits, up to the sign of a zero), without a pass over the points.
+            let offset = n.dot(rb - ra);
+            base_gap[p] = -c.depth - offset;
+            gap[p] = base_gap[p] + offset;
             soft[p] = if a == nb || b == nb { fixed } else { dynamic };
             friction[p] = ca.friction.max(cb.friction);
             restitution[p] = ca.restitution.max(cb.restitution);
@@ -900,7 +910,6 @@ impl ContactWorld {
         if s.block_normal {
             build_blocks(st);
         }
-        update_gaps(st);
         pack_pairs(st);
     }
 
