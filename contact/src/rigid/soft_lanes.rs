@@ -12,9 +12,12 @@
 //! so the result is the same, bit for bit, as the one-point pass (and as the threaded
 //! passes, which stay one point at a time: `verify/tests/determinism.rs`).
 //!
-//! Nothing is stored twice: each lane gathers its point's rows from the state's arrays
-//! of structures (two loads per pair of values) and scatters the two bodies'
-//! velocities back.
+//! The passes take two manifolds of a colour at a time, one per lane, with their
+//! points in order: the two bodies' velocities of each manifold (every point of a
+//! manifold has the same two) are gathered once, updated point by point and
+//! scattered back once per manifold (loading and storing them per point was a
+//! quarter of the warm start; the 210-box pyramid's step −2.0 %, callgrind). The
+//! rows come packed per pair of points ([`Paired`]), built once per step.
 
 use alloc::vec::Vec;
 
@@ -155,15 +158,12 @@ pub(super) struct PairRows {
     friction: f64x2,
 }
 
-/// The points the relax pass and the warm start take two at a time: consecutive
-/// pairs `(p, p + 1)` within each colouring group of the colours before the overflow
-/// colour (no shared moving body), with their packed rows; the other points (a
-/// group's odd one, the overflow colour's) go one at a time. Kept buffers: no
-/// allocation once grown.
+/// The rows packed two points at a time: consecutive pairs `(p, p + 1)` within each
+/// colouring group of the colours before the overflow colour (no shared moving
+/// body), which are the points of one place of two consecutive manifolds of a colour
+/// where the manifolds' point counts line up. Kept buffers: no allocation once grown.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Paired {
-    /// First point of each pair, in solve order.
-    pub(super) start: Vec<usize>,
     rows: Vec<PairRows>,
     /// Pair of each point it starts (`u32::MAX` where none), by solve position.
     pair_of: Vec<u32>,
@@ -173,7 +173,6 @@ impl Paired {
     /// Pairs up the points of `ranges` (the colouring's groups, the first
     /// `serial_from` of which may be paired) and packs their rows.
     pub(super) fn build(&mut self, rows: &Rows, ranges: &[usize], serial_from: usize) {
-        self.start.clear();
         self.rows.clear();
         self.pair_of.clear();
         self.pair_of
@@ -183,18 +182,11 @@ impl Paired {
         for g in 0..paired {
             let (mut p, hi) = (ranges[g], ranges[g + 1]);
             while p + 1 < hi {
-                self.pair_of[p] = self.start.len() as u32;
-                self.start.push(p);
+                self.pair_of[p] = self.rows.len() as u32;
                 self.rows.push(pack(rows, p, p + 1));
                 p += 2;
             }
         }
-    }
-
-    /// The packed rows of pair `k`.
-    #[inline(always)]
-    pub(super) fn rows(&self, k: usize) -> &PairRows {
-        &self.rows[k]
     }
 
     /// The packed rows of points `p` and `q` if they are a pair.
@@ -242,24 +234,108 @@ pub(super) struct RelaxIo<'a> {
     pub(super) gap: &'a [f64],
 }
 
-/// Points `p` and `q` (of one colouring group: no shared moving body) in one relax
-/// pass, one per lane: the rigid normal row (the speculative target `C/h` where
-/// separated, else no bias: `Δλ = −m (J v + b)`, `λ ≥ 0`), then the two friction rows
-/// bounded by `μ λ_n` (`|λ_t| ≤ μ λ_n`), as `solve_point` with `use_bias` false.
+/// The packed rows of two manifolds' points place by place (`pts[0][i]` beside
+/// `pts[1][i]`): from `paired` where the two points are one of its pairs
+/// (manifolds of equal point counts line up with the groups), else packed into
+/// `local`; [`EMPTY`] beyond the points.
 #[inline(always)]
-pub(super) fn relax_pair(
+fn lined_up<'a>(
     rows: &Rows,
+    paired: &'a Paired,
+    pts: [&[usize]; 2],
+    local: &'a mut [Option<PairRows>; BLOCK_POINTS],
+) -> [&'a PairRows; BLOCK_POINTS] {
+    let mut packed = [None; BLOCK_POINTS];
+    for i in 0..pts[0].len().min(BLOCK_POINTS) {
+        let (p, q) = (pts[0][i], pts[1][i]);
+        packed[i] = paired.rows_of(p, q);
+        if packed[i].is_none() {
+            local[i] = Some(pack(rows, p, q));
+        }
+    }
+    let local = &*local;
+    core::array::from_fn(|i| packed[i].or(local[i].as_ref()).unwrap_or(&EMPTY))
+}
+
+/// The two bodies' velocities of two manifolds, one per lane: `(v_a, ω_a, v_b, ω_b)`
+/// (every point of a manifold has the same two bodies).
+#[inline(always)]
+fn load(v: &[DVec3], w: &[DVec3], ab: [[usize; 2]; 2]) -> [Lanes3; 4] {
+    let ([a0, b0], [a1, b1]) = (ab[0], ab[1]);
+    [
+        Lanes3::of(v[a0], v[a1]),
+        Lanes3::of(w[a0], w[a1]),
+        Lanes3::of(v[b0], v[b1]),
+        Lanes3::of(w[b0], w[b1]),
+    ]
+}
+
+/// Stores what [`load`] loaded, lane by lane; never the static slot (its inverse mass
+/// and inertia are zero: it stays at rest).
+#[inline(always)]
+fn store(
+    v: &mut [DVec3],
+    w: &mut [DVec3],
+    ab: [[usize; 2]; 2],
+    [va, wa, vb, wb]: [Lanes3; 4],
+    fixed: usize,
+) {
+    for (lane, [a, b]) in ab.into_iter().enumerate() {
+        if a != fixed {
+            v[a] = va.lane(lane);
+            w[a] = wa.lane(lane);
+        }
+        if b != fixed {
+            v[b] = vb.lane(lane);
+            w[b] = wb.lane(lane);
+        }
+    }
+}
+
+/// The relax pass over two manifolds of one colour (no shared moving body), one per
+/// lane, their points in order: per point the rigid normal row (the speculative
+/// target `C/h` where separated, else no bias: `Δλ = −m (J v + b)`, `λ ≥ 0`), then
+/// the two friction rows bounded by `μ λ_n` (`|λ_t| ≤ μ λ_n`), as `solve_point` with
+/// `use_bias` false on each point, the bodies' velocities loaded once and stored once
+/// per manifold (Box2D v3 loads them per point). Returns false, having changed
+/// nothing, where the two manifolds' point counts differ or exceed [`BLOCK_POINTS`]
+/// (the caller then solves them one point at a time: the same bits, the two being
+/// independent).
+#[inline(always)]
+pub(super) fn relax_manifolds(
+    rows: &Rows,
+    paired: &Paired,
+    pts: [&[usize]; 2],
+    io: &mut RelaxIo,
+    inv_h: f64,
+) -> bool {
+    let len = pts[0].len();
+    if len == 0 || pts[1].len() != len || len > BLOCK_POINTS {
+        return false;
+    }
+    let mut local = [None; BLOCK_POINTS];
+    let pr = lined_up(rows, paired, pts, &mut local);
+    let ab = [rows.slots[pts[0][0]], rows.slots[pts[1][0]]];
+    let [mut va, mut wa, mut vb, mut wb] = load(io.v, io.w, ab);
+    for i in 0..len {
+        let vel = (&mut va, &mut wa, &mut vb, &mut wb);
+        relax_rows(pr[i], pts[0][i], pts[1][i], io, vel, inv_h);
+    }
+    store(io.v, io.w, ab, [va, wa, vb, wb], rows.fixed);
+    true
+}
+
+/// Points `p` and `q` of [`relax_manifolds`], one per lane, on velocities held by the
+/// caller (`[v_a, ω_a, v_b, ω_b]`).
+#[inline(always)]
+fn relax_rows(
     pr: &PairRows,
     p: usize,
     q: usize,
     io: &mut RelaxIo,
+    (va, wa, vb, wb): (&mut Lanes3, &mut Lanes3, &mut Lanes3, &mut Lanes3),
     inv_h: f64,
 ) {
-    let ([a0, b0], [a1, b1]) = (rows.slots[p], rows.slots[q]);
-    let mut va = Lanes3::of(io.v[a0], io.v[a1]);
-    let mut wa = Lanes3::of(io.w[a0], io.w[a1]);
-    let mut vb = Lanes3::of(io.v[b0], io.v[b1]);
-    let mut wb = Lanes3::of(io.w[b0], io.w[b1]);
     let g = &pr.ang;
     let [ma, mb] = pr.im;
     let (zp, zq) = (io.impulse[p], io.impulse[q]);
@@ -270,31 +346,31 @@ pub(super) fn relax_pair(
     let (one, zero) = (f64x2::splat(1.0), f64x2::splat(0.0));
     let z0 = pair(zp[0], zq[0]);
     let d0 = pr.dir[0];
-    let vn = d0.dot(vb.sub(va)) + g[0][1].dot(wb) - g[0][0].dot(wa);
+    let vn = d0.dot(vb.sub(*va)) + g[0][1].dot(*wb) - g[0][0].dot(*wa);
     let new = at_least(
         z0 - pr.mass[0] * one * (vn + bias) - zero * (z0 - zero),
         zero,
     );
     let dz = new - z0;
     let max_normal = at_least(new, pair(io.max_normal[p], io.max_normal[q]));
-    va = va.sub(d0.scale(ma * dz));
-    wa = wa.sub(g[0][2].scale(dz));
-    vb = vb.add(d0.scale(mb * dz));
-    wb = wb.add(g[0][3].scale(dz));
+    *va = va.sub(d0.scale(ma * dz));
+    *wa = wa.sub(g[0][2].scale(dz));
+    *vb = vb.add(d0.scale(mb * dz));
+    *wb = wb.add(g[0][3].scale(dz));
     let bound = pr.friction * new;
     let mut z = [new, zero, zero];
     for r in 1..3 {
         let d = pr.dir[r];
         let zr = pair(zp[r], zq[r]);
-        let vt = d.dot(vb.sub(va)) + g[r][1].dot(wb) - g[r][0].dot(wa);
+        let vt = d.dot(vb.sub(*va)) + g[r][1].dot(*wb) - g[r][0].dot(*wa);
         let unbounded = zr - pr.mass[r] * vt;
         let new = at_least(at_most(unbounded, bound), -bound);
         let dz = new - zr;
         z[r] = new;
-        va = va.sub(d.scale(ma * dz));
-        wa = wa.sub(g[r][2].scale(dz));
-        vb = vb.add(d.scale(mb * dz));
-        wb = wb.add(g[r][3].scale(dz));
+        *va = va.sub(d.scale(ma * dz));
+        *wa = wa.sub(g[r][2].scale(dz));
+        *vb = vb.add(d.scale(mb * dz));
+        *wb = wb.add(g[r][3].scale(dz));
     }
     for (lane, point) in [p, q].into_iter().enumerate() {
         io.impulse[point] = [
@@ -303,17 +379,6 @@ pub(super) fn relax_pair(
             z[2].as_array()[lane],
         ];
         io.max_normal[point] = max_normal.as_array()[lane];
-    }
-    // The static slot's inverse mass and inertia are zero: it stays at rest.
-    for (lane, (a, b)) in [(a0, b0), (a1, b1)].into_iter().enumerate() {
-        if a != rows.fixed {
-            io.v[a] = va.lane(lane);
-            io.w[a] = wa.lane(lane);
-        }
-        if b != rows.fixed {
-            io.v[b] = vb.lane(lane);
-            io.w[b] = wb.lane(lane);
-        }
     }
 }
 
@@ -365,20 +430,10 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
         z[i] = [pair(z0[0], z1[0]), pair(z0[1], z1[1]), pair(z0[2], z1[2])];
         most[i] = pair(m0, m1);
     }
-    // The points' rows side by side: packed where the two points are a pair of
-    // `paired` (manifolds of equal point counts line up with the groups), else
-    // gathered here.
+    // The points' rows side by side.
     let mut local = [None; N];
-    let mut packed = [None; N];
-    for i in 0..len {
-        let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
-        packed[i] = paired.rows_of(p, q);
-        if packed[i].is_none() {
-            local[i] = Some(pack(rows, p, q));
-        }
-    }
-    let pr: [&PairRows; N] =
-        core::array::from_fn(|i| packed[i].or(local[i].as_ref()).unwrap_or(&EMPTY));
+    let pts = [&blk[0].pts[..len], &blk[1].pts[..len]];
+    let pr = lined_up(rows, paired, pts, &mut local);
     // r = J v + b + c∘(λ − λ_pre), zero in the padding.
     let mut r = [zero; N];
     for i in 0..len {
@@ -454,44 +509,46 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
     true
 }
 
-/// The warm start of points `p` and `q` (a pair of [`Paired`]), one per lane, as
-/// `apply_point`: `v += M⁻¹ Jᵀ λ`, the linear part `d₀λ₀ + d₁λ₁ + d₂λ₂` and the
-/// angular parts `Σ_r I⁻¹(r × d_r) λ_r` summed left to right.
+/// The warm start of two manifolds of one colour (no shared moving body), one per
+/// lane, their points in order, as `apply_point` on each: `v += M⁻¹ Jᵀ λ`, the
+/// linear part `d₀λ₀ + d₁λ₁ + d₂λ₂` and the angular parts `Σ_r I⁻¹(r × d_r) λ_r`
+/// summed left to right, the bodies' velocities loaded and stored once per manifold.
+/// Returns false, having changed nothing, where the point counts differ or exceed
+/// [`BLOCK_POINTS`] (as [`relax_manifolds`]).
 #[inline(always)]
-pub(super) fn warm_pair(
+pub(super) fn warm_manifolds(
     rows: &Rows,
-    pr: &PairRows,
-    p: usize,
-    q: usize,
+    paired: &Paired,
+    pts: [&[usize]; 2],
     v: &mut [DVec3],
     w: &mut [DVec3],
     impulse: &[[f64; 3]],
-) {
-    let ([a0, b0], [a1, b1]) = (rows.slots[p], rows.slots[q]);
-    let (zp, zq) = (impulse[p], impulse[q]);
-    let z = [pair(zp[0], zq[0]), pair(zp[1], zq[1]), pair(zp[2], zq[2])];
-    let (d, g) = (&pr.dir, &pr.ang);
-    let lin = d[0].scale(z[0]).add(d[1].scale(z[1])).add(d[2].scale(z[2]));
-    let ang = |k: usize| {
-        g[0][k]
-            .scale(z[0])
-            .add(g[1][k].scale(z[1]))
-            .add(g[2][k].scale(z[2]))
-    };
-    let [ma, mb] = pr.im;
-    let va = Lanes3::of(v[a0], v[a1]).sub(lin.scale(ma));
-    let wa = Lanes3::of(w[a0], w[a1]).sub(ang(2));
-    let vb = Lanes3::of(v[b0], v[b1]).add(lin.scale(mb));
-    let wb = Lanes3::of(w[b0], w[b1]).add(ang(3));
-    // The static slot's inverse mass and inertia are zero: it stays at rest.
-    for (lane, (a, b)) in [(a0, b0), (a1, b1)].into_iter().enumerate() {
-        if a != rows.fixed {
-            v[a] = va.lane(lane);
-            w[a] = wa.lane(lane);
-        }
-        if b != rows.fixed {
-            v[b] = vb.lane(lane);
-            w[b] = wb.lane(lane);
-        }
+) -> bool {
+    let len = pts[0].len();
+    if len == 0 || pts[1].len() != len || len > BLOCK_POINTS {
+        return false;
     }
+    let mut local = [None; BLOCK_POINTS];
+    let pr = lined_up(rows, paired, pts, &mut local);
+    let ab = [rows.slots[pts[0][0]], rows.slots[pts[1][0]]];
+    let [mut va, mut wa, mut vb, mut wb] = load(v, w, ab);
+    for i in 0..len {
+        let (zp, zq) = (impulse[pts[0][i]], impulse[pts[1][i]]);
+        let z = [pair(zp[0], zq[0]), pair(zp[1], zq[1]), pair(zp[2], zq[2])];
+        let (d, g) = (&pr[i].dir, &pr[i].ang);
+        let lin = d[0].scale(z[0]).add(d[1].scale(z[1])).add(d[2].scale(z[2]));
+        let ang = |k: usize| {
+            g[0][k]
+                .scale(z[0])
+                .add(g[1][k].scale(z[1]))
+                .add(g[2][k].scale(z[2]))
+        };
+        let [ma, mb] = pr[i].im;
+        va = va.sub(lin.scale(ma));
+        wa = wa.sub(ang(2));
+        vb = vb.add(lin.scale(mb));
+        wb = wb.add(ang(3));
+    }
+    store(v, w, ab, [va, wa, vb, wb], rows.fixed);
+    true
 }

@@ -64,7 +64,7 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DQuat, DVec3, Pose};
 
 use super::colouring::Colouring;
-use super::soft_lanes::{block_pair, relax_pair, warm_pair, Paired, RelaxIo};
+use super::soft_lanes::{block_pair, relax_manifolds, warm_manifolds, Paired, RelaxIo};
 use super::{ContactError, ContactSolver, ContactStats, ContactWorld, RowsSolver, SolverPath};
 use crate::geometry::BroadScratch;
 
@@ -1350,26 +1350,76 @@ fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
 }
 
 /// Applies the stored impulses of every point (warm start, each sub-step) in solve
-/// order, the pairs of [`Paired`] two at a time in SIMD lanes ([`warm_pair`]: the same
-/// bits as [`apply_point`] one at a time).
+/// order: colour by colour, two manifolds at a time in SIMD lanes
+/// ([`warm_manifolds`]: the same bits as [`apply_point`] one point at a time, the
+/// manifolds of a colour touching disjoint moving bodies), a colour's odd manifold
+/// and the overflow colour's points (whose manifolds may share bodies) one by one.
 fn warm_start(st: &mut SoftState) {
     let paired = core::mem::take(&mut st.paired);
+    let colouring = core::mem::take(&mut st.colouring);
     {
         let (rows, mut vel, impulse, _) = split!(&mut *st);
-        let n = rows.slots.len();
-        let (mut k, mut p) = (0, 0);
-        while p < n {
-            if k < paired.start.len() && paired.start[k] == p {
-                warm_pair(&rows, paired.rows(k), p, p + 1, vel.v, vel.w, impulse);
-                k += 1;
-                p += 2;
+        let mut one = |p: usize, vel: &mut Slices| apply_point(&rows, p, impulse[p], vel);
+        for_manifold_pairs(
+            &colouring,
+            rows.slots.len(),
+            |pts, vel: &mut Slices| warm_manifolds(&rows, &paired, pts, vel.v, vel.w, impulse),
+            &mut one,
+            &mut vel,
+        );
+    }
+    st.colouring = colouring;
+    st.paired = paired;
+}
+
+/// Walks the colouring for the point passes that take two manifolds at a time: per
+/// colour before the overflow colour, `pair` on consecutive manifolds `(j, j + 1)`
+/// (their points in order; where it declines, and for a colour's odd manifold, `one`
+/// on each point in order), then `one` on the overflow colour's points in solve
+/// order (its manifolds may share bodies). Within a colour the manifolds touch
+/// disjoint moving bodies, so this is the same work, bit for bit, as every point in
+/// solve order.
+#[inline(always)]
+fn for_manifold_pairs<S>(
+    colouring: &Colouring,
+    points: usize,
+    mut pair: impl FnMut([&[usize]; 2], &mut S) -> bool,
+    one: &mut impl FnMut(usize, &mut S),
+    state: &mut S,
+) {
+    let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
+    let manifold = |j: usize| &pts[mp[j]..mp[j + 1]];
+    let starts = &colouring.colour_start;
+    let colours = starts.len().saturating_sub(1);
+    let serial = colouring.serial_from + 1 < colouring.ranges.len();
+    let empty: &[usize] = &[];
+    // One call site of `one` (inlined once), fed the points of a declined pair, of a
+    // colour's odd manifold or of the overflow colour.
+    for c in 0..colours {
+        let overflow = serial && c + 1 == colours;
+        let (mut j, hi) = (starts[c], starts[c + 1]);
+        while j < hi {
+            let (m0, m1, positions) = if overflow {
+                j = hi;
+                (
+                    empty,
+                    empty,
+                    colouring.ranges[colouring.serial_from]..points,
+                )
             } else {
-                apply_point(&rows, p, impulse[p], &mut vel);
-                p += 1;
+                let m0 = manifold(j);
+                let m1 = if j + 1 < hi { manifold(j + 1) } else { empty };
+                j += 2;
+                if !m1.is_empty() && pair([m0, m1], state) {
+                    continue;
+                }
+                (m0, m1, 0..0)
+            };
+            for p in m0.iter().chain(m1).copied().chain(positions) {
+                one(p, state);
             }
         }
     }
-    st.paired = paired;
 }
 
 /// Pairs up the points for the SIMD lanes and packs their rows ([`Paired::build`]).
@@ -1492,14 +1542,15 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
 }
 
 /// The relax pass ([`solve_point`] without bias on every point, in solve order) with
-/// the points of each colouring group taken two at a time in SIMD lanes
-/// ([`super::soft_lanes::relax_pair`]: the same bits as one at a time); a group's odd
-/// point and the overflow colour's groups (whose manifolds may share bodies) one by
-/// one.
+/// the manifolds of each colour taken two at a time in SIMD lanes
+/// ([`relax_manifolds`]: the same bits as one point at a time; see
+/// [`for_manifold_pairs`]).
 fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
     let paired = core::mem::take(&mut st.paired);
+    let colouring = core::mem::take(&mut st.colouring);
     {
         let (rows, vel, impulse, max_normal) = split!(&mut *st);
+        let (dp, rot) = (vel.dp, vel.rot);
         let mut io = RelaxIo {
             v: &mut *vel.v,
             w: &mut *vel.w,
@@ -1507,37 +1558,32 @@ fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
             max_normal: &mut *max_normal,
             gap,
         };
-        // Pairs and single points in solve order (the pairs' points commute with
-        // each other; each single point comes after the pairs of its group and
-        // before the next group's, or in the overflow colour after them all).
-        let mut k = 0;
-        let n = rows.slots.len();
-        let mut p = 0;
-        while p < n {
-            if k < paired.start.len() && paired.start[k] == p {
-                relax_pair(&rows, paired.rows(k), p, p + 1, &mut io, pass.inv_h);
-                k += 1;
-                p += 2;
-            } else {
-                let mut one = Slices {
-                    v: &mut *io.v,
-                    w: &mut *io.w,
-                    dp: vel.dp,
-                    rot: vel.rot,
-                };
-                solve_point(
-                    &rows,
-                    p,
-                    gap[p],
-                    &mut io.impulse[p],
-                    &mut io.max_normal[p],
-                    &mut one,
-                    pass,
-                );
-                p += 1;
-            }
-        }
+        let mut one = |p: usize, io: &mut RelaxIo| {
+            let mut vel = Slices {
+                v: &mut *io.v,
+                w: &mut *io.w,
+                dp,
+                rot,
+            };
+            solve_point(
+                &rows,
+                p,
+                gap[p],
+                &mut io.impulse[p],
+                &mut io.max_normal[p],
+                &mut vel,
+                pass,
+            );
+        };
+        for_manifold_pairs(
+            &colouring,
+            rows.slots.len(),
+            |pts, io: &mut RelaxIo| relax_manifolds(&rows, &paired, pts, io, pass.inv_h),
+            &mut one,
+            &mut io,
+        );
     }
+    st.colouring = colouring;
     st.paired = paired;
 }
 
