@@ -1,4 +1,4 @@
-//! The soft step's relax pass two points at a time, one per SIMD lane (`wide::f64x2`;
+//! The soft step's passes two points at a time, one per SIMD lane (`wide::f64x2`;
 //! Box2D v3 solves its contact constraints in SIMD lanes the same way,
 //! `contact_solver.c`, `b2SolveContactTwoPointsTask`).
 //!
@@ -17,13 +17,16 @@
 //! manifold has the same two) are gathered once, updated point by point and
 //! scattered back once per manifold (loading and storing them per point was a
 //! quarter of the warm start; the 210-box pyramid's step −2.0 %, callgrind). The
-//! rows come packed per pair of points ([`Paired`]), built once per step.
+//! rows come packed per pair of manifolds ([`Paired`]), built once per step in the
+//! order the passes read them (looking each pair of points up by solve position
+//! instead cost 4.6 % of the pyramid's step).
 
 use alloc::vec::Vec;
 
 use constraint_core::DVec3;
 use wide::f64x2;
 
+use super::colouring::Colouring;
 use super::soft_step::{Block, Bodies, Pass, PointImpulses, Rows, BLOCK_POINTS};
 
 /// Two 3-vectors, one per lane.
@@ -35,12 +38,6 @@ struct Lanes3 {
 }
 
 impl Lanes3 {
-    const ZERO: Self = Self {
-        x: f64x2::ZERO,
-        y: f64x2::ZERO,
-        z: f64x2::ZERO,
-    };
-
     #[inline(always)]
     fn of(p: DVec3, q: DVec3) -> Self {
         Self {
@@ -158,53 +155,54 @@ pub(super) struct PairRows {
     friction: f64x2,
 }
 
-/// The rows packed two points at a time: consecutive pairs `(p, p + 1)` within each
-/// colouring group of the colours before the overflow colour (no shared moving
-/// body), which are the points of one place of two consecutive manifolds of a colour
-/// where the manifolds' point counts line up. Kept buffers: no allocation once grown.
+/// The rows packed two points at a time, per pair of manifolds: the manifolds of each
+/// colour before the overflow colour (no shared moving body) taken two at a time,
+/// `(j, j + 1)` from the colour's first, as the passes take them; where the two have
+/// the same point count (at most [`BLOCK_POINTS`]) their points' rows side by side,
+/// place by place (the passes read them in order: no lookup per point). Kept
+/// buffers: no allocation once grown.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Paired {
     rows: Vec<PairRows>,
-    /// Pair of each point it starts (`u32::MAX` where none), by solve position.
-    pair_of: Vec<u32>,
+    /// Where the rows of manifold pair `(j, j + 1)` start in `rows`, by `j` (colour
+    /// order; `u32::MAX` where `j` starts no packed pair).
+    first: Vec<u32>,
 }
 
 impl Paired {
-    /// Pairs up the points of `ranges` (the colouring's groups, the first
-    /// `serial_from` of which may be paired) and packs their rows.
-    pub(super) fn build(&mut self, rows: &Rows, ranges: &[usize], serial_from: usize) {
+    /// Pairs up the manifolds of `colouring` and packs their points' rows.
+    pub(super) fn build(&mut self, rows: &Rows, colouring: &Colouring) {
         self.rows.clear();
-        self.pair_of.clear();
-        self.pair_of
-            .resize(ranges.last().copied().unwrap_or(0), u32::MAX);
-        let groups = ranges.len().saturating_sub(1);
-        let paired = serial_from.min(groups);
-        for g in 0..paired {
-            let (mut p, hi) = (ranges[g], ranges[g + 1]);
-            while p + 1 < hi {
-                self.pair_of[p] = self.rows.len() as u32;
-                self.rows.push(pack(rows, p, p + 1));
-                p += 2;
+        let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
+        let manifolds = mp.len().saturating_sub(1);
+        self.first.clear();
+        self.first.resize(manifolds, u32::MAX);
+        let starts = &colouring.colour_start;
+        let colours = starts.len().saturating_sub(1);
+        let serial = colouring.serial_from + 1 < colouring.ranges.len();
+        let laned = if serial { colours - 1 } else { colours };
+        for c in 0..laned {
+            let (mut j, hi) = (starts[c], starts[c + 1]);
+            while j + 1 < hi {
+                let (m0, m1) = (&pts[mp[j]..mp[j + 1]], &pts[mp[j + 1]..mp[j + 2]]);
+                if m0.len() == m1.len() && m0.len() <= BLOCK_POINTS {
+                    self.first[j] = self.rows.len() as u32;
+                    for (&p, &q) in m0.iter().zip(m1) {
+                        self.rows.push(pack(rows, p, q));
+                    }
+                }
+                j += 2;
             }
         }
     }
 
-    /// The packed rows of points `p` and `q` if they are a pair.
+    /// The packed rows of manifold pair `(j, j + 1)` (`len` points each), if packed.
     #[inline(always)]
-    fn rows_of(&self, p: usize, q: usize) -> Option<&PairRows> {
-        let k = *self.pair_of.get(p)?;
-        (k != u32::MAX && q == p + 1).then(|| &self.rows[k as usize])
+    pub(super) fn of(&self, j: usize, len: usize) -> Option<&[PairRows]> {
+        let k = *self.first.get(j)? as usize;
+        self.rows.get(k..k + len)
     }
 }
-
-/// Rows of zeros (the padding of a block beyond its points; never read).
-const EMPTY: PairRows = PairRows {
-    dir: [Lanes3::ZERO; 3],
-    ang: [[Lanes3::ZERO; 4]; 3],
-    mass: [f64x2::ZERO; 3],
-    im: [f64x2::ZERO; 2],
-    friction: f64x2::ZERO,
-};
 
 /// The rows of points `p` and `q`, one per lane.
 #[inline(always)]
@@ -232,29 +230,6 @@ pub(super) struct RelaxIo<'a> {
     pub(super) max_normal: &'a mut [f64],
     /// Gaps at the current displacements.
     pub(super) gap: &'a [f64],
-}
-
-/// The packed rows of two manifolds' points place by place (`pts[0][i]` beside
-/// `pts[1][i]`): from `paired` where the two points are one of its pairs
-/// (manifolds of equal point counts line up with the groups), else packed into
-/// `local`; [`EMPTY`] beyond the points.
-#[inline(always)]
-fn lined_up<'a>(
-    rows: &Rows,
-    paired: &'a Paired,
-    pts: [&[usize]; 2],
-    local: &'a mut [Option<PairRows>; BLOCK_POINTS],
-) -> [&'a PairRows; BLOCK_POINTS] {
-    let mut packed = [None; BLOCK_POINTS];
-    for i in 0..pts[0].len().min(BLOCK_POINTS) {
-        let (p, q) = (pts[0][i], pts[1][i]);
-        packed[i] = paired.rows_of(p, q);
-        if packed[i].is_none() {
-            local[i] = Some(pack(rows, p, q));
-        }
-    }
-    let local = &*local;
-    core::array::from_fn(|i| packed[i].or(local[i].as_ref()).unwrap_or(&EMPTY))
 }
 
 /// The two bodies' velocities of two manifolds, one per lane: `(v_a, ω_a, v_b, ω_b)`
@@ -297,29 +272,30 @@ fn store(
 /// target `C/h` where separated, else no bias: `Δλ = −m (J v + b)`, `λ ≥ 0`), then
 /// the two friction rows bounded by `μ λ_n` (`|λ_t| ≤ μ λ_n`), as `solve_point` with
 /// `use_bias` false on each point, the bodies' velocities loaded once and stored once
-/// per manifold (Box2D v3 loads them per point). Returns false, having changed
-/// nothing, where the two manifolds' point counts differ or exceed [`BLOCK_POINTS`]
-/// (the caller then solves them one point at a time: the same bits, the two being
-/// independent).
+/// per manifold (Box2D v3 loads them per point). `pr`: their packed rows
+/// ([`Paired::of`]). Returns false, having changed nothing, where they were not
+/// packed (point counts that differ or exceed [`BLOCK_POINTS`]): the caller then
+/// solves them one point at a time (the same bits, the two being independent).
 #[inline(always)]
 pub(super) fn relax_manifolds(
     rows: &Rows,
-    paired: &Paired,
+    pr: Option<&[PairRows]>,
     pts: [&[usize]; 2],
     io: &mut RelaxIo,
     inv_h: f64,
 ) -> bool {
     let len = pts[0].len();
-    if len == 0 || pts[1].len() != len || len > BLOCK_POINTS {
+    let Some(pr) = pr else {
+        return false;
+    };
+    if len == 0 || pts[1].len() != len || pr.len() != len {
         return false;
     }
-    let mut local = [None; BLOCK_POINTS];
-    let pr = lined_up(rows, paired, pts, &mut local);
     let ab = [rows.slots[pts[0][0]], rows.slots[pts[1][0]]];
     let [mut va, mut wa, mut vb, mut wb] = load(io.v, io.w, ab);
     for i in 0..len {
         let vel = (&mut va, &mut wa, &mut vb, &mut wb);
-        relax_rows(pr[i], pts[0][i], pts[1][i], io, vel, inv_h);
+        relax_rows(&pr[i], pts[0][i], pts[1][i], io, vel, inv_h);
     }
     store(io.v, io.w, ab, [va, wa, vb, wb], rows.fixed);
     true
@@ -386,14 +362,14 @@ fn relax_rows(
 /// body) with their normal rows solved as blocks, one manifold per lane: exactly
 /// `solve_block` on each (`(A + diag c) Δλ = −(J v + b + c∘(λ − λ_pre))`, then the
 /// friction rows point by point), for two blocks of the same point count without
-/// friction anchors. Returns false, having changed nothing, where the lanes do not
+/// friction anchors; `pr`: their packed rows ([`Paired::of`]). Returns false, having changed nothing, where the lanes do not
 /// apply or where `solve_block` would decline for either manifold (a separated
 /// point, an impulse turning negative): the caller then solves both one at a time
 /// (the same bits either way, the two manifolds being independent).
 #[inline(always)]
 pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
     rows: &Rows,
-    paired: &Paired,
+    pr: Option<&[PairRows]>,
     blk: [&Block; 2],
     io: &mut I,
     vel: &mut B,
@@ -401,7 +377,10 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
 ) -> bool {
     const N: usize = BLOCK_POINTS;
     let len = blk[0].len;
-    if len == 0 || blk[1].len != len || pass.anchors {
+    let Some(pr) = pr else {
+        return false;
+    };
+    if len == 0 || blk[1].len != len || pr.len() != len || pass.anchors {
         return false;
     }
     let mut gap = [f64x2::splat(0.0); N];
@@ -430,10 +409,6 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
         z[i] = [pair(z0[0], z1[0]), pair(z0[1], z1[1]), pair(z0[2], z1[2])];
         most[i] = pair(m0, m1);
     }
-    // The points' rows side by side.
-    let mut local = [None; N];
-    let pts = [&blk[0].pts[..len], &blk[1].pts[..len]];
-    let pr = lined_up(rows, paired, pts, &mut local);
     // r = J v + b + c∘(λ − λ_pre), zero in the padding.
     let mut r = [zero; N];
     for i in 0..len {
@@ -513,23 +488,24 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
 /// lane, their points in order, as `apply_point` on each: `v += M⁻¹ Jᵀ λ`, the
 /// linear part `d₀λ₀ + d₁λ₁ + d₂λ₂` and the angular parts `Σ_r I⁻¹(r × d_r) λ_r`
 /// summed left to right, the bodies' velocities loaded and stored once per manifold.
-/// Returns false, having changed nothing, where the point counts differ or exceed
-/// [`BLOCK_POINTS`] (as [`relax_manifolds`]).
+/// Returns false, having changed nothing, where they were not packed (as
+/// [`relax_manifolds`]).
 #[inline(always)]
 pub(super) fn warm_manifolds(
     rows: &Rows,
-    paired: &Paired,
+    pr: Option<&[PairRows]>,
     pts: [&[usize]; 2],
     v: &mut [DVec3],
     w: &mut [DVec3],
     impulse: &[[f64; 3]],
 ) -> bool {
     let len = pts[0].len();
-    if len == 0 || pts[1].len() != len || len > BLOCK_POINTS {
+    let Some(pr) = pr else {
+        return false;
+    };
+    if len == 0 || pts[1].len() != len || pr.len() != len {
         return false;
     }
-    let mut local = [None; BLOCK_POINTS];
-    let pr = lined_up(rows, paired, pts, &mut local);
     let ab = [rows.slots[pts[0][0]], rows.slots[pts[1][0]]];
     let [mut va, mut wa, mut vb, mut wb] = load(v, w, ab);
     for i in 0..len {

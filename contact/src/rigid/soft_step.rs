@@ -906,9 +906,10 @@ impl ContactWorld {
 
             total[p] = [0.0; 3];
         }
-        st.blocks.clear();
         if s.block_normal {
             build_blocks(st);
+        } else {
+            st.blocks.clear();
         }
         pack_pairs(st);
     }
@@ -1057,13 +1058,17 @@ impl ContactWorld {
 fn build_blocks(st: &mut SoftState) {
     const N: usize = BLOCK_POINTS;
     let mp = &st.colouring.manifold_start;
-    for j in 0..mp.len().saturating_sub(1) {
+    let manifolds = mp.len().saturating_sub(1);
+    // Sized once (a no-op when the count is the last step's) and written in place: a
+    // block's `pts`, `c` and `kinv` are read only when its `len` is set, and then all
+    // of them have been written here (a new block pushed per manifold cost a zeroing
+    // and a 200-byte copy each).
+    st.blocks.resize(manifolds, Block::default());
+    let blocks = &mut st.blocks[..manifolds];
+    for (j, blk) in blocks.iter_mut().enumerate() {
         let pts = &st.colouring.manifold_points[mp[j]..mp[j + 1]];
         let len = pts.len();
-        let mut blk = Block {
-            len: 0,
-            ..Block::default()
-        };
+        blk.len = 0;
         if (2..=N).contains(&len) {
             let [ma, mb] = st.im[pts[0]];
             let mut ok = true;
@@ -1096,7 +1101,6 @@ fn build_blocks(st: &mut SoftState) {
                 blk.len = len;
             }
         }
-        st.blocks.push(blk);
     }
 }
 
@@ -1363,7 +1367,10 @@ fn warm_start(st: &mut SoftState) {
         for_manifold_pairs(
             &colouring,
             rows.slots.len(),
-            |pts, vel: &mut Slices| warm_manifolds(&rows, &paired, pts, vel.v, vel.w, impulse),
+            |j, pts, vel: &mut Slices| {
+                let pr = paired.of(j, pts[0].len());
+                warm_manifolds(&rows, pr, pts, vel.v, vel.w, impulse)
+            },
             &mut one,
             &mut vel,
         );
@@ -1383,7 +1390,7 @@ fn warm_start(st: &mut SoftState) {
 fn for_manifold_pairs<S>(
     colouring: &Colouring,
     points: usize,
-    mut pair: impl FnMut([&[usize]; 2], &mut S) -> bool,
+    mut pair: impl FnMut(usize, [&[usize]; 2], &mut S) -> bool,
     one: &mut impl FnMut(usize, &mut S),
     state: &mut S,
 ) {
@@ -1410,7 +1417,7 @@ fn for_manifold_pairs<S>(
                 let m0 = manifold(j);
                 let m1 = if j + 1 < hi { manifold(j + 1) } else { empty };
                 j += 2;
-                if !m1.is_empty() && pair([m0, m1], state) {
+                if !m1.is_empty() && pair(j - 2, [m0, m1], state) {
                     continue;
                 }
                 (m0, m1, 0..0)
@@ -1428,7 +1435,7 @@ fn pack_pairs(st: &mut SoftState) {
     let colouring = core::mem::take(&mut st.colouring);
     {
         let (rows, _, _, _) = split!(&mut *st);
-        paired.build(&rows, &colouring.ranges, colouring.serial_from);
+        paired.build(&rows, &colouring);
     }
     st.colouring = colouring;
     st.paired = paired;
@@ -1515,7 +1522,8 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
                 if !(serial && c + 1 == colours) {
                     while j + 1 < hi {
                         let pair = [&blocks[j], &blocks[j + 1]];
-                        if !block_pair(&rows, &paired, pair, &mut io, &mut vel, pass) {
+                        let pr = paired.of(j, blocks[j].len);
+                        if !block_pair(&rows, pr, pair, &mut io, &mut vel, pass) {
                             one(j, &mut io, &mut vel);
                             one(j + 1, &mut io, &mut vel);
                         }
@@ -1578,7 +1586,9 @@ fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
         for_manifold_pairs(
             &colouring,
             rows.slots.len(),
-            |pts, io: &mut RelaxIo| relax_manifolds(&rows, &paired, pts, io, pass.inv_h),
+            |j, pts, io: &mut RelaxIo| {
+                relax_manifolds(&rows, paired.of(j, pts[0].len()), pts, io, pass.inv_h)
+            },
             &mut one,
             &mut io,
         );
