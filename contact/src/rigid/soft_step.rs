@@ -847,8 +847,6 @@ impl ContactWorld {
                 mass[r] = if k > 0.0 { 1.0 / k } else { 0.0 };
                 ang[r] = [ua, ub, ia, ib];
             }
-            // Relative normal velocity before the step: n·(v_b + ω_b×r_b − v_a − ω_a×r_a).
-            let vn = n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a]);
             let mut z = [0.0; 3];
             if self.settings.warm_start {
                 let (zn, ft, _, _) = st.found[k];
@@ -857,15 +855,13 @@ impl ContactWorld {
                     z[0] = st.estimate[k];
                 }
             }
-            let sl = if s.friction_anchors {
-                st.found[k].2
-            } else {
-                DVec3::ZERO
-            };
-            // Stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ Δd` below is the slip
-            // (Δd: the anchors' separation vector, as for the gap).
-            let r = rb - ra;
-            slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
+            // The anchor's slip, stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ Δd`
+            // below is the slip (Δd: the anchors' separation vector, as for the gap);
+            // read only with anchors on.
+            if s.friction_anchors {
+                let (sl, r) = (st.found[k].2, rb - ra);
+                slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
+            }
             slots[p] = [a, b];
             dir[p] = dirs;
             anchor[p] = [ra, rb];
@@ -880,8 +876,15 @@ impl ContactWorld {
             gap[p] = base_gap[p] + offset;
             soft[p] = if a == nb || b == nb { fixed } else { dynamic };
             friction[p] = ca.friction.max(cb.friction);
-            restitution[p] = ca.restitution.max(cb.restitution);
-            approach[p] = vn;
+            let e = ca.restitution.max(cb.restitution);
+            restitution[p] = e;
+            // Relative normal velocity before the step, n·(v_b + ω_b×r_b − v_a − ω_a×r_a),
+            // read only by restitution where `e` is not zero.
+            approach[p] = if e == 0.0 {
+                0.0
+            } else {
+                n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a])
+            };
             impulse[p] = z;
             preload_out[p] =
                 if (every && st.estimate[k] > 0.0) || (new_manifolds && !st.found_hit[k]) {
