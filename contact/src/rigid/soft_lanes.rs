@@ -17,9 +17,10 @@
 //! manifold has the same two) are gathered once, updated point by point and
 //! scattered back once per manifold (loading and storing them per point was a
 //! quarter of the warm start; the 210-box pyramid's step −2.0 %, callgrind). The
-//! rows come packed per pair of manifolds ([`Paired`]), built once per step in the
-//! order the passes read them (looking each pair of points up by solve position
-//! instead cost 4.6 % of the pyramid's step).
+//! rows come packed per pair of manifolds ([`Paired`]), written once per step by
+//! `prepare` as it computes each point, in the order the passes read them (looking
+//! each pair of points up by solve position instead cost 4.6 % of the pyramid's
+//! step).
 
 use alloc::vec::Vec;
 
@@ -38,6 +39,20 @@ struct Lanes3 {
 }
 
 impl Lanes3 {
+    const ZERO: Self = Self {
+        x: f64x2::ZERO,
+        y: f64x2::ZERO,
+        z: f64x2::ZERO,
+    };
+
+    /// Sets lane `i` to `v`.
+    #[inline(always)]
+    fn set(&mut self, i: usize, v: DVec3) {
+        self.x.as_mut_array()[i] = v.x;
+        self.y.as_mut_array()[i] = v.y;
+        self.z.as_mut_array()[i] = v.z;
+    }
+
     #[inline(always)]
     fn of(p: DVec3, q: DVec3) -> Self {
         Self {
@@ -167,33 +182,94 @@ pub(super) struct Paired {
     /// Where the rows of manifold pair `(j, j + 1)` start in `rows`, by `j` (colour
     /// order; `u32::MAX` where `j` starts no packed pair).
     first: Vec<u32>,
+    /// Of each point (solve position): `2 ×` its entry in `rows` `+` its lane
+    /// (`u32::MAX` where it is not packed).
+    lane_of: Vec<u32>,
 }
 
+/// One point's rows as `prepare` computes them (what [`Paired::put`] writes).
+pub(super) struct PointRows<'a> {
+    /// Normal and tangents.
+    pub(super) dir: &'a [DVec3; 3],
+    /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
+    pub(super) ang: &'a [[DVec3; 4]; 3],
+    /// Effective masses.
+    pub(super) mass: [f64; 3],
+    /// Inverse masses as the rows see them.
+    pub(super) im: [f64; 2],
+    /// Friction coefficient.
+    pub(super) friction: f64,
+}
+
+/// Rows of zeros (the entries `Paired::plan` sizes before `prepare` writes them).
+const ZERO_ROWS: PairRows = PairRows {
+    dir: [Lanes3::ZERO; 3],
+    ang: [[Lanes3::ZERO; 4]; 3],
+    mass: [f64x2::ZERO; 3],
+    im: [f64x2::ZERO; 2],
+    friction: f64x2::ZERO,
+};
+
 impl Paired {
-    /// Pairs up the manifolds of `colouring` and packs their points' rows.
-    pub(super) fn build(&mut self, rows: &Rows, colouring: &Colouring) {
-        self.rows.clear();
+    /// Pairs up the manifolds of `colouring` and sizes the packed rows; `prepare`
+    /// then writes each point's rows into its lane ([`Paired::put`]) as it computes
+    /// them (packing them afterwards from the state's arrays read them back, 3 % of
+    /// the 210-box pyramid's step).
+    pub(super) fn plan(&mut self, colouring: &Colouring) {
         let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
         let manifolds = mp.len().saturating_sub(1);
         self.first.clear();
         self.first.resize(manifolds, u32::MAX);
+        self.lane_of.clear();
+        self.lane_of.resize(pts.len(), u32::MAX);
         let starts = &colouring.colour_start;
         let colours = starts.len().saturating_sub(1);
         let serial = colouring.serial_from + 1 < colouring.ranges.len();
         let laned = if serial { colours - 1 } else { colours };
+        let mut count = 0;
         for c in 0..laned {
             let (mut j, hi) = (starts[c], starts[c + 1]);
             while j + 1 < hi {
                 let (m0, m1) = (&pts[mp[j]..mp[j + 1]], &pts[mp[j + 1]..mp[j + 2]]);
                 if m0.len() == m1.len() && m0.len() <= BLOCK_POINTS {
-                    self.first[j] = self.rows.len() as u32;
+                    self.first[j] = count as u32;
                     for (&p, &q) in m0.iter().zip(m1) {
-                        self.rows.push(pack(rows, p, q));
+                        if let Some(l) = self.lane_of.get_mut(p) {
+                            *l = 2 * count as u32;
+                        }
+                        if let Some(l) = self.lane_of.get_mut(q) {
+                            *l = 2 * count as u32 + 1;
+                        }
+                        count += 1;
                     }
                 }
                 j += 2;
             }
         }
+        // Every entry is written by `put` before the passes read it.
+        self.rows.resize(count, ZERO_ROWS);
+    }
+
+    /// Writes point `p`'s rows into its lane, if it is in a packed pair.
+    #[inline(always)]
+    pub(super) fn put(&mut self, p: usize, point: PointRows) {
+        let Some(&at) = self.lane_of.get(p) else {
+            return;
+        };
+        let Some(pr) = self.rows.get_mut((at / 2) as usize) else {
+            return;
+        };
+        let lane = (at % 2) as usize;
+        for r in 0..3 {
+            pr.dir[r].set(lane, point.dir[r]);
+            for k in 0..4 {
+                pr.ang[r][k].set(lane, point.ang[r][k]);
+            }
+            pr.mass[r].as_mut_array()[lane] = point.mass[r];
+        }
+        pr.im[0].as_mut_array()[lane] = point.im[0];
+        pr.im[1].as_mut_array()[lane] = point.im[1];
+        pr.friction.as_mut_array()[lane] = point.friction;
     }
 
     /// The packed rows of manifold pair `(j, j + 1)` (`len` points each), if packed.
@@ -201,23 +277,6 @@ impl Paired {
     pub(super) fn of(&self, j: usize, len: usize) -> Option<&[PairRows]> {
         let k = *self.first.get(j)? as usize;
         self.rows.get(k..k + len)
-    }
-}
-
-/// The rows of points `p` and `q`, one per lane.
-#[inline(always)]
-fn pack(rows: &Rows, p: usize, q: usize) -> PairRows {
-    let (dp, dq) = (&rows.dir[p], &rows.dir[q]);
-    let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
-    let (mp, mq) = (rows.mass[p], rows.mass[q]);
-    let (ip, iq) = (rows.im[p], rows.im[q]);
-    let ang = |r: usize| [0, 1, 2, 3].map(|k| Lanes3::of(gp[r][k], gq[r][k]));
-    PairRows {
-        dir: [0, 1, 2].map(|r| Lanes3::of(dp[r], dq[r])),
-        ang: [ang(0), ang(1), ang(2)],
-        mass: [0, 1, 2].map(|r| pair(mp[r], mq[r])),
-        im: [pair(ip[0], iq[0]), pair(ip[1], iq[1])],
-        friction: pair(rows.friction[p], rows.friction[q]),
     }
 }
 

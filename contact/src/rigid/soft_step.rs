@@ -48,10 +48,10 @@
 //! last, static slot (zero inverse mass) for the ground. Every buffer lives in [`SoftState`] and is reused: a step allocates nothing
 //! once the buffers have grown to the scene.
 //!
-//! SIMD lanes (the `soft_lanes` module, `wide::f64x2`): on one thread the warm start
-//! and the relax pass take the points of a colouring group two at a time, their rows
-//! packed side by side once per step, and the biased pass takes the manifolds of a
-//! colour two at a time (block normal solve and friction). Each lane does the scalar
+//! SIMD lanes (the `soft_lanes` module, `wide::f64x2`): on one thread the warm start,
+//! the biased pass (block normal solve and friction) and the relax pass take the
+//! manifolds of a colour two at a time, one per lane, their rows packed side by side
+//! once per step and each manifold's two bodies' velocities loaded once. Each lane does the scalar
 //! pass's operations in the same order on independent bodies, so the bits are those
 //! of one point (manifold) at a time, and of the threaded passes, which stay scalar.
 //! The gaps are computed once per sub-step, after the positions, for the relax passes
@@ -64,7 +64,7 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DQuat, DVec3, Pose};
 
 use super::colouring::Colouring;
-use super::soft_lanes::{block_pair, relax_manifolds, warm_manifolds, Paired, RelaxIo};
+use super::soft_lanes::{block_pair, relax_manifolds, warm_manifolds, Paired, PointRows, RelaxIo};
 use super::{ContactError, ContactSolver, ContactStats, ContactWorld, RowsSolver, SolverPath};
 use crate::geometry::BroadScratch;
 
@@ -807,6 +807,9 @@ impl ContactWorld {
             &mut st.preload_floor[..np],
         );
         let gap = &mut st.gap[..np];
+        // The SIMD lanes' packed rows, written point by point below.
+        st.paired.plan(&st.colouring);
+        let paired = &mut st.paired;
         // One-way coupling off (the default, an infinite ratio): `im[lower] > ∞ ·
         // im[upper]` never holds (∞ · 0 is NaN), so the heights need not be read.
         let one_way = s.one_way_mass_ratio < f64::INFINITY;
@@ -862,6 +865,16 @@ impl ContactWorld {
                 let (sl, r) = (st.found[k].2, rb - ra);
                 slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
             }
+            paired.put(
+                p,
+                PointRows {
+                    dir: &dirs,
+                    ang: &ang,
+                    mass,
+                    im,
+                    friction: ca.friction.max(cb.friction),
+                },
+            );
             slots[p] = [a, b];
             dir[p] = dirs;
             anchor[p] = [ra, rb];
@@ -914,7 +927,6 @@ impl ContactWorld {
         } else {
             st.blocks.clear();
         }
-        pack_pairs(st);
     }
 
     /// Static load estimate of the contacts, for the manifolds met for the first time
@@ -1430,18 +1442,6 @@ fn for_manifold_pairs<S>(
             }
         }
     }
-}
-
-/// Pairs up the points for the SIMD lanes and packs their rows ([`Paired::build`]).
-fn pack_pairs(st: &mut SoftState) {
-    let mut paired = core::mem::take(&mut st.paired);
-    let colouring = core::mem::take(&mut st.colouring);
-    {
-        let (rows, _, _, _) = split!(&mut *st);
-        paired.build(&rows, &colouring);
-    }
-    st.colouring = colouring;
-    st.paired = paired;
 }
 
 /// Every point's gap at the current displacements into `st.gap` (once per
