@@ -1,4 +1,4 @@
-//! The soft step's relax pass two points at a time, one per SIMD lane (`wide::f64x2`;
+//! The soft step's passes two points at a time, one per SIMD lane (`wide::f64x2`;
 //! Box2D v3 solves its contact constraints in SIMD lanes the same way,
 //! `contact_solver.c`, `b2SolveContactTwoPointsTask`).
 //!
@@ -12,15 +12,22 @@
 //! so the result is the same, bit for bit, as the one-point pass (and as the threaded
 //! passes, which stay one point at a time: `verify/tests/determinism.rs`).
 //!
-//! Nothing is stored twice: each lane gathers its point's rows from the state's arrays
-//! of structures (two loads per pair of values) and scatters the two bodies'
-//! velocities back.
+//! The passes take two manifolds of a colour at a time, one per lane, with their
+//! points in order: the two bodies' velocities of each manifold (every point of a
+//! manifold has the same two) are gathered once, updated point by point and
+//! scattered back once per manifold (loading and storing them per point was a
+//! quarter of the warm start; the 210-box pyramid's step −2.0 %, callgrind). The
+//! rows come packed per pair of manifolds ([`Paired`]), written once per step by
+//! `prepare` as it computes each point, in the order the passes read them (looking
+//! each pair of points up by solve position instead cost 4.6 % of the pyramid's
+//! step).
 
 use alloc::vec::Vec;
 
 use constraint_core::DVec3;
 use wide::f64x2;
 
+use super::colouring::Colouring;
 use super::soft_step::{Block, Bodies, Pass, PointImpulses, Rows, BLOCK_POINTS};
 
 /// Two 3-vectors, one per lane.
@@ -37,6 +44,14 @@ impl Lanes3 {
         y: f64x2::ZERO,
         z: f64x2::ZERO,
     };
+
+    /// Sets lane `i` to `v`.
+    #[inline(always)]
+    fn set(&mut self, i: usize, v: DVec3) {
+        self.x.as_mut_array()[i] = v.x;
+        self.y.as_mut_array()[i] = v.y;
+        self.z.as_mut_array()[i] = v.z;
+    }
 
     #[inline(always)]
     fn of(p: DVec3, q: DVec3) -> Self {
@@ -155,58 +170,39 @@ pub(super) struct PairRows {
     friction: f64x2,
 }
 
-/// The points the relax pass and the warm start take two at a time: consecutive
-/// pairs `(p, p + 1)` within each colouring group of the colours before the overflow
-/// colour (no shared moving body), with their packed rows; the other points (a
-/// group's odd one, the overflow colour's) go one at a time. Kept buffers: no
-/// allocation once grown.
+/// The rows packed two points at a time, per pair of manifolds: the manifolds of each
+/// colour before the overflow colour (no shared moving body) taken two at a time,
+/// `(j, j + 1)` from the colour's first, as the passes take them; where the two have
+/// the same point count (at most [`BLOCK_POINTS`]) their points' rows side by side,
+/// place by place (the passes read them in order: no lookup per point). Kept
+/// buffers: no allocation once grown.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Paired {
-    /// First point of each pair, in solve order.
-    pub(super) start: Vec<usize>,
     rows: Vec<PairRows>,
-    /// Pair of each point it starts (`u32::MAX` where none), by solve position.
-    pair_of: Vec<u32>,
+    /// Where the rows of manifold pair `(j, j + 1)` start in `rows`, by `j` (colour
+    /// order; `u32::MAX` where `j` starts no packed pair).
+    first: Vec<u32>,
+    /// Of each point (solve position): `2 ×` its entry in `rows` `+` its lane
+    /// (`u32::MAX` where it is not packed).
+    lane_of: Vec<u32>,
 }
 
-impl Paired {
-    /// Pairs up the points of `ranges` (the colouring's groups, the first
-    /// `serial_from` of which may be paired) and packs their rows.
-    pub(super) fn build(&mut self, rows: &Rows, ranges: &[usize], serial_from: usize) {
-        self.start.clear();
-        self.rows.clear();
-        self.pair_of.clear();
-        self.pair_of
-            .resize(ranges.last().copied().unwrap_or(0), u32::MAX);
-        let groups = ranges.len().saturating_sub(1);
-        let paired = serial_from.min(groups);
-        for g in 0..paired {
-            let (mut p, hi) = (ranges[g], ranges[g + 1]);
-            while p + 1 < hi {
-                self.pair_of[p] = self.start.len() as u32;
-                self.start.push(p);
-                self.rows.push(pack(rows, p, p + 1));
-                p += 2;
-            }
-        }
-    }
-
-    /// The packed rows of pair `k`.
-    #[inline(always)]
-    pub(super) fn rows(&self, k: usize) -> &PairRows {
-        &self.rows[k]
-    }
-
-    /// The packed rows of points `p` and `q` if they are a pair.
-    #[inline(always)]
-    fn rows_of(&self, p: usize, q: usize) -> Option<&PairRows> {
-        let k = *self.pair_of.get(p)?;
-        (k != u32::MAX && q == p + 1).then(|| &self.rows[k as usize])
-    }
+/// One point's rows as `prepare` computes them (what [`Paired::put`] writes).
+pub(super) struct PointRows<'a> {
+    /// Normal and tangents.
+    pub(super) dir: &'a [DVec3; 3],
+    /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
+    pub(super) ang: &'a [[DVec3; 4]; 3],
+    /// Effective masses.
+    pub(super) mass: [f64; 3],
+    /// Inverse masses as the rows see them.
+    pub(super) im: [f64; 2],
+    /// Friction coefficient.
+    pub(super) friction: f64,
 }
 
-/// Rows of zeros (the padding of a block beyond its points; never read).
-const EMPTY: PairRows = PairRows {
+/// Rows of zeros (the entries `Paired::plan` sizes before `prepare` writes them).
+const ZERO_ROWS: PairRows = PairRows {
     dir: [Lanes3::ZERO; 3],
     ang: [[Lanes3::ZERO; 4]; 3],
     mass: [f64x2::ZERO; 3],
@@ -214,20 +210,73 @@ const EMPTY: PairRows = PairRows {
     friction: f64x2::ZERO,
 };
 
-/// The rows of points `p` and `q`, one per lane.
-#[inline(always)]
-fn pack(rows: &Rows, p: usize, q: usize) -> PairRows {
-    let (dp, dq) = (&rows.dir[p], &rows.dir[q]);
-    let (gp, gq) = (&rows.ang[p], &rows.ang[q]);
-    let (mp, mq) = (rows.mass[p], rows.mass[q]);
-    let (ip, iq) = (rows.im[p], rows.im[q]);
-    let ang = |r: usize| [0, 1, 2, 3].map(|k| Lanes3::of(gp[r][k], gq[r][k]));
-    PairRows {
-        dir: [0, 1, 2].map(|r| Lanes3::of(dp[r], dq[r])),
-        ang: [ang(0), ang(1), ang(2)],
-        mass: [0, 1, 2].map(|r| pair(mp[r], mq[r])),
-        im: [pair(ip[0], iq[0]), pair(ip[1], iq[1])],
-        friction: pair(rows.friction[p], rows.friction[q]),
+impl Paired {
+    /// Pairs up the manifolds of `colouring` and sizes the packed rows; `prepare`
+    /// then writes each point's rows into its lane ([`Paired::put`]) as it computes
+    /// them (packing them afterwards from the state's arrays read them back, 3 % of
+    /// the 210-box pyramid's step).
+    pub(super) fn plan(&mut self, colouring: &Colouring) {
+        let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
+        let manifolds = mp.len().saturating_sub(1);
+        self.first.clear();
+        self.first.resize(manifolds, u32::MAX);
+        self.lane_of.clear();
+        self.lane_of.resize(pts.len(), u32::MAX);
+        let starts = &colouring.colour_start;
+        let colours = starts.len().saturating_sub(1);
+        let serial = colouring.serial_from + 1 < colouring.ranges.len();
+        let laned = if serial { colours - 1 } else { colours };
+        let mut count = 0;
+        for c in 0..laned {
+            let (mut j, hi) = (starts[c], starts[c + 1]);
+            while j + 1 < hi {
+                let (m0, m1) = (&pts[mp[j]..mp[j + 1]], &pts[mp[j + 1]..mp[j + 2]]);
+                if m0.len() == m1.len() && m0.len() <= BLOCK_POINTS {
+                    self.first[j] = count as u32;
+                    for (&p, &q) in m0.iter().zip(m1) {
+                        if let Some(l) = self.lane_of.get_mut(p) {
+                            *l = 2 * count as u32;
+                        }
+                        if let Some(l) = self.lane_of.get_mut(q) {
+                            *l = 2 * count as u32 + 1;
+                        }
+                        count += 1;
+                    }
+                }
+                j += 2;
+            }
+        }
+        // Every entry is written by `put` before the passes read it.
+        self.rows.resize(count, ZERO_ROWS);
+    }
+
+    /// Writes point `p`'s rows into its lane, if it is in a packed pair.
+    #[inline(always)]
+    pub(super) fn put(&mut self, p: usize, point: PointRows) {
+        let Some(&at) = self.lane_of.get(p) else {
+            return;
+        };
+        let Some(pr) = self.rows.get_mut((at / 2) as usize) else {
+            return;
+        };
+        let lane = (at % 2) as usize;
+        for r in 0..3 {
+            pr.dir[r].set(lane, point.dir[r]);
+            for k in 0..4 {
+                pr.ang[r][k].set(lane, point.ang[r][k]);
+            }
+            pr.mass[r].as_mut_array()[lane] = point.mass[r];
+        }
+        pr.im[0].as_mut_array()[lane] = point.im[0];
+        pr.im[1].as_mut_array()[lane] = point.im[1];
+        pr.friction.as_mut_array()[lane] = point.friction;
+    }
+
+    /// The packed rows of manifold pair `(j, j + 1)` (`len` points each), if packed.
+    #[inline(always)]
+    pub(super) fn of(&self, j: usize, len: usize) -> Option<&[PairRows]> {
+        let k = *self.first.get(j)? as usize;
+        self.rows.get(k..k + len)
     }
 }
 
@@ -242,24 +291,86 @@ pub(super) struct RelaxIo<'a> {
     pub(super) gap: &'a [f64],
 }
 
-/// Points `p` and `q` (of one colouring group: no shared moving body) in one relax
-/// pass, one per lane: the rigid normal row (the speculative target `C/h` where
-/// separated, else no bias: `Δλ = −m (J v + b)`, `λ ≥ 0`), then the two friction rows
-/// bounded by `μ λ_n` (`|λ_t| ≤ μ λ_n`), as `solve_point` with `use_bias` false.
+/// The two bodies' velocities of two manifolds, one per lane: `(v_a, ω_a, v_b, ω_b)`
+/// (every point of a manifold has the same two bodies).
 #[inline(always)]
-pub(super) fn relax_pair(
+fn load(v: &[DVec3], w: &[DVec3], ab: [[usize; 2]; 2]) -> [Lanes3; 4] {
+    let ([a0, b0], [a1, b1]) = (ab[0], ab[1]);
+    [
+        Lanes3::of(v[a0], v[a1]),
+        Lanes3::of(w[a0], w[a1]),
+        Lanes3::of(v[b0], v[b1]),
+        Lanes3::of(w[b0], w[b1]),
+    ]
+}
+
+/// Stores what [`load`] loaded, lane by lane; never the static slot (its inverse mass
+/// and inertia are zero: it stays at rest).
+#[inline(always)]
+fn store(
+    v: &mut [DVec3],
+    w: &mut [DVec3],
+    ab: [[usize; 2]; 2],
+    [va, wa, vb, wb]: [Lanes3; 4],
+    fixed: usize,
+) {
+    for (lane, [a, b]) in ab.into_iter().enumerate() {
+        if a != fixed {
+            v[a] = va.lane(lane);
+            w[a] = wa.lane(lane);
+        }
+        if b != fixed {
+            v[b] = vb.lane(lane);
+            w[b] = wb.lane(lane);
+        }
+    }
+}
+
+/// The relax pass over two manifolds of one colour (no shared moving body), one per
+/// lane, their points in order: per point the rigid normal row (the speculative
+/// target `C/h` where separated, else no bias: `Δλ = −m (J v + b)`, `λ ≥ 0`), then
+/// the two friction rows bounded by `μ λ_n` (`|λ_t| ≤ μ λ_n`), as `solve_point` with
+/// `use_bias` false on each point, the bodies' velocities loaded once and stored once
+/// per manifold (Box2D v3 loads them per point). `pr`: their packed rows
+/// ([`Paired::of`]). Returns false, having changed nothing, where they were not
+/// packed (point counts that differ or exceed [`BLOCK_POINTS`]): the caller then
+/// solves them one point at a time (the same bits, the two being independent).
+#[inline(always)]
+pub(super) fn relax_manifolds(
     rows: &Rows,
+    pr: Option<&[PairRows]>,
+    pts: [&[usize]; 2],
+    io: &mut RelaxIo,
+    inv_h: f64,
+) -> bool {
+    let len = pts[0].len();
+    let Some(pr) = pr else {
+        return false;
+    };
+    if len == 0 || pts[1].len() != len || pr.len() != len {
+        return false;
+    }
+    let ab = [rows.slots[pts[0][0]], rows.slots[pts[1][0]]];
+    let [mut va, mut wa, mut vb, mut wb] = load(io.v, io.w, ab);
+    for i in 0..len {
+        let vel = (&mut va, &mut wa, &mut vb, &mut wb);
+        relax_rows(&pr[i], pts[0][i], pts[1][i], io, vel, inv_h);
+    }
+    store(io.v, io.w, ab, [va, wa, vb, wb], rows.fixed);
+    true
+}
+
+/// Points `p` and `q` of [`relax_manifolds`], one per lane, on velocities held by the
+/// caller (`[v_a, ω_a, v_b, ω_b]`).
+#[inline(always)]
+fn relax_rows(
     pr: &PairRows,
     p: usize,
     q: usize,
     io: &mut RelaxIo,
+    (va, wa, vb, wb): (&mut Lanes3, &mut Lanes3, &mut Lanes3, &mut Lanes3),
     inv_h: f64,
 ) {
-    let ([a0, b0], [a1, b1]) = (rows.slots[p], rows.slots[q]);
-    let mut va = Lanes3::of(io.v[a0], io.v[a1]);
-    let mut wa = Lanes3::of(io.w[a0], io.w[a1]);
-    let mut vb = Lanes3::of(io.v[b0], io.v[b1]);
-    let mut wb = Lanes3::of(io.w[b0], io.w[b1]);
     let g = &pr.ang;
     let [ma, mb] = pr.im;
     let (zp, zq) = (io.impulse[p], io.impulse[q]);
@@ -270,31 +381,31 @@ pub(super) fn relax_pair(
     let (one, zero) = (f64x2::splat(1.0), f64x2::splat(0.0));
     let z0 = pair(zp[0], zq[0]);
     let d0 = pr.dir[0];
-    let vn = d0.dot(vb.sub(va)) + g[0][1].dot(wb) - g[0][0].dot(wa);
+    let vn = d0.dot(vb.sub(*va)) + g[0][1].dot(*wb) - g[0][0].dot(*wa);
     let new = at_least(
         z0 - pr.mass[0] * one * (vn + bias) - zero * (z0 - zero),
         zero,
     );
     let dz = new - z0;
     let max_normal = at_least(new, pair(io.max_normal[p], io.max_normal[q]));
-    va = va.sub(d0.scale(ma * dz));
-    wa = wa.sub(g[0][2].scale(dz));
-    vb = vb.add(d0.scale(mb * dz));
-    wb = wb.add(g[0][3].scale(dz));
+    *va = va.sub(d0.scale(ma * dz));
+    *wa = wa.sub(g[0][2].scale(dz));
+    *vb = vb.add(d0.scale(mb * dz));
+    *wb = wb.add(g[0][3].scale(dz));
     let bound = pr.friction * new;
     let mut z = [new, zero, zero];
     for r in 1..3 {
         let d = pr.dir[r];
         let zr = pair(zp[r], zq[r]);
-        let vt = d.dot(vb.sub(va)) + g[r][1].dot(wb) - g[r][0].dot(wa);
+        let vt = d.dot(vb.sub(*va)) + g[r][1].dot(*wb) - g[r][0].dot(*wa);
         let unbounded = zr - pr.mass[r] * vt;
         let new = at_least(at_most(unbounded, bound), -bound);
         let dz = new - zr;
         z[r] = new;
-        va = va.sub(d.scale(ma * dz));
-        wa = wa.sub(g[r][2].scale(dz));
-        vb = vb.add(d.scale(mb * dz));
-        wb = wb.add(g[r][3].scale(dz));
+        *va = va.sub(d.scale(ma * dz));
+        *wa = wa.sub(g[r][2].scale(dz));
+        *vb = vb.add(d.scale(mb * dz));
+        *wb = wb.add(g[r][3].scale(dz));
     }
     for (lane, point) in [p, q].into_iter().enumerate() {
         io.impulse[point] = [
@@ -304,31 +415,20 @@ pub(super) fn relax_pair(
         ];
         io.max_normal[point] = max_normal.as_array()[lane];
     }
-    // The static slot's inverse mass and inertia are zero: it stays at rest.
-    for (lane, (a, b)) in [(a0, b0), (a1, b1)].into_iter().enumerate() {
-        if a != rows.fixed {
-            io.v[a] = va.lane(lane);
-            io.w[a] = wa.lane(lane);
-        }
-        if b != rows.fixed {
-            io.v[b] = vb.lane(lane);
-            io.w[b] = wb.lane(lane);
-        }
-    }
 }
 
 /// The biased pass over manifolds `b0` and `b1` (of one colour: no shared moving
 /// body) with their normal rows solved as blocks, one manifold per lane: exactly
 /// `solve_block` on each (`(A + diag c) Δλ = −(J v + b + c∘(λ − λ_pre))`, then the
 /// friction rows point by point), for two blocks of the same point count without
-/// friction anchors. Returns false, having changed nothing, where the lanes do not
+/// friction anchors; `pr`: their packed rows ([`Paired::of`]). Returns false, having changed nothing, where the lanes do not
 /// apply or where `solve_block` would decline for either manifold (a separated
 /// point, an impulse turning negative): the caller then solves both one at a time
 /// (the same bits either way, the two manifolds being independent).
 #[inline(always)]
 pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
     rows: &Rows,
-    paired: &Paired,
+    pr: Option<&[PairRows]>,
     blk: [&Block; 2],
     io: &mut I,
     vel: &mut B,
@@ -336,7 +436,10 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
 ) -> bool {
     const N: usize = BLOCK_POINTS;
     let len = blk[0].len;
-    if len == 0 || blk[1].len != len || pass.anchors {
+    let Some(pr) = pr else {
+        return false;
+    };
+    if len == 0 || blk[1].len != len || pr.len() != len || pass.anchors {
         return false;
     }
     let mut gap = [f64x2::splat(0.0); N];
@@ -365,20 +468,6 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
         z[i] = [pair(z0[0], z1[0]), pair(z0[1], z1[1]), pair(z0[2], z1[2])];
         most[i] = pair(m0, m1);
     }
-    // The points' rows side by side: packed where the two points are a pair of
-    // `paired` (manifolds of equal point counts line up with the groups), else
-    // gathered here.
-    let mut local = [None; N];
-    let mut packed = [None; N];
-    for i in 0..len {
-        let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
-        packed[i] = paired.rows_of(p, q);
-        if packed[i].is_none() {
-            local[i] = Some(pack(rows, p, q));
-        }
-    }
-    let pr: [&PairRows; N] =
-        core::array::from_fn(|i| packed[i].or(local[i].as_ref()).unwrap_or(&EMPTY));
     // r = J v + b + c∘(λ − λ_pre), zero in the padding.
     let mut r = [zero; N];
     for i in 0..len {
@@ -454,44 +543,47 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
     true
 }
 
-/// The warm start of points `p` and `q` (a pair of [`Paired`]), one per lane, as
-/// `apply_point`: `v += M⁻¹ Jᵀ λ`, the linear part `d₀λ₀ + d₁λ₁ + d₂λ₂` and the
-/// angular parts `Σ_r I⁻¹(r × d_r) λ_r` summed left to right.
+/// The warm start of two manifolds of one colour (no shared moving body), one per
+/// lane, their points in order, as `apply_point` on each: `v += M⁻¹ Jᵀ λ`, the
+/// linear part `d₀λ₀ + d₁λ₁ + d₂λ₂` and the angular parts `Σ_r I⁻¹(r × d_r) λ_r`
+/// summed left to right, the bodies' velocities loaded and stored once per manifold.
+/// Returns false, having changed nothing, where they were not packed (as
+/// [`relax_manifolds`]).
 #[inline(always)]
-pub(super) fn warm_pair(
+pub(super) fn warm_manifolds(
     rows: &Rows,
-    pr: &PairRows,
-    p: usize,
-    q: usize,
+    pr: Option<&[PairRows]>,
+    pts: [&[usize]; 2],
     v: &mut [DVec3],
     w: &mut [DVec3],
     impulse: &[[f64; 3]],
-) {
-    let ([a0, b0], [a1, b1]) = (rows.slots[p], rows.slots[q]);
-    let (zp, zq) = (impulse[p], impulse[q]);
-    let z = [pair(zp[0], zq[0]), pair(zp[1], zq[1]), pair(zp[2], zq[2])];
-    let (d, g) = (&pr.dir, &pr.ang);
-    let lin = d[0].scale(z[0]).add(d[1].scale(z[1])).add(d[2].scale(z[2]));
-    let ang = |k: usize| {
-        g[0][k]
-            .scale(z[0])
-            .add(g[1][k].scale(z[1]))
-            .add(g[2][k].scale(z[2]))
+) -> bool {
+    let len = pts[0].len();
+    let Some(pr) = pr else {
+        return false;
     };
-    let [ma, mb] = pr.im;
-    let va = Lanes3::of(v[a0], v[a1]).sub(lin.scale(ma));
-    let wa = Lanes3::of(w[a0], w[a1]).sub(ang(2));
-    let vb = Lanes3::of(v[b0], v[b1]).add(lin.scale(mb));
-    let wb = Lanes3::of(w[b0], w[b1]).add(ang(3));
-    // The static slot's inverse mass and inertia are zero: it stays at rest.
-    for (lane, (a, b)) in [(a0, b0), (a1, b1)].into_iter().enumerate() {
-        if a != rows.fixed {
-            v[a] = va.lane(lane);
-            w[a] = wa.lane(lane);
-        }
-        if b != rows.fixed {
-            v[b] = vb.lane(lane);
-            w[b] = wb.lane(lane);
-        }
+    if len == 0 || pts[1].len() != len || pr.len() != len {
+        return false;
     }
+    let ab = [rows.slots[pts[0][0]], rows.slots[pts[1][0]]];
+    let [mut va, mut wa, mut vb, mut wb] = load(v, w, ab);
+    for i in 0..len {
+        let (zp, zq) = (impulse[pts[0][i]], impulse[pts[1][i]]);
+        let z = [pair(zp[0], zq[0]), pair(zp[1], zq[1]), pair(zp[2], zq[2])];
+        let (d, g) = (&pr[i].dir, &pr[i].ang);
+        let lin = d[0].scale(z[0]).add(d[1].scale(z[1])).add(d[2].scale(z[2]));
+        let ang = |k: usize| {
+            g[0][k]
+                .scale(z[0])
+                .add(g[1][k].scale(z[1]))
+                .add(g[2][k].scale(z[2]))
+        };
+        let [ma, mb] = pr[i].im;
+        va = va.sub(lin.scale(ma));
+        wa = wa.sub(ang(2));
+        vb = vb.add(lin.scale(mb));
+        wb = wb.add(ang(3));
+    }
+    store(v, w, ab, [va, wa, vb, wb], rows.fixed);
+    true
 }

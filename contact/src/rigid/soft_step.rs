@@ -48,10 +48,10 @@
 //! last, static slot (zero inverse mass) for the ground. Every buffer lives in [`SoftState`] and is reused: a step allocates nothing
 //! once the buffers have grown to the scene.
 //!
-//! SIMD lanes (the `soft_lanes` module, `wide::f64x2`): on one thread the warm start
-//! and the relax pass take the points of a colouring group two at a time, their rows
-//! packed side by side once per step, and the biased pass takes the manifolds of a
-//! colour two at a time (block normal solve and friction). Each lane does the scalar
+//! SIMD lanes (the `soft_lanes` module, `wide::f64x2`): on one thread the warm start,
+//! the biased pass (block normal solve and friction) and the relax pass take the
+//! manifolds of a colour two at a time, one per lane, their rows packed side by side
+//! once per step and each manifold's two bodies' velocities loaded once. Each lane does the scalar
 //! pass's operations in the same order on independent bodies, so the bits are those
 //! of one point (manifold) at a time, and of the threaded passes, which stay scalar.
 //! The gaps are computed once per sub-step, after the positions, for the relax passes
@@ -64,7 +64,7 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DQuat, DVec3, Pose};
 
 use super::colouring::Colouring;
-use super::soft_lanes::{block_pair, relax_pair, warm_pair, Paired, RelaxIo};
+use super::soft_lanes::{block_pair, relax_manifolds, warm_manifolds, Paired, PointRows, RelaxIo};
 use super::{ContactError, ContactSolver, ContactStats, ContactWorld, RowsSolver, SolverPath};
 use crate::geometry::BroadScratch;
 
@@ -779,7 +779,8 @@ impl ContactWorld {
             im: [0.0; 2],
             preload: 0.0,
             preload_cap: 0.0,
-            preload_floor: 0.0
+            preload_floor: 0.0,
+            gap: 0.0
         );
         // Slices of exactly `np` entries: `p < np` needs no bounds check per write.
         let order = &st.order[..np];
@@ -805,6 +806,13 @@ impl ContactWorld {
             &mut st.preload_cap[..np],
             &mut st.preload_floor[..np],
         );
+        let gap = &mut st.gap[..np];
+        // The SIMD lanes' packed rows, written point by point below.
+        st.paired.plan(&st.colouring);
+        let paired = &mut st.paired;
+        // One-way coupling off (the default, an infinite ratio): `im[lower] > ∞ ·
+        // im[upper]` never holds (∞ · 0 is NaN), so the heights need not be read.
+        let one_way = s.one_way_mass_ratio < f64::INFINITY;
         for p in 0..np {
             let k = order[p];
             let c = &contacts[k];
@@ -824,7 +832,7 @@ impl ContactWorld {
             let mut im = [st.inv_mass[a], st.inv_mass[b]];
             // By reference: the two 72-byte matrices are not copied per point.
             let mut inertia = [&st.inv_inertia[a], &st.inv_inertia[b]];
-            if a != nb && b != nb {
+            if one_way && a != nb && b != nb {
                 let (ha, hb) = (self.bodies[a].pose.x.dot(up), self.bodies[b].pose.x.dot(up));
                 let (lower, upper) = if ha < hb { (0, 1) } else { (1, 0) };
                 if im[lower] > s.one_way_mass_ratio * im[upper] {
@@ -842,8 +850,6 @@ impl ContactWorld {
                 mass[r] = if k > 0.0 { 1.0 / k } else { 0.0 };
                 ang[r] = [ua, ub, ia, ib];
             }
-            // Relative normal velocity before the step: n·(v_b + ω_b×r_b − v_a − ω_a×r_a).
-            let vn = n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a]);
             let mut z = [0.0; 3];
             if self.settings.warm_start {
                 let (zn, ft, _, _) = st.found[k];
@@ -852,26 +858,46 @@ impl ContactWorld {
                     z[0] = st.estimate[k];
                 }
             }
-            let sl = if s.friction_anchors {
-                st.found[k].2
-            } else {
-                DVec3::ZERO
-            };
-            // Stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ Δd` below is the slip
-            // (Δd: the anchors' separation vector, as for the gap).
-            let r = rb - ra;
-            slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
+            // The anchor's slip, stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ Δd`
+            // below is the slip (Δd: the anchors' separation vector, as for the gap);
+            // read only with anchors on.
+            if s.friction_anchors {
+                let (sl, r) = (st.found[k].2, rb - ra);
+                slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
+            }
+            paired.put(
+                p,
+                PointRows {
+                    dir: &dirs,
+                    ang: &ang,
+                    mass,
+                    im,
+                    friction: ca.friction.max(cb.friction),
+                },
+            );
             slots[p] = [a, b];
             dir[p] = dirs;
             anchor[p] = [ra, rb];
             ang_out[p] = ang;
             mass_out[p] = mass;
             im_out[p] = im;
-            base_gap[p] = -c.depth - n.dot(rb - ra);
+            // The gap at the start of the step, `C₀ = base_gap + nᵀ(r_b − r_a)` (what
+            // `update_gaps` gives at zero displacements, where `Δx + Δq r = r`: the
+            // same bits, up to the sign of a zero), without a pass over the points.
+            let offset = n.dot(rb - ra);
+            base_gap[p] = -c.depth - offset;
+            gap[p] = base_gap[p] + offset;
             soft[p] = if a == nb || b == nb { fixed } else { dynamic };
             friction[p] = ca.friction.max(cb.friction);
-            restitution[p] = ca.restitution.max(cb.restitution);
-            approach[p] = vn;
+            let e = ca.restitution.max(cb.restitution);
+            restitution[p] = e;
+            // Relative normal velocity before the step, n·(v_b + ω_b×r_b − v_a − ω_a×r_a),
+            // read only by restitution where `e` is not zero.
+            approach[p] = if e == 0.0 {
+                0.0
+            } else {
+                n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a])
+            };
             impulse[p] = z;
             preload_out[p] =
                 if (every && st.estimate[k] > 0.0) || (new_manifolds && !st.found_hit[k]) {
@@ -896,12 +922,11 @@ impl ContactWorld {
 
             total[p] = [0.0; 3];
         }
-        st.blocks.clear();
         if s.block_normal {
             build_blocks(st);
+        } else {
+            st.blocks.clear();
         }
-        update_gaps(st);
-        pack_pairs(st);
     }
 
     /// Static load estimate of the contacts, for the manifolds met for the first time
@@ -1048,13 +1073,17 @@ impl ContactWorld {
 fn build_blocks(st: &mut SoftState) {
     const N: usize = BLOCK_POINTS;
     let mp = &st.colouring.manifold_start;
-    for j in 0..mp.len().saturating_sub(1) {
+    let manifolds = mp.len().saturating_sub(1);
+    // Sized once (a no-op when the count is the last step's) and written in place: a
+    // block's `pts`, `c` and `kinv` are read only when its `len` is set, and then all
+    // of them have been written here (a new block pushed per manifold cost a zeroing
+    // and a 200-byte copy each).
+    st.blocks.resize(manifolds, Block::default());
+    let blocks = &mut st.blocks[..manifolds];
+    for (j, blk) in blocks.iter_mut().enumerate() {
         let pts = &st.colouring.manifold_points[mp[j]..mp[j + 1]];
         let len = pts.len();
-        let mut blk = Block {
-            len: 0,
-            ..Block::default()
-        };
+        blk.len = 0;
         if (2..=N).contains(&len) {
             let [ma, mb] = st.im[pts[0]];
             let mut ok = true;
@@ -1087,7 +1116,6 @@ fn build_blocks(st: &mut SoftState) {
                 blk.len = len;
             }
         }
-        st.blocks.push(blk);
     }
 }
 
@@ -1341,38 +1369,79 @@ fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
 }
 
 /// Applies the stored impulses of every point (warm start, each sub-step) in solve
-/// order, the pairs of [`Paired`] two at a time in SIMD lanes ([`warm_pair`]: the same
-/// bits as [`apply_point`] one at a time).
+/// order: colour by colour, two manifolds at a time in SIMD lanes
+/// ([`warm_manifolds`]: the same bits as [`apply_point`] one point at a time, the
+/// manifolds of a colour touching disjoint moving bodies), a colour's odd manifold
+/// and the overflow colour's points (whose manifolds may share bodies) one by one.
 fn warm_start(st: &mut SoftState) {
     let paired = core::mem::take(&mut st.paired);
-    {
-        let (rows, mut vel, impulse, _) = split!(&mut *st);
-        let n = rows.slots.len();
-        let (mut k, mut p) = (0, 0);
-        while p < n {
-            if k < paired.start.len() && paired.start[k] == p {
-                warm_pair(&rows, paired.rows(k), p, p + 1, vel.v, vel.w, impulse);
-                k += 1;
-                p += 2;
-            } else {
-                apply_point(&rows, p, impulse[p], &mut vel);
-                p += 1;
-            }
-        }
-    }
-    st.paired = paired;
-}
-
-/// Pairs up the points for the SIMD lanes and packs their rows ([`Paired::build`]).
-fn pack_pairs(st: &mut SoftState) {
-    let mut paired = core::mem::take(&mut st.paired);
     let colouring = core::mem::take(&mut st.colouring);
     {
-        let (rows, _, _, _) = split!(&mut *st);
-        paired.build(&rows, &colouring.ranges, colouring.serial_from);
+        let (rows, mut vel, impulse, _) = split!(&mut *st);
+        let mut one = |p: usize, vel: &mut Slices| apply_point(&rows, p, impulse[p], vel);
+        for_manifold_pairs(
+            &colouring,
+            rows.slots.len(),
+            |j, pts, vel: &mut Slices| {
+                let pr = paired.of(j, pts[0].len());
+                warm_manifolds(&rows, pr, pts, vel.v, vel.w, impulse)
+            },
+            &mut one,
+            &mut vel,
+        );
     }
     st.colouring = colouring;
     st.paired = paired;
+}
+
+/// Walks the colouring for the point passes that take two manifolds at a time: per
+/// colour before the overflow colour, `pair` on consecutive manifolds `(j, j + 1)`
+/// (their points in order; where it declines, and for a colour's odd manifold, `one`
+/// on each point in order), then `one` on the overflow colour's points in solve
+/// order (its manifolds may share bodies). Within a colour the manifolds touch
+/// disjoint moving bodies, so this is the same work, bit for bit, as every point in
+/// solve order.
+#[inline(always)]
+fn for_manifold_pairs<S>(
+    colouring: &Colouring,
+    points: usize,
+    mut pair: impl FnMut(usize, [&[usize]; 2], &mut S) -> bool,
+    one: &mut impl FnMut(usize, &mut S),
+    state: &mut S,
+) {
+    let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
+    let manifold = |j: usize| &pts[mp[j]..mp[j + 1]];
+    let starts = &colouring.colour_start;
+    let colours = starts.len().saturating_sub(1);
+    let serial = colouring.serial_from + 1 < colouring.ranges.len();
+    let empty: &[usize] = &[];
+    // One call site of `one` (inlined once), fed the points of a declined pair, of a
+    // colour's odd manifold or of the overflow colour.
+    for c in 0..colours {
+        let overflow = serial && c + 1 == colours;
+        let (mut j, hi) = (starts[c], starts[c + 1]);
+        while j < hi {
+            let (m0, m1, positions) = if overflow {
+                j = hi;
+                (
+                    empty,
+                    empty,
+                    colouring.ranges[colouring.serial_from]..points,
+                )
+            } else {
+                let m0 = manifold(j);
+                let m1 = if j + 1 < hi { manifold(j + 1) } else { empty };
+                j += 2;
+                if !m1.is_empty() && pair(j - 2, [m0, m1], state) {
+                    continue;
+                }
+                (m0, m1, 0..0)
+            };
+            for p in m0.iter().chain(m1).copied().chain(positions) {
+                one(p, state);
+            }
+        }
+    }
 }
 
 /// Every point's gap at the current displacements into `st.gap` (once per
@@ -1456,7 +1525,8 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
                 if !(serial && c + 1 == colours) {
                     while j + 1 < hi {
                         let pair = [&blocks[j], &blocks[j + 1]];
-                        if !block_pair(&rows, &paired, pair, &mut io, &mut vel, pass) {
+                        let pr = paired.of(j, blocks[j].len);
+                        if !block_pair(&rows, pr, pair, &mut io, &mut vel, pass) {
                             one(j, &mut io, &mut vel);
                             one(j + 1, &mut io, &mut vel);
                         }
@@ -1483,14 +1553,15 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
 }
 
 /// The relax pass ([`solve_point`] without bias on every point, in solve order) with
-/// the points of each colouring group taken two at a time in SIMD lanes
-/// ([`super::soft_lanes::relax_pair`]: the same bits as one at a time); a group's odd
-/// point and the overflow colour's groups (whose manifolds may share bodies) one by
-/// one.
+/// the manifolds of each colour taken two at a time in SIMD lanes
+/// ([`relax_manifolds`]: the same bits as one point at a time; see
+/// [`for_manifold_pairs`]).
 fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
     let paired = core::mem::take(&mut st.paired);
+    let colouring = core::mem::take(&mut st.colouring);
     {
         let (rows, vel, impulse, max_normal) = split!(&mut *st);
+        let (dp, rot) = (vel.dp, vel.rot);
         let mut io = RelaxIo {
             v: &mut *vel.v,
             w: &mut *vel.w,
@@ -1498,37 +1569,34 @@ fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
             max_normal: &mut *max_normal,
             gap,
         };
-        // Pairs and single points in solve order (the pairs' points commute with
-        // each other; each single point comes after the pairs of its group and
-        // before the next group's, or in the overflow colour after them all).
-        let mut k = 0;
-        let n = rows.slots.len();
-        let mut p = 0;
-        while p < n {
-            if k < paired.start.len() && paired.start[k] == p {
-                relax_pair(&rows, paired.rows(k), p, p + 1, &mut io, pass.inv_h);
-                k += 1;
-                p += 2;
-            } else {
-                let mut one = Slices {
-                    v: &mut *io.v,
-                    w: &mut *io.w,
-                    dp: vel.dp,
-                    rot: vel.rot,
-                };
-                solve_point(
-                    &rows,
-                    p,
-                    gap[p],
-                    &mut io.impulse[p],
-                    &mut io.max_normal[p],
-                    &mut one,
-                    pass,
-                );
-                p += 1;
-            }
-        }
+        let mut one = |p: usize, io: &mut RelaxIo| {
+            let mut vel = Slices {
+                v: &mut *io.v,
+                w: &mut *io.w,
+                dp,
+                rot,
+            };
+            solve_point(
+                &rows,
+                p,
+                gap[p],
+                &mut io.impulse[p],
+                &mut io.max_normal[p],
+                &mut vel,
+                pass,
+            );
+        };
+        for_manifold_pairs(
+            &colouring,
+            rows.slots.len(),
+            |j, pts, io: &mut RelaxIo| {
+                relax_manifolds(&rows, paired.of(j, pts[0].len()), pts, io, pass.inv_h)
+            },
+            &mut one,
+            &mut io,
+        );
     }
+    st.colouring = colouring;
     st.paired = paired;
 }
 
