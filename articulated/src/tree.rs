@@ -300,9 +300,11 @@ impl TreeSolver {
     ) {
         let node = self.joint_node[j];
         let m = topo.rows;
+        // The node's rows of its diagonal block: `−C` on the diagonal, zeros elsewhere
+        // (the rows past the node's `m` are never read: no `memset` of the whole block).
         let d = &mut self.blocks[node].diag;
-        *d = ZERO;
         for r in 0..m {
+            d[r] = [0.0; 6];
             d[r][r] = -compliance[r];
         }
         let given = rows.len();
