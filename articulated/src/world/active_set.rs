@@ -1241,6 +1241,10 @@ struct PsdFactor {
     tmp: Vec<f64>,
 }
 
+/// [`PsdFactor::factor`]'s Householder step updates the columns right of the pivot row
+/// by row from this many columns on, column by column below.
+const ROW_WISE_COLUMNS: usize = 4;
+
 impl PsdFactor {
     /// Factors the `d × d` row-major `s` (symmetric, positive semi-definite; consumed
     /// as scratch) with the truncation floor `floor`. `false` when `s` or the factor
@@ -1317,7 +1321,11 @@ impl PsdFactor {
         }
         self.hv0.clear();
         self.tau.clear();
-        let q = &mut self.qr;
+        let q = &mut self.qr[..d * r];
+        // `t_j` of the columns right of `k`, per reflection.
+        let mut t = core::mem::take(&mut self.tmp);
+        t.clear();
+        t.resize(r, 0.0);
         for k in 0..r {
             // H_k = I − τ v vᵀ, v = x − α e₁ on rows k.., α = −sign(x₀) ‖x‖.
             let norm = libm::sqrt((k..d).map(|i| q[i * r + k] * q[i * r + k]).sum::<f64>());
@@ -1326,24 +1334,58 @@ impl PsdFactor {
             let v0 = x0 - alpha;
             let vv = v0 * v0 + (k + 1..d).map(|i| q[i * r + k] * q[i * r + k]).sum::<f64>();
             let tau = if vv > 0.0 { 2.0 / vv } else { 0.0 };
-            for j in k + 1..r {
-                let mut sdot = v0 * q[k * r + j];
-                for i in k + 1..d {
-                    sdot += q[i * r + k] * q[i * r + j];
+            // Each column j > k: `t_j = τ (v₀ q_kj + Σ_{i>k} q_ik q_ij)`, `q_kj −= t_j v₀`,
+            // `q_ij −= t_j q_ik`, each sum in `i` order from `v₀ q_kj`. Columns are
+            // independent (each reads column k and itself), so with several of them the
+            // sums advance row by row over the contiguous columns (the same products and
+            // sums, vector lanes instead of a strided walk down each column); with few,
+            // column by column (a row's loop setup would cost more than it saves).
+            let (head, rows) = q.split_at_mut((k + 1) * r);
+            let qk = &mut head[k * r..];
+            if r - k - 1 >= ROW_WISE_COLUMNS {
+                let tj = &mut t[k + 1..r];
+                for (s, &x) in tj.iter_mut().zip(&qk[k + 1..]) {
+                    *s = v0 * x;
                 }
-                let t = tau * sdot;
-                q[k * r + j] -= t * v0;
-                for i in k + 1..d {
-                    q[i * r + j] -= t * q[i * r + k];
+                for row in rows.chunks_exact(r) {
+                    let qik = row[k];
+                    for (s, &x) in tj.iter_mut().zip(&row[k + 1..]) {
+                        *s += qik * x;
+                    }
+                }
+                for (s, x) in tj.iter_mut().zip(&mut qk[k + 1..]) {
+                    *s *= tau;
+                    *x -= *s * v0;
+                }
+                for row in rows.chunks_exact_mut(r) {
+                    let (left, right) = row.split_at_mut(k + 1);
+                    let qik = left[k];
+                    for (x, &s) in right.iter_mut().zip(&*tj) {
+                        *x -= s * qik;
+                    }
+                }
+            } else {
+                for j in k + 1..r {
+                    let mut sdot = v0 * qk[j];
+                    for row in rows.chunks_exact(r) {
+                        sdot += row[k] * row[j];
+                    }
+                    let tj = tau * sdot;
+                    qk[j] -= tj * v0;
+                    for row in rows.chunks_exact_mut(r) {
+                        row[j] -= tj * row[k];
+                    }
                 }
             }
-            q[k * r + k] = alpha;
+            qk[k] = alpha;
             if !(alpha.abs() > 0.0) || !alpha.is_finite() {
+                self.tmp = t;
                 return false;
             }
             self.hv0.push(v0);
             self.tau.push(tau);
         }
+        self.tmp = t;
         true
     }
 
