@@ -245,6 +245,12 @@ pub(super) struct ActiveSet {
     /// uses.
     mark: Vec<bool>,
     node_slot: Vec<usize>,
+    /// For the Schur row `b` at hand: the nodes its path shares with another path,
+    /// as `(offset in that path's values, offset in b's values, length)`, adjacent
+    /// nodes merged; `seg_at[p]`: path `p`'s (a representative row) range in `seg`
+    /// (`usize::MAX` start: not yet built for this `b`).
+    seg: Vec<(usize, usize, usize)>,
+    seg_at: Vec<(usize, usize)>,
     /// A full-length column for one forward pass, zero between uses.
     col: Vec<f64>,
     /// `H_A⁻¹ G_Dᵀ ζ` (one factor solve), the Schur rows' correction of a solution.
@@ -948,6 +954,8 @@ impl World {
         st.val_start.push(st.path_s.len());
         st.s_mat.clear();
         st.s_mat.resize(d * d, 0.0);
+        st.seg_at.clear();
+        st.seg_at.resize(d, (usize::MAX, 0));
         let mut finite = true;
         for b in 0..d {
             // Where b's values of each node on its path are.
@@ -955,6 +963,10 @@ impl World {
             for &k in &st.path_nodes[st.path_start[b]..st.path_start[b + 1]] {
                 st.node_slot[k] = off;
                 off += f.node_len(k);
+            }
+            st.seg.clear();
+            for &r in &st.path_reps {
+                st.seg_at[r] = (usize::MAX, 0);
             }
             for a in b..d {
                 let mut v = 0.0;
@@ -974,18 +986,37 @@ impl World {
                     finite &= v.is_finite();
                     continue;
                 }
-                let mut oa = st.val_start[a];
-                for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
-                    let n = f.node_len(k);
-                    let ob = st.node_slot[k];
-                    if ob != usize::MAX {
-                        // The same products summed in the same order, on slices.
-                        let (ua, sb) = (&st.path_u[oa..oa + n], &st.path_s[ob..ob + n]);
-                        for (x, y) in ua.iter().zip(sb) {
-                            v += x * y;
+                // The nodes a's path shares with b's, built once per path (rows with
+                // the same path have the same nodes, lengths and value offsets): the
+                // products summed node after node along a's path as the node walk
+                // would, merged nodes adjacent in both rows' values read as one.
+                let p = st.path_id[a];
+                if st.seg_at[p].0 == usize::MAX {
+                    let first = st.seg.len();
+                    let mut ra = 0;
+                    for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
+                        let n = f.node_len(k);
+                        let ob = st.node_slot[k];
+                        if ob != usize::MAX {
+                            let own = st.seg.len() > first;
+                            match st.seg.last_mut() {
+                                Some(g) if own && g.0 + g.2 == ra && g.1 + g.2 == ob => {
+                                    g.2 += n;
+                                }
+                                _ => st.seg.push((ra, ob, n)),
+                            }
                         }
+                        ra += n;
                     }
-                    oa += n;
+                    st.seg_at[p] = (first, st.seg.len());
+                }
+                let va = st.val_start[a];
+                let (s0, s1) = st.seg_at[p];
+                for &(ra, ob, n) in &st.seg[s0..s1] {
+                    let (ua, sb) = (&st.path_u[va + ra..va + ra + n], &st.path_s[ob..ob + n]);
+                    for (x, y) in ua.iter().zip(sb) {
+                        v += x * y;
+                    }
                 }
                 st.s_mat[a * d + b] = v;
                 st.s_mat[b * d + a] = v;
