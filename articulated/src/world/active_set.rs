@@ -1373,7 +1373,7 @@ impl PsdFactor {
             // column by column (a row's loop setup would cost more than it saves).
             let (head, rows) = q.split_at_mut((k + 1) * r);
             let qk = &mut head[k * r..];
-            if r - k - 1 >= ROW_WISE_COLUMNS {
+            if r - k > ROW_WISE_COLUMNS {
                 let tj = &mut t[k + 1..r];
                 for (s, &x) in tj.iter_mut().zip(&qk[k + 1..]) {
                     *s = v0 * x;
