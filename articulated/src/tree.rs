@@ -288,20 +288,23 @@ impl TreeSolver {
     }
 
     /// Sets tree joint `j`'s blocks: its rows' Jacobian (`rows[r] = [v_a, ω_a, v_b, ω_b]`;
-    /// rows beyond `rows.len()` up to `topo.rows` are zero) and compliance (`−C` on the
-    /// diagonal).
+    /// rows beyond `rows.len()` up to `topo.rows`, and rows `r` with bit `r` of `zero`
+    /// set, are zero) and compliance (`−C` on the diagonal).
     pub fn set_joint(
         &mut self,
         j: usize,
         topo: &JointTopo,
         rows: &[[DVec3; 4]],
+        zero: u8,
         compliance: &[f64],
     ) {
         let node = self.joint_node[j];
         let m = topo.rows;
+        // The node's rows of its diagonal block: `−C` on the diagonal, zeros elsewhere
+        // (the rows past the node's `m` are never read: no `memset` of the whole block).
         let d = &mut self.blocks[node].diag;
-        *d = ZERO;
         for r in 0..m {
+            d[r] = [0.0; 6];
             d[r][r] = -compliance[r];
         }
         let given = rows.len();
@@ -311,7 +314,7 @@ impl TreeSolver {
             let Some(body) = body else { continue };
             // Row r's six entries on this body, `[v; ω]` (zero beyond the given rows).
             let blk = |r: usize| {
-                if r < given {
+                if r < given && zero & (1 << r) == 0 {
                     let (v, w) = (rows[r][2 * side], rows[r][2 * side + 1]);
                     [v.x, v.y, v.z, w.x, w.y, w.z]
                 } else {
@@ -849,7 +852,7 @@ mod tests {
                 let e = DVec3::AXES[k];
                 *row = [-e, -r.cross(e) * 0.5, e, r.cross(e)];
             }
-            t.set_joint(j, tp, &rows, &[0.0; 3]);
+            t.set_joint(j, tp, &rows, 0, &[0.0; 3]);
         }
         t.factor().expect("factor");
         let mut mark = Vec::new();

@@ -336,24 +336,22 @@ impl RowTree {
     /// [`Self::assemble`] built from `_tree` (the same tree).
     pub fn solve(&self, _tree: &TreeSolver, x: &mut [f64]) {
         macro_rules! dispatch {
-            ($f:ident, $n:expr, $np:expr, $args:expr; $($a:literal, $b:literal);*) => {
-                match ($n, $np) {
-                    $(($a, $b) => $f::<$a, $b>($args),)*
-                    _ => $f::<0, 0>($args),
+            ($f:ident, $s:expr, $x:expr; $($a:literal, $b:literal);*) => {
+                match ($s.n, $s.np) {
+                    $(($a, $b) => $f::<$a, $b>(self.node_args::<$a, $b>($s, $x)),)*
+                    _ => $f::<0, 0>(self.node_args::<0, 0>($s, $x)),
                 }
             };
         }
         for s in &self.schedule {
-            let args = self.node_args(s, x);
-            dispatch!(forward, s.n, s.np, args;
+            dispatch!(forward, s, x;
                 6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 10; 6, 11; 6, 12;
                 6, 13; 6, 14; 6, 15;
                 3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 10, 6; 11, 6; 12, 6; 13, 6; 14, 6;
                 15, 6; 3, 0; 4, 0; 5, 0; 7, 0; 8, 0; 9, 0);
         }
         for s in self.schedule.iter().rev() {
-            let args = self.node_args(s, x);
-            dispatch!(backward, s.n, s.np, args;
+            dispatch!(backward, s, x;
                 6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 10; 6, 11; 6, 12;
                 6, 13; 6, 14; 6, 15;
                 3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 10, 6; 11, 6; 12, 6; 13, 6; 14, 6;
@@ -370,17 +368,16 @@ impl RowTree {
     /// root (`world/active_set.rs`'s Schur rows).
     pub fn forward_marked(&self, _tree: &TreeSolver, x: &mut [f64], mark: &[bool]) {
         macro_rules! dispatch {
-            ($f:ident, $n:expr, $np:expr, $args:expr; $($a:literal, $b:literal);*) => {
-                match ($n, $np) {
-                    $(($a, $b) => $f::<$a, $b>($args),)*
-                    _ => $f::<0, 0>($args),
+            ($f:ident, $s:expr, $x:expr; $($a:literal, $b:literal);*) => {
+                match ($s.n, $s.np) {
+                    $(($a, $b) => $f::<$a, $b>(self.node_args::<$a, $b>($s, $x)),)*
+                    _ => $f::<0, 0>(self.node_args::<0, 0>($s, $x)),
                 }
             };
         }
         for s in &self.schedule {
             if mark.get(s.k).copied().unwrap_or(false) {
-                let args = self.node_args(s, x);
-                dispatch!(forward, s.n, s.np, args;
+                dispatch!(forward, s, x;
                     6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 10; 6, 11; 6, 12;
                     6, 13; 6, 14; 6, 15;
                     3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 10, 6; 11, 6; 12, 6; 13, 6; 14, 6;
@@ -402,9 +399,16 @@ impl RowTree {
     }
 
     /// Node `s`'s blocks and its own and its parent's unknowns, split from `x`
-    /// (inlined into both passes: a call per node cost a fifth of the solve).
+    /// (inlined into both passes: a call per node cost a fifth of the solve). `N`,
+    /// `NP`: the node's shape when the caller's kernel has it as constants (`0, 0`:
+    /// the runtime one), so the slices' lengths are constants too (no multiply, and
+    /// the fixed kernels' re-slicing to `N`, `NP` needs no check).
     #[inline(always)]
-    fn node_args<'a>(&'a self, s: &NodeShape, x: &'a mut [f64]) -> NodeArgs<'a> {
+    fn node_args<'a, const N: usize, const NP: usize>(
+        &'a self,
+        s: &NodeShape,
+        x: &'a mut [f64],
+    ) -> NodeArgs<'a> {
         let NodeShape {
             n,
             np,
@@ -414,6 +418,7 @@ impl RowTree {
             op,
             ..
         } = *s;
+        let (n, np) = if N != 0 { (N, NP) } else { (n, np) };
         // A parent's unknowns never overlap its child's.
         let (xi, xpar) = if np == 0 {
             (&mut x[xo..xo + n], &mut [][..])

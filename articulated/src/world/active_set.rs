@@ -245,6 +245,12 @@ pub(super) struct ActiveSet {
     /// uses.
     mark: Vec<bool>,
     node_slot: Vec<usize>,
+    /// For the Schur row `b` at hand: the nodes its path shares with another path,
+    /// as `(offset in that path's values, offset in b's values, length)`, adjacent
+    /// nodes merged; `seg_at[p]`: path `p`'s (a representative row) range in `seg`
+    /// (`usize::MAX` start: not yet built for this `b`).
+    seg: Vec<(usize, usize, usize)>,
+    seg_at: Vec<(usize, usize)>,
     /// A full-length column for one forward pass, zero between uses.
     col: Vec<f64>,
     /// `H_A⁻¹ G_Dᵀ ζ` (one factor solve), the Schur rows' correction of a solution.
@@ -948,6 +954,8 @@ impl World {
         st.val_start.push(st.path_s.len());
         st.s_mat.clear();
         st.s_mat.resize(d * d, 0.0);
+        st.seg_at.clear();
+        st.seg_at.resize(d, (usize::MAX, 0));
         let mut finite = true;
         for b in 0..d {
             // Where b's values of each node on its path are.
@@ -955,6 +963,10 @@ impl World {
             for &k in &st.path_nodes[st.path_start[b]..st.path_start[b + 1]] {
                 st.node_slot[k] = off;
                 off += f.node_len(k);
+            }
+            st.seg.clear();
+            for &r in &st.path_reps {
+                st.seg_at[r] = (usize::MAX, 0);
             }
             for a in b..d {
                 let mut v = 0.0;
@@ -974,18 +986,37 @@ impl World {
                     finite &= v.is_finite();
                     continue;
                 }
-                let mut oa = st.val_start[a];
-                for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
-                    let n = f.node_len(k);
-                    let ob = st.node_slot[k];
-                    if ob != usize::MAX {
-                        // The same products summed in the same order, on slices.
-                        let (ua, sb) = (&st.path_u[oa..oa + n], &st.path_s[ob..ob + n]);
-                        for (x, y) in ua.iter().zip(sb) {
-                            v += x * y;
+                // The nodes a's path shares with b's, built once per path (rows with
+                // the same path have the same nodes, lengths and value offsets): the
+                // products summed node after node along a's path as the node walk
+                // would, merged nodes adjacent in both rows' values read as one.
+                let p = st.path_id[a];
+                if st.seg_at[p].0 == usize::MAX {
+                    let first = st.seg.len();
+                    let mut ra = 0;
+                    for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
+                        let n = f.node_len(k);
+                        let ob = st.node_slot[k];
+                        if ob != usize::MAX {
+                            let own = st.seg.len() > first;
+                            match st.seg.last_mut() {
+                                Some(g) if own && g.0 + g.2 == ra && g.1 + g.2 == ob => {
+                                    g.2 += n;
+                                }
+                                _ => st.seg.push((ra, ob, n)),
+                            }
                         }
+                        ra += n;
                     }
-                    oa += n;
+                    st.seg_at[p] = (first, st.seg.len());
+                }
+                let va = st.val_start[a];
+                let (s0, s1) = st.seg_at[p];
+                for &(ra, ob, n) in &st.seg[s0..s1] {
+                    let (ua, sb) = (&st.path_u[va + ra..va + ra + n], &st.path_s[ob..ob + n]);
+                    for (x, y) in ua.iter().zip(sb) {
+                        v += x * y;
+                    }
                 }
                 st.s_mat[a * d + b] = v;
                 st.s_mat[b * d + a] = v;
@@ -1241,6 +1272,10 @@ struct PsdFactor {
     tmp: Vec<f64>,
 }
 
+/// [`PsdFactor::factor`]'s Householder step updates the columns right of the pivot row
+/// by row from this many columns on, column by column below.
+const ROW_WISE_COLUMNS: usize = 4;
+
 impl PsdFactor {
     /// Factors the `d × d` row-major `s` (symmetric, positive semi-definite; consumed
     /// as scratch) with the truncation floor `floor`. `false` when `s` or the factor
@@ -1317,7 +1352,11 @@ impl PsdFactor {
         }
         self.hv0.clear();
         self.tau.clear();
-        let q = &mut self.qr;
+        let q = &mut self.qr[..d * r];
+        // `t_j` of the columns right of `k`, per reflection.
+        let mut t = core::mem::take(&mut self.tmp);
+        t.clear();
+        t.resize(r, 0.0);
         for k in 0..r {
             // H_k = I − τ v vᵀ, v = x − α e₁ on rows k.., α = −sign(x₀) ‖x‖.
             let norm = libm::sqrt((k..d).map(|i| q[i * r + k] * q[i * r + k]).sum::<f64>());
@@ -1326,24 +1365,58 @@ impl PsdFactor {
             let v0 = x0 - alpha;
             let vv = v0 * v0 + (k + 1..d).map(|i| q[i * r + k] * q[i * r + k]).sum::<f64>();
             let tau = if vv > 0.0 { 2.0 / vv } else { 0.0 };
-            for j in k + 1..r {
-                let mut sdot = v0 * q[k * r + j];
-                for i in k + 1..d {
-                    sdot += q[i * r + k] * q[i * r + j];
+            // Each column j > k: `t_j = τ (v₀ q_kj + Σ_{i>k} q_ik q_ij)`, `q_kj −= t_j v₀`,
+            // `q_ij −= t_j q_ik`, each sum in `i` order from `v₀ q_kj`. Columns are
+            // independent (each reads column k and itself), so with several of them the
+            // sums advance row by row over the contiguous columns (the same products and
+            // sums, vector lanes instead of a strided walk down each column); with few,
+            // column by column (a row's loop setup would cost more than it saves).
+            let (head, rows) = q.split_at_mut((k + 1) * r);
+            let qk = &mut head[k * r..];
+            if r - k > ROW_WISE_COLUMNS {
+                let tj = &mut t[k + 1..r];
+                for (s, &x) in tj.iter_mut().zip(&qk[k + 1..]) {
+                    *s = v0 * x;
                 }
-                let t = tau * sdot;
-                q[k * r + j] -= t * v0;
-                for i in k + 1..d {
-                    q[i * r + j] -= t * q[i * r + k];
+                for row in rows.chunks_exact(r) {
+                    let qik = row[k];
+                    for (s, &x) in tj.iter_mut().zip(&row[k + 1..]) {
+                        *s += qik * x;
+                    }
+                }
+                for (s, x) in tj.iter_mut().zip(&mut qk[k + 1..]) {
+                    *s *= tau;
+                    *x -= *s * v0;
+                }
+                for row in rows.chunks_exact_mut(r) {
+                    let (left, right) = row.split_at_mut(k + 1);
+                    let qik = left[k];
+                    for (x, &s) in right.iter_mut().zip(&*tj) {
+                        *x -= s * qik;
+                    }
+                }
+            } else {
+                for j in k + 1..r {
+                    let mut sdot = v0 * qk[j];
+                    for row in rows.chunks_exact(r) {
+                        sdot += row[k] * row[j];
+                    }
+                    let tj = tau * sdot;
+                    qk[j] -= tj * v0;
+                    for row in rows.chunks_exact_mut(r) {
+                        row[j] -= tj * row[k];
+                    }
                 }
             }
-            q[k * r + k] = alpha;
+            qk[k] = alpha;
             if !(alpha.abs() > 0.0) || !alpha.is_finite() {
+                self.tmp = t;
                 return false;
             }
             self.hv0.push(v0);
             self.tau.push(tau);
         }
+        self.tmp = t;
         true
     }
 

@@ -72,7 +72,9 @@ type WarmContact = ((usize, usize, u64), (f64, DVec3));
 type LoopRows = (Vec<(Option<usize>, usize, [DVec3; 4])>, Vec<f64>, Vec<f64>);
 
 /// An assembly's writer of a joint's right-hand side: `(joint index, joint, its rows,
-/// the right-hand side of its rows)`.
+/// the right-hand side of its rows)`. It reads the hard rows only (`0..n_hard`): the
+/// rows may be a kept entry's, with rate rows after them that this assembly does not
+/// use, and the slice is as long as the rows the assembly uses.
 type JointRhs<'a> = dyn FnMut(usize, &Joint, &crate::joint::JointRows, &mut [f64]) + 'a;
 
 /// One joint's rows ([`Joint::rows_with`]) at one configuration: the bits of the two
@@ -105,64 +107,70 @@ impl CachedRows {
         .map(f64::to_bits)
     }
 
-    /// `rows` as `rows_with(.., false)` gives them: the hard rows, zeros after them.
-    fn hard_only(mut rows: crate::joint::JointRows) -> crate::joint::JointRows {
-        for r in rows.n_hard..rows.n {
-            rows.value[r] = 0.0;
-            rows.rows[r] = [DVec3::ZERO; 4];
-        }
-        rows.n = rows.n_hard;
-        rows
-    }
-
-    /// `joint.rows_with(a, b, rates)`, from `cache[j]` when it holds the rows at the same
-    /// poses (with the rate rows, when asked for), else computed — with the rate rows
-    /// when `keep_rates` (a joint that has them in some assemblies: the next assembly at
-    /// these poses may ask for them) — and kept there (`cache` grows to the joint count).
-    fn rows(
-        cache: &mut Vec<CachedRows>,
+    /// `joint.rows_with(a, b, rates)`, by reference: `cache[j]`'s rows when it holds
+    /// them at the same poses (with the rate rows, when asked for), else computed —
+    /// with the rate rows when `keep_rates` (a joint that has them in some assemblies:
+    /// the next assembly at these poses may ask for them) — and kept there (`cache`
+    /// grows to the joint count). Returns the rows and how many of them the assembly
+    /// reads: `rows.n` with `rates`, else `rows.n_hard` (`rows_with(.., false)`'s rows
+    /// are the same hard rows, without the rate rows a kept entry may hold after them).
+    /// A reference rather than the rows by value: a copy of the ~640-byte rows was a
+    /// `memcpy` per joint and assembly.
+    fn rows<'c>(
+        cache: &'c mut Vec<CachedRows>,
         j: usize,
         joint: &Joint,
         (a, b): (&Pose, &Pose),
         rates: bool,
         keep_rates: bool,
-    ) -> crate::joint::JointRows {
+    ) -> (&'c crate::joint::JointRows, usize) {
         let key = Self::key_of(a, b);
-        if let Some(e) = cache.get(j) {
-            if e.valid && e.key == key && (e.rates || !rates) {
-                return if rates {
-                    e.rows
-                } else {
-                    Self::hard_only(e.rows)
-                };
+        let hit = cache
+            .get(j)
+            .is_some_and(|e| e.valid && e.key == key && (e.rates || !rates));
+        if !hit {
+            let with = rates || keep_rates;
+            if cache.len() <= j {
+                let rows = joint.rows_with(a, b, with);
+                cache.resize(
+                    j + 1,
+                    CachedRows {
+                        valid: false,
+                        key: [0; 14],
+                        rates: false,
+                        rows,
+                    },
+                );
             }
+            // Written in place (the rows straight into the entry, not through a copy).
+            let e = &mut cache[j];
+            e.rows = joint.rows_with(a, b, with);
+            e.valid = true;
+            e.key = key;
+            e.rates = with;
         }
-        let with = rates || keep_rates;
-        let kept = joint.rows_with(a, b, with);
-        let rows = if rates { kept } else { Self::hard_only(kept) };
-        if cache.len() <= j {
-            cache.resize(
-                j + 1,
-                CachedRows {
-                    valid: false,
-                    key: [0; 14],
-                    rates: false,
-                    rows,
-                },
-            );
-        }
-        cache[j] = CachedRows {
-            valid: true,
-            key,
-            rates: with,
-            rows: kept,
-        };
-        rows
+        let rows = &cache[j].rows;
+        (rows, if rates { rows.n } else { rows.n_hard })
+    }
+
+    /// `cache[j]`'s rows when it holds them with the rate rows at the poses `a`, `b`
+    /// (their rate rows are [`Joint::rate_rows_only`]'s; their hard rows, which a
+    /// reader of the rate rows does not read, are the joint's Jacobian rather than
+    /// zeros).
+    fn kept_rates<'c>(
+        cache: &'c [CachedRows],
+        j: usize,
+        a: &Pose,
+        b: &Pose,
+    ) -> Option<&'c crate::joint::JointRows> {
+        cache
+            .get(j)
+            .filter(|e| e.valid && e.rates && e.key == Self::key_of(a, b))
+            .map(|e| &e.rows)
     }
 
     /// `joint.rate_rows_only(a, b)`'s rate rows: from `cache[j]` when it holds the rows
-    /// with rates at the same poses (its hard rows, which the caller does not read, are
-    /// then the joint's Jacobian rather than zeros), else computed (not kept).
+    /// with rates at the same poses ([`Self::kept_rates`]), else computed (not kept).
     fn rate_rows(
         cache: &[CachedRows],
         j: usize,
@@ -170,12 +178,10 @@ impl CachedRows {
         a: &Pose,
         b: &Pose,
     ) -> crate::joint::JointRows {
-        if let Some(e) = cache.get(j) {
-            if e.valid && e.rates && e.key == Self::key_of(a, b) {
-                return e.rows;
-            }
+        match Self::kept_rates(cache, j, a, b) {
+            Some(rows) => *rows,
+            None => joint.rate_rows_only(a, b),
         }
-        joint.rate_rows_only(a, b)
     }
 }
 
@@ -1012,8 +1018,18 @@ impl World {
             if rates_only && !(with_rates && armed) {
                 continue;
             }
-            let mut rows = if rates_only {
-                CachedRows::rate_rows(&self.rows_cache, j, joint, &a, &b)
+            // The rows by reference (kept, or computed into `fresh`) and how many the
+            // assembly reads; rows it zeroes are flagged in `zero` (bit `r`: row `r`
+            // taken as zero) rather than written into a copy.
+            let fresh;
+            let (rows, n) = if rates_only {
+                match CachedRows::kept_rates(&self.rows_cache, j, &a, &b) {
+                    Some(kept) => (kept, kept.n),
+                    None => {
+                        fresh = joint.rate_rows_only(&a, &b);
+                        (&fresh, fresh.n)
+                    }
+                }
             } else {
                 CachedRows::rows(
                     &mut self.rows_cache,
@@ -1024,13 +1040,14 @@ impl World {
                     passive > 0,
                 )
             };
+            let mut zero = 0u8;
             let mut comp = [0.0; MAX_ROWS];
             // Rate rows: damping d and armature I_a on the coordinate rate q̇ = G v,
             // `(M + (I_a + h d) GᵀG) v' = M v + h f + I_a GᵀG v`: the row
             // `G v' − λ/(I_a + h d) = I_a/(I_a + h d) · G v` (implicit, so a large
             // armature or damping is stable).
             let mut rate_rhs = [0.0; MAX_ROWS];
-            for r in rows.n_hard..rows.n {
+            for r in rows.n_hard..n {
                 let k = r - rows.n_hard;
                 let d = if rates == Rates::Full {
                     joint.dof_damping(k)
@@ -1054,21 +1071,21 @@ impl World {
                     }
                 } else {
                     // An undamped, armature-free dof of a joint whose other dofs have some.
-                    rows.rows[r] = [DVec3::ZERO; 4];
+                    zero |= 1 << r;
                     comp[r] = 1.0;
                 }
             }
             // In the topology every joint has its rate rows; without damping they get
             // infinite compliance, i.e. a decoupled row with λ = 0.
             let n_topo = joint.hard_rows() + passive;
-            for r in rows.n..n_topo {
+            for r in n..n_topo {
                 comp[r] = 1.0;
             }
             let mut rhs = [0.0; MAX_ROWS];
             if let Some(f) = joint_rhs.as_mut() {
-                f(j, joint, &rows, &mut rhs[..rows.n]);
+                f(j, joint, rows, &mut rhs[..n]);
             }
-            for r in rows.n_hard..rows.n {
+            for r in rows.n_hard..n {
                 rhs[r] += rate_rhs[r];
             }
             let alpha = self.compliance.get(j).copied().unwrap_or(0.0);
@@ -1077,7 +1094,7 @@ impl World {
                     match soft {
                         Soft::Implicit => comp[r] = alpha / (h * h),
                         Soft::Free => {
-                            rows.rows[r] = [DVec3::ZERO; 4];
+                            zero |= 1 << r;
                             comp[r] = 1.0;
                             rhs[r] = 0.0;
                         }
@@ -1092,13 +1109,18 @@ impl World {
             match tree {
                 Some(o) => {
                     if matrix {
-                        solver.set_joint(j, &topo, &rows.rows[..rows.n], &comp[..n_topo]);
+                        solver.set_joint(j, &topo, &rows.rows[..n], zero, &comp[..n_topo]);
                     }
                     self.rhs[o..o + n_topo].copy_from_slice(&rhs[..n_topo]);
                 }
                 None => {
-                    for r in 0..rows.n {
-                        loop_rows.push((joint.parent, joint.child, rows.rows[r]));
+                    for r in 0..n {
+                        let row = if zero & (1 << r) != 0 {
+                            [DVec3::ZERO; 4]
+                        } else {
+                            rows.rows[r]
+                        };
+                        loop_rows.push((joint.parent, joint.child, row));
                         loop_c.push(comp[r]);
                         loop_rhs.push(rhs[r]);
                     }
@@ -1121,7 +1143,14 @@ impl World {
             };
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
-            let rows = CachedRows::rate_rows(&self.rows_cache, j, joint, &a, &b);
+            let fresh;
+            let rows = match CachedRows::kept_rates(&self.rows_cache, j, &a, &b) {
+                Some(kept) => kept,
+                None => {
+                    fresh = joint.rate_rows_only(&a, &b);
+                    &fresh
+                }
+            };
             let tw = |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| twists[i]);
             let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
             for r in rows.n_hard..rows.n {
