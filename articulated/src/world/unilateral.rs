@@ -78,7 +78,9 @@ impl Default for UnilateralSettings {
     /// step lying on the floor, `examples/dense_stats.rs`), to a residual of 1e-6; the
     /// staggered alternation kept up while the whole problem's residual is above 1e-6,
     /// up to 50 sweeps or until it stalls
-    /// ([`constraint_contact::lcp::staggered::ALTERNATION_STALL_SWEEPS`]), then ended on
+    /// ([`constraint_contact::lcp::staggered::ALTERNATION_STALL_SWEEPS`]; an alternation
+    /// whose residual rises, or that stalls above 1e-4, goes on relaxed,
+    /// [`constraint_contact::lcp::staggered::ALTERNATION_RELAXATION`]), then ended on
     /// the one-sided rows ([`RowStats::capped`] says so). Two fixed sweeps left a knee of
     /// `scenes/ragdoll.xml` 0.012 rad past its stop with a residual of 1.6 at landing, and
     /// the next step gained 11 J; now 2.5e-8 J at worst (`tests/one_world.rs`); a tolerance
