@@ -9,7 +9,8 @@
 //!
 //! `SOLVER`: `auto`, `si` (sequential impulses), `newton`, `pgs`, `lemke`, or `softN`
 //! (the soft step with `N` sub-steps). `REPEAT=k` runs the whole thing `k` times (for
-//! wall-clock timing: the time printed is the fastest run's; the figures, the last run's).
+//! wall-clock timing: the time printed is the fastest run's; the figures, the last run's);
+//! `BITS=1` prints the final state in full (checking that a change is bit-identical).
 
 use constraint_contact::rigid::{ContactSolver, ContactWorld};
 use constraint_contact::scenes::{add_box, ground};
@@ -82,5 +83,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         x.z - 0.1,
         1e6 * best / steps as f64
     );
+    if std::env::var("BITS").is_ok() {
+        // The final state's bits, for checking that a change is bit-identical.
+        let b = &w.bodies()[0];
+        println!(
+            "x {:?} q {:?} v {:?} omega {:?}",
+            b.pose.x, b.pose.q, b.v, b.omega
+        );
+    }
     Ok(())
 }
