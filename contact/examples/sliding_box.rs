@@ -11,8 +11,10 @@
 //! 1 % takes sub-steps (`soft3`: 8.4e-3 m, `soft4`: 6.3e-3 m). Measured (callgrind
 //! instructions per step over 600 steps, `(N = 600) − (N = 0)`; MuJoCo 4.0.0 on
 //! `scenes/sliding_box.xml` at 1/60 through `mujoco.rollout` the same way): MuJoCo
-//! 44.2k; `auto` 79.8k (58.7k at rest; the 15 steps after the stop cost 0.88M each,
-//! friction PGS at its sweep budget), `si` 21.4k (62.6k before its sweeps stopped at a fixed point), `soft3` 31.7k, `soft4` 37.0k.
+//! 44.2k; `auto` 23.3k (the sequential impulses, which solve this ground-only contact
+//! exactly; 79.8k on the dense Newton path: 58.7k at rest, and the 15 steps after the
+//! stop 0.88M each, friction PGS at its sweep budget), `si` 21.4k, `newton` 79.8k,
+//! `soft3` 31.7k, `soft4` 37.0k.
 //!
 //! `cargo run -p constraint-contact --release --example sliding_box -- SOLVER STEPS`
 //!
