@@ -227,14 +227,16 @@ fn restitution_rebound_height() {
 /// The same sliding box at game steps (1/30 … 1/240 s) with the default solver: no step
 /// fails as the box comes to rest (the stick transition makes the friction block
 /// semi-definite), and the stopping distance converges at first order. Measured:
-/// 0.8668, 0.8923, 0.9049, 0.9112 m against 0.9174 m.
+/// 0.8681, 0.8926, 0.9050, 0.9112 m against 0.9174 m (`Auto` keeps the sequential
+/// impulses on this ground-only contact; the dense Newton path gave 0.8669, 0.8923,
+/// 0.9049, 0.9112).
 #[test]
 fn sliding_box_at_game_steps() {
     let exact = 9.0 / (2.0 * 0.5 * 9.81);
     for (h, measured) in [
-        (1.0 / 30.0, 0.8668),
-        (1.0 / 60.0, 0.8923),
-        (1.0 / 120.0, 0.9049),
+        (1.0 / 30.0, 0.8681),
+        (1.0 / 60.0, 0.8926),
+        (1.0 / 120.0, 0.9050),
         (1.0 / 240.0, 0.9112),
     ] {
         let mut w = ContactWorld::new(DVec3::new(0.0, 0.0, -9.81));

@@ -358,7 +358,9 @@ pub fn mjcf(w: &ContactWorld, model: &str, dt: f64) -> Result<String, String> {
 pub const SOFT_SUBSTEPS: [usize; 4] = [1, 2, 4, 8];
 
 /// The solvers of ours that the bench runs on every scene: `Auto` (on the pyramid, beyond
-/// 200 points, that is the soft step with 4 sub-steps), `SequentialImpulses`, and the
+/// 200 points, that is the soft step with 4 sub-steps; on the sliding box, whose only
+/// contact is the static ground, the sequential impulses where they solve the contact
+/// LCP to the tolerance, the dense Newton solve otherwise), `SequentialImpulses`, and the
 /// soft step with each of [`SOFT_SUBSTEPS`]
 /// (`ours_soft1`, `ours_soft2`, `ours_soft4`, `ours_soft8`; default soft settings).
 pub fn solvers() -> Vec<(&'static str, ContactSolver)> {

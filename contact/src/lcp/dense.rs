@@ -47,28 +47,27 @@ impl Lu {
         }
         let tiny = 1e-13 * amax;
         let mut perm: Vec<usize> = (0..n).collect();
+        // Each row's profile `(hi[r], lo[r])`, in one allocation:
         // hi[r]: every a[r][j] with j > hi[r] is +0 (bit pattern 0); `None` if all are.
-        let mut hi: Vec<Option<usize>> = (0..n)
-            .map(|r| a[r * n..(r + 1) * n].iter().rposition(|x| x.to_bits() != 0))
-            .collect();
         // lo[r]: every a[r][j] with j < lo[r] is +0 (n if all are). A row is updated
         // only at a column k ≥ lo[r] (its multiplier a_rk ≠ 0) and only to the right of
         // k, so while k < lo[r] its entry a_rk is still +0: the pivot search passes it
         // (|+0| > best never holds) and its multiplier is +0 / a_kk, a zero of the
         // pivot's sign, stored without the division.
-        let mut lo: Vec<usize> = (0..n)
+        let mut profile: Vec<(Option<usize>, usize)> = (0..n)
             .map(|r| {
-                a[r * n..(r + 1) * n]
-                    .iter()
-                    .position(|x| x.to_bits() != 0)
-                    .unwrap_or(n)
+                let row = &a[r * n..(r + 1) * n];
+                (
+                    row.iter().rposition(|x| x.to_bits() != 0),
+                    row.iter().position(|x| x.to_bits() != 0).unwrap_or(n),
+                )
             })
             .collect();
         for k in 0..n {
             let mut p = k;
             let mut best = libm::fabs(a[k * n + k]);
             for i in k + 1..n {
-                if lo[i] > k {
+                if profile[i].1 > k {
                     continue;
                 }
                 let v = libm::fabs(a[i * n + k]);
@@ -85,14 +84,13 @@ impl Lu {
                     a.swap(k * n + j, p * n + j);
                 }
                 perm.swap(k, p);
-                hi.swap(k, p);
-                lo.swap(k, p);
+                profile.swap(k, p);
             }
             let piv = a[k * n + k];
-            let hk = hi[k];
+            let hk = profile[k].0;
             let zero = 0.0 / piv;
             for i in k + 1..n {
-                if lo[i] > k {
+                if profile[i].1 > k {
                     a[i * n + k] = zero;
                     continue;
                 }
@@ -100,14 +98,14 @@ impl Lu {
                 a[i * n + k] = f;
                 if f != 0.0 {
                     let upper = if f.is_finite() {
-                        hk.max(hi[i]).unwrap_or(0)
+                        hk.max(profile[i].0).unwrap_or(0)
                     } else {
                         n - 1
                     };
                     for j in k + 1..=upper {
                         a[i * n + j] -= f * a[k * n + j];
                     }
-                    hi[i] = hi[i].max(Some(upper));
+                    profile[i].0 = profile[i].0.max(Some(upper));
                 }
             }
         }

@@ -134,11 +134,13 @@ pub fn fischer_newton(
     };
     let mut psi = merit(lcp, alpha, &z, &mut w, &mut phi);
     let mut residual = lcp.residual_with(&z, &w);
-    let mut trial = vec![0.0; n];
+    // The iteration's buffers, sized at its first step: a warm start that already meets
+    // the tolerance (a resting contact's, every step) allocates none of them.
+    // `work` holds `D_a`, `D_b`, `∇Ψ`, `−Φ` and `−∇Ψ` (`n` each) in one allocation.
+    let mut trial = Vec::new();
     let mut w_trial = Vec::new();
-    let mut phi_trial = vec![0.0; n];
-    let mut da = vec![0.0; n];
-    let mut db = vec![0.0; n];
+    let mut phi_trial = Vec::new();
+    let mut work = Vec::new();
     // The Newton matrix's storage, kept from one iteration to the next (it comes back
     // from the factor): zeroed in place, not a fresh `n²` allocation per iteration
     // (above glibc's mmap threshold, 128 KiB or n ≥ 128, each was an mmap and its page
@@ -146,11 +148,20 @@ pub fn fischer_newton(
     let mut h: Vec<f64> = Vec::new();
     for k in 0..=settings.max_iterations {
         if residual <= settings.tolerance {
-            return lcp.finish_with(z, w, k, None, settings.tolerance);
+            return Ok(Lcp::solved(z, w, residual, k));
         }
         if k == settings.max_iterations {
             break;
         }
+        if k == 0 {
+            trial.resize(n, 0.0);
+            phi_trial.resize(n, 0.0);
+            work.resize(5 * n, 0.0);
+        }
+        let (da, rest) = work.split_at_mut(n);
+        let (db, rest) = rest.split_at_mut(n);
+        let (grad, rest) = rest.split_at_mut(n);
+        let (minus_phi, neg_grad) = rest.split_at_mut(n);
         for i in 0..n {
             let wi = w[i] / alpha;
             let r = libm::hypot(z[i], wi);
@@ -167,7 +178,7 @@ pub fn fischer_newton(
         // to the gradient (bit-neutral); the diagonal is always written.
         h.clear();
         h.resize(n * n, 0.0);
-        let mut grad = vec![0.0; n];
+        grad.fill(0.0);
         for i in 0..n {
             let (cols, vals) = lcp.row_nonzeros(i);
             let mut diagonal = false;
@@ -190,30 +201,31 @@ pub fn fischer_newton(
         for i in 0..n {
             h[i * n + i] -= mu;
         }
-        let minus_phi: Vec<f64> = phi.iter().map(|p| -p).collect();
+        for (m, p) in minus_phi.iter_mut().zip(&phi) {
+            *m = -p;
+        }
         let newton = match Lu::factor(core::mem::take(&mut h), n) {
             Some(lu) => {
-                let d = lu.solve(&minus_phi);
+                let d = lu.solve(minus_phi);
                 h = lu.into_matrix();
                 Some(d)
             }
             None => None,
         };
         let gnorm2: f64 = grad.iter().map(|g| g * g).sum();
-        let mut directions: Vec<Vec<f64>> = Vec::with_capacity(2);
-        if let Some(d) = newton {
+        // The Newton direction where it descends, then the steepest descent `−∇Ψ`.
+        let newton = newton.filter(|d| {
             let dn2: f64 = d.iter().map(|x| x * x).sum();
-            let slope: f64 = d.iter().zip(&grad).map(|(a, b)| a * b).sum();
-            if d.iter().all(|x| x.is_finite()) && slope < -1e-12 * libm::sqrt(dn2 * gnorm2) {
-                directions.push(d);
-            }
+            let slope: f64 = d.iter().zip(&*grad).map(|(a, b)| a * b).sum();
+            d.iter().all(|x| x.is_finite()) && slope < -1e-12 * libm::sqrt(dn2 * gnorm2)
+        });
+        for (m, g) in neg_grad.iter_mut().zip(&*grad) {
+            *m = -g;
         }
-        if gnorm2 > 0.0 {
-            directions.push(grad.iter().map(|g| -g).collect());
-        }
+        let directions = [newton.as_deref(), (gnorm2 > 0.0).then_some(&*neg_grad)];
         let mut accepted = false;
-        for d in &directions {
-            let slope: f64 = d.iter().zip(&grad).map(|(a, b)| a * b).sum();
+        for d in directions.into_iter().flatten() {
+            let slope: f64 = d.iter().zip(&*grad).map(|(a, b)| a * b).sum();
             let mut t = 1.0;
             for _ in 0..=settings.max_backtracks {
                 for i in 0..n {

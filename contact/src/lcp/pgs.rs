@@ -113,11 +113,11 @@ pub(crate) fn pgs_keep(
     let mut w = lcp.w(&z);
     let mut residual = lcp.residual_with(&z, &w);
     if residual <= settings.tolerance {
-        return lcp
-            .finish_with(z, w, 0, None, settings.tolerance)
-            .map_err(plain);
+        return Ok(Lcp::solved(z, w, residual, 0));
     }
     let omega = settings.omega;
+    // The residual's scale `max(1, |q|∞)`: `q` is fixed during the solve.
+    let scale = lcp.scale();
     let mut mark = (0, residual);
     let mut ran = settings.max_iterations;
     for sweep in 1..=settings.max_iterations {
@@ -127,12 +127,9 @@ pub(crate) fn pgs_keep(
             z[i] = (z[i] - omega * wi * inv_diag[i]).max(lo).min(hi);
         }
         if sweep % settings.check_every == 0 || sweep == settings.max_iterations {
-            lcp.w_into(&z, &mut w);
-            residual = lcp.residual_with(&z, &w);
+            residual = lcp.w_residual_into(&z, &mut w, scale);
             if residual <= settings.tolerance {
-                return lcp
-                    .finish_with(z, w, sweep, None, settings.tolerance)
-                    .map_err(plain);
+                return Ok(Lcp::solved(z, w, residual, sweep));
             }
             if !residual.is_finite() {
                 // Nothing worth keeping.

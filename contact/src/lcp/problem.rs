@@ -592,6 +592,38 @@ impl Lcp {
         r / self.scale()
     }
 
+    /// [`Lcp::w_into`] then [`Lcp::residual_with`] in one pass over the rows, with the
+    /// residual's scale given (`scale` must be [`Lcp::scale`]): the same `w` and the
+    /// same residual, bit for bit (each `w_i = q_i + Σ_j M_ij z_j` as `w_into` sums it,
+    /// the natural map's `max` over the rows in the same order, `+∞` from the first
+    /// non-finite `z_i` or `w_i` on). For a solver that checks its residual after each
+    /// sweep (PGS).
+    pub(crate) fn w_residual_into(&self, z: &[f64], out: &mut Vec<f64>, scale: f64) -> f64 {
+        debug_assert_eq!(z.len(), self.n);
+        debug_assert_eq!(scale.to_bits(), self.scale().to_bits());
+        out.clear();
+        let mut r = 0.0_f64;
+        let mut finite = z.len() == self.n;
+        for i in 0..self.n {
+            let wi = self.q[i] + self.row_dot(i, z);
+            out.push(wi);
+            if finite {
+                if !z[i].is_finite() || !wi.is_finite() {
+                    finite = false;
+                } else {
+                    let (lo, hi) = self.bounds(i, z);
+                    let p = (z[i] - wi).max(lo).min(hi);
+                    r = r.max(libm::fabs(z[i] - p));
+                }
+            }
+        }
+        if finite {
+            r / scale
+        } else {
+            f64::INFINITY
+        }
+    }
+
     /// The round-off floor of [`Lcp::residual`] at `z`, in its units:
     ///
     /// ```text
@@ -659,6 +691,25 @@ impl Lcp {
     ) -> Result<LcpSolution, LcpError> {
         let w = self.w(&z);
         self.finish_with(z, w, iterations, basis, tolerance)
+    }
+
+    /// The solution `z` whose residual the caller has just computed
+    /// (`residual = self.residual_with(&z, &w)`, `w = M z + q`) and found within its
+    /// tolerance: [`Lcp::finish_with`]'s answer (it accepts), without evaluating the
+    /// residual a second time.
+    pub(crate) fn solved(
+        z: Vec<f64>,
+        w: Vec<f64>,
+        residual: f64,
+        iterations: usize,
+    ) -> LcpSolution {
+        LcpSolution {
+            z,
+            w,
+            residual,
+            iterations,
+            basis: None,
+        }
     }
 
     /// [`Lcp::finish`] with `w = M z + q` already evaluated (must be `self.w(&z)`: the

@@ -62,7 +62,10 @@ use crate::lcp::{Coupling, LcpError, RowBound, RowMethod, RowSettings, SparseRow
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ContactSolver {
     /// `Newton` (staggered friction) while the scene has at most
-    /// [`AUTO_DENSE_CONTACTS`] contact points; beyond, the soft step with
+    /// [`AUTO_DENSE_CONTACTS`] contact points (where every contact point has a static
+    /// side, the sequential impulses first, kept when their answer solves the LCP to
+    /// [`ContactSettings::tolerance`]: bodies that touch only static geometry); beyond,
+    /// the soft step with
     /// [`AUTO_SUBSTEPS`] sub-steps (the fast path; its settings in
     /// [`ContactSettings::soft_step`], checked on every `Auto` step). The warm-start
     /// impulses carry over when a scene crosses the threshold either way.
@@ -506,12 +509,31 @@ impl ContactWorld {
             ContactSolver::Auto => ContactSolver::SequentialImpulses,
             s => s,
         };
-        stats.solver = Some(solver);
         self.path = SolverPath::STEPPED;
-        let (z, iterations) = match solver {
-            ContactSolver::SequentialImpulses => self.sequential_impulses(z0, &inv),
-            _ => self.dense(solver, z0)?,
+        // `Auto` where every contact has a static side: sequential impulses first, kept
+        // when their answer solves the LCP to `tolerance` (each body's rows then touch
+        // no other body's, and the sweeps reach an exact fixed point within a few: on
+        // the sliding box a residual of at most 5.8e-12 against the dense path's 2.9e-2
+        // at the stop, 21.4k instructions per step against 58.7k); else, from the same
+        // free velocities and warm start, the dense Newton solve.
+        let static_only = solver == ContactSolver::Newton
+            && self.settings.solver == ContactSolver::Auto
+            && self
+                .contacts
+                .iter()
+                .all(|c| self.colliders[c.a].body.is_none() || self.colliders[c.b].body.is_none());
+        let (solver, (z, iterations)) = if static_only {
+            self.static_first(z0, &inv)?
+        } else {
+            (
+                solver,
+                match solver {
+                    ContactSolver::SequentialImpulses => self.sequential_impulses(z0, &inv),
+                    _ => self.dense(solver, z0)?,
+                },
+            )
         };
+        stats.solver = Some(solver);
         stats.iterations = iterations;
         // Apply the impulses (the sequential solver has applied them already).
         if solver != ContactSolver::SequentialImpulses {
@@ -535,6 +557,32 @@ impl ContactWorld {
             b.pose.q = rotate_by(b.pose.q, (b.omega + pw) * h);
         }
         Ok(stats)
+    }
+
+    /// `Auto` on contacts that all have a static side: the sequential impulses, kept
+    /// when their answer's residual meets `tolerance`; else the free velocities back and
+    /// the dense Newton solve from the same warm start `z0`. Returns the solver whose
+    /// answer stands, the impulses and the iterations.
+    #[inline(never)]
+    fn static_first(
+        &mut self,
+        z0: Vec<f64>,
+        inv: &[(f64, DMat3)],
+    ) -> Result<(ContactSolver, (Vec<f64>, usize)), ContactError> {
+        let free: Vec<(DVec3, DVec3)> = self.bodies.iter().map(|b| (b.v, b.omega)).collect();
+        let (z, iterations) = self.sequential_impulses(z0.clone(), inv);
+        if self.residual(&z) <= self.settings.tolerance {
+            return Ok((ContactSolver::SequentialImpulses, (z, iterations)));
+        }
+        for (b, (v, w)) in self.bodies.iter_mut().zip(free) {
+            b.v = v;
+            b.omega = w;
+        }
+        self.path = SolverPath::STEPPED;
+        Ok((
+            ContactSolver::Newton,
+            self.dense(ContactSolver::Newton, z0)?,
+        ))
     }
 
     fn build_rows(

@@ -86,7 +86,8 @@ mod tests {
         let mut w = sphere_drop(0.1, 0.2).expect("scene");
         assert_eq!(w.last_path(), None);
         // Falling, far from the ground: no rows; then resting: Auto with one contact
-        // point picks the dense Newton solve, which the staggered LCP accepts.
+        // point on the static ground keeps the sequential impulses, whose answer solves
+        // the LCP to the tolerance.
         w.step(1e-3).expect("step");
         let p = w.last_path().expect("stepped");
         assert_eq!(p.rows, RowsSolver::NoRows);
@@ -95,6 +96,14 @@ mod tests {
             w.step(1e-3).expect("step");
         }
         let p = w.last_path().expect("stepped");
+        assert_eq!(p.rows, RowsSolver::Sequential);
+        assert_eq!(p.normal, None);
+
+        // A box on a box under Auto: body-body contacts, the dense Newton solve, which
+        // the staggered LCP accepts.
+        let mut d = box_stack(2).expect("stack");
+        d.step(1.0 / 60.0).expect("step");
+        let p = d.last_path().expect("stepped");
         assert_eq!(p.rows, RowsSolver::Dense);
         assert_eq!(p.normal, Some(RowMethod::Newton));
         assert!(!p.boxed_pgs && !p.shock);

@@ -48,7 +48,9 @@ impl ContactWorld {
         vel.push([DVec3::ZERO; 2]);
         let slot = |b: Option<usize>| b.unwrap_or(nb);
         let mu: Vec<f64> = (0..self.contacts.len()).map(|c| self.mu(c)).collect();
+        // One sweep; whether it changed any impulse.
         let sweep = |rows: &[Row], order: &[usize], vel: &mut [[DVec3; 2]], z: &mut [f64]| {
+            let mut changed = false;
             for &i in order {
                 let r = &rows[i];
                 if !(r.k > 0.0) {
@@ -71,6 +73,7 @@ impl ContactWorld {
                 let new = (z[i] - (rate - r.bias) / r.k).min(hi).max(lo);
                 let dz = new - z[i];
                 if dz != 0.0 {
+                    changed = true;
                     z[i] = new;
                     vel[a][0] += r.mj[0] * dz;
                     vel[a][1] += r.mj[1] * dz;
@@ -78,9 +81,16 @@ impl ContactWorld {
                     vel[b][1] += r.mj[3] * dz;
                 }
             }
+            changed
         };
+        // A sweep that changes no impulse writes nothing (`dz = 0` skips the row), so
+        // every later sweep would repeat it exactly: stopping there gives the bits of all
+        // `iterations` sweeps (a resting or steadily sliding contact gets there within a
+        // few sweeps: on the sliding box, 1–7 of the 30 in 586 of 600 steps).
         for _ in 0..iterations {
-            sweep(&self.rows, &order, &mut vel, &mut z);
+            if !sweep(&self.rows, &order, &mut vel, &mut z) {
+                break;
+            }
         }
         // Shock propagation: bottom-up sweeps with the lower body of each contact frozen.
         if self.settings.shock_propagation > 0 && !self.contacts.is_empty() {
@@ -91,7 +101,9 @@ impl ContactWorld {
                 .map(|r| self.frozen_row(r, up, inv))
                 .collect();
             for _ in 0..self.settings.shock_propagation {
-                sweep(&frozen, &order, &mut vel, &mut z);
+                if !sweep(&frozen, &order, &mut vel, &mut z) {
+                    break;
+                }
             }
         }
         for (b, v) in self.bodies.iter_mut().zip(&vel) {
