@@ -299,12 +299,16 @@ impl World {
     pub(super) fn push_limit_rows(&mut self, ctx: &StepContext) {
         let h = ctx.h();
         let s = self.unilateral;
+        // The rows go to a taken vector so that the coordinates and rows are read by
+        // reference from the coordinate table (no copy of its entry per joint).
+        let mut urows = core::mem::take(&mut self.urows);
+        let mut scratch = ([0.0; MAX_DOF], [[DVec3::ZERO; 4]; MAX_DOF]);
         for (ji, joint) in self.joints.iter().enumerate() {
             let dry = &self.frictionloss[ji];
             if self.limits[ji].iter().all(|l| l.is_none()) && dry.iter().all(|f| *f == 0.0) {
                 continue;
             }
-            let Some((qs, rows)) = self.coordinates_and_rows(ji) else {
+            let Some((qs, rows)) = self.coordinates_and_rows_ref(ji, &mut scratch) else {
                 continue;
             };
             // Dry friction: a boxed row on the coordinate's rate, |z| ≤ f h (MuJoCo's
@@ -312,7 +316,7 @@ impl World {
             for dof in 0..MAX_DOF {
                 let f = dry[dof];
                 if f > 0.0 {
-                    self.urows.push(URow {
+                    urows.push(URow {
                         a: joint.parent,
                         b: Some(joint.child),
                         j: rows[dof],
@@ -337,7 +341,7 @@ impl World {
                         continue;
                     }
                     let j = row.map(|r| r * sign);
-                    self.urows.push(URow {
+                    urows.push(URow {
                         a: joint.parent,
                         b: Some(joint.child),
                         j,
@@ -352,6 +356,7 @@ impl World {
                 }
             }
         }
+        self.urows = urows;
     }
 
     /// Solves the one-sided rows against the factored joint system whose solution
