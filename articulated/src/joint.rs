@@ -181,6 +181,15 @@ impl Joint {
     /// degree of freedom ([`Self::rate_rows`]).
     pub(crate) fn rows_with(&self, a: &Pose, b: &Pose, rates: bool) -> JointRows {
         let mut out = JointRows::new();
+        self.rows_into(a, b, rates, &mut out);
+        out
+    }
+
+    /// [`Self::rows_with`] written into `out` (the same bits, every entry of `out`
+    /// written): a caller keeping the rows in place (the assembly's row cache) skips
+    /// the copy of the ~640-byte rows a return by value costs.
+    pub(crate) fn rows_into(&self, a: &Pose, b: &Pose, rates: bool, out: &mut JointRows) {
+        *out = JointRows::new();
         match &self.kind {
             JointKind::Spherical(c) => out.push_hard(c.jacobian(a, b)),
             JointKind::Hinge(c) => out.push_hard(c.jacobian(a, b)),
@@ -199,9 +208,8 @@ impl Joint {
         }
         if rates {
             let first = out.rows[0];
-            self.push_rates(a, b, first, &mut out);
+            self.push_rates(a, b, first, out);
         }
-        out
     }
 
     /// The rate rows alone, as [`Self::rows_with`] gives them (the same bits), after
