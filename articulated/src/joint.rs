@@ -185,11 +185,14 @@ impl Joint {
         out
     }
 
-    /// [`Self::rows_with`] written into `out` (the same bits, every entry of `out`
-    /// written): a caller keeping the rows in place (the assembly's row cache) skips
-    /// the copy of the ~640-byte rows a return by value costs.
+    /// [`Self::rows_with`] written into `out`: the same bits in its first `out.n`
+    /// entries, the ones every reader reads (`..n_hard` or `..n`); entries past `n` are
+    /// left as they were (not cleared: the 640-byte memset per joint and assembly read
+    /// nothing). A caller keeping the rows in place (the assembly's row cache) skips
+    /// the copy of the rows a return by value costs.
     pub(crate) fn rows_into(&self, a: &Pose, b: &Pose, rates: bool, out: &mut JointRows) {
-        *out = JointRows::new();
+        out.n = 0;
+        out.n_hard = 0;
         match &self.kind {
             JointKind::Spherical(c) => out.push_hard(c.jacobian(a, b)),
             JointKind::Hinge(c) => out.push_hard(c.jacobian(a, b)),
