@@ -39,6 +39,10 @@ use constraint_core::DVec3;
 
 use super::*;
 
+mod loop_columns;
+
+use loop_columns::LoopColumns;
+
 /// Settings of the one-sided rows (limits and contacts).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UnilateralSettings {
@@ -417,24 +421,42 @@ impl World {
         zero_rhs.resize(loops.2.len(), 0.0);
         let free_scale = self.loop_free_scale(loops);
         let mut mark = core::mem::take(&mut self.umark);
+        // With loops every column goes through their Schur complement: `Y_L` and its
+        // SVD once for all the columns (loop_columns.rs, the same bits as
+        // `solve_with_loops` per column).
+        let mut closure = None;
         let mut columns = Ok(());
+        if !loops.0.is_empty() && m > 0 {
+            match LoopColumns::new(&self.solver, &loops.0, &loops.1, free_scale, mu) {
+                Ok(c) => closure = Some(c),
+                Err(e) => columns = Err(e),
+            }
+            mu = Vec::new();
+        }
         for (k, r) in rows.iter().enumerate() {
+            if columns.is_err() {
+                break;
+            }
             let col = &mut ycols[k * size..(k + 1) * size];
             scatter(&self.solver, &self.tendon_spans, col, r, 1.0);
             // Without loops a body row's column needs the forward pass only along its
             // bodies' paths to the root (a tendon's row spans its joints' bodies).
             let tendon = matches!(r.source, RowSource::TendonLimit { .. });
-            if loops.0.is_empty() && !tendon {
-                self.solver.solve_sparse(col, [r.a, r.b], &mut mark);
-            } else if let Err(e) = self
-                .solver
-                .solve_with_loops(col, &loops.0, &loops.1, &zero_rhs, free_scale, &mut mu)
-            {
-                columns = Err(e);
-                break;
+            match &mut closure {
+                Some(c) => {
+                    if let Err(e) = c.solve(&self.solver, &loops.0, &zero_rhs, col) {
+                        columns = Err(e);
+                        break;
+                    }
+                }
+                None if tendon => self.solver.solve(col),
+                None => self.solver.solve_sparse(col, [r.a, r.b], &mut mark),
             }
             // Through the equality rows too (equality.rs).
             self.eq.correct(&self.solver, col);
+        }
+        if let Some(c) = closure {
+            mu = c.into_mu();
         }
         if let Err(e) = columns {
             self.ucols = ycols;
