@@ -444,7 +444,8 @@ impl World {
             let tendon = matches!(r.source, RowSource::TendonLimit { .. });
             match &mut closure {
                 Some(c) => {
-                    if let Err(e) = c.solve(&self.solver, &loops.0, &zero_rhs, col) {
+                    let sparse = (!tendon).then_some(([r.a, r.b], &mut mark));
+                    if let Err(e) = c.solve(&self.solver, &loops.0, &zero_rhs, col, sparse) {
                         columns = Err(e);
                         break;
                     }

@@ -93,7 +93,8 @@ impl LoopColumns {
     }
 
     /// `x ← H⁻¹ x` through the loop closure with loop right-hand side `r`: the tree
-    /// solve, then `x −= Y_L μ`, `μ = (L Y_L + C)⁺ (L x₀ − r)`. Errors: a non-finite
+    /// solve (with `sparse`, [`TreeSolver::solve_sparse`] for a right-hand side on those
+    /// bodies alone, `mark` its scratch), then `x −= Y_L μ`, `μ = (L Y_L + C)⁺ (L x₀ − r)`. Errors: a non-finite
     /// `L x₀ − r` or `μ` ([`ArticulatedError::LoopSolve`]).
     pub(super) fn solve(
         &mut self,
@@ -101,8 +102,12 @@ impl LoopColumns {
         rows: &[LoopRow],
         r: &[f64],
         x: &mut [f64],
+        sparse: Option<([Option<usize>; 2], &mut Vec<bool>)>,
     ) -> Result<(), ArticulatedError> {
-        solver.solve(x);
+        match sparse {
+            Some((bodies, mark)) => solver.solve_sparse(x, bodies, mark),
+            None => solver.solve(x),
+        }
         let k = rows.len();
         self.rhs.clear();
         self.rhs
