@@ -181,6 +181,18 @@ impl Joint {
     /// degree of freedom ([`Self::rate_rows`]).
     pub(crate) fn rows_with(&self, a: &Pose, b: &Pose, rates: bool) -> JointRows {
         let mut out = JointRows::new();
+        self.rows_into(a, b, rates, &mut out);
+        out
+    }
+
+    /// [`Self::rows_with`] written into `out`: the same bits in its first `out.n`
+    /// entries, the ones every reader reads (`..n_hard` or `..n`); entries past `n` are
+    /// left as they were (not cleared: the 640-byte memset per joint and assembly read
+    /// nothing). A caller keeping the rows in place (the assembly's row cache) skips
+    /// the copy of the rows a return by value costs.
+    pub(crate) fn rows_into(&self, a: &Pose, b: &Pose, rates: bool, out: &mut JointRows) {
+        out.n = 0;
+        out.n_hard = 0;
         match &self.kind {
             JointKind::Spherical(c) => out.push_hard(c.jacobian(a, b)),
             JointKind::Hinge(c) => out.push_hard(c.jacobian(a, b)),
@@ -199,9 +211,8 @@ impl Joint {
         }
         if rates {
             let first = out.rows[0];
-            self.push_rates(a, b, first, &mut out);
+            self.push_rates(a, b, first, out);
         }
-        out
     }
 
     /// The rate rows alone, as [`Self::rows_with`] gives them (the same bits), after

@@ -379,6 +379,23 @@ impl World {
             .then_some((q, rows))
     }
 
+    /// [`Self::coordinates_and_rows`] by reference (the same bits): the table's entry
+    /// when it is of the current poses, else computed into `scratch` (zeroed first), so
+    /// a caller reading a few rows does not copy the 624 bytes of all six.
+    pub(super) fn coordinates_and_rows_ref<'a>(
+        &'a self,
+        ji: usize,
+        scratch: &'a mut ([f64; MAX_DOF], [[DVec3; 4]; MAX_DOF]),
+    ) -> Option<(&'a [f64; MAX_DOF], &'a [[DVec3; 4]; MAX_DOF])> {
+        if let Some(e) = self.cached_coordinates(ji) {
+            return Some((&e.q, &e.rows));
+        }
+        *scratch = ([0.0; MAX_DOF], [[DVec3::ZERO; 4]; MAX_DOF]);
+        let (q, rows) = scratch;
+        self.compute_coordinates(ji, q, rows)
+            .then_some((&*q, &*rows))
+    }
+
     /// Joint `ji`'s coordinates and rate rows written into `q` and `rows` (the entries
     /// of its degrees of freedom; the others are left as they are, zero in every
     /// caller); false for joints without coordinates.

@@ -144,7 +144,7 @@ impl CachedRows {
             }
             // Written in place (the rows straight into the entry, not through a copy).
             let e = &mut cache[j];
-            e.rows = joint.rows_with(a, b, with);
+            joint.rows_into(a, b, with, &mut e.rows);
             e.valid = true;
             e.key = key;
             e.rates = with;

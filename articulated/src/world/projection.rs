@@ -240,6 +240,8 @@ impl World {
     /// rows: `±G δ = −C` with `C = q − lo` (lower) or `hi − q` (upper), `G` the rate row
     /// of the coordinate (Schur complement with the joints, as loop joints are).
     fn push_violated_limits(&self, loops: &mut LoopRows, tolerance: f64) {
+        // The rows read by reference (the coordinate table's entry, no copy of it).
+        let mut scratch = ([0.0; MAX_DOF], [[DVec3::ZERO; 4]; MAX_DOF]);
         for (ji, joint) in self.joints.iter().enumerate() {
             if self.limits[ji].iter().all(|l| l.is_none()) {
                 continue;
@@ -255,7 +257,7 @@ impl World {
             if !past {
                 continue;
             }
-            let Some((q, rows)) = self.coordinates_and_rows(ji) else {
+            let Some((q, rows)) = self.coordinates_and_rows_ref(ji, &mut scratch) else {
                 continue;
             };
             for (d, lim) in self.limits[ji].iter().enumerate() {

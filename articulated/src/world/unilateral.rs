@@ -39,6 +39,10 @@ use constraint_core::DVec3;
 
 use super::*;
 
+mod loop_columns;
+
+use loop_columns::LoopColumns;
+
 /// Settings of the one-sided rows (limits and contacts).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UnilateralSettings {
@@ -301,12 +305,16 @@ impl World {
     pub(super) fn push_limit_rows(&mut self, ctx: &StepContext) {
         let h = ctx.h();
         let s = self.unilateral;
+        // The rows go to a taken vector so that the coordinates and rows are read by
+        // reference from the coordinate table (no copy of its entry per joint).
+        let mut urows = core::mem::take(&mut self.urows);
+        let mut scratch = ([0.0; MAX_DOF], [[DVec3::ZERO; 4]; MAX_DOF]);
         for (ji, joint) in self.joints.iter().enumerate() {
             let dry = &self.frictionloss[ji];
             if self.limits[ji].iter().all(|l| l.is_none()) && dry.iter().all(|f| *f == 0.0) {
                 continue;
             }
-            let Some((qs, rows)) = self.coordinates_and_rows(ji) else {
+            let Some((qs, rows)) = self.coordinates_and_rows_ref(ji, &mut scratch) else {
                 continue;
             };
             // Dry friction: a boxed row on the coordinate's rate, |z| ≤ f h (MuJoCo's
@@ -314,7 +322,7 @@ impl World {
             for dof in 0..MAX_DOF {
                 let f = dry[dof];
                 if f > 0.0 {
-                    self.urows.push(URow {
+                    urows.push(URow {
                         a: joint.parent,
                         b: Some(joint.child),
                         j: rows[dof],
@@ -339,7 +347,7 @@ impl World {
                         continue;
                     }
                     let j = row.map(|r| r * sign);
-                    self.urows.push(URow {
+                    urows.push(URow {
                         a: joint.parent,
                         b: Some(joint.child),
                         j,
@@ -354,6 +362,7 @@ impl World {
                 }
             }
         }
+        self.urows = urows;
     }
 
     /// Solves the one-sided rows against the factored joint system whose solution
@@ -414,24 +423,43 @@ impl World {
         zero_rhs.resize(loops.2.len(), 0.0);
         let free_scale = self.loop_free_scale(loops);
         let mut mark = core::mem::take(&mut self.umark);
+        // With loops every column goes through their Schur complement: `Y_L` and its
+        // SVD once for all the columns (loop_columns.rs, the same bits as
+        // `solve_with_loops` per column).
+        let mut closure = None;
         let mut columns = Ok(());
+        if !loops.0.is_empty() && m > 0 {
+            match LoopColumns::new(&self.solver, &loops.0, &loops.1, free_scale, mu) {
+                Ok(c) => closure = Some(c),
+                Err(e) => columns = Err(e),
+            }
+            mu = Vec::new();
+        }
         for (k, r) in rows.iter().enumerate() {
+            if columns.is_err() {
+                break;
+            }
             let col = &mut ycols[k * size..(k + 1) * size];
             scatter(&self.solver, &self.tendon_spans, col, r, 1.0);
             // Without loops a body row's column needs the forward pass only along its
             // bodies' paths to the root (a tendon's row spans its joints' bodies).
             let tendon = matches!(r.source, RowSource::TendonLimit { .. });
-            if loops.0.is_empty() && !tendon {
-                self.solver.solve_sparse(col, [r.a, r.b], &mut mark);
-            } else if let Err(e) = self
-                .solver
-                .solve_with_loops(col, &loops.0, &loops.1, &zero_rhs, free_scale, &mut mu)
-            {
-                columns = Err(e);
-                break;
+            match &mut closure {
+                Some(c) => {
+                    let sparse = (!tendon).then_some(([r.a, r.b], &mut mark));
+                    if let Err(e) = c.solve(&self.solver, &loops.0, &zero_rhs, col, sparse) {
+                        columns = Err(e);
+                        break;
+                    }
+                }
+                None if tendon => self.solver.solve(col),
+                None => self.solver.solve_sparse(col, [r.a, r.b], &mut mark),
             }
             // Through the equality rows too (equality.rs).
             self.eq.correct(&self.solver, col);
+        }
+        if let Some(c) = closure {
+            mu = c.into_mu();
         }
         if let Err(e) = columns {
             self.ucols = ycols;
