@@ -1324,20 +1324,19 @@ impl SoftState {
 /// Splits the state into the rows the passes read, the bodies and the points'
 /// impulses.
 macro_rules! split {
-    ($st:expr) => {{
-        let st = $st;
+    ($st:expr) => {
         (
-            rows!(st),
+            rows!($st),
             Slices {
-                v: &mut st.v,
-                w: &mut st.w,
-                dp: &st.dp,
-                rot: &st.rot,
+                v: &mut $st.v,
+                w: &mut $st.w,
+                dp: &$st.dp,
+                rot: &$st.rot,
             },
-            &mut st.impulse,
-            &mut st.max_normal,
+            &mut $st.impulse,
+            &mut $st.max_normal,
         )
-    }};
+    };
 }
 
 /// `v += M⁻¹ Jᵀ λ` of the three rows of point `p` with impulses `z`.
@@ -1374,13 +1373,12 @@ fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
 /// manifolds of a colour touching disjoint moving bodies), a colour's odd manifold
 /// and the overflow colour's points (whose manifolds may share bodies) one by one.
 fn warm_start(st: &mut SoftState) {
-    let paired = core::mem::take(&mut st.paired);
-    let colouring = core::mem::take(&mut st.colouring);
+    let (paired, colouring) = (&st.paired, &st.colouring);
     {
-        let (rows, mut vel, impulse, _) = split!(&mut *st);
+        let (rows, mut vel, impulse, _) = split!(st);
         let mut one = |p: usize, vel: &mut Slices| apply_point(&rows, p, impulse[p], vel);
         for_manifold_pairs(
-            &colouring,
+            colouring,
             rows.slots.len(),
             |j, pts, vel: &mut Slices| {
                 let pr = paired.of(j, pts[0].len());
@@ -1390,8 +1388,6 @@ fn warm_start(st: &mut SoftState) {
             &mut vel,
         );
     }
-    st.colouring = colouring;
-    st.paired = paired;
 }
 
 /// Walks the colouring for the point passes that take two manifolds at a time: per
@@ -1451,12 +1447,12 @@ fn for_manifold_pairs<S>(
 /// same arithmetic as `C₀ + nᵀ Δd` ([`separation`]).
 fn update_gaps(st: &mut SoftState) {
     let mut gap = core::mem::take(&mut st.gap);
-    let colouring = core::mem::take(&mut st.colouring);
+    let colouring = &st.colouring;
     // Every point is in one manifold and is written below: no clear (zeroing 8 B a
     // point per sub-step cost 0.7 % of the 210-box pyramid's step, callgrind).
     gap.resize(st.slots.len(), 0.0);
     {
-        let (rows, vel, _, _) = split!(&mut *st);
+        let (rows, vel, _, _) = split!(st);
         let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
         for j in 0..mp.len().saturating_sub(1) {
             let pts = &pts[mp[j]..mp[j + 1]];
@@ -1473,7 +1469,6 @@ fn update_gaps(st: &mut SoftState) {
             }
         }
     }
-    st.colouring = colouring;
     st.gap = gap;
 }
 
@@ -1499,11 +1494,9 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
     };
     let gap = core::mem::take(&mut st.gap);
     if use_bias && !st.blocks.is_empty() {
-        let blocks = core::mem::take(&mut st.blocks);
-        let colouring = core::mem::take(&mut st.colouring);
-        let paired = core::mem::take(&mut st.paired);
+        let (blocks, colouring, paired) = (&st.blocks, &st.colouring, &st.paired);
         {
-            let (rows, mut vel, impulse, max_normal) = split!(&mut *st);
+            let (rows, mut vel, impulse, max_normal) = split!(st);
             let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
             let mut io = PointSlices {
                 impulse: &mut *impulse,
@@ -1538,13 +1531,10 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
                 }
             }
         }
-        st.blocks = blocks;
-        st.colouring = colouring;
-        st.paired = paired;
     } else if !use_bias {
         relax_in_lanes(st, &gap, pass);
     } else {
-        let (rows, mut vel, impulse, max_normal) = split!(&mut *st);
+        let (rows, mut vel, impulse, max_normal) = split!(st);
         for (p, (z, m)) in impulse.iter_mut().zip(max_normal.iter_mut()).enumerate() {
             solve_point(&rows, p, gap[p], z, m, &mut vel, pass);
         }
@@ -1557,10 +1547,9 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
 /// ([`relax_manifolds`]: the same bits as one point at a time; see
 /// [`for_manifold_pairs`]).
 fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
-    let paired = core::mem::take(&mut st.paired);
-    let colouring = core::mem::take(&mut st.colouring);
+    let (paired, colouring) = (&st.paired, &st.colouring);
     {
-        let (rows, vel, impulse, max_normal) = split!(&mut *st);
+        let (rows, vel, impulse, max_normal) = split!(st);
         let (dp, rot) = (vel.dp, vel.rot);
         let mut io = RelaxIo {
             v: &mut *vel.v,
@@ -1587,7 +1576,7 @@ fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
             );
         };
         for_manifold_pairs(
-            &colouring,
+            colouring,
             rows.slots.len(),
             |j, pts, io: &mut RelaxIo| {
                 relax_manifolds(&rows, paired.of(j, pts[0].len()), pts, io, pass.inv_h)
@@ -1596,8 +1585,6 @@ fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
             &mut io,
         );
     }
-    st.colouring = colouring;
-    st.paired = paired;
 }
 
 /// The points' impulses as the manifold passes see them: plain slices on one
