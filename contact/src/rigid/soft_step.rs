@@ -57,6 +57,7 @@
 //! The gaps are computed once per sub-step, after the positions, for the relax passes
 //! and the next biased pass.
 
+use alloc::boxed::Box;
 use alloc::vec::Vec;
 use core::f64::consts::TAU;
 
@@ -469,7 +470,7 @@ impl ContactWorld {
             iterations: substeps,
             ..ContactStats::default()
         };
-        let mut st = core::mem::take(&mut self.soft);
+        let mut st = self.soft.take().unwrap_or_default();
         // Contacts at the start of the step.
         st.poses.clear();
         st.poses.extend(self.bodies.iter().map(|b| b.pose));
@@ -480,7 +481,7 @@ impl ContactWorld {
         let broad = match broad {
             Ok(b) => b,
             Err(e) => {
-                self.soft = st;
+                self.soft = Some(st);
                 return Err(e);
             }
         };
@@ -501,7 +502,7 @@ impl ContactWorld {
     ) -> ContactStats {
         stats.solver = Some(ContactSolver::SoftStep { substeps });
         stats.iterations = substeps;
-        let st = core::mem::take(&mut self.soft);
+        let st = self.soft.take().unwrap_or_default();
         self.soft_solve(st, h, substeps, stats)
     }
 
@@ -509,7 +510,7 @@ impl ContactWorld {
     /// step's (its impulses scale with the sub-step: stored as over `h`, used as
     /// `h_s / h` of them), when `Auto` moves to the soft step.
     pub(super) fn warm_dense_to_soft(&mut self, h: f64) {
-        let st = &mut self.soft;
+        let st = self.soft.get_or_insert_with(Default::default);
         st.warm.clear();
         st.warm.extend(
             self.warm
@@ -528,8 +529,8 @@ impl ContactWorld {
         self.warm.clear();
         self.warm.extend(
             self.soft
-                .warm
                 .iter()
+                .flat_map(|st| &st.warm)
                 .map(|&(key, zn, ft, _, _)| (key, (zn * k, ft * k))),
         );
         // Keys are unique: the unstable sort is deterministic.
@@ -540,7 +541,7 @@ impl ContactWorld {
     /// `self.contacts`.
     fn soft_solve(
         &mut self,
-        mut st: SoftState,
+        mut st: Box<SoftState>,
         h: f64,
         substeps: usize,
         stats: ContactStats,
@@ -598,11 +599,16 @@ impl ContactWorld {
 
     /// After the sub-steps: restitution, the residual, the bodies written back and the
     /// impulses kept.
-    fn finish_soft(&mut self, mut st: SoftState, hs: f64, mut stats: ContactStats) -> ContactStats {
+    fn finish_soft(
+        &mut self,
+        mut st: Box<SoftState>,
+        hs: f64,
+        mut stats: ContactStats,
+    ) -> ContactStats {
         restitution(&mut st, self.settings.restitution_threshold);
         stats.residual = self.settings.soft_step.residual.then(|| residual(&st, hs));
         self.store(&mut st, hs);
-        self.soft = st;
+        self.soft = Some(st);
         stats
     }
 
