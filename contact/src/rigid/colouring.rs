@@ -167,8 +167,11 @@ impl Colouring {
             highest = highest.max(c as usize);
         }
         self.colours = if n == 0 { 0 } else { highest + 1 };
-        // Counting sort of the manifolds by colour, bottom-up within a colour.
-        for c in 0..=COLOURS as usize {
+        // Counting sort of the manifolds by colour, bottom-up within a colour: the
+        // prefix sum over the colours in use only (the entries above `highest + 1`
+        // are never read; summing all 64 was ≈ 250 instructions a step, 8 % of the
+        // one-box scene's colouring).
+        for c in 0..=highest.min(COLOURS as usize) {
             self.offset[c + 1] += self.offset[c];
         }
         self.by_colour.clear();

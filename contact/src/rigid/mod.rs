@@ -280,8 +280,10 @@ pub struct ContactWorld {
     path: SolverPath,
     /// The bodies at the start of the step being taken (rollback on failure), reused.
     saved: Vec<RigidBody>,
-    /// Buffers of the soft step.
-    soft: soft_step::SoftState,
+    /// Buffers of the soft step, boxed so that a step takes and returns them as one
+    /// pointer (moved by value the 3 kB state cost two `memcpy` per step); `None`
+    /// before the first soft step.
+    soft: Option<alloc::boxed::Box<soft_step::SoftState>>,
     /// Buffers of the broad phase (the other solvers; the soft step keeps its own).
     broad: BroadScratch,
     /// Buffers of the dense path (Delassus matrix, row buckets).
@@ -306,7 +308,7 @@ impl ContactWorld {
             steps: 0,
             path: SolverPath::NOT_STEPPED,
             saved: Vec::new(),
-            soft: soft_step::SoftState::default(),
+            soft: None,
             broad: BroadScratch::default(),
             dense: dense::DenseScratch::default(),
             sleep: sleep::SleepState::default(),
