@@ -392,34 +392,56 @@ impl TreeSolver {
         self.solve_marked(x, None);
     }
 
-    /// [`Self::solve`] for a right-hand side that is zero outside the unknowns of the
-    /// bodies `bodies` (a row's `Gᵀ`, [`Self::scatter`]): the forward pass visits only
-    /// those bodies' nodes and their ancestors (elsewhere it would carry zeros), the
-    /// backward pass every node. `mark` is scratch (one flag per node, kept by the
-    /// caller). Same values as [`Self::solve`] (up to the sign of zeros).
-    pub fn solve_sparse(&self, x: &mut [f64], bodies: [Option<usize>; 2], mark: &mut Vec<bool>) {
+    /// Flags in `mark` (scratch, one flag per node, kept by the caller) the nodes of
+    /// `bodies` and their ancestors, and clears `x` on their unknowns: the set-up of
+    /// [`Self::solve_sparse`] for a right-hand side then placed on those bodies'
+    /// unknowns ([`Self::scatter`]). The other entries of `x` are left as they are
+    /// (the sparse solve neither reads them nor needs them cleared), unless some node
+    /// is outside the elimination order (not the case for a tree built by
+    /// [`Self::new`]): then all of `x` is cleared.
+    pub fn mark_paths(&self, x: &mut [f64], bodies: [Option<usize>; 2], mark: &mut Vec<bool>) {
         mark.clear();
         mark.resize(self.dim.len(), false);
+        let whole = self.schedule.len() != self.dim.len();
+        if whole {
+            x.fill(0.0);
+        }
         for mut i in bodies.into_iter().flatten() {
             while i != NONE && i < mark.len() && !mark[i] {
                 mark[i] = true;
+                if !whole {
+                    let o = self.offset[i];
+                    if let Some(xi) = x.get_mut(o..o + self.dim[i]) {
+                        xi.fill(0.0);
+                    }
+                }
                 i = self.parent[i];
             }
         }
+    }
+
+    /// [`Self::solve`] for a right-hand side that is zero outside the unknowns of the
+    /// nodes `mark` flags ([`Self::mark_paths`]): the forward pass visits only those
+    /// nodes (elsewhere it would carry zeros), the backward pass every node, taking
+    /// the unflagged nodes' right-hand side as zero without reading it (so `x` needs
+    /// no clearing there; every entry is written). Same values as [`Self::solve`] (up
+    /// to the sign of zeros).
+    pub fn solve_sparse(&self, x: &mut [f64], mark: &[bool]) {
         self.solve_marked(x, Some(mark));
     }
 
     /// [`Self::solve`] with the forward pass restricted to the nodes `mark` flags (all
-    /// without it): one body for both, so the node kernels keep a single call site
-    /// each (and stay inlined).
+    /// without it) and the backward pass reading the right-hand side of those nodes
+    /// only (zero elsewhere): one body for both, so the node kernels keep a single
+    /// call site each (and stay inlined).
     fn solve_marked(&self, x: &mut [f64], mark: Option<&[bool]>) {
         // Fixed-size kernels for the node shapes of body/joint pairs (loops unroll);
         // `NP = 0` is a root.
         macro_rules! dispatch {
-            ($f:ident, $n:expr, $np:expr, $args:expr, $x:expr; $($a:literal, $b:literal);*) => {
+            ($f:ident, $n:expr, $np:expr, $call:tt; $($a:literal, $b:literal);*) => {
                 match ($n, $np) {
-                    $(($a, $b) => $f::<$a, $b>($args, $x),)*
-                    _ => $f::<6, 6>($args, $x),
+                    $(($a, $b) => $f::<$a, $b> $call,)*
+                    _ => $f::<6, 6> $call,
                 }
             };
         }
@@ -429,16 +451,32 @@ impl TreeSolver {
             }
             let b = &self.blocks[i];
             let args = (&b.diag, &b.dinv, &b.off, oi, op, n, np);
-            dispatch!(forward, n, np, args, x;
+            dispatch!(forward, n, np, (args, x);
                 6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
                 1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
         }
+        let Some(mark) = mark else {
+            for &[i, n, oi, np, op] in self.schedule.iter().rev() {
+                let b = &self.blocks[i];
+                let args = (&b.diag, &b.dinv, &b.off, oi, op, n, np);
+                dispatch!(backward, n, np, (args, x, true);
+                    6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
+                    1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
+            }
+            return;
+        };
         for &[i, n, oi, np, op] in self.schedule.iter().rev() {
             let b = &self.blocks[i];
             let args = (&b.diag, &b.dinv, &b.off, oi, op, n, np);
-            dispatch!(backward, n, np, args, x;
-                6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
-                1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
+            if mark[i] {
+                dispatch!(backward, n, np, (args, x, true);
+                    6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
+                    1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
+            } else {
+                // Unflagged: a zero right-hand side (the forward pass left it so).
+                dispatch!(backward, n, np, (args, x, false);
+                    6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6);
+            }
         }
     }
 
@@ -775,23 +813,26 @@ fn forward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
     }
 }
 
-/// Backward pass at one node: `x_i = L⁻ᵀ (s − d⁻¹ W x_p)` (shapes as in [`forward`]).
+/// Backward pass at one node: `x_i = L⁻ᵀ (s − d⁻¹ W x_p)` (shapes as in [`forward`]);
+/// `s` read from `x` when `read`, else zero (a node the forward pass skipped).
 #[inline]
-fn backward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
+fn backward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64], read: bool) {
     let (n_rt, np_rt) = (args.5, args.6);
     if N == n_rt && NP == np_rt {
-        backward_sized(args, x, N, NP);
+        backward_sized(args, x, N, NP, read);
     } else {
-        backward_sized(args, x, n_rt, np_rt);
+        backward_sized(args, x, n_rt, np_rt, read);
     }
 }
 
 /// [`backward`] for `n` rows under a parent of `np` (0: a root).
 #[inline(always)]
-fn backward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
+fn backward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize, read: bool) {
     let (d, dinv, w, oi, op, _, _) = args;
     let mut s = [0.0; 6];
-    s[..n].copy_from_slice(&x[oi..oi + n]);
+    if read {
+        s[..n].copy_from_slice(&x[oi..oi + n]);
+    }
     if np > 0 {
         let mut xp = [0.0; 6];
         xp[..np].copy_from_slice(&x[op..op + np]);
@@ -821,8 +862,8 @@ mod tests {
     /// A branched tree (a chain of 8 bodies hung from the world, with a second chain of
     /// 4 on body 2) held by 3-row ball joints: a column `Gᵀ` of a contact row on one
     /// or two bodies gives the same solution by [`TreeSolver::solve_sparse`] (forward
-    /// pass on the bodies' paths to the root only) as by [`TreeSolver::solve`], to the
-    /// bit (`==`, which equates the two zeros).
+    /// pass on the bodies' paths to the root only, a column left NaN outside them) as
+    /// by [`TreeSolver::solve`], to the bit (`==`, which equates the two zeros).
     #[test]
     fn sparse_forward_pass_gives_the_full_solve() {
         let n = 12;
@@ -866,9 +907,16 @@ mod tests {
                     }
                 }
             }
-            let mut sparse = full.clone();
+            // The sparse column starts as garbage (NaN): `mark_paths` clears the
+            // marked nodes, the rest is never read.
+            let mut sparse = vec![f64::NAN; t.size];
+            t.mark_paths(&mut sparse, bodies, &mut mark);
+            for b in bodies.into_iter().flatten() {
+                let o = t.body_offset(b);
+                sparse[o..o + 6].copy_from_slice(&full[o..o + 6]);
+            }
             t.solve(&mut full);
-            t.solve_sparse(&mut sparse, bodies, &mut mark);
+            t.solve_sparse(&mut sparse, &mark);
             assert!(full.iter().any(|v| *v != 0.0));
             assert_eq!(full, sparse, "bodies {bodies:?}");
         }

@@ -102,10 +102,10 @@ impl LoopColumns {
         rows: &[LoopRow],
         r: &[f64],
         x: &mut [f64],
-        sparse: Option<([Option<usize>; 2], &mut Vec<bool>)>,
+        sparse: Option<&[bool]>,
     ) -> Result<(), ArticulatedError> {
         match sparse {
-            Some((bodies, mark)) => solver.solve_sparse(x, bodies, mark),
+            Some(mark) => solver.solve_sparse(x, mark),
             None => solver.solve(x),
         }
         let k = rows.len();
