@@ -496,6 +496,23 @@ impl TreeSolver {
         free_scale: f64,
         mu: &mut Vec<f64>,
     ) -> Result<(), ArticulatedError> {
+        let mut scratch = LoopScratch::default();
+        let rows = (loop_rows, loop_c, loop_rhs);
+        self.solve_with_loops_in(x, rows, free_scale, mu, &mut scratch)
+    }
+
+    /// [`Self::solve_with_loops`] with its buffers (`Y = H⁻¹ Gᵀ`, the Schur right-hand
+    /// side and `μ`) in `scratch`, kept by the caller between calls instead of
+    /// allocated (zeroed) per call; `rows = (loop_rows, loop_c, loop_rhs)`.
+    pub fn solve_with_loops_in(
+        &self,
+        x: &mut [f64],
+        rows: LoopRowsRef<'_>,
+        free_scale: f64,
+        mu: &mut Vec<f64>,
+        scratch: &mut LoopScratch,
+    ) -> Result<(), ArticulatedError> {
+        let (loop_rows, loop_c, loop_rhs) = rows;
         self.solve(x);
         let k = loop_rows.len();
         mu.clear();
@@ -503,12 +520,15 @@ impl TreeSolver {
             return Ok(());
         }
         // Y = H⁻¹ Gᵀ, one tree solve per loop row.
-        let mut y = vec![0.0; k * self.size];
+        let y = &mut scratch.y;
+        y.clear();
+        y.resize(k * self.size, 0.0);
         for (r, (a, b, row)) in loop_rows.iter().enumerate() {
             let col = &mut y[r * self.size..(r + 1) * self.size];
             self.scatter(col, *a, *b, row, 1.0);
             self.solve(col);
         }
+        let y = &scratch.y;
         let gdot = |v: &[f64], (a, b, row): &(Option<usize>, usize, [DVec3; 4])| {
             let mut s = 0.0;
             for (side, body) in [(0usize, *a), (1usize, Some(*b))] {
@@ -523,9 +543,9 @@ impl TreeSolver {
             gdot(&y[j * self.size..(j + 1) * self.size], &loop_rows[i])
                 + if i == j { loop_c[i] } else { 0.0 }
         });
-        let rhs: Vec<f64> = (0..k)
-            .map(|i| gdot(x, &loop_rows[i]) - loop_rhs[i])
-            .collect();
+        let rhs = &mut scratch.rhs;
+        rhs.clear();
+        rhs.extend((0..k).map(|i| gdot(x, &loop_rows[i]) - loop_rhs[i]));
         if !s.is_finite() || rhs.iter().any(|v| !v.is_finite()) {
             return Err(ArticulatedError::LoopSolve);
         }
@@ -536,24 +556,25 @@ impl TreeSolver {
         let svd = SvdSolver::new(&s, 1e-10).map_err(|_| ArticulatedError::LoopSolve)?;
         let smax = svd.singular_values().first().copied().unwrap_or(0.0);
         let floor = 1e-10 * free_scale;
-        let mut sol_x = vec![0.0; k];
+        let sol_x = &mut scratch.sol;
+        sol_x.clear();
+        sol_x.resize(k, 0.0);
         if smax > floor {
             let svd = if floor > 1e-10 * smax {
                 SvdSolver::new(&s, floor / smax).map_err(|_| ArticulatedError::LoopSolve)?
             } else {
                 svd
             };
-            svd.solve_min_norm(&rhs, &mut sol_x)
+            svd.solve_min_norm(rhs, sol_x)
                 .map_err(|_| ArticulatedError::LoopSolve)?;
         }
-        let sol = MinNorm { x: sol_x };
-        for (r, m) in sol.x.iter().enumerate() {
+        for (r, m) in sol_x.iter().enumerate() {
             let col = &y[r * self.size..(r + 1) * self.size];
             for (xi, yi) in x.iter_mut().zip(col) {
                 *xi -= m * yi;
             }
         }
-        mu.extend_from_slice(&sol.x);
+        mu.extend_from_slice(sol_x);
         Ok(())
     }
 
@@ -758,8 +779,23 @@ fn update_dyn(n: usize, np: usize, d: &Blk, dinv: &[f64; 6], w: &mut Blk, dp: &m
     }
 }
 
-struct MinNorm {
-    x: Vec<f64>,
+/// The loop rows of [`TreeSolver::solve_with_loops_in`]: `(rows, compliances,
+/// right-hand sides)`.
+pub(crate) type LoopRowsRef<'a> = (
+    &'a [(Option<usize>, usize, [DVec3; 4])],
+    &'a [f64],
+    &'a [f64],
+);
+
+/// Buffers of [`TreeSolver::solve_with_loops_in`] kept between calls.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct LoopScratch {
+    /// `Y = H⁻¹ Gᵀ`, one column of the tree's unknowns per loop row.
+    y: Vec<f64>,
+    /// `G x₀ − r_G`.
+    rhs: Vec<f64>,
+    /// `μ = (G Y + C_G)⁺ (G x₀ − r_G)`.
+    sol: Vec<f64>,
 }
 
 /// One node's data for the solve kernels: `(D factor, 1/d, W, offset, parent offset,
