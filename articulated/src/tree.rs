@@ -519,14 +519,15 @@ impl TreeSolver {
         if k == 0 {
             return Ok(());
         }
-        // Y = H⁻¹ Gᵀ, one tree solve per loop row.
+        // Y = H⁻¹ Gᵀ, one tree solve per loop row, its forward pass on the row's
+        // bodies' paths to the root only (the column cleared there alone).
         let y = &mut scratch.y;
-        y.clear();
         y.resize(k * self.size, 0.0);
         for (r, (a, b, row)) in loop_rows.iter().enumerate() {
             let col = &mut y[r * self.size..(r + 1) * self.size];
+            self.mark_paths(col, [*a, Some(*b)], &mut scratch.mark);
             self.scatter(col, *a, *b, row, 1.0);
-            self.solve(col);
+            self.solve_sparse(col, &scratch.mark);
         }
         let y = &scratch.y;
         let gdot = |v: &[f64], (a, b, row): &(Option<usize>, usize, [DVec3; 4])| {
@@ -796,6 +797,8 @@ pub(crate) struct LoopScratch {
     rhs: Vec<f64>,
     /// `μ = (G Y + C_G)⁺ (G x₀ − r_G)`.
     sol: Vec<f64>,
+    /// Per tree node: on a column's path to the root ([`TreeSolver::mark_paths`]).
+    mark: Vec<bool>,
 }
 
 /// One node's data for the solve kernels: `(D factor, 1/d, W, offset, parent offset,

@@ -57,11 +57,15 @@ impl LoopColumns {
         mu: Vec<f64>,
     ) -> Result<Self, ArticulatedError> {
         let (k, size) = (rows.len(), solver.size);
+        // Y_L column by column, each tree solve's forward pass on the row's bodies'
+        // paths only (as `solve_with_loops`).
         let mut y = vec![0.0; k * size];
+        let mut mark = Vec::new();
         for (r, (a, b, row)) in rows.iter().enumerate() {
             let col = &mut y[r * size..(r + 1) * size];
+            solver.mark_paths(col, [*a, Some(*b)], &mut mark);
             solver.scatter(col, *a, *b, row, 1.0);
-            solver.solve(col);
+            solver.solve_sparse(col, &mark);
         }
         let s = DenseMatrix::from_fn(k, k, |i, j| {
             gdot(solver, &y[j * size..(j + 1) * size], &rows[i]) + if i == j { c[i] } else { 0.0 }
