@@ -168,21 +168,6 @@ impl CachedRows {
             .filter(|e| e.valid && e.rates && e.key == Self::key_of(a, b))
             .map(|e| &e.rows)
     }
-
-    /// `joint.rate_rows_only(a, b)`'s rate rows: from `cache[j]` when it holds the rows
-    /// with rates at the same poses ([`Self::kept_rates`]), else computed (not kept).
-    fn rate_rows(
-        cache: &[CachedRows],
-        j: usize,
-        joint: &Joint,
-        a: &Pose,
-        b: &Pose,
-    ) -> crate::joint::JointRows {
-        match Self::kept_rates(cache, j, a, b) {
-            Some(rows) => *rows,
-            None => joint.rate_rows_only(a, b),
-        }
-    }
 }
 
 /// Which rate rows (one per degree of freedom) an assembly gives the joints.
