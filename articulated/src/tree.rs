@@ -392,34 +392,56 @@ impl TreeSolver {
         self.solve_marked(x, None);
     }
 
-    /// [`Self::solve`] for a right-hand side that is zero outside the unknowns of the
-    /// bodies `bodies` (a row's `Gᵀ`, [`Self::scatter`]): the forward pass visits only
-    /// those bodies' nodes and their ancestors (elsewhere it would carry zeros), the
-    /// backward pass every node. `mark` is scratch (one flag per node, kept by the
-    /// caller). Same values as [`Self::solve`] (up to the sign of zeros).
-    pub fn solve_sparse(&self, x: &mut [f64], bodies: [Option<usize>; 2], mark: &mut Vec<bool>) {
+    /// Flags in `mark` (scratch, one flag per node, kept by the caller) the nodes of
+    /// `bodies` and their ancestors, and clears `x` on their unknowns: the set-up of
+    /// [`Self::solve_sparse`] for a right-hand side then placed on those bodies'
+    /// unknowns ([`Self::scatter`]). The other entries of `x` are left as they are
+    /// (the sparse solve neither reads them nor needs them cleared), unless some node
+    /// is outside the elimination order (not the case for a tree built by
+    /// [`Self::new`]): then all of `x` is cleared.
+    pub fn mark_paths(&self, x: &mut [f64], bodies: [Option<usize>; 2], mark: &mut Vec<bool>) {
         mark.clear();
         mark.resize(self.dim.len(), false);
+        let whole = self.schedule.len() != self.dim.len();
+        if whole {
+            x.fill(0.0);
+        }
         for mut i in bodies.into_iter().flatten() {
             while i != NONE && i < mark.len() && !mark[i] {
                 mark[i] = true;
+                if !whole {
+                    let o = self.offset[i];
+                    if let Some(xi) = x.get_mut(o..o + self.dim[i]) {
+                        xi.fill(0.0);
+                    }
+                }
                 i = self.parent[i];
             }
         }
+    }
+
+    /// [`Self::solve`] for a right-hand side that is zero outside the unknowns of the
+    /// nodes `mark` flags ([`Self::mark_paths`]): the forward pass visits only those
+    /// nodes (elsewhere it would carry zeros), the backward pass every node, taking
+    /// the unflagged nodes' right-hand side as zero without reading it (so `x` needs
+    /// no clearing there; every entry is written). Same values as [`Self::solve`] (up
+    /// to the sign of zeros).
+    pub fn solve_sparse(&self, x: &mut [f64], mark: &[bool]) {
         self.solve_marked(x, Some(mark));
     }
 
     /// [`Self::solve`] with the forward pass restricted to the nodes `mark` flags (all
-    /// without it): one body for both, so the node kernels keep a single call site
-    /// each (and stay inlined).
+    /// without it) and the backward pass reading the right-hand side of those nodes
+    /// only (zero elsewhere): one body for both, so the node kernels keep a single
+    /// call site each (and stay inlined).
     fn solve_marked(&self, x: &mut [f64], mark: Option<&[bool]>) {
         // Fixed-size kernels for the node shapes of body/joint pairs (loops unroll);
         // `NP = 0` is a root.
         macro_rules! dispatch {
-            ($f:ident, $n:expr, $np:expr, $args:expr, $x:expr; $($a:literal, $b:literal);*) => {
+            ($f:ident, $n:expr, $np:expr, $call:tt; $($a:literal, $b:literal);*) => {
                 match ($n, $np) {
-                    $(($a, $b) => $f::<$a, $b>($args, $x),)*
-                    _ => $f::<6, 6>($args, $x),
+                    $(($a, $b) => $f::<$a, $b> $call,)*
+                    _ => $f::<6, 6> $call,
                 }
             };
         }
@@ -429,16 +451,32 @@ impl TreeSolver {
             }
             let b = &self.blocks[i];
             let args = (&b.diag, &b.dinv, &b.off, oi, op, n, np);
-            dispatch!(forward, n, np, args, x;
+            dispatch!(forward, n, np, (args, x);
                 6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
                 1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
         }
+        let Some(mark) = mark else {
+            for &[i, n, oi, np, op] in self.schedule.iter().rev() {
+                let b = &self.blocks[i];
+                let args = (&b.diag, &b.dinv, &b.off, oi, op, n, np);
+                dispatch!(backward, n, np, (args, x, true);
+                    6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
+                    1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
+            }
+            return;
+        };
         for &[i, n, oi, np, op] in self.schedule.iter().rev() {
             let b = &self.blocks[i];
             let args = (&b.diag, &b.dinv, &b.off, oi, op, n, np);
-            dispatch!(backward, n, np, args, x;
-                6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
-                1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
+            if mark[i] {
+                dispatch!(backward, n, np, (args, x, true);
+                    6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
+                    1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
+            } else {
+                // Unflagged: a zero right-hand side (the forward pass left it so).
+                dispatch!(backward, n, np, (args, x, false);
+                    6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6);
+            }
         }
     }
 
@@ -458,19 +496,40 @@ impl TreeSolver {
         free_scale: f64,
         mu: &mut Vec<f64>,
     ) -> Result<(), ArticulatedError> {
+        let mut scratch = LoopScratch::default();
+        let rows = (loop_rows, loop_c, loop_rhs);
+        self.solve_with_loops_in(x, rows, free_scale, mu, &mut scratch)
+    }
+
+    /// [`Self::solve_with_loops`] with its buffers (`Y = H⁻¹ Gᵀ`, the Schur right-hand
+    /// side and `μ`) in `scratch`, kept by the caller between calls instead of
+    /// allocated (zeroed) per call; `rows = (loop_rows, loop_c, loop_rhs)`.
+    pub fn solve_with_loops_in(
+        &self,
+        x: &mut [f64],
+        rows: LoopRowsRef<'_>,
+        free_scale: f64,
+        mu: &mut Vec<f64>,
+        scratch: &mut LoopScratch,
+    ) -> Result<(), ArticulatedError> {
+        let (loop_rows, loop_c, loop_rhs) = rows;
         self.solve(x);
         let k = loop_rows.len();
         mu.clear();
         if k == 0 {
             return Ok(());
         }
-        // Y = H⁻¹ Gᵀ, one tree solve per loop row.
-        let mut y = vec![0.0; k * self.size];
+        // Y = H⁻¹ Gᵀ, one tree solve per loop row, its forward pass on the row's
+        // bodies' paths to the root only (the column cleared there alone).
+        let y = &mut scratch.y;
+        y.resize(k * self.size, 0.0);
         for (r, (a, b, row)) in loop_rows.iter().enumerate() {
             let col = &mut y[r * self.size..(r + 1) * self.size];
+            self.mark_paths(col, [*a, Some(*b)], &mut scratch.mark);
             self.scatter(col, *a, *b, row, 1.0);
-            self.solve(col);
+            self.solve_sparse(col, &scratch.mark);
         }
+        let y = &scratch.y;
         let gdot = |v: &[f64], (a, b, row): &(Option<usize>, usize, [DVec3; 4])| {
             let mut s = 0.0;
             for (side, body) in [(0usize, *a), (1usize, Some(*b))] {
@@ -485,9 +544,9 @@ impl TreeSolver {
             gdot(&y[j * self.size..(j + 1) * self.size], &loop_rows[i])
                 + if i == j { loop_c[i] } else { 0.0 }
         });
-        let rhs: Vec<f64> = (0..k)
-            .map(|i| gdot(x, &loop_rows[i]) - loop_rhs[i])
-            .collect();
+        let rhs = &mut scratch.rhs;
+        rhs.clear();
+        rhs.extend((0..k).map(|i| gdot(x, &loop_rows[i]) - loop_rhs[i]));
         if !s.is_finite() || rhs.iter().any(|v| !v.is_finite()) {
             return Err(ArticulatedError::LoopSolve);
         }
@@ -498,24 +557,28 @@ impl TreeSolver {
         let svd = SvdSolver::new(&s, 1e-10).map_err(|_| ArticulatedError::LoopSolve)?;
         let smax = svd.singular_values().first().copied().unwrap_or(0.0);
         let floor = 1e-10 * free_scale;
-        let mut sol_x = vec![0.0; k];
+        let sol_x = &mut scratch.sol;
+        sol_x.clear();
+        sol_x.resize(k, 0.0);
         if smax > floor {
-            let svd = if floor > 1e-10 * smax {
-                SvdSolver::new(&s, floor / smax).map_err(|_| ArticulatedError::LoopSolve)?
+            // The decomposition at tolerance `floor / smax` is this one with a lower
+            // rank: no second SVD of the same matrix.
+            let tol = if floor > 1e-10 * smax {
+                floor / smax
             } else {
-                svd
+                1e-10
             };
-            svd.solve_min_norm(&rhs, &mut sol_x)
-                .map_err(|_| ArticulatedError::LoopSolve)?;
+            if !min_norm_truncated(&svd, tol, rhs, sol_x) {
+                return Err(ArticulatedError::LoopSolve);
+            }
         }
-        let sol = MinNorm { x: sol_x };
-        for (r, m) in sol.x.iter().enumerate() {
+        for (r, m) in sol_x.iter().enumerate() {
             let col = &y[r * self.size..(r + 1) * self.size];
             for (xi, yi) in x.iter_mut().zip(col) {
                 *xi -= m * yi;
             }
         }
-        mu.extend_from_slice(&sol.x);
+        mu.extend_from_slice(sol_x);
         Ok(())
     }
 
@@ -720,8 +783,53 @@ fn update_dyn(n: usize, np: usize, d: &Blk, dinv: &[f64; 6], w: &mut Blk, dp: &m
     }
 }
 
-struct MinNorm {
-    x: Vec<f64>,
+/// `x = A⁺ b` with the singular values `σ_i ≤ rel_tol · σ_max` of `A` dropped,
+/// `x = Σ_{σ_i > rel_tol σ_max} v_i (u_iᵀ b) / σ_i`, from a decomposition `svd` of `A`
+/// taken at any tolerance: the sums, in the same order, that
+/// [`SvdSolver::solve_min_norm`] does on `SvdSolver::new(A, rel_tol)` (the tolerance
+/// sets only the rank there; the factors are the same), without decomposing `A` again.
+/// `false` (no solution) where that would fail: a non-finite `rel_tol`, `b` or `x`, or
+/// lengths that do not match `A`.
+pub(crate) fn min_norm_truncated(svd: &SvdSolver, rel_tol: f64, b: &[f64], x: &mut [f64]) -> bool {
+    if !rel_tol.is_finite() || b.len() != svd.n_rows() || x.len() != svd.n_cols() {
+        return false;
+    }
+    if !b.iter().all(|v| v.is_finite()) {
+        return false;
+    }
+    let sigma = svd.singular_values();
+    let cutoff = rel_tol.max(0.0) * sigma.first().copied().unwrap_or(0.0);
+    let rank = sigma.iter().filter(|&&s| s > cutoff && s > 0.0).count();
+    x.fill(0.0);
+    for (i, &si) in sigma.iter().enumerate().take(rank) {
+        let ub: f64 = svd.u(i).iter().zip(b).map(|(p, q)| p * q).sum();
+        let t = (1.0 / si) * ub;
+        for (xj, vj) in x.iter_mut().zip(svd.v(i)) {
+            *xj += t * vj;
+        }
+    }
+    x.iter().all(|v| v.is_finite())
+}
+
+/// The loop rows of [`TreeSolver::solve_with_loops_in`]: `(rows, compliances,
+/// right-hand sides)`.
+pub(crate) type LoopRowsRef<'a> = (
+    &'a [(Option<usize>, usize, [DVec3; 4])],
+    &'a [f64],
+    &'a [f64],
+);
+
+/// Buffers of [`TreeSolver::solve_with_loops_in`] kept between calls.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct LoopScratch {
+    /// `Y = H⁻¹ Gᵀ`, one column of the tree's unknowns per loop row.
+    y: Vec<f64>,
+    /// `G x₀ − r_G`.
+    rhs: Vec<f64>,
+    /// `μ = (G Y + C_G)⁺ (G x₀ − r_G)`.
+    sol: Vec<f64>,
+    /// Per tree node: on a column's path to the root ([`TreeSolver::mark_paths`]).
+    mark: Vec<bool>,
 }
 
 /// One node's data for the solve kernels: `(D factor, 1/d, W, offset, parent offset,
@@ -775,23 +883,26 @@ fn forward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
     }
 }
 
-/// Backward pass at one node: `x_i = L⁻ᵀ (s − d⁻¹ W x_p)` (shapes as in [`forward`]).
+/// Backward pass at one node: `x_i = L⁻ᵀ (s − d⁻¹ W x_p)` (shapes as in [`forward`]);
+/// `s` read from `x` when `read`, else zero (a node the forward pass skipped).
 #[inline]
-fn backward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
+fn backward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64], read: bool) {
     let (n_rt, np_rt) = (args.5, args.6);
     if N == n_rt && NP == np_rt {
-        backward_sized(args, x, N, NP);
+        backward_sized(args, x, N, NP, read);
     } else {
-        backward_sized(args, x, n_rt, np_rt);
+        backward_sized(args, x, n_rt, np_rt, read);
     }
 }
 
 /// [`backward`] for `n` rows under a parent of `np` (0: a root).
 #[inline(always)]
-fn backward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
+fn backward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize, read: bool) {
     let (d, dinv, w, oi, op, _, _) = args;
     let mut s = [0.0; 6];
-    s[..n].copy_from_slice(&x[oi..oi + n]);
+    if read {
+        s[..n].copy_from_slice(&x[oi..oi + n]);
+    }
     if np > 0 {
         let mut xp = [0.0; 6];
         xp[..np].copy_from_slice(&x[op..op + np]);
@@ -821,8 +932,8 @@ mod tests {
     /// A branched tree (a chain of 8 bodies hung from the world, with a second chain of
     /// 4 on body 2) held by 3-row ball joints: a column `Gᵀ` of a contact row on one
     /// or two bodies gives the same solution by [`TreeSolver::solve_sparse`] (forward
-    /// pass on the bodies' paths to the root only) as by [`TreeSolver::solve`], to the
-    /// bit (`==`, which equates the two zeros).
+    /// pass on the bodies' paths to the root only, a column left NaN outside them) as
+    /// by [`TreeSolver::solve`], to the bit (`==`, which equates the two zeros).
     #[test]
     fn sparse_forward_pass_gives_the_full_solve() {
         let n = 12;
@@ -866,9 +977,16 @@ mod tests {
                     }
                 }
             }
-            let mut sparse = full.clone();
+            // The sparse column starts as garbage (NaN): `mark_paths` clears the
+            // marked nodes, the rest is never read.
+            let mut sparse = vec![f64::NAN; t.size];
+            t.mark_paths(&mut sparse, bodies, &mut mark);
+            for b in bodies.into_iter().flatten() {
+                let o = t.body_offset(b);
+                sparse[o..o + 6].copy_from_slice(&full[o..o + 6]);
+            }
             t.solve(&mut full);
-            t.solve_sparse(&mut sparse, bodies, &mut mark);
+            t.solve_sparse(&mut sparse, &mark);
             assert!(full.iter().any(|v| *v != 0.0));
             assert_eq!(full, sparse, "bodies {bodies:?}");
         }
@@ -877,6 +995,31 @@ mod tests {
     /// The unrolled [`ldlt_fixed`] gives [`ldlt_sized`]'s factor to the bit, on
     /// symmetric blocks of every size 1..6, one with a dependent row (a dropped pivot,
     /// the mask compared too). Bits, not a tolerance: the step's results depend on it.
+    /// The truncation of one SVD at a larger tolerance gives the bits of a second
+    /// decomposition at that tolerance: a 4×4 matrix with singular values (measured)
+    /// 2.45, 1.32, 7.2e-4, 4.5e-8, tolerances that keep 4, 3, 2, 1 and 0 of them
+    /// (`==` on the solutions).
+    #[test]
+    fn truncated_min_norm_matches_a_second_decomposition() {
+        let a = DenseMatrix::from_fn(4, 4, |i, j| {
+            let d = [1.0, 1e-3, 1e-7, 1e-14][i.min(j)];
+            d * (1.0 + 0.1 * (i as f64) - 0.05 * (j as f64))
+        });
+        let b = [0.3, -1.2, 0.7, 2.5];
+        let svd = SvdSolver::new(&a, 1e-16).expect("svd");
+        for (tol, kept) in [(1e-9, 4), (1e-6, 3), (1e-2, 2), (0.7, 1), (2.0, 0)] {
+            let mut want = [0.0; 4];
+            let again = SvdSolver::new(&a, tol).expect("svd");
+            assert_eq!(again.rank(), kept, "tol {tol}");
+            again.solve_min_norm(&b, &mut want).expect("solve");
+            let mut got = [f64::NAN; 4];
+            assert!(min_norm_truncated(&svd, tol, &b, &mut got));
+            assert_eq!(got, want, "tol {tol}");
+        }
+        assert!(!min_norm_truncated(&svd, f64::NAN, &b, &mut [0.0; 4]));
+        assert!(!min_norm_truncated(&svd, 1e-9, &b[..3], &mut [0.0; 4]));
+    }
+
     #[test]
     fn unrolled_ldlt_matches_the_loop_to_the_bit() {
         for n in 1..=6 {

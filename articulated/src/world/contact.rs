@@ -140,26 +140,6 @@ impl World {
         &self.contacts
     }
 
-    /// Whether colliders `i` and `j` may touch (filter bits, parent–child, exclusions).
-    fn may_touch(&self, i: usize, j: usize) -> bool {
-        let (fi, fj) = (self.filters[i], self.filters[j]);
-        if fi.contype & fj.conaffinity == 0 && fj.contype & fi.conaffinity == 0 {
-            return false;
-        }
-        let (a, b) = (self.colliders[i].body, self.colliders[j].body);
-        if self.excluded.binary_search(&pair_key(a, b)).is_ok() {
-            return false;
-        }
-        if let (Some(a), Some(b)) = (a, b) {
-            if self.joints.iter().any(|jt| {
-                (jt.parent == Some(a) && jt.child == b) || (jt.parent == Some(b) && jt.child == a)
-            }) {
-                return false;
-            }
-        }
-        true
-    }
-
     /// Contact generation at the start of the step and the contact rows (normal, then
     /// two tangents per point; restitution from the velocities before the step).
     pub(super) fn push_contact_rows(&mut self, ctx: &StepContext) -> Result<(), ArticulatedError> {
@@ -175,8 +155,9 @@ impl World {
         poses.clear();
         poses.extend(self.bodies.iter().map(|b| b.pose));
         let mut contacts = core::mem::take(&mut self.contacts);
-        let mut broad = core::mem::take(&mut self.broad);
-        let keep = |i: usize, j: usize| self.may_touch(i, j);
+        let (filters, colliders, excluded, joints) =
+            (&self.filters, &self.colliders, &self.excluded, &self.joints);
+        let keep = |i: usize, j: usize| may_touch(filters, colliders, excluded, joints, i, j);
         // Speculative rows must reach every pair the step can close: the narrow phase
         // looks `margin + 2 r h` out (`r` the fastest collider's point speed bound), and
         // a pair beyond `margin` is kept when its normal rate covers the rest within
@@ -189,11 +170,10 @@ impl World {
             &poses,
             s.margin + 2.0 * reach * h,
             keep,
-            &mut broad,
+            &mut self.broad,
             &mut contacts,
         );
         self.poses = poses;
-        self.broad = broad;
         if let Err(e) = result {
             self.contacts = contacts;
             return Err(ArticulatedError::Geometry {
@@ -307,8 +287,9 @@ impl World {
         poses.clear();
         poses.extend(self.bodies.iter().map(|b| b.pose));
         let mut found = core::mem::take(&mut self.projection.found);
-        let mut broad = core::mem::take(&mut self.broad);
-        let keep = |i: usize, j: usize| self.may_touch(i, j);
+        let (filters, colliders, excluded, joints) =
+            (&self.filters, &self.colliders, &self.excluded, &self.joints);
+        let keep = |i: usize, j: usize| may_touch(filters, colliders, excluded, joints, i, j);
         let margin = self.unilateral.margin;
         // A failure (non-finite poses, which the step reports anyway) leaves the
         // projection without contacts.
@@ -317,14 +298,13 @@ impl World {
             &poses,
             margin,
             keep,
-            &mut broad,
+            &mut self.broad,
             &mut found,
         )
         .is_err()
         {
             found.clear();
         }
-        self.broad = broad;
         for c in &found {
             let (ia, ib) = (self.colliders[c.a].body, self.colliders[c.b].body);
             let local = |b: Option<usize>, p: DVec3| {
@@ -487,6 +467,35 @@ impl World {
         }
         self.warm.sort_by_key(|w| w.0);
     }
+}
+
+/// Whether colliders `i` and `j` may touch (filter bits, parent–child, exclusions): a
+/// function of the fields it reads, so the broad phase can borrow the world's other
+/// fields (its scratch) at the same time instead of moving them out.
+fn may_touch(
+    filters: &[CollisionFilter],
+    colliders: &[constraint_contact::geometry::Collider],
+    excluded: &[(usize, usize)],
+    joints: &[super::Joint],
+    i: usize,
+    j: usize,
+) -> bool {
+    let (fi, fj) = (filters[i], filters[j]);
+    if fi.contype & fj.conaffinity == 0 && fj.contype & fi.conaffinity == 0 {
+        return false;
+    }
+    let (a, b) = (colliders[i].body, colliders[j].body);
+    if excluded.binary_search(&pair_key(a, b)).is_ok() {
+        return false;
+    }
+    if let (Some(a), Some(b)) = (a, b) {
+        if joints.iter().any(|jt| {
+            (jt.parent == Some(a) && jt.child == b) || (jt.parent == Some(b) && jt.child == a)
+        }) {
+            return false;
+        }
+    }
+    true
 }
 
 fn pair_key(a: Option<usize>, b: Option<usize>) -> (usize, usize) {

@@ -168,21 +168,6 @@ impl CachedRows {
             .filter(|e| e.valid && e.rates && e.key == Self::key_of(a, b))
             .map(|e| &e.rows)
     }
-
-    /// `joint.rate_rows_only(a, b)`'s rate rows: from `cache[j]` when it holds the rows
-    /// with rates at the same poses ([`Self::kept_rates`]), else computed (not kept).
-    fn rate_rows(
-        cache: &[CachedRows],
-        j: usize,
-        joint: &Joint,
-        a: &Pose,
-        b: &Pose,
-    ) -> crate::joint::JointRows {
-        match Self::kept_rates(cache, j, a, b) {
-            Some(rows) => *rows,
-            None => joint.rate_rows_only(a, b),
-        }
-    }
 }
 
 /// Which rate rows (one per degree of freedom) an assembly gives the joints.
@@ -405,6 +390,9 @@ pub struct World {
     /// Per tree node: on a column's path to the root (scratch of
     /// [`crate::tree::TreeSolver::solve_sparse`]).
     umark: Vec<bool>,
+    /// Buffers of the loop-closed tree solve (scratch,
+    /// [`crate::tree::TreeSolver::solve_with_loops_in`]).
+    loop_scratch: crate::tree::LoopScratch,
     /// The rows' bounds (scratch).
     ubounds: Vec<constraint_contact::lcp::RowBound>,
     /// The active-set solve of the one-sided rows in the tree factor (scratch and the
@@ -497,6 +485,7 @@ impl World {
             umu: Vec::new(),
             uzero: Vec::new(),
             umark: Vec::new(),
+            loop_scratch: crate::tree::LoopScratch::default(),
             ubounds: Vec::new(),
             aset: active_set::ActiveSet::default(),
             dof_tau: Vec::new(),
@@ -1200,7 +1189,14 @@ impl World {
         let free_scale = self.loop_free_scale(loops);
         let solver = &mut self.solver;
         let (rows, c, r) = loops;
-        solver.solve_with_loops(&mut self.rhs, rows, c, r, free_scale, &mut self.mu)?;
+        let scratch = &mut self.loop_scratch;
+        solver.solve_with_loops_in(
+            &mut self.rhs,
+            (rows, c, r),
+            free_scale,
+            &mut self.mu,
+            scratch,
+        )?;
         if self.eq.active {
             self.solve_equalities(loops)?;
         }

@@ -87,8 +87,12 @@ pub(super) struct Scratch {
     first_kick: Vec<[f64; MAX_ROWS]>,
     /// Body world inertias `R₀ I R₀ᵀ` at the start of the drift.
     inertia0: Vec<DMat3>,
-    /// Armature rows: joint, its rows at the start, the carried coordinate rates.
-    arm: Vec<(usize, crate::joint::JointRows, [f64; MAX_ROWS])>,
+    /// Armature joints: joint, its `n_hard` and `n`, the start of its rate rows in
+    /// `arm_rows`, the carried coordinate rates.
+    arm: Vec<(usize, [usize; 3], [f64; MAX_ROWS])>,
+    /// The armature joints' rate rows `r ∈ n_hard..n` at the start, one after another
+    /// (only the rows read, not each joint's whole row set).
+    arm_rows: Vec<[DVec3; 4]>,
     /// The damping flow's second-stage twists `v + (1 + √2)(v₁ − v)`.
     stage: Vec<(DVec3, DVec3)>,
     /// The damping flow's first-stage twists `v₁` (with velocity-dependent forces).
@@ -398,6 +402,8 @@ impl World {
         // rows close on `I_a q̇' = I_a q̇½ + …` (time-symmetric, second order).
         let mut arm = core::mem::take(&mut self.rattle.arm);
         arm.clear();
+        let mut arm_rows = core::mem::take(&mut self.rattle.arm_rows);
+        arm_rows.clear();
         for (j, joint) in self.joints.iter().enumerate() {
             if !self.armature[j].iter().any(|v| *v > 0.0) || self.solver.joint_offset(j).is_none() {
                 continue;
@@ -406,7 +412,14 @@ impl World {
             let b = self.bodies[joint.child].pose;
             // Only the rate rows are read (below and in SHAKE's corrections); the kick
             // just assembled them at these poses.
-            let rows = CachedRows::rate_rows(&self.rows_cache, j, joint, &a, &b);
+            let computed;
+            let rows = match CachedRows::kept_rates(&self.rows_cache, j, &a, &b) {
+                Some(rows) => rows,
+                None => {
+                    computed = joint.rate_rows_only(&a, &b);
+                    &computed
+                }
+            };
             let mut rate = [0.0; MAX_ROWS];
             let tw =
                 |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| self.body_solution(i));
@@ -415,7 +428,9 @@ impl World {
                 let g = rows.rows[r];
                 rate[r] = g[0].dot(va) + g[1].dot(wa) + g[2].dot(vb) + g[3].dot(wb);
             }
-            arm.push((j, rows, rate));
+            let (n_hard, n) = (rows.n_hard, rows.n);
+            arm.push((j, [n_hard, n, arm_rows.len()], rate));
+            arm_rows.extend_from_slice(rows.rows.get(n_hard..n).unwrap_or(&[]));
         }
         // 2. Drift: x' = x + h v½; q' = exp(h ω*) q with L = I(q) ω½ fixed and
         //    ω* = I(q_mid)⁻¹ L at q_mid = exp(h ω*/2) q (fixed point, 4 sweeps).
@@ -454,6 +469,7 @@ impl World {
             self.rattle.first_kick = first_kick;
             self.rattle.inertia0 = inertia0;
             self.rattle.arm = arm;
+            self.rattle.arm_rows = arm_rows;
             return Ok((0, false));
         }
         // 3. SHAKE: the constraint impulse of the first kick acts along J(x₀)ᵀ, so the
@@ -516,7 +532,7 @@ impl World {
                 b.omega += dth / h;
                 momenta[i] += inertia0[i] * (dth / h);
             }
-            for (j, rows, rate) in &mut arm {
+            for (j, [n_hard, n, start], rate) in &mut arm {
                 let joint = &self.joints[*j];
                 let tw = |i: Option<usize>| {
                     i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
@@ -525,8 +541,8 @@ impl World {
                     })
                 };
                 let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
-                for r in rows.n_hard..rows.n {
-                    let g = rows.rows[r];
+                for r in *n_hard..*n {
+                    let g = arm_rows[*start + r - *n_hard];
                     rate[r] += g[0].dot(va) + g[1].dot(wa) + g[2].dot(vb) + g[3].dot(wb);
                 }
             }
@@ -551,10 +567,10 @@ impl World {
         let loops = self.assemble_with(hd, Rates::Armature, Soft::Free, !reused, None);
         self.load_equalities(|_| 0.0);
         self.tag_equality_factor(key_h, key_rates);
-        for (j, rows, rate) in &arm {
+        for (j, [n_hard, n, _], rate) in &arm {
             if let Some(o) = self.solver.joint_offset(*j) {
-                for r in rows.n_hard..rows.n {
-                    if self.armature[*j][r - rows.n_hard] > 0.0 {
+                for r in *n_hard..*n {
+                    if self.armature[*j][r - n_hard] > 0.0 {
                         self.rhs[o + r] = rate[r];
                     }
                 }
@@ -578,6 +594,7 @@ impl World {
         self.rattle.first_kick = first_kick;
         self.rattle.inertia0 = inertia0;
         self.rattle.arm = arm;
+        self.rattle.arm_rows = arm_rows;
         self.rattle.passive = passive;
         self.recycle_loops(loops_n);
         Ok((iterations, final_err <= (1e3 * tolerance).max(1e-9)))

@@ -414,7 +414,7 @@ impl World {
         let size = self.solver.size;
         // Y = H⁻¹ Gᵀ, one tree solve (with the loop closure) per row.
         let mut ycols = core::mem::take(&mut self.ucols);
-        ycols.clear();
+        // Not cleared: each column is cleared where its solve reads it (below).
         ycols.resize(m * size, 0.0);
         let mut mu = core::mem::take(&mut self.umu);
         let zero_rhs = core::mem::take(&mut self.uzero);
@@ -440,20 +440,27 @@ impl World {
                 break;
             }
             let col = &mut ycols[k * size..(k + 1) * size];
-            scatter(&self.solver, &self.tendon_spans, col, r, 1.0);
-            // Without loops a body row's column needs the forward pass only along its
-            // bodies' paths to the root (a tendon's row spans its joints' bodies).
+            // A body row's column needs the forward pass only along its bodies' paths
+            // to the root, and clearing only there (the sparse backward pass takes the
+            // other nodes' right-hand side as zero unread); a tendon's row spans its
+            // joints' bodies: cleared whole, full solve.
             let tendon = matches!(r.source, RowSource::TendonLimit { .. });
+            if tendon {
+                col.fill(0.0);
+            } else {
+                self.solver.mark_paths(col, [r.a, r.b], &mut mark);
+            }
+            scatter(&self.solver, &self.tendon_spans, col, r, 1.0);
+            let sparse = (!tendon).then_some(mark.as_slice());
             match &mut closure {
                 Some(c) => {
-                    let sparse = (!tendon).then_some(([r.a, r.b], &mut mark));
                     if let Err(e) = c.solve(&self.solver, &loops.0, &zero_rhs, col, sparse) {
                         columns = Err(e);
                         break;
                     }
                 }
                 None if tendon => self.solver.solve(col),
-                None => self.solver.solve_sparse(col, [r.a, r.b], &mut mark),
+                None => self.solver.solve_sparse(col, &mark),
             }
             // Through the equality rows too (equality.rs).
             self.eq.correct(&self.solver, col);

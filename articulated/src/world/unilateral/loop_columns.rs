@@ -24,7 +24,7 @@ use constraint_lagrange::solve::svd::SvdSolver;
 use constraint_lagrange::solve::DenseMatrix;
 
 use crate::error::ArticulatedError;
-use crate::tree::TreeSolver;
+use crate::tree::{min_norm_truncated, TreeSolver};
 
 /// A loop row: bodies `a` (`None`: the world), `b` and its Jacobian `[v_a, ω_a, v_b, ω_b]`.
 type LoopRow = (Option<usize>, usize, [DVec3; 4]);
@@ -35,9 +35,9 @@ pub(super) struct LoopColumns {
     y: Vec<f64>,
     /// The tree's unknowns per column.
     size: usize,
-    /// The SVD of `L Y_L + C` at the tolerance `solve_with_loops` takes; `None` when its
-    /// largest singular value is below the loop rows' floor (`μ = 0`).
-    svd: Option<SvdSolver>,
+    /// The SVD of `L Y_L + C` and the tolerance `solve_with_loops` truncates it at;
+    /// `None` when its largest singular value is below the loop rows' floor (`μ = 0`).
+    svd: Option<(SvdSolver, f64)>,
     /// `L x₀ − r` of the current column (reused).
     rhs: Vec<f64>,
     /// `μ` of the current column (reused).
@@ -57,11 +57,15 @@ impl LoopColumns {
         mu: Vec<f64>,
     ) -> Result<Self, ArticulatedError> {
         let (k, size) = (rows.len(), solver.size);
+        // Y_L column by column, each tree solve's forward pass on the row's bodies'
+        // paths only (as `solve_with_loops`).
         let mut y = vec![0.0; k * size];
+        let mut mark = Vec::new();
         for (r, (a, b, row)) in rows.iter().enumerate() {
             let col = &mut y[r * size..(r + 1) * size];
+            solver.mark_paths(col, [*a, Some(*b)], &mut mark);
             solver.scatter(col, *a, *b, row, 1.0);
-            solver.solve(col);
+            solver.solve_sparse(col, &mark);
         }
         let s = DenseMatrix::from_fn(k, k, |i, j| {
             gdot(solver, &y[j * size..(j + 1) * size], &rows[i]) + if i == j { c[i] } else { 0.0 }
@@ -74,15 +78,16 @@ impl LoopColumns {
         let svd = SvdSolver::new(&s, 1e-10).map_err(|_| ArticulatedError::LoopSolve)?;
         let smax = svd.singular_values().first().copied().unwrap_or(0.0);
         let floor = 1e-10 * free_scale;
-        let svd = if smax > floor {
-            Some(if floor > 1e-10 * smax {
-                SvdSolver::new(&s, floor / smax).map_err(|_| ArticulatedError::LoopSolve)?
+        // Its truncation at `floor / smax` (no second decomposition of `s`,
+        // `min_norm_truncated`).
+        let svd = (smax > floor).then(|| {
+            let tol = if floor > 1e-10 * smax {
+                floor / smax
             } else {
-                svd
-            })
-        } else {
-            None
-        };
+                1e-10
+            };
+            (svd, tol)
+        });
         Ok(Self {
             y,
             size,
@@ -102,10 +107,10 @@ impl LoopColumns {
         rows: &[LoopRow],
         r: &[f64],
         x: &mut [f64],
-        sparse: Option<([Option<usize>; 2], &mut Vec<bool>)>,
+        sparse: Option<&[bool]>,
     ) -> Result<(), ArticulatedError> {
         match sparse {
-            Some((bodies, mark)) => solver.solve_sparse(x, bodies, mark),
+            Some(mark) => solver.solve_sparse(x, mark),
             None => solver.solve(x),
         }
         let k = rows.len();
@@ -117,9 +122,10 @@ impl LoopColumns {
         }
         self.mu.clear();
         self.mu.resize(k, 0.0);
-        if let Some(svd) = &self.svd {
-            svd.solve_min_norm(&self.rhs, &mut self.mu)
-                .map_err(|_| ArticulatedError::LoopSolve)?;
+        if let Some((svd, tol)) = &self.svd {
+            if !min_norm_truncated(svd, *tol, &self.rhs, &mut self.mu) {
+                return Err(ArticulatedError::LoopSolve);
+            }
         }
         for (j, m) in self.mu.iter().enumerate() {
             let col = &self.y[j * self.size..(j + 1) * self.size];
