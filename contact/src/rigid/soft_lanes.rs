@@ -291,6 +291,23 @@ pub(super) struct RelaxIo<'a> {
     pub(super) gap: &'a [f64],
 }
 
+/// The packed rows of two manifolds and their bodies' slots, where the two were packed
+/// side by side ([`Paired::of`]) with the same number of points; `None` otherwise (the
+/// caller then solves them one point at a time).
+#[inline(always)]
+fn packed<'a>(
+    rows: &Rows,
+    pr: Option<&'a [PairRows]>,
+    pts: [&[usize]; 2],
+) -> Option<(&'a [PairRows], [[usize; 2]; 2])> {
+    let pr = pr?;
+    let len = pts[0].len();
+    if len == 0 || pts[1].len() != len || pr.len() != len {
+        return None;
+    }
+    Some((pr, [rows.slots[pts[0][0]], rows.slots[pts[1][0]]]))
+}
+
 /// The two bodies' velocities of two manifolds, one per lane: `(v_a, ω_a, v_b, ω_b)`
 /// (every point of a manifold has the same two bodies).
 #[inline(always)]
@@ -343,14 +360,10 @@ pub(super) fn relax_manifolds(
     io: &mut RelaxIo,
     inv_h: f64,
 ) -> bool {
-    let len = pts[0].len();
-    let Some(pr) = pr else {
+    let Some((pr, ab)) = packed(rows, pr, pts) else {
         return false;
     };
-    if len == 0 || pts[1].len() != len || pr.len() != len {
-        return false;
-    }
-    let ab = [rows.slots[pts[0][0]], rows.slots[pts[1][0]]];
+    let len = pr.len();
     let [mut va, mut wa, mut vb, mut wb] = load(io.v, io.w, ab);
     for i in 0..len {
         let vel = (&mut va, &mut wa, &mut vb, &mut wb);
@@ -558,14 +571,10 @@ pub(super) fn warm_manifolds(
     w: &mut [DVec3],
     impulse: &[[f64; 3]],
 ) -> bool {
-    let len = pts[0].len();
-    let Some(pr) = pr else {
+    let Some((pr, ab)) = packed(rows, pr, pts) else {
         return false;
     };
-    if len == 0 || pts[1].len() != len || pr.len() != len {
-        return false;
-    }
-    let ab = [rows.slots[pts[0][0]], rows.slots[pts[1][0]]];
+    let len = pr.len();
     let [mut va, mut wa, mut vb, mut wb] = load(v, w, ab);
     for i in 0..len {
         let (zp, zq) = (impulse[pts[0][i]], impulse[pts[1][i]]);
