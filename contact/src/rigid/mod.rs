@@ -278,8 +278,11 @@ pub struct ContactWorld {
     steps: u64,
     /// The solver path of the last step ([`ContactWorld::last_path`]).
     path: SolverPath,
-    /// The bodies at the start of the step being taken (rollback on failure), reused.
-    saved: Vec<RigidBody>,
+    /// The bodies' state (pose, linear and angular velocity) at the start of the step
+    /// being taken (rollback on failure, and asleep bodies' state), reused: the only
+    /// fields a step writes, 104 of a [`RigidBody`]'s 288 bytes (the whole copy was
+    /// 60 k instructions, 0.7 %, of the 210-box pyramid's step, callgrind).
+    saved: Vec<SavedState>,
     /// Buffers of the soft step, boxed so that a step takes and returns them as one
     /// pointer (moved by value the 3 kB state cost two `memcpy` per step); `None`
     /// before the first soft step.
@@ -290,6 +293,35 @@ pub struct ContactWorld {
     dense: dense::DenseScratch,
     /// Islands and sleep state.
     sleep: sleep::SleepState,
+}
+
+/// The part of a body's state a step writes (its pose and velocities), kept at the
+/// start of each step so that a failed step can be undone.
+#[derive(Clone, Copy, Debug)]
+struct SavedState {
+    pose: Pose,
+    v: DVec3,
+    omega: DVec3,
+}
+
+impl SavedState {
+    /// The state of `b`.
+    #[inline]
+    fn of(b: &RigidBody) -> Self {
+        Self {
+            pose: b.pose,
+            v: b.v,
+            omega: b.omega,
+        }
+    }
+
+    /// Puts the state back into `b`.
+    #[inline]
+    fn restore(&self, b: &mut RigidBody) {
+        b.pose = self.pose;
+        b.v = self.v;
+        b.omega = self.omega;
+    }
 }
 
 impl ContactWorld {
@@ -429,7 +461,8 @@ impl ContactWorld {
         let ctx = self.check(h)?;
         // The rollback copy lives in a kept buffer: no allocation once it has grown.
         let mut saved = core::mem::take(&mut self.saved);
-        saved.clone_from(&self.bodies);
+        saved.clear();
+        saved.extend(self.bodies.iter().map(SavedState::of));
         let result = self.step_inner(ctx.h()).map(|mut stats| {
             self.update_sleep(ctx.h(), &saved);
             stats.asleep = self.sleep.count();
@@ -452,7 +485,9 @@ impl ContactWorld {
         if result.is_ok() {
             self.steps += 1;
         } else {
-            core::mem::swap(&mut self.bodies, &mut saved);
+            for (b, s) in self.bodies.iter_mut().zip(&saved) {
+                s.restore(b);
+            }
         }
         self.saved = saved;
         result

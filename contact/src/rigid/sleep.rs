@@ -186,7 +186,7 @@ impl ContactWorld {
     /// After a successful step: asleep bodies get their state from the start of the
     /// step back (`saved`), then rest times and islands are updated and islands at rest
     /// go to sleep. Nothing happens with sleeping off (every body stays awake).
-    pub(super) fn update_sleep(&mut self, h: f64, saved: &[constraint_core::RigidBody]) {
+    pub(super) fn update_sleep(&mut self, h: f64, saved: &[super::SavedState]) {
         let s = self.settings.sleep;
         let n = self.bodies.len();
         self.sleep.grow(n);
@@ -213,7 +213,7 @@ impl ContactWorld {
         for (i, b) in self.bodies.iter_mut().enumerate() {
             if st.asleep[i] {
                 if let Some(b0) = saved.get(i) {
-                    *b = *b0;
+                    b0.restore(b);
                 }
                 continue;
             }
