@@ -303,11 +303,27 @@ impl RigidBody {
         let iw = self.inertia * w;
         let f = w.cross(iw) * h;
         let jac = self.inertia + (crate::math::skew(w) * self.inertia - crate::math::skew(iw)) * h;
-        let det = jac.determinant();
+        // `J⁻¹ f` by the adjugate, `J⁻¹ = adj(J) / det J` with the rows of `adj(J)` the
+        // cross products of `J`'s columns: the products and sums of glam's `determinant`,
+        // `inverse` and `mul_vec3` in their order (the same bits), with the determinant
+        // and the cofactors computed once and no transpose (the two calls computed
+        // `det J` twice).
+        let (c0, c1, c2) = (
+            jac.y_axis.cross(jac.z_axis),
+            jac.z_axis.cross(jac.x_axis),
+            jac.x_axis.cross(jac.y_axis),
+        );
+        let det = jac.x_axis.dot(c0);
         if !(det.abs() > 0.0) || !det.is_finite() {
             return self.omega;
         }
-        r * (w - jac.inverse() * f)
+        let inv_det = 1.0 / det;
+        let step = DVec3::new(
+            (c0 * inv_det).dot(f),
+            (c1 * inv_det).dot(f),
+            (c2 * inv_det).dot(f),
+        );
+        r * (w - step)
     }
 }
 

@@ -630,9 +630,11 @@ impl ContactWorld {
                 st.w.push(DVec3::ZERO);
                 continue;
             }
-            b.omega = b.gyroscopic_step(h);
+            // One rotation matrix for both (`world_inv_inertia`'s `R I⁻¹ Rᵀ`).
+            let r = b.rotation();
+            b.omega = b.gyroscopic_step_with(&r, h);
             st.inv_mass.push(1.0 / b.mass());
-            st.inv_inertia.push(b.world_inv_inertia());
+            st.inv_inertia.push(r * b.inv_inertia() * r.transpose());
             st.v.push(b.v);
             st.w.push(b.omega);
         }
