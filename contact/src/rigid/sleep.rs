@@ -160,6 +160,12 @@ impl ContactWorld {
             .map_err(ContactError::Geometry)
         };
         let stats = run(&self.sleep.asleep, broad, out)?;
+        // No body asleep (sleeping off, or nothing at rest yet): nothing to wake, and
+        // the walk over every contact below is skipped (44 k instructions of the
+        // 210-box pyramid's step, callgrind).
+        if !self.sleep.asleep.contains(&true) {
+            return Ok(stats);
+        }
         let mut wake = core::mem::take(&mut self.sleep.wake);
         wake.clear();
         for c in out.iter() {
