@@ -40,10 +40,13 @@ use alloc::vec;
 use alloc::vec::Vec;
 
 use constraint_core::DVec3;
-use constraint_lagrange::solve::svd::SvdSolver;
-use constraint_lagrange::solve::DenseMatrix;
 
 use crate::error::ArticulatedError;
+
+mod loops;
+#[cfg(test)]
+use loops::min_norm_truncated;
+pub(crate) use loops::{LoopClosure, LoopScratch};
 
 /// A ≤ 6×6 dense block, row-major.
 pub(crate) type Blk = [[f64; 6]; 6];
@@ -95,6 +98,9 @@ pub(crate) struct TreeSolver {
     pub loops: Vec<usize>,
     /// Total unknowns of the tree system.
     pub size: usize,
+    /// `Y = H⁻¹ Gᵀ` and the SVD of the loop rows' Schur complement for the current
+    /// factor (`tree/loops.rs`); dropped by every change of `blocks`.
+    closure: LoopClosure,
 }
 
 /// The storage of one factor of the tree matrix ([`TreeSolver`]'s `blocks`), kept
@@ -103,6 +109,8 @@ pub(crate) struct TreeSolver {
 #[derive(Clone, Debug, Default)]
 pub(crate) struct FactorStore {
     blocks: Vec<NodeBlocks>,
+    /// The loop closure built with that factor (swapped along with it).
+    closure: LoopClosure,
 }
 
 /// Per-joint topology the solver needs: its bodies and number of rows.
@@ -230,11 +238,13 @@ impl TreeSolver {
             joint_node,
             loops,
             size,
+            closure: LoopClosure::default(),
         }
     }
 
     /// Exchanges the solver's factor storage with `store` (a buffer swap, no copy):
-    /// the factor in the solver goes to `store` and `store`'s comes in. A store of
+    /// the factor in the solver goes to `store` and `store`'s comes in, each with the
+    /// loop closure built with it. A store of
     /// another size (a new topology, or the empty default) is first sized to this tree,
     /// its contents zero.
     pub fn swap_factor(&mut self, store: &mut FactorStore) {
@@ -242,8 +252,10 @@ impl TreeSolver {
         if store.blocks.len() != n {
             store.blocks.clear();
             store.blocks.resize(n, ZERO_NODE);
+            store.closure.forget();
         }
         core::mem::swap(&mut self.blocks, &mut store.blocks);
+        core::mem::swap(&mut self.closure, &mut store.closure);
     }
 
     /// Offset of body `i`'s 6 unknowns `(v, ω)`.
@@ -261,6 +273,7 @@ impl TreeSolver {
 
     /// Sets body `i`'s mass block `diag(m, m, m) ⊕ I_world`.
     pub fn set_body(&mut self, i: usize, mass: f64, inertia: &constraint_core::DMat3) {
+        self.closure.forget();
         let d = &mut self.blocks[i].diag;
         *d = ZERO;
         for k in 0..3 {
@@ -278,6 +291,7 @@ impl TreeSolver {
         xx: &constraint_core::DMat3,
         tt: &constraint_core::DMat3,
     ) {
+        self.closure.forget();
         let d = &mut self.blocks[i].diag;
         for k in 0..3 {
             for l in 0..3 {
@@ -298,6 +312,7 @@ impl TreeSolver {
         zero: u8,
         compliance: &[f64],
     ) {
+        self.closure.forget();
         let node = self.joint_node[j];
         let m = topo.rows;
         // The node's rows of its diagonal block: `−C` on the diagonal, zeros elsewhere
@@ -344,6 +359,14 @@ impl TreeSolver {
     /// `D_p −= H_{i,p}ᵀ D_i⁻¹ H_{i,p} = W_iᵀ d_i⁻¹ W_i` (lower triangle only: the block
     /// factorization reads no more).
     pub fn factor(&mut self) -> Result<(), ArticulatedError> {
+        self.closure.forget();
+        self.factor_blocks()
+    }
+
+    /// [`Self::factor`]'s elimination (kept out of line: the body as it was before the
+    /// loop closure's drop was added in front of it).
+    #[inline(never)]
+    fn factor_blocks(&mut self) -> Result<(), ArticulatedError> {
         for k in 0..self.order.len() {
             let i = self.order[k];
             let n = self.dim[i];
@@ -478,108 +501,6 @@ impl TreeSolver {
                     6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6);
             }
         }
-    }
-
-    /// Solves the tree system augmented with loop rows:
-    ///
-    /// `[H Gᵀ; G −C_G][x; μ] = [b; r_G]`, `G` acting on body unknowns only.
-    ///
-    /// `loop_rows[k] = (a, b, row)`, `loop_c[k]` its compliance, `loop_rhs[k] = r_G`.
-    /// On return `x` holds the tree unknowns and `mu` the loop multipliers. `free_scale`
-    /// is the largest `g M⁻¹ gᵀ` of the loop rows (their scale without the tree).
-    pub fn solve_with_loops(
-        &self,
-        x: &mut [f64],
-        loop_rows: &[(Option<usize>, usize, [DVec3; 4])],
-        loop_c: &[f64],
-        loop_rhs: &[f64],
-        free_scale: f64,
-        mu: &mut Vec<f64>,
-    ) -> Result<(), ArticulatedError> {
-        let mut scratch = LoopScratch::default();
-        let rows = (loop_rows, loop_c, loop_rhs);
-        self.solve_with_loops_in(x, rows, free_scale, mu, &mut scratch)
-    }
-
-    /// [`Self::solve_with_loops`] with its buffers (`Y = H⁻¹ Gᵀ`, the Schur right-hand
-    /// side and `μ`) in `scratch`, kept by the caller between calls instead of
-    /// allocated (zeroed) per call; `rows = (loop_rows, loop_c, loop_rhs)`.
-    pub fn solve_with_loops_in(
-        &self,
-        x: &mut [f64],
-        rows: LoopRowsRef<'_>,
-        free_scale: f64,
-        mu: &mut Vec<f64>,
-        scratch: &mut LoopScratch,
-    ) -> Result<(), ArticulatedError> {
-        let (loop_rows, loop_c, loop_rhs) = rows;
-        self.solve(x);
-        let k = loop_rows.len();
-        mu.clear();
-        if k == 0 {
-            return Ok(());
-        }
-        // Y = H⁻¹ Gᵀ, one tree solve per loop row, its forward pass on the row's
-        // bodies' paths to the root only (the column cleared there alone).
-        let y = &mut scratch.y;
-        y.resize(k * self.size, 0.0);
-        for (r, (a, b, row)) in loop_rows.iter().enumerate() {
-            let col = &mut y[r * self.size..(r + 1) * self.size];
-            self.mark_paths(col, [*a, Some(*b)], &mut scratch.mark);
-            self.scatter(col, *a, *b, row, 1.0);
-            self.solve_sparse(col, &scratch.mark);
-        }
-        let y = &scratch.y;
-        let gdot = |v: &[f64], (a, b, row): &(Option<usize>, usize, [DVec3; 4])| {
-            let mut s = 0.0;
-            for (side, body) in [(0usize, *a), (1usize, Some(*b))] {
-                let Some(body) = body else { continue };
-                let o = self.offset[body];
-                s += row[2 * side].dot(DVec3::new(v[o], v[o + 1], v[o + 2]))
-                    + row[2 * side + 1].dot(DVec3::new(v[o + 3], v[o + 4], v[o + 5]));
-            }
-            s
-        };
-        let s = DenseMatrix::from_fn(k, k, |i, j| {
-            gdot(&y[j * self.size..(j + 1) * self.size], &loop_rows[i])
-                + if i == j { loop_c[i] } else { 0.0 }
-        });
-        let rhs = &mut scratch.rhs;
-        rhs.clear();
-        rhs.extend((0..k).map(|i| gdot(x, &loop_rows[i]) - loop_rhs[i]));
-        if !s.is_finite() || rhs.iter().any(|v| !v.is_finite()) {
-            return Err(ArticulatedError::LoopSolve);
-        }
-        // Truncate singular values below 1e-10 of the loop rows' scale without the tree
-        // (`free_scale ≈ max G M⁻¹ Gᵀ`): a loop row that repeats a tree constraint has
-        // `G H⁻¹ Gᵀ ≈ 0` up to round-off, and a tolerance relative to that noise would
-        // turn the noise into forces.
-        let svd = SvdSolver::new(&s, 1e-10).map_err(|_| ArticulatedError::LoopSolve)?;
-        let smax = svd.singular_values().first().copied().unwrap_or(0.0);
-        let floor = 1e-10 * free_scale;
-        let sol_x = &mut scratch.sol;
-        sol_x.clear();
-        sol_x.resize(k, 0.0);
-        if smax > floor {
-            // The decomposition at tolerance `floor / smax` is this one with a lower
-            // rank: no second SVD of the same matrix.
-            let tol = if floor > 1e-10 * smax {
-                floor / smax
-            } else {
-                1e-10
-            };
-            if !min_norm_truncated(&svd, tol, rhs, sol_x) {
-                return Err(ArticulatedError::LoopSolve);
-            }
-        }
-        for (r, m) in sol_x.iter().enumerate() {
-            let col = &y[r * self.size..(r + 1) * self.size];
-            for (xi, yi) in x.iter_mut().zip(col) {
-                *xi -= m * yi;
-            }
-        }
-        mu.extend_from_slice(sol_x);
-        Ok(())
     }
 
     /// `x += s · Gᵀ_row` (the row's blocks placed on its bodies' unknowns).
@@ -783,55 +704,6 @@ fn update_dyn(n: usize, np: usize, d: &Blk, dinv: &[f64; 6], w: &mut Blk, dp: &m
     }
 }
 
-/// `x = A⁺ b` with the singular values `σ_i ≤ rel_tol · σ_max` of `A` dropped,
-/// `x = Σ_{σ_i > rel_tol σ_max} v_i (u_iᵀ b) / σ_i`, from a decomposition `svd` of `A`
-/// taken at any tolerance: the sums, in the same order, that
-/// [`SvdSolver::solve_min_norm`] does on `SvdSolver::new(A, rel_tol)` (the tolerance
-/// sets only the rank there; the factors are the same), without decomposing `A` again.
-/// `false` (no solution) where that would fail: a non-finite `rel_tol`, `b` or `x`, or
-/// lengths that do not match `A`.
-pub(crate) fn min_norm_truncated(svd: &SvdSolver, rel_tol: f64, b: &[f64], x: &mut [f64]) -> bool {
-    if !rel_tol.is_finite() || b.len() != svd.n_rows() || x.len() != svd.n_cols() {
-        return false;
-    }
-    if !b.iter().all(|v| v.is_finite()) {
-        return false;
-    }
-    let sigma = svd.singular_values();
-    let cutoff = rel_tol.max(0.0) * sigma.first().copied().unwrap_or(0.0);
-    let rank = sigma.iter().filter(|&&s| s > cutoff && s > 0.0).count();
-    x.fill(0.0);
-    for (i, &si) in sigma.iter().enumerate().take(rank) {
-        let ub: f64 = svd.u(i).iter().zip(b).map(|(p, q)| p * q).sum();
-        let t = (1.0 / si) * ub;
-        for (xj, vj) in x.iter_mut().zip(svd.v(i)) {
-            *xj += t * vj;
-        }
-    }
-    x.iter().all(|v| v.is_finite())
-}
-
-/// The loop rows of [`TreeSolver::solve_with_loops_in`]: `(rows, compliances,
-/// right-hand sides)`.
-pub(crate) type LoopRowsRef<'a> = (
-    &'a [(Option<usize>, usize, [DVec3; 4])],
-    &'a [f64],
-    &'a [f64],
-);
-
-/// Buffers of [`TreeSolver::solve_with_loops_in`] kept between calls.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct LoopScratch {
-    /// `Y = H⁻¹ Gᵀ`, one column of the tree's unknowns per loop row.
-    y: Vec<f64>,
-    /// `G x₀ − r_G`.
-    rhs: Vec<f64>,
-    /// `μ = (G Y + C_G)⁺ (G x₀ − r_G)`.
-    sol: Vec<f64>,
-    /// Per tree node: on a column's path to the root ([`TreeSolver::mark_paths`]).
-    mark: Vec<bool>,
-}
-
 /// One node's data for the solve kernels: `(D factor, 1/d, W, offset, parent offset,
 /// n, n_parent)`.
 type NodeArgs<'a> = (&'a Blk, &'a [f64; 6], &'a Blk, usize, usize, usize, usize);
@@ -928,6 +800,8 @@ fn backward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize, read: 
 mod tests {
     use super::*;
     use constraint_core::DMat3;
+    use constraint_lagrange::solve::svd::SvdSolver;
+    use constraint_lagrange::solve::DenseMatrix;
 
     /// A branched tree (a chain of 8 bodies hung from the world, with a second chain of
     /// 4 on body 2) held by 3-row ball joints: a column `Gᵀ` of a contact row on one

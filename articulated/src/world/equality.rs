@@ -529,7 +529,7 @@ impl World {
     /// `floor` dropped) into `eq.pinv`; returns whether `S` had one above `floor` (else
     /// `S⁺ = 0`, `ν = 0`).
     fn complement_matrix(
-        &self,
+        &mut self,
         eq: &mut EqRows,
         loops: &LoopRows,
         free_scale: f64,
@@ -541,11 +541,23 @@ impl World {
         eq.cols.resize(k * size, 0.0);
         eq.zero.clear();
         eq.zero.resize(loops.2.len(), 0.0);
+        // Each column through the loop closure (`tree/loops.rs`): `Y_L` and its SVD
+        // built once (or kept from the velocity solve with this factor), not per row.
+        let closed = !loops.0.is_empty();
+        if closed {
+            let mut mark = Vec::new();
+            self.solver
+                .build_loop_closure(&loops.0, &loops.1, free_scale, &mut mark)?;
+        }
+        let mut rhs = Vec::new();
         for r in 0..k {
             let col = &mut eq.cols[r * size..(r + 1) * size];
             eq.spans.scatter(&self.solver, col, r, 1.0);
-            self.solver
-                .solve_with_loops(col, &loops.0, &loops.1, &eq.zero, free_scale, &mut eq.mu)?;
+            self.solver.solve(col);
+            if closed {
+                self.solver
+                    .close_loops(&loops.0, &eq.zero, col, &mut rhs, &mut eq.mu)?;
+            }
         }
         let mut s = DenseMatrix::from_fn(k, k, |i, j| {
             eq.spans

@@ -429,7 +429,7 @@ impl World {
         let mut closure = None;
         let mut columns = Ok(());
         if !loops.0.is_empty() && m > 0 {
-            match LoopColumns::new(&self.solver, &loops.0, &loops.1, free_scale, mu) {
+            match LoopColumns::new(&mut self.solver, &loops.0, &loops.1, free_scale, mu) {
                 Ok(c) => closure = Some(c),
                 Err(e) => columns = Err(e),
             }
