@@ -483,6 +483,16 @@ impl Lcp {
     /// Replaces the stored bounds (same `n`; checked as in [`Lcp::boxed`]), e.g. a boxed
     /// problem whose boxes moved while `M` stayed: no second pass over `M`.
     pub fn set_bounds(&mut self, lo: Vec<f64>, hi: Vec<f64>) -> Result<(), LcpError> {
+        self.swap_bounds(lo, hi).map(drop)
+    }
+
+    /// [`Lcp::set_bounds`] giving back the replaced buffers `(lo, hi)` (refilled by the
+    /// caller next time). On an error `lo` and `hi` are dropped.
+    pub(crate) fn swap_bounds(
+        &mut self,
+        lo: Vec<f64>,
+        hi: Vec<f64>,
+    ) -> Result<(Vec<f64>, Vec<f64>), LcpError> {
         check_len("lo", self.n, lo.len())?;
         check_len("hi", self.n, hi.len())?;
         check_bounds(&lo, &hi)?;
@@ -491,9 +501,10 @@ impl Lcp {
                 return Err(LcpError::BadFriction { index: i });
             }
         }
-        self.lo = lo;
-        self.hi = hi;
-        Ok(())
+        Ok((
+            core::mem::replace(&mut self.lo, lo),
+            core::mem::replace(&mut self.hi, hi),
+        ))
     }
 
     /// `Σ_j M_ij z_j` over the non-zero `M_ij` (columns ascending: the bits of the dense
@@ -520,10 +531,15 @@ impl Lcp {
 
     /// Replaces `q` (same `n`, finite), e.g. for the next time step of the same contacts.
     pub fn set_q(&mut self, q: Vec<f64>) -> Result<(), LcpError> {
+        self.swap_q(q).map(drop)
+    }
+
+    /// [`Lcp::set_q`] giving back the replaced buffer (for a caller that refills it
+    /// next time: no allocation once it has grown). On an error `q` is dropped.
+    pub(crate) fn swap_q(&mut self, q: Vec<f64>) -> Result<Vec<f64>, LcpError> {
         check_len("q", self.n, q.len())?;
         check_finite("q", &q)?;
-        self.q = q;
-        Ok(())
+        Ok(core::mem::replace(&mut self.q, q))
     }
 
     /// Whether this is a standard LCP (`lo = 0`, `hi = ∞`, no friction links).
@@ -647,14 +663,27 @@ impl Lcp {
         if z.len() != self.n {
             return f64::INFINITY;
         }
+        // Over the listed entries only (columns ascending, as `row_dot`): a skipped term
+        // `|0 · z_j|` of a finite `z` is `+0`, which leaves the sum's bits as they are
+        // (the sum of an empty list is `−0`, and `|q_i| + (−0) = |q_i|`). A non-finite
+        // `z` goes over the dense rows (`0 · ∞` is NaN there).
+        let finite = z.iter().all(|x| x.is_finite());
         let mut worst = 0.0_f64;
         for i in 0..self.n {
-            let s: f64 = self
-                .row(i)
-                .iter()
-                .zip(z)
-                .map(|(m, x)| libm::fabs(m * x))
-                .sum();
+            let (cols, vals) = self.sparse.row(i);
+            let s: f64 = if finite && cols.len() < self.n {
+                vals.iter()
+                    .zip(cols)
+                    .map(|(m, &j)| libm::fabs(m * z[j]))
+                    .sum()
+            } else {
+                // A full row (every column listed) is the dense row: contiguous.
+                self.row(i)
+                    .iter()
+                    .zip(z)
+                    .map(|(m, x)| libm::fabs(m * x))
+                    .sum()
+            };
             let gamma = (self.n as f64 + 1.0) * f64::EPSILON;
             let floor = 2.0 * f64::EPSILON * libm::fabs(z[i]) + gamma * (libm::fabs(self.q[i]) + s);
             worst = worst.max(floor);

@@ -376,6 +376,14 @@ pub(crate) struct RowScratch {
     /// The buffers hold the last call's split in full (blocks given back), so a call
     /// with the same pattern and classes refills the values only.
     split: bool,
+    /// Each alternation's vectors, refilled in place: the one-sided rows' `q` and warm
+    /// start, the other rows' `q`, boxes and warm start.
+    qn: Vec<f64>,
+    zn0: Vec<f64>,
+    qt: Vec<f64>,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    zt0: Vec<f64>,
 }
 
 /// [`solve_rows_sparse`] on rows the caller has built consistent (`a.is_valid(n)`,
@@ -458,6 +466,12 @@ pub(crate) fn solve_rows_in(
         cross_cols,
         cross_vals,
         split,
+        qn,
+        zn0,
+        qt,
+        lo,
+        hi,
+        zt0,
         ..
     } = scratch;
     let (normal, tangent) = (&normal[..], &tangent[..]);
@@ -515,23 +529,26 @@ pub(crate) fn solve_rows_in(
             let final_normal = done == max_sweeps;
             if !normal.is_empty() {
                 // The one-sided LCP with the other impulses fixed.
-                let qn: Vec<f64> = normal.iter().map(|&i| q[i] + coupled(i, z)).collect();
+                qn.clear();
+                qn.extend(normal.iter().map(|&i| q[i] + coupled(i, z)));
                 let lcp = match (&mut normal_lcp, ann_parts.take()) {
                     (Some(lcp), _) => {
-                        lcp.set_q(qn)?;
+                        *qn = lcp.swap_q(core::mem::take(qn))?;
                         lcp
                     }
                     (slot, Some((m, sm))) => slot.insert(Lcp::boxed_sparse(
                         m,
                         sm,
-                        qn,
+                        core::mem::take(qn),
                         vec![0.0; nn],
                         vec![f64::INFINITY; nn],
                     )?),
                     (None, None) => return Err(LcpError::BadSettings("no one-sided block")),
                 };
                 let lcp = &*lcp;
-                let zn0: Vec<f64> = normal.iter().map(|&i| z[i]).collect();
+                zn0.clear();
+                zn0.extend(normal.iter().map(|&i| z[i]));
+                let zn0 = &zn0[..];
                 // The requested solver first; where it fails (Newton stalls and Lemke loses
                 // accuracy on the semi-definite Delassus matrix of coplanar contact points),
                 // the others in turn, so a step fails only when all three do.
@@ -551,7 +568,7 @@ pub(crate) fn solve_rows_in(
                 // semi-definite block led later to a step no solver answered).
                 if residual_driven && settings.method == RowMethod::Newton && !stats.boxed_fallback
                 {
-                    if let Some(sol) = active_set_guess(lcp, &zn0, &mut guess, settings.tolerance) {
+                    if let Some(sol) = active_set_guess(lcp, zn0, &mut guess, settings.tolerance) {
                         stats.active_set += 1;
                         stats.accepted = Some(RowMethod::Newton);
                         result = Ok(sol);
@@ -563,8 +580,8 @@ pub(crate) fn solve_rows_in(
                     }
                     result = match which {
                         RowMethod::Lemke => lemke(lcp, &lemke_settings, None),
-                        RowMethod::Newton => fischer_newton(lcp, &newton_settings, Some(&zn0)),
-                        RowMethod::Pgs => pgs(lcp, &pgs_settings, Some(&zn0)),
+                        RowMethod::Newton => fischer_newton(lcp, &newton_settings, Some(zn0)),
+                        RowMethod::Pgs => pgs(lcp, &pgs_settings, Some(zn0)),
                     };
                     if result.is_ok() {
                         stats.accepted = Some(which);
@@ -602,10 +619,14 @@ pub(crate) fn solve_rows_in(
             // its dense block. The block is only semi-definite when a face touches at four
             // coplanar points, where PGS can converge slowly; when it runs out of sweeps, a
             // last budget of sweeps from the warm start is kept instead of failing.
-            let qt: Vec<f64> = tangent.iter().map(|&i| q[i] + coupled(i, z)).collect();
-            let lo: Vec<f64> = tangent.iter().map(|&i| bound(i, z).0).collect();
-            let hi: Vec<f64> = tangent.iter().map(|&i| bound(i, z).1).collect();
-            let zt0: Vec<f64> = tangent.iter().map(|&i| z[i]).collect();
+            qt.clear();
+            qt.extend(tangent.iter().map(|&i| q[i] + coupled(i, z)));
+            lo.clear();
+            lo.extend(tangent.iter().map(|&i| bound(i, z).0));
+            hi.clear();
+            hi.extend(tangent.iter().map(|&i| bound(i, z).1));
+            zt0.clear();
+            zt0.extend(tangent.iter().map(|&i| z[i]));
             let friction_settings = PgsSettings {
                 tolerance: settings.friction_tolerance,
                 max_iterations: settings.friction_iterations,
@@ -618,16 +639,22 @@ pub(crate) fn solve_rows_in(
             };
             let lcp = match (&mut tangent_lcp, att_parts.take()) {
                 (Some(lcp), _) => {
-                    lcp.set_q(qt.clone())?;
-                    lcp.set_bounds(lo, hi)?;
+                    *qt = lcp.swap_q(core::mem::take(qt))?;
+                    (*lo, *hi) = lcp.swap_bounds(core::mem::take(lo), core::mem::take(hi))?;
                     lcp
                 }
-                (slot, Some((m, sm))) => slot.insert(Lcp::boxed_sparse(m, sm, qt.clone(), lo, hi)?),
+                (slot, Some((m, sm))) => slot.insert(Lcp::boxed_sparse(
+                    m,
+                    sm,
+                    core::mem::take(qt),
+                    core::mem::take(lo),
+                    core::mem::take(hi),
+                )?),
                 (None, None) => return Err(LcpError::BadSettings("no boxed block")),
             };
             let lcp = &*lcp;
             stats.friction_pgs = true;
-            match pgs_keep(lcp, &friction_settings, Some(&zt0)) {
+            match pgs_keep(lcp, &friction_settings, Some(zt0)) {
                 Ok(sol) => {
                     stats.iterations += sol.iterations;
                     for (k, &i) in tangent.iter().enumerate() {
@@ -819,8 +846,11 @@ fn active_set_guess(
             in_set[i] = true;
         }
         let w = lcp.w(&z);
-        if lcp.residual_with(&z, &w) <= tolerance {
-            return lcp.finish_with(z, w, round, None, tolerance).ok();
+        let r = lcp.residual_with(&z, &w);
+        if r <= tolerance {
+            // `finish_with`'s answer (within the tolerance it accepts) without the
+            // residual's second evaluation.
+            return Some(Lcp::solved(z, w, r, round));
         }
         if round == GUESS_PIVOTS {
             break;
