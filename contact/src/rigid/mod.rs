@@ -53,7 +53,7 @@ pub use path::{RowsSolver, SolverPath};
 pub use sleep::SleepSettings;
 pub use soft_step::{
     SoftStepSettings, Softness, BLOCK_POINTS, MAX_RELAX_PASSES, MAX_SUBSTEPS, MAX_THREADS,
-    PARALLEL_MIN_POINTS, PRELOAD_FLOOR_DECAY,
+    PARALLEL_MIN_POINTS, PRELOAD_CAP_MARGIN, PRELOAD_FLOOR_DECAY,
 };
 
 use crate::lcp::{Coupling, LcpError, RowBound, RowMethod, RowSettings, SparseRows};

@@ -131,8 +131,9 @@ pub struct SoftStepSettings {
     /// spring left against the one-pass coupling of a stack) it rocks the 10-box stack
     /// by several centimetres; from the estimate it does not.
     ///
-    /// `λ_pre` is capped at what the spring at rest would carry at the point's
-    /// penetration, `γ/(1 − γ) · m h ω² · (−C)` (an impact's impulse does not become
+    /// `λ_pre` is capped at [`SoftStepSettings::preload_cap_margin`] times what the
+    /// spring at rest would carry at the point's penetration, `M γ/(1 − γ) · m h ω² ·
+    /// (−C)` (an impact's impulse does not become
     /// the next step's push), but not below the manifold's *floor*: when a manifold is
     /// met for the first time its rows start from its static load estimate (the
     /// weight it carries at rest, shared top-down over the supports as
@@ -143,6 +144,26 @@ pub struct SoftStepSettings {
     /// back until the penetration has built up: the 10-box stack's top sank 9 mm in
     /// its first 4 steps and rang for about 0.3 s; with it, it starts at rest.
     pub preload: f64,
+    /// Margin `M ≥ 1` of the preload's cap (4, [`PRELOAD_CAP_MARGIN`], by default; 1:
+    /// the cap of earlier versions): `λ_pre ≤ M γ/(1 − γ) · m h ω² · (−C)`, so that
+    /// at rest, where a row carries `λ` at the penetration `−C = (λ − λ_pre)/(m h
+    /// ω²)`, the cap lies `M` times above the preload and does not act. At `M = 1`
+    /// the rest state sits on the cap's kink: a point that rises by `δ` loses `γ/(1 −
+    /// γ) m h ω² δ` of preload (49 times the spring's own force at `γ` 0.98), a
+    /// stiffness one biased pass per sub-step does not hold at 2 and 3 sub-steps —
+    /// the rocking behind the 10-box stack's sideways drift there (top drift 105 mm
+    /// at 2 sub-steps with `M = 1`, 0.55 mm with `M = 4`; `soft_points`, 600 steps).
+    /// Where the static load estimate exceeds a point's real load (the flanks of the
+    /// pyramid) the cap still acts and still bounds the push of a point that lifts.
+    /// Measured (`soft_points`, 600 steps at 60 Hz, stack drift / sink, pyramid worst):
+    ///
+    /// | setting | `M = 1` | `M = 4` |
+    /// |---|---|---|
+    /// | 4 sub-steps (defaults) | 0.570 / 0.511 mm, 4.12 mm | 0.514 / 0.511 mm, 1.06 mm |
+    /// | 3 sub-steps (defaults) | 14.5 / 3.64 mm, 25.1 mm | 0.545 / 0.511 mm, 33.4 mm |
+    /// | 3 sub-steps, `hertz` 20, `γ` 0.99 | 0.753 / 0.575 mm, 6.14 mm | 0.578 / 0.575 mm, 3.01 mm |
+    /// | 2 sub-steps (defaults) | 105 / 9.83 mm, 123 mm | 0.553 / 0.511 mm, 140 mm |
+    pub preload_cap_margin: f64,
     /// Relax passes per sub-step (1, Box2D v3's count, by default; at most
     /// [`MAX_RELAX_PASSES`]). A second one costs about a fifth of the step and
     /// converges the friction rows further: on the pyramid of 210 boxes it halves the
@@ -217,6 +238,7 @@ impl Default for SoftStepSettings {
             threads: 1,
             block_normal: true,
             preload: 0.98,
+            preload_cap_margin: PRELOAD_CAP_MARGIN,
             relax_passes: 1,
             residual: false,
             preload_estimate: true,
@@ -292,6 +314,11 @@ pub const BLOCK_POINTS: usize = 4;
 /// never stops creeping (a uniform floor over a face whose load is not uniform).
 pub const PRELOAD_FLOOR_DECAY: f64 = 0.99;
 
+/// Default [`SoftStepSettings::preload_cap_margin`]: 4 (2 and 8 measured: 10-box
+/// stack and 210-box pyramid over 600 steps, 4 sub-steps, top drift / pyramid worst
+/// 0.511 mm / 3.99 mm at 2, 0.514 / 1.06 mm at 4, 0.522 / 1.38 mm at 8).
+pub const PRELOAD_CAP_MARGIN: f64 = 4.0;
+
 /// The most relax passes per sub-step [`SoftStepSettings::relax_passes`] accepts.
 pub const MAX_RELAX_PASSES: usize = 64;
 
@@ -346,7 +373,7 @@ pub(super) struct SoftState {
     pub(super) impulse: Vec<[f64; 3]>,
     /// Preloaded impulse `λ_pre` of each point (see [`SoftStepSettings::preload`]).
     pub(super) preload: Vec<f64>,
-    /// `γ/(1 − γ) · m h ω²` of each point: the preload is capped at this times the
+    /// `M γ/(1 − γ) · m h ω²` of each point: the preload is capped at this times the
     /// penetration.
     pub(super) preload_cap: Vec<f64>,
     /// Floor of the cap: `γ ·` the static load estimate of each point (per sub-step).
@@ -427,6 +454,12 @@ impl ContactWorld {
         }
         if !(0.0..=1.0).contains(&s.preload) {
             return bad("soft_step.preload", "must be in [0, 1]");
+        }
+        if !(s.preload_cap_margin >= 1.0) || !s.preload_cap_margin.is_finite() {
+            return bad(
+                "soft_step.preload_cap_margin",
+                "must be finite and at least 1",
+            );
         }
         if s.relax_passes == 0 {
             return bad("soft_step.relax_passes", "must be at least 1");
@@ -751,11 +784,12 @@ impl ContactWorld {
             0.0
         };
         // Spring stiffness over the sub-step, `h ω²` per unit effective mass, and the
-        // cap's ratio `γ/(1 − γ)` (the ratio of preload to spring force at rest).
+        // cap's ratio `M γ/(1 − γ)` (`M` times the ratio of preload to spring force at
+        // rest: `preload_cap_margin`).
         let omega2 = (TAU * hertz) * (TAU * hertz);
         let omega2_fixed = 4.0 * omega2;
         let kappa = if s.preload < 1.0 {
-            s.preload / (1.0 - s.preload)
+            s.preload_cap_margin * s.preload / (1.0 - s.preload)
         } else {
             f64::INFINITY
         };
