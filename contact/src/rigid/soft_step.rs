@@ -155,7 +155,10 @@ pub struct SoftStepSettings {
     /// at 2 sub-steps with `M = 1`, 0.55 mm with `M = 4`; `soft_points`, 600 steps).
     /// Where the static load estimate exceeds a point's real load (the flanks of the
     /// pyramid) the cap still acts and still bounds the push of a point that lifts.
-    /// Measured (`soft_points`, 600 steps at 60 Hz, stack drift / sink, pyramid worst):
+    /// Measured (`soft_points`, 600 steps at 60 Hz, stack drift / sink, pyramid worst;
+    /// with the load estimate of that version, an equal force per manifold — shared
+    /// by moments now, the pyramid's figures at 4 and 3 sub-steps are 0.551 mm and
+    /// 0.693 mm, see [`SoftStepSettings::preload_estimate`]):
     ///
     /// | setting | `M = 1` | `M = 4` |
     /// |---|---|---|
