@@ -409,6 +409,9 @@ pub(super) struct SoftState {
     /// Moment of each body's load and its supporting points (by solver slot; scratch
     /// of the estimate).
     pub(super) pressure: Vec<Pressure>,
+    /// Horizontal coordinates of each supporting contact point (natural order;
+    /// scratch of the estimate).
+    pub(super) flat: Vec<[f64; 2]>,
     /// Upper and lower slot and `n · up` of each manifold (natural order; `n · up` 0
     /// where it does not support; scratch of the estimate).
     pub(super) supports: Vec<(usize, usize, f64)>,
@@ -1117,6 +1120,8 @@ impl ContactWorld {
             st.pressure[i].moment = [st.load[i] * x[0], st.load[i] * x[1]];
         }
         st.supports.clear();
+        // Written for every supporting point below before it is read.
+        st.flat.resize(contacts.len(), [0.0; 2]);
         let (by_rank, start) = st.colouring.bottom_up();
         let slot = |k: usize| self.colliders[k].body.unwrap_or(nb);
         for j in 0..by_rank.len() {
@@ -1130,8 +1135,10 @@ impl ContactWorld {
             };
             let supports = n_up >= 0.5 && upper != nb && st.inv_mass[upper] > 0.0;
             if supports {
-                for c in &contacts[start[j]..start[j + 1]] {
-                    st.pressure[upper].add_point(flat(c.point));
+                for i in start[j]..start[j + 1] {
+                    let x = flat(contacts[i].point);
+                    st.flat[i] = x;
+                    st.pressure[upper].add_point(x);
                 }
             }
             st.supports
@@ -1150,7 +1157,7 @@ impl ContactWorld {
             let one_way = st.inv_mass[lower] > ratio * st.inv_mass[upper];
             let feels = lower != nb && st.inv_mass[lower] > 0.0 && !one_way;
             for i in start[j]..start[j + 1] {
-                let x = flat(contacts[i].point);
+                let x = st.flat[i];
                 let f = share(x);
                 st.estimate[i] = f / n_up * hs;
                 if feels {
