@@ -8,10 +8,12 @@
 //! `cargo run -p constraint-contact --release --example soft_points -- SCENE STEPS SUBSTEPS [KEY=VALUE ...]`
 //!
 //! `SCENE`: `stack10` (`scenes::box_stack(10)`), `pyramid20` (`scenes::pyramid(20)`),
+//! `pyramid6` (`scenes::pyramid(6)`, the allocation test's),
 //! `heavy1e4` (`scenes::heavy_on_light(1e4)`) or `pile1000`; keys: `hertz`, `zeta`, `push`,
 //! `anchors` (0/1), `oneway` (the one-way mass ratio), `block` (0/1), `preload`,
 //! `relax` (relax passes), `residual` (0/1), `threads`, `estimate` (0/1:
-//! `preload_estimate`), `refill` (0/1: `refill_renamed`) (the `SoftStepSettings` fields);
+//! `preload_estimate`), `refill` (0/1: `refill_renamed`), `margin` (`preload_cap_margin`) (the
+//! `SoftStepSettings` fields);
 //! `pile1000` (`scenes::pile(1000, 1)`) prints the deepest penetration of the last
 //! step. `TRACE=1` prints the top box's displacement every 20 steps (and each of the
 //! first 20; `ALL=1`: every step), `BOX=i` traces box `i` instead of the top box (its
@@ -38,6 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut w = match scene {
         "stack10" => box_stack(10)?,
         "pyramid20" => pyramid(20)?,
+        "pyramid6" => pyramid(6)?,
         "heavy1e4" => heavy_on_light(1e4)?,
         "pile1000" => pile(1000, 1)?,
         other => return Err(format!("unknown scene {other}").into()),
@@ -60,6 +63,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "threads" => s.threads = x as usize,
             "estimate" => s.preload_estimate = x != 0.0,
             "refill" => s.refill_renamed = x != 0.0,
+            "margin" => s.preload_cap_margin = x,
             other => return Err(format!("unknown key {other}").into()),
         }
     }

@@ -65,10 +65,11 @@ fn box_stack_of_ten_stands() {
 }
 
 /// 210 boxes (base 20) for 10 s at 60 Hz with the default solver (`Auto`: the soft step
-/// with `AUTO_SUBSTEPS` = 4 sub-steps at this size, 840 points). Measured: worst box
-/// displacement 3.58e-2 m (of 1 m boxes; the soft contacts settle into their springs)
-/// — it stands; the sequential impulses `Auto` ran before gave 2.2e-2 m at 3.4× the
-/// time per step; the dense solvers hold a 10-box stack to 1e-10 m (above).
+/// with `AUTO_SUBSTEPS` = 3 sub-steps at this size, 840 points). Measured: worst box
+/// displacement 5.89e-4 m (of 1 m boxes; 3.58e-2 m with 4 sub-steps before the
+/// preload's cap margin and the moment-shared load estimate) — it stands; the
+/// sequential impulses `Auto` ran before gave 2.2e-2 m at 3.4× the time per step; the
+/// dense solvers hold a 10-box stack to 1e-10 m (above).
 #[test]
 fn pyramid_of_20_stands() {
     let mut w = pyramid(20).unwrap();
@@ -364,13 +365,14 @@ fn boxed_pgs_falls_back_on_the_staggered_solve_under_a_heavy_box() {
 /// on the ground (4 points each: 204, the soft step), one thrown up at 3 m/s (200 points
 /// while it flies: the dense path) that lands again (the soft step). Both switches carry
 /// the warm start over; no step fails, and the resting boxes stay put. Measured (1.5 s
-/// at 60 Hz): switches at steps 1 and 36; the resting boxes move at most 7.2e-5 m and the
-/// thrown box ends within 6.9e-5 m of its rest height (gates 1e-3 m and 1e-2 m). The
+/// at 60 Hz): switches at steps 1 and 36; the resting boxes move at most 1.38e-6 m and
+/// the thrown box ends within 1.40e-6 m of its rest height (gates 1e-3 m and 1e-2 m;
+/// 7.2e-5 m and 6.9e-5 m with 4 sub-steps and the earlier preload). The
 /// first dense steps after the soft one stall the friction PGS (stall window: 100 ms a
 /// step in release; 5 s a step with the 10,000-sweep budget before it).
 #[test]
 fn auto_switches_paths_across_its_threshold() {
-    use constraint_contact::rigid::{ContactSolver, AUTO_DENSE_CONTACTS};
+    use constraint_contact::rigid::{ContactSolver, AUTO_DENSE_CONTACTS, AUTO_SUBSTEPS};
     let mut w = ContactWorld::new(DVec3::new(0.0, 0.0, -9.81));
     ground(&mut w, 0.5).unwrap();
     let half = DVec3::splat(0.25);
@@ -384,7 +386,10 @@ fn auto_switches_paths_across_its_threshold() {
     let mut path = Vec::new();
     for _ in 0..90 {
         let s = w.step(1.0 / 60.0).unwrap();
-        let soft = matches!(s.solver, Some(ContactSolver::SoftStep { substeps: 4 }));
+        let soft = s.solver
+            == Some(ContactSolver::SoftStep {
+                substeps: AUTO_SUBSTEPS,
+            });
         assert_eq!(
             soft,
             s.contacts > AUTO_DENSE_CONTACTS,

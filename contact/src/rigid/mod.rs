@@ -53,7 +53,7 @@ pub use path::{RowsSolver, SolverPath};
 pub use sleep::SleepSettings;
 pub use soft_step::{
     SoftStepSettings, Softness, BLOCK_POINTS, MAX_RELAX_PASSES, MAX_SUBSTEPS, MAX_THREADS,
-    PARALLEL_MIN_POINTS, PRELOAD_FLOOR_DECAY,
+    PARALLEL_MIN_POINTS, PRELOAD_CAP_MARGIN, PRELOAD_FLOOR_DECAY,
 };
 
 use crate::lcp::{Coupling, LcpError, RowBound, RowMethod, RowSettings, SparseRows};
@@ -95,11 +95,13 @@ pub enum ContactSolver {
 pub const AUTO_DENSE_CONTACTS: usize = 200;
 
 /// Sub-steps of the soft step [`ContactSolver::Auto`] runs beyond
-/// [`AUTO_DENSE_CONTACTS`] points (Box2D v3's default). Measured on the 210-box pyramid
-/// (840 points), 10 s at 60 Hz, one core: 2.4 ms per step and a worst box displacement
-/// of 3.6 cm, where the sequential impulses `Auto` ran before took 8.2 ms per step for
-/// 2.2 cm (rapier3d: 0.85 ms per step).
-pub const AUTO_SUBSTEPS: usize = 4;
+/// [`AUTO_DENSE_CONTACTS`] points: 3 (Box2D v3 uses 4). On the 210-box pyramid (840
+/// points), 10 s at 60 Hz: worst box displacement 0.69 mm at 3 (0.55 mm at 4) for
+/// 7.65M instructions per step against 8.73M (callgrind; `soft_points pyramid20 600
+/// 3`); at 2 the flanks creep (10.6 cm). Earlier, with 4 sub-steps: 2.4 ms per step
+/// and 3.6 cm, where the sequential impulses `Auto` ran before took 8.2 ms per step
+/// for 2.2 cm (rapier3d: 0.85 ms per step).
+pub const AUTO_SUBSTEPS: usize = 3;
 
 /// How friction is coupled with the normal impulses in the dense solvers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -246,6 +246,14 @@ impl Paired {
                 j += 2;
             }
         }
+        // Kept at least at its bound (a packed entry is two points; grown as `Vec`
+        // grows, doubling), so that a step that packs more pairs than any before
+        // does not allocate: the 6-level pyramid's colouring packed one more pair at
+        // step 70 with `preload_cap_margin` 4, and `soft_step_allocations` saw it.
+        let bound = pts.len() / 2;
+        if self.rows.capacity() < bound {
+            self.rows.reserve(bound - self.rows.len());
+        }
         // Every entry is written by `put` before the passes read it.
         self.rows.resize(count, ZERO_ROWS);
     }

@@ -131,8 +131,9 @@ pub struct SoftStepSettings {
     /// spring left against the one-pass coupling of a stack) it rocks the 10-box stack
     /// by several centimetres; from the estimate it does not.
     ///
-    /// `λ_pre` is capped at what the spring at rest would carry at the point's
-    /// penetration, `γ/(1 − γ) · m h ω² · (−C)` (an impact's impulse does not become
+    /// `λ_pre` is capped at [`SoftStepSettings::preload_cap_margin`] times what the
+    /// spring at rest would carry at the point's penetration, `M γ/(1 − γ) · m h ω² ·
+    /// (−C)` (an impact's impulse does not become
     /// the next step's push), but not below the manifold's *floor*: when a manifold is
     /// met for the first time its rows start from its static load estimate (the
     /// weight it carries at rest, shared top-down over the supports as
@@ -143,6 +144,29 @@ pub struct SoftStepSettings {
     /// back until the penetration has built up: the 10-box stack's top sank 9 mm in
     /// its first 4 steps and rang for about 0.3 s; with it, it starts at rest.
     pub preload: f64,
+    /// Margin `M ≥ 1` of the preload's cap (4, [`PRELOAD_CAP_MARGIN`], by default; 1:
+    /// the cap of earlier versions): `λ_pre ≤ M γ/(1 − γ) · m h ω² · (−C)`, so that
+    /// at rest, where a row carries `λ` at the penetration `−C = (λ − λ_pre)/(m h
+    /// ω²)`, the cap lies `M` times above the preload and does not act. At `M = 1`
+    /// the rest state sits on the cap's kink: a point that rises by `δ` loses `γ/(1 −
+    /// γ) m h ω² δ` of preload (49 times the spring's own force at `γ` 0.98), a
+    /// stiffness one biased pass per sub-step does not hold at 2 and 3 sub-steps —
+    /// the rocking behind the 10-box stack's sideways drift there (top drift 105 mm
+    /// at 2 sub-steps with `M = 1`, 0.55 mm with `M = 4`; `soft_points`, 600 steps).
+    /// Where the static load estimate exceeds a point's real load (the flanks of the
+    /// pyramid) the cap still acts and still bounds the push of a point that lifts.
+    /// Measured (`soft_points`, 600 steps at 60 Hz, stack drift / sink, pyramid worst;
+    /// with the load estimate of that version, an equal force per manifold — shared
+    /// by moments now, the pyramid's figures at 4 and 3 sub-steps are 0.551 mm and
+    /// 0.693 mm, see [`SoftStepSettings::preload_estimate`]):
+    ///
+    /// | setting | `M = 1` | `M = 4` |
+    /// |---|---|---|
+    /// | 4 sub-steps (defaults) | 0.570 / 0.511 mm, 4.12 mm | 0.514 / 0.511 mm, 1.06 mm |
+    /// | 3 sub-steps (defaults) | 14.5 / 3.64 mm, 25.1 mm | 0.545 / 0.511 mm, 33.4 mm |
+    /// | 3 sub-steps, `hertz` 20, `γ` 0.99 | 0.753 / 0.575 mm, 6.14 mm | 0.578 / 0.575 mm, 3.01 mm |
+    /// | 2 sub-steps (defaults) | 105 / 9.83 mm, 123 mm | 0.553 / 0.511 mm, 140 mm |
+    pub preload_cap_margin: f64,
     /// Relax passes per sub-step (1, Box2D v3's count, by default; at most
     /// [`MAX_RELAX_PASSES`]). A second one costs about a fifth of the step and
     /// converges the friction rows further: on the pyramid of 210 boxes it halves the
@@ -175,6 +199,9 @@ pub struct SoftStepSettings {
     /// | `γ` 0.99, estimate | 0.320 / 0.256 mm | 10.7 mm |
     /// | `γ` 0.97, estimate, [`SoftStepSettings::refill_renamed`] | 0.830 / 0.766 mm | 4.09 mm |
     /// | `γ` 0.98, estimate, refill | 0.570 / 0.511 mm | 4.12 mm |
+    /// | the same, [`SoftStepSettings::preload_cap_margin`] 4 | 0.514 / 0.511 mm | 1.06 mm |
+    /// | the same, the estimate shared by moments (the default) | 0.512 / 0.511 mm | 0.551 mm |
+    /// | the default at 3 sub-steps | 0.536 / 0.511 mm | 0.693 mm |
     ///
     /// The estimate every step costs 2.5 % of the pyramid's step (0.06 % of the
     /// stack's).
@@ -217,6 +244,7 @@ impl Default for SoftStepSettings {
             threads: 1,
             block_normal: true,
             preload: 0.98,
+            preload_cap_margin: PRELOAD_CAP_MARGIN,
             relax_passes: 1,
             residual: false,
             preload_estimate: true,
@@ -292,6 +320,11 @@ pub const BLOCK_POINTS: usize = 4;
 /// never stops creeping (a uniform floor over a face whose load is not uniform).
 pub const PRELOAD_FLOOR_DECAY: f64 = 0.99;
 
+/// Default [`SoftStepSettings::preload_cap_margin`]: 4 (2 and 8 measured: 10-box
+/// stack and 210-box pyramid over 600 steps, 4 sub-steps, top drift / pyramid worst
+/// 0.511 mm / 3.99 mm at 2, 0.514 / 1.06 mm at 4, 0.522 / 1.38 mm at 8).
+pub const PRELOAD_CAP_MARGIN: f64 = 4.0;
+
 /// The most relax passes per sub-step [`SoftStepSettings::relax_passes`] accepts.
 pub const MAX_RELAX_PASSES: usize = 64;
 
@@ -346,7 +379,7 @@ pub(super) struct SoftState {
     pub(super) impulse: Vec<[f64; 3]>,
     /// Preloaded impulse `λ_pre` of each point (see [`SoftStepSettings::preload`]).
     pub(super) preload: Vec<f64>,
-    /// `γ/(1 − γ) · m h ω²` of each point: the preload is capped at this times the
+    /// `M γ/(1 − γ) · m h ω²` of each point: the preload is capped at this times the
     /// penetration.
     pub(super) preload_cap: Vec<f64>,
     /// Floor of the cap: `γ ·` the static load estimate of each point (per sub-step).
@@ -373,8 +406,12 @@ pub(super) struct SoftState {
     /// Load (N) each body passes down to its supports, by solver slot (scratch of the
     /// estimate).
     pub(super) load: Vec<f64>,
-    /// Sum of `n · up` over each body's supporting manifolds (scratch of the estimate).
-    pub(super) support: Vec<f64>,
+    /// Moment of each body's load and its supporting points (by solver slot; scratch
+    /// of the estimate).
+    pub(super) pressure: Vec<Pressure>,
+    /// Horizontal coordinates of each supporting contact point (natural order;
+    /// scratch of the estimate).
+    pub(super) flat: Vec<[f64; 2]>,
     /// Upper and lower slot and `n · up` of each manifold (natural order; `n · up` 0
     /// where it does not support; scratch of the estimate).
     pub(super) supports: Vec<(usize, usize, f64)>,
@@ -386,6 +423,93 @@ pub(super) struct SoftState {
     /// Buffers of the threaded sub-steps.
     #[cfg(feature = "parallel")]
     pub(super) parallel: super::soft_parallel::ParallelState,
+}
+
+/// One body's load and supports for the static load estimate
+/// (`ContactWorld::estimate_loads`), in horizontal coordinates.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Pressure {
+    /// `Σ f x` of the load: the weight at the centre and the forces passed down.
+    moment: [f64; 2],
+    /// Supporting points: count, `Σ x`, `Σ x xᵀ` as `[xx, xy, yy]`, and their
+    /// bounding box (`lo`, `hi`).
+    count: f64,
+    sum: [f64; 2],
+    second: [f64; 3],
+    lo: [f64; 2],
+    hi: [f64; 2],
+}
+
+impl Pressure {
+    /// Adds a supporting point at `x`.
+    fn add_point(&mut self, x: [f64; 2]) {
+        if self.count == 0.0 {
+            (self.lo, self.hi) = (x, x);
+        }
+        for k in 0..2 {
+            self.lo[k] = at_most(self.lo[k], x[k]);
+            self.hi[k] = at_least(self.hi[k], x[k]);
+        }
+        self.count += 1.0;
+        self.sum[0] += x[0];
+        self.sum[1] += x[1];
+        self.second[0] += x[0] * x[0];
+        self.second[1] += x[0] * x[1];
+        self.second[2] += x[1] * x[1];
+    }
+}
+
+/// The vertical force on a supporting point at `x` when a body carrying `load`
+/// rests on the points of `p` as on equal springs (a rigid body on an elastic
+/// foundation): `f(x) = L/N + βᵀ(x − x̄)`, linear over the points, with `Σ f = L`
+/// and `Σ f x = Σ L x_c` (the load's centre of pressure `x_c` = moment / `L`):
+/// `β = L S⁻¹ (x_c − x̄)`, `S = Σ (x − x̄)(x − x̄)ᵀ` the points' scatter. Points on a
+/// line (`det S` below `10⁻⁹ (tr S)²`) take the pseudo-inverse along it, `β = L S (x_c
+/// − x̄)/(tr S)²`; a single point takes the whole load. Where the centre of pressure
+/// lies so far off centre that a point would pull (the body tips rather than rests),
+/// `β` is scaled down until none does, by `t = min(1, (L/N)/B)` with `B = Σ_k |β_k|
+/// max(hi_k − x̄_k, x̄_k − lo_k)` over the points' bounding box: every `f` stays in
+/// `[0, 2L/N]` and they still sum to `L` (unscaled, a box leaning on one edge of a
+/// 1000-body pile was given hundreds of times its weight and was thrown 180 m).
+fn pressure_share(load: f64, p: &Pressure) -> impl Fn([f64; 2]) -> f64 {
+    let n = p.count;
+    let mean = [p.sum[0] / n, p.sum[1] / n];
+    let (sxx, sxy, syy) = (
+        p.second[0] - n * mean[0] * mean[0],
+        p.second[1] - n * mean[0] * mean[1],
+        p.second[2] - n * mean[1] * mean[1],
+    );
+    let mut beta = if load > 0.0 {
+        let c = [p.moment[0] / load - mean[0], p.moment[1] / load - mean[1]];
+        let det = sxx * syy - sxy * sxy;
+        let tr = sxx + syy;
+        if det > 1e-9 * tr * tr {
+            [
+                load * (syy * c[0] - sxy * c[1]) / det,
+                load * (sxx * c[1] - sxy * c[0]) / det,
+            ]
+        } else if tr > 0.0 {
+            let k = load / (tr * tr);
+            [k * (sxx * c[0] + sxy * c[1]), k * (sxy * c[0] + syy * c[1])]
+        } else {
+            [0.0, 0.0]
+        }
+    } else {
+        [0.0, 0.0]
+    };
+    let base = load / n;
+    let reach = |k: usize| at_least(p.hi[k] - mean[k], mean[k] - p.lo[k]);
+    let bound = beta[0].abs() * reach(0) + beta[1].abs() * reach(1);
+    if bound > base {
+        let t = base / bound;
+        beta = [beta[0] * t, beta[1] * t];
+    }
+    move |x: [f64; 2]| {
+        at_least(
+            base + beta[0] * (x[0] - mean[0]) + beta[1] * (x[1] - mean[1]),
+            0.0,
+        )
+    }
 }
 
 /// The most sub-steps one soft step accepts: 4096 (a 60 Hz step cut to 4 µs sub-steps;
@@ -427,6 +551,12 @@ impl ContactWorld {
         }
         if !(0.0..=1.0).contains(&s.preload) {
             return bad("soft_step.preload", "must be in [0, 1]");
+        }
+        if !(s.preload_cap_margin >= 1.0) || !s.preload_cap_margin.is_finite() {
+            return bad(
+                "soft_step.preload_cap_margin",
+                "must be finite and at least 1",
+            );
         }
         if s.relax_passes == 0 {
             return bad("soft_step.relax_passes", "must be at least 1");
@@ -753,11 +883,12 @@ impl ContactWorld {
             0.0
         };
         // Spring stiffness over the sub-step, `h ω²` per unit effective mass, and the
-        // cap's ratio `γ/(1 − γ)` (the ratio of preload to spring force at rest).
+        // cap's ratio `M γ/(1 − γ)` (`M` times the ratio of preload to spring force at
+        // rest: `preload_cap_margin`).
         let omega2 = (TAU * hertz) * (TAU * hertz);
         let omega2_fixed = 4.0 * omega2;
         let kappa = if s.preload < 1.0 {
-            s.preload / (1.0 - s.preload)
+            s.preload_cap_margin * s.preload / (1.0 - s.preload)
         } else {
             f64::INFINITY
         };
@@ -945,18 +1076,24 @@ impl ContactWorld {
     /// then overshoot (the top box sank 9 mm in the first 4 steps). The estimate is the
     /// weight each manifold carries at rest, found top-down as shock propagation orders
     /// its bodies (Guendelman et al. 2003): a manifold supports its upper body (along
-    /// `up`) when `n · up ≥ 1/2` (within 60° of vertical); each moving body's load `L`
-    /// (its weight `m |g|` plus what the manifolds it supports pass down) is shared by
-    /// its supports with one normal force `F = L / Σ n·up` each (so that their
-    /// vertical components sum to `L`), which adds `F n·up` to the lower body's load
-    /// (not where [`SoftStepSettings::one_way_mass_ratio`] has the lower body not
-    /// feel the upper one).
-    /// Statically indeterminate supports (a box on two boxes) get equal forces, exact
-    /// for the symmetric stack and pyramid; the solve corrects the rest. The estimate
-    /// of a point is `F h_s / points` (an impulse per sub-step). Deterministic: the
-    /// manifolds are taken by falling upper-body height, ties by contact index.
-    /// With `all_manifolds` it estimates every manifold even when none is new (and
-    /// still returns whether one was).
+    /// `up`) when `n · up ≥ 1/2` (within 60° of vertical); each moving body's load —
+    /// its weight `m |g|` at its centre plus the vertical forces the points it
+    /// supports pass down, at those points — is shared by the points of its supports
+    /// as a rigid body on equal springs shares it ([`pressure_share`]): the vertical
+    /// forces `f_i` vary linearly over the points' horizontal positions `x_i`, with
+    /// `Σ f_i` the load and `Σ f_i x_i` its moment (the load's centre of pressure
+    /// kept), clamped at zero. A point's normal impulse is `f_i h_s / n·up`, and its
+    /// `f_i` goes to the lower body at `x_i` (not where
+    /// [`SoftStepSettings::one_way_mass_ratio`] has the lower body not feel the
+    /// upper one). Statically indeterminate supports (a box on two boxes) get the
+    /// springs' share: exact for the stack, and on the pyramid's flanks, where a box
+    /// carries one neighbour above on one side, its supports' unequal share (an
+    /// equal force per manifold there over-estimated the outer support, whose
+    /// preload then sat on its cap: the pyramid's worst displacement over 600 steps
+    /// at 3 sub-steps 33.4 mm with equal forces, 0.69 mm with the share). The
+    /// solve corrects the rest. Deterministic: the manifolds are taken by falling
+    /// upper-body height, ties by contact index. With `all_manifolds` it estimates
+    /// every manifold even when none is new (and still returns whether one was).
     fn estimate_loads(&self, st: &mut SoftState, up: DVec3, hs: f64, all_manifolds: bool) -> bool {
         let contacts = &self.contacts;
         let none_new = st.found_hit.iter().all(|&hit| hit);
@@ -966,6 +1103,9 @@ impl ContactWorld {
         let nb = self.bodies.len();
         let g = self.gravity.length();
         let ratio = self.settings.soft_step.one_way_mass_ratio;
+        // Horizontal coordinates: along two axes normal to `up`.
+        let (e1, e2) = up.any_orthonormal_pair();
+        let flat = |x: DVec3| [x.dot(e1), x.dot(e2)];
         st.estimate.clear();
         st.estimate.resize(contacts.len(), 0.0);
         st.load.clear();
@@ -974,9 +1114,16 @@ impl ContactWorld {
                 .iter()
                 .map(|&im| if im > 0.0 { g / im } else { 0.0 }),
         );
-        st.support.clear();
-        st.support.resize(nb + 1, 0.0);
+        // The weights' moments, at the bodies' centres.
+        st.pressure.clear();
+        st.pressure.resize(nb + 1, Pressure::default());
+        for (i, b) in self.bodies.iter().enumerate() {
+            let x = flat(b.pose.x);
+            st.pressure[i].moment = [st.load[i] * x[0], st.load[i] * x[1]];
+        }
         st.supports.clear();
+        // Written for every supporting point below before it is read.
+        st.flat.resize(contacts.len(), [0.0; 2]);
         let (by_rank, start) = st.colouring.bottom_up();
         let slot = |k: usize| self.colliders[k].body.unwrap_or(nb);
         for j in 0..by_rank.len() {
@@ -990,7 +1137,11 @@ impl ContactWorld {
             };
             let supports = n_up >= 0.5 && upper != nb && st.inv_mass[upper] > 0.0;
             if supports {
-                st.support[upper] += n_up;
+                for i in start[j]..start[j + 1] {
+                    let x = flat(contacts[i].point);
+                    st.flat[i] = x;
+                    st.pressure[upper].add_point(x);
+                }
             }
             st.supports
                 .push((upper, lower, if supports { n_up } else { 0.0 }));
@@ -1003,14 +1154,21 @@ impl ContactWorld {
             if n_up == 0.0 {
                 continue;
             }
-            let force = st.load[upper] / st.support[upper];
+            let share = pressure_share(st.load[upper], &st.pressure[upper]);
             // One-way coupling: the lower body does not feel the upper one.
             let one_way = st.inv_mass[lower] > ratio * st.inv_mass[upper];
-            if lower != nb && st.inv_mass[lower] > 0.0 && !one_way {
-                st.load[lower] += force * n_up;
+            let feels = lower != nb && st.inv_mass[lower] > 0.0 && !one_way;
+            for i in start[j]..start[j + 1] {
+                let x = st.flat[i];
+                let f = share(x);
+                st.estimate[i] = f / n_up * hs;
+                if feels {
+                    st.load[lower] += f;
+                    let m = &mut st.pressure[lower].moment;
+                    m[0] += f * x[0];
+                    m[1] += f * x[1];
+                }
             }
-            let (i, end) = (start[j], start[j + 1]);
-            st.estimate[i..end].fill(force * hs / (end - i) as f64);
         }
         !none_new
     }
