@@ -354,21 +354,29 @@ pub fn mjcf(w: &ContactWorld, model: &str, dt: f64) -> Result<String, String> {
 }
 
 /// Sub-step counts of the soft step in the bench (`ours_soft{n}`), so that accuracy
-/// can be drawn against time; 4 is the default (Box2D's).
-pub const SOFT_SUBSTEPS: [usize; 4] = [1, 2, 4, 8];
+/// can be drawn against time; 3 is `Auto`'s ([`constraint_contact::rigid::AUTO_SUBSTEPS`]),
+/// 4 Box2D v3's.
+pub const SOFT_SUBSTEPS: [usize; 5] = [1, 2, 3, 4, 8];
 
 /// The solvers of ours that the bench runs on every scene: `Auto` (on the pyramid, beyond
-/// 200 points, that is the soft step with 4 sub-steps; on the sliding box, whose only
+/// 200 points, that is the soft step with `AUTO_SUBSTEPS` = 3 sub-steps; on the sliding box, whose only
 /// contact is the static ground, the sequential impulses where they solve the contact
 /// LCP to the tolerance, the dense Newton solve otherwise), `SequentialImpulses`, and the
 /// soft step with each of [`SOFT_SUBSTEPS`]
-/// (`ours_soft1`, `ours_soft2`, `ours_soft4`, `ours_soft8`; default soft settings).
+/// (`ours_soft1`, `ours_soft2`, `ours_soft3`, `ours_soft4`, `ours_soft8`; default soft
+/// settings).
 pub fn solvers() -> Vec<(&'static str, ContactSolver)> {
     let mut v = vec![
         ("ours_auto", ContactSolver::Auto),
         ("ours_si", ContactSolver::SequentialImpulses),
     ];
-    let names = ["ours_soft1", "ours_soft2", "ours_soft4", "ours_soft8"];
+    let names = [
+        "ours_soft1",
+        "ours_soft2",
+        "ours_soft3",
+        "ours_soft4",
+        "ours_soft8",
+    ];
     for (name, substeps) in names.into_iter().zip(SOFT_SUBSTEPS) {
         v.push((name, ContactSolver::SoftStep { substeps }));
     }

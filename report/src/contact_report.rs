@@ -1043,7 +1043,7 @@ pub fn section(
     let _ = writeln!(
         md,
         "Each scene runs with each solver at dt = {} s. Solvers: `Auto` (dense Newton with staggered \
-         friction up to {DENSE_CONTACT_LIMIT} contact points, the soft step with 4 sub-steps beyond), matrix-free \
+         friction up to {DENSE_CONTACT_LIMIT} contact points, the soft step with 3 sub-steps beyond), matrix-free \
          sequential impulses with 10 and 30 sweeps, dense PGS on the boxed friction LCP (tolerance \
          1e-6, at least 1000 sweeps allowed), dense Newton with two staggered friction sweeps; all \
          with the world's defaults otherwise (split-impulse Baumgarte 0.2, slop 0.1 mm, 2 cm \

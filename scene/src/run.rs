@@ -50,7 +50,7 @@ pub const METHODS: [(&str, &str); 7] = [
 pub const FREE_BODY_METHODS: [(&str, &str); 2] = [
     (
         "free-contact",
-        "free bodies only: the contact crate's world and defaults (dense Newton with staggered friction up to 200 points, the soft step with 4 sub-steps beyond)",
+        "free bodies only: the contact crate's world and defaults (dense Newton with staggered friction up to 200 points, the soft step with 3 sub-steps beyond)",
     ),
     (
         "soft-step",

@@ -449,11 +449,12 @@ const CONTACT_SCENES: [(&str, &str); 4] = [
 
 /// Engines of the contact scenes: `(id, label)`; the contact_peers bench's, then
 /// MuJoCo's settings ([`bench_contact::BOX_SETTINGS`], [`bench_contact::SLIDE_SETTINGS`]).
-const CONTACT_ENGINES: [(&str, &str); 18] = [
+const CONTACT_ENGINES: [(&str, &str); 19] = [
     ("ours_auto", "ours (Auto)"),
     ("ours_si", "ours (SI)"),
     ("ours_soft1", "ours (soft step, 1 sub-step)"),
     ("ours_soft2", "ours (soft step, 2 sub-steps)"),
+    ("ours_soft3", "ours (soft step, 3 sub-steps: Auto's)"),
     ("ours_soft4", "ours (soft step, 4 sub-steps)"),
     ("ours_soft8", "ours (soft step, 8 sub-steps)"),
     (
@@ -707,14 +708,14 @@ fn contact_markdown(p: &ContactPeers) -> String {
         .and_then(|a| a.contacts)
         .map_or(String::new(), |c| {
             format!(
-                " On the pyramid ({c} contact points at the end) `Auto` is the soft step with 4 sub-steps."
+                " On the pyramid ({c} contact points at the end) `Auto` is the soft step with 3 sub-steps."
             )
         });
     let mut notes = vec![
         format!(
             "ours (Auto) is `ContactSolver::Auto` with default `ContactSettings`: dense \
              Fischer–Burmeister Newton with staggered friction up to 200 contact points, \
-             the soft step with 4 sub-steps beyond.{auto_pyramid} ours (SI) forces \
+             the soft step with 3 sub-steps beyond.{auto_pyramid} ours (SI) forces \
              `ContactSolver::SequentialImpulses` (30 sweeps, 2 shock-propagation sweeps, \
              split impulses). ours (soft step, N sub-steps) is \
              `ContactSolver::SoftStep {{ substeps: N }}` (Box2D v3's soft step, default \
