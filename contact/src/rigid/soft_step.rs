@@ -1177,11 +1177,12 @@ impl ContactWorld {
     /// the next step's warm start, sorted by collider pair.
     fn store(&mut self, st: &mut SoftState, hs: f64) {
         let anchors = self.settings.soft_step.friction_anchors;
-        for (i, b) in self.bodies.iter_mut().enumerate() {
-            b.pose.x += st.dp[i];
-            b.pose.q = (st.dq[i] * b.pose.q).normalize();
-            b.v = st.v[i];
-            b.omega = st.w[i];
+        let moves = st.dp.iter().zip(&st.dq).zip(st.v.iter().zip(&st.w));
+        for (b, ((dp, dq), (v, w))) in self.bodies.iter_mut().zip(moves) {
+            b.pose.x += *dp;
+            b.pose.q = (*dq * b.pose.q).normalize();
+            b.v = *v;
+            b.omega = *w;
         }
         // Sized once and written by position (every contact's entry is written).
         let nc = self.contacts.len();
@@ -1195,13 +1196,21 @@ impl ContactWorld {
         // ascending (a box face's clipped corners), and sorting by the whole key cost
         // 4.5 % of the 210-box pyramid's step; checked by pair, and sorted if the
         // pairs are not in order.
-        for (k, c) in self.contacts.iter().enumerate() {
-            let p = st.colouring.position[k];
-            let [zn, z1, z2] = st.impulse[p];
-            let [_, t1, t2] = st.dir[p];
+        // Slices of exactly `nc` entries (the point arrays have one entry a contact):
+        // `p < nc` is one bounds check for all of them, and the outputs are walked in
+        // step (store was 4.8k of the 10-box stack's 206k instructions a step).
+        let position = &st.colouring.position[..nc];
+        let (impulse, dir, friction) = (&st.impulse[..nc], &st.dir[..nc], &st.friction[..nc]);
+        let (preload_floor, total) = (&st.preload_floor[..nc], &st.total[..nc]);
+        let outputs = st.warm_next[..nc]
+            .iter_mut()
+            .zip(self.impulses[..3 * nc].chunks_exact_mut(3));
+        for ((c, &p), (warm, out)) in self.contacts.iter().zip(position).zip(outputs) {
+            let [zn, z1, z2] = impulse[p];
+            let [_, t1, t2] = dir[p];
             // The anchor's slip at the end of the step; forgotten when the friction
             // saturated (the pair slides) or anchors are off.
-            let bound = st.friction[p] * zn;
+            let bound = friction[p] * zn;
             let sticking = z1.abs() < bound && z2.abs() < bound;
             let slip = if anchors && sticking {
                 let [a, b] = st.slots[p];
@@ -1212,8 +1221,8 @@ impl ContactWorld {
             } else {
                 DVec3::ZERO
             };
-            st.warm_next[k] = (c.key(), zn, t1 * z1 + t2 * z2, slip, st.preload_floor[p]);
-            self.impulses[3 * k..3 * k + 3].copy_from_slice(&st.total[p]);
+            *warm = (c.key(), zn, t1 * z1 + t2 * z2, slip, preload_floor[p]);
+            out.copy_from_slice(&total[p]);
         }
         if !st.warm_next.is_sorted_by_key(|e| (e.0 .0, e.0 .1)) {
             // Keys are unique: the unstable sort is deterministic.
