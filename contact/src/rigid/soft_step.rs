@@ -1137,10 +1137,13 @@ impl ContactWorld {
             };
             let supports = n_up >= 0.5 && upper != nb && st.inv_mass[upper] > 0.0;
             if supports {
-                for i in start[j]..start[j + 1] {
-                    let x = flat(contacts[i].point);
-                    st.flat[i] = x;
-                    st.pressure[upper].add_point(x);
+                // The manifold's run sliced once (one bounds check, not one a point).
+                let run = start[j]..start[j + 1];
+                let pressure = &mut st.pressure[upper];
+                for (out, c) in st.flat[run.clone()].iter_mut().zip(&contacts[run]) {
+                    let x = flat(c.point);
+                    *out = x;
+                    pressure.add_point(x);
                 }
             }
             st.supports
@@ -1158,16 +1161,26 @@ impl ContactWorld {
             // One-way coupling: the lower body does not feel the upper one.
             let one_way = st.inv_mass[lower] > ratio * st.inv_mass[upper];
             let feels = lower != nb && st.inv_mass[lower] > 0.0 && !one_way;
-            for i in start[j]..start[j + 1] {
-                let x = st.flat[i];
+            // The lower body's load and moment summed in locals, in the same order
+            // (the same bits), and the run sliced once.
+            let (mut load, mut m) = if feels {
+                (st.load[lower], st.pressure[lower].moment)
+            } else {
+                (0.0, [0.0; 2])
+            };
+            let run = start[j]..start[j + 1];
+            for (&x, e) in st.flat[run.clone()].iter().zip(&mut st.estimate[run]) {
                 let f = share(x);
-                st.estimate[i] = f / n_up * hs;
+                *e = f / n_up * hs;
                 if feels {
-                    st.load[lower] += f;
-                    let m = &mut st.pressure[lower].moment;
+                    load += f;
                     m[0] += f * x[0];
                     m[1] += f * x[1];
                 }
+            }
+            if feels {
+                st.load[lower] = load;
+                st.pressure[lower].moment = m;
             }
         }
         !none_new
