@@ -822,17 +822,21 @@ impl ContactWorld {
             &mut st.found_hit[..contacts.len()],
         );
         let mut cursor = 0;
-        for (j, c) in contacts.iter().enumerate() {
+        let warm = st.warm.as_slice();
+        for (c, (f, h)) in contacts
+            .iter()
+            .zip(found.iter_mut().zip(found_hit.iter_mut()))
+        {
             let (a, b, id) = c.key();
-            while cursor < st.warm.len() && (st.warm[cursor].0 .0, st.warm[cursor].0 .1) < (a, b) {
+            while cursor < warm.len() && (warm[cursor].0 .0, warm[cursor].0 .1) < (a, b) {
                 cursor += 1;
             }
-            let hit = st.warm[cursor..]
+            let hit = warm[cursor..]
                 .iter()
                 .take_while(|e| e.0 .0 == a && e.0 .1 == b)
                 .find(|e| e.0 .2 == id);
-            found_hit[j] = hit.is_some();
-            found[j] = hit.map_or(none, |&(_, zn, ft, sl, fl)| (zn, ft, sl, fl));
+            *h = hit.is_some();
+            *f = hit.map_or(none, |&(_, zn, ft, sl, fl)| (zn, ft, sl, fl));
         }
         let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
         // Preload: the mean previous normal impulse of each manifold (a run of one
