@@ -746,33 +746,36 @@ impl ContactWorld {
     /// velocities after the implicit gyroscopic update over `h`, zero displacements.
     fn load_bodies(&mut self, st: &mut SoftState, h: f64) {
         let n = self.bodies.len() + 1;
-        st.inv_mass.clear();
-        st.inv_inertia.clear();
+        // Sized to the slots with the static slot's values (its entry, the last, and
+        // an asleep body's are these) and written in place: one reserve an array, not
+        // a capacity check a push.
         st.v.clear();
+        st.v.resize(n, DVec3::ZERO);
         st.w.clear();
-        for (i, b) in self.bodies.iter_mut().enumerate() {
+        st.w.resize(n, DVec3::ZERO);
+        st.inv_mass.clear();
+        st.inv_mass.resize(n, 0.0);
+        st.inv_inertia.clear();
+        st.inv_inertia.resize(n, DMat3::ZERO);
+        let slots = st
+            .inv_mass
+            .iter_mut()
+            .zip(&mut st.inv_inertia)
+            .zip(st.v.iter_mut().zip(&mut st.w));
+        for (i, (b, ((im, ii), (v, w)))) in self.bodies.iter_mut().zip(slots).enumerate() {
             // An asleep body (the sleep module's hook) takes a static slot: at rest, zero
             // inverse mass, not integrated (it is in no contact row either).
             if self.sleep.asleep.get(i).copied().unwrap_or(false) {
-                st.inv_mass.push(0.0);
-                st.inv_inertia.push(DMat3::ZERO);
-                st.v.push(DVec3::ZERO);
-                st.w.push(DVec3::ZERO);
                 continue;
             }
             // One rotation matrix for both (`world_inv_inertia`'s `R I⁻¹ Rᵀ`).
             let r = b.rotation();
             b.omega = b.gyroscopic_step_with(&r, h);
-            st.inv_mass.push(1.0 / b.mass());
-            st.inv_inertia.push(r * b.inv_inertia() * r.transpose());
-            st.v.push(b.v);
-            st.w.push(b.omega);
+            *im = 1.0 / b.mass();
+            *ii = r * b.inv_inertia() * r.transpose();
+            *v = b.v;
+            *w = b.omega;
         }
-        // The static slot.
-        st.inv_mass.push(0.0);
-        st.inv_inertia.push(DMat3::ZERO);
-        st.v.push(DVec3::ZERO);
-        st.w.push(DVec3::ZERO);
         st.dp.clear();
         st.dp.resize(n, DVec3::ZERO);
         st.dq.clear();
