@@ -221,12 +221,13 @@ impl Colouring {
         }
         self.manifold_start.clear();
         self.manifold_points.clear();
+        let position = &self.position;
         for &j in &self.by_colour {
             self.manifold_start.push(self.manifold_points.len());
             let (s, e) = (self.start[j as usize], self.start[j as usize + 1]);
-            for &k in &order[s..e] {
-                self.manifold_points.push(self.position[k]);
-            }
+            // One reserve a manifold, not a capacity check a point.
+            self.manifold_points
+                .extend(order[s..e].iter().map(|&k| position[k]));
         }
         self.manifold_start.push(self.manifold_points.len());
         self.colour_start.push(m);
