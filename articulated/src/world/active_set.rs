@@ -161,6 +161,24 @@
 //! both, humanoid_CMU 0.5 s 411.36M both. The rule at a bound whose `w` turned
 //! against it (go to the other bound where `z − w` passes it, not free) was tried with
 //! it and changed no try on these runs, so it is left as it was.
+//!
+//! What still fails there (same runs, with the rule): dm_control's cheetah 7 tries (6
+//! cycles, 1 not settled), hopper controlled 10 (5 a dependent one-sided row, 3
+//! cycles, 2 not settled), passive 6. They are not near-solutions: the best iterate's
+//! natural-map residual was 5.6e-3 to 1.0 (cheetah) and 6.4e-7 to 1.0e-1 (hopper, one
+//! try below 1e-6), so ending a failed try on an acceptable iterate would take one
+//! try of seventeen. A cheetah cycle of one contact (normal and two friction rows): the
+//! friction row goes to its bound `μ z_n` from the last normal, which pulls the normal
+//! negative; the normal leaves, the bound falls to zero, and the first set returns.
+//! Tried and left out: holding such a normal active for one bounds' fixed point
+//! (`World::extrapolate_bounds`) instead of letting it leave (cheetah controlled
+//! 48.41M → 47.53M, but half_cheetah 43.88M → 43.95M, hopper passive 73.12M → 73.26M,
+//! controlled 83.73M → 83.96M, humanoid 205.18M → 205.33M, humanoid_CMU 411.36M →
+//! 411.52M: the per-iteration scan for such normals costs more than the tries it
+//! saves, outside the cheetah). dm hopper's remaining cost is per iteration, spread
+//! (2 s passive, 400 steps, about 880 iterations, 515 factors, 1 623 factor solves:
+//! `RowTree::solve` 7.1M, `factor` 6.5M, `assemble` 3.7M, `forward_marked` 3.2M, the
+//! active set's own loops and Schur rows 9.0M of 34.1M), with no single hot spot.
 
 use alloc::vec::Vec;
 
