@@ -177,8 +177,9 @@
 //! 411.52M: the per-iteration scan for such normals costs more than the tries it
 //! saves, outside the cheetah; deciding the hold only where a normal leaves, from the
 //! two tangent rows after it, measured the same: 47.51M, 43.93M, 73.22M, 83.88M,
-//! 205.29M, 411.51M, the hopper and humanoid trajectories unchanged). dm hopper's remaining cost is per iteration, spread
-//! (2 s passive, 400 steps, about 880 iterations, 515 factors, 1 623 factor solves:
+//! 205.29M, 411.51M, the hopper and humanoid trajectories unchanged). dm hopper's
+//! remaining cost is per iteration, spread (2 s passive, 400 steps, about 880
+//! iterations, 515 factors, 1 623 factor solves:
 //! `RowTree::solve` 7.1M, `factor` 6.5M, `assemble` 3.7M, `forward_marked` 3.2M, the
 //! active set's own loops and Schur rows 9.0M of 34.1M), with no single hot spot.
 
