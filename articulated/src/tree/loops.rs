@@ -25,7 +25,7 @@ use alloc::vec::Vec;
 
 use constraint_core::DVec3;
 use constraint_lagrange::solve::svd::SvdSolver;
-use constraint_lagrange::solve::DenseMatrix;
+use constraint_lagrange::solve::{DenseMatrix, Ldlt};
 
 use super::TreeSolver;
 use crate::error::ArticulatedError;
@@ -63,10 +63,7 @@ pub(crate) struct LoopClosure {
     y: Vec<f64>,
     /// How `μ` is solved from `S = G Y + C_G`.
     schur: Schur,
-    /// `S = L D Lᵀ` when [`Schur::Ldl`]: the unit lower `L` (row-major `k×k`, below
-    /// the diagonal) and `d`; `w` is scratch (`L⁻¹`).
-    l: Vec<f64>,
-    d: Vec<f64>,
+    /// Scratch of [`ldl_well_posed`] (a column of `S⁻¹`).
     w: Vec<f64>,
 }
 
@@ -79,7 +76,7 @@ enum Schur {
     /// `μ = L⁻ᵀ D⁻¹ L⁻¹ (G x₀ − r_G)`: `S` is positive definite with every eigenvalue
     /// far above the truncation ([`ldl_well_posed`]), so its inverse is the
     /// pseudo-inverse the SVD would give.
-    Ldl,
+    Ldl(Ldlt),
     /// The SVD of `S` and the tolerance it is truncated at (dependent loop rows).
     Svd(SvdSolver, f64),
 }
@@ -175,10 +172,9 @@ impl TreeSolver {
             return Err(ArticulatedError::LoopSolve);
         }
         let floor = 1e-10 * free_scale;
-        cl.schur = if ldl_well_posed(&s, floor, &mut cl.l, &mut cl.d, &mut cl.w) {
-            Schur::Ldl
-        } else {
-            Self::truncated_svd(&s, floor)?
+        cl.schur = match ldl_well_posed(&s, floor, &mut cl.w) {
+            Some(f) => Schur::Ldl(f),
+            None => Self::truncated_svd(&s, floor)?,
         };
         cl.rows.clear();
         cl.rows.extend_from_slice(rows);
@@ -237,8 +233,9 @@ impl TreeSolver {
         mu.resize(k, 0.0);
         match &cl.schur {
             Schur::Zero => {}
-            Schur::Ldl => {
-                if !ldl_solve(&cl.l, &cl.d, rhs, mu) {
+            Schur::Ldl(f) => {
+                mu.copy_from_slice(rhs);
+                if f.solve_in_place(mu).is_err() || mu.iter().any(|v| !v.is_finite()) {
                     return Err(ArticulatedError::LoopSolve);
                 }
             }
@@ -323,96 +320,34 @@ pub(crate) fn min_norm_truncated(svd: &SvdSolver, rel_tol: f64, b: &[f64], x: &m
 /// complement must be (by its lower bound) for the `LDLᵀ` to stand in for the SVD.
 const LDL_MARGIN: f64 = 1e3;
 
-/// `S = L D Lᵀ` into `l` (unit lower, row-major `k×k`) and `d` when `S` (its lower
-/// triangle) is positive definite with every eigenvalue far above the SVD's
-/// truncation `max(1e-10 σ_max, floor)`: then the truncated SVD keeps every singular
-/// value and its minimum-norm solution is `S⁻¹ b`, which the `LDLᵀ` gives for a
-/// fraction of the SVD's cost. The eigenvalues of a symmetric positive definite `S`
-/// lie in `[1 / tr(S⁻¹), tr(S)]` (`tr(S⁻¹) = Σ_i d_i⁻¹ Σ_j (L⁻¹)_ij²`); the test is
-/// `1 / tr(S⁻¹) > LDL_MARGIN · max(1e-10 tr(S), floor)`. `false` (use the SVD): a
-/// pivot `d_j ≤ 0`, dependent or nearly dependent loop rows, or a non-finite value.
-/// `w` is scratch (`L⁻¹`).
-fn ldl_well_posed(
-    s: &DenseMatrix,
-    floor: f64,
-    l: &mut Vec<f64>,
-    d: &mut Vec<f64>,
-    w: &mut Vec<f64>,
-) -> bool {
+/// `S = L D Lᵀ` ([`Ldlt`]) when `S` is positive definite with every eigenvalue far
+/// above the SVD's truncation `max(1e-10 σ_max, floor)`: then the truncated SVD keeps
+/// every singular value and its minimum-norm solution is `S⁻¹ b`, which the `LDLᵀ`
+/// gives for a fraction of the SVD's cost. The eigenvalues of a symmetric positive
+/// definite `S` lie in `[1 / tr(S⁻¹), tr(S)]`; the test is
+/// `1 / tr(S⁻¹) > LDL_MARGIN · max(1e-10 tr(S), floor)`, with `tr(S⁻¹) = Σ_i (S⁻¹ e_i)_i`.
+/// `None` (use the SVD): a pivot `d_j ≤ 0`, dependent or nearly dependent loop rows, or
+/// a non-finite value. `w` is scratch (one column of `S⁻¹`).
+fn ldl_well_posed(s: &DenseMatrix, floor: f64, w: &mut Vec<f64>) -> Option<Ldlt> {
     let k = s.n_rows();
     if k == 0 || s.n_cols() != k {
-        return false;
+        return None;
     }
-    l.clear();
-    l.resize(k * k, 0.0);
-    d.clear();
-    d.resize(k, 0.0);
-    let mut trace = 0.0;
-    for j in 0..k {
-        trace += s.get(j, j);
-        // d_j = s_jj − Σ_{p<j} l_jp² d_p, l_ij = (s_ij − Σ_{p<j} l_ip l_jp d_p) / d_j.
-        let mut dj = s.get(j, j);
-        for p in 0..j {
-            dj -= l[j * k + p] * l[j * k + p] * d[p];
-        }
-        if !(dj > 0.0) {
-            return false;
-        }
-        d[j] = dj;
-        for i in j + 1..k {
-            let mut v = s.get(i, j);
-            for p in 0..j {
-                v -= l[i * k + p] * l[j * k + p] * d[p];
-            }
-            l[i * k + j] = v / dj;
-        }
+    let f = Ldlt::factor(s).ok()?;
+    if !(0..k).all(|j| f.d(j) > 0.0) {
+        return None;
     }
-    // W = L⁻¹ (unit lower), row by row: w_ij = −Σ_{j≤p<i} l_ip w_pj.
-    w.clear();
-    w.resize(k * k, 0.0);
+    let trace: f64 = (0..k).map(|j| s.get(j, j)).sum();
     let mut tr_inv = 0.0;
     for i in 0..k {
-        let mut row_sq = 1.0;
-        for j in 0..i {
-            let mut v = 0.0;
-            for p in j..i {
-                v -= l[i * k + p] * w[p * k + j];
-            }
-            w[i * k + j] = v;
-            row_sq += v * v;
-        }
-        w[i * k + i] = 1.0;
-        tr_inv += row_sq / d[i];
+        w.clear();
+        w.resize(k, 0.0);
+        w[i] = 1.0;
+        f.solve_in_place(w).ok()?;
+        tr_inv += w[i];
     }
     let cutoff = floor.max(1e-10 * trace);
-    tr_inv.is_finite() && trace.is_finite() && tr_inv * LDL_MARGIN * cutoff < 1.0
-}
-
-/// `x = L⁻ᵀ D⁻¹ L⁻¹ b` with the factor of [`ldl_well_posed`]; `false` when `x` is not
-/// finite or the lengths do not match.
-fn ldl_solve(l: &[f64], d: &[f64], b: &[f64], x: &mut [f64]) -> bool {
-    let k = d.len();
-    if b.len() != k || x.len() != k || l.len() != k * k {
-        return false;
-    }
-    for i in 0..k {
-        let mut v = b[i];
-        for p in 0..i {
-            v -= l[i * k + p] * x[p];
-        }
-        x[i] = v;
-    }
-    for i in 0..k {
-        x[i] /= d[i];
-    }
-    for i in (0..k).rev() {
-        let mut v = x[i];
-        for p in i + 1..k {
-            v -= l[p * k + i] * x[p];
-        }
-        x[i] = v;
-    }
-    x.iter().all(|v| v.is_finite())
+    (tr_inv.is_finite() && trace.is_finite() && tr_inv * LDL_MARGIN * cutoff < 1.0).then_some(f)
 }
 
 #[cfg(test)]
@@ -434,10 +369,10 @@ mod tests {
             }
         });
         let b = [0.4, -1.1, 2.3, 0.7];
-        let (mut l, mut d, mut w) = (Vec::new(), Vec::new(), Vec::new());
-        assert!(ldl_well_posed(&s, 1e-10, &mut l, &mut d, &mut w));
-        let mut x = [0.0; 4];
-        assert!(ldl_solve(&l, &d, &b, &mut x));
+        let mut w = Vec::new();
+        let f = ldl_well_posed(&s, 1e-10, &mut w).expect("well posed");
+        let mut x = b;
+        f.solve_in_place(&mut x).expect("solve");
         let svd = SvdSolver::new(&s, 1e-10).expect("svd");
         let mut want = [0.0; 4];
         svd.solve_min_norm(&b, &mut want).expect("solve");
@@ -450,7 +385,7 @@ mod tests {
             let m = |k: usize| if k == 3 { 0 } else { k };
             s.get(m(i), m(j))
         });
-        assert!(!ldl_well_posed(&dep, 1e-10, &mut l, &mut d, &mut w));
+        assert!(ldl_well_posed(&dep, 1e-10, &mut w).is_none());
         // An eigenvalue 1e-6: refused with the floor at 1e-8 (not 1e3 above it), taken
         // with the floor at 1e-10 (the truncation then 1e-10 · tr S).
         let tiny = DenseMatrix::from_fn(2, 2, |i, j| match (i, j) {
@@ -458,7 +393,7 @@ mod tests {
             (1, 1) => 1e-6,
             _ => 0.0,
         });
-        assert!(!ldl_well_posed(&tiny, 1e-8, &mut l, &mut d, &mut w));
-        assert!(ldl_well_posed(&tiny, 1e-10, &mut l, &mut d, &mut w));
+        assert!(ldl_well_posed(&tiny, 1e-8, &mut w).is_none());
+        assert!(ldl_well_posed(&tiny, 1e-10, &mut w).is_some());
     }
 }
