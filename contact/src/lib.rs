@@ -61,7 +61,9 @@
 //! # fn main() {}
 //! ```
 #![cfg_attr(not(feature = "std"), no_std)]
-#![forbid(unsafe_code)]
+// Denied, not forbidden: the one exception is the soft step's AVX lanes
+// (`rigid::soft_lanes::avx`, the intrinsics behind a run-time CPU feature check).
+#![deny(unsafe_code)]
 #![deny(missing_docs)]
 
 /// The crate README's example, compiled and run with the doctests so it cannot rot.

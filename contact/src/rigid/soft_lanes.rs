@@ -1,28 +1,33 @@
-//! The soft step's passes two points at a time, one per SIMD lane (`wide::f64x2`;
-//! Box2D v3 solves its contact constraints in SIMD lanes the same way,
-//! `contact_solver.c`, `b2SolveContactTwoPointsTask`).
+//! The soft step's passes two or four manifolds at a time, one per SIMD lane
+//! (`wide::f64x2`, or four lanes of a 256-bit AVX register where the processor has
+//! AVX: the [`avx`] module; Box2D v3 solves its contact constraints in SIMD lanes the
+//! same way, `contact_solver.c`, `b2SolveContactTwoPointsTask`).
 //!
 //! The colouring's groups (one place of one colour: see the `colouring` module) hold
 //! points whose manifolds share no moving body, so within a group the Gauss–Seidel
-//! updates of two points commute: solving them side by side in two lanes is the same
+//! updates of two points commute: solving them side by side in lanes is the same
 //! work as solving them one after the other. Each lane does exactly the arithmetic of
 //! [`solve_point`](super::soft_step::solve_point) in the relax pass (`use_bias`
 //! false), operation for operation and in the same order (IEEE-754 lanes round as the
-//! scalar operations do; `at_least`/`at_most` keep the scalar compare-and-select),
-//! so the result is the same, bit for bit, as the one-point pass (and as the threaded
+//! scalar operations do, SSE2 and AVX alike, and nothing is contracted into a fused
+//! multiply-add; `at_least`/`at_most` keep the scalar compare-and-select), so the
+//! result is the same, bit for bit, as the one-point pass (and as the threaded
 //! passes, which stay one point at a time: `verify/tests/determinism.rs`).
 //!
-//! The passes take two manifolds of a colour at a time, one per lane, with their
-//! points in order: the two bodies' velocities of each manifold (every point of a
-//! manifold has the same two) are gathered once, updated point by point and
-//! scattered back once per manifold (loading and storing them per point was a
+//! The passes take the manifolds of a colour two or four at a time, one per lane,
+//! with their points in order: the two bodies' velocities of each manifold (every
+//! point of a manifold has the same two) are gathered once, updated point by point
+//! and scattered back once per manifold (loading and storing them per point was a
 //! quarter of the warm start; the 210-box pyramid's step −2.0 %, callgrind). The
-//! rows come packed per pair of manifolds ([`Paired`]), written once per step by
-//! `prepare` as it computes each point, in the order the passes read them (looking
-//! each pair of points up by solve position instead cost 4.6 % of the pyramid's
-//! step).
+//! rows come packed per quad of manifolds ([`Paired`]; lanes 0–1 one pair, 2–3 the
+//! next), written once per step by `prepare` as it computes each point, in the order
+//! the passes read them (looking each pair of points up by solve position instead
+//! cost 4.6 % of the pyramid's step); the four lanes of a value are contiguous, so
+//! that the four-lane passes load them with one 256-bit load and the two-lane passes
+//! with one 128-bit load of either half.
 
 use alloc::vec::Vec;
+use core::ops::{Add, Mul, Neg, Sub};
 
 use constraint_core::DVec3;
 use wide::f64x2;
@@ -30,50 +35,157 @@ use wide::f64x2;
 use super::colouring::Colouring;
 use super::soft_step::{Block, Bodies, Pass, PointImpulses, Rows, BLOCK_POINTS};
 
-/// Two 3-vectors, one per lane.
-#[derive(Clone, Copy, Debug)]
-struct Lanes3 {
-    x: f64x2,
-    y: f64x2,
-    z: f64x2,
-}
+// The crate's one `unsafe`: AVX intrinsics, run only where the processor has AVX.
+#[allow(unsafe_code)]
+#[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx")))]
+mod avx;
+pub(super) use avx::{block_quad, relax_quad, warm_quad};
 
-impl Lanes3 {
-    const ZERO: Self = Self {
-        x: f64x2::ZERO,
-        y: f64x2::ZERO,
-        z: f64x2::ZERO,
-    };
+/// Without AVX (other processors, or `no_std` builds without
+/// `-C target-feature=+avx`): no quads ([`Paired::quad`] is `None`), two lanes only.
+#[cfg(not(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx"))))]
+mod avx {
+    use super::{Block, Bodies, DVec3, Pass, PointImpulses, QuadRows, RelaxIo, Rows};
 
-    /// Sets lane `i` to `v`.
-    #[inline(always)]
-    fn set(&mut self, i: usize, v: DVec3) {
-        self.x.as_mut_array()[i] = v.x;
-        self.y.as_mut_array()[i] = v.y;
-        self.z.as_mut_array()[i] = v.z;
+    /// Declines (no four-lane passes here).
+    pub(in crate::rigid) fn relax_quad(
+        _: &Rows,
+        _: Option<&[QuadRows]>,
+        _: [&[usize]; 4],
+        _: &mut RelaxIo,
+        _: f64,
+    ) -> bool {
+        false
     }
 
+    /// Declines (no four-lane passes here).
+    pub(in crate::rigid) fn warm_quad(
+        _: &Rows,
+        _: Option<&[QuadRows]>,
+        _: [&[usize]; 4],
+        _: &mut [DVec3],
+        _: &mut [DVec3],
+        _: &[[f64; 3]],
+    ) -> bool {
+        false
+    }
+
+    /// Declines (no four-lane passes here).
+    pub(in crate::rigid) fn block_quad<B: Bodies, I: PointImpulses>(
+        _: &Rows,
+        _: Option<&[QuadRows]>,
+        _: [&Block; 4],
+        _: &mut I,
+        _: &mut B,
+        _: Pass,
+    ) -> bool {
+        false
+    }
+}
+
+/// Four lanes of one packed value: lanes 0–1 (manifold pair `(j, j + 1)`) and 2–3
+/// (`(j + 2, j + 3)`), contiguous.
+type Quad = [f64x2; 2];
+
+/// Lanes of `f64`, each doing the scalar operations (`+ − × neg`, and the scalar
+/// compare-and-select of `at_least`/`at_most`) with the scalar's rounding: `f64x2`,
+/// and four AVX lanes in the [`avx`] module.
+pub(super) trait Lane:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+{
+    /// Every lane `x`.
+    fn splat(x: f64) -> Self;
+    /// `K` lane values `f(l)[k]` at once, lane `l` from `f(l)` (lanes in order).
+    fn gather<const K: usize>(f: impl FnMut(usize) -> [f64; K]) -> [Self; K];
+    /// Lane `l`.
+    fn lane(self, l: usize) -> f64;
+    /// `x` if `x > lo`, else `lo`, per lane.
+    fn at_least(self, lo: Self) -> Self;
+    /// `x` if `x < hi`, else `hi`, per lane.
+    fn at_most(self, hi: Self) -> Self;
+    /// Whether every lane is `≥ 0` (false for NaN).
+    fn all_nonneg(self) -> bool;
+    /// The lanes of packed value `q`: half `half` (two lanes) or all four (`half`
+    /// ignored).
+    fn load(q: &Quad, half: usize) -> Self;
+}
+
+impl Lane for f64x2 {
     #[inline(always)]
-    fn of(p: DVec3, q: DVec3) -> Self {
+    fn splat(x: f64) -> Self {
+        f64x2::splat(x)
+    }
+    #[inline(always)]
+    fn gather<const K: usize>(mut f: impl FnMut(usize) -> [f64; K]) -> [Self; K] {
+        let (p, q) = (f(0), f(1));
+        let mut out = [f64x2::ZERO; K];
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = pair(p[k], q[k]);
+        }
+        out
+    }
+    #[inline(always)]
+    fn lane(self, l: usize) -> f64 {
+        self.as_array()[l]
+    }
+    #[inline(always)]
+    fn at_least(self, lo: Self) -> Self {
+        at_least(self, lo)
+    }
+    #[inline(always)]
+    fn at_most(self, hi: Self) -> Self {
+        at_most(self, hi)
+    }
+    #[inline(always)]
+    fn all_nonneg(self) -> bool {
+        let x = self.to_array();
+        x[0] >= 0.0 && x[1] >= 0.0
+    }
+    #[inline(always)]
+    fn load(q: &Quad, half: usize) -> Self {
+        q[half & 1]
+    }
+}
+
+/// One 3-vector per lane.
+#[derive(Clone, Copy, Debug)]
+struct Lanes3<L> {
+    x: L,
+    y: L,
+    z: L,
+}
+
+impl<L: Lane> Lanes3<L> {
+    #[inline(always)]
+    fn new(x: L, y: L, z: L) -> Self {
+        Self { x, y, z }
+    }
+
+    /// Lane `l` from `f(l)`.
+    #[inline(always)]
+    fn of(mut f: impl FnMut(usize) -> DVec3) -> Self {
+        let [x, y, z] = L::gather(|l| f(l).to_array());
+        Self { x, y, z }
+    }
+
+    /// The lanes of packed vector `q` ([`Lane::load`]).
+    #[inline(always)]
+    fn load(q: &Quad3, half: usize) -> Self {
         Self {
-            x: f64x2::new([p.x, q.x]),
-            y: f64x2::new([p.y, q.y]),
-            z: f64x2::new([p.z, q.z]),
+            x: L::load(&q.x, half),
+            y: L::load(&q.y, half),
+            z: L::load(&q.z, half),
         }
     }
 
     #[inline(always)]
-    fn lane(self, i: usize) -> DVec3 {
-        DVec3::new(
-            self.x.as_array()[i],
-            self.y.as_array()[i],
-            self.z.as_array()[i],
-        )
+    fn lane(self, l: usize) -> DVec3 {
+        DVec3::new(self.x.lane(l), self.y.lane(l), self.z.lane(l))
     }
 
     /// `xx' + yy' + zz'`, summed left to right as `DVec3::dot` does.
     #[inline(always)]
-    fn dot(self, o: Self) -> f64x2 {
+    fn dot(self, o: Self) -> L {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
 
@@ -96,7 +208,7 @@ impl Lanes3 {
     }
 
     #[inline(always)]
-    fn scale(self, s: f64x2) -> Self {
+    fn scale(self, s: L) -> Self {
         Self {
             x: self.x * s,
             y: self.y * s,
@@ -154,37 +266,90 @@ fn at_most(x: f64x2, hi: f64x2) -> f64x2 {
     }
 }
 
-/// The rows of two points side by side, one per lane (copied from the state's
-/// arrays once per step, so that the passes load each pair of values at once
-/// instead of gathering it from two places).
+/// Four lanes of a packed 3-vector.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct PairRows {
-    /// Normal and tangents.
-    dir: [Lanes3; 3],
-    /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
-    ang: [[Lanes3; 4]; 3],
-    /// Effective masses of the three rows.
-    mass: [f64x2; 3],
-    /// Inverse masses of the two bodies as the rows see them.
-    im: [f64x2; 2],
-    friction: f64x2,
+struct Quad3 {
+    x: Quad,
+    y: Quad,
+    z: Quad,
 }
 
-/// The rows packed two points at a time, per pair of manifolds: the manifolds of each
-/// colour before the overflow colour (no shared moving body) taken two at a time,
-/// `(j, j + 1)` from the colour's first, as the passes take them; where the two have
-/// the same point count (at most [`BLOCK_POINTS`]) their points' rows side by side,
-/// place by place (the passes read them in order: no lookup per point). Kept
-/// buffers: no allocation once grown.
+impl Quad3 {
+    /// Sets lane `h, l` (half `h`, lane `l` of it) to `v`.
+    #[inline(always)]
+    fn set(&mut self, h: usize, l: usize, v: DVec3) {
+        self.x[h].as_mut_array()[l] = v.x;
+        self.y[h].as_mut_array()[l] = v.y;
+        self.z[h].as_mut_array()[l] = v.z;
+    }
+}
+
+/// The rows of four points side by side, one per lane (written by `prepare` once per
+/// step, so that the passes load the lanes of each value at once instead of
+/// gathering them from four places). 32-byte aligned: every value's four lanes are
+/// one aligned 256-bit load.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(super) struct QuadRows {
+    /// Normal and tangents.
+    dir: [Quad3; 3],
+    /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
+    ang: [[Quad3; 4]; 3],
+    /// Effective masses of the three rows.
+    mass: [Quad; 3],
+    /// Inverse masses of the two bodies as the rows see them.
+    im: [Quad; 2],
+    friction: Quad,
+}
+
+impl QuadRows {
+    /// Direction `r` (normal, tangents) of the lanes ([`Lane::load`]).
+    #[inline(always)]
+    fn dir<L: Lane>(&self, r: usize, half: usize) -> Lanes3<L> {
+        Lanes3::load(&self.dir[r], half)
+    }
+
+    /// Angular term `k` of direction `r` of the lanes ([`QuadRows::ang`]'s order).
+    #[inline(always)]
+    fn ang<L: Lane>(&self, r: usize, k: usize, half: usize) -> Lanes3<L> {
+        Lanes3::load(&self.ang[r][k], half)
+    }
+
+    /// `Σ_r ang[r][k] λ_r`, summed left to right (an angular part of `M⁻¹ Jᵀ λ`).
+    #[inline(always)]
+    fn ang_sum<L: Lane>(&self, z: &[L; 3], k: usize, half: usize) -> Lanes3<L> {
+        self.ang(0, k, half)
+            .scale(z[0])
+            .add(self.ang(1, k, half).scale(z[1]))
+            .add(self.ang(2, k, half).scale(z[2]))
+    }
+}
+
+/// The rows packed four points at a time, per quad of manifolds: the manifolds of
+/// each colour before the overflow colour (no shared moving body) taken two at a
+/// time, `(j, j + 1)` from the colour's first, as the passes take them; where the two
+/// have the same point count (at most [`BLOCK_POINTS`]) their points' rows side by
+/// side, place by place (the passes read them in order: no lookup per point), in
+/// lanes 0–1, and where the next pair `(j + 2, j + 3)` of the colour has that point
+/// count too, its rows in lanes 2–3 of the same entries (a quad: the four-lane passes
+/// take the four manifolds at once), the quad's next pair then starting at `j + 4`.
+/// Kept buffers: no allocation once grown.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Paired {
-    rows: Vec<PairRows>,
-    /// Where the rows of manifold pair `(j, j + 1)` start in `rows`, by `j` (colour
-    /// order; `u32::MAX` where `j` starts no packed pair).
+    rows: Vec<QuadRows>,
+    /// Of manifold pair `(j, j + 1)`, by `j` (colour order): `2 ×` where its rows
+    /// start in `rows` `+` the half of the lanes they take (`u32::MAX` where `j`
+    /// starts no packed pair).
     first: Vec<u32>,
-    /// Of each point (solve position): `2 ×` its entry in `rows` `+` its lane
+    /// Whether manifold `j` starts a quad (pairs `(j, j + 1)` and `(j + 2, j + 3)` in
+    /// the two halves of the same entries).
+    quad: Vec<bool>,
+    /// Of each point (solve position): `4 ×` its entry in `rows` `+` its lane
     /// (`u32::MAX` where it is not packed).
     lane_of: Vec<u32>,
+    /// Whether the passes take quads four lanes at a time (the processor has AVX:
+    /// `avx::available`, checked once per step by [`Paired::plan`]).
+    four: bool,
 }
 
 /// One point's rows as `prepare` computes them (what [`Paired::put`] writes).
@@ -201,25 +366,50 @@ pub(super) struct PointRows<'a> {
     pub(super) friction: f64,
 }
 
-/// Rows of zeros (the entries `Paired::plan` sizes before `prepare` writes them).
-const ZERO_ROWS: PairRows = PairRows {
-    dir: [Lanes3::ZERO; 3],
-    ang: [[Lanes3::ZERO; 4]; 3],
-    mass: [f64x2::ZERO; 3],
-    im: [f64x2::ZERO; 2],
-    friction: f64x2::ZERO,
+const ZERO_QUAD: Quad = [f64x2::ZERO; 2];
+const ZERO_QUAD3: Quad3 = Quad3 {
+    x: ZERO_QUAD,
+    y: ZERO_QUAD,
+    z: ZERO_QUAD,
 };
 
+/// Rows of zeros (the entries `Paired::plan` sizes before `prepare` writes them).
+const ZERO_ROWS: QuadRows = QuadRows {
+    dir: [ZERO_QUAD3; 3],
+    ang: [[ZERO_QUAD3; 4]; 3],
+    mass: [ZERO_QUAD; 3],
+    im: [ZERO_QUAD; 2],
+    friction: ZERO_QUAD,
+};
+
+/// Whether this processor runs the four-lane passes (AVX: detected at run time with
+/// `std`, or compiled in with `-C target-feature=+avx`; never without `std` otherwise).
+#[inline]
+fn four_lanes() -> bool {
+    #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx")))]
+    {
+        avx::available()
+    }
+    #[cfg(not(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx"))))]
+    {
+        false
+    }
+}
+
 impl Paired {
-    /// Pairs up the manifolds of `colouring` and sizes the packed rows; `prepare`
-    /// then writes each point's rows into its lane ([`Paired::put`]) as it computes
-    /// them (packing them afterwards from the state's arrays read them back, 3 % of
-    /// the 210-box pyramid's step).
+    /// Pairs up the manifolds of `colouring` (pairs of pairs into quads where they
+    /// have the same point count) and sizes the packed rows; `prepare` then writes
+    /// each point's rows into its lane ([`Paired::put`]) as it computes them (packing
+    /// them afterwards from the state's arrays read them back, 3 % of the 210-box
+    /// pyramid's step).
     pub(super) fn plan(&mut self, colouring: &Colouring) {
         let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
         let manifolds = mp.len().saturating_sub(1);
+        self.four = four_lanes();
         self.first.clear();
         self.first.resize(manifolds, u32::MAX);
+        self.quad.clear();
+        self.quad.resize(manifolds, false);
         self.lane_of.clear();
         self.lane_of.resize(pts.len(), u32::MAX);
         let starts = &colouring.colour_start;
@@ -230,24 +420,32 @@ impl Paired {
         for c in 0..laned {
             let (mut j, hi) = (starts[c], starts[c + 1]);
             while j + 1 < hi {
-                let (m0, m1) = (&pts[mp[j]..mp[j + 1]], &pts[mp[j + 1]..mp[j + 2]]);
-                if m0.len() == m1.len() && m0.len() <= BLOCK_POINTS {
-                    self.first[j] = count as u32;
-                    for (&p, &q) in m0.iter().zip(m1) {
+                let manifold = |k: usize| &pts[mp[k]..mp[k + 1]];
+                let len = manifold(j).len();
+                if len == 0 || len > BLOCK_POINTS || manifold(j + 1).len() != len {
+                    j += 2;
+                    continue;
+                }
+                let quad = j + 3 < hi && (2..4).all(|m| manifold(j + m).len() == len);
+                let lanes = if quad { 4 } else { 2 };
+                self.first[j] = 2 * count as u32;
+                if quad {
+                    self.first[j + 2] = 2 * count as u32 + 1;
+                    self.quad[j] = true;
+                }
+                for m in 0..lanes {
+                    for (i, &p) in manifold(j + m).iter().enumerate() {
                         if let Some(l) = self.lane_of.get_mut(p) {
-                            *l = 2 * count as u32;
+                            *l = 4 * (count + i) as u32 + m as u32;
                         }
-                        if let Some(l) = self.lane_of.get_mut(q) {
-                            *l = 2 * count as u32 + 1;
-                        }
-                        count += 1;
                     }
                 }
-                j += 2;
+                count += len;
+                j += lanes;
             }
         }
-        // Kept at least at its bound (a packed entry is two points; grown as `Vec`
-        // grows, doubling), so that a step that packs more pairs than any before
+        // Kept at least at its bound (an entry holds two points or more; grown as
+        // `Vec` grows, doubling), so that a step that packs more pairs than any before
         // does not allocate: the 6-level pyramid's colouring packed one more pair at
         // step 70 with `preload_cap_margin` 4, and `soft_step_allocations` saw it.
         let bound = pts.len() / 2;
@@ -264,27 +462,45 @@ impl Paired {
         let Some(&at) = self.lane_of.get(p) else {
             return;
         };
-        let Some(pr) = self.rows.get_mut((at / 2) as usize) else {
+        let Some(pr) = self.rows.get_mut((at / 4) as usize) else {
             return;
         };
-        let lane = (at % 2) as usize;
+        let (h, l) = ((at / 2 % 2) as usize, (at % 2) as usize);
         for r in 0..3 {
-            pr.dir[r].set(lane, point.dir[r]);
+            pr.dir[r].set(h, l, point.dir[r]);
             for k in 0..4 {
-                pr.ang[r][k].set(lane, point.ang[r][k]);
+                pr.ang[r][k].set(h, l, point.ang[r][k]);
             }
-            pr.mass[r].as_mut_array()[lane] = point.mass[r];
+            pr.mass[r][h].as_mut_array()[l] = point.mass[r];
         }
-        pr.im[0].as_mut_array()[lane] = point.im[0];
-        pr.im[1].as_mut_array()[lane] = point.im[1];
-        pr.friction.as_mut_array()[lane] = point.friction;
+        pr.im[0][h].as_mut_array()[l] = point.im[0];
+        pr.im[1][h].as_mut_array()[l] = point.im[1];
+        pr.friction[h].as_mut_array()[l] = point.friction;
     }
 
-    /// The packed rows of manifold pair `(j, j + 1)` (`len` points each), if packed.
+    /// The packed rows of manifold pair `(j, j + 1)` (`len` points each) and the half
+    /// of their lanes it takes, if packed.
     #[inline(always)]
-    pub(super) fn of(&self, j: usize, len: usize) -> Option<&[PairRows]> {
-        let k = *self.first.get(j)? as usize;
-        self.rows.get(k..k + len)
+    pub(super) fn of(&self, j: usize, len: usize) -> Option<(&[QuadRows], usize)> {
+        let f = *self.first.get(j)?;
+        let k = (f / 2) as usize;
+        Some((self.rows.get(k..k + len)?, (f % 2) as usize))
+    }
+
+    /// Whether the passes take manifolds four at a time this step.
+    #[inline(always)]
+    pub(super) fn four(&self) -> bool {
+        self.four
+    }
+
+    /// The packed rows of the quad of manifolds `j … j + 3` (`len` points each), if
+    /// `j` starts one and the passes take quads ([`Paired::four`]).
+    #[inline(always)]
+    pub(super) fn quad(&self, j: usize, len: usize) -> Option<&[QuadRows]> {
+        if !self.four || !*self.quad.get(j)? {
+            return None;
+        }
+        self.of(j, len).map(|(rows, _)| rows)
     }
 }
 
@@ -299,47 +515,60 @@ pub(super) struct RelaxIo<'a> {
     pub(super) gap: &'a [f64],
 }
 
-/// The packed rows of two manifolds and their bodies' slots, where the two were packed
-/// side by side ([`Paired::of`]) with the same number of points; `None` otherwise (the
-/// caller then solves them one point at a time).
+/// `[f(0), …, f(W − 1)]` (a plain loop: `<[T; W]>::map` was left out of line in the
+/// four-lane biased pass, 3.9 % of the 210-box pyramid's step, callgrind).
 #[inline(always)]
-fn packed<'a>(
-    rows: &Rows,
-    pr: Option<&'a [PairRows]>,
-    pts: [&[usize]; 2],
-) -> Option<(&'a [PairRows], [[usize; 2]; 2])> {
-    let pr = pr?;
-    let len = pts[0].len();
-    if len == 0 || pts[1].len() != len || pr.len() != len {
-        return None;
+fn each<T: Copy + Default, const W: usize>(mut f: impl FnMut(usize) -> T) -> [T; W] {
+    let mut out = [T::default(); W];
+    for (l, o) in out.iter_mut().enumerate() {
+        *o = f(l);
     }
-    Some((pr, [rows.slots[pts[0][0]], rows.slots[pts[1][0]]]))
+    out
 }
 
-/// The two bodies' velocities of two manifolds, one per lane: `(v_a, ω_a, v_b, ω_b)`
+/// The bodies' slots of `W` manifolds (one per lane), where their rows were packed
+/// side by side (`pr`) with the same number of points; `None` otherwise (the caller
+/// then solves them one point at a time).
+#[inline(always)]
+fn packed<const W: usize>(
+    rows: &Rows,
+    pr: &[QuadRows],
+    pts: &[&[usize]; W],
+) -> Option<[[usize; 2]; W]> {
+    let len = pr.len();
+    if len == 0 || pts.iter().any(|m| m.len() != len) {
+        return None;
+    }
+    let mut ab = [[0; 2]; W];
+    for (ab, m) in ab.iter_mut().zip(pts) {
+        *ab = *rows.slots.get(*m.first()?)?;
+    }
+    Some(ab)
+}
+
+/// The two bodies' velocities of `W` manifolds, one per lane: `(v_a, ω_a, v_b, ω_b)`
 /// (every point of a manifold has the same two bodies).
 #[inline(always)]
-fn load(v: &[DVec3], w: &[DVec3], ab: [[usize; 2]; 2]) -> [Lanes3; 4] {
-    let ([a0, b0], [a1, b1]) = (ab[0], ab[1]);
+fn load<L: Lane, const W: usize>(v: &[DVec3], w: &[DVec3], ab: &[[usize; 2]; W]) -> [Lanes3<L>; 4] {
     [
-        Lanes3::of(v[a0], v[a1]),
-        Lanes3::of(w[a0], w[a1]),
-        Lanes3::of(v[b0], v[b1]),
-        Lanes3::of(w[b0], w[b1]),
+        Lanes3::of(|l| v[ab[l][0]]),
+        Lanes3::of(|l| w[ab[l][0]]),
+        Lanes3::of(|l| v[ab[l][1]]),
+        Lanes3::of(|l| w[ab[l][1]]),
     ]
 }
 
 /// Stores what [`load`] loaded, lane by lane; never the static slot (its inverse mass
 /// and inertia are zero: it stays at rest).
 #[inline(always)]
-fn store(
+fn store<L: Lane, const W: usize>(
     v: &mut [DVec3],
     w: &mut [DVec3],
-    ab: [[usize; 2]; 2],
-    [va, wa, vb, wb]: [Lanes3; 4],
+    ab: &[[usize; 2]; W],
+    [va, wa, vb, wb]: [Lanes3<L>; 4],
     fixed: usize,
 ) {
-    for (lane, [a, b]) in ab.into_iter().enumerate() {
+    for (lane, &[a, b]) in ab.iter().enumerate() {
         if a != fixed {
             v[a] = va.lane(lane);
             w[a] = wa.lane(lane);
@@ -353,88 +582,100 @@ fn store(
 
 /// The relax pass over two manifolds of one colour (no shared moving body), one per
 /// lane, their points in order: per point the rigid normal row (the speculative
-/// target `C/h` where separated, else no bias: `Δλ = −m (J v + b)`, `λ ≥ 0`), then
+/// target `C/h` where separated, else no bias: `Δv = −m (J v + b)`, `λ ≥ 0`), then
 /// the two friction rows bounded by `μ λ_n` (`|λ_t| ≤ μ λ_n`), as `solve_point` with
 /// `use_bias` false on each point, the bodies' velocities loaded once and stored once
-/// per manifold (Box2D v3 loads them per point). `pr`: their packed rows
-/// ([`Paired::of`]). Returns false, having changed nothing, where they were not
+/// per manifold (Box2D v3 loads them per point). `pr`: their packed rows and lane
+/// half ([`Paired::of`]). Returns false, having changed nothing, where they were not
 /// packed (point counts that differ or exceed [`BLOCK_POINTS`]): the caller then
 /// solves them one point at a time (the same bits, the two being independent).
 #[inline(always)]
 pub(super) fn relax_manifolds(
     rows: &Rows,
-    pr: Option<&[PairRows]>,
+    pr: Option<(&[QuadRows], usize)>,
     pts: [&[usize]; 2],
     io: &mut RelaxIo,
     inv_h: f64,
 ) -> bool {
-    let Some((pr, ab)) = packed(rows, pr, pts) else {
+    pr.is_some_and(|(pr, half)| relax_lanes::<f64x2, 2>(rows, pr, half, pts, io, inv_h))
+}
+
+/// [`relax_manifolds`] on `W` manifolds in the `W` lanes of `L` (`half`: the lanes of
+/// the packed rows `pr` two lanes take).
+#[inline(always)]
+fn relax_lanes<L: Lane, const W: usize>(
+    rows: &Rows,
+    pr: &[QuadRows],
+    half: usize,
+    pts: [&[usize]; W],
+    io: &mut RelaxIo,
+    inv_h: f64,
+) -> bool {
+    let Some(ab) = packed(rows, pr, &pts) else {
         return false;
     };
-    let len = pr.len();
-    let [mut va, mut wa, mut vb, mut wb] = load(io.v, io.w, ab);
-    for i in 0..len {
+    let [mut va, mut wa, mut vb, mut wb] = load::<L, W>(io.v, io.w, &ab);
+    for (i, q) in pr.iter().enumerate() {
+        let p: [usize; W] = each(|l| pts[l][i]);
         let vel = (&mut va, &mut wa, &mut vb, &mut wb);
-        relax_rows(&pr[i], pts[0][i], pts[1][i], io, vel, inv_h);
+        relax_rows(q, half, &p, io, vel, inv_h);
     }
-    store(io.v, io.w, ab, [va, wa, vb, wb], rows.fixed);
+    store(io.v, io.w, &ab, [va, wa, vb, wb], rows.fixed);
     true
 }
 
-/// Points `p` and `q` of [`relax_manifolds`], one per lane, on velocities held by the
-/// caller (`[v_a, ω_a, v_b, ω_b]`).
+/// Points `p` of [`relax_lanes`], one per lane, on velocities held by the caller
+/// (`[v_a, ω_a, v_b, ω_b]`).
 #[inline(always)]
-fn relax_rows(
-    pr: &PairRows,
-    p: usize,
-    q: usize,
+fn relax_rows<L: Lane, const W: usize>(
+    pr: &QuadRows,
+    half: usize,
+    p: &[usize; W],
     io: &mut RelaxIo,
-    (va, wa, vb, wb): (&mut Lanes3, &mut Lanes3, &mut Lanes3, &mut Lanes3),
+    (va, wa, vb, wb): (
+        &mut Lanes3<L>,
+        &mut Lanes3<L>,
+        &mut Lanes3<L>,
+        &mut Lanes3<L>,
+    ),
     inv_h: f64,
 ) {
-    let g = &pr.ang;
-    let [ma, mb] = pr.im;
-    let (zp, zq) = (io.impulse[p], io.impulse[q]);
+    let (ma, mb) = (L::load(&pr.im[0], half), L::load(&pr.im[1], half));
+    let zs = L::gather(|l| io.impulse[p[l]]);
     // Speculative where separated: approach at most to the surface within the
     // sub-step; rigid (mass_scale 1, impulse_scale 0, no preload) either way.
     let spec = |gap: f64| if gap > 0.0 { gap * inv_h } else { 0.0 };
-    let bias = pair(spec(io.gap[p]), spec(io.gap[q]));
-    let (one, zero) = (f64x2::splat(1.0), f64x2::splat(0.0));
-    let z0 = pair(zp[0], zq[0]);
-    let d0 = pr.dir[0];
-    let vn = d0.dot(vb.sub(*va)) + g[0][1].dot(*wb) - g[0][0].dot(*wa);
-    let new = at_least(
-        z0 - pr.mass[0] * one * (vn + bias) - zero * (z0 - zero),
-        zero,
-    );
+    let [bias] = L::gather(|l| [spec(io.gap[p[l]])]);
+    let (one, zero) = (L::splat(1.0), L::splat(0.0));
+    let z0 = zs[0];
+    let d0 = Lanes3::<L>::load(&pr.dir[0], half);
+    let vn = d0.dot(vb.sub(*va)) + pr.ang(0, 1, half).dot(*wb) - pr.ang(0, 0, half).dot(*wa);
+    let mass0 = L::load(&pr.mass[0], half);
+    let new = (z0 - mass0 * one * (vn + bias) - zero * (z0 - zero)).at_least(zero);
     let dz = new - z0;
-    let max_normal = at_least(new, pair(io.max_normal[p], io.max_normal[q]));
+    let max_normal = new.at_least(L::gather(|l| [io.max_normal[p[l]]])[0]);
     *va = va.sub(d0.scale(ma * dz));
-    *wa = wa.sub(g[0][2].scale(dz));
+    *wa = wa.sub(pr.ang(0, 2, half).scale(dz));
     *vb = vb.add(d0.scale(mb * dz));
-    *wb = wb.add(g[0][3].scale(dz));
-    let bound = pr.friction * new;
+    *wb = wb.add(pr.ang(0, 3, half).scale(dz));
+    let bound = L::load(&pr.friction, half) * new;
     let mut z = [new, zero, zero];
     for r in 1..3 {
-        let d = pr.dir[r];
-        let zr = pair(zp[r], zq[r]);
-        let vt = d.dot(vb.sub(*va)) + g[r][1].dot(*wb) - g[r][0].dot(*wa);
-        let unbounded = zr - pr.mass[r] * vt;
-        let new = at_least(at_most(unbounded, bound), -bound);
+        let d = Lanes3::<L>::load(&pr.dir[r], half);
+        let zr = zs[r];
+        let vt = d.dot(vb.sub(*va)) + pr.ang(r, 1, half).dot(*wb) - pr.ang(r, 0, half).dot(*wa);
+        let unbounded = zr - L::load(&pr.mass[r], half) * vt;
+        let new = unbounded.at_most(bound).at_least(-bound);
         let dz = new - zr;
         z[r] = new;
         *va = va.sub(d.scale(ma * dz));
-        *wa = wa.sub(g[r][2].scale(dz));
+        *wa = wa.sub(pr.ang(r, 2, half).scale(dz));
         *vb = vb.add(d.scale(mb * dz));
-        *wb = wb.add(g[r][3].scale(dz));
+        *wb = wb.add(pr.ang(r, 3, half).scale(dz));
     }
-    for (lane, point) in [p, q].into_iter().enumerate() {
-        io.impulse[point] = [
-            z[0].as_array()[lane],
-            z[1].as_array()[lane],
-            z[2].as_array()[lane],
-        ];
-        io.max_normal[point] = max_normal.as_array()[lane];
+    for (lane, &point) in p.iter().enumerate() {
+        io.impulse[point] = [z[0].lane(lane), z[1].lane(lane), z[2].lane(lane)];
+        io.max_normal[point] = max_normal.lane(lane);
     }
 }
 
@@ -442,118 +683,147 @@ fn relax_rows(
 /// body) with their normal rows solved as blocks, one manifold per lane: exactly
 /// `solve_block` on each (`(A + diag c) Δλ = −(J v + b + c∘(λ − λ_pre))`, then the
 /// friction rows point by point), for two blocks of the same point count without
-/// friction anchors; `pr`: their packed rows ([`Paired::of`]). Returns false, having changed nothing, where the lanes do not
-/// apply or where `solve_block` would decline for either manifold (a separated
-/// point, an impulse turning negative): the caller then solves both one at a time
-/// (the same bits either way, the two manifolds being independent).
+/// friction anchors; `pr`: their packed rows and lane half ([`Paired::of`]).
+/// Returns false, having changed nothing, where the lanes do not apply or where
+/// `solve_block` would decline for either manifold (a separated point, an impulse
+/// turning negative): the caller then solves both one at a time (the same bits
+/// either way, the two manifolds being independent).
 #[inline(always)]
 pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
     rows: &Rows,
-    pr: Option<&[PairRows]>,
+    pr: Option<(&[QuadRows], usize)>,
     blk: [&Block; 2],
+    io: &mut I,
+    vel: &mut B,
+    pass: Pass,
+) -> bool {
+    pr.is_some_and(|(pr, half)| block_lanes::<f64x2, 2, B, I>(rows, pr, half, blk, io, vel, pass))
+}
+
+/// [`block_pair`] on `W` manifolds in the `W` lanes of `L` (`half`: the lanes of the
+/// packed rows `pr` two lanes take).
+#[inline(always)]
+fn block_lanes<L: Lane, const W: usize, B: Bodies, I: PointImpulses>(
+    rows: &Rows,
+    pr: &[QuadRows],
+    half: usize,
+    blk: [&Block; W],
     io: &mut I,
     vel: &mut B,
     pass: Pass,
 ) -> bool {
     const N: usize = BLOCK_POINTS;
     let len = blk[0].len;
-    let Some(pr) = pr else {
-        return false;
-    };
-    if len == 0 || blk[1].len != len || pr.len() != len || pass.anchors {
+    if len == 0 || blk.iter().any(|b| b.len != len) || pr.len() != len || pass.anchors {
         return false;
     }
-    let mut gap = [f64x2::splat(0.0); N];
+    let zero = L::splat(0.0);
+    let mut gap = [zero; N];
     for (i, g) in gap.iter_mut().enumerate().take(len) {
-        let (g0, g1) = (io.gap(blk[0].pts[i]), io.gap(blk[1].pts[i]));
-        if g0 > 0.0 || g1 > 0.0 {
+        let gs: [f64; W] = each(|l| io.gap(blk[l].pts[i]));
+        if gs.iter().any(|&g| g > 0.0) {
             return false;
         }
-        *g = pair(g0, g1);
+        *g = L::gather(|l| [gs[l]])[0];
     }
-    let p0 = [blk[0].pts[0], blk[1].pts[0]];
-    let ([a0, b0], [a1, b1]) = (rows.slots[p0[0]], rows.slots[p0[1]]);
-    let ((va0, wa0), (vb0, wb0)) = (vel.velocity(a0), vel.velocity(b0));
-    let ((va1, wa1), (vb1, wb1)) = (vel.velocity(a1), vel.velocity(b1));
-    let (mut va, mut wa) = (Lanes3::of(va0, va1), Lanes3::of(wa0, wa1));
-    let (mut vb, mut wb) = (Lanes3::of(vb0, vb1), Lanes3::of(wb0, wb1));
-    let (s0, s1) = (rows.soft[p0[0]], rows.soft[p0[1]]);
-    let bias_rate = pair(s0.bias_rate, s1.bias_rate);
-    let max_push = -f64x2::splat(pass.max_push);
-    let zero = f64x2::splat(0.0);
+    let p0: [usize; W] = each(|l| blk[l].pts[0]);
+    let ab: [[usize; 2]; W] = each(|l| rows.slots[p0[l]]);
+    let [vax, vay, vaz, wax, way, waz] = L::gather(|l| {
+        let (v, w) = vel.velocity(ab[l][0]);
+        [v.x, v.y, v.z, w.x, w.y, w.z]
+    });
+    let [vbx, vby, vbz, wbx, wby, wbz] = L::gather(|l| {
+        let (v, w) = vel.velocity(ab[l][1]);
+        [v.x, v.y, v.z, w.x, w.y, w.z]
+    });
+    let (mut va, mut wa) = (Lanes3::new(vax, vay, vaz), Lanes3::new(wax, way, waz));
+    let (mut vb, mut wb) = (Lanes3::new(vbx, vby, vbz), Lanes3::new(wbx, wby, wbz));
+    let [bias_rate] = L::gather(|l| [rows.soft[p0[l]].bias_rate]);
+    let max_push = -L::splat(pass.max_push);
     // The points' impulses and largest normal impulses, lane by lane.
     let mut z = [[zero; 3]; N];
     let mut most = [zero; N];
     for i in 0..len {
-        let ((z0, m0), (z1, m1)) = (io.get(blk[0].pts[i]), io.get(blk[1].pts[i]));
-        z[i] = [pair(z0[0], z1[0]), pair(z0[1], z1[1]), pair(z0[2], z1[2])];
-        most[i] = pair(m0, m1);
+        let [z0, z1, z2, m] = L::gather(|l| {
+            let (z, m) = io.get(blk[l].pts[i]);
+            [z[0], z[1], z[2], m]
+        });
+        z[i] = [z0, z1, z2];
+        most[i] = m;
     }
     // r = J v + b + c∘(λ − λ_pre), zero in the padding.
     let mut r = [zero; N];
     for i in 0..len {
-        let (p, q) = (blk[0].pts[i], blk[1].pts[i]);
-        let (g, d0) = (&pr[i].ang, pr[i].dir[0]);
-        let vn = d0.dot(vb.sub(va)) + g[0][1].dot(wb) - g[0][0].dot(wa);
-        let bias = at_least(bias_rate * gap[i], max_push);
-        let pre = at_most(
-            pair(rows.preload[p], rows.preload[q]),
-            at_least(
-                pair(rows.preload_cap[p], rows.preload_cap[q]) * -gap[i],
-                pair(rows.preload_floor[p], rows.preload_floor[q]),
-            ),
-        );
-        r[i] = vn + bias + pair(blk[0].c[i], blk[1].c[i]) * (z[i][0] - pre);
+        let p: [usize; W] = each(|l| blk[l].pts[i]);
+        let (q, d0) = (&pr[i], Lanes3::<L>::load(&pr[i].dir[0], half));
+        let vn = d0.dot(vb.sub(va)) + q.ang(0, 1, half).dot(wb) - q.ang(0, 0, half).dot(wa);
+        let bias = (bias_rate * gap[i]).at_least(max_push);
+        let [preload, cap, floor, c] = L::gather(|l| {
+            let p = p[l];
+            [
+                rows.preload[p],
+                rows.preload_cap[p],
+                rows.preload_floor[p],
+                blk[l].c[i],
+            ]
+        });
+        let pre = preload.at_most((cap * -gap[i]).at_least(floor));
+        r[i] = vn + bias + c * (z[i][0] - pre);
     }
     // Δλ = −K⁻¹ r over all N rows (the padding of K⁻¹ is the identity).
     let mut dz = [zero; N];
     for (i, dz) in dz.iter_mut().enumerate() {
-        let k = |l: usize| pair(blk[0].kinv[i * N + l], blk[1].kinv[i * N + l]);
-        *dz = -(k(0) * r[0] + k(1) * r[1] + k(2) * r[2] + k(3) * r[3]);
-        let after = (z[i][0] + *dz).to_array();
-        if !(after[0] >= 0.0 && after[1] >= 0.0) {
+        let k = L::gather(|l| {
+            let kinv = &blk[l].kinv;
+            [
+                kinv[i * N],
+                kinv[i * N + 1],
+                kinv[i * N + 2],
+                kinv[i * N + 3],
+            ]
+        });
+        *dz = -(k[0] * r[0] + k[1] * r[1] + k[2] * r[2] + k[3] * r[3]);
+        if !(z[i][0] + *dz).all_nonneg() {
             return false;
         }
     }
     for i in 0..len {
-        let (g, d0) = (&pr[i].ang, pr[i].dir[0]);
-        let [ma, mb] = pr[i].im;
-        z[i][0] += dz[i];
-        most[i] = at_least(z[i][0], most[i]);
+        let q = &pr[i];
+        let d0 = Lanes3::<L>::load(&q.dir[0], half);
+        let (ma, mb) = (L::load(&q.im[0], half), L::load(&q.im[1], half));
+        z[i][0] = z[i][0] + dz[i];
+        most[i] = z[i][0].at_least(most[i]);
         va = va.sub(d0.scale(ma * dz[i]));
-        wa = wa.sub(g[0][2].scale(dz[i]));
+        wa = wa.sub(Lanes3::load(&q.ang[0][2], half).scale(dz[i]));
         vb = vb.add(d0.scale(mb * dz[i]));
-        wb = wb.add(g[0][3].scale(dz[i]));
+        wb = wb.add(Lanes3::load(&q.ang[0][3], half).scale(dz[i]));
     }
     // Friction point by point (no anchors: velocity rows, |λ_t| ≤ μ λ_n).
     for (i, zi) in z.iter_mut().enumerate().take(len) {
-        let (g, [ma, mb]) = (&pr[i].ang, pr[i].im);
-        let bound = pr[i].friction * zi[0];
+        let q = &pr[i];
+        let (ma, mb) = (L::load(&q.im[0], half), L::load(&q.im[1], half));
+        let bound = L::load(&q.friction, half) * zi[0];
         for rr in 1..3 {
-            let d = pr[i].dir[rr];
-            let vt = d.dot(vb.sub(va)) + g[rr][1].dot(wb) - g[rr][0].dot(wa);
-            let unbounded = zi[rr] - pr[i].mass[rr] * vt;
-            let new = at_least(at_most(unbounded, bound), -bound);
+            let d = Lanes3::<L>::load(&q.dir[rr], half);
+            let vt = d.dot(vb.sub(va)) + q.ang(rr, 1, half).dot(wb) - q.ang(rr, 0, half).dot(wa);
+            let unbounded = zi[rr] - L::load(&q.mass[rr], half) * vt;
+            let new = unbounded.at_most(bound).at_least(-bound);
             let dz = new - zi[rr];
             zi[rr] = new;
             va = va.sub(d.scale(ma * dz));
-            wa = wa.sub(g[rr][2].scale(dz));
+            wa = wa.sub(q.ang(rr, 2, half).scale(dz));
             vb = vb.add(d.scale(mb * dz));
-            wb = wb.add(g[rr][3].scale(dz));
+            wb = wb.add(q.ang(rr, 3, half).scale(dz));
         }
     }
-    for lane in 0..2 {
+    for (lane, b) in blk.iter().enumerate() {
         for i in 0..len {
-            let zi = [
-                z[i][0].as_array()[lane],
-                z[i][1].as_array()[lane],
-                z[i][2].as_array()[lane],
-            ];
-            io.set(blk[lane].pts[i], zi, most[i].as_array()[lane]);
+            let zi = [z[i][0].lane(lane), z[i][1].lane(lane), z[i][2].lane(lane)];
+            io.set(b.pts[i], zi, most[i].lane(lane));
         }
     }
     // The static slot's inverse mass and inertia are zero: it stays at rest.
-    for (lane, (a, b)) in [(a0, b0), (a1, b1)].into_iter().enumerate() {
+    for (lane, &[a, b]) in ab.iter().enumerate() {
         if a != rows.fixed {
             vel.set_velocity(a, va.lane(lane), wa.lane(lane));
         }
@@ -573,34 +843,44 @@ pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
 #[inline(always)]
 pub(super) fn warm_manifolds(
     rows: &Rows,
-    pr: Option<&[PairRows]>,
+    pr: Option<(&[QuadRows], usize)>,
     pts: [&[usize]; 2],
     v: &mut [DVec3],
     w: &mut [DVec3],
     impulse: &[[f64; 3]],
 ) -> bool {
-    let Some((pr, ab)) = packed(rows, pr, pts) else {
+    pr.is_some_and(|(pr, half)| warm_lanes::<f64x2, 2>(rows, pr, half, pts, v, w, impulse))
+}
+
+/// [`warm_manifolds`] on `W` manifolds in the `W` lanes of `L` (`half`: the lanes of
+/// the packed rows `pr` two lanes take).
+#[inline(always)]
+fn warm_lanes<L: Lane, const W: usize>(
+    rows: &Rows,
+    pr: &[QuadRows],
+    half: usize,
+    pts: [&[usize]; W],
+    v: &mut [DVec3],
+    w: &mut [DVec3],
+    impulse: &[[f64; 3]],
+) -> bool {
+    let Some(ab) = packed(rows, pr, &pts) else {
         return false;
     };
-    let len = pr.len();
-    let [mut va, mut wa, mut vb, mut wb] = load(v, w, ab);
-    for i in 0..len {
-        let (zp, zq) = (impulse[pts[0][i]], impulse[pts[1][i]]);
-        let z = [pair(zp[0], zq[0]), pair(zp[1], zq[1]), pair(zp[2], zq[2])];
-        let (d, g) = (&pr[i].dir, &pr[i].ang);
-        let lin = d[0].scale(z[0]).add(d[1].scale(z[1])).add(d[2].scale(z[2]));
-        let ang = |k: usize| {
-            g[0][k]
-                .scale(z[0])
-                .add(g[1][k].scale(z[1]))
-                .add(g[2][k].scale(z[2]))
-        };
-        let [ma, mb] = pr[i].im;
+    let [mut va, mut wa, mut vb, mut wb] = load::<L, W>(v, w, &ab);
+    for (i, q) in pr.iter().enumerate() {
+        let z = L::gather(|l| impulse[pts[l][i]]);
+        let lin = q
+            .dir(0, half)
+            .scale(z[0])
+            .add(q.dir(1, half).scale(z[1]))
+            .add(q.dir(2, half).scale(z[2]));
+        let (ma, mb) = (L::load(&q.im[0], half), L::load(&q.im[1], half));
         va = va.sub(lin.scale(ma));
-        wa = wa.sub(ang(2));
+        wa = wa.sub(q.ang_sum(&z, 2, half));
         vb = vb.add(lin.scale(mb));
-        wb = wb.add(ang(3));
+        wb = wb.add(q.ang_sum(&z, 3, half));
     }
-    store(v, w, ab, [va, wa, vb, wb], rows.fixed);
+    store(v, w, &ab, [va, wa, vb, wb], rows.fixed);
     true
 }

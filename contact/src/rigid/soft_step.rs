@@ -48,9 +48,10 @@
 //! last, static slot (zero inverse mass) for the ground. Every buffer lives in [`SoftState`] and is reused: a step allocates nothing
 //! once the buffers have grown to the scene.
 //!
-//! SIMD lanes (the `soft_lanes` module, `wide::f64x2`): on one thread the warm start,
-//! the biased pass (block normal solve and friction) and the relax pass take the
-//! manifolds of a colour two at a time, one per lane, their rows packed side by side
+//! SIMD lanes (the `soft_lanes` module, `wide::f64x2`, or four AVX lanes where the
+//! processor has AVX): on one thread the warm start, the biased pass (block normal
+//! solve and friction) and the relax pass take the manifolds of a colour two (four)
+//! at a time, one per lane, their rows packed side by side
 //! once per step and each manifold's two bodies' velocities loaded once. Each lane does the scalar
 //! pass's operations in the same order on independent bodies, so the bits are those
 //! of one point (manifold) at a time, and of the threaded passes, which stay scalar.
@@ -65,7 +66,10 @@ use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DQuat, DVec3, Pose};
 
 use super::colouring::Colouring;
-use super::soft_lanes::{block_pair, relax_manifolds, warm_manifolds, Paired, PointRows, RelaxIo};
+use super::soft_lanes::{
+    block_pair, block_quad, relax_manifolds, relax_quad, warm_manifolds, warm_quad, Paired,
+    PointRows, RelaxIo,
+};
 use super::{ContactError, ContactSolver, ContactStats, ContactWorld, RowsSolver, SolverPath};
 use crate::geometry::BroadScratch;
 
@@ -1607,6 +1611,11 @@ fn warm_start(st: &mut SoftState) {
         for_manifold_pairs(
             colouring,
             rows.slots.len(),
+            paired.four(),
+            |j, pts, vel: &mut Slices| {
+                let pr = paired.quad(j, pts[0].len());
+                warm_quad(&rows, pr, pts, vel.v, vel.w, impulse)
+            },
             |j, pts, vel: &mut Slices| {
                 let pr = paired.of(j, pts[0].len());
                 warm_manifolds(&rows, pr, pts, vel.v, vel.w, impulse)
@@ -1619,16 +1628,19 @@ fn warm_start(st: &mut SoftState) {
 }
 
 /// Walks the colouring for the point passes that take two manifolds at a time: per
-/// colour before the overflow colour, `pair` on consecutive manifolds `(j, j + 1)`
-/// (their points in order; where it declines, and for a colour's odd manifold, `one`
-/// on each point in order), then `one` on the overflow colour's points in solve
-/// order (its manifolds may share bodies). Within a colour the manifolds touch
-/// disjoint moving bodies, so this is the same work, bit for bit, as every point in
-/// solve order.
+/// colour before the overflow colour, with `four`, `quad` on consecutive manifolds
+/// `j … j + 3` (where it declines, and without `four`, as two pairs), `pair` on
+/// consecutive manifolds `(j, j + 1)` (their points in order; where it declines, and
+/// for a colour's odd manifold, `one` on each point in order), then `one` on the
+/// overflow colour's points in solve order (its manifolds may share bodies). Within a
+/// colour the manifolds touch disjoint moving bodies, so this is the same work, bit
+/// for bit, as every point in solve order.
 #[inline(always)]
 fn for_manifold_pairs<S>(
     colouring: &Colouring,
     points: usize,
+    four: bool,
+    mut quad: impl FnMut(usize, [&[usize]; 4], &mut S) -> bool,
     mut pair: impl FnMut(usize, [&[usize]; 2], &mut S) -> bool,
     one: &mut impl FnMut(usize, &mut S),
     state: &mut S,
@@ -1657,6 +1669,13 @@ fn for_manifold_pairs<S>(
                 )
             } else {
                 let m0 = manifold(j);
+                if four && j + 3 < hi {
+                    let (m1, m2, m3) = (manifold(j + 1), manifold(j + 2), manifold(j + 3));
+                    if quad(j, [m0, m1, m2, m3], state) {
+                        j += 4;
+                        continue;
+                    }
+                }
                 let m1 = if j + 1 < hi { manifold(j + 1) } else { empty };
                 j += 2;
                 if !m1.is_empty() && pair(j - 2, [m0, m1], state) {
@@ -1757,6 +1776,14 @@ fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, anchors: bo
                 let (mut j, hi) = (starts[c], starts[c + 1]);
                 if !(serial && c + 1 == colours) {
                     while j + 1 < hi {
+                        if paired.four() && j + 3 < hi {
+                            let quad = [&blocks[j], &blocks[j + 1], &blocks[j + 2], &blocks[j + 3]];
+                            let pr = paired.quad(j, blocks[j].len);
+                            if block_quad(&rows, pr, quad, &mut io, &mut vel, pass) {
+                                j += 4;
+                                continue;
+                            }
+                        }
                         let pair = [&blocks[j], &blocks[j + 1]];
                         let pr = paired.of(j, blocks[j].len);
                         if !block_pair(&rows, pr, pair, &mut io, &mut vel, pass) {
@@ -1825,6 +1852,10 @@ fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
         for_manifold_pairs(
             colouring,
             rows.slots.len(),
+            paired.four(),
+            |j, pts, io: &mut RelaxIo| {
+                relax_quad(&rows, paired.quad(j, pts[0].len()), pts, io, pass.inv_h)
+            },
             |j, pts, io: &mut RelaxIo| {
                 relax_manifolds(&rows, paired.of(j, pts[0].len()), pts, io, pass.inv_h)
             },
