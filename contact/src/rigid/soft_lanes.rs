@@ -641,13 +641,12 @@ fn relax_rows<L: Lane, const W: usize>(
     inv_h: f64,
 ) {
     let (ma, mb) = (L::load(&pr.im[0], half), L::load(&pr.im[1], half));
-    let zs = L::gather(|l| io.impulse[p[l]]);
     // Speculative where separated: approach at most to the surface within the
     // sub-step; rigid (mass_scale 1, impulse_scale 0, no preload) either way.
     let spec = |gap: f64| if gap > 0.0 { gap * inv_h } else { 0.0 };
     let [bias] = L::gather(|l| [spec(io.gap[p[l]])]);
     let (one, zero) = (L::splat(1.0), L::splat(0.0));
-    let z0 = zs[0];
+    let [z0] = L::gather(|l| [io.impulse[p[l]][0]]);
     let d0 = Lanes3::<L>::load(&pr.dir[0], half);
     let vn = d0.dot(vb.sub(*va)) + pr.ang(0, 1, half).dot(*wb) - pr.ang(0, 0, half).dot(*wa);
     let mass0 = L::load(&pr.mass[0], half);
@@ -662,7 +661,7 @@ fn relax_rows<L: Lane, const W: usize>(
     let mut z = [new, zero, zero];
     for r in 1..3 {
         let d = Lanes3::<L>::load(&pr.dir[r], half);
-        let zr = zs[r];
+        let [zr] = L::gather(|l| [io.impulse[p[l]][r]]);
         let vt = d.dot(vb.sub(*va)) + pr.ang(r, 1, half).dot(*wb) - pr.ang(r, 0, half).dot(*wa);
         let unbounded = zr - L::load(&pr.mass[r], half) * vt;
         let new = unbounded.at_most(bound).at_least(-bound);
