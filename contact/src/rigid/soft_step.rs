@@ -342,10 +342,10 @@ pub(super) struct SoftState {
     pub(super) dq: Vec<DQuat>,
     /// `Δq` as a matrix (anchors rotate by it in every gap update).
     pub(super) rot: Vec<DMat3>,
-    /// Colouring of the manifolds (solve order).
+    /// Colouring of the manifolds and the solve order of the points
+    /// ([`Colouring::out`]).
     pub(super) colouring: Colouring,
     // Points, in solve order (colour-major, see the `colouring` module).
-    pub(super) order: Vec<usize>,
     pub(super) slots: Vec<[usize; 2]>,
     /// Normal then the two tangents.
     pub(super) dir: Vec<[DVec3; 3]>,
@@ -798,15 +798,16 @@ impl ContactWorld {
         // bodies (the `colouring` module).
         let nb = self.bodies.len();
         let colliders = &self.colliders;
-        st.colouring.order(
-            &mut st.order,
+        let kept = st.colouring.order(
             contacts.len(),
             nb,
-            |k| {
-                let c = &contacts[k];
-                let slot = |i: usize| colliders[i].body.unwrap_or(nb);
-                ((c.a, c.b), [slot(c.a), slot(c.b)])
-            },
+            (
+                |k| (contacts[k].a, contacts[k].b),
+                |k| {
+                    let slot = |i: usize| colliders[i].body.unwrap_or(nb);
+                    [slot(contacts[k].a), slot(contacts[k].b)]
+                },
+            ),
             |k| contacts[k].point.dot(up),
         );
         let s = self.settings.soft_step;
@@ -903,7 +904,7 @@ impl ContactWorld {
         // step's) and every entry is written by position below: a `push` per array
         // and point cost its length and capacity bookkeeping (≈ 100 instructions a
         // point over the 18 arrays, 1.7 % of the 210-box pyramid's step, callgrind).
-        let np = st.order.len();
+        let np = st.colouring.out.len();
         macro_rules! size {
             ($($f:ident: $z:expr),*) => { $(st.$f.resize(np, $z);)* };
         }
@@ -929,7 +930,7 @@ impl ContactWorld {
             gap: 0.0
         );
         // Slices of exactly `np` entries: `p < np` needs no bounds check per write.
-        let order = &st.order[..np];
+        let order = &st.colouring.out[..np];
         let (slots, dir, anchor) = (&mut st.slots[..np], &mut st.dir[..np], &mut st.anchor[..np]);
         let (ang_out, mass_out, im_out) = (&mut st.ang[..np], &mut st.mass[..np], &mut st.im[..np]);
         let (base_gap, soft, friction) = (
@@ -953,8 +954,11 @@ impl ContactWorld {
             &mut st.preload_floor[..np],
         );
         let gap = &mut st.gap[..np];
-        // The SIMD lanes' packed rows, written point by point below.
-        st.paired.plan(&st.colouring);
+        // The SIMD lanes' packed rows, written point by point below (their plan, a
+        // function of the colouring alone, is the last step's when the colouring is).
+        if !kept {
+            st.paired.plan(&st.colouring);
+        }
         let paired = &mut st.paired;
         // One-way coupling off (the default, an infinite ratio): `im[lower] > ∞ ·
         // im[upper]` never holds (∞ · 0 is NaN), so the heights need not be read.
