@@ -963,24 +963,28 @@ impl ContactWorld {
         // One-way coupling off (the default, an infinite ratio): `im[lower] > ∞ ·
         // im[upper]` never holds (∞ · 0 is NaN), so the heights need not be read.
         let one_way = s.one_way_mass_ratio < f64::INFINITY;
-        for p in 0..np {
-            let k = order[p];
-            let c = &contacts[k];
-            let (ca, cb) = (&self.colliders[c.a], &self.colliders[c.b]);
+        // Manifold by manifold (every point is in one; the points of a manifold
+        // share their colliders, bodies, masses, softness and, where their normals
+        // are the same bits, their tangents: these are read once a manifold), each
+        // point written at its solve position.
+        let (mp, mpts) = (
+            st.colouring.manifold_start.as_slice(),
+            st.colouring.manifold_points.as_slice(),
+        );
+        for j in 0..mp.len().saturating_sub(1) {
+            let pts = &mpts[mp[j]..mp[j + 1]];
+            let Some(&first) = pts.first() else {
+                continue;
+            };
+            let c0 = &contacts[order[first]];
+            let (ca, cb) = (&self.colliders[c0.a], &self.colliders[c0.b]);
             let (a, b) = (ca.body.unwrap_or(nb), cb.body.unwrap_or(nb));
-            let ra = ca
-                .body
-                .map_or(DVec3::ZERO, |i| c.point_on_a() - self.bodies[i].pose.x);
-            let rb = cb
-                .body
-                .map_or(DVec3::ZERO, |i| c.point_on_b() - self.bodies[i].pose.x);
-            let n = c.normal;
-            let (t1, t2) = n.any_orthonormal_pair();
-            let dirs = [n, t1, t2];
+            let xa = ca.body.map(|i| self.bodies[i].pose.x);
+            let xb = cb.body.map(|i| self.bodies[i].pose.x);
             // One-way coupling: the lower of two moving bodies is static for this
-            // point when the upper is more than `one_way_mass_ratio` times heavier.
+            // manifold when the upper is more than `one_way_mass_ratio` times heavier.
             let mut im = [st.inv_mass[a], st.inv_mass[b]];
-            // By reference: the two 72-byte matrices are not copied per point.
+            // By reference: the two 72-byte matrices are not copied.
             let mut inertia = [&st.inv_inertia[a], &st.inv_inertia[b]];
             if one_way && a != nb && b != nb {
                 let (ha, hb) = (self.bodies[a].pose.x.dot(up), self.bodies[b].pose.x.dot(up));
@@ -990,87 +994,106 @@ impl ContactWorld {
                     inertia[lower] = &DMat3::ZERO;
                 }
             }
-            let mut ang = [[DVec3::ZERO; 4]; 3];
-            let mut mass = [0.0; 3];
-            for (r, d) in dirs.iter().enumerate() {
-                let (ua, ub) = (ra.cross(*d), rb.cross(*d));
-                let (ia, ib) = (inertia[0].mul_vec3(ua), inertia[1].mul_vec3(ub));
-                // k = J M⁻¹ Jᵀ = 1/m_a + 1/m_b + (r_a×d)ᵀI_a⁻¹(r_a×d) + (r_b×d)ᵀI_b⁻¹(r_b×d)
-                let k = im[0] + im[1] + ua.dot(ia) + ub.dot(ib);
-                mass[r] = if k > 0.0 { 1.0 / k } else { 0.0 };
-                ang[r] = [ua, ub, ia, ib];
-            }
-            let mut z = [0.0; 3];
-            if self.settings.warm_start {
-                let (zn, ft, _, _) = st.found[k];
-                z = [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale];
-                if new_manifolds && !st.found_hit[k] {
-                    z[0] = st.estimate[k];
-                }
-            }
-            // The anchor's slip, stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ Δd`
-            // below is the slip (Δd: the anchors' separation vector, as for the gap);
-            // read only with anchors on.
-            if s.friction_anchors {
-                let (sl, r) = (st.found[k].2, rb - ra);
-                slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
-            }
-            paired.put(
-                p,
-                PointRows {
-                    dir: &dirs,
-                    ang: &ang,
-                    mass,
-                    im,
-                    friction: ca.friction.max(cb.friction),
-                },
-            );
-            slots[p] = [a, b];
-            dir[p] = dirs;
-            anchor[p] = [ra, rb];
-            ang_out[p] = ang;
-            mass_out[p] = mass;
-            im_out[p] = im;
-            // The gap at the start of the step, `C₀ = base_gap + nᵀ(r_b − r_a)` (what
-            // `update_gaps` gives at zero displacements, where `Δx + Δq r = r`: the
-            // same bits, up to the sign of a zero), without a pass over the points.
-            let offset = n.dot(rb - ra);
-            base_gap[p] = -c.depth - offset;
-            gap[p] = base_gap[p] + offset;
-            soft[p] = if a == nb || b == nb { fixed } else { dynamic };
-            friction[p] = ca.friction.max(cb.friction);
+            let mu = ca.friction.max(cb.friction);
             let e = ca.restitution.max(cb.restitution);
-            restitution[p] = e;
-            // Relative normal velocity before the step, n·(v_b + ω_b×r_b − v_a − ω_a×r_a),
-            // read only by restitution where `e` is not zero.
-            approach[p] = if e == 0.0 {
-                0.0
-            } else {
-                n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a])
-            };
-            impulse[p] = z;
-            preload_out[p] =
-                if (every && st.estimate[k] > 0.0) || (new_manifolds && !st.found_hit[k]) {
+            let fixed_pair = a == nb || b == nb;
+            let softness = if fixed_pair { fixed } else { dynamic };
+            let omega2_pair = if fixed_pair { omega2_fixed } else { omega2 };
+            // The tangents of the last normal (by its bits: a signed zero changes them).
+            let bits = |n: DVec3| [n.x.to_bits(), n.y.to_bits(), n.z.to_bits()];
+            let mut last: Option<([u64; 3], [DVec3; 3])> = None;
+            for &p in pts {
+                let k = order[p];
+                let c = &contacts[k];
+                let ra = xa.map_or(DVec3::ZERO, |x| c.point_on_a() - x);
+                let rb = xb.map_or(DVec3::ZERO, |x| c.point_on_b() - x);
+                let n = c.normal;
+                let dirs = match last {
+                    Some((key, d)) if key == bits(n) => d,
+                    _ => {
+                        let (t1, t2) = n.any_orthonormal_pair();
+                        let d = [n, t1, t2];
+                        last = Some((bits(n), d));
+                        d
+                    }
+                };
+                let [_, t1, t2] = dirs;
+                let mut ang = [[DVec3::ZERO; 4]; 3];
+                let mut mass = [0.0; 3];
+                for (r, d) in dirs.iter().enumerate() {
+                    let (ua, ub) = (ra.cross(*d), rb.cross(*d));
+                    let (ia, ib) = (inertia[0].mul_vec3(ua), inertia[1].mul_vec3(ub));
+                    // k = J M⁻¹ Jᵀ = 1/m_a + 1/m_b + (r_a×d)ᵀI_a⁻¹(r_a×d) + (r_b×d)ᵀI_b⁻¹(r_b×d)
+                    let k = im[0] + im[1] + ua.dot(ia) + ub.dot(ib);
+                    mass[r] = if k > 0.0 { 1.0 / k } else { 0.0 };
+                    ang[r] = [ua, ub, ia, ib];
+                }
+                let mut z = [0.0; 3];
+                if self.settings.warm_start {
+                    let (zn, ft, _, _) = st.found[k];
+                    z = [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale];
+                    if new_manifolds && !st.found_hit[k] {
+                        z[0] = st.estimate[k];
+                    }
+                }
+                // The anchor's slip, stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ
+                // Δd` below is the slip (Δd: the anchors' separation vector, as for
+                // the gap); read only with anchors on.
+                if s.friction_anchors {
+                    let (sl, r) = (st.found[k].2, rb - ra);
+                    slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
+                }
+                paired.put(
+                    p,
+                    PointRows {
+                        dir: &dirs,
+                        ang: &ang,
+                        mass,
+                        im,
+                        friction: mu,
+                    },
+                );
+                slots[p] = [a, b];
+                dir[p] = dirs;
+                anchor[p] = [ra, rb];
+                ang_out[p] = ang;
+                mass_out[p] = mass;
+                im_out[p] = im;
+                // The gap at the start of the step, `C₀ = base_gap + nᵀ(r_b − r_a)`
+                // (what `update_gaps` gives at zero displacements, where `Δx + Δq r =
+                // r`: the same bits, up to the sign of a zero), without a pass over the
+                // points.
+                let offset = n.dot(rb - ra);
+                base_gap[p] = -c.depth - offset;
+                gap[p] = base_gap[p] + offset;
+                soft[p] = softness;
+                friction[p] = mu;
+                restitution[p] = e;
+                // Relative normal velocity before the step, n·(v_b + ω_b×r_b − v_a −
+                // ω_a×r_a), read only by restitution where `e` is not zero.
+                approach[p] = if e == 0.0 {
+                    0.0
+                } else {
+                    n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a])
+                };
+                impulse[p] = z;
+                preload_out[p] =
+                    if (every && st.estimate[k] > 0.0) || (new_manifolds && !st.found_hit[k]) {
+                        s.preload * st.estimate[k]
+                    } else {
+                        preload * st.mean[k]
+                    };
+                preload_cap[p] = kappa * mass[0] * hs * omega2_pair;
+                preload_floor[p] = if !self.settings.warm_start {
+                    0.0
+                } else if new_manifolds && !st.found_hit[k] {
                     s.preload * st.estimate[k]
                 } else {
-                    preload * st.mean[k]
+                    st.found[k].3 * scale * PRELOAD_FLOOR_DECAY
                 };
-            let omega2 = if a == nb || b == nb {
-                omega2_fixed
-            } else {
-                omega2
-            };
-            preload_cap[p] = kappa * mass[0] * hs * omega2;
-            preload_floor[p] = if !self.settings.warm_start {
-                0.0
-            } else if new_manifolds && !st.found_hit[k] {
-                s.preload * st.estimate[k]
-            } else {
-                st.found[k].3 * scale * PRELOAD_FLOOR_DECAY
-            };
-            max_normal[p] = 0.0;
-
-            total[p] = [0.0; 3];
+                max_normal[p] = 0.0;
+                total[p] = [0.0; 3];
+            }
         }
         if s.block_normal {
             build_blocks(st);
