@@ -256,7 +256,7 @@ impl Colouring {
         // Manifolds in colour order with their points' solve positions (the block
         // normal solve walks a colour manifold by manifold: within a colour the
         // manifolds touch disjoint moving bodies, so this is the same order of work).
-        self.position.clear();
+        // Every entry is written (the order is a permutation): sized, not cleared.
         self.position.resize(n, 0);
         for (pos, &k) in self.out.iter().enumerate() {
             self.position[k] = pos;

@@ -1141,7 +1141,9 @@ impl ContactWorld {
         // Horizontal coordinates: along two axes normal to `up`.
         let (e1, e2) = up.any_orthonormal_pair();
         let flat = |x: DVec3| [x.dot(e1), x.dot(e2)];
-        st.estimate.clear();
+        // Every entry is written below (each manifold's run; zero where it supports
+        // nothing): sized, not cleared (zeroing it and the loads' moments each step
+        // was 0.3 % of the 210-box pyramid's step, callgrind).
         st.estimate.resize(contacts.len(), 0.0);
         st.load.clear();
         st.load.extend(
@@ -1150,12 +1152,15 @@ impl ContactWorld {
                 .map(|&im| if im > 0.0 { g / im } else { 0.0 }),
         );
         // The weights' moments, at the bodies' centres.
-        st.pressure.clear();
         st.pressure.resize(nb + 1, Pressure::default());
-        for (i, b) in self.bodies.iter().enumerate() {
+        for ((p, b), &load) in st.pressure.iter_mut().zip(&self.bodies).zip(&st.load) {
             let x = flat(b.pose.x);
-            st.pressure[i].moment = [st.load[i] * x[0], st.load[i] * x[1]];
+            *p = Pressure {
+                moment: [load * x[0], load * x[1]],
+                ..Pressure::default()
+            };
         }
+        st.pressure[nb] = Pressure::default();
         st.supports.clear();
         // Written for every supporting point below before it is read.
         st.flat.resize(contacts.len(), [0.0; 2]);
@@ -1190,6 +1195,7 @@ impl ContactWorld {
             let j = j as usize;
             let (upper, lower, n_up) = st.supports[j];
             if n_up == 0.0 {
+                st.estimate[start[j]..start[j + 1]].fill(0.0);
                 continue;
             }
             let share = pressure_share(st.load[upper], &st.pressure[upper]);
