@@ -377,6 +377,9 @@ pub(super) struct SoftState {
     pub(super) restitution: Vec<f64>,
     /// Normal velocity before the step (restitution).
     pub(super) approach: Vec<f64>,
+    /// Whether some point of the step has a restitution coefficient (the
+    /// restitution pass has nothing to do otherwise).
+    pub(super) bouncy: bool,
     pub(super) impulse: Vec<[f64; 3]>,
     /// Preloaded impulse `λ_pre` of each point (see [`SoftStepSettings::preload`]).
     pub(super) preload: Vec<f64>,
@@ -875,10 +878,14 @@ impl ContactWorld {
                     }
                 }
             }
-            let hits = hits > 0;
             st.mean.extend(core::iter::repeat_n(m, j - i));
-            // From here on `found_hit` marks the points of known manifolds.
-            st.found_hit[i..j].fill(hits);
+            // From here on `found_hit` marks the points of known manifolds: where no
+            // point or every point was found they do already, so only a manifold with
+            // points renamed is written (a fill per manifold was 0.15 % of the
+            // 210-box pyramid's step, callgrind).
+            if hits > 0 && hits < j - i {
+                st.found_hit[i..j].fill(true);
+            }
             i = j;
         }
         // A manifold met for the first time starts from the static load estimate
@@ -972,6 +979,7 @@ impl ContactWorld {
             st.colouring.manifold_start.as_slice(),
             st.colouring.manifold_points.as_slice(),
         );
+        let mut bouncy = false;
         for j in 0..mp.len().saturating_sub(1) {
             let pts = &mpts[mp[j]..mp[j + 1]];
             let Some(&first) = pts.first() else {
@@ -997,6 +1005,7 @@ impl ContactWorld {
             }
             let mu = ca.friction.max(cb.friction);
             let e = ca.restitution.max(cb.restitution);
+            bouncy |= e != 0.0;
             let fixed_pair = a == nb || b == nb;
             let softness = if fixed_pair { fixed } else { dynamic };
             let omega2_pair = if fixed_pair { omega2_fixed } else { omega2 };
@@ -1096,6 +1105,7 @@ impl ContactWorld {
                 total[p] = [0.0; 3];
             }
         }
+        st.bouncy = bouncy;
         if s.block_normal {
             build_blocks(st);
         } else {
@@ -2339,6 +2349,9 @@ fn at_most(x: f64, hi: f64) -> f64 {
 /// Restitution (after the sub-steps, Box2D's `b2ApplyRestitution`): a point that
 /// approached faster than `threshold` and carried load gets `J v ≥ −e v_approach`.
 fn restitution(st: &mut SoftState, threshold: f64) {
+    if !st.bouncy {
+        return; // every `e` is zero: every point is skipped below
+    }
     for p in 0..st.slots.len() {
         let e = st.restitution[p];
         if e == 0.0 || st.approach[p] > -threshold || st.max_normal[p] == 0.0 {
