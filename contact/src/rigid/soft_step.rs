@@ -77,6 +77,32 @@ pub struct SoftStepSettings {
     /// Contact stiffness as a frequency (Hz) for two moving bodies; contacts with a
     /// static collider use twice this (Box2D's `staticSoftness`). It is capped at a
     /// quarter of the sub-step rate, as Box2D caps it.
+    ///
+    /// At 2 sub-steps the default 30 Hz (`h_s ω` = 1.57, on the cap) leaves the
+    /// 210-box pyramid in a vertical oscillation that grows over the first 2 s
+    /// (period ≈ 15 steps, the top box's sink swinging between 0 and 22 mm) and walks
+    /// the upper flanks sideways: worst displacement 106 mm over 600 steps
+    /// (`soft_points pyramid20 600 2`). Not friction or the solve order: it stays
+    /// with a second relax pass (38.6 mm), without the preload (52.3 mm), with the
+    /// preload's cap lifted (`preload_cap_margin` 1000: 28.3 mm) and with the
+    /// manifolds solved bottom-up one at a time instead of by colour (153 mm). It
+    /// goes below about 20 Hz (`h_s ω` ≈ 1), where the sink wants `γ` near 0.995; both
+    /// targets (stack drift and sink ≤ 1 mm, pyramid worst ≤ 1 cm over 600 steps)
+    /// hold on a patch around 13 Hz, `γ` 0.996 (stack drift / sink, pyramid worst):
+    ///
+    /// | 2 sub-steps | `γ` 0.994 | 0.995 | 0.996 | 0.997 | 0.998 |
+    /// |---|---|---|---|---|---|
+    /// | 10 Hz | 1.38 / 1.38 mm, 1.8 mm | 1.16 / 1.15, 1.6 | 0.96 / 0.92, 6.3 | 0.71 / 0.69, 6.8 | 0.57 / 0.46, 6.6 |
+    /// | 12 Hz | 0.99 / 0.96, 10.6 | 0.80 / 0.80, 5.5 | 0.64 / 0.64, 7.7 | 0.54 / 0.48, 7.1 | 0.42 / 0.32, 10.2 |
+    /// | 13 Hz | 0.82 / 0.82, 5.0 | 0.69 / 0.68, 5.6 | 0.57 / 0.54, 6.3 | 0.47 / 0.41, 6.1 | 0.38 / 0.27, 12.6 |
+    /// | 14 Hz | 0.71 / 0.70, 10.8 | 0.61 / 0.59, 7.0 | 0.53 / 0.47, 6.4 | 0.40 / 0.35, 8.1 | 0.34 / 0.23, 7.6 |
+    /// | 15 Hz | — | 0.54 / 0.51, 8.2 | — | 0.36 / 0.31, 12.5 | — |
+    /// | 18 Hz | — | 0.37 / 0.35, 17.8 | — | 0.28 / 0.21, 20.7 | — |
+    ///
+    /// There a step costs 156.3k instructions on the stack and 5.96M on the pyramid
+    /// against 191.3k and 7.00M at the default 3 sub-steps (callgrind), but the
+    /// pyramid moves ten times as far as at 3 sub-steps (0.69 mm), so the defaults
+    /// stay.
     pub hertz: f64,
     /// Damping ratio `ζ ≥ 0` of the contact spring (10: heavily over-damped).
     pub damping_ratio: f64,
