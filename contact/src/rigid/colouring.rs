@@ -16,7 +16,8 @@
 //! solved in the same sequential pass: colours order the work, they are not needed for
 //! correctness). A static body (the ground slot) never blocks a colour, as in Box2D.
 //! Everything is integer bookkeeping on kept buffers: deterministic, no allocation
-//! once the buffers have grown.
+//! once the buffers have grown. A step whose manifolds, and their points' and ranks'
+//! bottom-up order, are the last step's keeps the last colouring (the same output).
 
 use alloc::vec::Vec;
 
@@ -44,8 +45,19 @@ pub(super) struct Colouring {
     offset: Vec<usize>,
     /// Manifolds in colour order, bottom-up within a colour.
     by_colour: Vec<u32>,
-    /// The solve order being built (swapped with the caller's).
-    out: Vec<usize>,
+    /// The solve order: contacts (natural indices) colour-major (see
+    /// [`Colouring::order`]).
+    pub(super) out: Vec<usize>,
+    /// Collider pair and body slots of each manifold (natural order) of the last
+    /// call.
+    sig: Vec<((usize, usize), [usize; 2])>,
+    /// Body count of the last call.
+    bodies: usize,
+    /// Whether the buffers hold a complete colouring (false until the first call).
+    valid: bool,
+    /// Each manifold's contacts bottom-up, in natural manifold order (the runs of
+    /// the last call, kept to check whether they are still bottom-up).
+    runs: Vec<usize>,
     /// Colours in use after the last call (the overflow colour counts as one).
     pub(super) colours: usize,
     /// Groups of points whose manifolds share no moving body, in solve order: where
@@ -78,69 +90,99 @@ impl Colouring {
         (&self.by_rank, &self.start)
     }
 
-    /// Writes into `order` the solve order of the `n` contacts: colour-major, and
+    /// Writes into [`Colouring::out`] the solve order of the `n` contacts: colour-major, and
     /// within a colour the manifolds' first points (bottom-up by manifold), then
     /// their second points, and so on. `pair(k)` gives contact `k`'s collider pair
     /// (contacts of one pair come consecutively in natural order and form one
-    /// manifold) and its two body slots (slots `≥ bodies` are static); `height(k)`
-    /// its height along −gravity. Manifolds are ranked by their lowest point and a
+    /// manifold), `slots(k)` its two body slots (slots `≥ bodies` are static; asked
+    /// once per manifold, of its first contact), `height(k)` its height along
+    /// −gravity. Manifolds are ranked by their lowest point and a
     /// manifold's points go bottom-up (ties by index), so the order is the same as
     /// sorting all points bottom-up and then by (colour, place in manifold, rank),
     /// with sorts over manifolds and within manifolds only.
-    pub(super) fn order<F, H>(
+    ///
+    /// The result depends only on the manifolds (their pairs, slots and point
+    /// counts), the body count, each manifold's points bottom-up and the manifolds'
+    /// rank: when the manifolds are the last call's and the last call's runs and
+    /// ranks are still in bottom-up order under the new heights (the sorts would give
+    /// them again: their keys are unique), the last colouring is kept (the same
+    /// output, bit for bit). Returns whether it was kept.
+    pub(super) fn order<F, S, H>(
         &mut self,
-        order: &mut Vec<usize>,
         n: usize,
         bodies: usize,
-        pair: F,
+        (pair, slots): (F, S),
         height: H,
-    ) where
-        F: Fn(usize) -> ((usize, usize), [usize; 2]),
+    ) -> bool
+    where
+        F: Fn(usize) -> (usize, usize),
+        S: Fn(usize) -> [usize; 2],
         H: Fn(usize) -> f64,
     {
         // Heights once per contact, not once per comparison.
         self.height.clear();
         self.height.extend((0..n).map(height));
+        let same = self.valid && bodies == self.bodies && self.same_manifolds(n, &pair, &slots);
+        if same && self.still_bottom_up() {
+            return true;
+        }
+        if !same {
+            // Manifolds: runs of equal pairs in natural order, with their pair and
+            // slots.
+            self.start.clear();
+            self.sig.clear();
+            let mut last = None;
+            for k in 0..n {
+                let p = pair(k);
+                if last != Some(p) {
+                    self.start.push(k);
+                    self.sig.push((p, slots(k)));
+                    last = Some(p);
+                }
+            }
+            self.start.push(n);
+            self.bodies = bodies;
+            self.valid = true;
+        }
         let heights = &self.height;
         let below = |p: usize, q: usize| heights[p].total_cmp(&heights[q]).then(p.cmp(&q));
-        // Manifolds: runs of equal pairs in natural order.
-        self.start.clear();
-        let mut last = None;
-        for k in 0..n {
-            let (p, _) = pair(k);
-            if last != Some(p) {
-                self.start.push(k);
-                last = Some(p);
-            }
+        let m = self.sig.len();
+        // Each manifold's points bottom-up, in place (unique keys: one result whatever
+        // the order they start from). With the manifolds unchanged they start from the
+        // last step's runs, nearly bottom-up: an insertion sort costs about their
+        // inversions (the library sort was 2 % of the 210-box pyramid's step).
+        if !same {
+            self.runs.clear();
+            self.runs.extend(0..n);
         }
-        let m = self.start.len();
-        self.start.push(n);
-        // Each manifold's points bottom-up, in place (unique keys: deterministic).
-        order.clear();
-        order.extend(0..n);
         self.low.clear();
         for j in 0..m {
-            let run = &mut order[self.start[j]..self.start[j + 1]];
-            run.sort_unstable_by(|&p, &q| below(p, q));
+            let run = &mut self.runs[self.start[j]..self.start[j + 1]];
+            let less = |p: &usize, q: &usize| below(*p, *q).is_lt();
+            if !insertion_sort(run, less, 2 * run.len()) {
+                run.sort_unstable_by(|&p, &q| below(p, q));
+            }
             self.low.push(run[0]);
         }
         // Manifolds bottom-up by their lowest point: sorted on (height as the integer
         // whose order is `f64::total_cmp`'s, lowest point) keys held beside the
         // manifold, the same order as `below` on the lowest points (the keys are
         // unique) without two indirections per comparison (the comparator sort was
-        // 1.5 % of the 210-box pyramid's step, callgrind).
-        let total_order = |x: f64| {
-            let b = x.to_bits() as i64;
-            b ^ ((((b >> 63) as u64) >> 1) as i64)
-        };
+        // 1.5 % of the 210-box pyramid's step, callgrind). With the manifolds
+        // unchanged the keys start in the last step's rank order (by insertion, as
+        // the runs).
         self.keys.clear();
-        self.keys.extend(
-            self.low
-                .iter()
-                .enumerate()
-                .map(|(j, &p)| (total_order(heights[p]), p, j as u32)),
-        );
-        self.keys.sort_unstable();
+        let low = &self.low;
+        let key = |j: usize| (total_order(heights[low[j]]), low[j], j as u32);
+        if same {
+            self.keys
+                .extend(self.by_rank.iter().map(|&j| key(j as usize)));
+        } else {
+            self.keys.extend((0..m).map(key));
+        }
+        if !(same && insertion_sort(&mut self.keys, |a, b| a < b, 4 * m)) {
+            self.keys.sort_unstable();
+        }
         self.by_rank.clear();
         self.by_rank.extend(self.keys.iter().map(|k| k.2));
         // Greedy colours in rank order: the lowest colour free on both moving bodies.
@@ -152,7 +194,7 @@ impl Colouring {
         self.offset.resize(COLOURS as usize + 2, 0);
         let mut highest = 0;
         for &j in &self.by_rank {
-            let (_, [a, b]) = pair(self.low[j as usize]);
+            let (_, [a, b]) = self.sig[j as usize];
             let mask = |s: usize| if s < bodies { self.used[s] } else { 0 };
             let c = (!(mask(a) | mask(b))).trailing_zeros().min(COLOURS);
             if c < COLOURS {
@@ -204,7 +246,7 @@ impl Colouring {
                 for &j in ms {
                     let (s, e) = (self.start[j as usize], self.start[j as usize + 1]);
                     if s + place < e {
-                        self.out.push(order[s + place]);
+                        self.out.push(self.runs[s + place]);
                     }
                 }
             }
@@ -214,7 +256,7 @@ impl Colouring {
         // Manifolds in colour order with their points' solve positions (the block
         // normal solve walks a colour manifold by manifold: within a colour the
         // manifolds touch disjoint moving bodies, so this is the same order of work).
-        self.position.clear();
+        // Every entry is written (the order is a permutation): sized, not cleared.
         self.position.resize(n, 0);
         for (pos, &k) in self.out.iter().enumerate() {
             self.position[k] = pos;
@@ -227,12 +269,78 @@ impl Colouring {
             let (s, e) = (self.start[j as usize], self.start[j as usize + 1]);
             // One reserve a manifold, not a capacity check a point.
             self.manifold_points
-                .extend(order[s..e].iter().map(|&k| position[k]));
+                .extend(self.runs[s..e].iter().map(|&k| position[k]));
         }
         self.manifold_start.push(self.manifold_points.len());
         self.colour_start.push(m);
-        core::mem::swap(order, &mut self.out);
+        false
     }
+
+    /// Whether the `n` contacts form the last call's manifolds (runs of one pair,
+    /// with the same pairs, slots and point counts), read without writing: the
+    /// stored pairs of consecutive manifolds differ, so every contact of run `j`
+    /// having run `j`'s pair puts the runs' ends where they were.
+    fn same_manifolds(
+        &self,
+        n: usize,
+        pair: &impl Fn(usize) -> (usize, usize),
+        slots: &impl Fn(usize) -> [usize; 2],
+    ) -> bool {
+        if self.start.last() != Some(&n) {
+            return false;
+        }
+        self.sig
+            .iter()
+            .zip(self.start.windows(2))
+            .all(|(&(p, sl), w)| slots(w[0]) == sl && (w[0]..w[1]).all(|k| pair(k) == p))
+    }
+
+    /// Whether the last call's runs (each manifold's points) and ranks (the
+    /// manifolds by lowest point) are still bottom-up under the heights in
+    /// `self.height` (strictly: the keys are unique), with the manifolds unchanged.
+    fn still_bottom_up(&self) -> bool {
+        let h = &self.height;
+        let below = |p: usize, q: usize| h[p].total_cmp(&h[q]).then(p.cmp(&q)).is_lt();
+        // The runs first (checking the ranks first cost more on the 10-box stack and
+        // on the 210-box pyramid, where one or the other changes every step).
+        let runs_sorted = self
+            .start
+            .windows(2)
+            .all(|w| self.runs[w[0]..w[1]].windows(2).all(|r| below(r[0], r[1])));
+        runs_sorted
+            && self.by_rank.windows(2).all(|r| {
+                let (p, q) = (self.low[r[0] as usize], self.low[r[1] as usize]);
+                (total_order(h[p]), p) < (total_order(h[q]), q)
+            })
+    }
+}
+
+/// Sorts `v` by `less` by insertion, and true; false (leaving `v` a permutation of
+/// itself, for another sort to finish) once more than `budget` elements have been
+/// moved. With unique keys the result is the one any sort gives.
+fn insertion_sort<T: Copy>(v: &mut [T], less: impl Fn(&T, &T) -> bool, budget: usize) -> bool {
+    let mut moved = 0;
+    for i in 1..v.len() {
+        let x = v[i];
+        let mut j = i;
+        while j > 0 && less(&x, &v[j - 1]) {
+            v[j] = v[j - 1];
+            j -= 1;
+        }
+        v[j] = x;
+        moved += i - j;
+        if moved > budget {
+            return false;
+        }
+    }
+    true
+}
+
+/// The integer whose order is `f64::total_cmp`'s.
+#[inline(always)]
+fn total_order(x: f64) -> i64 {
+    let b = x.to_bits() as i64;
+    b ^ ((((b >> 63) as u64) >> 1) as i64)
 }
 
 #[cfg(test)]
@@ -256,10 +364,10 @@ mod tests {
             ((3, 4), [2, 3]),
             ((3, 4), [2, 3]),
         ];
-        let mut order = Vec::new();
         let mut c = Colouring::default();
-        c.order(&mut order, 8, 4, |k| pairs[k], |k| k as f64);
-        assert_eq!(order, [0, 4, 1, 5, 2, 6, 3, 7]);
+        c.order(8, 4, (|k| pairs[k].0, |k| pairs[k].1), |k| k as f64);
+        let order = &c.out;
+        assert_eq!(*order, [0, 4, 1, 5, 2, 6, 3, 7]);
         assert_eq!(c.colours, 2);
         // Groups: colour 0's first points, its second points, then colour 1's.
         assert_eq!(c.ranges, [0, 2, 4, 6, 8]);
@@ -288,11 +396,11 @@ mod tests {
                 pairs.push(((j, j + 1), [a, b]));
             }
         }
-        let mut order = Vec::new();
         let mut c = Colouring::default();
         // Heights from a hash of the index: the bottom-up order is not the natural one.
         let height = |k: usize| ((k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 40) as f64;
-        c.order(&mut order, pairs.len(), 8, |k| pairs[k], height);
+        c.order(pairs.len(), 8, (|k| pairs[k].0, |k| pairs[k].1), height);
+        let order = c.out.clone();
         let mut seen = order.clone();
         seen.sort_unstable();
         assert_eq!(seen, (0..pairs.len()).collect::<Vec<_>>());
@@ -320,6 +428,56 @@ mod tests {
             let mut manifolds: Vec<usize> = group.iter().map(|&k| pairs[k].0 .0).collect();
             manifolds.sort_unstable();
             assert!(manifolds.windows(2).all(|m| m[0] != m[1]), "{group:?}");
+        }
+    }
+    /// A kept colouring is the one a fresh colouring computes: the same stack
+    /// coloured again with heights that keep its order is kept, with heights that
+    /// swap two points of a manifold or two manifolds' ranks it is redone, with
+    /// another manifold count it is redone; every output equals a fresh `Colouring`'s.
+    #[test]
+    fn a_kept_colouring_is_a_fresh_one() {
+        let pairs = [
+            ((0, 1), [4, 0]),
+            ((0, 1), [4, 0]),
+            ((1, 2), [0, 1]),
+            ((1, 2), [0, 1]),
+            ((2, 3), [1, 2]),
+            ((2, 3), [1, 2]),
+            ((3, 4), [2, 3]),
+            ((3, 4), [2, 3]),
+        ];
+        let fresh = |n: usize, h: &dyn Fn(usize) -> f64| {
+            let mut c = Colouring::default();
+            c.order(n, 4, (|k| pairs[k].0, |k| pairs[k].1), h);
+            c
+        };
+        let same = |a: &Colouring, b: &Colouring| {
+            assert_eq!(a.out, b.out);
+            assert_eq!(a.ranges, b.ranges);
+            assert_eq!(a.manifold_start, b.manifold_start);
+            assert_eq!(a.manifold_points, b.manifold_points);
+            assert_eq!(a.colour_start, b.colour_start);
+            assert_eq!(a.position, b.position);
+            assert_eq!(a.serial_from, b.serial_from);
+            assert_eq!(a.colours, b.colours);
+            assert_eq!(a.bottom_up(), b.bottom_up());
+        };
+        let mut c = Colouring::default();
+        type Heights = fn(usize) -> f64;
+        let steps: [(usize, Heights, bool); 5] = [
+            (8, |k| k as f64, false),
+            // Raised by 0.25 with the order kept: kept.
+            (8, |k| k as f64 + 0.25, true),
+            // Points 0 and 1 of the first manifold swapped: redone.
+            (8, |k| [1.0, 0.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0][k], false),
+            // Manifolds (2,3) and (3,4) swapped in rank: redone.
+            (8, |k| [1.0, 0.0, 2.0, 3.0, 6.0, 7.0, 4.0, 5.0][k], false),
+            // Three manifolds only: redone.
+            (6, |k| k as f64, false),
+        ];
+        for (n, h, kept) in steps {
+            assert_eq!(c.order(n, 4, (|k| pairs[k].0, |k| pairs[k].1), h), kept);
+            same(&c, &fresh(n, &h));
         }
     }
 }

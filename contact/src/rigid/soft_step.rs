@@ -64,6 +64,7 @@ use core::f64::consts::TAU;
 
 use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DQuat, DVec3, Pose};
+use wide::f64x2;
 
 use super::colouring::Colouring;
 use super::soft_lanes::{
@@ -80,6 +81,32 @@ pub struct SoftStepSettings {
     /// Contact stiffness as a frequency (Hz) for two moving bodies; contacts with a
     /// static collider use twice this (Box2D's `staticSoftness`). It is capped at a
     /// quarter of the sub-step rate, as Box2D caps it.
+    ///
+    /// At 2 sub-steps the default 30 Hz (`h_s ω` = 1.57, on the cap) leaves the
+    /// 210-box pyramid in a vertical oscillation that grows over the first 2 s
+    /// (period ≈ 15 steps, the top box's sink swinging between 0 and 22 mm) and walks
+    /// the upper flanks sideways: worst displacement 106 mm over 600 steps
+    /// (`soft_points pyramid20 600 2`). Not friction or the solve order: it stays
+    /// with a second relax pass (38.6 mm), without the preload (52.3 mm), with the
+    /// preload's cap lifted (`preload_cap_margin` 1000: 28.3 mm) and with the
+    /// manifolds solved bottom-up one at a time instead of by colour (153 mm). It
+    /// goes below about 20 Hz (`h_s ω` ≈ 1), where the sink wants `γ` near 0.995; both
+    /// targets (stack drift and sink ≤ 1 mm, pyramid worst ≤ 1 cm over 600 steps)
+    /// hold on a patch around 13 Hz, `γ` 0.996 (stack drift / sink, pyramid worst):
+    ///
+    /// | 2 sub-steps | `γ` 0.994 | 0.995 | 0.996 | 0.997 | 0.998 |
+    /// |---|---|---|---|---|---|
+    /// | 10 Hz | 1.38 / 1.38 mm, 1.8 mm | 1.16 / 1.15, 1.6 | 0.96 / 0.92, 6.3 | 0.71 / 0.69, 6.8 | 0.57 / 0.46, 6.6 |
+    /// | 12 Hz | 0.99 / 0.96, 10.6 | 0.80 / 0.80, 5.5 | 0.64 / 0.64, 7.7 | 0.54 / 0.48, 7.1 | 0.42 / 0.32, 10.2 |
+    /// | 13 Hz | 0.82 / 0.82, 5.0 | 0.69 / 0.68, 5.6 | 0.57 / 0.54, 6.3 | 0.47 / 0.41, 6.1 | 0.38 / 0.27, 12.6 |
+    /// | 14 Hz | 0.71 / 0.70, 10.8 | 0.61 / 0.59, 7.0 | 0.53 / 0.47, 6.4 | 0.40 / 0.35, 8.1 | 0.34 / 0.23, 7.6 |
+    /// | 15 Hz | — | 0.54 / 0.51, 8.2 | — | 0.36 / 0.31, 12.5 | — |
+    /// | 18 Hz | — | 0.37 / 0.35, 17.8 | — | 0.28 / 0.21, 20.7 | — |
+    ///
+    /// There a step costs 156.3k instructions on the stack and 5.96M on the pyramid
+    /// against 191.3k and 7.00M at the default 3 sub-steps (callgrind), but the
+    /// pyramid moves ten times as far as at 3 sub-steps (0.69 mm), so the defaults
+    /// stay.
     pub hertz: f64,
     /// Damping ratio `ζ ≥ 0` of the contact spring (10: heavily over-damped).
     pub damping_ratio: f64,
@@ -346,10 +373,10 @@ pub(super) struct SoftState {
     pub(super) dq: Vec<DQuat>,
     /// `Δq` as a matrix (anchors rotate by it in every gap update).
     pub(super) rot: Vec<DMat3>,
-    /// Colouring of the manifolds (solve order).
+    /// Colouring of the manifolds and the solve order of the points
+    /// ([`Colouring::out`]).
     pub(super) colouring: Colouring,
     // Points, in solve order (colour-major, see the `colouring` module).
-    pub(super) order: Vec<usize>,
     pub(super) slots: Vec<[usize; 2]>,
     /// Normal then the two tangents.
     pub(super) dir: Vec<[DVec3; 3]>,
@@ -380,6 +407,9 @@ pub(super) struct SoftState {
     pub(super) restitution: Vec<f64>,
     /// Normal velocity before the step (restitution).
     pub(super) approach: Vec<f64>,
+    /// Whether some point of the step has a restitution coefficient (the
+    /// restitution pass has nothing to do otherwise).
+    pub(super) bouncy: bool,
     pub(super) impulse: Vec<[f64; 3]>,
     /// Preloaded impulse `λ_pre` of each point (see [`SoftStepSettings::preload`]).
     pub(super) preload: Vec<f64>,
@@ -802,15 +832,16 @@ impl ContactWorld {
         // bodies (the `colouring` module).
         let nb = self.bodies.len();
         let colliders = &self.colliders;
-        st.colouring.order(
-            &mut st.order,
+        let kept = st.colouring.order(
             contacts.len(),
             nb,
-            |k| {
-                let c = &contacts[k];
-                let slot = |i: usize| colliders[i].body.unwrap_or(nb);
-                ((c.a, c.b), [slot(c.a), slot(c.b)])
-            },
+            (
+                |k| (contacts[k].a, contacts[k].b),
+                |k| {
+                    let slot = |i: usize| colliders[i].body.unwrap_or(nb);
+                    [slot(contacts[k].a), slot(contacts[k].b)]
+                },
+            ),
             |k| contacts[k].point.dot(up),
         );
         let s = self.settings.soft_step;
@@ -877,10 +908,14 @@ impl ContactWorld {
                     }
                 }
             }
-            let hits = hits > 0;
             st.mean.extend(core::iter::repeat_n(m, j - i));
-            // From here on `found_hit` marks the points of known manifolds.
-            st.found_hit[i..j].fill(hits);
+            // From here on `found_hit` marks the points of known manifolds: where no
+            // point or every point was found they do already, so only a manifold with
+            // points renamed is written (a fill per manifold was 0.15 % of the
+            // 210-box pyramid's step, callgrind).
+            if hits > 0 && hits < j - i {
+                st.found_hit[i..j].fill(true);
+            }
             i = j;
         }
         // A manifold met for the first time starts from the static load estimate
@@ -907,7 +942,7 @@ impl ContactWorld {
         // step's) and every entry is written by position below: a `push` per array
         // and point cost its length and capacity bookkeeping (≈ 100 instructions a
         // point over the 18 arrays, 1.7 % of the 210-box pyramid's step, callgrind).
-        let np = st.order.len();
+        let np = st.colouring.out.len();
         macro_rules! size {
             ($($f:ident: $z:expr),*) => { $(st.$f.resize(np, $z);)* };
         }
@@ -933,7 +968,7 @@ impl ContactWorld {
             gap: 0.0
         );
         // Slices of exactly `np` entries: `p < np` needs no bounds check per write.
-        let order = &st.order[..np];
+        let order = &st.colouring.out[..np];
         let (slots, dir, anchor) = (&mut st.slots[..np], &mut st.dir[..np], &mut st.anchor[..np]);
         let (ang_out, mass_out, im_out) = (&mut st.ang[..np], &mut st.mass[..np], &mut st.im[..np]);
         let (base_gap, soft, friction) = (
@@ -957,30 +992,38 @@ impl ContactWorld {
             &mut st.preload_floor[..np],
         );
         let gap = &mut st.gap[..np];
-        // The SIMD lanes' packed rows, written point by point below.
-        st.paired.plan(&st.colouring);
+        // The SIMD lanes' packed rows, written point by point below (their plan, a
+        // function of the colouring alone, is the last step's when the colouring is).
+        if !kept {
+            st.paired.plan(&st.colouring);
+        }
         let paired = &mut st.paired;
         // One-way coupling off (the default, an infinite ratio): `im[lower] > ∞ ·
         // im[upper]` never holds (∞ · 0 is NaN), so the heights need not be read.
         let one_way = s.one_way_mass_ratio < f64::INFINITY;
-        for p in 0..np {
-            let k = order[p];
-            let c = &contacts[k];
-            let (ca, cb) = (&self.colliders[c.a], &self.colliders[c.b]);
+        // Manifold by manifold (every point is in one; the points of a manifold
+        // share their colliders, bodies, masses, softness and, where their normals
+        // are the same bits, their tangents: these are read once a manifold), each
+        // point written at its solve position.
+        let (mp, mpts) = (
+            st.colouring.manifold_start.as_slice(),
+            st.colouring.manifold_points.as_slice(),
+        );
+        let mut bouncy = false;
+        for j in 0..mp.len().saturating_sub(1) {
+            let pts = &mpts[mp[j]..mp[j + 1]];
+            let Some(&first) = pts.first() else {
+                continue;
+            };
+            let c0 = &contacts[order[first]];
+            let (ca, cb) = (&self.colliders[c0.a], &self.colliders[c0.b]);
             let (a, b) = (ca.body.unwrap_or(nb), cb.body.unwrap_or(nb));
-            let ra = ca
-                .body
-                .map_or(DVec3::ZERO, |i| c.point_on_a() - self.bodies[i].pose.x);
-            let rb = cb
-                .body
-                .map_or(DVec3::ZERO, |i| c.point_on_b() - self.bodies[i].pose.x);
-            let n = c.normal;
-            let (t1, t2) = n.any_orthonormal_pair();
-            let dirs = [n, t1, t2];
+            let xa = ca.body.map(|i| self.bodies[i].pose.x);
+            let xb = cb.body.map(|i| self.bodies[i].pose.x);
             // One-way coupling: the lower of two moving bodies is static for this
-            // point when the upper is more than `one_way_mass_ratio` times heavier.
+            // manifold when the upper is more than `one_way_mass_ratio` times heavier.
             let mut im = [st.inv_mass[a], st.inv_mass[b]];
-            // By reference: the two 72-byte matrices are not copied per point.
+            // By reference: the two 72-byte matrices are not copied.
             let mut inertia = [&st.inv_inertia[a], &st.inv_inertia[b]];
             if one_way && a != nb && b != nb {
                 let (ha, hb) = (self.bodies[a].pose.x.dot(up), self.bodies[b].pose.x.dot(up));
@@ -990,88 +1033,109 @@ impl ContactWorld {
                     inertia[lower] = &DMat3::ZERO;
                 }
             }
-            let mut ang = [[DVec3::ZERO; 4]; 3];
-            let mut mass = [0.0; 3];
-            for (r, d) in dirs.iter().enumerate() {
-                let (ua, ub) = (ra.cross(*d), rb.cross(*d));
-                let (ia, ib) = (inertia[0].mul_vec3(ua), inertia[1].mul_vec3(ub));
-                // k = J M⁻¹ Jᵀ = 1/m_a + 1/m_b + (r_a×d)ᵀI_a⁻¹(r_a×d) + (r_b×d)ᵀI_b⁻¹(r_b×d)
-                let k = im[0] + im[1] + ua.dot(ia) + ub.dot(ib);
-                mass[r] = if k > 0.0 { 1.0 / k } else { 0.0 };
-                ang[r] = [ua, ub, ia, ib];
-            }
-            let mut z = [0.0; 3];
-            if self.settings.warm_start {
-                let (zn, ft, _, _) = st.found[k];
-                z = [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale];
-                if new_manifolds && !st.found_hit[k] {
-                    z[0] = st.estimate[k];
-                }
-            }
-            // The anchor's slip, stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ Δd`
-            // below is the slip (Δd: the anchors' separation vector, as for the gap);
-            // read only with anchors on.
-            if s.friction_anchors {
-                let (sl, r) = (st.found[k].2, rb - ra);
-                slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
-            }
-            paired.put(
-                p,
-                PointRows {
-                    dir: &dirs,
-                    ang: &ang,
-                    mass,
-                    im,
-                    friction: ca.friction.max(cb.friction),
-                },
-            );
-            slots[p] = [a, b];
-            dir[p] = dirs;
-            anchor[p] = [ra, rb];
-            ang_out[p] = ang;
-            mass_out[p] = mass;
-            im_out[p] = im;
-            // The gap at the start of the step, `C₀ = base_gap + nᵀ(r_b − r_a)` (what
-            // `update_gaps` gives at zero displacements, where `Δx + Δq r = r`: the
-            // same bits, up to the sign of a zero), without a pass over the points.
-            let offset = n.dot(rb - ra);
-            base_gap[p] = -c.depth - offset;
-            gap[p] = base_gap[p] + offset;
-            soft[p] = if a == nb || b == nb { fixed } else { dynamic };
-            friction[p] = ca.friction.max(cb.friction);
+            let mu = ca.friction.max(cb.friction);
             let e = ca.restitution.max(cb.restitution);
-            restitution[p] = e;
-            // Relative normal velocity before the step, n·(v_b + ω_b×r_b − v_a − ω_a×r_a),
-            // read only by restitution where `e` is not zero.
-            approach[p] = if e == 0.0 {
-                0.0
-            } else {
-                n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a])
-            };
-            impulse[p] = z;
-            preload_out[p] =
-                if (every && st.estimate[k] > 0.0) || (new_manifolds && !st.found_hit[k]) {
+            bouncy |= e != 0.0;
+            let fixed_pair = a == nb || b == nb;
+            let softness = if fixed_pair { fixed } else { dynamic };
+            let omega2_pair = if fixed_pair { omega2_fixed } else { omega2 };
+            // The tangents of the last normal (by its bits: a signed zero changes them).
+            let bits = |n: DVec3| [n.x.to_bits(), n.y.to_bits(), n.z.to_bits()];
+            let mut last: Option<([u64; 3], [DVec3; 3])> = None;
+            for &p in pts {
+                let k = order[p];
+                let c = &contacts[k];
+                let ra = xa.map_or(DVec3::ZERO, |x| c.point_on_a() - x);
+                let rb = xb.map_or(DVec3::ZERO, |x| c.point_on_b() - x);
+                let n = c.normal;
+                let dirs = match last {
+                    Some((key, d)) if key == bits(n) => d,
+                    _ => {
+                        let (t1, t2) = n.any_orthonormal_pair();
+                        let d = [n, t1, t2];
+                        last = Some((bits(n), d));
+                        d
+                    }
+                };
+                let [_, t1, t2] = dirs;
+                let mut ang = [[DVec3::ZERO; 4]; 3];
+                let mut mass = [0.0; 3];
+                for (r, d) in dirs.iter().enumerate() {
+                    let (ua, ub) = (ra.cross(*d), rb.cross(*d));
+                    let (ia, ib) = (inertia[0].mul_vec3(ua), inertia[1].mul_vec3(ub));
+                    // k = J M⁻¹ Jᵀ = 1/m_a + 1/m_b + (r_a×d)ᵀI_a⁻¹(r_a×d) + (r_b×d)ᵀI_b⁻¹(r_b×d)
+                    let k = im[0] + im[1] + ua.dot(ia) + ub.dot(ib);
+                    mass[r] = if k > 0.0 { 1.0 / k } else { 0.0 };
+                    ang[r] = [ua, ub, ia, ib];
+                }
+                let mut z = [0.0; 3];
+                if self.settings.warm_start {
+                    let (zn, ft, _, _) = st.found[k];
+                    z = [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale];
+                    if new_manifolds && !st.found_hit[k] {
+                        z[0] = st.estimate[k];
+                    }
+                }
+                // The anchor's slip, stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ
+                // Δd` below is the slip (Δd: the anchors' separation vector, as for
+                // the gap); read only with anchors on.
+                if s.friction_anchors {
+                    let (sl, r) = (st.found[k].2, rb - ra);
+                    slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
+                }
+                paired.put(
+                    p,
+                    PointRows {
+                        dir: &dirs,
+                        ang: &ang,
+                        mass,
+                        im,
+                        friction: mu,
+                    },
+                );
+                slots[p] = [a, b];
+                dir[p] = dirs;
+                anchor[p] = [ra, rb];
+                ang_out[p] = ang;
+                mass_out[p] = mass;
+                im_out[p] = im;
+                // The gap at the start of the step, `C₀ = base_gap + nᵀ(r_b − r_a)`
+                // (what `update_gaps` gives at zero displacements, where `Δx + Δq r =
+                // r`: the same bits, up to the sign of a zero), without a pass over the
+                // points.
+                let offset = n.dot(rb - ra);
+                base_gap[p] = -c.depth - offset;
+                gap[p] = base_gap[p] + offset;
+                soft[p] = softness;
+                friction[p] = mu;
+                restitution[p] = e;
+                // Relative normal velocity before the step, n·(v_b + ω_b×r_b − v_a −
+                // ω_a×r_a), read only by restitution where `e` is not zero.
+                approach[p] = if e == 0.0 {
+                    0.0
+                } else {
+                    n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a])
+                };
+                impulse[p] = z;
+                preload_out[p] =
+                    if (every && st.estimate[k] > 0.0) || (new_manifolds && !st.found_hit[k]) {
+                        s.preload * st.estimate[k]
+                    } else {
+                        preload * st.mean[k]
+                    };
+                preload_cap[p] = kappa * mass[0] * hs * omega2_pair;
+                preload_floor[p] = if !self.settings.warm_start {
+                    0.0
+                } else if new_manifolds && !st.found_hit[k] {
                     s.preload * st.estimate[k]
                 } else {
-                    preload * st.mean[k]
+                    st.found[k].3 * scale * PRELOAD_FLOOR_DECAY
                 };
-            let omega2 = if a == nb || b == nb {
-                omega2_fixed
-            } else {
-                omega2
-            };
-            preload_cap[p] = kappa * mass[0] * hs * omega2;
-            preload_floor[p] = if !self.settings.warm_start {
-                0.0
-            } else if new_manifolds && !st.found_hit[k] {
-                s.preload * st.estimate[k]
-            } else {
-                st.found[k].3 * scale * PRELOAD_FLOOR_DECAY
-            };
-            max_normal[p] = 0.0;
-
-            total[p] = [0.0; 3];
+                max_normal[p] = 0.0;
+                total[p] = [0.0; 3];
+            }
         }
+        st.bouncy = bouncy;
         if s.block_normal {
             build_blocks(st);
         } else {
@@ -1117,7 +1181,9 @@ impl ContactWorld {
         // Horizontal coordinates: along two axes normal to `up`.
         let (e1, e2) = up.any_orthonormal_pair();
         let flat = |x: DVec3| [x.dot(e1), x.dot(e2)];
-        st.estimate.clear();
+        // Every entry is written below (each manifold's run; zero where it supports
+        // nothing): sized, not cleared (zeroing it and the loads' moments each step
+        // was 0.3 % of the 210-box pyramid's step, callgrind).
         st.estimate.resize(contacts.len(), 0.0);
         st.load.clear();
         st.load.extend(
@@ -1126,12 +1192,15 @@ impl ContactWorld {
                 .map(|&im| if im > 0.0 { g / im } else { 0.0 }),
         );
         // The weights' moments, at the bodies' centres.
-        st.pressure.clear();
         st.pressure.resize(nb + 1, Pressure::default());
-        for (i, b) in self.bodies.iter().enumerate() {
+        for ((p, b), &load) in st.pressure.iter_mut().zip(&self.bodies).zip(&st.load) {
             let x = flat(b.pose.x);
-            st.pressure[i].moment = [st.load[i] * x[0], st.load[i] * x[1]];
+            *p = Pressure {
+                moment: [load * x[0], load * x[1]],
+                ..Pressure::default()
+            };
         }
+        st.pressure[nb] = Pressure::default();
         st.supports.clear();
         // Written for every supporting point below before it is read.
         st.flat.resize(contacts.len(), [0.0; 2]);
@@ -1166,6 +1235,7 @@ impl ContactWorld {
             let j = j as usize;
             let (upper, lower, n_up) = st.supports[j];
             if n_up == 0.0 {
+                st.estimate[start[j]..start[j + 1]].fill(0.0);
                 continue;
             }
             let share = pressure_share(st.load[upper], &st.pressure[upper]);
@@ -1277,42 +1347,188 @@ fn build_blocks(st: &mut SoftState) {
     // block's `pts`, `c` and `kinv` are read only when its `len` is set, and then all
     // of them have been written here (a new block pushed per manifold cost a zeroing
     // and a 200-byte copy each).
-    st.blocks.resize(manifolds, Block::default());
-    let blocks = &mut st.blocks[..manifolds];
-    for (j, blk) in blocks.iter_mut().enumerate() {
-        let pts = &st.colouring.manifold_points[mp[j]..mp[j + 1]];
-        let len = pts.len();
+    // Taken while the rows are read beside them.
+    let mut all = core::mem::take(&mut st.blocks);
+    all.resize(manifolds, Block::default());
+    let mut blocks = &mut all[..manifolds];
+    let (mut j, points) = (0, &st.colouring.manifold_points);
+    let manifold = |j: usize| &points[mp[j]..mp[j + 1]];
+    // Two face manifolds (`N` points each) side by side in SIMD lanes
+    // ([`build_block_pair`]: the same bits), the others one at a time.
+    while let Some((blk, rest)) = blocks.split_first_mut() {
+        let pts = manifold(j);
+        if let Some(next) = rest.first_mut() {
+            let pts2 = manifold(j + 1);
+            if pts.len() == N && pts2.len() == N {
+                build_block_pair(st, [pts, pts2], [blk, next]);
+                blocks = &mut rest[1..];
+                j += 2;
+                continue;
+            }
+        }
+        build_block(st, pts, blk);
+        blocks = rest;
+        j += 1;
+    }
+    st.blocks = all;
+}
+
+/// One manifold's block (see [`build_blocks`]).
+#[inline(always)]
+fn build_block(st: &SoftState, pts: &[usize], blk: &mut Block) {
+    const N: usize = BLOCK_POINTS;
+    let len = pts.len();
+    blk.len = 0;
+    if (2..=N).contains(&len) {
+        let [ma, mb] = st.im[pts[0]];
+        let mut ok = true;
+        for (i, &p) in pts.iter().enumerate() {
+            let sp = st.soft[p];
+            let m = st.mass[p][0];
+            ok &= m > 0.0 && sp.mass_scale > 0.0;
+            blk.c[i] = sp.impulse_scale / (sp.mass_scale * m);
+        }
+        // Padding: identity rows and columns, so that `K⁻¹` is too (the solve
+        // runs over all N with zero residuals there).
+        let mut k = [0.0; N * N];
+        for i in 0..N {
+            k[i * N + i] = 1.0;
+        }
+        for i in 0..len {
+            let p = pts[i];
+            let (n, g) = (st.dir[p][0], &st.ang[p][0]);
+            for l in i..len {
+                let q = pts[l];
+                let h = &st.ang[q][0];
+                let a = (ma + mb) * n.dot(st.dir[q][0]) + g[0].dot(h[2]) + g[1].dot(h[3]);
+                k[i * N + l] = a;
+                k[l * N + i] = a;
+            }
+            k[i * N + i] += blk.c[i];
+        }
+        if ok && invert(&mut k, &mut blk.kinv) {
+            blk.pts[..len].copy_from_slice(pts);
+            blk.len = len;
+        }
+    }
+}
+
+/// Two manifolds' blocks of [`BLOCK_POINTS`] points each (see [`build_blocks`]), one
+/// per SIMD lane (`wide::f64x2`): each lane does [`build_block`]'s arithmetic
+/// operation for operation and in the same order (IEEE-754 lanes round as the scalar
+/// operations do; dot products summed left to right as `DVec3::dot` does), so the
+/// blocks are the same, bit for bit (a lane whose pivot fails computes on, harmlessly,
+/// where the scalar inversion stops: its block keeps `len` 0 either way).
+fn build_block_pair(st: &SoftState, pts: [&[usize]; 2], blk: [&mut Block; 2]) {
+    const N: usize = BLOCK_POINTS;
+    let lanes = |a: DVec3, b: DVec3| {
+        [
+            f64x2::new([a.x, b.x]),
+            f64x2::new([a.y, b.y]),
+            f64x2::new([a.z, b.z]),
+        ]
+    };
+    let dot = |a: &[f64x2; 3], b: &[f64x2; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let [blk0, blk1] = blk;
+    let mut ok = [true; 2];
+    let mut c = [f64x2::ZERO; N];
+    for (s, (pts, blk)) in pts.iter().zip([&mut *blk0, &mut *blk1]).enumerate() {
+        for (i, &p) in pts.iter().enumerate() {
+            let sp = st.soft[p];
+            let m = st.mass[p][0];
+            ok[s] &= m > 0.0 && sp.mass_scale > 0.0;
+            blk.c[i] = sp.impulse_scale / (sp.mass_scale * m);
+            c[i].as_mut_array()[s] = blk.c[i];
+        }
+    }
+    let sum = |p: usize| {
+        let [ma, mb] = st.im[p];
+        ma + mb
+    };
+    let m = f64x2::new([sum(pts[0][0]), sum(pts[1][0])]);
+    // Per point: the normal and `r_a × n`, `r_b × n`, `I_a⁻¹(r_a × n)`, `I_b⁻¹(r_b × n)`.
+    let row = |i: usize, r: usize| {
+        let (p, q) = (pts[0][i], pts[1][i]);
+        if r == 4 {
+            lanes(st.dir[p][0], st.dir[q][0])
+        } else {
+            lanes(st.ang[p][0][r], st.ang[q][0][r])
+        }
+    };
+    let rows: [[[f64x2; 3]; 5]; N] = core::array::from_fn(|i| core::array::from_fn(|r| row(i, r)));
+    let mut k = [f64x2::ZERO; N * N];
+    for i in 0..N {
+        let (n, g) = (&rows[i][4], &rows[i]);
+        for l in i..N {
+            let h = &rows[l];
+            let a = m * dot(n, &h[4]) + dot(&g[0], &h[2]) + dot(&g[1], &h[3]);
+            k[i * N + l] = a;
+            k[l * N + i] = a;
+        }
+        k[i * N + i] += c[i];
+    }
+    let mut out = [f64x2::ZERO; N * N];
+    let inverted = invert_pair(&mut k, &mut out);
+    for (s, (pts, blk)) in pts.iter().zip([blk0, blk1]).enumerate() {
         blk.len = 0;
-        if (2..=N).contains(&len) {
-            let [ma, mb] = st.im[pts[0]];
-            let mut ok = true;
-            for (i, &p) in pts.iter().enumerate() {
-                let sp = st.soft[p];
-                let m = st.mass[p][0];
-                ok &= m > 0.0 && sp.mass_scale > 0.0;
-                blk.c[i] = sp.impulse_scale / (sp.mass_scale * m);
+        if ok[s] && inverted[s] {
+            let kinv: [f64; N * N] = core::array::from_fn(|e| out[e].as_array()[s]);
+            if kinv.iter().all(|x| x.is_finite()) {
+                blk.kinv = kinv;
+                blk.pts.copy_from_slice(pts);
+                blk.len = N;
             }
-            // Padding: identity rows and columns, so that `K⁻¹` is too (the solve
-            // runs over all N with zero residuals there).
-            let mut k = [0.0; N * N];
-            for i in 0..N {
-                k[i * N + i] = 1.0;
+        }
+    }
+}
+
+/// [`invert`] of two matrices, one per lane of `k` and `out`: per lane, whether every
+/// pivot was positive and finite (the caller checks that the inverse is finite).
+fn invert_pair(
+    k: &mut [f64x2; BLOCK_POINTS * BLOCK_POINTS],
+    out: &mut [f64x2; BLOCK_POINTS * BLOCK_POINTS],
+) -> [bool; 2] {
+    const N: usize = BLOCK_POINTS;
+    *out = [f64x2::ZERO; N * N];
+    for i in 0..N {
+        out[i * N + i] = f64x2::ONE;
+    }
+    let mut ok = [true; 2];
+    pivot_pair::<0>(k, out, &mut ok);
+    pivot_pair::<1>(k, out, &mut ok);
+    pivot_pair::<2>(k, out, &mut ok);
+    pivot_pair::<3>(k, out, &mut ok);
+    ok
+}
+
+/// [`pivot`] on both lanes (clearing a lane's `ok` where its pivot is not positive
+/// and finite, where [`invert`] would stop).
+#[inline(always)]
+fn pivot_pair<const C: usize>(
+    k: &mut [f64x2; BLOCK_POINTS * BLOCK_POINTS],
+    out: &mut [f64x2; BLOCK_POINTS * BLOCK_POINTS],
+    ok: &mut [bool; 2],
+) {
+    const N: usize = BLOCK_POINTS;
+    let piv = k[C * N + C];
+    for (ok, p) in ok.iter_mut().zip(piv.to_array()) {
+        *ok &= p > 0.0 && p.is_finite();
+    }
+    let inv = f64x2::ONE / piv;
+    for l in C + 1..N {
+        k[C * N + l] *= inv;
+    }
+    for l in 0..=C {
+        out[C * N + l] *= inv;
+    }
+    for r in 0..N {
+        if r != C {
+            let f = k[r * N + C];
+            for l in C + 1..N {
+                k[r * N + l] -= f * k[C * N + l];
             }
-            for i in 0..len {
-                let p = pts[i];
-                let (n, g) = (st.dir[p][0], &st.ang[p][0]);
-                for l in i..len {
-                    let q = pts[l];
-                    let h = &st.ang[q][0];
-                    let a = (ma + mb) * n.dot(st.dir[q][0]) + g[0].dot(h[2]) + g[1].dot(h[3]);
-                    k[i * N + l] = a;
-                    k[l * N + i] = a;
-                }
-                k[i * N + i] += blk.c[i];
-            }
-            if ok && invert(&mut k, &mut blk.kinv) {
-                blk.pts[..len].copy_from_slice(pts);
-                blk.len = len;
+            for l in 0..=C {
+                out[r * N + l] -= f * out[C * N + l];
             }
         }
     }
@@ -2190,6 +2406,9 @@ fn at_most(x: f64, hi: f64) -> f64 {
 /// Restitution (after the sub-steps, Box2D's `b2ApplyRestitution`): a point that
 /// approached faster than `threshold` and carried load gets `J v ≥ −e v_approach`.
 fn restitution(st: &mut SoftState, threshold: f64) {
+    if !st.bouncy {
+        return; // every `e` is zero: every point is skipped below
+    }
     for p in 0..st.slots.len() {
         let e = st.restitution[p];
         if e == 0.0 || st.approach[p] > -threshold || st.max_normal[p] == 0.0 {
