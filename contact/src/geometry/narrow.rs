@@ -164,6 +164,7 @@ struct Sink<'o> {
 impl Sink<'_> {
     /// `pa`, `pb`: witness points on the first and second shape of the native routine;
     /// `n` from the first to the second.
+    #[inline(always)]
     fn push(&mut self, pa: DVec3, pb: DVec3, n: DVec3, depth: f64, id: u64) {
         if !(depth >= -self.margin) {
             return;
@@ -586,9 +587,13 @@ struct Vtx {
     out: u8,
 }
 
+/// A clipped polygon: its vertices and, per vertex, `g = u · p` for the side axis `u`
+/// being clipped against (both of that axis's planes read it: `(−u) · p = −(u · p)`
+/// exactly, so one dot product serves the two).
 #[derive(Clone, Copy, Debug)]
 struct Poly {
     v: [Vtx; 12],
+    g: [f64; 12],
     n: usize,
 }
 
@@ -599,12 +604,15 @@ impl Poly {
             inn: 0,
             out: 0,
         }; 12],
+        g: [0.0; 12],
         n: 0,
     };
 
-    fn push(&mut self, v: Vtx) {
+    #[inline]
+    fn push(&mut self, v: Vtx, g: f64) {
         if self.n < self.v.len() {
             self.v[self.n] = v;
+            self.g[self.n] = g;
             self.n += 1;
         }
     }
@@ -640,25 +648,23 @@ fn wrap(k: usize, n: usize) -> usize {
 }
 
 /// Sutherland–Hodgman against the half-space `m·p ≤ o` (side feature `label`) of the
-/// polygon whose vertices are those of `input` from index `start < input.n` on
-/// (then from 0), into `out` (emptied first), unless every vertex is inside: then `out`
-/// is left as it was and `false` returned, for the output would be the same polygon
-/// from its second vertex on (the caller moves `start` on instead of copying). Two
-/// buffers taken in turn by the caller: no polygon is zeroed or copied per plane (that
-/// was 1.9 % of the 210-box pyramid's step, callgrind).
-fn clip(input: &Poly, start: usize, m: DVec3, o: f64, label: u8, out: &mut Poly) -> bool {
+/// polygon whose vertices are those of `input` from index `start < input.n` on (then
+/// from 0), given each vertex's signed distance `dist[k] = m·p_k − o`, into `out`
+/// (emptied first). The caller clips only where some vertex is outside: with every
+/// vertex inside the output would be the same polygon from its second vertex on, so
+/// the caller moves `start` on instead of copying. Two buffers taken in turn by the
+/// caller: no polygon is zeroed or copied per plane (that was 1.9 % of the 210-box
+/// pyramid's step, callgrind). With `g_axis = Some(u)` each output vertex carries its
+/// `g = u · p` (kept, or computed once for a new one) for the next plane.
+fn clip(
+    input: &Poly,
+    start: usize,
+    dist: &[f64; 12],
+    g_axis: Option<DVec3>,
+    label: u8,
+    out: &mut Poly,
+) {
     let n = input.n;
-    // Each vertex's signed distance once (the loop meets every vertex as `cur` and as
-    // `next`): the same expression, the same bits.
-    let mut dist = [0.0; 12];
-    let mut inside = true;
-    for (d, v) in dist.iter_mut().zip(&input.v[..n]) {
-        *d = m.dot(v.p) - o;
-        inside &= *d <= 0.0;
-    }
-    if inside {
-        return false;
-    }
     out.n = 0;
     let mut ci = start;
     for _ in 0..n {
@@ -667,28 +673,50 @@ fn clip(input: &Poly, start: usize, m: DVec3, o: f64, label: u8, out: &mut Poly)
         let (dc, dn) = (dist[ci], dist[nx]);
         let cross = || {
             let t = dc / (dc - dn);
-            cur.p + (next.p - cur.p) * t
+            let p = cur.p + (next.p - cur.p) * t;
+            (p, g_axis.map_or(0.0, |u| u.dot(p)))
         };
         match (dc <= 0.0, dn <= 0.0) {
-            (true, true) => out.push(*next),
-            (true, false) => out.push(Vtx {
-                p: cross(),
-                inn: cur.out,
-                out: label,
-            }),
+            (true, true) => out.push(*next, input.g[nx]),
+            (true, false) => {
+                let (p, g) = cross();
+                out.push(
+                    Vtx {
+                        p,
+                        inn: cur.out,
+                        out: label,
+                    },
+                    g,
+                );
+            }
             (false, true) => {
-                out.push(Vtx {
-                    p: cross(),
-                    inn: label,
-                    out: next.inn,
-                });
-                out.push(*next);
+                let (p, g) = cross();
+                out.push(
+                    Vtx {
+                        p,
+                        inn: label,
+                        out: next.inn,
+                    },
+                    g,
+                );
+                out.push(*next, input.g[nx]);
             }
             (false, false) => {}
         }
         ci = nx;
     }
-    true
+}
+
+/// Signed distances `±g_k − o` of a polygon's vertices from the side plane `±u·p = o`
+/// (`Poly::g`), and whether any vertex is outside (`> 0`, or NaN).
+#[inline(always)]
+fn side_dist(poly: &Poly, minus: bool, o: f64, dist: &mut [f64; 12]) -> bool {
+    let mut outside = false;
+    for (d, &g) in dist.iter_mut().zip(&poly.g[..poly.n]) {
+        *d = if minus { -g } else { g } - o;
+        outside |= !(*d <= 0.0);
+    }
+    outside
 }
 
 /// Relative slack of the reference face's side planes in box–box clipping: a point may
@@ -884,31 +912,72 @@ fn box_box(
     // stays a vertex, whatever the rounding, and keeps its id.
     let slack = CLIP_SLACK * hr.min_element();
     // Each plane clips `poly` into `spare` and the two swap; a plane with every vertex
-    // inside leaves `poly` as it is and moves its first vertex on by one (`clip`).
+    // inside leaves `poly` as it is and moves its first vertex on by one (`clip`). The
+    // two planes of a side axis share the vertices' `g = u · p` (`Poly`).
     let mut start = 0;
-    for (m, label) in [(i1, 4u8), (i1, 5), (i2, 6), (i2, 7)] {
-        let dir = if label % 2 == 0 { ur[m] } else { -ur[m] };
-        if clip(
-            poly,
-            start,
-            dir,
-            dir.dot(fr.x) + hr[m] + slack,
-            label,
-            spare,
-        ) {
-            start = 0;
+    let mut dist = [0.0; 12];
+    for (m, label) in [(i1, 4u8), (i2, 6)] {
+        let u = ur[m];
+        let c = u.dot(fr.x);
+        // `(±u)·c_R + h_m + slack` (`(−u)·x = −(u·x)` exactly); a vertex is inside a
+        // plane where `±g − o ≤ 0`.
+        let (op, om) = (c + hr[m] + slack, -c + hr[m] + slack);
+        let (mut out_p, mut out_m) = (false, false);
+        for (g, v) in poly.g.iter_mut().zip(&poly.v[..poly.n]) {
+            *g = u.dot(v.p);
+            out_p |= !(*g - op <= 0.0);
+            out_m |= !(-*g - om <= 0.0);
+        }
+        if out_p {
+            side_dist(poly, false, op, &mut dist);
+            clip(poly, start, &dist, Some(u), label, spare);
             core::mem::swap(&mut poly, &mut spare);
             if poly.n == 0 {
                 return;
             }
+            start = 0;
+            // Whether the new vertices (on the `+` plane) are all inside the `−` one.
+            out_m = side_dist(poly, true, om, &mut dist);
+        } else {
+            start = wrap(start + 1, poly.n);
+        }
+        if out_m {
+            side_dist(poly, true, om, &mut dist);
+            clip(poly, start, &dist, None, label + 1, spare);
+            core::mem::swap(&mut poly, &mut spare);
+            if poly.n == 0 {
+                return;
+            }
+            start = 0;
         } else {
             start = wrap(start + 1, poly.n);
         }
     }
     let plane = n.dot(fr.x) + hr[i];
+    let base = (u64::from(ref_is_b) << 12) | (ref_face << 9) | (inc_face << 6);
+    let sgn = if ref_is_b { -1.0 } else { 1.0 };
+    let mut at = start;
+    if poly.n <= 4 {
+        // At most four points: all kept ([`reduce`]), pushed in polygon order as they
+        // come.
+        for _ in 0..poly.n {
+            let v = &poly.v[at];
+            let depth = plane - n.dot(v.p);
+            if depth >= -sink.margin {
+                face_point(
+                    sink,
+                    (n, sgn, ref_is_b),
+                    v.p,
+                    depth,
+                    base | (u64::from(v.inn) * 8 + u64::from(v.out)),
+                );
+            }
+            at = wrap(at + 1, poly.n);
+        }
+        return;
+    }
     let pts = &mut bufs.pts;
     let mut np = 0;
-    let mut at = start;
     for _ in 0..poly.n {
         let v = &poly.v[at];
         let depth = plane - n.dot(v.p);
@@ -919,16 +988,27 @@ fn box_box(
         at = wrap(at + 1, poly.n);
     }
     let keep = reduce(&pts[..np], n);
-    let base = (u64::from(ref_is_b) << 12) | (ref_face << 9) | (inc_face << 6);
-    let sgn = if ref_is_b { -1.0 } else { 1.0 };
     for (idx, &(p, depth, vid)) in pts[..np].iter().enumerate() {
         if keep[idx] {
-            let on_ref = p + n * depth;
-            // Native order: a = A, b = B; normal from A to B.
-            let (pa, pb) = if ref_is_b { (p, on_ref) } else { (on_ref, p) };
-            sink.push(pa, pb, n * sgn, depth, base | vid);
+            face_point(sink, (n, sgn, ref_is_b), p, depth, base | vid);
         }
     }
+}
+
+/// A face contact's point `p` on the incident face at `depth` below the reference face
+/// (outward normal `n`; `sgn = −1` when B is the reference box): witnesses `p + n·depth`
+/// on the reference face and `p`; native order a = A, b = B, normal from A to B.
+#[inline(always)]
+fn face_point(
+    sink: &mut Sink,
+    (n, sgn, ref_is_b): (DVec3, f64, bool),
+    p: DVec3,
+    depth: f64,
+    id: u64,
+) {
+    let on_ref = p + n * depth;
+    let (pa, pb) = if ref_is_b { (p, on_ref) } else { (on_ref, p) };
+    sink.push(pa, pb, n * sgn, depth, id);
 }
 
 /// Which of up to 12 manifold points to keep (at most 4): the deepest, the farthest
