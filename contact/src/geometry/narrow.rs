@@ -225,8 +225,9 @@ pub(crate) fn collide_framed(
     out: &mut Vec<Contact>,
 ) -> usize {
     let ((ca, mut fa, mut ra), (cb, mut fb, mut rb)) = (a, b);
-    let (mut sa, mut sb) = (ca.shape, cb.shape);
-    let flip = rank(&sa) > rank(&sb);
+    // The shapes by reference (not copied per pair).
+    let (mut sa, mut sb) = (&ca.shape, &cb.shape);
+    let flip = rank(sa) > rank(sb);
     if flip {
         core::mem::swap(&mut fa, &mut fb);
         core::mem::swap(&mut ra, &mut rb);
@@ -241,17 +242,17 @@ pub(crate) fn collide_framed(
         count: 0,
     };
     match (sa, sb) {
-        (Shape::Sphere { radius }, other) => {
-            let cl = closest_point(&other, fb, fa.x);
+        (&Shape::Sphere { radius }, other) => {
+            let cl = closest_point(other, fb, fa.x);
             let n = -cl.normal;
             sink.push(fa.x + n * radius, cl.surface, n, radius - cl.distance, 0);
         }
         (Shape::Plane { .. }, Shape::Plane { .. }) => {}
         (Shape::Plane { .. }, Shape::Capsule { .. }) => {
-            let (p0, p1, r) = segment(&sb, fb);
+            let (p0, p1, r) = segment(sb, fb);
             let ends: &[DVec3] = if p0 == p1 { &[p0] } else { &[p0, p1] };
             for (k, &e) in ends.iter().enumerate() {
-                let cl = closest_point(&sa, fa, e);
+                let cl = closest_point(sa, fa, e);
                 sink.push(
                     cl.surface,
                     e - cl.normal * r,
@@ -261,14 +262,14 @@ pub(crate) fn collide_framed(
                 );
             }
         }
-        (Shape::Plane { normal, offset }, Shape::Box { half }) => {
+        (&Shape::Plane { normal, offset }, &Shape::Box { half }) => {
             plane_box(fa, normal, offset, fb, half, &mut sink)
         }
         (Shape::Capsule { .. }, Shape::Capsule { .. }) => {
-            capsule_capsule(&sa, fa, &sb, fb, &mut sink)
+            capsule_capsule(sa, fa, sb, fb, &mut sink)
         }
-        (Shape::Capsule { .. }, Shape::Box { half }) => capsule_box(&sa, fa, half, fb, &mut sink),
-        (Shape::Box { half: ha }, Shape::Box { half: hb }) => {
+        (Shape::Capsule { .. }, &Shape::Box { half }) => capsule_box(sa, fa, half, fb, &mut sink),
+        (&Shape::Box { half: ha }, &Shape::Box { half: hb }) => {
             box_box((fa, ra), ha, (fb, rb), hb, &mut sink, bufs)
         }
         // `rank` orders the pair so the first shape never ranks above the second.
@@ -607,15 +608,6 @@ impl Poly {
         g: [0.0; 12],
         n: 0,
     };
-
-    #[inline]
-    fn push(&mut self, v: Vtx, g: f64) {
-        if self.n < self.v.len() {
-            self.v[self.n] = v;
-            self.g[self.n] = g;
-            self.n += 1;
-        }
-    }
 }
 
 /// The two polygons of box–box clipping and the manifold's candidate points (position,
@@ -665,46 +657,60 @@ fn clip(
     out: &mut Poly,
 ) {
     let n = input.n;
-    out.n = 0;
-    let mut ci = start;
+    if start >= n {
+        out.n = 0;
+        return;
+    }
+    let (v, g, dist) = (&input.v[..n], &input.g[..n], &dist[..n]);
+    // The output count in a register, stored once.
+    let mut m = 0;
+    let mut put = |p: Vtx, gp: f64| {
+        if m < out.v.len() {
+            out.v[m] = p;
+            out.g[m] = gp;
+            m += 1;
+        }
+    };
+    // The edges `cur → next` from vertex `start` round to it again.
+    let (mut ci, mut cur, mut dc) = (start, &v[start], dist[start]);
     for _ in 0..n {
         let nx = wrap(ci + 1, n);
-        let (cur, next) = (&input.v[ci], &input.v[nx]);
-        let (dc, dn) = (dist[ci], dist[nx]);
+        let (next, dn) = (&v[nx], dist[nx]);
         let cross = || {
             let t = dc / (dc - dn);
             let p = cur.p + (next.p - cur.p) * t;
             (p, g_axis.map_or(0.0, |u| u.dot(p)))
         };
         match (dc <= 0.0, dn <= 0.0) {
-            (true, true) => out.push(*next, input.g[nx]),
+            (true, true) => put(*next, g[nx]),
             (true, false) => {
-                let (p, g) = cross();
-                out.push(
+                let (p, gp) = cross();
+                put(
                     Vtx {
                         p,
                         inn: cur.out,
                         out: label,
                     },
-                    g,
+                    gp,
                 );
             }
             (false, true) => {
-                let (p, g) = cross();
-                out.push(
+                let (p, gp) = cross();
+                put(
                     Vtx {
                         p,
                         inn: label,
                         out: next.inn,
                     },
-                    g,
+                    gp,
                 );
-                out.push(*next, input.g[nx]);
+                put(*next, g[nx]);
             }
             (false, false) => {}
         }
-        ci = nx;
+        (ci, cur, dc) = (nx, next, dn);
     }
+    out.n = m;
 }
 
 /// Signed distances `±g_k − o` of a polygon's vertices from the side plane `±u·p = o`
@@ -717,6 +723,17 @@ fn side_dist(poly: &Poly, minus: bool, o: f64, dist: &mut [f64; 12]) -> bool {
         outside |= !(*d <= 0.0);
     }
     outside
+}
+
+/// The two axes after `k` in cyclic order, `((k + 1) mod 3, (k + 2) mod 3)`, without a
+/// division.
+#[inline]
+fn others(k: usize) -> (usize, usize) {
+    match k {
+        0 => (1, 2),
+        1 => (2, 0),
+        _ => (0, 1),
+    }
 }
 
 /// Relative slack of the reference face's side planes in box–box clipping: a point may
@@ -873,25 +890,27 @@ fn box_box(
     let flip = if ref_is_b { tb[i] > 0.0 } else { ta[i] < 0.0 };
     let n = if flip { -ur[i] } else { ur[i] };
     let ref_face = (2 * i + usize::from(flip)) as u64;
-    // `u_I,m · n`, up to the sign of a zero.
-    let along = |m: usize| {
-        let c = if ref_is_b { r[m][i] } else { r[i][m] };
-        if flip {
-            -c
-        } else {
-            c
-        }
+    // `u_I,m · n`, up to the sign of a zero, for m = 0, 1, 2 (read once).
+    let col = if ref_is_b {
+        [r[0][i], r[1][i], r[2][i]]
+    } else {
+        r[i]
+    };
+    let along = if flip {
+        [-col[0], -col[1], -col[2]]
+    } else {
+        col
     };
     // Incident face: the face of I most anti-parallel to n.
     let mut k = 0;
     for m in 1..3 {
-        if along(m).abs() > along(k).abs() {
+        if along[m].abs() > along[k].abs() {
             k = m;
         }
     }
-    let sk = -sign(along(k));
+    let sk = -sign(along[k]);
     let inc_face = (2 * k + usize::from(sk < 0.0)) as u64;
-    let (k1, k2) = ((k + 1) % 3, (k + 2) % 3);
+    let (k1, k2) = others(k);
     let fc = ci + ui[k] * (sk * hi[k]);
     let e1 = ui[k1] * hi[k1];
     let e2 = ui[k2] * hi[k2];
@@ -906,7 +925,7 @@ fn box_box(
             out: c as u8,
         };
     }
-    let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+    let (i1, i2) = others(i);
     // The side planes are pushed out by `CLIP_SLACK` of the reference box's smallest
     // half extent, so an incident vertex lying on a side (equal boxes stacked flush)
     // stays a vertex, whatever the rounding, and keeps its id.
