@@ -301,15 +301,22 @@ fn plane_box(fp: &Pose, normal: DVec3, offset: f64, fb: &Pose, half: DVec3, sink
         vert[k] = fb.point(box_vertex(half, k));
         depth[k] = d - n.dot(vert[k]);
     }
-    // The (up to) four deepest vertices within the margin, reported in vertex order.
-    let mut order = [0usize, 1, 2, 3, 4, 5, 6, 7];
-    order.sort_by(|&i, &j| depth[j].total_cmp(&depth[i]).then(i.cmp(&j)));
-    let mut keep = [false; 8];
-    for &k in order.iter().take(4) {
-        keep[k] = depth[k] >= -sink.margin;
+    // The (up to) four deepest vertices within the margin, reported in vertex order:
+    // vertex k is among the four first of the order "deeper first (`f64::total_cmp`),
+    // then lower index" when fewer than four vertices come before it, counted over the
+    // 28 pairs (no sort).
+    let mut before = [0u8; 8];
+    for j in 0..8 {
+        for k in j + 1..8 {
+            if depth[j].total_cmp(&depth[k]).is_ge() {
+                before[k] += 1;
+            } else {
+                before[j] += 1;
+            }
+        }
     }
     for k in 0..8 {
-        if keep[k] {
+        if before[k] < 4 && depth[k] >= -sink.margin {
             sink.push(vert[k] + n * depth[k], vert[k], n, depth[k], k as u64);
         }
     }
