@@ -164,6 +164,7 @@ struct Sink<'o> {
 impl Sink<'_> {
     /// `pa`, `pb`: witness points on the first and second shape of the native routine;
     /// `n` from the first to the second.
+    #[inline(always)]
     fn push(&mut self, pa: DVec3, pb: DVec3, n: DVec3, depth: f64, id: u64) {
         if !(depth >= -self.margin) {
             return;
@@ -224,8 +225,9 @@ pub(crate) fn collide_framed(
     out: &mut Vec<Contact>,
 ) -> usize {
     let ((ca, mut fa, mut ra), (cb, mut fb, mut rb)) = (a, b);
-    let (mut sa, mut sb) = (ca.shape, cb.shape);
-    let flip = rank(&sa) > rank(&sb);
+    // The shapes by reference (not copied per pair).
+    let (mut sa, mut sb) = (&ca.shape, &cb.shape);
+    let flip = rank(sa) > rank(sb);
     if flip {
         core::mem::swap(&mut fa, &mut fb);
         core::mem::swap(&mut ra, &mut rb);
@@ -240,17 +242,17 @@ pub(crate) fn collide_framed(
         count: 0,
     };
     match (sa, sb) {
-        (Shape::Sphere { radius }, other) => {
-            let cl = closest_point(&other, fb, fa.x);
+        (&Shape::Sphere { radius }, other) => {
+            let cl = closest_point(other, fb, fa.x);
             let n = -cl.normal;
             sink.push(fa.x + n * radius, cl.surface, n, radius - cl.distance, 0);
         }
         (Shape::Plane { .. }, Shape::Plane { .. }) => {}
         (Shape::Plane { .. }, Shape::Capsule { .. }) => {
-            let (p0, p1, r) = segment(&sb, fb);
+            let (p0, p1, r) = segment(sb, fb);
             let ends: &[DVec3] = if p0 == p1 { &[p0] } else { &[p0, p1] };
             for (k, &e) in ends.iter().enumerate() {
-                let cl = closest_point(&sa, fa, e);
+                let cl = closest_point(sa, fa, e);
                 sink.push(
                     cl.surface,
                     e - cl.normal * r,
@@ -260,14 +262,14 @@ pub(crate) fn collide_framed(
                 );
             }
         }
-        (Shape::Plane { normal, offset }, Shape::Box { half }) => {
+        (&Shape::Plane { normal, offset }, &Shape::Box { half }) => {
             plane_box(fa, normal, offset, fb, half, &mut sink)
         }
         (Shape::Capsule { .. }, Shape::Capsule { .. }) => {
-            capsule_capsule(&sa, fa, &sb, fb, &mut sink)
+            capsule_capsule(sa, fa, sb, fb, &mut sink)
         }
-        (Shape::Capsule { .. }, Shape::Box { half }) => capsule_box(&sa, fa, half, fb, &mut sink),
-        (Shape::Box { half: ha }, Shape::Box { half: hb }) => {
+        (Shape::Capsule { .. }, &Shape::Box { half }) => capsule_box(sa, fa, half, fb, &mut sink),
+        (&Shape::Box { half: ha }, &Shape::Box { half: hb }) => {
             box_box((fa, ra), ha, (fb, rb), hb, &mut sink, bufs)
         }
         // `rank` orders the pair so the first shape never ranks above the second.
@@ -299,15 +301,22 @@ fn plane_box(fp: &Pose, normal: DVec3, offset: f64, fb: &Pose, half: DVec3, sink
         vert[k] = fb.point(box_vertex(half, k));
         depth[k] = d - n.dot(vert[k]);
     }
-    // The (up to) four deepest vertices within the margin, reported in vertex order.
-    let mut order = [0usize, 1, 2, 3, 4, 5, 6, 7];
-    order.sort_by(|&i, &j| depth[j].total_cmp(&depth[i]).then(i.cmp(&j)));
-    let mut keep = [false; 8];
-    for &k in order.iter().take(4) {
-        keep[k] = depth[k] >= -sink.margin;
+    // The (up to) four deepest vertices within the margin, reported in vertex order:
+    // vertex k is among the four first of the order "deeper first (`f64::total_cmp`),
+    // then lower index" when fewer than four vertices come before it, counted over the
+    // 28 pairs (no sort).
+    let mut before = [0u8; 8];
+    for j in 0..8 {
+        for k in j + 1..8 {
+            if depth[j].total_cmp(&depth[k]).is_ge() {
+                before[k] += 1;
+            } else {
+                before[j] += 1;
+            }
+        }
     }
     for k in 0..8 {
-        if keep[k] {
+        if before[k] < 4 && depth[k] >= -sink.margin {
             sink.push(vert[k] + n * depth[k], vert[k], n, depth[k], k as u64);
         }
     }
@@ -586,9 +595,13 @@ struct Vtx {
     out: u8,
 }
 
+/// A clipped polygon: its vertices and, per vertex, `g = u · p` for the side axis `u`
+/// being clipped against (both of that axis's planes read it: `(−u) · p = −(u · p)`
+/// exactly, so one dot product serves the two).
 #[derive(Clone, Copy, Debug)]
 struct Poly {
     v: [Vtx; 12],
+    g: [f64; 12],
     n: usize,
 }
 
@@ -599,15 +612,9 @@ impl Poly {
             inn: 0,
             out: 0,
         }; 12],
+        g: [0.0; 12],
         n: 0,
     };
-
-    fn push(&mut self, v: Vtx) {
-        if self.n < self.v.len() {
-            self.v[self.n] = v;
-            self.n += 1;
-        }
-    }
 }
 
 /// The two polygons of box–box clipping and the manifold's candidate points (position,
@@ -640,55 +647,100 @@ fn wrap(k: usize, n: usize) -> usize {
 }
 
 /// Sutherland–Hodgman against the half-space `m·p ≤ o` (side feature `label`) of the
-/// polygon whose vertices are those of `input` from index `start < input.n` on
-/// (then from 0), into `out` (emptied first), unless every vertex is inside: then `out`
-/// is left as it was and `false` returned, for the output would be the same polygon
-/// from its second vertex on (the caller moves `start` on instead of copying). Two
-/// buffers taken in turn by the caller: no polygon is zeroed or copied per plane (that
-/// was 1.9 % of the 210-box pyramid's step, callgrind).
-fn clip(input: &Poly, start: usize, m: DVec3, o: f64, label: u8, out: &mut Poly) -> bool {
+/// polygon whose vertices are those of `input` from index `start < input.n` on (then
+/// from 0), given each vertex's signed distance `dist[k] = m·p_k − o`, into `out`
+/// (emptied first). The caller clips only where some vertex is outside: with every
+/// vertex inside the output would be the same polygon from its second vertex on, so
+/// the caller moves `start` on instead of copying. Two buffers taken in turn by the
+/// caller: no polygon is zeroed or copied per plane (that was 1.9 % of the 210-box
+/// pyramid's step, callgrind). With `g_axis = Some(u)` each output vertex carries its
+/// `g = u · p` (kept, or computed once for a new one) for the next plane.
+fn clip(
+    input: &Poly,
+    start: usize,
+    dist: &[f64; 12],
+    g_axis: Option<DVec3>,
+    label: u8,
+    out: &mut Poly,
+) {
     let n = input.n;
-    // Each vertex's signed distance once (the loop meets every vertex as `cur` and as
-    // `next`): the same expression, the same bits.
-    let mut dist = [0.0; 12];
-    let mut inside = true;
-    for (d, v) in dist.iter_mut().zip(&input.v[..n]) {
-        *d = m.dot(v.p) - o;
-        inside &= *d <= 0.0;
+    if start >= n {
+        out.n = 0;
+        return;
     }
-    if inside {
-        return false;
-    }
-    out.n = 0;
-    let mut ci = start;
+    let (v, g, dist) = (&input.v[..n], &input.g[..n], &dist[..n]);
+    // The output count in a register, stored once.
+    let mut m = 0;
+    let mut put = |p: Vtx, gp: f64| {
+        if m < out.v.len() {
+            out.v[m] = p;
+            out.g[m] = gp;
+            m += 1;
+        }
+    };
+    // The edges `cur → next` from vertex `start` round to it again.
+    let (mut ci, mut cur, mut dc) = (start, &v[start], dist[start]);
     for _ in 0..n {
         let nx = wrap(ci + 1, n);
-        let (cur, next) = (&input.v[ci], &input.v[nx]);
-        let (dc, dn) = (dist[ci], dist[nx]);
+        let (next, dn) = (&v[nx], dist[nx]);
         let cross = || {
             let t = dc / (dc - dn);
-            cur.p + (next.p - cur.p) * t
+            let p = cur.p + (next.p - cur.p) * t;
+            (p, g_axis.map_or(0.0, |u| u.dot(p)))
         };
         match (dc <= 0.0, dn <= 0.0) {
-            (true, true) => out.push(*next),
-            (true, false) => out.push(Vtx {
-                p: cross(),
-                inn: cur.out,
-                out: label,
-            }),
+            (true, true) => put(*next, g[nx]),
+            (true, false) => {
+                let (p, gp) = cross();
+                put(
+                    Vtx {
+                        p,
+                        inn: cur.out,
+                        out: label,
+                    },
+                    gp,
+                );
+            }
             (false, true) => {
-                out.push(Vtx {
-                    p: cross(),
-                    inn: label,
-                    out: next.inn,
-                });
-                out.push(*next);
+                let (p, gp) = cross();
+                put(
+                    Vtx {
+                        p,
+                        inn: label,
+                        out: next.inn,
+                    },
+                    gp,
+                );
+                put(*next, g[nx]);
             }
             (false, false) => {}
         }
-        ci = nx;
+        (ci, cur, dc) = (nx, next, dn);
     }
-    true
+    out.n = m;
+}
+
+/// Signed distances `±g_k − o` of a polygon's vertices from the side plane `±u·p = o`
+/// (`Poly::g`), and whether any vertex is outside (`> 0`, or NaN).
+#[inline(always)]
+fn side_dist(poly: &Poly, minus: bool, o: f64, dist: &mut [f64; 12]) -> bool {
+    let mut outside = false;
+    for (d, &g) in dist.iter_mut().zip(&poly.g[..poly.n]) {
+        *d = if minus { -g } else { g } - o;
+        outside |= !(*d <= 0.0);
+    }
+    outside
+}
+
+/// The two axes after `k` in cyclic order, `((k + 1) mod 3, (k + 2) mod 3)`, without a
+/// division.
+#[inline]
+fn others(k: usize) -> (usize, usize) {
+    match k {
+        0 => (1, 2),
+        1 => (2, 0),
+        _ => (0, 1),
+    }
 }
 
 /// Relative slack of the reference face's side planes in box–box clipping: a point may
@@ -845,25 +897,27 @@ fn box_box(
     let flip = if ref_is_b { tb[i] > 0.0 } else { ta[i] < 0.0 };
     let n = if flip { -ur[i] } else { ur[i] };
     let ref_face = (2 * i + usize::from(flip)) as u64;
-    // `u_I,m · n`, up to the sign of a zero.
-    let along = |m: usize| {
-        let c = if ref_is_b { r[m][i] } else { r[i][m] };
-        if flip {
-            -c
-        } else {
-            c
-        }
+    // `u_I,m · n`, up to the sign of a zero, for m = 0, 1, 2 (read once).
+    let col = if ref_is_b {
+        [r[0][i], r[1][i], r[2][i]]
+    } else {
+        r[i]
+    };
+    let along = if flip {
+        [-col[0], -col[1], -col[2]]
+    } else {
+        col
     };
     // Incident face: the face of I most anti-parallel to n.
     let mut k = 0;
     for m in 1..3 {
-        if along(m).abs() > along(k).abs() {
+        if along[m].abs() > along[k].abs() {
             k = m;
         }
     }
-    let sk = -sign(along(k));
+    let sk = -sign(along[k]);
     let inc_face = (2 * k + usize::from(sk < 0.0)) as u64;
-    let (k1, k2) = ((k + 1) % 3, (k + 2) % 3);
+    let (k1, k2) = others(k);
     let fc = ci + ui[k] * (sk * hi[k]);
     let e1 = ui[k1] * hi[k1];
     let e2 = ui[k2] * hi[k2];
@@ -878,37 +932,78 @@ fn box_box(
             out: c as u8,
         };
     }
-    let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+    let (i1, i2) = others(i);
     // The side planes are pushed out by `CLIP_SLACK` of the reference box's smallest
     // half extent, so an incident vertex lying on a side (equal boxes stacked flush)
     // stays a vertex, whatever the rounding, and keeps its id.
     let slack = CLIP_SLACK * hr.min_element();
     // Each plane clips `poly` into `spare` and the two swap; a plane with every vertex
-    // inside leaves `poly` as it is and moves its first vertex on by one (`clip`).
+    // inside leaves `poly` as it is and moves its first vertex on by one (`clip`). The
+    // two planes of a side axis share the vertices' `g = u · p` (`Poly`).
     let mut start = 0;
-    for (m, label) in [(i1, 4u8), (i1, 5), (i2, 6), (i2, 7)] {
-        let dir = if label % 2 == 0 { ur[m] } else { -ur[m] };
-        if clip(
-            poly,
-            start,
-            dir,
-            dir.dot(fr.x) + hr[m] + slack,
-            label,
-            spare,
-        ) {
-            start = 0;
+    let mut dist = [0.0; 12];
+    for (m, label) in [(i1, 4u8), (i2, 6)] {
+        let u = ur[m];
+        let c = u.dot(fr.x);
+        // `(±u)·c_R + h_m + slack` (`(−u)·x = −(u·x)` exactly); a vertex is inside a
+        // plane where `±g − o ≤ 0`.
+        let (op, om) = (c + hr[m] + slack, -c + hr[m] + slack);
+        let (mut out_p, mut out_m) = (false, false);
+        for (g, v) in poly.g.iter_mut().zip(&poly.v[..poly.n]) {
+            *g = u.dot(v.p);
+            out_p |= !(*g - op <= 0.0);
+            out_m |= !(-*g - om <= 0.0);
+        }
+        if out_p {
+            side_dist(poly, false, op, &mut dist);
+            clip(poly, start, &dist, Some(u), label, spare);
             core::mem::swap(&mut poly, &mut spare);
             if poly.n == 0 {
                 return;
             }
+            start = 0;
+            // Whether the new vertices (on the `+` plane) are all inside the `−` one.
+            out_m = side_dist(poly, true, om, &mut dist);
+        } else {
+            start = wrap(start + 1, poly.n);
+        }
+        if out_m {
+            side_dist(poly, true, om, &mut dist);
+            clip(poly, start, &dist, None, label + 1, spare);
+            core::mem::swap(&mut poly, &mut spare);
+            if poly.n == 0 {
+                return;
+            }
+            start = 0;
         } else {
             start = wrap(start + 1, poly.n);
         }
     }
     let plane = n.dot(fr.x) + hr[i];
+    let base = (u64::from(ref_is_b) << 12) | (ref_face << 9) | (inc_face << 6);
+    let sgn = if ref_is_b { -1.0 } else { 1.0 };
+    let mut at = start;
+    if poly.n <= 4 {
+        // At most four points: all kept ([`reduce`]), pushed in polygon order as they
+        // come.
+        for _ in 0..poly.n {
+            let v = &poly.v[at];
+            let depth = plane - n.dot(v.p);
+            if depth >= -sink.margin {
+                face_point(
+                    sink,
+                    (n, sgn, ref_is_b),
+                    v.p,
+                    depth,
+                    base | (u64::from(v.inn) * 8 + u64::from(v.out)),
+                );
+            }
+            at = wrap(at + 1, poly.n);
+        }
+        return;
+    }
     let pts = &mut bufs.pts;
     let mut np = 0;
-    let mut at = start;
     for _ in 0..poly.n {
         let v = &poly.v[at];
         let depth = plane - n.dot(v.p);
@@ -919,16 +1014,27 @@ fn box_box(
         at = wrap(at + 1, poly.n);
     }
     let keep = reduce(&pts[..np], n);
-    let base = (u64::from(ref_is_b) << 12) | (ref_face << 9) | (inc_face << 6);
-    let sgn = if ref_is_b { -1.0 } else { 1.0 };
     for (idx, &(p, depth, vid)) in pts[..np].iter().enumerate() {
         if keep[idx] {
-            let on_ref = p + n * depth;
-            // Native order: a = A, b = B; normal from A to B.
-            let (pa, pb) = if ref_is_b { (p, on_ref) } else { (on_ref, p) };
-            sink.push(pa, pb, n * sgn, depth, base | vid);
+            face_point(sink, (n, sgn, ref_is_b), p, depth, base | vid);
         }
     }
+}
+
+/// A face contact's point `p` on the incident face at `depth` below the reference face
+/// (outward normal `n`; `sgn = −1` when B is the reference box): witnesses `p + n·depth`
+/// on the reference face and `p`; native order a = A, b = B, normal from A to B.
+#[inline(always)]
+fn face_point(
+    sink: &mut Sink,
+    (n, sgn, ref_is_b): (DVec3, f64, bool),
+    p: DVec3,
+    depth: f64,
+    id: u64,
+) {
+    let on_ref = p + n * depth;
+    let (pa, pb) = if ref_is_b { (p, on_ref) } else { (on_ref, p) };
+    sink.push(pa, pb, n * sgn, depth, id);
 }
 
 /// Which of up to 12 manifold points to keep (at most 4): the deepest, the farthest
