@@ -395,6 +395,8 @@ pub struct World {
     loop_scratch: crate::tree::LoopScratch,
     /// The rows' bounds (scratch).
     ubounds: Vec<constraint_contact::lcp::RowBound>,
+    /// The dense row solve's buffers (scratch, [`constraint_contact::lcp::RowBuffers`]).
+    urowbuf: constraint_contact::lcp::RowBuffers,
     /// The active-set solve of the one-sided rows in the tree factor (scratch and the
     /// last step's statuses).
     aset: active_set::ActiveSet,
@@ -487,6 +489,7 @@ impl World {
             umark: Vec::new(),
             loop_scratch: crate::tree::LoopScratch::default(),
             ubounds: Vec::new(),
+            urowbuf: Default::default(),
             aset: active_set::ActiveSet::default(),
             dof_tau: Vec::new(),
             dof_table: Vec::new(),

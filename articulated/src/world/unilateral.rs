@@ -14,7 +14,7 @@
 //! where `A = G Y = G K⁻¹ Gᵀ` is the Delassus matrix of the rows *through the joints*
 //! (`K⁻¹`, the body block of `H⁻¹`, is the inverse mass of the constrained tree). The
 //! complementarity problem `w ≥ 0, z ≥ 0, wᵀz = 0` (friction and dry-friction rows
-//! boxed) goes to [`constraint_contact::lcp::solve_rows`]; then `x' = x_free + Y z`
+//! boxed) goes to [`constraint_contact::lcp::solve_rows_with`]; then `x' = x_free + Y z`
 //! updates the body velocities *and* the joint impulses, so every row holds in the same
 //! solve. Loop joints enter through the same Schur complement as in the plain solve.
 //!
@@ -33,7 +33,9 @@
 
 use alloc::vec::Vec;
 
-use constraint_contact::lcp::{row_residual, solve_rows, RowBound, RowSettings, RowStats};
+use constraint_contact::lcp::{
+    row_residual, solve_rows_with, RowBound, RowBuffers, RowSettings, RowStats,
+};
 use constraint_core::compound::MAX_DOF;
 use constraint_core::DVec3;
 
@@ -512,7 +514,7 @@ impl World {
         bounds.clear();
         bounds.extend(rows.iter().map(|r| r.bound));
         let settings: RowSettings = self.unilateral.solver;
-        let result = solve_movable(&a, &q, &bounds, &settings, z);
+        let result = solve_movable(&mut self.urowbuf, &a, &q, &bounds, &settings, z);
         let outcome = match result {
             Ok(stats) => {
                 // x' = x_free + Y z.
@@ -662,12 +664,13 @@ fn gather_at(x: &[f64], off: [usize; 2], j: &[DVec3; 4]) -> f64 {
     s
 }
 
-/// [`solve_rows`] on the rows the joints let move: a row whose Delassus diagonal
+/// [`solve_rows_with`] (in the world's kept buffers) on the rows the joints let move: a row whose Delassus diagonal
 /// `G K⁻¹ Gᵀ` is zero (below `1e-12` of the largest) cannot change its rate — a
 /// friction direction across a planar joint's plane, a contact on a welded body — so
 /// its impulse does nothing and is undetermined; it gets `z = 0` and leaves the problem
 /// (with the friction rows of such a normal).
 fn solve_movable(
+    buffers: &mut RowBuffers,
     a: &[f64],
     q: &[f64],
     bounds: &[RowBound],
@@ -687,7 +690,7 @@ fn solve_movable(
         })
         .collect();
     if keep.iter().all(|k| *k) {
-        return solve_rows(a, q, bounds, settings, z);
+        return solve_rows_with(buffers, a, q, bounds, settings, z);
     }
     let idx: Vec<usize> = (0..m).filter(|&i| keep[i]).collect();
     let mut pos = alloc::vec![usize::MAX; m];
@@ -713,7 +716,7 @@ fn solve_movable(
         })
         .collect();
     let mut zc: Vec<f64> = idx.iter().map(|&i| z[i]).collect();
-    let stats = solve_rows(&ac, &qc, &bc, settings, &mut zc)?;
+    let stats = solve_rows_with(buffers, &ac, &qc, &bc, settings, &mut zc)?;
     for v in z.iter_mut() {
         *v = 0.0;
     }

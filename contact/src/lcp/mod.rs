@@ -19,6 +19,7 @@
 //! | [`pgs()`] | projected Gauss–Seidel with over-relaxation and warm start (Erleben 2007, Catto); standard, boxed and frictional |
 //! | [`fischer_newton()`] | Fischer–Burmeister semismooth Newton with Armijo line search; standard LCP, high accuracy |
 //! | [`solve_rows()`] | one-sided, friction and boxed rows together: staggered projections (Kaufman et al. 2008) over the three, or one boxed PGS |
+//! | [`solve_rows_with()`] | [`solve_rows()`] in kept [`RowBuffers`] (no allocation per call) |
 //!
 //! Every solver checks the natural-map residual of its answer against its tolerance
 //! before returning `Ok` (or against the residual's round-off floor,
@@ -38,6 +39,6 @@ pub use newton::{fischer_newton, NewtonSettings};
 pub use pgs::{pgs, PgsSettings};
 pub use problem::{Lcp, LcpError, LcpSolution, SparseRows};
 pub use staggered::{
-    row_residual, solve_rows, solve_rows_sparse, Coupling, RowBound, RowMethod, RowSettings,
-    RowStats,
+    row_residual, solve_rows, solve_rows_sparse, solve_rows_with, Coupling, RowBound, RowBuffers,
+    RowMethod, RowSettings, RowStats,
 };

@@ -14,6 +14,7 @@
 //! symmetric positive definite `M` with fixed bounds, and is linear; friction-scaled
 //! bounds have no such guarantee, so the residual decides success.
 
+#[cfg(test)]
 use alloc::vec;
 use alloc::vec::Vec;
 
@@ -74,29 +75,94 @@ pub(crate) fn pgs_keep(
     settings: &PgsSettings,
     z0: Option<&[f64]>,
 ) -> Result<LcpSolution, (LcpError, Option<Vec<f64>>)> {
-    let plain = |e: LcpError| (e, None);
-    check_tolerance(settings.tolerance).map_err(plain)?;
+    let mut s = PgsScratch::default();
+    match pgs_in(lcp, settings, z0, &mut s) {
+        Ok(PgsEnd::Solved {
+            iterations,
+            residual,
+        }) => Ok(Lcp::solved(s.z, s.w, residual, iterations)),
+        Ok(PgsEnd::Stopped {
+            iterations,
+            residual,
+        }) => Err((
+            LcpError::IterationLimit {
+                iterations,
+                residual,
+            },
+            Some(s.z),
+        )),
+        Ok(PgsEnd::Diverged {
+            iterations,
+            residual,
+        }) => Err((
+            LcpError::IterationLimit {
+                iterations,
+                residual,
+            },
+            None,
+        )),
+        Err(e) => Err((e, None)),
+    }
+}
+
+/// Buffers of [`pgs_in`] kept by a caller that solves many problems (the staggered
+/// friction solve: one per alternation): the iterate `z`, the inverse diagonal and
+/// `w = M z + q`. Once they have grown to `n`, a solve allocates nothing.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct PgsScratch {
+    /// The iterate: the answer after [`PgsEnd::Solved`], the last sweep's after
+    /// [`PgsEnd::Stopped`].
+    pub(crate) z: Vec<f64>,
+    /// `1 / M_ii`.
+    inv_diag: Vec<f64>,
+    /// `w = M z + q` at the last residual check.
+    pub(crate) w: Vec<f64>,
+}
+
+/// How [`pgs_in`] ended (its errors are the settings' and the start's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum PgsEnd {
+    /// The residual met the tolerance (or its round-off floor, [`Lcp::accepts`], once
+    /// the sweeps ran out or stalled) after `iterations` sweeps; `z` and `w = M z + q`
+    /// in the scratch.
+    Solved { iterations: usize, residual: f64 },
+    /// Out of sweeps or stalled above the tolerance; the last iterate in the scratch.
+    Stopped { iterations: usize, residual: f64 },
+    /// The residual went non-finite: nothing worth keeping.
+    Diverged { iterations: usize, residual: f64 },
+}
+
+/// [`pgs`] in the caller's buffers `s` (no allocation once they have grown): the same
+/// sweeps, checks and answers, bit for bit, as [`pgs_keep`] (which runs it on fresh
+/// buffers).
+pub(crate) fn pgs_in(
+    lcp: &Lcp,
+    settings: &PgsSettings,
+    z0: Option<&[f64]>,
+    s: &mut PgsScratch,
+) -> Result<PgsEnd, LcpError> {
+    check_tolerance(settings.tolerance)?;
     if !(settings.omega > 0.0 && settings.omega < 2.0) {
-        return Err(plain(LcpError::BadSettings(
-            "PGS relaxation ω must lie in (0, 2)",
-        )));
+        return Err(LcpError::BadSettings("PGS relaxation ω must lie in (0, 2)"));
     }
     if settings.check_every == 0 {
-        return Err(plain(LcpError::BadSettings("PGS check_every must be ≥ 1")));
+        return Err(LcpError::BadSettings("PGS check_every must be ≥ 1"));
     }
     let n = lcp.n();
-    let mut z = match z0 {
+    let PgsScratch { z, inv_diag, w } = s;
+    z.clear();
+    match z0 {
         Some(z0) => {
-            lcp.check_vector("z0", z0).map_err(plain)?;
-            z0.to_vec()
+            lcp.check_vector("z0", z0)?;
+            z.extend_from_slice(z0);
         }
-        None => vec![0.0; n],
-    };
-    let mut inv_diag = Vec::with_capacity(n);
+        None => z.resize(n, 0.0),
+    }
+    inv_diag.clear();
     for i in 0..n {
         let d = lcp.m_ij(i, i);
         if !(d > 0.0) {
-            return Err(plain(LcpError::NonPositiveDiagonal { index: i }));
+            return Err(LcpError::NonPositiveDiagonal { index: i });
         }
         inv_diag.push(1.0 / d);
     }
@@ -104,16 +170,19 @@ pub(crate) fn pgs_keep(
     for pass in 0..2 {
         for i in 0..n {
             if lcp.friction()[i].is_some() == (pass == 1) {
-                let (lo, hi) = lcp.bounds(i, &z);
+                let (lo, hi) = lcp.bounds(i, z);
                 z[i] = z[i].max(lo).min(hi);
             }
         }
     }
     // `w = M z + q` at the residual checks, in one kept buffer.
-    let mut w = lcp.w(&z);
-    let mut residual = lcp.residual_with(&z, &w);
+    lcp.w_into(z, w);
+    let mut residual = lcp.residual_with(z, w);
     if residual <= settings.tolerance {
-        return Ok(Lcp::solved(z, w, residual, 0));
+        return Ok(PgsEnd::Solved {
+            iterations: 0,
+            residual,
+        });
     }
     let omega = settings.omega;
     // The residual's scale `max(1, |q|∞)`: `q` is fixed during the solve.
@@ -122,21 +191,23 @@ pub(crate) fn pgs_keep(
     let mut ran = settings.max_iterations;
     for sweep in 1..=settings.max_iterations {
         for i in 0..n {
-            let wi = lcp.q()[i] + lcp.row_dot(i, &z);
-            let (lo, hi) = lcp.bounds(i, &z);
+            let wi = lcp.q()[i] + lcp.row_dot(i, z);
+            let (lo, hi) = lcp.bounds(i, z);
             z[i] = (z[i] - omega * wi * inv_diag[i]).max(lo).min(hi);
         }
         if sweep % settings.check_every == 0 || sweep == settings.max_iterations {
-            residual = lcp.w_residual_into(&z, &mut w, scale);
+            residual = lcp.w_residual_into(z, w, scale);
             if residual <= settings.tolerance {
-                return Ok(Lcp::solved(z, w, residual, sweep));
-            }
-            if !residual.is_finite() {
-                // Nothing worth keeping.
-                return Err(plain(LcpError::IterationLimit {
+                return Ok(PgsEnd::Solved {
                     iterations: sweep,
                     residual,
-                }));
+                });
+            }
+            if !residual.is_finite() {
+                return Ok(PgsEnd::Diverged {
+                    iterations: sweep,
+                    residual,
+                });
             }
             if settings.stall_sweeps > 0 && sweep - mark.0 >= settings.stall_sweeps {
                 if !(residual <= 0.5 * mark.1) {
@@ -148,17 +219,20 @@ pub(crate) fn pgs_keep(
         }
     }
     // Out of sweeps (or stalled): the answer stands if the residual is down to its
-    // round-off floor (huge impulses; [`Lcp::round_off`]).
-    if lcp.accepts(&z, residual, settings.tolerance) {
-        return lcp.finish(z, ran, None, settings.tolerance).map_err(plain);
-    }
-    Err((
-        LcpError::IterationLimit {
+    // round-off floor (huge impulses; [`Lcp::round_off`]). `w` is `M z + q` at this `z`
+    // (the last check ran at this sweep, or none ran: the start's), and `residual` its
+    // natural map (`w_residual_into` gives `residual_with`'s bits), so the answer is
+    // [`Lcp::finish`]'s without evaluating `w` again.
+    if lcp.accepts(z, residual, settings.tolerance) {
+        return Ok(PgsEnd::Solved {
             iterations: ran,
             residual,
-        },
-        Some(z),
-    ))
+        });
+    }
+    Ok(PgsEnd::Stopped {
+        iterations: ran,
+        residual,
+    })
 }
 
 #[cfg(test)]

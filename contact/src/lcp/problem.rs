@@ -59,11 +59,35 @@ pub struct SparseRows {
 impl SparseRows {
     /// The non-zero entries of the row-major `n × n` matrix `m` (a NaN is non-zero).
     pub fn from_dense(m: &[f64], n: usize) -> SparseRows {
+        let mut s = SparseRows::default();
+        s.assign_dense(m, n);
+        s
+    }
+
+    /// [`SparseRows::from_dense`] into `self`'s buffers (no allocation once they have
+    /// grown): the same rows, bit for bit. Returns whether the pattern (the rows and
+    /// each row's columns) is the one `self` held, in which case only the values were
+    /// rewritten (a step whose rows are those of the last: one pass to compare the
+    /// patterns, one gather of the listed values).
+    pub fn assign_dense(&mut self, m: &[f64], n: usize) -> bool {
+        if self.dense_pattern_is(m, n) {
+            for i in 0..n {
+                let row = &m[i * n..(i + 1) * n];
+                let (s, e) = (self.start[i], self.start[i + 1]);
+                for (v, &j) in self.vals[s..e].iter_mut().zip(&self.cols[s..e]) {
+                    *v = row[j];
+                }
+            }
+            return true;
+        }
         // Branch-free compaction (every entry is written, the cursor moves past the
         // non-zero ones): the zero pattern of a Delassus matrix defeats branch prediction.
-        let mut start = Vec::with_capacity(n + 1);
-        let mut cols = vec![0usize; n * n];
-        let mut vals = vec![0.0; n * n];
+        let SparseRows { start, cols, vals } = self;
+        start.clear();
+        cols.clear();
+        cols.resize(n * n, 0);
+        vals.clear();
+        vals.resize(n * n, 0.0);
         let mut k = 0;
         start.push(0);
         for row in m.chunks_exact(n.max(1)).take(n) {
@@ -76,7 +100,41 @@ impl SparseRows {
         }
         cols.truncate(k);
         vals.truncate(k);
-        SparseRows { start, cols, vals }
+        false
+    }
+
+    /// Whether `self` lists exactly the non-zero entries (NaN included) of the
+    /// row-major `n × n` matrix `m` (`m` of length `n²`; an inconsistent `self` lists
+    /// nothing).
+    fn dense_pattern_is(&self, m: &[f64], n: usize) -> bool {
+        if m.len() != n * n
+            || self.start.len() != n + 1
+            || self.start.first() != Some(&0)
+            || self.start.last() != Some(&self.cols.len())
+            || self.vals.len() != self.cols.len()
+        {
+            return false;
+        }
+        let mut same = true;
+        for (i, row) in m.chunks_exact(n.max(1)).take(n).enumerate() {
+            let Some(cols) = self.cols.get(self.start[i]..self.start[i + 1]) else {
+                return false;
+            };
+            // The row's non-zeros counted branch-free; as many listed, ascending, each
+            // a non-zero entry: the same set.
+            let nnz: usize = row.iter().map(|&v| usize::from(v != 0.0)).sum();
+            same &= nnz == cols.len();
+            for &j in cols {
+                same &= row.get(j).is_some_and(|&v| v != 0.0);
+            }
+            for w in cols.windows(2) {
+                same &= w[0] < w[1];
+            }
+            if !same {
+                return false;
+            }
+        }
+        same
     }
 
     /// Number of rows.

@@ -13,9 +13,10 @@
 use alloc::vec;
 use alloc::vec::Vec;
 
+use super::pgs::{pgs_in, PgsEnd, PgsScratch};
 use super::{
-    fischer_newton, lemke, pgs, pgs::pgs_keep, Lcp, LcpError, LcpSolution, LemkeSettings,
-    NewtonSettings, PgsSettings, SparseRows,
+    fischer_newton, lemke, pgs, Lcp, LcpError, LcpSolution, LemkeSettings, NewtonSettings,
+    PgsSettings, SparseRows,
 };
 
 /// The bound of one row.
@@ -344,6 +345,46 @@ pub fn solve_rows_sparse(
     solve_rows_in(&mut RowScratch::default(), a, q, bounds, settings, z, false)
 }
 
+/// Buffers of [`solve_rows_with`], kept by a caller that solves a dense row problem
+/// every step (the articulated world's dense Delassus path): `A`'s sparse rows and the
+/// staggered solve's blocks, couplings and vectors, refilled in place (no allocation
+/// once they have grown); a call whose `A` has the last call's non-zero pattern and
+/// row classes refills the blocks' values only.
+#[derive(Clone, Debug, Default)]
+pub struct RowBuffers {
+    /// `A`'s non-zero entries.
+    sparse: SparseRows,
+    /// The staggered solve's buffers.
+    rows: RowScratch,
+}
+
+/// [`solve_rows`] in the caller's kept buffers: the same checks, errors and answer,
+/// bit for bit, without `solve_rows`'s fresh sparse rows and scratch per call.
+pub fn solve_rows_with(
+    buffers: &mut RowBuffers,
+    a: &[f64],
+    q: &[f64],
+    bounds: &[RowBound],
+    settings: &RowSettings,
+    z: &mut [f64],
+) -> Result<RowStats, LcpError> {
+    let n = q.len();
+    check_square(a, n)?;
+    if n == 0 {
+        return Ok(RowStats::default());
+    }
+    check_rows(n, bounds, z.len())?;
+    let RowBuffers { sparse, rows } = buffers;
+    // `assign_dense` builds consistent rows (`solve_rows_in`'s contract).
+    let same_pattern = sparse.assign_dense(a, n)
+        && rows.one_sided.len() == n
+        && bounds
+            .iter()
+            .zip(&rows.one_sided)
+            .all(|(b, &o)| (*b == RowBound::Unilateral) == o);
+    solve_rows_in(rows, sparse, q, bounds, settings, z, same_pattern)
+}
+
 /// Buffers of the staggered solve kept between calls (the dense contact path keeps one
 /// per world): the row classes, the one-sided and the other rows' blocks (dense and
 /// sparse) and the couplings between them are refilled in place each call, so once
@@ -384,6 +425,8 @@ pub(crate) struct RowScratch {
     lo: Vec<f64>,
     hi: Vec<f64>,
     zt0: Vec<f64>,
+    /// The friction PGS's iterate, inverse diagonal and `w` (one solve per alternation).
+    pgs: PgsScratch,
 }
 
 /// [`solve_rows_sparse`] on rows the caller has built consistent (`a.is_valid(n)`,
@@ -472,6 +515,7 @@ pub(crate) fn solve_rows_in(
         lo,
         hi,
         zt0,
+        pgs: pgs_scratch,
         ..
     } = scratch;
     let (normal, tangent) = (&normal[..], &tangent[..]);
@@ -654,27 +698,28 @@ pub(crate) fn solve_rows_in(
             };
             let lcp = &*lcp;
             stats.friction_pgs = true;
-            match pgs_keep(lcp, &friction_settings, Some(zt0)) {
-                Ok(sol) => {
-                    stats.iterations += sol.iterations;
+            match pgs_in(lcp, &friction_settings, Some(zt0), pgs_scratch)? {
+                PgsEnd::Solved { iterations, .. } => {
+                    stats.iterations += iterations;
                     for (k, &i) in tangent.iter().enumerate() {
-                        z[i] = sol.z[k];
+                        z[i] = pgs_scratch.z[k];
                     }
                 }
-                Err((LcpError::IterationLimit { iterations, .. }, last)) => {
+                end
+                @ (PgsEnd::Stopped { iterations, .. } | PgsEnd::Diverged { iterations, .. }) => {
                     // The budget answer: the iterate the sweeps reached before they
                     // stalled or ran out (without one, a non-finite residual, the warm
                     // start projected into the boxes).
                     stats.friction_budget = true;
                     stats.iterations += iterations;
+                    let last = matches!(end, PgsEnd::Stopped { .. }).then_some(&pgs_scratch.z);
                     for (k, &i) in tangent.iter().enumerate() {
                         let (lo, hi) = bound(i, z);
-                        let zk = last.as_ref().map_or(z[i], |l| l[k]);
+                        let zk = last.map_or(z[i], |l| l[k]);
                         // `min`/`max`, not `clamp`: NaN bounds must not panic.
                         z[i] = zk.min(hi).max(lo);
                     }
                 }
-                Err((e, _)) => return Err(e),
             }
             done += 1;
             stats.sweeps = done;
@@ -1134,6 +1179,51 @@ mod tests {
                 );
                 assert!(r <= 1e-8, "{method:?} {coupling:?}: residual {r:e}");
             }
+        }
+    }
+
+    /// One set of kept buffers over a sequence of problems (a first, the same pattern
+    /// with other values, a smaller one, a zero entry more, the first again) gives
+    /// each the fresh solve's bits and statistics (`solve_rows_with` against
+    /// `solve_rows`), and `assign_dense` reports the pattern's repeats.
+    #[test]
+    fn kept_buffers_solve_equals_fresh() {
+        let (a, q, bounds) = chain(6);
+        let n = q.len();
+        let scaled: Vec<f64> = a.iter().map(|v| 1.1 * v).collect();
+        let (small, small_q, small_bounds) = chain(4);
+        let mut holed = a.clone();
+        holed[1] = 0.0;
+        holed[n] = 0.0;
+        let settings = RowSettings {
+            max_sweeps: 50,
+            friction_tolerance: 1e-6,
+            friction_iterations: 10,
+            ..RowSettings::default()
+        };
+        let mut buffers = RowBuffers::default();
+        type Case<'a> = (&'a [f64], &'a [f64], &'a [RowBound], bool);
+        let cases: [Case; 5] = [
+            (&a, &q, &bounds, false),
+            (&scaled, &q, &bounds, true),
+            (&small, &small_q, &small_bounds, false),
+            (&holed, &q, &bounds, false),
+            (&a, &q, &bounds, false),
+        ];
+        for (k, (a, q, bounds, repeat)) in cases.into_iter().enumerate() {
+            let mut fresh = vec![0.0; q.len()];
+            let want = solve_rows(a, q, bounds, &settings, &mut fresh).unwrap();
+            let mut pattern = buffers.sparse.clone();
+            assert_eq!(pattern.assign_dense(a, q.len()), repeat, "case {k}");
+            let mut kept = vec![0.0; q.len()];
+            let got = solve_rows_with(&mut buffers, a, q, bounds, &settings, &mut kept).unwrap();
+            assert_eq!(got, want, "case {k}");
+            assert!(
+                kept.iter()
+                    .zip(&fresh)
+                    .all(|(x, y)| x.to_bits() == y.to_bits()),
+                "case {k}"
+            );
         }
     }
 
