@@ -36,6 +36,12 @@ pub enum GeometryError {
     },
     /// A contact margin was negative or non-finite.
     BadMargin,
+    /// A candidate pair names a collider beyond the end of the colliders given
+    /// ([`super::broad::generate_contacts_listed`]).
+    ColliderOutOfRange {
+        /// The collider index named.
+        collider: usize,
+    },
 }
 
 impl fmt::Display for GeometryError {
@@ -52,6 +58,12 @@ impl fmt::Display for GeometryError {
                 "collider {collider} is attached to body {body}, beyond the poses given"
             ),
             Self::BadMargin => f.write_str("contact margin must be finite and non-negative"),
+            Self::ColliderOutOfRange { collider } => {
+                write!(
+                    f,
+                    "candidate pair names collider {collider}, beyond the colliders given"
+                )
+            }
         }
     }
 }
