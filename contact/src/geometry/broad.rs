@@ -31,7 +31,7 @@ pub struct BroadStats {
 
 /// The axis along which the finite box centres have the largest variance (ties: lowest
 /// axis; x when there are none).
-fn sweep_axis(aabbs: &[Aabb]) -> usize {
+pub(super) fn sweep_axis(aabbs: &[Aabb]) -> usize {
     let mut n = 0.0;
     let mut mean = [0.0; 3];
     let mut m2 = [0.0; 3];
@@ -183,18 +183,24 @@ pub fn generate_contacts_filtered(
 /// list instead of sorting anew.
 #[derive(Clone, Debug, Default)]
 pub struct BroadScratch {
-    aabbs: Vec<Aabb>,
+    pub(super) aabbs: Vec<Aabb>,
     /// Each collider's world frame and its rotation matrix ([`Collider::rotation`]),
     /// computed once per call for the bounding box and the narrow phase.
-    frames: Vec<(Pose, DMat3)>,
+    pub(super) frames: Vec<(Pose, DMat3)>,
     /// The planes unbounded in every direction: collider index and world `(n, d)`
     /// ([`beyond_plane`]; usually none).
-    tilted: Vec<(usize, DVec3, f64)>,
+    pub(super) tilted: Vec<(usize, DVec3, f64)>,
     is_static: Vec<bool>,
     grid: GridScratch,
     pairs: Vec<(usize, usize)>,
     /// The narrow phase's clipping polygons.
-    clip: ClipBuffers,
+    pub(super) clip: ClipBuffers,
+    /// The sweep order of [`super::generate_contacts_masked`], kept between calls.
+    pub(super) order: Vec<usize>,
+    /// The boxes' lower bounds along its sweep axis, in sweep order.
+    pub(super) lower: Vec<f64>,
+    /// Its overlapping allowed pairs, a bit matrix ([`super::PairMask`]'s layout).
+    pub(super) hit: Vec<u64>,
 }
 
 /// [`generate_contacts_filtered`] with its buffers in `scratch`: the same contacts in
@@ -233,6 +239,7 @@ pub fn generate_contacts_awake(
         grid,
         pairs,
         clip,
+        ..
     } = scratch;
     frame_colliders(colliders, body_poses, margin, aabbs, frames, tilted)?;
     let framed = |k: usize| (&colliders[k], &frames[k].0, &frames[k].1);
@@ -271,7 +278,7 @@ pub fn generate_contacts_awake(
 /// `aabbs` and `frames` (cleared first), and the tilted planes into `tilted`
 /// ([`tilted_plane`]). Errors as [`generate_contacts`]: a negative or non-finite
 /// margin, a non-finite body pose, a collider naming a body beyond `body_poses`.
-fn frame_colliders(
+pub(super) fn frame_colliders(
     colliders: &[Collider],
     body_poses: &[Pose],
     margin: f64,
@@ -317,64 +324,6 @@ fn frame_colliders(
     Ok(())
 }
 
-/// [`generate_contacts_with`] over a fixed list of candidate pairs instead of a broad
-/// phase: `candidates` holds the pairs `(i, j)`, `i < j`, sorted, of colliders on
-/// different bodies that may ever touch (the caller's pair filter, applied once for a
-/// whole run: MuJoCo's `contype`/`conaffinity`, parent–child, exclusions); each is
-/// tested for box overlap (boxes grown by `margin / 2`), then by the narrow phase. With
-/// `candidates` the pairs of [`generate_contacts_with`]'s filter (`keep(i, j)` and
-/// different bodies, so never two static colliders), the same contacts in the same
-/// order: the grid's pairs are exactly the overlapping ones, sorted, and the filter
-/// only removes pairs. For a few dozen colliders (the jointed models: 50 on
-/// humanoid_CMU, about 1 000 candidate pairs) this costs less than the grid and the
-/// filter per overlapping pair. `tests` counts the box tests, `pairs` the overlapping
-/// candidates; `axis` is 0.
-///
-/// Errors: as [`generate_contacts`]; a candidate naming a collider beyond `colliders`
-/// is [`GeometryError::ColliderOutOfRange`].
-pub fn generate_contacts_listed(
-    colliders: &[Collider],
-    body_poses: &[Pose],
-    margin: f64,
-    candidates: &[(usize, usize)],
-    scratch: &mut BroadScratch,
-    out: &mut Vec<Contact>,
-) -> Result<BroadStats, GeometryError> {
-    out.clear();
-    let BroadScratch {
-        aabbs,
-        frames,
-        tilted,
-        clip,
-        ..
-    } = scratch;
-    frame_colliders(colliders, body_poses, margin, aabbs, frames, tilted)?;
-    let n = colliders.len();
-    if let Some(&(i, j)) = candidates.iter().find(|&&(i, j)| i >= n || j >= n) {
-        return Err(GeometryError::ColliderOutOfRange { collider: i.max(j) });
-    }
-    let framed = |k: usize| (&colliders[k], &frames[k].0, &frames[k].1);
-    let mut pairs = 0;
-    for &(i, j) in candidates {
-        if !aabbs[i].overlaps(&aabbs[j]) {
-            continue;
-        }
-        pairs += 1;
-        if !tilted.is_empty()
-            && (beyond_plane(tilted, i, &aabbs[j], margin)
-                || beyond_plane(tilted, j, &aabbs[i], margin))
-        {
-            continue;
-        }
-        collide_framed((i, j), framed(i), framed(j), margin, clip, out);
-    }
-    Ok(BroadStats {
-        tests: candidates.len(),
-        pairs,
-        axis: 0,
-    })
-}
-
 /// `(n, d)` of a plane collider `c` (world frame `w`) whose box `own` is unbounded in every direction (a
 /// normal off the axes; the half-space is `n · p ≤ d`), else `None`: the box of a
 /// plane with an axis-aligned normal is bounded on its free side, and the grid
@@ -402,7 +351,12 @@ fn tilted_plane(c: &Collider, w: &Pose, own: &Aabb) -> Option<(DVec3, f64)> {
 /// magnitudes involved, far above the rounding of either computation, so a pair is
 /// skipped only where the narrow phase finds nothing; an unbounded `other` (NaN or
 /// −∞ gap) is never skipped.
-fn beyond_plane(tilted: &[(usize, DVec3, f64)], k: usize, other: &Aabb, margin: f64) -> bool {
+pub(super) fn beyond_plane(
+    tilted: &[(usize, DVec3, f64)],
+    k: usize,
+    other: &Aabb,
+    margin: f64,
+) -> bool {
     let Some(&(_, n, d)) = tilted.iter().find(|t| t.0 == k) else {
         return false;
     };
