@@ -31,7 +31,7 @@ pub struct BroadStats {
 
 /// The axis along which the finite box centres have the largest variance (ties: lowest
 /// axis; x when there are none).
-pub(super) fn sweep_axis(aabbs: &[Aabb]) -> usize {
+fn sweep_axis(aabbs: &[Aabb]) -> usize {
     let mut n = 0.0;
     let mut mean = [0.0; 3];
     let mut m2 = [0.0; 3];
@@ -197,7 +197,7 @@ pub struct BroadScratch {
     pub(super) clip: ClipBuffers,
     /// The sweep order of [`super::generate_contacts_masked`], kept between calls.
     pub(super) order: Vec<usize>,
-    /// The boxes' lower bounds along its sweep axis, in sweep order.
+    /// The boxes' lower bounds along its sweep axis, by collider.
     pub(super) lower: Vec<f64>,
     /// Its overlapping allowed pairs, a bit matrix ([`super::PairMask`]'s layout).
     pub(super) hit: Vec<u64>,
