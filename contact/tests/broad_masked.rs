@@ -91,11 +91,14 @@ fn keep(i: usize, j: usize) -> bool {
 }
 
 /// The filter's pairs as a mask; `same_body`: also the pairs of one body's colliders
-/// (which contact generation must skip by itself).
-fn mask(colliders: &[Collider], same_body: bool) -> PairMask {
-    let mut m = PairMask::new(colliders.len());
-    for i in 0..colliders.len() {
-        for j in i + 1..colliders.len() {
+/// (which contact generation must skip by itself); `reversed`: allowed from the last
+/// row up (out of order: the mask keeps no pair list, only its bits).
+fn mask(colliders: &[Collider], same_body: bool, reversed: bool) -> PairMask {
+    let n = colliders.len();
+    let mut m = PairMask::new(n);
+    for r in 0..n {
+        let i = if reversed { n - 1 - r } else { r };
+        for j in i + 1..n {
             if (same_body || colliders[i].body != colliders[j].body) && keep(i, j) {
                 m.allow(i, j).unwrap();
             }
@@ -117,9 +120,15 @@ fn masked_pairs_give_the_filtered_contacts_in_order() {
         let mut scratch = BroadScratch::default();
         let (mut listed, mut filtered) = (Vec::new(), Vec::new());
         // Margins growing, then shrinking (the kept sweep order re-sorted), and both
-        // masks (with and without one body's pairs: the same contacts).
-        for (margin, same_body) in [(0.0, false), (0.01, true), (0.2, false), (0.01, false)] {
-            let m = mask(&colliders, same_body);
+        // masks (with and without one body's pairs: the same contacts), allowed in
+        // order and out of order.
+        for (margin, same_body, reversed) in [
+            (0.0, false, false),
+            (0.01, true, false),
+            (0.2, false, true),
+            (0.01, false, true),
+        ] {
+            let m = mask(&colliders, same_body, reversed);
             // Both of the function's paths: every allowed pair tested (at most 16 per
             // collider: the 12-body scenes, measured 11.5 to 12.7) and the sweep (the
             // 40-body scenes, 37.8 to 39.0).
@@ -150,7 +159,7 @@ fn masked_pairs_give_the_filtered_contacts_in_order() {
 #[test]
 fn masked_errors() {
     let (colliders, poses) = scene(5, 0.5, false, 9);
-    let list = mask(&colliders, false);
+    let list = mask(&colliders, false, false);
     let mut scratch = BroadScratch::default();
     let mut out = Vec::new();
     let mut call = |poses: &[Pose], margin: f64, list: &PairMask| {

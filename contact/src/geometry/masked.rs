@@ -37,6 +37,10 @@ pub struct PairMask {
     bits: Vec<u64>,
     /// The number of allowed pairs `(i, j)`, `i < j`.
     allowed: usize,
+    /// The allowed pairs `(i, j)`, `i < j`, sorted, while they were allowed in that
+    /// order (`listed`; else empty): the direct path's loop without the bits' rows.
+    list: Vec<(usize, usize)>,
+    listed: bool,
 }
 
 impl PairMask {
@@ -48,6 +52,8 @@ impl PairMask {
             words,
             bits: vec![0; n * words],
             allowed: 0,
+            list: Vec::new(),
+            listed: true,
         }
     }
 
@@ -79,6 +85,13 @@ impl PairMask {
         }
         if i != j && !self.allows(i, j) {
             self.allowed += 1;
+            let p = (i.min(j), i.max(j));
+            if self.listed && self.list.last().is_none_or(|&last| last < p) {
+                self.list.push(p);
+            } else {
+                self.listed = false;
+                self.list = Vec::new();
+            }
         }
         self.bits[i * self.words + j / 64] |= 1 << (j % 64);
         self.bits[j * self.words + i / 64] |= 1 << (i % 64);
@@ -145,27 +158,39 @@ pub fn generate_contacts_masked(
     };
     let words = mask.words;
     if mask.allowed <= DIRECT_PAIRS_PER_COLLIDER * n {
-        // Few allowed pairs: each tested directly, row by row, in pair order.
+        // Few allowed pairs: each tested directly, in pair order (from the list when
+        // the pairs were allowed in order, else row by row from the bits).
         let mut pairs = 0;
-        for a in 0..n {
-            let own = aabbs[a];
-            let row = &mask.bits[a * words..(a + 1) * words];
-            for (w, &word) in row.iter().enumerate().skip(a / 64) {
-                // Columns after `a` only (each pair once, from its lower index).
-                let mut bits = if w == a / 64 {
-                    word & (u64::MAX << (a % 64) << 1)
-                } else {
-                    word
-                };
-                while bits != 0 {
-                    let b = w * 64 + bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    if !own.overlaps(&aabbs[b]) {
-                        continue;
-                    }
+        if mask.listed {
+            for &(a, b) in &mask.list {
+                if aabbs[a].overlaps(&aabbs[b]) {
                     pairs += 1;
                     if !skip(a, b) {
                         collide_framed((a, b), framed(a), framed(b), margin, clip, out);
+                    }
+                }
+            }
+        } else {
+            for a in 0..n {
+                let own = aabbs[a];
+                let row = &mask.bits[a * words..(a + 1) * words];
+                for (w, &word) in row.iter().enumerate().skip(a / 64) {
+                    // Columns after `a` only (each pair once, from its lower index).
+                    let mut bits = if w == a / 64 {
+                        word & (u64::MAX << (a % 64) << 1)
+                    } else {
+                        word
+                    };
+                    while bits != 0 {
+                        let b = w * 64 + bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        if !own.overlaps(&aabbs[b]) {
+                            continue;
+                        }
+                        pairs += 1;
+                        if !skip(a, b) {
+                            collide_framed((a, b), framed(a), framed(b), margin, clip, out);
+                        }
                     }
                 }
             }
