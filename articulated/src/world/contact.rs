@@ -12,7 +12,7 @@
 //! are not joined by a joint (parent–child filtering; the world is exempt), and the
 //! body pair was not excluded ([`World::exclude_pair`]).
 
-use constraint_contact::geometry::{generate_contacts_with, Collider, Contact, Shape};
+use constraint_contact::geometry::{generate_contacts_masked, Collider, Contact, PairMask, Shape};
 use constraint_contact::lcp::RowBound;
 use constraint_core::{DVec3, Pose};
 
@@ -76,7 +76,49 @@ pub(super) struct Projection {
     found: Vec<Contact>,
 }
 
+/// The collider pairs that may ever touch: on different bodies and passing
+/// [`may_touch`] (filter bits, parent–child, exclusions). None of these changes during
+/// a run, so the mask is built once (again only after a collider, exclusion or joint
+/// was added) and contact generation looks it up for the pairs its sweep meets
+/// ([`generate_contacts_masked`]) instead of calling the filter on every overlapping
+/// pair: the same contacts in the same order.
+#[derive(Clone, Debug, Default)]
+pub(super) struct PairFilter {
+    /// The numbers of colliders, excluded pairs and joints the mask was built for
+    /// (each only grows).
+    built_for: (usize, usize, usize),
+    /// The allowed pairs.
+    mask: PairMask,
+}
+
 impl World {
+    /// Rebuilds the pair mask ([`PairFilter`]) if a collider, exclusion or joint was
+    /// added since it was built; `O(n² J)` for `n` colliders and `J` joints, once.
+    fn update_pair_filter(&mut self) {
+        let key = (self.colliders.len(), self.excluded.len(), self.joints.len());
+        if self.pair_filter.built_for == key {
+            return;
+        }
+        let (filters, colliders, excluded, joints) =
+            (&self.filters, &self.colliders, &self.excluded, &self.joints);
+        let n = colliders.len();
+        let mut mask = PairMask::new(n);
+        for i in 0..n {
+            for j in i + 1..n {
+                if colliders[i].body != colliders[j].body
+                    && may_touch(filters, colliders, excluded, joints, i, j)
+                {
+                    // In range by construction: `allow` cannot fail.
+                    let _ = mask.allow(i, j);
+                }
+            }
+        }
+        self.pair_filter = PairFilter {
+            built_for: key,
+            mask,
+        };
+    }
+
     /// Adds a collider (its body must exist; `None` is the static world) with the
     /// default filter; returns its index.
     pub fn add_collider(&mut self, c: Collider) -> Result<usize, ArticulatedError> {
@@ -155,9 +197,7 @@ impl World {
         poses.clear();
         poses.extend(self.bodies.iter().map(|b| b.pose));
         let mut contacts = core::mem::take(&mut self.contacts);
-        let (filters, colliders, excluded, joints) =
-            (&self.filters, &self.colliders, &self.excluded, &self.joints);
-        let keep = |i: usize, j: usize| may_touch(filters, colliders, excluded, joints, i, j);
+        self.update_pair_filter();
         // Speculative rows must reach every pair the step can close: the narrow phase
         // looks `margin + 2 r h` out (`r` the fastest collider's point speed bound), and
         // a pair beyond `margin` is kept when its normal rate covers the rest within
@@ -165,11 +205,11 @@ impl World {
         // (`h` = 0.01 s, over 3.5 m/s) pass the margin in one step and start the next
         // 1.5 cm deep.
         let reach = self.collider_reach();
-        let result = generate_contacts_with(
+        let result = generate_contacts_masked(
             &self.colliders,
             &poses,
             s.margin + 2.0 * reach * h,
-            keep,
+            &self.pair_filter.mask,
             &mut self.broad,
             &mut contacts,
         );
@@ -287,17 +327,15 @@ impl World {
         poses.clear();
         poses.extend(self.bodies.iter().map(|b| b.pose));
         let mut found = core::mem::take(&mut self.projection.found);
-        let (filters, colliders, excluded, joints) =
-            (&self.filters, &self.colliders, &self.excluded, &self.joints);
-        let keep = |i: usize, j: usize| may_touch(filters, colliders, excluded, joints, i, j);
+        self.update_pair_filter();
         let margin = self.unilateral.margin;
         // A failure (non-finite poses, which the step reports anyway) leaves the
         // projection without contacts.
-        if generate_contacts_with(
+        if generate_contacts_masked(
             &self.colliders,
             &poses,
             margin,
-            keep,
+            &self.pair_filter.mask,
             &mut self.broad,
             &mut found,
         )
@@ -470,8 +508,8 @@ impl World {
 }
 
 /// Whether colliders `i` and `j` may touch (filter bits, parent–child, exclusions): a
-/// function of the fields it reads, so the broad phase can borrow the world's other
-/// fields (its scratch) at the same time instead of moving them out.
+/// function of the fields it reads, so [`PairFilter`]'s mask is built while the
+/// world's other fields are borrowed.
 fn may_touch(
     filters: &[CollisionFilter],
     colliders: &[constraint_contact::geometry::Collider],

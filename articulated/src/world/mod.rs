@@ -426,6 +426,9 @@ pub struct World {
     /// steps.
     #[cfg(feature = "contact")]
     broad: constraint_contact::geometry::BroadScratch,
+    /// The collider pairs that may touch, built once (`contact.rs`).
+    #[cfg(feature = "contact")]
+    pair_filter: contact::PairFilter,
     /// Contact impulses of the last step by contact key, sorted (warm start).
     #[cfg(feature = "contact")]
     warm: Vec<WarmContact>,
@@ -507,6 +510,8 @@ impl World {
             contacts: Vec::new(),
             #[cfg(feature = "contact")]
             broad: constraint_contact::geometry::BroadScratch::default(),
+            #[cfg(feature = "contact")]
+            pair_filter: contact::PairFilter::default(),
             #[cfg(feature = "contact")]
             warm: Vec::new(),
             #[cfg(feature = "contact")]

@@ -183,18 +183,24 @@ pub fn generate_contacts_filtered(
 /// list instead of sorting anew.
 #[derive(Clone, Debug, Default)]
 pub struct BroadScratch {
-    aabbs: Vec<Aabb>,
+    pub(super) aabbs: Vec<Aabb>,
     /// Each collider's world frame and its rotation matrix ([`Collider::rotation`]),
     /// computed once per call for the bounding box and the narrow phase.
-    frames: Vec<(Pose, DMat3)>,
+    pub(super) frames: Vec<(Pose, DMat3)>,
     /// The planes unbounded in every direction: collider index and world `(n, d)`
     /// ([`beyond_plane`]; usually none).
-    tilted: Vec<(usize, DVec3, f64)>,
+    pub(super) tilted: Vec<(usize, DVec3, f64)>,
     is_static: Vec<bool>,
     grid: GridScratch,
     pairs: Vec<(usize, usize)>,
     /// The narrow phase's clipping polygons.
-    clip: ClipBuffers,
+    pub(super) clip: ClipBuffers,
+    /// The sweep order of [`super::generate_contacts_masked`], kept between calls.
+    pub(super) order: Vec<usize>,
+    /// The boxes' lower bounds along its sweep axis, by collider.
+    pub(super) lower: Vec<f64>,
+    /// Its overlapping allowed pairs, a bit matrix ([`super::PairMask`]'s layout).
+    pub(super) hit: Vec<u64>,
 }
 
 /// [`generate_contacts_filtered`] with its buffers in `scratch`: the same contacts in
@@ -225,19 +231,6 @@ pub fn generate_contacts_awake(
     out: &mut Vec<Contact>,
 ) -> Result<BroadStats, GeometryError> {
     out.clear();
-    if !(margin >= 0.0) || !margin.is_finite() {
-        return Err(GeometryError::BadMargin);
-    }
-    if body_poses
-        .iter()
-        .any(|p| !p.x.is_finite() || !p.q.is_finite())
-    {
-        return Err(GeometryError::NonFinite);
-    }
-    let pose_of = |c: &Collider| match c.body {
-        Some(b) => body_poses[b],
-        None => Pose::IDENTITY,
-    };
     let BroadScratch {
         aabbs,
         frames,
@@ -246,29 +239,9 @@ pub fn generate_contacts_awake(
         grid,
         pairs,
         clip,
+        ..
     } = scratch;
-    aabbs.clear();
-    frames.clear();
-    tilted.clear();
-    for (k, c) in colliders.iter().enumerate() {
-        if let Some(b) = c.body {
-            if b >= body_poses.len() {
-                return Err(GeometryError::BodyOutOfRange {
-                    collider: k,
-                    body: b,
-                });
-            }
-        }
-        let w = c.world_pose(&pose_of(c));
-        let rot = c.rotation(&w);
-        aabbs.push(c.aabb_framed(&w, &rot, 0.5 * margin));
-        if matches!(c.shape, Shape::Plane { .. }) {
-            if let Some((n, d)) = tilted_plane(c, &w, &aabbs[k]) {
-                tilted.push((k, n, d));
-            }
-        }
-        frames.push((w, rot));
-    }
+    frame_colliders(colliders, body_poses, margin, aabbs, frames, tilted)?;
     let framed = |k: usize| (&colliders[k], &frames[k].0, &frames[k].1);
     is_static.clear();
     is_static.extend(colliders.iter().map(|c| {
@@ -301,6 +274,56 @@ pub fn generate_contacts_awake(
     Ok(stats)
 }
 
+/// Each collider's world frame, rotation and bounding box grown by `margin / 2`, into
+/// `aabbs` and `frames` (cleared first), and the tilted planes into `tilted`
+/// ([`tilted_plane`]). Errors as [`generate_contacts`]: a negative or non-finite
+/// margin, a non-finite body pose, a collider naming a body beyond `body_poses`.
+pub(super) fn frame_colliders(
+    colliders: &[Collider],
+    body_poses: &[Pose],
+    margin: f64,
+    aabbs: &mut Vec<Aabb>,
+    frames: &mut Vec<(Pose, DMat3)>,
+    tilted: &mut Vec<(usize, DVec3, f64)>,
+) -> Result<(), GeometryError> {
+    if !(margin >= 0.0) || !margin.is_finite() {
+        return Err(GeometryError::BadMargin);
+    }
+    if body_poses
+        .iter()
+        .any(|p| !p.x.is_finite() || !p.q.is_finite())
+    {
+        return Err(GeometryError::NonFinite);
+    }
+    let pose_of = |c: &Collider| match c.body {
+        Some(b) => body_poses[b],
+        None => Pose::IDENTITY,
+    };
+    aabbs.clear();
+    frames.clear();
+    tilted.clear();
+    for (k, c) in colliders.iter().enumerate() {
+        if let Some(b) = c.body {
+            if b >= body_poses.len() {
+                return Err(GeometryError::BodyOutOfRange {
+                    collider: k,
+                    body: b,
+                });
+            }
+        }
+        let w = c.world_pose(&pose_of(c));
+        let rot = c.rotation(&w);
+        aabbs.push(c.aabb_framed(&w, &rot, 0.5 * margin));
+        if matches!(c.shape, Shape::Plane { .. }) {
+            if let Some((n, d)) = tilted_plane(c, &w, &aabbs[k]) {
+                tilted.push((k, n, d));
+            }
+        }
+        frames.push((w, rot));
+    }
+    Ok(())
+}
+
 /// `(n, d)` of a plane collider `c` (world frame `w`) whose box `own` is unbounded in every direction (a
 /// normal off the axes; the half-space is `n · p ≤ d`), else `None`: the box of a
 /// plane with an axis-aligned normal is bounded on its free side, and the grid
@@ -328,7 +351,12 @@ fn tilted_plane(c: &Collider, w: &Pose, own: &Aabb) -> Option<(DVec3, f64)> {
 /// magnitudes involved, far above the rounding of either computation, so a pair is
 /// skipped only where the narrow phase finds nothing; an unbounded `other` (NaN or
 /// −∞ gap) is never skipped.
-fn beyond_plane(tilted: &[(usize, DVec3, f64)], k: usize, other: &Aabb, margin: f64) -> bool {
+pub(super) fn beyond_plane(
+    tilted: &[(usize, DVec3, f64)],
+    k: usize,
+    other: &Aabb,
+    margin: f64,
+) -> bool {
     let Some(&(_, n, d)) = tilted.iter().find(|t| t.0 == k) else {
         return false;
     };

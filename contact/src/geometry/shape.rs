@@ -36,6 +36,15 @@ pub enum GeometryError {
     },
     /// A contact margin was negative or non-finite.
     BadMargin,
+    /// A pair mask's size does not match the colliders
+    /// ([`super::masked::generate_contacts_masked`]), or a pair names a collider beyond
+    /// it ([`super::masked::PairMask::allow`]).
+    PairMaskSize {
+        /// The number of colliders of the mask.
+        mask: usize,
+        /// The number of colliders given (or the index named).
+        colliders: usize,
+    },
 }
 
 impl fmt::Display for GeometryError {
@@ -52,6 +61,10 @@ impl fmt::Display for GeometryError {
                 "collider {collider} is attached to body {body}, beyond the poses given"
             ),
             Self::BadMargin => f.write_str("contact margin must be finite and non-negative"),
+            Self::PairMaskSize { mask, colliders } => write!(
+                f,
+                "pair mask over {mask} colliders used with {colliders} (or collider index {colliders})"
+            ),
         }
     }
 }
