@@ -56,6 +56,25 @@ pub struct Joint {
     pub damping: f64,
 }
 
+/// A joint's coordinates at one configuration ([`crate::world::World`]'s coordinate
+/// cache): the bits of the parent's and the child's poses (`x`, `q`, as the rows cache
+/// keys them), the coordinates `q` (zeros past the joint's degrees of freedom) and, when
+/// `has_rows`, their rate rows `G` (`q̇ = G v`). The coordinates are a function of the
+/// joint (fixed once added) and these bits alone (every caller passes the zero hint of
+/// [`Compound::coordinates`]), so an entry whose key matches the current poses holds the
+/// bits a computation would give.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct KeptCoords {
+    /// Bits of the parent's and the child's `x` and `q`.
+    pub key: [u64; 14],
+    /// Coordinates `q`.
+    pub q: [f64; MAX_DOF],
+    /// Whether `rows` holds the rate rows at `q`.
+    pub has_rows: bool,
+    /// Rate rows `G` (a compound joint's [`Compound::dof_rows`]).
+    pub rows: [[DVec3; 4]; MAX_DOF],
+}
+
 /// A joint's rows at one configuration.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct JointRows {
@@ -191,6 +210,21 @@ impl Joint {
     /// nothing). A caller keeping the rows in place (the assembly's row cache) skips
     /// the copy of the rows a return by value costs.
     pub(crate) fn rows_into(&self, a: &Pose, b: &Pose, rates: bool, out: &mut JointRows) {
+        self.rows_into_kept(a, b, rates, None, out);
+    }
+
+    /// [`Self::rows_into`] with the coordinate cache's entry of this joint: `kept` is the
+    /// poses' key ([`KeptCoords::key`]) and the entry. A compound joint's rate rows take
+    /// the entry's coordinates (and rows) when its key is `key`, else computed and
+    /// written there (the same bits either way: module doc of [`KeptCoords`]).
+    pub(crate) fn rows_into_kept(
+        &self,
+        a: &Pose,
+        b: &Pose,
+        rates: bool,
+        kept: Option<(&[u64; 14], &mut Option<KeptCoords>)>,
+        out: &mut JointRows,
+    ) {
         out.n = 0;
         out.n_hard = 0;
         match &self.kind {
@@ -211,7 +245,7 @@ impl Joint {
         }
         if rates {
             let first = out.rows[0];
-            self.push_rates(a, b, first, out);
+            self.push_rates(a, b, first, kept, out);
         }
     }
 
@@ -227,13 +261,20 @@ impl Joint {
             JointKind::Distance(c) => c.jacobian(a, b).rows[0],
             _ => [DVec3::ZERO; 4],
         };
-        self.push_rates(a, b, first, &mut out);
+        self.push_rates(a, b, first, None, &mut out);
         out
     }
 
     /// Appends the rate rows (one per degree of freedom) to `out`; `first` is the first
-    /// hard row (a distance joint's rate row).
-    fn push_rates(&self, a: &Pose, b: &Pose, first: [DVec3; 4], out: &mut JointRows) {
+    /// hard row (a distance joint's rate row); `kept` as in [`Self::rows_into_kept`].
+    fn push_rates(
+        &self,
+        a: &Pose,
+        b: &Pose,
+        first: [DVec3; 4],
+        kept: Option<(&[u64; 14], &mut Option<KeptCoords>)>,
+        out: &mut JointRows,
+    ) {
         match &self.kind {
             JointKind::Spherical(_) => {
                 for e in [DVec3::X, DVec3::Y, DVec3::Z] {
@@ -248,8 +289,30 @@ impl Joint {
             JointKind::Distance(_) => out.push_rate(first),
             JointKind::Fixed(_) => {}
             JointKind::Compound(c, _) => {
-                let q = c.coordinates(a, b, &[0.0; MAX_DOF]);
-                let rows = c.dof_rows(a, b, &q);
+                let rows = match kept {
+                    Some((key, Some(e))) if e.key == *key => {
+                        if !e.has_rows {
+                            e.rows = c.dof_rows(a, b, &e.q);
+                            e.has_rows = true;
+                        }
+                        e.rows
+                    }
+                    Some((key, slot)) => {
+                        let q = c.coordinates(a, b, &[0.0; MAX_DOF]);
+                        let rows = c.dof_rows(a, b, &q);
+                        *slot = Some(KeptCoords {
+                            key: *key,
+                            q,
+                            has_rows: true,
+                            rows,
+                        });
+                        rows
+                    }
+                    None => {
+                        let q = c.coordinates(a, b, &[0.0; MAX_DOF]);
+                        c.dof_rows(a, b, &q)
+                    }
+                };
                 for row in rows.iter().take(c.dof()) {
                     out.push_rate(*row);
                 }

@@ -23,6 +23,7 @@ use constraint_core::compound::MAX_DOF;
 use constraint_core::DVec3;
 
 use super::*;
+use crate::joint::KeptCoords;
 
 /// What an actuator drives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -351,6 +352,9 @@ impl World {
         if let Some(e) = self.cached_coordinates(ji) {
             return Some(e.q);
         }
+        if let Some(e) = self.kept_coordinates(ji) {
+            return Some(e.q);
+        }
         let j = &self.joints[ji];
         let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
         let mut q = [0.0; MAX_DOF];
@@ -361,6 +365,55 @@ impl World {
             _ => return None,
         }
         Some(q)
+    }
+
+    /// [`Self::coordinates_of`] (the same bits), kept in the coordinate cache
+    /// (`World::coords`) for the next reader at the same poses: the projection's limit
+    /// error evaluates them, its limit rows read them again at the same iterate, and the
+    /// next step's limit rows at the last accepted one.
+    pub(super) fn coordinates_kept(&mut self, ji: usize) -> Option<[f64; MAX_DOF]> {
+        // Only a compound joint's coordinates are worth an entry (a hinge's angle or a
+        // slide's displacement costs about what the key's comparison does).
+        if !matches!(self.joints[ji].kind, JointKind::Compound(..)) {
+            return self.coordinates_of(ji);
+        }
+        self.compound_coordinates_kept(ji)
+    }
+
+    /// [`Self::coordinates_kept`] of a compound joint (out of line: the callers' loops
+    /// over the hinges stay small).
+    #[inline(never)]
+    fn compound_coordinates_kept(&mut self, ji: usize) -> Option<[f64; MAX_DOF]> {
+        if let Some(e) = self.kept_coordinates(ji) {
+            return Some(e.q);
+        }
+        let q = self.coordinates_of(ji)?;
+        let key = self.pose_key(ji);
+        if self.coords.len() <= ji {
+            self.coords.resize(ji + 1, None);
+        }
+        match &mut self.coords[ji] {
+            Some(e) => {
+                e.key = key;
+                e.q = q;
+                e.has_rows = false;
+            }
+            slot => {
+                *slot = Some(KeptCoords {
+                    key,
+                    q,
+                    has_rows: false,
+                    rows: [[DVec3::ZERO; 4]; MAX_DOF],
+                })
+            }
+        }
+        Some(q)
+    }
+
+    /// Joint `ji`'s entry of the coordinate cache when it is of the current poses.
+    fn kept_coordinates(&self, ji: usize) -> Option<&KeptCoords> {
+        let e = self.coords.get(ji)?.as_ref()?;
+        (e.key == self.pose_key(ji)).then_some(e)
     }
 
     /// The coordinates of joint `ji` and the rows of their rates (hinge angle and its
@@ -408,6 +461,18 @@ impl World {
         let j = &self.joints[ji];
         let a = j.parent.map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
         let b = &self.bodies[j.child].pose;
+        // The coordinate cache's entry at these poses: its coordinates (and rows).
+        if let Some(e) = self.kept_coordinates(ji) {
+            match &j.kind {
+                JointKind::Hinge(c) => rows[0] = c.angle_row(b),
+                JointKind::Prismatic(c) => rows[0] = c.displacement_row(a, b),
+                JointKind::Compound(..) if e.has_rows => *rows = e.rows,
+                JointKind::Compound(c, _) => *rows = c.dof_rows(a, b, &e.q),
+                _ => return false,
+            }
+            *q = e.q;
+            return true;
+        }
         match &j.kind {
             JointKind::Hinge(c) => {
                 q[0] = c.angle(a, b);

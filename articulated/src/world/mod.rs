@@ -118,6 +118,7 @@ impl CachedRows {
     /// `memcpy` per joint and assembly.
     fn rows<'c>(
         cache: &'c mut Vec<CachedRows>,
+        coords: &mut Vec<Option<crate::joint::KeptCoords>>,
         j: usize,
         joint: &Joint,
         (a, b): (&Pose, &Pose),
@@ -144,7 +145,17 @@ impl CachedRows {
             }
             // Written in place (the rows straight into the entry, not through a copy).
             let e = &mut cache[j];
-            joint.rows_into(a, b, with, &mut e.rows);
+            // A compound joint's rate rows through the coordinate cache
+            // (`World::coords`): kept there, or taken from it.
+            let kept = if with && matches!(joint.kind, JointKind::Compound(..)) {
+                if coords.len() <= j {
+                    coords.resize(j + 1, None);
+                }
+                Some((&key, &mut coords[j]))
+            } else {
+                None
+            };
+            joint.rows_into_kept(a, b, with, kept, &mut e.rows);
             e.valid = true;
             e.key = key;
             e.rates = with;
@@ -402,6 +413,9 @@ pub struct World {
     /// (scratch of the actuator, spring and tendon forces).
     dof_tau: Vec<[f64; MAX_DOF]>,
     dof_table: Vec<Option<actuator::DofState>>,
+    /// Per joint, its coordinates (and rate rows) at the poses they were last computed
+    /// at ([`crate::joint::KeptCoords`], `actuator.rs`).
+    coords: Vec<Option<crate::joint::KeptCoords>>,
     /// The loop rows of the last assembly.
     last_loops: LoopRows,
     /// Spare loop-row buffers (RATTLE keeps a second set; no allocation across steps).
@@ -490,6 +504,7 @@ impl World {
             aset: active_set::ActiveSet::default(),
             dof_tau: Vec::new(),
             dof_table: Vec::new(),
+            coords: Vec::new(),
             last_loops: (Vec::new(), Vec::new(), Vec::new()),
             rows_cache: Vec::new(),
             spare_loops: (Vec::new(), Vec::new(), Vec::new()),
@@ -1022,6 +1037,7 @@ impl World {
             } else {
                 CachedRows::rows(
                     &mut self.rows_cache,
+                    &mut self.coords,
                     j,
                     joint,
                     (&a, &b),
