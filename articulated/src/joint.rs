@@ -75,6 +75,17 @@ pub(crate) struct KeptCoords {
     pub rows: [[DVec3; 4]; MAX_DOF],
 }
 
+/// How the rate rows use the coordinate cache ([`KeptCoords`]).
+pub(crate) enum Kept<'k> {
+    /// Computed, not kept.
+    None,
+    /// The entry of the current poses (the caller matched its key).
+    Read(&'k KeptCoords),
+    /// The poses' key and the joint's entry: taken from it when its key matches, else
+    /// computed and written there.
+    Write(&'k [u64; 14], &'k mut Option<KeptCoords>),
+}
+
 /// A joint's rows at one configuration.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct JointRows {
@@ -210,19 +221,19 @@ impl Joint {
     /// nothing). A caller keeping the rows in place (the assembly's row cache) skips
     /// the copy of the rows a return by value costs.
     pub(crate) fn rows_into(&self, a: &Pose, b: &Pose, rates: bool, out: &mut JointRows) {
-        self.rows_into_kept(a, b, rates, None, out);
+        self.rows_into_kept(a, b, rates, Kept::None, out);
     }
 
-    /// [`Self::rows_into`] with the coordinate cache's entry of this joint: `kept` is the
-    /// poses' key ([`KeptCoords::key`]) and the entry. A compound joint's rate rows take
-    /// the entry's coordinates (and rows) when its key is `key`, else computed and
-    /// written there (the same bits either way: module doc of [`KeptCoords`]).
+    /// [`Self::rows_into`] with the coordinate cache's entry of this joint ([`Kept`]): a
+    /// compound joint's rate rows take the entry's coordinates (and rows) when it is of
+    /// these poses, else computed (and, with [`Kept::Write`], written there); the same
+    /// bits either way ([`KeptCoords`]).
     pub(crate) fn rows_into_kept(
         &self,
         a: &Pose,
         b: &Pose,
         rates: bool,
-        kept: Option<(&[u64; 14], &mut Option<KeptCoords>)>,
+        kept: Kept<'_>,
         out: &mut JointRows,
     ) {
         out.n = 0;
@@ -251,8 +262,9 @@ impl Joint {
 
     /// The rate rows alone, as [`Self::rows_with`] gives them (the same bits), after
     /// `hard_rows()` zero hard rows (value 0, Jacobian 0): for a right-hand side that
-    /// reads only the rate rows, without the cost of the hard rows' Jacobian.
-    pub(crate) fn rate_rows_only(&self, a: &Pose, b: &Pose) -> JointRows {
+    /// reads only the rate rows, without the cost of the hard rows' Jacobian; a compound
+    /// joint's through the coordinate cache (`kept`, as in [`Self::rows_into_kept`]).
+    pub(crate) fn rate_rows_only_kept(&self, a: &Pose, b: &Pose, kept: Kept<'_>) -> JointRows {
         let mut out = JointRows::new();
         out.n = self.hard_rows();
         out.n_hard = out.n;
@@ -261,7 +273,7 @@ impl Joint {
             JointKind::Distance(c) => c.jacobian(a, b).rows[0],
             _ => [DVec3::ZERO; 4],
         };
-        self.push_rates(a, b, first, None, &mut out);
+        self.push_rates(a, b, first, kept, &mut out);
         out
     }
 
@@ -272,7 +284,7 @@ impl Joint {
         a: &Pose,
         b: &Pose,
         first: [DVec3; 4],
-        kept: Option<(&[u64; 14], &mut Option<KeptCoords>)>,
+        kept: Kept<'_>,
         out: &mut JointRows,
     ) {
         match &self.kind {
@@ -290,14 +302,16 @@ impl Joint {
             JointKind::Fixed(_) => {}
             JointKind::Compound(c, _) => {
                 let rows = match kept {
-                    Some((key, Some(e))) if e.key == *key => {
+                    Kept::Read(e) if e.has_rows => e.rows,
+                    Kept::Read(e) => c.dof_rows(a, b, &e.q),
+                    Kept::Write(key, Some(e)) if e.key == *key => {
                         if !e.has_rows {
                             e.rows = c.dof_rows(a, b, &e.q);
                             e.has_rows = true;
                         }
                         e.rows
                     }
-                    Some((key, slot)) => {
+                    Kept::Write(key, slot) => {
                         let q = c.coordinates(a, b, &[0.0; MAX_DOF]);
                         let rows = c.dof_rows(a, b, &q);
                         *slot = Some(KeptCoords {
@@ -308,7 +322,7 @@ impl Joint {
                         });
                         rows
                     }
-                    None => {
+                    Kept::None => {
                         let q = c.coordinates(a, b, &[0.0; MAX_DOF]);
                         c.dof_rows(a, b, &q)
                     }

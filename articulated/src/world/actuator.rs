@@ -23,7 +23,7 @@ use constraint_core::compound::MAX_DOF;
 use constraint_core::DVec3;
 
 use super::*;
-use crate::joint::KeptCoords;
+use crate::joint::{Kept, KeptCoords};
 
 /// What an actuator drives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -410,6 +410,40 @@ impl World {
         Some(q)
     }
 
+    /// Fills the coordinate cache's entries (coordinates and rate rows) of the compound
+    /// joints whose limit or dry-friction rows [`Self::push_limit_rows`] reads at the
+    /// current poses, so that it and the force evaluations at the same poses (the
+    /// step's first kick) read them rather than computing the rows each.
+    pub(super) fn keep_limit_coordinates(&mut self) {
+        for ji in 0..self.joints.len() {
+            let JointKind::Compound(c, _) = &self.joints[ji].kind else {
+                continue;
+            };
+            if self.limits[ji].iter().all(|l| l.is_none())
+                && self.frictionloss[ji].iter().all(|f| *f == 0.0)
+            {
+                continue;
+            }
+            let c = *c;
+            let Some(q) = self.compound_coordinates_kept(ji) else {
+                continue;
+            };
+            let j = &self.joints[ji];
+            let a = j.parent.map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+            let b = &self.bodies[j.child].pose;
+            if let Some(Some(e)) = self.coords.get(ji) {
+                if e.has_rows {
+                    continue;
+                }
+            }
+            let rows = c.dof_rows(a, b, &q);
+            if let Some(Some(e)) = self.coords.get_mut(ji) {
+                e.rows = rows;
+                e.has_rows = true;
+            }
+        }
+    }
+
     /// Joint `ji`'s entry of the coordinate cache when it is of the current poses.
     fn kept_coordinates(&self, ji: usize) -> Option<&KeptCoords> {
         let e = self.coords.get(ji)?.as_ref()?;
@@ -761,6 +795,20 @@ impl World {
         self.dof_tau = tau;
         self.dof_table = coords;
         any
+    }
+}
+
+/// Joint `ji`'s entry of the coordinate cache `coords` (`World::coords`) when it is of
+/// poses `a` (parent) and `b` (child), for [`Joint::rate_rows_only_kept`].
+pub(super) fn kept_at<'k>(
+    coords: &'k [Option<KeptCoords>],
+    ji: usize,
+    a: &Pose,
+    b: &Pose,
+) -> Kept<'k> {
+    match coords.get(ji) {
+        Some(Some(e)) if e.key == CachedRows::key_of(a, b) => Kept::Read(e),
+        _ => Kept::None,
     }
 }
 

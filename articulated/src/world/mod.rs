@@ -31,7 +31,7 @@ use constraint_core::{DMat3, DVec3, Pose, StepContext};
 
 use crate::body::RigidBody;
 use crate::error::ArticulatedError;
-use crate::joint::{Joint, JointKind, MAX_ROWS};
+use crate::joint::{Joint, JointKind, Kept, MAX_ROWS};
 use crate::tree::{JointTopo, TreeSolver};
 use constraint_core::compound::MAX_DOF;
 
@@ -151,9 +151,9 @@ impl CachedRows {
                 if coords.len() <= j {
                     coords.resize(j + 1, None);
                 }
-                Some((&key, &mut coords[j]))
+                Kept::Write(&key, &mut coords[j])
             } else {
-                None
+                Kept::None
             };
             joint.rows_into_kept(a, b, with, kept, &mut e.rows);
             e.valid = true;
@@ -165,7 +165,7 @@ impl CachedRows {
     }
 
     /// `cache[j]`'s rows when it holds them with the rate rows at the poses `a`, `b`
-    /// (their rate rows are [`Joint::rate_rows_only`]'s; their hard rows, which a
+    /// (their rate rows are [`Joint::rate_rows_only_kept`]'s; their hard rows, which a
     /// reader of the rate rows does not read, are the joint's Jacobian rather than
     /// zeros).
     fn kept_rates<'c>(
@@ -840,6 +840,7 @@ impl World {
     fn collect_unilateral_rows(&mut self, ctx: &StepContext) -> Result<(), ArticulatedError> {
         self.urows.clear();
         self.ustats = UnilateralStats::default();
+        self.keep_limit_coordinates();
         self.push_limit_rows(ctx);
         self.push_tendon_limit_rows(ctx);
         #[cfg(feature = "contact")]
@@ -1030,7 +1031,11 @@ impl World {
                 match CachedRows::kept_rates(&self.rows_cache, j, &a, &b) {
                     Some(kept) => (kept, kept.n),
                     None => {
-                        fresh = joint.rate_rows_only(&a, &b);
+                        fresh = joint.rate_rows_only_kept(
+                            &a,
+                            &b,
+                            actuator::kept_at(&self.coords, j, &a, &b),
+                        );
                         (&fresh, fresh.n)
                     }
                 }
@@ -1152,7 +1157,11 @@ impl World {
             let rows = match CachedRows::kept_rates(&self.rows_cache, j, &a, &b) {
                 Some(kept) => kept,
                 None => {
-                    fresh = joint.rate_rows_only(&a, &b);
+                    fresh = joint.rate_rows_only_kept(
+                        &a,
+                        &b,
+                        actuator::kept_at(&self.coords, j, &a, &b),
+                    );
                     &fresh
                 }
             };
