@@ -384,28 +384,38 @@ impl World {
     /// over the hinges stay small).
     #[inline(never)]
     fn compound_coordinates_kept(&mut self, ji: usize) -> Option<[f64; MAX_DOF]> {
-        if let Some(e) = self.kept_coordinates(ji) {
-            return Some(e.q);
+        let j = &self.joints[ji];
+        let JointKind::Compound(c, _) = &j.kind else {
+            return self.coordinates_of(ji);
+        };
+        let a = j.parent.map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+        let b = &self.bodies[j.child].pose;
+        // The key once: the cache's entry, then the force evaluations' table (the
+        // readers of `coordinates_of`, in that order), then computed.
+        let key = CachedRows::key_of(a, b);
+        if let Some(Some(e)) = self.coords.get(ji) {
+            if e.key == key {
+                return Some(e.q);
+            }
         }
-        let q = self.coordinates_of(ji)?;
-        let key = self.pose_key(ji);
+        let (q, rows) = match self.dof_table.get(ji) {
+            Some(Some(e)) if e.key == key => (e.q, Some(e.rows)),
+            _ => (c.coordinates(a, b, &[0.0; MAX_DOF]), None),
+        };
         if self.coords.len() <= ji {
             self.coords.resize(ji + 1, None);
         }
-        match &mut self.coords[ji] {
-            Some(e) => {
-                e.key = key;
-                e.q = q;
-                e.has_rows = false;
-            }
-            slot => {
-                *slot = Some(KeptCoords {
-                    key,
-                    q,
-                    has_rows: false,
-                    rows: [[DVec3::ZERO; 4]; MAX_DOF],
-                })
-            }
+        let e = self.coords[ji].get_or_insert(KeptCoords {
+            key,
+            q,
+            has_rows: false,
+            rows: [[DVec3::ZERO; 4]; MAX_DOF],
+        });
+        e.key = key;
+        e.q = q;
+        e.has_rows = rows.is_some();
+        if let Some(rows) = rows {
+            e.rows = rows;
         }
         Some(q)
     }
