@@ -56,6 +56,36 @@ pub struct Joint {
     pub damping: f64,
 }
 
+/// A joint's coordinates at one configuration ([`crate::world::World`]'s coordinate
+/// cache): the bits of the parent's and the child's poses (`x`, `q`, as the rows cache
+/// keys them), the coordinates `q` (zeros past the joint's degrees of freedom) and, when
+/// `has_rows`, their rate rows `G` (`q̇ = G v`). The coordinates are a function of the
+/// joint (fixed once added) and these bits alone (every caller passes the zero hint of
+/// [`Compound::coordinates`]), so an entry whose key matches the current poses holds the
+/// bits a computation would give.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct KeptCoords {
+    /// Bits of the parent's and the child's `x` and `q`.
+    pub key: [u64; 14],
+    /// Coordinates `q`.
+    pub q: [f64; MAX_DOF],
+    /// Whether `rows` holds the rate rows at `q`.
+    pub has_rows: bool,
+    /// Rate rows `G` (a compound joint's [`Compound::dof_rows`]).
+    pub rows: [[DVec3; 4]; MAX_DOF],
+}
+
+/// How the rate rows use the coordinate cache ([`KeptCoords`]).
+pub(crate) enum Kept<'k> {
+    /// Computed, not kept.
+    None,
+    /// The entry of the current poses (the caller matched its key).
+    Read(&'k KeptCoords),
+    /// The poses' key and the joint's entry: taken from it when its key matches, else
+    /// computed and written there.
+    Write(&'k [u64; 14], &'k mut Option<KeptCoords>),
+}
+
 /// A joint's rows at one configuration.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct JointRows {
@@ -191,6 +221,21 @@ impl Joint {
     /// nothing). A caller keeping the rows in place (the assembly's row cache) skips
     /// the copy of the rows a return by value costs.
     pub(crate) fn rows_into(&self, a: &Pose, b: &Pose, rates: bool, out: &mut JointRows) {
+        self.rows_into_kept(a, b, rates, Kept::None, out);
+    }
+
+    /// [`Self::rows_into`] with the coordinate cache's entry of this joint ([`Kept`]): a
+    /// compound joint's rate rows take the entry's coordinates (and rows) when it is of
+    /// these poses, else computed (and, with [`Kept::Write`], written there); the same
+    /// bits either way ([`KeptCoords`]).
+    pub(crate) fn rows_into_kept(
+        &self,
+        a: &Pose,
+        b: &Pose,
+        rates: bool,
+        kept: Kept<'_>,
+        out: &mut JointRows,
+    ) {
         out.n = 0;
         out.n_hard = 0;
         match &self.kind {
@@ -211,14 +256,15 @@ impl Joint {
         }
         if rates {
             let first = out.rows[0];
-            self.push_rates(a, b, first, out);
+            self.push_rates(a, b, first, kept, out);
         }
     }
 
     /// The rate rows alone, as [`Self::rows_with`] gives them (the same bits), after
     /// `hard_rows()` zero hard rows (value 0, Jacobian 0): for a right-hand side that
-    /// reads only the rate rows, without the cost of the hard rows' Jacobian.
-    pub(crate) fn rate_rows_only(&self, a: &Pose, b: &Pose) -> JointRows {
+    /// reads only the rate rows, without the cost of the hard rows' Jacobian; a compound
+    /// joint's through the coordinate cache (`kept`, as in [`Self::rows_into_kept`]).
+    pub(crate) fn rate_rows_only_kept(&self, a: &Pose, b: &Pose, kept: Kept<'_>) -> JointRows {
         let mut out = JointRows::new();
         out.n = self.hard_rows();
         out.n_hard = out.n;
@@ -227,13 +273,20 @@ impl Joint {
             JointKind::Distance(c) => c.jacobian(a, b).rows[0],
             _ => [DVec3::ZERO; 4],
         };
-        self.push_rates(a, b, first, &mut out);
+        self.push_rates(a, b, first, kept, &mut out);
         out
     }
 
     /// Appends the rate rows (one per degree of freedom) to `out`; `first` is the first
-    /// hard row (a distance joint's rate row).
-    fn push_rates(&self, a: &Pose, b: &Pose, first: [DVec3; 4], out: &mut JointRows) {
+    /// hard row (a distance joint's rate row); `kept` as in [`Self::rows_into_kept`].
+    fn push_rates(
+        &self,
+        a: &Pose,
+        b: &Pose,
+        first: [DVec3; 4],
+        kept: Kept<'_>,
+        out: &mut JointRows,
+    ) {
         match &self.kind {
             JointKind::Spherical(_) => {
                 for e in [DVec3::X, DVec3::Y, DVec3::Z] {
@@ -248,8 +301,32 @@ impl Joint {
             JointKind::Distance(_) => out.push_rate(first),
             JointKind::Fixed(_) => {}
             JointKind::Compound(c, _) => {
-                let q = c.coordinates(a, b, &[0.0; MAX_DOF]);
-                let rows = c.dof_rows(a, b, &q);
+                let rows = match kept {
+                    Kept::Read(e) if e.has_rows => e.rows,
+                    Kept::Read(e) => c.dof_rows(a, b, &e.q),
+                    Kept::Write(key, Some(e)) if e.key == *key => {
+                        if !e.has_rows {
+                            e.rows = c.dof_rows(a, b, &e.q);
+                            e.has_rows = true;
+                        }
+                        e.rows
+                    }
+                    Kept::Write(key, slot) => {
+                        let q = c.coordinates(a, b, &[0.0; MAX_DOF]);
+                        let rows = c.dof_rows(a, b, &q);
+                        *slot = Some(KeptCoords {
+                            key: *key,
+                            q,
+                            has_rows: true,
+                            rows,
+                        });
+                        rows
+                    }
+                    Kept::None => {
+                        let q = c.coordinates(a, b, &[0.0; MAX_DOF]);
+                        c.dof_rows(a, b, &q)
+                    }
+                };
                 for row in rows.iter().take(c.dof()) {
                     out.push_rate(*row);
                 }

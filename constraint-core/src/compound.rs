@@ -134,6 +134,44 @@ fn twist_angle(r: DQuat, axis: DVec3) -> f64 {
     }
 }
 
+/// Of two solutions `(q₁, q₂, p)` (`p = |q₁ − h₁| + |q₂ − h₂|`, the distance to the hint
+/// so far), the one whose whole distance `d = p + |q₃ − h₃|` (`whole`) is least, the
+/// first on a tie: the bits of evaluating both and keeping the first unless the second
+/// is strictly nearer (`d < d_best`, `d_best` starting at `∞`). A solution's rounded `d`
+/// is at least its `p` (adding `|q₃ − h₃| ≥ 0` rounds to no less), so the one whose `p`
+/// is already past the other's whole `d` is not evaluated: it cannot win (the first
+/// needs `p₁ > d₂` to lose, the second `p₂ ≥ d₁`). Non-finite `p`: both are evaluated.
+fn nearest(
+    one: (f64, f64, f64),
+    two: (f64, f64, f64),
+    whole: impl Fn((f64, f64, f64)) -> ([f64; 3], f64),
+) -> [f64; 3] {
+    // The loop this replaces: each solution in turn, kept when strictly nearer.
+    let keep = |(q, d): ([f64; 3], f64), (best, best_d): ([f64; 3], f64)| {
+        if d < best_d {
+            (q, d)
+        } else {
+            (best, best_d)
+        }
+    };
+    let none = ([0.0; 3], f64::INFINITY);
+    if one.2.is_finite() && two.2.is_finite() {
+        if one.2 <= two.2 {
+            let w1 = whole(one);
+            if w1.1.is_finite() && two.2 >= w1.1 {
+                return w1.0;
+            }
+            return keep(whole(two), keep(w1, none)).0;
+        }
+        let w2 = whole(two);
+        if w2.1.is_finite() && one.2 > w2.1 {
+            return w2.0;
+        }
+        return keep(w2, keep(whole(one), none)).0;
+    }
+    keep(whole(two), keep(whole(one), none)).0
+}
+
 /// Inverse of the `n × n` Gram matrix of `v` applied to get the dual basis `c_k` with
 /// `c_k · v_l = δ_kl` (`n ≤ 3`, `v` independent).
 fn dual_basis(v: &[DVec3], out: &mut [DVec3]) {
@@ -426,26 +464,24 @@ impl Compound {
                 let g2 = (1.0 - alpha * alpha - beta * beta - 2.0 * alpha * beta * k)
                     / n.length_squared();
                 let g = libm::sqrt(g2.max(0.0));
-                let mut best = [0.0; 3];
-                let mut best_d = f64::INFINITY;
-                for sign in [1.0, -1.0] {
+                // The two solutions' first angles and their distance to the hint so far.
+                let h = [hint[ns], hint[ns + 1], hint[ns + 2]];
+                let first = |sign: f64| {
                     let c = e[0] * alpha + e[1] * beta + n * (g * sign);
                     let q2 = angle_about(e[1], e[2], c);
                     let q1 = angle_about(e[0], c, t);
+                    (q1, q2, (q1 - h[0]).abs() + (q2 - h[1]).abs())
+                };
+                // The third angle and the whole distance `Σ |q_k − hint_k|`.
+                let whole = |(q1, q2, part): (f64, f64, f64)| {
                     let rest = (DQuat::from_axis_angle(e[0], q1)
                         * DQuat::from_axis_angle(e[1], q2))
                     .conjugate()
                         * d;
                     let q3 = twist_angle(rest, e[2]);
-                    let dist = (q1 - hint[ns]).abs()
-                        + (q2 - hint[ns + 1]).abs()
-                        + (q3 - hint[ns + 2]).abs();
-                    if dist < best_d {
-                        best_d = dist;
-                        best = [q1, q2, q3];
-                    }
-                }
-                q[ns..ns + 3].copy_from_slice(&best);
+                    ([q1, q2, q3], part + (q3 - h[2]).abs())
+                };
+                q[ns..ns + 3].copy_from_slice(&nearest(first(1.0), first(-1.0), whole));
             }
             _ => {}
         }
@@ -723,6 +759,43 @@ mod tests {
         .unwrap();
         assert!(skew.skew_distance().is_some());
         check(&skew);
+    }
+
+    /// `nearest` keeps the bits of the loop over both solutions (the first kept unless
+    /// the second is strictly nearer) for solutions either side of each other, ties
+    /// and non-finite distances; each case is exact (bit for bit).
+    #[test]
+    fn nearest_is_the_loop_over_both_solutions() {
+        let whole = |(q1, q2, p): (f64, f64, f64)| {
+            let q3 = 0.5 * q1 - q2;
+            ([q1, q2, q3], p + q3.abs())
+        };
+        let looped = |one, two| {
+            let (mut best, mut best_d) = ([0.0; 3], f64::INFINITY);
+            for s in [one, two] {
+                let (q, d) = whole(s);
+                if d < best_d {
+                    (best, best_d) = (q, d);
+                }
+            }
+            best
+        };
+        let sol = |q1: f64, q2: f64| (q1, q2, q1.abs() + q2.abs());
+        let cases = [
+            (sol(0.1, 0.2), sol(3.0, -2.9)),
+            (sol(3.0, -2.9), sol(0.1, 0.2)),
+            (sol(0.3, 0.0), sol(0.0, 0.3)),
+            (sol(0.2, 0.1), sol(0.2, 0.1)),
+            (sol(0.0, 0.0), sol(0.0, 0.0)),
+            (sol(0.1, 1.0), sol(0.9, -0.05)),
+            (sol(f64::NAN, 0.1), sol(0.2, 0.3)),
+            (sol(0.2, 0.3), sol(f64::INFINITY, 0.1)),
+            (sol(0.2, f64::NAN), sol(f64::NAN, 0.1)),
+        ];
+        for (one, two) in cases {
+            let got = nearest(one, two, whole).map(f64::to_bits);
+            assert_eq!(got, looped(one, two).map(f64::to_bits), "{one:?} {two:?}");
+        }
     }
 
     /// Three hinges z, y, x (humanoid_CMU's shoulder) at `q₂ = π/2 − δ`: away from the

@@ -23,6 +23,7 @@ use constraint_core::compound::MAX_DOF;
 use constraint_core::DVec3;
 
 use super::*;
+use crate::joint::{Kept, KeptCoords};
 
 /// What an actuator drives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -351,6 +352,9 @@ impl World {
         if let Some(e) = self.cached_coordinates(ji) {
             return Some(e.q);
         }
+        if let Some(e) = self.kept_coordinates(ji) {
+            return Some(e.q);
+        }
         let j = &self.joints[ji];
         let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
         let mut q = [0.0; MAX_DOF];
@@ -361,6 +365,99 @@ impl World {
             _ => return None,
         }
         Some(q)
+    }
+
+    /// [`Self::coordinates_of`] (the same bits), kept in the coordinate cache
+    /// (`World::coords`) for the next reader at the same poses: the projection's limit
+    /// error evaluates them, its limit rows read them again at the same iterate, and the
+    /// next step's limit rows at the last accepted one.
+    pub(super) fn coordinates_kept(&mut self, ji: usize) -> Option<[f64; MAX_DOF]> {
+        // Only a compound joint's coordinates are worth an entry (a hinge's angle or a
+        // slide's displacement costs about what the key's comparison does).
+        if !matches!(self.joints[ji].kind, JointKind::Compound(..)) {
+            return self.coordinates_of(ji);
+        }
+        self.compound_coordinates_kept(ji)
+    }
+
+    /// [`Self::coordinates_kept`] of a compound joint (out of line: the callers' loops
+    /// over the hinges stay small).
+    #[inline(never)]
+    fn compound_coordinates_kept(&mut self, ji: usize) -> Option<[f64; MAX_DOF]> {
+        let j = &self.joints[ji];
+        let JointKind::Compound(c, _) = &j.kind else {
+            return self.coordinates_of(ji);
+        };
+        let a = j.parent.map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+        let b = &self.bodies[j.child].pose;
+        // The key once: the cache's entry, then the force evaluations' table (the
+        // readers of `coordinates_of`, in that order), then computed.
+        let key = CachedRows::key_of(a, b);
+        if let Some(Some(e)) = self.coords.get(ji) {
+            if e.key == key {
+                return Some(e.q);
+            }
+        }
+        let (q, rows) = match self.dof_table.get(ji) {
+            Some(Some(e)) if e.key == key => (e.q, Some(e.rows)),
+            _ => (c.coordinates(a, b, &[0.0; MAX_DOF]), None),
+        };
+        if self.coords.len() <= ji {
+            self.coords.resize(ji + 1, None);
+        }
+        let e = self.coords[ji].get_or_insert(KeptCoords {
+            key,
+            q,
+            has_rows: false,
+            rows: [[DVec3::ZERO; 4]; MAX_DOF],
+        });
+        e.key = key;
+        e.q = q;
+        e.has_rows = rows.is_some();
+        if let Some(rows) = rows {
+            e.rows = rows;
+        }
+        Some(q)
+    }
+
+    /// Fills the coordinate cache's entries (coordinates and rate rows) of the compound
+    /// joints whose limit or dry-friction rows [`Self::push_limit_rows`] reads at the
+    /// current poses, so that it and the force evaluations at the same poses (the
+    /// step's first kick) read them rather than computing the rows each.
+    pub(super) fn keep_limit_coordinates(&mut self) {
+        for ji in 0..self.joints.len() {
+            let JointKind::Compound(c, _) = &self.joints[ji].kind else {
+                continue;
+            };
+            if self.limits[ji].iter().all(|l| l.is_none())
+                && self.frictionloss[ji].iter().all(|f| *f == 0.0)
+            {
+                continue;
+            }
+            let c = *c;
+            let Some(q) = self.compound_coordinates_kept(ji) else {
+                continue;
+            };
+            let j = &self.joints[ji];
+            let a = j.parent.map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+            let b = &self.bodies[j.child].pose;
+            if let Some(Some(e)) = self.coords.get(ji) {
+                if e.has_rows {
+                    continue;
+                }
+            }
+            let rows = c.dof_rows(a, b, &q);
+            if let Some(Some(e)) = self.coords.get_mut(ji) {
+                e.rows = rows;
+                e.has_rows = true;
+            }
+        }
+    }
+
+    /// Joint `ji`'s entry of the coordinate cache when it is of the current poses.
+    fn kept_coordinates(&self, ji: usize) -> Option<&KeptCoords> {
+        let e = self.coords.get(ji)?.as_ref()?;
+        (e.key == self.pose_key(ji)).then_some(e)
     }
 
     /// The coordinates of joint `ji` and the rows of their rates (hinge angle and its
@@ -408,6 +505,18 @@ impl World {
         let j = &self.joints[ji];
         let a = j.parent.map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
         let b = &self.bodies[j.child].pose;
+        // The coordinate cache's entry at these poses: its coordinates (and rows).
+        if let Some(e) = self.kept_coordinates(ji) {
+            match &j.kind {
+                JointKind::Hinge(c) => rows[0] = c.angle_row(b),
+                JointKind::Prismatic(c) => rows[0] = c.displacement_row(a, b),
+                JointKind::Compound(..) if e.has_rows => *rows = e.rows,
+                JointKind::Compound(c, _) => *rows = c.dof_rows(a, b, &e.q),
+                _ => return false,
+            }
+            *q = e.q;
+            return true;
+        }
         match &j.kind {
             JointKind::Hinge(c) => {
                 q[0] = c.angle(a, b);
@@ -696,6 +805,20 @@ impl World {
         self.dof_tau = tau;
         self.dof_table = coords;
         any
+    }
+}
+
+/// Joint `ji`'s entry of the coordinate cache `coords` (`World::coords`) when it is of
+/// poses `a` (parent) and `b` (child), for [`Joint::rate_rows_only_kept`].
+pub(super) fn kept_at<'k>(
+    coords: &'k [Option<KeptCoords>],
+    ji: usize,
+    a: &Pose,
+    b: &Pose,
+) -> Kept<'k> {
+    match coords.get(ji) {
+        Some(Some(e)) if e.key == CachedRows::key_of(a, b) => Kept::Read(e),
+        _ => Kept::None,
     }
 }
 

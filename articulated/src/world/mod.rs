@@ -31,7 +31,7 @@ use constraint_core::{DMat3, DVec3, Pose, StepContext};
 
 use crate::body::RigidBody;
 use crate::error::ArticulatedError;
-use crate::joint::{Joint, JointKind, MAX_ROWS};
+use crate::joint::{Joint, JointKind, Kept, MAX_ROWS};
 use crate::tree::{JointTopo, TreeSolver};
 use constraint_core::compound::MAX_DOF;
 
@@ -118,6 +118,7 @@ impl CachedRows {
     /// `memcpy` per joint and assembly.
     fn rows<'c>(
         cache: &'c mut Vec<CachedRows>,
+        coords: &mut Vec<Option<crate::joint::KeptCoords>>,
         j: usize,
         joint: &Joint,
         (a, b): (&Pose, &Pose),
@@ -144,7 +145,17 @@ impl CachedRows {
             }
             // Written in place (the rows straight into the entry, not through a copy).
             let e = &mut cache[j];
-            joint.rows_into(a, b, with, &mut e.rows);
+            // A compound joint's rate rows through the coordinate cache
+            // (`World::coords`): kept there, or taken from it.
+            let kept = if with && matches!(joint.kind, JointKind::Compound(..)) {
+                if coords.len() <= j {
+                    coords.resize(j + 1, None);
+                }
+                Kept::Write(&key, &mut coords[j])
+            } else {
+                Kept::None
+            };
+            joint.rows_into_kept(a, b, with, kept, &mut e.rows);
             e.valid = true;
             e.key = key;
             e.rates = with;
@@ -154,7 +165,7 @@ impl CachedRows {
     }
 
     /// `cache[j]`'s rows when it holds them with the rate rows at the poses `a`, `b`
-    /// (their rate rows are [`Joint::rate_rows_only`]'s; their hard rows, which a
+    /// (their rate rows are [`Joint::rate_rows_only_kept`]'s; their hard rows, which a
     /// reader of the rate rows does not read, are the joint's Jacobian rather than
     /// zeros).
     fn kept_rates<'c>(
@@ -404,6 +415,9 @@ pub struct World {
     /// (scratch of the actuator, spring and tendon forces).
     dof_tau: Vec<[f64; MAX_DOF]>,
     dof_table: Vec<Option<actuator::DofState>>,
+    /// Per joint, its coordinates (and rate rows) at the poses they were last computed
+    /// at ([`crate::joint::KeptCoords`], `actuator.rs`).
+    coords: Vec<Option<crate::joint::KeptCoords>>,
     /// The loop rows of the last assembly.
     last_loops: LoopRows,
     /// Spare loop-row buffers (RATTLE keeps a second set; no allocation across steps).
@@ -496,6 +510,7 @@ impl World {
             aset: active_set::ActiveSet::default(),
             dof_tau: Vec::new(),
             dof_table: Vec::new(),
+            coords: Vec::new(),
             last_loops: (Vec::new(), Vec::new(), Vec::new()),
             rows_cache: Vec::new(),
             spare_loops: (Vec::new(), Vec::new(), Vec::new()),
@@ -833,6 +848,7 @@ impl World {
     fn collect_unilateral_rows(&mut self, ctx: &StepContext) -> Result<(), ArticulatedError> {
         self.urows.clear();
         self.ustats = UnilateralStats::default();
+        self.keep_limit_coordinates();
         self.push_limit_rows(ctx);
         self.push_tendon_limit_rows(ctx);
         #[cfg(feature = "contact")]
@@ -1023,13 +1039,18 @@ impl World {
                 match CachedRows::kept_rates(&self.rows_cache, j, &a, &b) {
                     Some(kept) => (kept, kept.n),
                     None => {
-                        fresh = joint.rate_rows_only(&a, &b);
+                        fresh = joint.rate_rows_only_kept(
+                            &a,
+                            &b,
+                            actuator::kept_at(&self.coords, j, &a, &b),
+                        );
                         (&fresh, fresh.n)
                     }
                 }
             } else {
                 CachedRows::rows(
                     &mut self.rows_cache,
+                    &mut self.coords,
                     j,
                     joint,
                     (&a, &b),
@@ -1144,7 +1165,11 @@ impl World {
             let rows = match CachedRows::kept_rates(&self.rows_cache, j, &a, &b) {
                 Some(kept) => kept,
                 None => {
-                    fresh = joint.rate_rows_only(&a, &b);
+                    fresh = joint.rate_rows_only_kept(
+                        &a,
+                        &b,
+                        actuator::kept_at(&self.coords, j, &a, &b),
+                    );
                     &fresh
                 }
             };

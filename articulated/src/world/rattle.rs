@@ -430,7 +430,11 @@ impl World {
             let rows = match CachedRows::kept_rates(&self.rows_cache, j, &a, &b) {
                 Some(rows) => rows,
                 None => {
-                    computed = joint.rate_rows_only(&a, &b);
+                    computed = joint.rate_rows_only_kept(
+                        &a,
+                        &b,
+                        super::actuator::kept_at(&self.coords, j, &a, &b),
+                    );
                     &computed
                 }
             };

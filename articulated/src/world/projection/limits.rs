@@ -88,7 +88,7 @@ impl World {
             if tracking && self.hinge_inside(ji) {
                 continue;
             }
-            let Some(q) = self.coordinates_of(ji) else {
+            let Some(q) = self.coordinates_kept(ji) else {
                 continue;
             };
             if recording {
