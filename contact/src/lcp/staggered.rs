@@ -315,9 +315,7 @@ pub fn solve_rows(
     settings: &RowSettings,
     z: &mut [f64],
 ) -> Result<RowStats, LcpError> {
-    let n = q.len();
-    check_square(a, n)?;
-    solve_rows_sparse(&SparseRows::from_dense(a, n), q, bounds, settings, z)
+    solve_rows_with(&mut RowBuffers::default(), a, q, bounds, settings, z)
 }
 
 /// [`solve_rows`] with `A` as sparse rows (every non-zero entry listed; a Delassus

@@ -347,6 +347,19 @@ fn total_order(x: f64) -> i64 {
 mod tests {
     use super::*;
 
+    /// Four manifolds of two points, bottom-up: ground–1, 1–2, 2–3, 3–4 (pair,
+    /// slots; slot 4 is static).
+    const STACK: [((usize, usize), [usize; 2]); 8] = [
+        ((0, 1), [4, 0]),
+        ((0, 1), [4, 0]),
+        ((1, 2), [0, 1]),
+        ((1, 2), [0, 1]),
+        ((2, 3), [1, 2]),
+        ((2, 3), [1, 2]),
+        ((3, 4), [2, 3]),
+        ((3, 4), [2, 3]),
+    ];
+
     /// A stack: ground–1, 1–2, 2–3, 3–4 with two points each, bottom-up. Colours
     /// alternate (0, 1, 0, 1: the ground does not block), and the order is colour 0's
     /// manifolds interleaved, then colour 1's.
@@ -354,16 +367,7 @@ mod tests {
     fn a_stack_alternates_two_colours() {
         // Contacts 0,1: pair (0,1) slots [4,0]; 2,3: (1,2) [0,1]; 4,5: (2,3) [1,2];
         // 6,7: (3,4) [2,3]. Slot 4 is static (4 bodies).
-        let pairs = [
-            ((0, 1), [4, 0]),
-            ((0, 1), [4, 0]),
-            ((1, 2), [0, 1]),
-            ((1, 2), [0, 1]),
-            ((2, 3), [1, 2]),
-            ((2, 3), [1, 2]),
-            ((3, 4), [2, 3]),
-            ((3, 4), [2, 3]),
-        ];
+        let pairs = STACK;
         let mut c = Colouring::default();
         c.order(8, 4, (|k| pairs[k].0, |k| pairs[k].1), |k| k as f64);
         let order = &c.out;
@@ -436,16 +440,7 @@ mod tests {
     /// another manifold count it is redone; every output equals a fresh `Colouring`'s.
     #[test]
     fn a_kept_colouring_is_a_fresh_one() {
-        let pairs = [
-            ((0, 1), [4, 0]),
-            ((0, 1), [4, 0]),
-            ((1, 2), [0, 1]),
-            ((1, 2), [0, 1]),
-            ((2, 3), [1, 2]),
-            ((2, 3), [1, 2]),
-            ((3, 4), [2, 3]),
-            ((3, 4), [2, 3]),
-        ];
+        let pairs = STACK;
         let fresh = |n: usize, h: &dyn Fn(usize) -> f64| {
             let mut c = Colouring::default();
             c.order(n, 4, (|k| pairs[k].0, |k| pairs[k].1), h);
