@@ -29,7 +29,7 @@
 use alloc::vec::Vec;
 use core::ops::{Add, Mul, Neg, Sub};
 
-use constraint_core::DVec3;
+use constraint_core::{DMat3, DVec3};
 use wide::f64x2;
 
 use super::colouring::Colouring;
@@ -881,5 +881,66 @@ fn warm_lanes<L: Lane, const W: usize>(
         wb = wb.add(q.ang_sum(&z, 3, half));
     }
     store(v, w, &ab, [va, wa, vb, wb], rows.fixed);
+    true
+}
+
+/// The columns `R₀, R₁, R₂` of lane `l`'s rotation `m[l]`, gathered once per pair
+/// of manifolds (gathered inside the point loop, they were reloaded per point).
+#[inline(always)]
+fn columns<L: Lane>(m: [&DMat3; 2]) -> [Lanes3<L>; 3] {
+    [
+        Lanes3::of(|l| m[l].x_axis),
+        Lanes3::of(|l| m[l].y_axis),
+        Lanes3::of(|l| m[l].z_axis),
+    ]
+}
+
+/// `R r` per lane from `R`'s columns ([`columns`]), summed as `DMat3::mul_vec3`
+/// does: `((R₀ r_x) + (R₁ r_y)) + (R₂ r_z)`.
+#[inline(always)]
+fn rotate<L: Lane>([x, y, z]: &[Lanes3<L>; 3], r: Lanes3<L>) -> Lanes3<L> {
+    x.scale(r.x).add(y.scale(r.y)).add(z.scale(r.z))
+}
+
+/// The gaps `C₀ + nᵀ Δd` of the points of two manifolds with as many points, one
+/// manifold per lane, their points in order (`ab[l]`: lane `l`'s two bodies, their
+/// displacements `(Δx, ΔR)` in `dp`, `rot`), `Δd = (Δx_b + ΔR_b r_b) − (Δx_a + ΔR_a
+/// r_a)`: the scalar arithmetic of `update_gaps` per lane in the same order (the same
+/// bits). Returns false, having written nothing, where the point counts differ.
+#[inline(always)]
+pub(super) fn manifold_gaps(
+    rows: &Rows,
+    pts: [&[usize]; 2],
+    ab: [[usize; 2]; 2],
+    (dp, rot): (&[DVec3], &[DMat3]),
+    gap: &mut [f64],
+) -> bool {
+    if pts[0].len() != pts[1].len() {
+        return false;
+    }
+    // One length for every slice indexed by a point (one bounds check per index).
+    let n = gap.len();
+    let (Some(anchor), Some(dir), Some(base_gap)) = (
+        rows.anchor.get(..n),
+        rows.dir.get(..n),
+        rows.base_gap.get(..n),
+    ) else {
+        return false;
+    };
+    let xa = Lanes3::<f64x2>::of(|l| dp[ab[l][0]]);
+    let xb = Lanes3::<f64x2>::of(|l| dp[ab[l][1]]);
+    let ra_m = columns::<f64x2>([&rot[ab[0][0]], &rot[ab[1][0]]]);
+    let rb_m = columns::<f64x2>([&rot[ab[0][1]], &rot[ab[1][1]]]);
+    for (&p, &q) in pts[0].iter().zip(pts[1]) {
+        let two = [p, q];
+        let ra = Lanes3::<f64x2>::of(|l| anchor[two[l]][0]);
+        let rb = Lanes3::<f64x2>::of(|l| anchor[two[l]][1]);
+        let nrm = Lanes3::<f64x2>::of(|l| dir[two[l]][0]);
+        let base = pair(base_gap[p], base_gap[q]);
+        let dd = xb.add(rotate(&rb_m, rb)).sub(xa.add(rotate(&ra_m, ra)));
+        let g = (base + nrm.dot(dd)).to_array();
+        gap[p] = g[0];
+        gap[q] = g[1];
+    }
     true
 }
