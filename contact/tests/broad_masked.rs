@@ -9,21 +9,8 @@ use constraint_contact::geometry::{
 use constraint_core::Pose;
 use glam::{DQuat, DVec3};
 
-/// SplitMix64: a fixed, dependency-free generator.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-}
+mod common;
+use common::Rng;
 
 /// `bodies` bodies packed in a cube of side `side` (m) above a ground plane (and a tilted plane
 /// when `tilted`), two or three colliders each (spheres, capsules, boxes), plus two
