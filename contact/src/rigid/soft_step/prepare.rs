@@ -1,0 +1,548 @@
+//! The soft step's per-step preparation: the point arrays in colour order, warm-started
+//! by contact key, and the static load estimate that seeds new manifolds.
+
+use super::*;
+
+/// One body's load and supports for the static load estimate
+/// (`ContactWorld::estimate_loads`), in horizontal coordinates.
+#[derive(Clone, Copy, Debug, Default)]
+pub(in crate::rigid) struct Pressure {
+    /// `Σ f x` of the load: the weight at the centre and the forces passed down.
+    moment: [f64; 2],
+    /// Supporting points: count, `Σ x`, `Σ x xᵀ` as `[xx, xy, yy]`, and their
+    /// bounding box (`lo`, `hi`).
+    count: f64,
+    sum: [f64; 2],
+    second: [f64; 3],
+    lo: [f64; 2],
+    hi: [f64; 2],
+}
+
+impl Pressure {
+    /// Adds a supporting point at `x`.
+    fn add_point(&mut self, x: [f64; 2]) {
+        if self.count == 0.0 {
+            (self.lo, self.hi) = (x, x);
+        }
+        for k in 0..2 {
+            self.lo[k] = at_most(self.lo[k], x[k]);
+            self.hi[k] = at_least(self.hi[k], x[k]);
+        }
+        self.count += 1.0;
+        self.sum[0] += x[0];
+        self.sum[1] += x[1];
+        self.second[0] += x[0] * x[0];
+        self.second[1] += x[0] * x[1];
+        self.second[2] += x[1] * x[1];
+    }
+}
+
+/// The vertical force on a supporting point at `x` when a body carrying `load`
+/// rests on the points of `p` as on equal springs (a rigid body on an elastic
+/// foundation): `f(x) = L/N + βᵀ(x − x̄)`, linear over the points, with `Σ f = L`
+/// and `Σ f x = Σ L x_c` (the load's centre of pressure `x_c` = moment / `L`):
+/// `β = L S⁻¹ (x_c − x̄)`, `S = Σ (x − x̄)(x − x̄)ᵀ` the points' scatter. Points on a
+/// line (`det S` below `10⁻⁹ (tr S)²`) take the pseudo-inverse along it, `β = L S (x_c
+/// − x̄)/(tr S)²`; a single point takes the whole load. Where the centre of pressure
+/// lies so far off centre that a point would pull (the body tips rather than rests),
+/// `β` is scaled down until none does, by `t = min(1, (L/N)/B)` with `B = Σ_k |β_k|
+/// max(hi_k − x̄_k, x̄_k − lo_k)` over the points' bounding box: every `f` stays in
+/// `[0, 2L/N]` and they still sum to `L` (unscaled, a box leaning on one edge of a
+/// 1000-body pile was given hundreds of times its weight and was thrown 180 m).
+pub(super) fn pressure_share(load: f64, p: &Pressure) -> impl Fn([f64; 2]) -> f64 {
+    let n = p.count;
+    let mean = [p.sum[0] / n, p.sum[1] / n];
+    let (sxx, sxy, syy) = (
+        p.second[0] - n * mean[0] * mean[0],
+        p.second[1] - n * mean[0] * mean[1],
+        p.second[2] - n * mean[1] * mean[1],
+    );
+    let mut beta = if load > 0.0 {
+        let c = [p.moment[0] / load - mean[0], p.moment[1] / load - mean[1]];
+        let det = sxx * syy - sxy * sxy;
+        let tr = sxx + syy;
+        if det > 1e-9 * tr * tr {
+            [
+                load * (syy * c[0] - sxy * c[1]) / det,
+                load * (sxx * c[1] - sxy * c[0]) / det,
+            ]
+        } else if tr > 0.0 {
+            let k = load / (tr * tr);
+            [k * (sxx * c[0] + sxy * c[1]), k * (sxy * c[0] + syy * c[1])]
+        } else {
+            [0.0, 0.0]
+        }
+    } else {
+        [0.0, 0.0]
+    };
+    let base = load / n;
+    let reach = |k: usize| at_least(p.hi[k] - mean[k], mean[k] - p.lo[k]);
+    let bound = beta[0].abs() * reach(0) + beta[1].abs() * reach(1);
+    if bound > base {
+        let t = base / bound;
+        beta = [beta[0] * t, beta[1] * t];
+    }
+    move |x: [f64; 2]| {
+        at_least(
+            base + beta[0] * (x[0] - mean[0]) + beta[1] * (x[1] - mean[1]),
+            0.0,
+        )
+    }
+}
+
+impl ContactWorld {
+    /// Builds the point arrays once per step (colour order, see the module docs),
+    /// warm-started by contact key from the previous step.
+    pub(super) fn prepare(&self, st: &mut SoftState, hs: f64) {
+        let up = if self.gravity.length() > 0.0 {
+            -self.gravity.normalize()
+        } else {
+            DVec3::Z
+        };
+        let contacts = &self.contacts;
+        // Colour-major: manifolds ranked bottom-up (along −gravity, index tie-break:
+        // deterministic) and coloured greedily, so that a colour's rows touch disjoint
+        // bodies (the `colouring` module).
+        let nb = self.bodies.len();
+        let colliders = &self.colliders;
+        let kept = st.colouring.order(
+            contacts.len(),
+            nb,
+            (
+                |k| (contacts[k].a, contacts[k].b),
+                |k| {
+                    let slot = |i: usize| colliders[i].body.unwrap_or(nb);
+                    [slot(contacts[k].a), slot(contacts[k].b)]
+                },
+            ),
+            |k| contacts[k].point.dot(up),
+        );
+        let s = self.settings.soft_step;
+        let hertz = s.hertz.min(0.25 / hs);
+        let dynamic = Softness::new(hertz, s.damping_ratio, hs);
+        let fixed = Softness::new(2.0 * hertz, s.damping_ratio, hs);
+        // Warm start by key: the contacts come in pair order `(a, b)` and `warm` is
+        // sorted by pair, so one forward merge finds every previous point (the same
+        // matches as a search per point, reading `warm` once, in order).
+        // Sized once and written by position (as the point arrays below).
+        let none = (0.0, DVec3::ZERO, DVec3::ZERO, 0.0);
+        st.found.resize(contacts.len(), none);
+        st.found_hit.resize(contacts.len(), false);
+        let (found, found_hit) = (
+            &mut st.found[..contacts.len()],
+            &mut st.found_hit[..contacts.len()],
+        );
+        let mut cursor = 0;
+        let warm = st.warm.as_slice();
+        for (c, (f, h)) in contacts
+            .iter()
+            .zip(found.iter_mut().zip(found_hit.iter_mut()))
+        {
+            let (a, b, id) = c.key();
+            while cursor < warm.len() && (warm[cursor].0 .0, warm[cursor].0 .1) < (a, b) {
+                cursor += 1;
+            }
+            let hit = warm[cursor..]
+                .iter()
+                .take_while(|e| e.0 .0 == a && e.0 .1 == b)
+                .find(|e| e.0 .2 == id);
+            *h = hit.is_some();
+            *f = hit.map_or(none, |&(_, zn, ft, sl, fl)| (zn, ft, sl, fl));
+        }
+        let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
+        // Preload: the mean previous normal impulse of each manifold (a run of one
+        // collider pair in natural order), the same on each of its points; a new
+        // manifold's is its estimate.
+        st.mean.clear();
+        let mut i = 0;
+        while i < contacts.len() {
+            let pair = (contacts[i].a, contacts[i].b);
+            let mut j = i;
+            let mut sum = 0.0;
+            let mut hits = 0usize;
+            while j < contacts.len() && (contacts[j].a, contacts[j].b) == pair {
+                sum += st.found[j].0;
+                hits += usize::from(st.found_hit[j]);
+                j += 1;
+            }
+            let mut m = sum / (j - i) as f64;
+            // A renamed point of a known manifold: the mean of the points found.
+            if s.refill_renamed && hits > 0 && hits < j - i {
+                let (mut ft, mut fl) = (DVec3::ZERO, 0.0);
+                for q in i..j {
+                    ft += st.found[q].1;
+                    fl += st.found[q].3;
+                }
+                let share = 1.0 / hits as f64;
+                m = sum * share;
+                for q in i..j {
+                    if !st.found_hit[q] {
+                        st.found[q] = (m, ft * share, DVec3::ZERO, fl * share);
+                    }
+                }
+            }
+            st.mean.extend(core::iter::repeat_n(m, j - i));
+            // From here on `found_hit` marks the points of known manifolds: where no
+            // point or every point was found they do already, so only a manifold with
+            // points renamed is written (a fill per manifold was 0.15 % of the
+            // 210-box pyramid's step, callgrind).
+            if hits > 0 && hits < j - i {
+                st.found_hit[i..j].fill(true);
+            }
+            i = j;
+        }
+        // A manifold met for the first time starts from the static load estimate
+        // instead of zero (see `estimate_loads`).
+        // With `preload_estimate` every manifold is estimated, every step.
+        let every = self.settings.warm_start && s.preload_estimate;
+        let new_manifolds = self.settings.warm_start && self.estimate_loads(st, up, hs, every);
+        let preload = if self.settings.warm_start {
+            s.preload * scale
+        } else {
+            0.0
+        };
+        // Spring stiffness over the sub-step, `h ω²` per unit effective mass, and the
+        // cap's ratio `M γ/(1 − γ)` (`M` times the ratio of preload to spring force at
+        // rest: `preload_cap_margin`).
+        let omega2 = (TAU * hertz) * (TAU * hertz);
+        let omega2_fixed = 4.0 * omega2;
+        let kappa = if s.preload < 1.0 {
+            s.preload_cap_margin * s.preload / (1.0 - s.preload)
+        } else {
+            f64::INFINITY
+        };
+        // The point arrays are sized to the point count (a no-op when it is the last
+        // step's) and every entry is written by position below: a `push` per array
+        // and point cost its length and capacity bookkeeping (≈ 100 instructions a
+        // point over the 18 arrays, 1.7 % of the 210-box pyramid's step, callgrind).
+        let np = st.colouring.out.len();
+        macro_rules! size {
+            ($($f:ident: $z:expr),*) => { $(st.$f.resize(np, $z);)* };
+        }
+        size!(
+            slots: [0; 2],
+            dir: [DVec3::ZERO; 3],
+            anchor: [DVec3::ZERO; 2],
+            ang: [[DVec3::ZERO; 4]; 3],
+            mass: [0.0; 3],
+            base_gap: 0.0,
+            soft: dynamic,
+            friction: 0.0,
+            restitution: 0.0,
+            approach: 0.0,
+            impulse: [0.0; 3],
+            max_normal: 0.0,
+            total: [0.0; 3],
+            slip: [0.0; 2],
+            im: [0.0; 2],
+            preload: 0.0,
+            preload_cap: 0.0,
+            preload_floor: 0.0,
+            gap: 0.0
+        );
+        // Slices of exactly `np` entries: `p < np` needs no bounds check per write.
+        let order = &st.colouring.out[..np];
+        let (slots, dir, anchor) = (&mut st.slots[..np], &mut st.dir[..np], &mut st.anchor[..np]);
+        let (ang_out, mass_out, im_out) = (&mut st.ang[..np], &mut st.mass[..np], &mut st.im[..np]);
+        let (base_gap, soft, friction) = (
+            &mut st.base_gap[..np],
+            &mut st.soft[..np],
+            &mut st.friction[..np],
+        );
+        let (restitution, approach, impulse) = (
+            &mut st.restitution[..np],
+            &mut st.approach[..np],
+            &mut st.impulse[..np],
+        );
+        let (max_normal, total, slip) = (
+            &mut st.max_normal[..np],
+            &mut st.total[..np],
+            &mut st.slip[..np],
+        );
+        let (preload_out, preload_cap, preload_floor) = (
+            &mut st.preload[..np],
+            &mut st.preload_cap[..np],
+            &mut st.preload_floor[..np],
+        );
+        let gap = &mut st.gap[..np];
+        // The SIMD lanes' packed rows, written point by point below (their plan, a
+        // function of the colouring alone, is the last step's when the colouring is).
+        if !kept {
+            st.paired.plan(&st.colouring);
+        }
+        let paired = &mut st.paired;
+        // One-way coupling off (the default, an infinite ratio): `im[lower] > ∞ ·
+        // im[upper]` never holds (∞ · 0 is NaN), so the heights need not be read.
+        let one_way = s.one_way_mass_ratio < f64::INFINITY;
+        // Manifold by manifold (every point is in one; the points of a manifold
+        // share their colliders, bodies, masses, softness and, where their normals
+        // are the same bits, their tangents: these are read once a manifold), each
+        // point written at its solve position.
+        let (mp, mpts) = (
+            st.colouring.manifold_start.as_slice(),
+            st.colouring.manifold_points.as_slice(),
+        );
+        let mut bouncy = false;
+        for j in 0..mp.len().saturating_sub(1) {
+            let pts = &mpts[mp[j]..mp[j + 1]];
+            let Some(&first) = pts.first() else {
+                continue;
+            };
+            let c0 = &contacts[order[first]];
+            let (ca, cb) = (&self.colliders[c0.a], &self.colliders[c0.b]);
+            let (a, b) = (ca.body.unwrap_or(nb), cb.body.unwrap_or(nb));
+            let xa = ca.body.map(|i| self.bodies[i].pose.x);
+            let xb = cb.body.map(|i| self.bodies[i].pose.x);
+            // One-way coupling: the lower of two moving bodies is static for this
+            // manifold when the upper is more than `one_way_mass_ratio` times heavier.
+            let mut im = [st.inv_mass[a], st.inv_mass[b]];
+            // By reference: the two 72-byte matrices are not copied.
+            let mut inertia = [&st.inv_inertia[a], &st.inv_inertia[b]];
+            if one_way && a != nb && b != nb {
+                let (ha, hb) = (self.bodies[a].pose.x.dot(up), self.bodies[b].pose.x.dot(up));
+                let (lower, upper) = if ha < hb { (0, 1) } else { (1, 0) };
+                if im[lower] > s.one_way_mass_ratio * im[upper] {
+                    im[lower] = 0.0;
+                    inertia[lower] = &DMat3::ZERO;
+                }
+            }
+            let mu = ca.friction.max(cb.friction);
+            let e = ca.restitution.max(cb.restitution);
+            bouncy |= e != 0.0;
+            let fixed_pair = a == nb || b == nb;
+            let softness = if fixed_pair { fixed } else { dynamic };
+            let omega2_pair = if fixed_pair { omega2_fixed } else { omega2 };
+            // The tangents of the last normal (by its bits: a signed zero changes them).
+            let bits = |n: DVec3| [n.x.to_bits(), n.y.to_bits(), n.z.to_bits()];
+            let mut last: Option<([u64; 3], [DVec3; 3])> = None;
+            for &p in pts {
+                let k = order[p];
+                let c = &contacts[k];
+                let ra = xa.map_or(DVec3::ZERO, |x| c.point_on_a() - x);
+                let rb = xb.map_or(DVec3::ZERO, |x| c.point_on_b() - x);
+                let n = c.normal;
+                let dirs = match last {
+                    Some((key, d)) if key == bits(n) => d,
+                    _ => {
+                        let (t1, t2) = n.any_orthonormal_pair();
+                        let d = [n, t1, t2];
+                        last = Some((bits(n), d));
+                        d
+                    }
+                };
+                let [_, t1, t2] = dirs;
+                let mut ang = [[DVec3::ZERO; 4]; 3];
+                let mut mass = [0.0; 3];
+                for (r, d) in dirs.iter().enumerate() {
+                    let (ua, ub) = (ra.cross(*d), rb.cross(*d));
+                    let (ia, ib) = (inertia[0].mul_vec3(ua), inertia[1].mul_vec3(ub));
+                    // k = J M⁻¹ Jᵀ = 1/m_a + 1/m_b + (r_a×d)ᵀI_a⁻¹(r_a×d) + (r_b×d)ᵀI_b⁻¹(r_b×d)
+                    let k = im[0] + im[1] + ua.dot(ia) + ub.dot(ib);
+                    mass[r] = if k > 0.0 { 1.0 / k } else { 0.0 };
+                    ang[r] = [ua, ub, ia, ib];
+                }
+                let mut z = [0.0; 3];
+                if self.settings.warm_start {
+                    let (zn, ft, _, _) = st.found[k];
+                    z = [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale];
+                    if new_manifolds && !st.found_hit[k] {
+                        z[0] = st.estimate[k];
+                    }
+                }
+                // The anchor's slip, stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ
+                // Δd` below is the slip (Δd: the anchors' separation vector, as for
+                // the gap); read only with anchors on.
+                if s.friction_anchors {
+                    let (sl, r) = (st.found[k].2, rb - ra);
+                    slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
+                }
+                paired.put(
+                    p,
+                    PointRows {
+                        dir: &dirs,
+                        ang: &ang,
+                        mass,
+                        im,
+                        friction: mu,
+                    },
+                );
+                slots[p] = [a, b];
+                dir[p] = dirs;
+                anchor[p] = [ra, rb];
+                ang_out[p] = ang;
+                mass_out[p] = mass;
+                im_out[p] = im;
+                // The gap at the start of the step, `C₀ = base_gap + nᵀ(r_b − r_a)`
+                // (what `update_gaps` gives at zero displacements, where `Δx + Δq r =
+                // r`: the same bits, up to the sign of a zero), without a pass over the
+                // points.
+                let offset = n.dot(rb - ra);
+                base_gap[p] = -c.depth - offset;
+                gap[p] = base_gap[p] + offset;
+                soft[p] = softness;
+                friction[p] = mu;
+                restitution[p] = e;
+                // Relative normal velocity before the step, n·(v_b + ω_b×r_b − v_a −
+                // ω_a×r_a), read only by restitution where `e` is not zero.
+                approach[p] = if e == 0.0 {
+                    0.0
+                } else {
+                    n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a])
+                };
+                impulse[p] = z;
+                preload_out[p] =
+                    if (every && st.estimate[k] > 0.0) || (new_manifolds && !st.found_hit[k]) {
+                        s.preload * st.estimate[k]
+                    } else {
+                        preload * st.mean[k]
+                    };
+                preload_cap[p] = kappa * mass[0] * hs * omega2_pair;
+                preload_floor[p] = if !self.settings.warm_start {
+                    0.0
+                } else if new_manifolds && !st.found_hit[k] {
+                    s.preload * st.estimate[k]
+                } else {
+                    st.found[k].3 * scale * PRELOAD_FLOOR_DECAY
+                };
+                max_normal[p] = 0.0;
+                total[p] = [0.0; 3];
+            }
+        }
+        st.bouncy = bouncy;
+        if s.block_normal {
+            build_blocks(st);
+        } else {
+            st.blocks.clear();
+        }
+    }
+
+    /// Static load estimate of the contacts, for the manifolds met for the first time
+    /// (false, having estimated nothing, when every contact was found in the previous
+    /// step). A new manifold has no previous impulse to warm start from: from zero, one
+    /// Gauss–Seidel pass per sub-step moves a stack's weight down one box per sub-step,
+    /// so a freshly built 10-box stack falls for the first sub-steps and its springs
+    /// then overshoot (the top box sank 9 mm in the first 4 steps). The estimate is the
+    /// weight each manifold carries at rest, found top-down as shock propagation orders
+    /// its bodies (Guendelman et al. 2003): a manifold supports its upper body (along
+    /// `up`) when `n · up ≥ 1/2` (within 60° of vertical); each moving body's load —
+    /// its weight `m |g|` at its centre plus the vertical forces the points it
+    /// supports pass down, at those points — is shared by the points of its supports
+    /// as a rigid body on equal springs shares it ([`pressure_share`]): the vertical
+    /// forces `f_i` vary linearly over the points' horizontal positions `x_i`, with
+    /// `Σ f_i` the load and `Σ f_i x_i` its moment (the load's centre of pressure
+    /// kept), clamped at zero. A point's normal impulse is `f_i h_s / n·up`, and its
+    /// `f_i` goes to the lower body at `x_i` (not where
+    /// [`SoftStepSettings::one_way_mass_ratio`] has the lower body not feel the
+    /// upper one). Statically indeterminate supports (a box on two boxes) get the
+    /// springs' share: exact for the stack, and on the pyramid's flanks, where a box
+    /// carries one neighbour above on one side, its supports' unequal share (an
+    /// equal force per manifold there over-estimated the outer support, whose
+    /// preload then sat on its cap: the pyramid's worst displacement over 600 steps
+    /// at 3 sub-steps 33.4 mm with equal forces, 0.69 mm with the share). The
+    /// solve corrects the rest. Deterministic: the manifolds are taken by falling
+    /// upper-body height, ties by contact index. With `all_manifolds` it estimates
+    /// every manifold even when none is new (and still returns whether one was).
+    pub(super) fn estimate_loads(
+        &self,
+        st: &mut SoftState,
+        up: DVec3,
+        hs: f64,
+        all_manifolds: bool,
+    ) -> bool {
+        let contacts = &self.contacts;
+        let none_new = st.found_hit.iter().all(|&hit| hit);
+        if none_new && !all_manifolds {
+            return false;
+        }
+        let nb = self.bodies.len();
+        let g = self.gravity.length();
+        let ratio = self.settings.soft_step.one_way_mass_ratio;
+        // Horizontal coordinates: along two axes normal to `up`.
+        let (e1, e2) = up.any_orthonormal_pair();
+        let flat = |x: DVec3| [x.dot(e1), x.dot(e2)];
+        // Every entry is written below (each manifold's run; zero where it supports
+        // nothing): sized, not cleared (zeroing it and the loads' moments each step
+        // was 0.3 % of the 210-box pyramid's step, callgrind).
+        st.estimate.resize(contacts.len(), 0.0);
+        st.load.clear();
+        st.load.extend(
+            st.inv_mass
+                .iter()
+                .map(|&im| if im > 0.0 { g / im } else { 0.0 }),
+        );
+        // The weights' moments, at the bodies' centres.
+        st.pressure.resize(nb + 1, Pressure::default());
+        for ((p, b), &load) in st.pressure.iter_mut().zip(&self.bodies).zip(&st.load) {
+            let x = flat(b.pose.x);
+            *p = Pressure {
+                moment: [load * x[0], load * x[1]],
+                ..Pressure::default()
+            };
+        }
+        st.pressure[nb] = Pressure::default();
+        st.supports.clear();
+        // Written for every supporting point below before it is read.
+        st.flat.resize(contacts.len(), [0.0; 2]);
+        let (by_rank, start) = st.colouring.bottom_up();
+        let slot = |k: usize| self.colliders[k].body.unwrap_or(nb);
+        for j in 0..by_rank.len() {
+            let c = &contacts[start[j]];
+            // The normal points from a to b: b is the upper body when n·up > 0.
+            let n_up = c.normal.dot(up);
+            let (upper, lower, n_up) = if n_up > 0.0 {
+                (slot(c.b), slot(c.a), n_up)
+            } else {
+                (slot(c.a), slot(c.b), -n_up)
+            };
+            let supports = n_up >= 0.5 && upper != nb && st.inv_mass[upper] > 0.0;
+            if supports {
+                // The manifold's run sliced once (one bounds check, not one a point).
+                let run = start[j]..start[j + 1];
+                let pressure = &mut st.pressure[upper];
+                for (out, c) in st.flat[run.clone()].iter_mut().zip(&contacts[run]) {
+                    let x = flat(c.point);
+                    *out = x;
+                    pressure.add_point(x);
+                }
+            }
+            st.supports
+                .push((upper, lower, if supports { n_up } else { 0.0 }));
+        }
+        // Top-down (manifolds by falling lowest point): a body's load is complete once
+        // the manifolds above it are taken.
+        for &j in by_rank.iter().rev() {
+            let j = j as usize;
+            let (upper, lower, n_up) = st.supports[j];
+            if n_up == 0.0 {
+                st.estimate[start[j]..start[j + 1]].fill(0.0);
+                continue;
+            }
+            let share = pressure_share(st.load[upper], &st.pressure[upper]);
+            // One-way coupling: the lower body does not feel the upper one.
+            let one_way = st.inv_mass[lower] > ratio * st.inv_mass[upper];
+            let feels = lower != nb && st.inv_mass[lower] > 0.0 && !one_way;
+            // The lower body's load and moment summed in locals, in the same order
+            // (the same bits), and the run sliced once.
+            let (mut load, mut m) = if feels {
+                (st.load[lower], st.pressure[lower].moment)
+            } else {
+                (0.0, [0.0; 2])
+            };
+            let run = start[j]..start[j + 1];
+            for (&x, e) in st.flat[run.clone()].iter().zip(&mut st.estimate[run]) {
+                let f = share(x);
+                *e = f / n_up * hs;
+                if feels {
+                    load += f;
+                    m[0] += f * x[0];
+                    m[1] += f * x[1];
+                }
+            }
+            if feels {
+                st.load[lower] = load;
+                st.pressure[lower].moment = m;
+            }
+        }
+        !none_new
+    }
+}
