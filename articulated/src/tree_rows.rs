@@ -89,6 +89,10 @@ pub(crate) struct RowTree {
     /// Per node in elimination order, its shape and offsets ([`NodeShape`]), read once
     /// per node by the factor and the solve instead of from six tables.
     schedule: Vec<NodeShape>,
+    /// The tree's unknowns in runs contiguous in both layouts, `(tree offset, offset
+    /// here, length)`: a run ends at a node with extra rows (built by
+    /// [`Self::assemble`]; [`Self::copy_from_tree`], [`Self::copy_to_tree`]).
+    runs: Vec<(usize, usize, usize)>,
 }
 
 /// One node's shape and offsets in the flat arenas, built by [`RowTree::assemble`]
@@ -198,6 +202,15 @@ impl RowTree {
                 }
             }
         }
+        // The base unknowns' runs, node order (both layouts place the nodes in it).
+        self.runs.clear();
+        for k in 0..nn {
+            let (o, xo, b) = (tree.offset[k], self.xoff[k], self.base[k]);
+            match self.runs.last_mut() {
+                Some(r) if r.0 + r.2 == o && r.1 + r.2 == xo => r.2 += b,
+                _ => self.runs.push((o, xo, b)),
+            }
+        }
         // The schedule the factor and the solve walk.
         self.schedule.clear();
         for &k in &tree.order {
@@ -258,6 +271,22 @@ impl RowTree {
             }
         }
         true
+    }
+
+    /// Copies the tree's unknowns `src` (the tree's layout) to their places in `dst`
+    /// (this layout; the extra rows' entries untouched), a run at a time.
+    pub fn copy_from_tree(&self, src: &[f64], dst: &mut [f64]) {
+        for &(o, xo, n) in &self.runs {
+            dst[xo..xo + n].copy_from_slice(&src[o..o + n]);
+        }
+    }
+
+    /// [`Self::copy_from_tree`]'s inverse: the tree's unknowns of `src` (this layout)
+    /// into `dst` (the tree's layout).
+    pub fn copy_to_tree(&self, src: &[f64], dst: &mut [f64]) {
+        for &(o, xo, n) in &self.runs {
+            dst[o..o + n].copy_from_slice(&src[xo..xo + n]);
+        }
     }
 
     /// Where caller row `i` sits among the unknowns (after [`Self::assemble`]).

@@ -511,10 +511,7 @@ impl World {
             let f = &st.factor;
             st.x.clear();
             st.x.resize(f.size, 0.0);
-            for k in 0..self.solver.dim.len() {
-                let (o, n, xo) = (self.solver.offset[k], self.solver.dim[k], f.node_offset(k));
-                st.x[xo..xo + n].copy_from_slice(&self.rhs[o..o + n]);
-            }
+            f.copy_from_tree(&self.rhs, &mut st.x);
             for (i, r) in self.urows.iter().enumerate() {
                 if matches!(st.status[i], RowStatus::Lo | RowStatus::Hi) && st.z[i] != 0.0 {
                     scatter(f, &mut st.x, r, st.z[i]);
@@ -652,10 +649,7 @@ impl World {
         }
         // The solution in the tree's layout, the impulses, the statistics.
         let f = &st.factor;
-        for k in 0..self.solver.dim.len() {
-            let (o, n, xo) = (self.solver.offset[k], self.solver.dim[k], f.node_offset(k));
-            self.rhs[o..o + n].copy_from_slice(&st.x[xo..xo + n]);
-        }
+        f.copy_to_tree(&st.x, &mut self.rhs);
         self.mu.clear();
         self.uz.clear();
         self.uz.extend_from_slice(&st.z);
