@@ -457,6 +457,14 @@ impl TreeSolver {
     /// without it) and the backward pass reading the right-hand side of those nodes
     /// only (zero elsewhere): one body for both, so the node kernels keep a single
     /// call site each (and stay inlined).
+    ///
+    /// Tried and left out (issue 13, `World::step` instructions, the same bits):
+    /// the backward pass's `W x_p` from a copy `Wᵀ` written by the factor (the rows'
+    /// sums in vector lanes, each still in column order): swimmer6 controlled 121.84M →
+    /// 122.44M, half_cheetah 43.39M → 43.54M (this function 26.04M → 26.26M on
+    /// swimmer6: no gain in the pass, and the copy costs the factor); the node kernel
+    /// chosen by its shape's index kept in the schedule (one jump) instead of the match
+    /// on `(n, np)`: swimmer6 122.00M, dm hopper 72.43M → 72.51M.
     fn solve_marked(&self, x: &mut [f64], mark: Option<&[bool]>) {
         // Fixed-size kernels for the node shapes of body/joint pairs (loops unroll);
         // `NP = 0` is a root.

@@ -182,6 +182,21 @@
 //! iterations, 515 factors, 1 623 factor solves:
 //! `RowTree::solve` 7.1M, `factor` 6.5M, `assemble` 3.7M, `forward_marked` 3.2M, the
 //! active set's own loops and Schur rows 9.0M of 34.1M), with no single hot spot.
+//!
+//! Counted again (issue 13, the same run, callgrind call counts): 391 steps try the
+//! active set; 641 iterations reach the factor solve, over about 14 rows each (8 907
+//! row gathers); 515 factors (1.3 a step: the first of each step, the matrix having
+//! moved, and 124 for a changed set); 497 builds of the Schur columns, 3.9 rows on
+//! average (1 922 forward passes over their paths); 802 Schur corrections (641 in the
+//! iterations, 161 in `World::extrapolate_bounds`), each a whole factor solve: 3.5M of
+//! `RowTree::solve`'s 7.1M. Tried and left out: the correction's forward pass taken
+//! from the Schur columns' (the pass is linear: `Σ_c ζ_c s_c` on their paths, rows of
+//! one path summed contiguously first, then the backward pass alone). It changes bits
+//! (round-off: the summaries' figures move in their 13th digit) and measured
+//! half_cheetah 43.39M → 42.98M, dm cheetah 47.63M → 47.13M, but dm hopper 72.43M →
+//! 72.76M (the path values of its Schur rows, summed, cost about the forward pass they
+//! replace), swimmer6 121.84M → 121.72M, pusher 49.50M → 49.42M: too little for a
+//! change of bits.
 
 use alloc::vec::Vec;
 
