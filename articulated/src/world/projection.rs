@@ -75,6 +75,12 @@ pub(super) struct Scratch {
     values_current: bool,
     /// The hinges' start angles for the limits' error (`limits.rs`).
     limits: limits::LimitRefs,
+    /// The joints with a limit within the tolerance of its bound (or past it) at the
+    /// poses of the last error evaluation with the limits, in joint order: exactly the
+    /// joints [`World::push_violated_limits`] pushes rows for at those poses.
+    near: Vec<usize>,
+    /// `near` of the iterate while a backtracking's trials overwrite it.
+    near_base: Vec<usize>,
 }
 
 impl World {
@@ -158,6 +164,9 @@ impl World {
             base.clear();
             base.extend(self.bodies.iter().map(|b| (b.pose, b.v, b.omega)));
             let err_before = err;
+            // The iterate's near limits, restored if no trial is accepted.
+            core::mem::swap(&mut self.proj.near, &mut self.proj.near_base);
+            self.proj.near.clear();
             let mut alpha = 1.0;
             let mut accepted = false;
             let mut fast = false;
@@ -197,6 +206,7 @@ impl World {
             }
             if !accepted {
                 self.proj.values_current = false;
+                core::mem::swap(&mut self.proj.near, &mut self.proj.near_base);
                 for (b, &(pose, v, w)) in self.bodies.iter_mut().zip(&base) {
                     b.pose = pose;
                     b.v = v;
@@ -289,24 +299,14 @@ impl World {
     /// equality row at its bound to the projection's loop
     /// rows: `±G δ = −C` with `C = q − lo` (lower) or `hi − q` (upper), `G` the rate row
     /// of the coordinate (Schur complement with the joints, as loop joints are).
+    /// The joints are those the last error evaluation found near a bound
+    /// (`Scratch::near`, at these poses and this tolerance): the others have no limit
+    /// within `tolerance`, so their coordinates are not evaluated again.
     fn push_violated_limits(&self, loops: &mut LoopRows, tolerance: f64) {
         // The rows read by reference (the coordinate table's entry, no copy of it).
         let mut scratch = ([0.0; MAX_DOF], [[DVec3::ZERO; 4]; MAX_DOF]);
-        for (ji, joint) in self.joints.iter().enumerate() {
-            if self.limits[ji].iter().all(|l| l.is_none()) {
-                continue;
-            }
-            // The rows only for a joint past a limit (the coordinates are the same bits
-            // either way).
-            let Some(q) = self.coordinates_of(ji) else {
-                continue;
-            };
-            let past = self.limits[ji].iter().enumerate().any(|(d, lim)| {
-                lim.is_some_and(|[lo, hi]| q[d] - lo < tolerance || hi - q[d] < tolerance)
-            });
-            if !past {
-                continue;
-            }
+        for &ji in &self.proj.near {
+            let joint = &self.joints[ji];
             let Some((q, rows)) = self.coordinates_and_rows_ref(ji, &mut scratch) else {
                 continue;
             };

@@ -81,6 +81,8 @@ impl World {
         let tracking = !recording && self.proj.limits.started;
         let mut worst: f64 = 0.0;
         let mut nearest = f64::NEG_INFINITY;
+        let tol = self.proj.limits.tolerance;
+        self.proj.near.clear();
         for ji in 0..self.joints.len() {
             if self.limits[ji].iter().all(|l| l.is_none()) {
                 continue;
@@ -94,15 +96,21 @@ impl World {
             if recording {
                 self.proj.limits.q0[ji] = q[0];
             }
+            let mut near = false;
             for (d, lim) in self.limits[ji].iter().enumerate() {
                 if let Some([lo, hi]) = lim {
                     worst = worst.max(lo - q[d]).max(q[d] - hi);
                     nearest = nearest.max(lo - q[d]).max(q[d] - hi);
+                    // `q − lo < tol` or `hi − q < tol`: as `push_violated_limits` tests.
+                    near |= q[d] - lo < tol || hi - q[d] < tol;
                 }
+            }
+            if near {
+                self.proj.near.push(ji);
             }
         }
         self.proj.limits.recording = false;
-        (worst, nearest > -self.proj.limits.tolerance)
+        (worst, nearest > -tol)
     }
 
     /// `(q₀, r₀)` of hinge `ji` at the current poses, `q₀` its angle there (NaN: not
