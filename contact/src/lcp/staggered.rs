@@ -170,7 +170,11 @@ pub struct RowStats {
     pub boxed_fallback: bool,
     /// A friction PGS ran.
     pub friction_pgs: bool,
-    /// A friction PGS ran out of sweeps and its last budget of sweeps was kept.
+    /// A friction PGS ran out of sweeps and its last budget of sweeps was kept. In the
+    /// residual-driven mode ([`RowSettings::max_sweeps`]) the last sweep goes unchecked
+    /// unless it is a residual-check sweep (every 4th): a friction solve that gets there
+    /// counts here even where that sweep met the tolerance (the iterate is the same;
+    /// the whole problem's residual decides).
     pub friction_budget: bool,
     /// Normal/friction alternations of the staggered coupling.
     pub sweeps: usize,
@@ -696,7 +700,10 @@ pub(crate) fn solve_rows_in(
             };
             let lcp = &*lcp;
             stats.friction_pgs = true;
-            match pgs_in(lcp, &friction_settings, Some(zt0), pgs_scratch)? {
+            // In the residual-driven mode the whole problem's residual follows: the
+            // last sweep goes unchecked (its iterate is kept either way).
+            let check_last = !residual_driven;
+            match pgs_in(lcp, &friction_settings, Some(zt0), pgs_scratch, check_last)? {
                 PgsEnd::Solved { iterations, .. } => {
                     stats.iterations += iterations;
                     for (k, &i) in tangent.iter().enumerate() {
