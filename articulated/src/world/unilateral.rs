@@ -416,8 +416,13 @@ impl World {
         let size = self.solver.size;
         // Y = H⁻¹ Gᵀ, one tree solve (with the loop closure) per row.
         let mut ycols = core::mem::take(&mut self.ucols);
-        // Not cleared: each column is cleared where its solve reads it (below).
-        ycols.resize(m * size, 0.0);
+        // Not cleared: each column is cleared where its solve reads it (below). Only
+        // grown, never shrunk: the velocity level and the projection's contact solve
+        // alternate between row counts, and a shrink then regrowth zero-filled the
+        // difference each call (7.1M of memset on humanoid_CMU controlled 0.5 s).
+        if ycols.len() < m * size {
+            ycols.resize(m * size, 0.0);
+        }
         let mut mu = core::mem::take(&mut self.umu);
         let zero_rhs = core::mem::take(&mut self.uzero);
         let mut zero_rhs = zero_rhs;
@@ -478,12 +483,15 @@ impl World {
             return Err(e);
         }
         // A = G Y, q = G x_free − bias: the lower triangle `a_ik = G_i Y_k`, `k ≤ i`,
-        // then mirrored; every entry of `a` is written, so it is not zeroed. A body
-        // row's entries read its two bodies' six unknowns of each column (`gather_at`,
-        // the same sums as `gather`); a tendon limit's go through its spans.
-        let mut a = core::mem::take(&mut self.udel);
-        a.resize(m * m, 0.0);
-        a.truncate(m * m);
+        // then mirrored; every entry of `a[..m²]` is written, so it is not zeroed (and
+        // the buffer only grows, as `ycols`). A body row's entries read its two bodies'
+        // six unknowns of each column (`gather_at`, the same sums as `gather`); a tendon
+        // limit's go through its spans.
+        let mut a_buf = core::mem::take(&mut self.udel);
+        if a_buf.len() < m * m {
+            a_buf.resize(m * m, 0.0);
+        }
+        let a = &mut a_buf[..m * m];
         let mut q = core::mem::take(&mut self.uq);
         q.clear();
         for (i, ri) in rows.iter().enumerate() {
@@ -514,7 +522,8 @@ impl World {
         bounds.clear();
         bounds.extend(rows.iter().map(|r| r.bound));
         let settings: RowSettings = self.unilateral.solver;
-        let result = solve_movable(&mut self.urowbuf, &a, &q, &bounds, &settings, z);
+        let a = &*a;
+        let result = solve_movable(&mut self.urowbuf, a, &q, &bounds, &settings, z);
         let outcome = match result {
             Ok(stats) => {
                 // x' = x_free + Y z.
@@ -527,14 +536,14 @@ impl World {
                     }
                 }
                 // The shapes were built here and checked by the solve: no error.
-                row_residual(&a, &q, &bounds, z)
+                row_residual(a, &q, &bounds, z)
                     .map(|r| (stats, r))
                     .map_err(ArticulatedError::Unilateral)
             }
             Err(e) => Err(ArticulatedError::Unilateral(e)),
         };
         self.ucols = ycols;
-        self.udel = a;
+        self.udel = a_buf;
         self.uq = q;
         self.umu = mu;
         self.uzero = zero_rhs;

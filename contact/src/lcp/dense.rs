@@ -80,30 +80,39 @@ impl Lu {
                 return None;
             }
             if p != k {
-                for j in 0..n {
-                    a.swap(k * n + j, p * n + j);
-                }
+                // p > k: row k lies in the first part.
+                let (top, bottom) = a.split_at_mut(p * n);
+                top[k * n..(k + 1) * n].swap_with_slice(&mut bottom[..n]);
                 perm.swap(k, p);
                 profile.swap(k, p);
             }
             let piv = a[k * n + k];
             let hk = profile[k].0;
             let zero = 0.0 / piv;
-            for i in k + 1..n {
+            // Row k above the rows it updates: borrowed apart, so that the update of
+            // a row is one pass over two disjoint slices (each entry one `a − f·b`, in
+            // any order the same bits; the compiler then pairs them in vector lanes).
+            let (top, below) = a.split_at_mut((k + 1) * n);
+            let row_k = &top[k * n..];
+            for (r, row) in below.chunks_exact_mut(n).enumerate() {
+                let i = k + 1 + r;
                 if profile[i].1 > k {
-                    a[i * n + k] = zero;
+                    row[k] = zero;
                     continue;
                 }
-                let f = a[i * n + k] / piv;
-                a[i * n + k] = f;
+                let f = row[k] / piv;
+                row[k] = f;
                 if f != 0.0 {
                     let upper = if f.is_finite() {
                         hk.max(profile[i].0).unwrap_or(0)
                     } else {
                         n - 1
                     };
-                    for j in k + 1..=upper {
-                        a[i * n + j] -= f * a[k * n + j];
+                    if upper > k {
+                        let span = k + 1..upper + 1;
+                        for (x, &y) in row[span.clone()].iter_mut().zip(&row_k[span]) {
+                            *x -= f * y;
+                        }
                     }
                     profile[i].0 = profile[i].0.max(Some(upper));
                 }
@@ -167,9 +176,9 @@ mod tests {
                 return None;
             }
             if p != k {
-                for j in 0..n {
-                    a.swap(k * n + j, p * n + j);
-                }
+                // p > k: row k lies in the first part.
+                let (top, bottom) = a.split_at_mut(p * n);
+                top[k * n..(k + 1) * n].swap_with_slice(&mut bottom[..n]);
                 perm.swap(k, p);
             }
             let piv = a[k * n + k];

@@ -181,6 +181,33 @@ pub fn fischer_newton(
         grad.fill(0.0);
         for i in 0..n {
             let (cols, vals) = lcp.row_nonzeros(i);
+            if cols.len() == n {
+                // A full row (columns 0, 1, …, n−1: a humanoid's contacts all couple
+                // through its tree): the same entries and gradient terms over
+                // contiguous slices, left of the diagonal, the diagonal, right of it
+                // (each entry and each `grad[j]` one operation of its own, so the
+                // compiler pairs them in vector lanes with the same bits).
+                let (dbi, phii) = (db[i], phi[i]);
+                let h_row = &mut h[i * n..(i + 1) * n];
+                let (h_left, h_rest) = h_row.split_at_mut(i);
+                let (g_left, g_rest) = grad.split_at_mut(i);
+                let (m_left, m_rest) = vals.split_at(i);
+                let segments = [
+                    (h_left, g_left, m_left),
+                    (&mut h_rest[1..], &mut g_rest[1..], &m_rest[1..]),
+                ];
+                for (hs, gs, ms) in segments {
+                    for ((hv, g), &m) in hs.iter_mut().zip(gs.iter_mut()).zip(ms) {
+                        let v = dbi * m / alpha + 0.0;
+                        *hv = v;
+                        *g += v * phii;
+                    }
+                }
+                let v = dbi * m_rest[0] / alpha + da[i];
+                h_rest[0] = v;
+                g_rest[0] += v * phii;
+                continue;
+            }
             let mut diagonal = false;
             for (&j, &m) in cols.iter().zip(vals) {
                 let v = db[i] * m / alpha + if i == j { da[i] } else { 0.0 };
