@@ -27,7 +27,7 @@
 //! with one 128-bit load of either half.
 
 use alloc::vec::Vec;
-use core::ops::{Add, Mul, Neg, Sub};
+use core::ops::{Add, Div, Mul, Neg, Sub};
 
 use constraint_core::{DMat3, DVec3};
 use wide::f64x2;
@@ -39,13 +39,50 @@ use super::soft_step::{Block, Bodies, Pass, PointImpulses, Rows, BLOCK_POINTS};
 #[allow(unsafe_code)]
 #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx")))]
 mod avx;
-pub(super) use avx::{block_quad, relax_quad, warm_quad};
+pub(super) use avx::{block_quad, build_quad, gaps_quad, relax_quad, warm_quad, Avx};
+
+mod build;
+pub(super) use build::{build_lanes, Built};
 
 /// Without AVX (other processors, or `no_std` builds without
 /// `-C target-feature=+avx`): no quads ([`Paired::quad`] is `None`), two lanes only.
 #[cfg(not(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx"))))]
 mod avx {
-    use super::{Block, Bodies, DVec3, Pass, PointImpulses, QuadRows, RelaxIo, Rows};
+    use super::{Block, Bodies, DMat3, DVec3, Pass, PointImpulses, QuadRows, RelaxIo, Rows};
+
+    /// No AVX here: no value of this type exists.
+    #[derive(Clone, Copy, Debug)]
+    pub(in crate::rigid) enum Avx {}
+
+    impl Avx {
+        /// `None`: no AVX here.
+        #[inline]
+        pub(in crate::rigid) fn detect() -> Option<Self> {
+            None
+        }
+    }
+
+    /// Never called (no [`Avx`] exists here).
+    pub(in crate::rigid) fn build_quad(
+        avx: Avx,
+        _: &Rows,
+        _: [&[usize]; 4],
+        _: [&mut Block; 4],
+    ) -> super::Built {
+        match avx {}
+    }
+
+    /// Never called (no [`Avx`] exists here).
+    pub(in crate::rigid) fn gaps_quad(
+        avx: Avx,
+        _: &Rows,
+        _: [&[usize]; 4],
+        _: [[usize; 2]; 4],
+        _: (&[DVec3], &[DMat3]),
+        _: &mut [f64],
+    ) -> bool {
+        match avx {}
+    }
 
     /// Declines (no four-lane passes here).
     pub(in crate::rigid) fn relax_quad(
@@ -87,11 +124,16 @@ mod avx {
 /// (`(j + 2, j + 3)`), contiguous.
 type Quad = [f64x2; 2];
 
-/// Lanes of `f64`, each doing the scalar operations (`+ − × neg`, and the scalar
+/// Lanes of `f64`, each doing the scalar operations (`+ − × ÷ neg`, and the scalar
 /// compare-and-select of `at_least`/`at_most`) with the scalar's rounding: `f64x2`,
 /// and four AVX lanes in the [`avx`] module.
 pub(super) trait Lane:
-    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
 {
     /// Every lane `x`.
     fn splat(x: f64) -> Self;
@@ -99,6 +141,8 @@ pub(super) trait Lane:
     fn gather<const K: usize>(f: impl FnMut(usize) -> [f64; K]) -> [Self; K];
     /// Lane `l`.
     fn lane(self, l: usize) -> f64;
+    /// The lanes in order (zeros past the last).
+    fn array(self) -> [f64; 4];
     /// `x` if `x > lo`, else `lo`, per lane.
     fn at_least(self, lo: Self) -> Self;
     /// `x` if `x < hi`, else `hi`, per lane.
@@ -127,6 +171,11 @@ impl Lane for f64x2 {
     #[inline(always)]
     fn lane(self, l: usize) -> f64 {
         self.as_array()[l]
+    }
+    #[inline(always)]
+    fn array(self) -> [f64; 4] {
+        let [x, y] = self.to_array();
+        [x, y, 0.0, 0.0]
     }
     #[inline(always)]
     fn at_least(self, lo: Self) -> Self {
@@ -300,6 +349,12 @@ pub(super) struct QuadRows {
     /// Inverse masses of the two bodies as the rows see them.
     im: [Quad; 2],
     friction: Quad,
+    /// Of a block of [`BLOCK_POINTS`] points per lane (point `i` of the manifolds):
+    /// row `i` of `K⁻¹`, by column, and `c_i` (written by `build_blocks` with the
+    /// blocks, [`Paired::put_block`]; read by the biased pass only where every lane's
+    /// block was built this step).
+    kinv: [Quad; BLOCK_POINTS],
+    c: Quad,
 }
 
 impl QuadRows {
@@ -347,9 +402,9 @@ pub(super) struct Paired {
     /// Of each point (solve position): `4 ×` its entry in `rows` `+` its lane
     /// (`u32::MAX` where it is not packed).
     lane_of: Vec<u32>,
-    /// Whether the passes take quads four lanes at a time (the processor has AVX:
-    /// `avx::available`, checked once per step by [`Paired::plan`]).
-    four: bool,
+    /// Where the passes take quads four lanes at a time (the processor has AVX:
+    /// [`Avx::detect`], checked once per step by [`Paired::plan`]).
+    avx: Option<Avx>,
 }
 
 /// One point's rows as `prepare` computes them (what [`Paired::put`] writes).
@@ -380,20 +435,15 @@ const ZERO_ROWS: QuadRows = QuadRows {
     mass: [ZERO_QUAD; 3],
     im: [ZERO_QUAD; 2],
     friction: ZERO_QUAD,
+    kinv: [ZERO_QUAD; BLOCK_POINTS],
+    c: ZERO_QUAD,
 };
 
-/// Whether this processor runs the four-lane passes (AVX: detected at run time with
+/// Where this processor runs the four-lane passes (AVX: detected at run time with
 /// `std`, or compiled in with `-C target-feature=+avx`; never without `std` otherwise).
 #[inline]
-fn four_lanes() -> bool {
-    #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx")))]
-    {
-        avx::available()
-    }
-    #[cfg(not(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx"))))]
-    {
-        false
-    }
+fn four_lanes() -> Option<Avx> {
+    Avx::detect()
 }
 
 impl Paired {
@@ -405,7 +455,7 @@ impl Paired {
     pub(super) fn plan(&mut self, colouring: &Colouring) {
         let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
         let manifolds = mp.len().saturating_sub(1);
-        self.four = four_lanes();
+        self.avx = four_lanes();
         self.first.clear();
         self.first.resize(manifolds, u32::MAX);
         self.quad.clear();
@@ -478,6 +528,45 @@ impl Paired {
         pr.friction[h].as_mut_array()[l] = point.friction;
     }
 
+    /// Whether manifold `j` starts a packed pair `(j, j + 1)` (its own or half of a
+    /// quad's).
+    #[inline(always)]
+    pub(super) fn starts(&self, j: usize) -> bool {
+        self.first.get(j).is_some_and(|&f| f != u32::MAX)
+    }
+
+    /// Writes the blocks of the `W` manifolds from `j` (a packed pair, `W` 2, or a
+    /// quad, `W` 4; each of [`BLOCK_POINTS`] points) into their lanes: `kinv[i N +
+    /// c]` the lanes of `K⁻¹`'s entry `(i, c)`, `c[i]` those of `c_i`
+    /// ([`build_lanes`]).
+    #[inline(always)]
+    pub(super) fn put_block<const W: usize>(
+        &mut self,
+        j: usize,
+        kinv: &[[f64; 4]; BLOCK_POINTS * BLOCK_POINTS],
+        c: &[[f64; 4]; BLOCK_POINTS],
+    ) {
+        let Some(&f) = self.first.get(j) else {
+            return;
+        };
+        let (k, half) = ((f / 2) as usize, (f % 2) as usize);
+        let Some(rows) = self.rows.get_mut(k..k + BLOCK_POINTS) else {
+            return;
+        };
+        let put = |q: &mut Quad, x: &[f64; 4]| {
+            q[half] = pair(x[0], x[1]);
+            if W == 4 {
+                q[1] = pair(x[2], x[3]);
+            }
+        };
+        for (i, q) in rows.iter_mut().enumerate() {
+            for (col, e) in q.kinv.iter_mut().enumerate() {
+                put(e, &kinv[i * BLOCK_POINTS + col]);
+            }
+            put(&mut q.c, &c[i]);
+        }
+    }
+
     /// The packed rows of manifold pair `(j, j + 1)` (`len` points each) and the half
     /// of their lanes it takes, if packed.
     #[inline(always)]
@@ -490,14 +579,20 @@ impl Paired {
     /// Whether the passes take manifolds four at a time this step.
     #[inline(always)]
     pub(super) fn four(&self) -> bool {
-        self.four
+        self.avx.is_some()
+    }
+
+    /// Where the passes take manifolds four at a time this step: the proof of AVX.
+    #[inline(always)]
+    pub(super) fn avx(&self) -> Option<Avx> {
+        self.avx
     }
 
     /// The packed rows of the quad of manifolds `j … j + 3` (`len` points each), if
     /// `j` starts one and the passes take quads ([`Paired::four`]).
     #[inline(always)]
     pub(super) fn quad(&self, j: usize, len: usize) -> Option<&[QuadRows]> {
-        if !self.four || !*self.quad.get(j)? {
+        if self.avx.is_none() || !*self.quad.get(j)? {
             return None;
         }
         self.of(j, len).map(|(rows, _)| rows)
@@ -757,30 +852,43 @@ fn block_lanes<L: Lane, const W: usize, B: Bodies, I: PointImpulses>(
         let (q, d0) = (&pr[i], Lanes3::<L>::load(&pr[i].dir[0], half));
         let vn = d0.dot(vb.sub(va)) + q.ang(0, 1, half).dot(wb) - q.ang(0, 0, half).dot(wa);
         let bias = (bias_rate * gap[i]).at_least(max_push);
-        let [preload, cap, floor, c] = L::gather(|l| {
+        let [preload, cap, floor] = L::gather(|l| {
             let p = p[l];
-            [
-                rows.preload[p],
-                rows.preload_cap[p],
-                rows.preload_floor[p],
-                blk[l].c[i],
-            ]
+            [rows.preload[p], rows.preload_cap[p], rows.preload_floor[p]]
         });
+        // `c` as the blocks' build packed it (the same values) where it did.
+        let c = if len == N {
+            L::load(&q.c, half)
+        } else {
+            L::gather(|l| [blk[l].c[i]])[0]
+        };
         let pre = preload.at_most((cap * -gap[i]).at_least(floor));
         r[i] = vn + bias + c * (z[i][0] - pre);
     }
     // Δλ = −K⁻¹ r over all N rows (the padding of K⁻¹ is the identity).
     let mut dz = [zero; N];
     for (i, dz) in dz.iter_mut().enumerate() {
-        let k = L::gather(|l| {
-            let kinv = &blk[l].kinv;
+        // `K⁻¹` as the blocks' build packed it (`Paired::put_block`: every lane's
+        // block has `len` N and was built this step), else gathered from the blocks.
+        let k = if len == N {
+            let k = &pr[i].kinv;
             [
-                kinv[i * N],
-                kinv[i * N + 1],
-                kinv[i * N + 2],
-                kinv[i * N + 3],
+                L::load(&k[0], half),
+                L::load(&k[1], half),
+                L::load(&k[2], half),
+                L::load(&k[3], half),
             ]
-        });
+        } else {
+            L::gather(|l| {
+                let kinv = &blk[l].kinv;
+                [
+                    kinv[i * N],
+                    kinv[i * N + 1],
+                    kinv[i * N + 2],
+                    kinv[i * N + 3],
+                ]
+            })
+        };
         *dz = -(k[0] * r[0] + k[1] * r[1] + k[2] * r[2] + k[3] * r[3]);
         if !(z[i][0] + *dz).all_nonneg() {
             return false;
@@ -884,10 +992,10 @@ fn warm_lanes<L: Lane, const W: usize>(
     true
 }
 
-/// The columns `R₀, R₁, R₂` of lane `l`'s rotation `m[l]`, gathered once per pair
+/// The columns `R₀, R₁, R₂` of lane `l`'s rotation `m[l]`, gathered once per group
 /// of manifolds (gathered inside the point loop, they were reloaded per point).
 #[inline(always)]
-fn columns<L: Lane>(m: [&DMat3; 2]) -> [Lanes3<L>; 3] {
+fn columns<L: Lane, const W: usize>(m: [&DMat3; W]) -> [Lanes3<L>; 3] {
     [
         Lanes3::of(|l| m[l].x_axis),
         Lanes3::of(|l| m[l].y_axis),
@@ -912,10 +1020,23 @@ pub(super) fn manifold_gaps(
     rows: &Rows,
     pts: [&[usize]; 2],
     ab: [[usize; 2]; 2],
+    disp: (&[DVec3], &[DMat3]),
+    gap: &mut [f64],
+) -> bool {
+    gaps_lanes::<f64x2, 2>(rows, pts, ab, disp, gap)
+}
+
+/// [`manifold_gaps`] on `W` manifolds with as many points in the `W` lanes of `L`.
+#[inline(always)]
+fn gaps_lanes<L: Lane, const W: usize>(
+    rows: &Rows,
+    pts: [&[usize]; W],
+    ab: [[usize; 2]; W],
     (dp, rot): (&[DVec3], &[DMat3]),
     gap: &mut [f64],
 ) -> bool {
-    if pts[0].len() != pts[1].len() {
+    let len = pts[0].len();
+    if pts.iter().any(|m| m.len() != len) {
         return false;
     }
     // One length for every slice indexed by a point (one bounds check per index).
@@ -927,20 +1048,27 @@ pub(super) fn manifold_gaps(
     ) else {
         return false;
     };
-    let xa = Lanes3::<f64x2>::of(|l| dp[ab[l][0]]);
-    let xb = Lanes3::<f64x2>::of(|l| dp[ab[l][1]]);
-    let ra_m = columns::<f64x2>([&rot[ab[0][0]], &rot[ab[1][0]]]);
-    let rb_m = columns::<f64x2>([&rot[ab[0][1]], &rot[ab[1][1]]]);
-    for (&p, &q) in pts[0].iter().zip(pts[1]) {
-        let two = [p, q];
-        let ra = Lanes3::<f64x2>::of(|l| anchor[two[l]][0]);
-        let rb = Lanes3::<f64x2>::of(|l| anchor[two[l]][1]);
-        let nrm = Lanes3::<f64x2>::of(|l| dir[two[l]][0]);
-        let base = pair(base_gap[p], base_gap[q]);
+    let xa = Lanes3::<L>::of(|l| dp[ab[l][0]]);
+    let xb = Lanes3::<L>::of(|l| dp[ab[l][1]]);
+    let ra_m = columns::<L, W>(each_ref(|l| &rot[ab[l][0]]));
+    let rb_m = columns::<L, W>(each_ref(|l| &rot[ab[l][1]]));
+    for i in 0..len {
+        let p: [usize; W] = each(|l| pts[l][i]);
+        let ra = Lanes3::<L>::of(|l| anchor[p[l]][0]);
+        let rb = Lanes3::<L>::of(|l| anchor[p[l]][1]);
+        let nrm = Lanes3::<L>::of(|l| dir[p[l]][0]);
+        let [base] = L::gather(|l| [base_gap[p[l]]]);
         let dd = xb.add(rotate(&rb_m, rb)).sub(xa.add(rotate(&ra_m, ra)));
-        let g = (base + nrm.dot(dd)).to_array();
-        gap[p] = g[0];
-        gap[q] = g[1];
+        let g = base + nrm.dot(dd);
+        for (l, &p) in p.iter().enumerate() {
+            gap[p] = g.lane(l);
+        }
     }
     true
+}
+
+/// `[f(0), …, f(W − 1)]` of references (as [`each`]).
+#[inline(always)]
+fn each_ref<'a, T, const W: usize>(f: impl FnMut(usize) -> &'a T) -> [&'a T; W] {
+    core::array::from_fn(f)
 }
