@@ -33,7 +33,7 @@ use constraint_core::{DMat3, DVec3};
 use wide::f64x2;
 
 use super::colouring::Colouring;
-use super::soft_step::{Block, Bodies, Pass, PointImpulses, Rows, BLOCK_POINTS};
+use super::soft_step::{Block, Pass, Rows, BLOCK_POINTS};
 
 // The crate's one `unsafe`: AVX intrinsics, run only where the processor has AVX.
 #[allow(unsafe_code)]
@@ -48,7 +48,7 @@ pub(super) use build::{build_lanes, Built};
 /// `-C target-feature=+avx`): no quads ([`Paired::quad`] is `None`), two lanes only.
 #[cfg(not(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx"))))]
 mod avx {
-    use super::{Block, Bodies, DMat3, DVec3, Pass, PointImpulses, QuadRows, RelaxIo, Rows};
+    use super::{Block, DMat3, DVec3, Pass, QuadRows, RelaxIo, Rows};
 
     /// No AVX here: no value of this type exists.
     #[derive(Clone, Copy, Debug)]
@@ -108,12 +108,11 @@ mod avx {
     }
 
     /// Declines (no four-lane passes here).
-    pub(in crate::rigid) fn block_quad<B: Bodies, I: PointImpulses>(
+    pub(in crate::rigid) fn block_quad(
         _: &Rows,
         _: Option<&[QuadRows]>,
         _: [&Block; 4],
-        _: &mut I,
-        _: &mut B,
+        _: &mut RelaxIo,
         _: Pass,
     ) -> bool {
         false
@@ -196,6 +195,19 @@ impl Lane for f64x2 {
     }
 }
 
+/// The lanes of a [`Lanes3`], by component.
+#[derive(Clone, Copy)]
+struct Arrays3([[f64; 4]; 3]);
+
+impl Arrays3 {
+    /// Lane `l`.
+    #[inline(always)]
+    fn lane(&self, l: usize) -> DVec3 {
+        let [x, y, z] = &self.0;
+        DVec3::new(x[l], y[l], z[l])
+    }
+}
+
 /// One 3-vector per lane.
 #[derive(Clone, Copy, Debug)]
 struct Lanes3<L> {
@@ -227,9 +239,10 @@ impl<L: Lane> Lanes3<L> {
         }
     }
 
+    /// The lanes of each component stored once ([`Lane::array`]).
     #[inline(always)]
-    fn lane(self, l: usize) -> DVec3 {
-        DVec3::new(self.x.lane(l), self.y.lane(l), self.z.lane(l))
+    fn array(self) -> Arrays3 {
+        Arrays3([self.x.array(), self.y.array(), self.z.array()])
     }
 
     /// `xx' + yy' + zz'`, summed left to right as `DVec3::dot` does.
@@ -599,7 +612,7 @@ impl Paired {
     }
 }
 
-/// The velocities and impulses the relax pass writes (the single-thread state's own
+/// The velocities and impulses the lane passes write (the single-thread state's own
 /// slices).
 pub(super) struct RelaxIo<'a> {
     pub(super) v: &'a mut [DVec3],
@@ -608,6 +621,25 @@ pub(super) struct RelaxIo<'a> {
     pub(super) max_normal: &'a mut [f64],
     /// Gaps at the current displacements.
     pub(super) gap: &'a [f64],
+}
+
+impl RelaxIo<'_> {
+    /// The same slices, those indexed by a point cut to one length (the points') and
+    /// those indexed by a body to another, so that an index is checked once for
+    /// all of them (per array, each lane's index was checked per array: 14 % of the
+    /// four-lane biased pass was bounds checks, callgrind); `None` where they are
+    /// shorter than that.
+    #[inline(always)]
+    fn even(&mut self) -> Option<RelaxIo<'_>> {
+        let (n, bodies) = (self.gap.len(), self.v.len());
+        Some(RelaxIo {
+            v: &mut *self.v,
+            w: self.w.get_mut(..bodies)?,
+            impulse: self.impulse.get_mut(..n)?,
+            max_normal: self.max_normal.get_mut(..n)?,
+            gap: self.gap,
+        })
+    }
 }
 
 /// `[f(0), …, f(W − 1)]` (a plain loop: `<[T; W]>::map` was left out of line in the
@@ -645,11 +677,23 @@ fn packed<const W: usize>(
 /// (every point of a manifold has the same two bodies).
 #[inline(always)]
 fn load<L: Lane, const W: usize>(v: &[DVec3], w: &[DVec3], ab: &[[usize; 2]; W]) -> [Lanes3<L>; 4] {
+    // Read in a plain loop, then gathered (a gather's closure reading the slices was
+    // left out of line in the four-lane biased pass, 56k-65k instructions a step of
+    // the 210-box pyramid, callgrind).
+    let mut read = [[[0.0; 6]; W]; 2];
+    for (l, ab) in ab.iter().enumerate() {
+        for (k, &i) in ab.iter().enumerate() {
+            let (v, w) = (v[i], w[i]);
+            read[k][l] = [v.x, v.y, v.z, w.x, w.y, w.z];
+        }
+    }
+    let [vax, vay, vaz, wax, way, waz] = L::gather(|l| read[0][l]);
+    let [vbx, vby, vbz, wbx, wby, wbz] = L::gather(|l| read[1][l]);
     [
-        Lanes3::of(|l| v[ab[l][0]]),
-        Lanes3::of(|l| w[ab[l][0]]),
-        Lanes3::of(|l| v[ab[l][1]]),
-        Lanes3::of(|l| w[ab[l][1]]),
+        Lanes3::new(vax, vay, vaz),
+        Lanes3::new(wax, way, waz),
+        Lanes3::new(vbx, vby, vbz),
+        Lanes3::new(wbx, wby, wbz),
     ]
 }
 
@@ -663,6 +707,8 @@ fn store<L: Lane, const W: usize>(
     [va, wa, vb, wb]: [Lanes3<L>; 4],
     fixed: usize,
 ) {
+    // Each value's lanes stored once, then written lane by lane.
+    let [va, wa, vb, wb] = [va.array(), wa.array(), vb.array(), wb.array()];
     for (lane, &[a, b]) in ab.iter().enumerate() {
         if a != fixed {
             v[a] = va.lane(lane);
@@ -709,6 +755,10 @@ fn relax_lanes<L: Lane, const W: usize>(
     let Some(ab) = packed(rows, pr, &pts) else {
         return false;
     };
+    let Some(mut io) = io.even() else {
+        return false;
+    };
+    let io = &mut io;
     let [mut va, mut wa, mut vb, mut wb] = load::<L, W>(io.v, io.w, &ab);
     for (i, q) in pr.iter().enumerate() {
         let p: [usize; W] = each(|l| pts[l][i]);
@@ -767,9 +817,11 @@ fn relax_rows<L: Lane, const W: usize>(
         *vb = vb.add(d.scale(mb * dz));
         *wb = wb.add(pr.ang(r, 3, half).scale(dz));
     }
+    // Each value's lanes stored once, then written lane by lane.
+    let [z0, z1, z2, m] = [z[0].array(), z[1].array(), z[2].array(), max_normal.array()];
     for (lane, &point) in p.iter().enumerate() {
-        io.impulse[point] = [z[0].lane(lane), z[1].lane(lane), z[2].lane(lane)];
-        io.max_normal[point] = max_normal.lane(lane);
+        io.impulse[point] = [z0[lane], z1[lane], z2[lane]];
+        io.max_normal[point] = m[lane];
     }
 }
 
@@ -783,64 +835,75 @@ fn relax_rows<L: Lane, const W: usize>(
 /// turning negative): the caller then solves both one at a time (the same bits
 /// either way, the two manifolds being independent).
 #[inline(always)]
-pub(super) fn block_pair<B: Bodies, I: PointImpulses>(
+pub(super) fn block_pair(
     rows: &Rows,
     pr: Option<(&[QuadRows], usize)>,
     blk: [&Block; 2],
-    io: &mut I,
-    vel: &mut B,
+    io: &mut RelaxIo,
     pass: Pass,
 ) -> bool {
-    pr.is_some_and(|(pr, half)| block_lanes::<f64x2, 2, B, I>(rows, pr, half, blk, io, vel, pass))
+    pr.is_some_and(|(pr, half)| block_lanes::<f64x2, 2>(rows, pr, half, blk, io, pass))
 }
 
 /// [`block_pair`] on `W` manifolds in the `W` lanes of `L` (`half`: the lanes of the
 /// packed rows `pr` two lanes take).
 #[inline(always)]
-fn block_lanes<L: Lane, const W: usize, B: Bodies, I: PointImpulses>(
+fn block_lanes<L: Lane, const W: usize>(
     rows: &Rows,
     pr: &[QuadRows],
     half: usize,
     blk: [&Block; W],
-    io: &mut I,
-    vel: &mut B,
+    io: &mut RelaxIo,
     pass: Pass,
 ) -> bool {
     const N: usize = BLOCK_POINTS;
     let len = blk[0].len;
-    if len == 0 || blk.iter().any(|b| b.len != len) || pr.len() != len || pass.anchors {
+    if len == 0 || len > N || blk.iter().any(|b| b.len != len) || pr.len() != len || pass.anchors {
         return false;
     }
+    // One length for every slice indexed by a point (see `RelaxIo::even`).
+    let Some(io) = io.even() else {
+        return false;
+    };
+    let n = io.gap.len();
+    let (Some(slots), Some(soft), Some(preload), Some(cap), Some(floor)) = (
+        rows.slots.get(..n),
+        rows.soft.get(..n),
+        rows.preload.get(..n),
+        rows.preload_cap.get(..n),
+        rows.preload_floor.get(..n),
+    ) else {
+        return false;
+    };
+    let RelaxIo {
+        v,
+        w,
+        impulse,
+        max_normal,
+        gap: gaps,
+    } = io;
     let zero = L::splat(0.0);
     let mut gap = [zero; N];
     for (i, g) in gap.iter_mut().enumerate().take(len) {
-        let gs: [f64; W] = each(|l| io.gap(blk[l].pts[i]));
+        let gs: [f64; W] = each(|l| gaps[blk[l].pts[i]]);
         if gs.iter().any(|&g| g > 0.0) {
             return false;
         }
         *g = L::gather(|l| [gs[l]])[0];
     }
     let p0: [usize; W] = each(|l| blk[l].pts[0]);
-    let ab: [[usize; 2]; W] = each(|l| rows.slots[p0[l]]);
-    let [vax, vay, vaz, wax, way, waz] = L::gather(|l| {
-        let (v, w) = vel.velocity(ab[l][0]);
-        [v.x, v.y, v.z, w.x, w.y, w.z]
-    });
-    let [vbx, vby, vbz, wbx, wby, wbz] = L::gather(|l| {
-        let (v, w) = vel.velocity(ab[l][1]);
-        [v.x, v.y, v.z, w.x, w.y, w.z]
-    });
-    let (mut va, mut wa) = (Lanes3::new(vax, vay, vaz), Lanes3::new(wax, way, waz));
-    let (mut vb, mut wb) = (Lanes3::new(vbx, vby, vbz), Lanes3::new(wbx, wby, wbz));
-    let [bias_rate] = L::gather(|l| [rows.soft[p0[l]].bias_rate]);
+    let ab: [[usize; 2]; W] = each(|l| slots[p0[l]]);
+    let [mut va, mut wa, mut vb, mut wb] = load::<L, W>(v, w, &ab);
+    let [bias_rate] = L::gather(|l| [soft[p0[l]].bias_rate]);
     let max_push = -L::splat(pass.max_push);
     // The points' impulses and largest normal impulses, lane by lane.
     let mut z = [[zero; 3]; N];
     let mut most = [zero; N];
     for i in 0..len {
         let [z0, z1, z2, m] = L::gather(|l| {
-            let (z, m) = io.get(blk[l].pts[i]);
-            [z[0], z[1], z[2], m]
+            let p = blk[l].pts[i];
+            let z = impulse[p];
+            [z[0], z[1], z[2], max_normal[p]]
         });
         z[i] = [z0, z1, z2];
         most[i] = m;
@@ -854,7 +917,7 @@ fn block_lanes<L: Lane, const W: usize, B: Bodies, I: PointImpulses>(
         let bias = (bias_rate * gap[i]).at_least(max_push);
         let [preload, cap, floor] = L::gather(|l| {
             let p = p[l];
-            [rows.preload[p], rows.preload_cap[p], rows.preload_floor[p]]
+            [preload[p], cap[p], floor[p]]
         });
         // `c` as the blocks' build packed it (the same values) where it did.
         let c = if len == N {
@@ -923,21 +986,21 @@ fn block_lanes<L: Lane, const W: usize, B: Bodies, I: PointImpulses>(
             wb = wb.add(q.ang(rr, 3, half).scale(dz));
         }
     }
-    for (lane, b) in blk.iter().enumerate() {
-        for i in 0..len {
-            let zi = [z[i][0].lane(lane), z[i][1].lane(lane), z[i][2].lane(lane)];
-            io.set(b.pts[i], zi, most[i].lane(lane));
+    // Each value's lanes stored once, then written lane by lane.
+    for i in 0..len {
+        let [z0, z1, z2, m] = [
+            z[i][0].array(),
+            z[i][1].array(),
+            z[i][2].array(),
+            most[i].array(),
+        ];
+        for (lane, b) in blk.iter().enumerate() {
+            let p = b.pts[i];
+            impulse[p] = [z0[lane], z1[lane], z2[lane]];
+            max_normal[p] = m[lane];
         }
     }
-    // The static slot's inverse mass and inertia are zero: it stays at rest.
-    for (lane, &[a, b]) in ab.iter().enumerate() {
-        if a != rows.fixed {
-            vel.set_velocity(a, va.lane(lane), wa.lane(lane));
-        }
-        if b != rows.fixed {
-            vel.set_velocity(b, vb.lane(lane), wb.lane(lane));
-        }
-    }
+    store(v, w, &ab, [va, wa, vb, wb], rows.fixed);
     true
 }
 

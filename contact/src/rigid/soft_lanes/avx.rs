@@ -20,7 +20,7 @@ use super::{
     block_lanes, build_lanes, gaps_lanes, relax_lanes, warm_lanes, Built, Lane, Quad, QuadRows,
     RelaxIo,
 };
-use crate::rigid::soft_step::{Block, Bodies, Pass, PointImpulses, Rows};
+use crate::rigid::soft_step::{Block, Pass, Rows};
 use constraint_core::{DMat3, DVec3};
 
 /// Whether this processor has AVX (the one gate of every `unsafe` below).
@@ -230,19 +230,18 @@ unsafe fn warm_avx(
 /// as [`block_pair`](super::block_pair) on its two pairs: false, having changed
 /// nothing, where either would decline.
 #[inline]
-pub(in crate::rigid) fn block_quad<B: Bodies, I: PointImpulses>(
+pub(in crate::rigid) fn block_quad(
     rows: &Rows,
     pr: Option<&[QuadRows]>,
     blk: [&Block; 4],
-    io: &mut I,
-    vel: &mut B,
+    io: &mut RelaxIo,
     pass: Pass,
 ) -> bool {
     let Some(pr) = pr else {
         return false;
     };
     // SAFETY: `Paired::quad` gives rows only where `available()` found AVX.
-    unsafe { block_avx(rows, pr, blk, io, vel, pass) }
+    unsafe { block_avx(rows, pr, blk, io, pass) }
 }
 
 /// [`block_lanes`](super::block_lanes) in four AVX lanes.
@@ -251,15 +250,14 @@ pub(in crate::rigid) fn block_quad<B: Bodies, I: PointImpulses>(
 ///
 /// The processor has AVX ([`available`]).
 #[target_feature(enable = "avx")]
-unsafe fn block_avx<B: Bodies, I: PointImpulses>(
+unsafe fn block_avx(
     rows: &Rows,
     pr: &[QuadRows],
     blk: [&Block; 4],
-    io: &mut I,
-    vel: &mut B,
+    io: &mut RelaxIo,
     pass: Pass,
 ) -> bool {
-    block_lanes::<F4, 4, B, I>(rows, pr, 0, blk, io, vel, pass)
+    block_lanes::<F4, 4>(rows, pr, 0, blk, io, pass)
 }
 
 /// The gaps of four manifolds with as many points (one per lane), as

@@ -234,14 +234,14 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
                         if paired.four() && j + 3 < hi {
                             let quad = [&blocks[j], &blocks[j + 1], &blocks[j + 2], &blocks[j + 3]];
                             let pr = paired.quad(j, blocks[j].len);
-                            if block_quad(&rows, pr, quad, &mut io, &mut vel, pass) {
+                            if block_quad(&rows, pr, quad, &mut lanes(&mut io, &mut vel), pass) {
                                 j += 4;
                                 continue;
                             }
                         }
                         let pair = [&blocks[j], &blocks[j + 1]];
                         let pr = paired.of(j, blocks[j].len);
-                        if !block_pair(&rows, pr, pair, &mut io, &mut vel, pass) {
+                        if !block_pair(&rows, pr, pair, &mut lanes(&mut io, &mut vel), pass) {
                             one(j, &mut io, &mut vel);
                             one(j + 1, &mut io, &mut vel);
                         }
@@ -319,6 +319,18 @@ pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
         );
     }
     st.paired = paired;
+}
+
+/// The same slices as the lane passes take them.
+#[inline(always)]
+fn lanes<'a>(io: &'a mut PointSlices<'_>, vel: &'a mut Slices<'_>) -> RelaxIo<'a> {
+    RelaxIo {
+        v: &mut *vel.v,
+        w: &mut *vel.w,
+        impulse: &mut *io.impulse,
+        max_normal: &mut *io.max_normal,
+        gap: io.gap,
+    }
 }
 
 /// The points' impulses as the manifold passes see them: plain slices on one
