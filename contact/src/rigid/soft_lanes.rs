@@ -756,6 +756,11 @@ fn relax_lanes<L: Lane, const W: usize>(
     io: &mut RelaxIo,
     inv_h: f64,
 ) -> bool {
+    // `relax_rows` takes `max(C, 0) · inv_h` for the speculative `C · inv_h` where `C
+    // > 0` (else 0): the same where `inv_h` is positive and finite (`0 · ∞` is NaN).
+    if !(inv_h > 0.0 && inv_h.is_finite()) {
+        return false;
+    }
     let Some(ab) = packed(rows, pr, &pts) else {
         return false;
     };
@@ -792,25 +797,31 @@ fn relax_rows<L: Lane, const W: usize>(
     let (ma, mb) = (L::load(&pr.im[0], half), L::load(&pr.im[1], half));
     // Speculative where separated: approach at most to the surface within the
     // sub-step; rigid (mass_scale 1, impulse_scale 0, no preload) either way.
-    let spec = |gap: f64| if gap > 0.0 { gap * inv_h } else { 0.0 };
-    let [bias] = L::gather(|l| [spec(io.gap[p[l]])]);
+    // The point's impulses, largest normal impulse and gap gathered at once.
+    let [z0, z1, z2, most, gap] = L::gather(|l| {
+        let p = p[l];
+        let z = io.impulse[p];
+        [z[0], z[1], z[2], io.max_normal[p], io.gap[p]]
+    });
     let (one, zero) = (L::splat(1.0), L::splat(0.0));
-    let [z0] = L::gather(|l| [io.impulse[p[l]][0]]);
+    // `gap · inv_h` where `gap > 0`, else `+0`: `max(gap, 0) · inv_h` per lane (a NaN
+    // gap gives 0 either way; `inv_h` is positive and finite: see `relax_lanes`).
+    let bias = gap.at_least(zero) * L::splat(inv_h);
     let d0 = Lanes3::<L>::load(&pr.dir[0], half);
     let vn = d0.dot(vb.sub(*va)) + pr.ang(0, 1, half).dot(*wb) - pr.ang(0, 0, half).dot(*wa);
     let mass0 = L::load(&pr.mass[0], half);
     let new = (z0 - mass0 * one * (vn + bias) - zero * (z0 - zero)).at_least(zero);
     let dz = new - z0;
-    let max_normal = new.at_least(L::gather(|l| [io.max_normal[p[l]]])[0]);
+    let max_normal = new.at_least(most);
     *va = va.sub(d0.scale(ma * dz));
     *wa = wa.sub(pr.ang(0, 2, half).scale(dz));
     *vb = vb.add(d0.scale(mb * dz));
     *wb = wb.add(pr.ang(0, 3, half).scale(dz));
     let bound = L::load(&pr.friction, half) * new;
-    let mut z = [new, zero, zero];
+    let mut z = [new, z1, z2];
     for r in 1..3 {
         let d = Lanes3::<L>::load(&pr.dir[r], half);
-        let [zr] = L::gather(|l| [io.impulse[p[l]][r]]);
+        let zr = z[r];
         let vt = d.dot(vb.sub(*va)) + pr.ang(r, 1, half).dot(*wb) - pr.ang(r, 0, half).dot(*wa);
         let unbounded = zr - L::load(&pr.mass[r], half) * vt;
         let new = unbounded.at_most(bound).at_least(-bound);
