@@ -2,7 +2,7 @@
 //! four manifolds of a colour per operation where the two-lane passes take two.
 //!
 //! An AVX lane rounds as an SSE2 lane and as a scalar operation does (IEEE-754
-//! round-to-nearest per operation; only `VADDPD VSUBPD VMULPD VMAXPD VMINPD VXORPD`,
+//! round-to-nearest per operation; only `VADDPD VSUBPD VMULPD VDIVPD VMAXPD VMINPD VXORPD`,
 //! never a fused multiply-add), so the four-lane passes give the two-lane passes'
 //! bits. The passes are compiled for AVX (`#[target_feature(enable = "avx")]`), and
 //! run only where [`available`] found it on this processor, once per step
@@ -10,15 +10,18 @@
 //! `-C target-feature=+avx` (then always taken).
 
 use core::arch::x86_64::{
-    __m256d, _mm256_add_pd, _mm256_cmp_pd, _mm256_loadu_pd, _mm256_max_pd, _mm256_min_pd,
-    _mm256_movemask_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_set_pd, _mm256_setzero_pd,
-    _mm256_storeu_pd, _mm256_sub_pd, _mm256_xor_pd, _CMP_GE_OQ,
+    __m256d, _mm256_add_pd, _mm256_cmp_pd, _mm256_div_pd, _mm256_loadu_pd, _mm256_max_pd,
+    _mm256_min_pd, _mm256_movemask_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_set_pd,
+    _mm256_setzero_pd, _mm256_storeu_pd, _mm256_sub_pd, _mm256_xor_pd, _CMP_GE_OQ,
 };
-use core::ops::{Add, Mul, Neg, Sub};
+use core::ops::{Add, Div, Mul, Neg, Sub};
 
-use super::{block_lanes, relax_lanes, warm_lanes, Lane, Quad, QuadRows, RelaxIo};
-use crate::rigid::soft_step::{Block, Bodies, Pass, PointImpulses, Rows};
-use constraint_core::DVec3;
+use super::{
+    block_lanes, build_lanes, gaps_lanes, relax_lanes, warm_lanes, Built, Lane, Quad, QuadRows,
+    RelaxIo,
+};
+use crate::rigid::soft_step::{Block, Pass, Rows};
+use constraint_core::{DMat3, DVec3};
 
 /// Whether this processor has AVX (the one gate of every `unsafe` below).
 #[inline]
@@ -30,6 +33,19 @@ pub(super) fn available() -> bool {
     #[cfg(all(not(target_feature = "avx"), feature = "std"))]
     {
         std::is_x86_feature_detected!("avx")
+    }
+}
+
+/// Proof that this processor has AVX: made only by [`Avx::detect`], where
+/// [`available`] found it (the passes that take one run the AVX code unchecked).
+#[derive(Clone, Copy, Debug)]
+pub(in crate::rigid) struct Avx(());
+
+impl Avx {
+    /// `Some` where this processor has AVX ([`available`]).
+    #[inline]
+    pub(in crate::rigid) fn detect() -> Option<Self> {
+        available().then_some(Avx(()))
     }
 }
 
@@ -72,6 +88,15 @@ impl Mul for F4 {
     }
 }
 
+impl Div for F4 {
+    type Output = Self;
+    /// `VDIVPD`: IEEE-754 division per lane, rounded as the scalar `DIVSD`.
+    #[inline(always)]
+    fn div(self, o: Self) -> Self {
+        F4(avx!(_mm256_div_pd(self.0, o.0)))
+    }
+}
+
 impl Neg for F4 {
     type Output = Self;
     /// The sign bit flipped (as `wide::f64x2`'s negation: `−0` from `0`).
@@ -101,6 +126,13 @@ impl Lane for F4 {
         // The four lanes stored into `x` (unaligned 256-bit store into 32 bytes).
         avx!(_mm256_storeu_pd(x.as_mut_ptr(), self.0));
         x[l]
+    }
+    #[inline(always)]
+    fn array(self) -> [f64; 4] {
+        let mut x = [0.0; 4];
+        // The four lanes stored into `x` (unaligned 256-bit store into 32 bytes).
+        avx!(_mm256_storeu_pd(x.as_mut_ptr(), self.0));
+        x
     }
     /// `VMAXPD`: `x` if `x > lo`, else `lo` (NaN and signed zeros as the scalar).
     #[inline(always)]
@@ -198,19 +230,18 @@ unsafe fn warm_avx(
 /// as [`block_pair`](super::block_pair) on its two pairs: false, having changed
 /// nothing, where either would decline.
 #[inline]
-pub(in crate::rigid) fn block_quad<B: Bodies, I: PointImpulses>(
+pub(in crate::rigid) fn block_quad(
     rows: &Rows,
     pr: Option<&[QuadRows]>,
     blk: [&Block; 4],
-    io: &mut I,
-    vel: &mut B,
+    io: &mut RelaxIo,
     pass: Pass,
 ) -> bool {
     let Some(pr) = pr else {
         return false;
     };
     // SAFETY: `Paired::quad` gives rows only where `available()` found AVX.
-    unsafe { block_avx(rows, pr, blk, io, vel, pass) }
+    unsafe { block_avx(rows, pr, blk, io, pass) }
 }
 
 /// [`block_lanes`](super::block_lanes) in four AVX lanes.
@@ -219,13 +250,67 @@ pub(in crate::rigid) fn block_quad<B: Bodies, I: PointImpulses>(
 ///
 /// The processor has AVX ([`available`]).
 #[target_feature(enable = "avx")]
-unsafe fn block_avx<B: Bodies, I: PointImpulses>(
+unsafe fn block_avx(
     rows: &Rows,
     pr: &[QuadRows],
     blk: [&Block; 4],
-    io: &mut I,
-    vel: &mut B,
+    io: &mut RelaxIo,
     pass: Pass,
 ) -> bool {
-    block_lanes::<F4, 4, B, I>(rows, pr, 0, blk, io, vel, pass)
+    block_lanes::<F4, 4>(rows, pr, 0, blk, io, pass)
+}
+
+/// The gaps of four manifolds with as many points (one per lane), as
+/// [`manifold_gaps`](super::manifold_gaps) on two pairs: false, having written
+/// nothing, where the point counts differ.
+#[inline]
+pub(in crate::rigid) fn gaps_quad(
+    _: Avx,
+    rows: &Rows,
+    pts: [&[usize]; 4],
+    ab: [[usize; 2]; 4],
+    disp: (&[DVec3], &[DMat3]),
+    gap: &mut [f64],
+) -> bool {
+    // SAFETY: an `Avx` exists only where `available()` found AVX.
+    unsafe { gaps_avx(rows, pts, ab, disp, gap) }
+}
+
+/// [`gaps_lanes`](super::gaps_lanes) in four AVX lanes.
+///
+/// # Safety
+///
+/// The processor has AVX ([`available`]).
+#[target_feature(enable = "avx")]
+unsafe fn gaps_avx(
+    rows: &Rows,
+    pts: [&[usize]; 4],
+    ab: [[usize; 2]; 4],
+    disp: (&[DVec3], &[DMat3]),
+    gap: &mut [f64],
+) -> bool {
+    gaps_lanes::<F4, 4>(rows, pts, ab, disp, gap)
+}
+
+/// The blocks of four manifolds of `BLOCK_POINTS` points (one per lane), as
+/// [`build_lanes`](super::build_lanes) on two pairs.
+#[inline]
+pub(in crate::rigid) fn build_quad(
+    _: Avx,
+    rows: &Rows,
+    pts: [&[usize]; 4],
+    blk: [&mut Block; 4],
+) -> Built {
+    // SAFETY: an `Avx` exists only where `available()` found AVX.
+    unsafe { build_avx(rows, pts, blk) }
+}
+
+/// [`build_lanes`](super::build_lanes) in four AVX lanes.
+///
+/// # Safety
+///
+/// The processor has AVX ([`available`]).
+#[target_feature(enable = "avx")]
+unsafe fn build_avx(rows: &Rows, pts: [&[usize]; 4], blk: [&mut Block; 4]) -> Built {
+    build_lanes::<F4, 4>(rows, pts, blk)
 }

@@ -1,7 +1,9 @@
 //! The block normal solves' matrices: `K⁻¹ = (A + diag c)⁻¹` per manifold of up to
-//! [`BLOCK_POINTS`] points, by Gauss–Jordan, one or two manifolds (SIMD lanes) at a time.
+//! [`BLOCK_POINTS`] points, by Gauss–Jordan, one, two or four manifolds (SIMD lanes) at
+//! a time.
 
 use super::*;
+use crate::rigid::soft_lanes::{build_lanes, build_quad};
 
 /// The block normal solves of the manifolds (colour order). With `c_i =
 /// impulse_scale / (mass_scale · m_i)` (see [`solve_block`]) and
@@ -26,26 +28,67 @@ pub(super) fn build_blocks(st: &mut SoftState) {
     // Taken while the rows are read beside them.
     let mut all = core::mem::take(&mut st.blocks);
     all.resize(manifolds, Block::default());
-    let mut blocks = &mut all[..manifolds];
-    let (mut j, points) = (0, &st.colouring.manifold_points);
+    let blocks = &mut all[..manifolds];
+    // Taken while the rows are read beside it: the packed pairs' blocks go into it.
+    let mut paired = core::mem::take(&mut st.paired);
+    let points = &st.colouring.manifold_points;
     let manifold = |j: usize| &points[mp[j]..mp[j + 1]];
-    // Two face manifolds (`N` points each) side by side in SIMD lanes
-    // ([`build_block_pair`]: the same bits), the others one at a time.
-    while let Some((blk, rest)) = blocks.split_first_mut() {
-        let pts = manifold(j);
-        if let Some(next) = rest.first_mut() {
-            let pts2 = manifold(j + 1);
-            if pts.len() == N && pts2.len() == N {
-                build_block_pair(st, [pts, pts2], [blk, next]);
-                blocks = &mut rest[1..];
+    let face = |j: usize| j < manifolds && manifold(j).len() == N;
+    let (avx, rows) = (paired.avx(), rows!(st));
+    // Four face manifolds (`N` points each) side by side in AVX lanes where the
+    // processor has AVX and they are a packed quad, two in SIMD lanes ([`build_lanes`]:
+    // the same bits; the face manifolds of no packed pair two by two in order), the
+    // others one at a time. The packed pairs' (quads') blocks are
+    // packed beside their rows ([`Paired::put_block`]: every packed pair of face
+    // manifolds starts a build of its own, so the biased pass finds each one's
+    // blocks there).
+    let (mut j, mut single) = (0, None);
+    while j < manifolds {
+        let starts = paired.starts(j);
+        if starts && face(j) {
+            if let Some(avx) = avx.filter(|_| paired.quad(j, N).is_some()) {
+                if let [b0, b1, b2, b3] = &mut blocks[j..j + 4] {
+                    let pts = [
+                        manifold(j),
+                        manifold(j + 1),
+                        manifold(j + 2),
+                        manifold(j + 3),
+                    ];
+                    let (kinv, c) = build_quad(avx, &rows, pts, [b0, b1, b2, b3]);
+                    paired.put_block::<4>(j, &kinv, &c);
+                    j += 4;
+                    continue;
+                }
+            }
+            if let [b0, b1] = &mut blocks[j..j + 2] {
+                let (kinv, c) =
+                    build_lanes::<f64x2, 2>(&rows, [manifold(j), manifold(j + 1)], [b0, b1]);
+                paired.put_block::<2>(j, &kinv, &c);
                 j += 2;
                 continue;
             }
         }
-        build_block(st, pts, blk);
-        blocks = rest;
+        if !starts && face(j) {
+            // Paired with the last such face manifold left alone, if any (a colour's
+            // odd one: a block's bits do not depend on its lane).
+            match single.take() {
+                Some(i) => {
+                    let (head, tail) = blocks.split_at_mut(j);
+                    let pts = [manifold(i), manifold(j)];
+                    build_lanes::<f64x2, 2>(&rows, pts, [&mut head[i], &mut tail[0]]);
+                }
+                None => single = Some(j),
+            }
+            j += 1;
+            continue;
+        }
+        build_block(st, manifold(j), &mut blocks[j]);
         j += 1;
     }
+    if let Some(i) = single {
+        build_block(st, manifold(i), &mut blocks[i]);
+    }
+    st.paired = paired;
     st.blocks = all;
 }
 
@@ -85,127 +128,6 @@ pub(super) fn build_block(st: &SoftState, pts: &[usize], blk: &mut Block) {
         if ok && invert(&mut k, &mut blk.kinv) {
             blk.pts[..len].copy_from_slice(pts);
             blk.len = len;
-        }
-    }
-}
-
-/// Two manifolds' blocks of [`BLOCK_POINTS`] points each (see [`build_blocks`]), one
-/// per SIMD lane (`wide::f64x2`): each lane does [`build_block`]'s arithmetic
-/// operation for operation and in the same order (IEEE-754 lanes round as the scalar
-/// operations do; dot products summed left to right as `DVec3::dot` does), so the
-/// blocks are the same, bit for bit (a lane whose pivot fails computes on, harmlessly,
-/// where the scalar inversion stops: its block keeps `len` 0 either way).
-pub(super) fn build_block_pair(st: &SoftState, pts: [&[usize]; 2], blk: [&mut Block; 2]) {
-    const N: usize = BLOCK_POINTS;
-    let lanes = |a: DVec3, b: DVec3| {
-        [
-            f64x2::new([a.x, b.x]),
-            f64x2::new([a.y, b.y]),
-            f64x2::new([a.z, b.z]),
-        ]
-    };
-    let dot = |a: &[f64x2; 3], b: &[f64x2; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let [blk0, blk1] = blk;
-    let mut ok = [true; 2];
-    let mut c = [f64x2::ZERO; N];
-    for (s, (pts, blk)) in pts.iter().zip([&mut *blk0, &mut *blk1]).enumerate() {
-        for (i, &p) in pts.iter().enumerate() {
-            let sp = st.soft[p];
-            let m = st.mass[p][0];
-            ok[s] &= m > 0.0 && sp.mass_scale > 0.0;
-            blk.c[i] = sp.impulse_scale / (sp.mass_scale * m);
-            c[i].as_mut_array()[s] = blk.c[i];
-        }
-    }
-    let sum = |p: usize| {
-        let [ma, mb] = st.im[p];
-        ma + mb
-    };
-    let m = f64x2::new([sum(pts[0][0]), sum(pts[1][0])]);
-    // Per point: the normal and `r_a × n`, `r_b × n`, `I_a⁻¹(r_a × n)`, `I_b⁻¹(r_b × n)`.
-    let row = |i: usize, r: usize| {
-        let (p, q) = (pts[0][i], pts[1][i]);
-        if r == 4 {
-            lanes(st.dir[p][0], st.dir[q][0])
-        } else {
-            lanes(st.ang[p][0][r], st.ang[q][0][r])
-        }
-    };
-    let rows: [[[f64x2; 3]; 5]; N] = core::array::from_fn(|i| core::array::from_fn(|r| row(i, r)));
-    let mut k = [f64x2::ZERO; N * N];
-    for i in 0..N {
-        let (n, g) = (&rows[i][4], &rows[i]);
-        for l in i..N {
-            let h = &rows[l];
-            let a = m * dot(n, &h[4]) + dot(&g[0], &h[2]) + dot(&g[1], &h[3]);
-            k[i * N + l] = a;
-            k[l * N + i] = a;
-        }
-        k[i * N + i] += c[i];
-    }
-    let mut out = [f64x2::ZERO; N * N];
-    let inverted = invert_pair(&mut k, &mut out);
-    for (s, (pts, blk)) in pts.iter().zip([blk0, blk1]).enumerate() {
-        blk.len = 0;
-        if ok[s] && inverted[s] {
-            let kinv: [f64; N * N] = core::array::from_fn(|e| out[e].as_array()[s]);
-            if kinv.iter().all(|x| x.is_finite()) {
-                blk.kinv = kinv;
-                blk.pts.copy_from_slice(pts);
-                blk.len = N;
-            }
-        }
-    }
-}
-
-/// [`invert`] of two matrices, one per lane of `k` and `out`: per lane, whether every
-/// pivot was positive and finite (the caller checks that the inverse is finite).
-pub(super) fn invert_pair(
-    k: &mut [f64x2; BLOCK_POINTS * BLOCK_POINTS],
-    out: &mut [f64x2; BLOCK_POINTS * BLOCK_POINTS],
-) -> [bool; 2] {
-    const N: usize = BLOCK_POINTS;
-    *out = [f64x2::ZERO; N * N];
-    for i in 0..N {
-        out[i * N + i] = f64x2::ONE;
-    }
-    let mut ok = [true; 2];
-    pivot_pair::<0>(k, out, &mut ok);
-    pivot_pair::<1>(k, out, &mut ok);
-    pivot_pair::<2>(k, out, &mut ok);
-    pivot_pair::<3>(k, out, &mut ok);
-    ok
-}
-
-/// [`pivot`] on both lanes (clearing a lane's `ok` where its pivot is not positive
-/// and finite, where [`invert`] would stop).
-#[inline(always)]
-pub(super) fn pivot_pair<const C: usize>(
-    k: &mut [f64x2; BLOCK_POINTS * BLOCK_POINTS],
-    out: &mut [f64x2; BLOCK_POINTS * BLOCK_POINTS],
-    ok: &mut [bool; 2],
-) {
-    const N: usize = BLOCK_POINTS;
-    let piv = k[C * N + C];
-    for (ok, p) in ok.iter_mut().zip(piv.to_array()) {
-        *ok &= p > 0.0 && p.is_finite();
-    }
-    let inv = f64x2::ONE / piv;
-    for l in C + 1..N {
-        k[C * N + l] *= inv;
-    }
-    for l in 0..=C {
-        out[C * N + l] *= inv;
-    }
-    for r in 0..N {
-        if r != C {
-            let f = k[r * N + C];
-            for l in C + 1..N {
-                k[r * N + l] -= f * k[C * N + l];
-            }
-            for l in 0..=C {
-                out[r * N + l] -= f * out[C * N + l];
-            }
         }
     }
 }

@@ -2,6 +2,7 @@
 //! Gauss–Seidel passes (block normal solves, friction), restitution and the residual.
 
 use super::*;
+use crate::rigid::soft_lanes::gaps_quad;
 
 /// `v += M⁻¹ Jᵀ λ` of point `p` on the state's own velocities (restitution).
 pub(super) fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
@@ -118,6 +119,7 @@ pub(super) fn for_manifold_pairs<S>(
 pub(super) fn update_gaps(st: &mut SoftState) {
     let mut gap = core::mem::take(&mut st.gap);
     let colouring = &st.colouring;
+    let avx = st.paired.avx();
     // Every point is in one manifold and is written below: no clear (zeroing 8 B a
     // point per sub-step cost 0.7 % of the 210-box pyramid's step, callgrind).
     gap.resize(st.slots.len(), 0.0);
@@ -128,15 +130,33 @@ pub(super) fn update_gaps(st: &mut SoftState) {
             colouring.manifold_points.as_slice(),
         );
         let manifolds = mp.len().saturating_sub(1);
+        let manifold = |j: usize| &pts[mp[j]..mp[j + 1]];
         let mut j = 0;
         while j < manifolds {
-            let m0 = &pts[mp[j]..mp[j + 1]];
+            let m0 = manifold(j);
             let Some(&first) = m0.first() else {
                 j += 1;
                 continue;
             };
             // The points of one manifold share their two bodies.
             let [a, b] = rows.slots[first];
+            // Four manifolds with as many points at a time in AVX lanes, where the
+            // processor has AVX.
+            if let Some(avx) = avx.filter(|_| j + 3 < manifolds) {
+                let ms = [m0, manifold(j + 1), manifold(j + 2), manifold(j + 3)];
+                if ms.iter().all(|m| m.len() == m0.len()) {
+                    let ab = [
+                        [a, b],
+                        rows.slots[ms[1][0]],
+                        rows.slots[ms[2][0]],
+                        rows.slots[ms[3][0]],
+                    ];
+                    if gaps_quad(avx, &rows, ms, ab, (vel.dp, vel.rot), &mut gap) {
+                        j += 4;
+                        continue;
+                    }
+                }
+            }
             // Two manifolds with as many points at a time in SIMD lanes.
             if j + 1 < manifolds {
                 let m1 = &pts[mp[j + 1]..mp[j + 2]];
@@ -214,14 +234,14 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
                         if paired.four() && j + 3 < hi {
                             let quad = [&blocks[j], &blocks[j + 1], &blocks[j + 2], &blocks[j + 3]];
                             let pr = paired.quad(j, blocks[j].len);
-                            if block_quad(&rows, pr, quad, &mut io, &mut vel, pass) {
+                            if block_quad(&rows, pr, quad, &mut lanes(&mut io, &mut vel), pass) {
                                 j += 4;
                                 continue;
                             }
                         }
                         let pair = [&blocks[j], &blocks[j + 1]];
                         let pr = paired.of(j, blocks[j].len);
-                        if !block_pair(&rows, pr, pair, &mut io, &mut vel, pass) {
+                        if !block_pair(&rows, pr, pair, &mut lanes(&mut io, &mut vel), pass) {
                             one(j, &mut io, &mut vel);
                             one(j + 1, &mut io, &mut vel);
                         }
@@ -299,6 +319,18 @@ pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
         );
     }
     st.paired = paired;
+}
+
+/// The same slices as the lane passes take them.
+#[inline(always)]
+fn lanes<'a>(io: &'a mut PointSlices<'_>, vel: &'a mut Slices<'_>) -> RelaxIo<'a> {
+    RelaxIo {
+        v: &mut *vel.v,
+        w: &mut *vel.w,
+        impulse: &mut *io.impulse,
+        max_normal: &mut *io.max_normal,
+        gap: io.gap,
+    }
 }
 
 /// The points' impulses as the manifold passes see them: plain slices on one
