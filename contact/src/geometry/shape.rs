@@ -307,6 +307,7 @@ impl Collider {
     /// [`Collider::aabb`] from the collider frame `w` ([`Collider::world_pose`]) and its
     /// [`Collider::rotation`] `rot`: the same box, the frame computed once per step for
     /// the bounding box and the narrow phase.
+    #[inline]
     pub(crate) fn aabb_framed(&self, w: &Pose, rot: &DMat3, margin: f64) -> Aabb {
         let m = DVec3::splat(margin);
         match self.shape {
