@@ -18,6 +18,12 @@
 //! ground plane, container walls, a huge static box) and boxes with non-finite bounds
 //! are tested against every other box.
 //!
+//! The pairs the sweep tests (its candidates) depend only on which boxes are filed and
+//! their cells, so they are kept, sorted, with the cells they were found for: while no
+//! box changes cell (a resting pile, from step to step) the next call only files the
+//! boxes again and tests the kept candidates' boxes, in their sorted order, without
+//! re-sorting or sweeping; the result is the same pairs in the same order.
+//!
 //! The cell follows the largest moving box, so one moving box much larger than the
 //! rest (a long plank among pebbles) makes cells coarse and the sweep tests more pairs
 //! per cell; the pairs stay exact.
@@ -94,6 +100,11 @@ pub struct GridScratch {
     spare: Vec<(usize, usize)>,
     /// The row cursors of the sweep, one per entry of [`ROWS`].
     cursor: [usize; ROWS.len()],
+    /// The pairs the sweep tested (its candidates), `(i, j)`, `i < j`, sorted.
+    candidates: Vec<(usize, usize)>,
+    /// The cells (`cell`) the candidates were found for: while every box keeps its
+    /// cell (and `was_filed` its filing), the sweep would test the same pairs.
+    candidate_cells: Vec<Cell>,
 }
 
 /// The neighbouring rows `(dz, dy)` (their packed offsets, [`Cell`]) the sweep walks
@@ -194,6 +205,29 @@ pub fn grid_pairs(
             g.large.push(i);
         }
     }
+    // The candidates depend only on which boxes are filed and their cells (the sweep
+    // order is the (cell, index) order; large boxes meet every box): kept when neither
+    // changed since they were found, as in a resting pile from step to step.
+    if g.cell != g.candidate_cells || g.filed != g.was_filed {
+        sweep_candidates(n, g);
+    }
+    // The candidates that overlap, in the candidates' sorted order.
+    for &(i, j) in &g.candidates {
+        if !(is_fixed(i) && is_fixed(j)) && aabbs[i].overlaps(&aabbs[j]) {
+            out.push((i, j));
+        }
+    }
+    BroadStats {
+        tests: g.candidates.len(),
+        pairs: out.len(),
+        axis: 0,
+    }
+}
+
+/// The grid's candidate pairs for the cells `g.cell` of the filed boxes `g.filed` (the
+/// others, `g.large`, meet every box), sorted, into `g.candidates`; the kept order
+/// re-sorted to the cells, which `g.candidate_cells` and `g.was_filed` record.
+fn sweep_candidates(n: usize, g: &mut GridScratch) {
     // The kept order: drop boxes no longer filed (or gone), append newly filed ones.
     let GridScratch {
         cell,
@@ -205,6 +239,8 @@ pub fn grid_pairs(
         first,
         spare,
         cursor,
+        candidates,
+        candidate_cells,
     } = g;
     sorted.retain(|&i| i < n && filed[i]);
     was_filed.resize(n, false);
@@ -220,12 +256,9 @@ pub fn grid_pairs(
     // The cells in sorted order, contiguous for the sweep's comparisons.
     keys.clear();
     keys.extend(sorted.iter().map(|&i| cell[i]));
-    let mut tests = 0;
+    candidates.clear();
     let mut test = |i: usize, j: usize| {
-        tests += 1;
-        if !(is_fixed(i) && is_fixed(j)) && aabbs[i].overlaps(&aabbs[j]) {
-            out.push(if i < j { (i, j) } else { (j, i) });
-        }
+        candidates.push(if i < j { (i, j) } else { (j, i) });
     };
     // Filed against filed: the neighbouring rows `(z + dz, y + dy)`, `|dz|, |dy| ≤ 1`,
     // each pair once (from its earlier box in sorted order). Rows with `dz = −1` or
@@ -266,12 +299,8 @@ pub fn grid_pairs(
             test(i, j);
         }
     }
-    sort_pairs(out, n, first, spare);
-    BroadStats {
-        tests,
-        pairs: out.len(),
-        axis: 0,
-    }
+    sort_pairs(candidates, n, first, spare);
+    candidate_cells.clone_from(cell);
 }
 
 /// Sorts the distinct pairs `(i, j)`, `i < j < n`, of `out` as `sort_unstable` would

@@ -7,7 +7,7 @@
 //! | [`narrow`] | [`collide`] for any pair of colliders, [`point_vs`] for particles, [`closest_point`], [`closest_segments`] |
 //! | [`broad`] | sort-and-sweep [`sweep_and_prune`], the all-pairs reference [`brute_force`], and [`generate_contacts`] for a whole scene ([`generate_contacts_with`] reuses a [`BroadScratch`]; [`generate_contacts_awake`] leaves out pairs of asleep bodies) |
 //! | [`masked`] | [`generate_contacts_masked`]: contact generation under a fixed [`PairMask`] (which collider pairs may touch), sort-and-sweep with its order kept |
-//! | [`grid`] | [`grid_pairs`]: the uniform-grid broad phase of [`generate_contacts`], its sorted order kept between steps ([`GridScratch`]) |
+//! | [`grid`] | [`grid_pairs`]: the uniform-grid broad phase of [`generate_contacts`], its sorted order and candidate pairs kept between steps ([`GridScratch`]) |
 
 pub mod broad;
 pub mod contact;
