@@ -430,6 +430,13 @@ pub(super) struct SoftState {
     pub(super) total: Vec<[f64; 3]>,
     pub(super) warm: Vec<Warm>,
     pub(super) warm_next: Vec<Warm>,
+    /// Whether the keys in `warm` are unique (the step that stored them had no
+    /// repeated contact key: the narrow phase does not promise it), which lets
+    /// `prepare`'s merge take the entry after the last hit without a search.
+    pub(super) warm_unique: bool,
+    /// Whether this step's contact keys are unique (set by `prepare`; `warm_unique`
+    /// once `store` keeps them).
+    pub(super) unique_keys: bool,
     /// The previous step's impulses of each contact (natural order; zero if new).
     pub(super) found: Vec<(f64, DVec3, DVec3, f64)>,
     /// Whether each contact (natural order) was found in the previous step.
@@ -594,6 +601,8 @@ impl ContactWorld {
                 .iter()
                 .map(|&(key, (zn, ft))| (key, zn, ft, DVec3::ZERO, 0.0)),
         );
+        // Not checked: the merge searches every point.
+        st.warm_unique = false;
         st.warm_h = h;
     }
 
@@ -787,6 +796,7 @@ impl ContactWorld {
             st.warm_next.sort_unstable_by_key(|e| e.0);
         }
         core::mem::swap(&mut st.warm, &mut st.warm_next);
+        st.warm_unique = st.unique_keys;
         st.warm_h = hs;
     }
 }
