@@ -674,10 +674,11 @@ impl ContactWorld {
             for _ in 0..s.relax_passes {
                 solve(&mut st, hs, false, 0.0, false);
             }
-            for (t, z) in st.total.iter_mut().zip(&st.impulse) {
-                t[0] += z[0];
-                t[1] += z[1];
-                t[2] += z[2];
+            // As flat slices (the same additions, two a packed instruction: per point
+            // they were 9 instructions a sub-step, 0.7 % of the step, callgrind).
+            let total = st.total.as_flattened_mut();
+            for (t, z) in total.iter_mut().zip(st.impulse.as_flattened()) {
+                *t += *z;
             }
         }
         self.finish_soft(st, hs, stats)
