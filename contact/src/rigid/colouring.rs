@@ -75,8 +75,12 @@ pub(super) struct Colouring {
     pub(super) colour_start: Vec<usize>,
     /// Solve position of each contact (natural order).
     pub(super) position: Vec<usize>,
-    /// Height of each contact along −gravity (natural order; read by the sorts).
-    height: Vec<f64>,
+    /// Height of each contact along −gravity (natural order; read by the sorts) as
+    /// the integer whose order is `f64::total_cmp`'s ([`total_order`]): one integer
+    /// comparison per comparison of the sorts, not two conversions.
+    height: Vec<i64>,
+    /// Scratch of the emit: per place of a colour, the next free slot of its group.
+    next: Vec<usize>,
     /// The first group of the overflow colour (whose manifolds may share bodies: its
     /// groups must be solved in order, on one thread); the group count if none.
     pub(super) serial_from: usize,
@@ -106,7 +110,13 @@ impl Colouring {
     /// rank: when the manifolds are the last call's and the last call's runs and
     /// ranks are still in bottom-up order under the new heights (the sorts would give
     /// them again: their keys are unique), the last colouring is kept (the same
-    /// output, bit for bit). Returns whether it was kept.
+    /// output, bit for bit); when only the runs changed, the ranks being the last
+    /// call's, only the order and the positions are rewritten. Returns whether the
+    /// layout was kept: the colours, the manifold order, the groups and each
+    /// manifold's positions ([`Colouring::manifold_start`],
+    /// [`Colouring::manifold_points`], [`Colouring::ranges`],
+    /// [`Colouring::colour_start`], [`Colouring::serial_from`]), all but which
+    /// contact sits at a position.
     pub(super) fn order<F, S, H>(
         &mut self,
         n: usize,
@@ -120,8 +130,11 @@ impl Colouring {
         H: Fn(usize) -> f64,
     {
         // Heights once per contact, not once per comparison.
-        self.height.clear();
-        self.height.extend((0..n).map(height));
+        // Sized and written by position (every entry is written).
+        self.height.resize(n, 0);
+        for (k, h) in self.height.iter_mut().enumerate() {
+            *h = total_order(height(k));
+        }
         let same = self.valid && bodies == self.bodies && self.same_manifolds(n, &pair, &slots);
         if same && self.still_bottom_up() {
             return true;
@@ -145,7 +158,7 @@ impl Colouring {
             self.valid = true;
         }
         let heights = &self.height;
-        let below = |p: usize, q: usize| heights[p].total_cmp(&heights[q]).then(p.cmp(&q));
+        let below = |p: usize, q: usize| (heights[p], p).cmp(&(heights[q], q));
         let m = self.sig.len();
         // Each manifold's points bottom-up, in place (unique keys: one result whatever
         // the order they start from). With the manifolds unchanged they start from the
@@ -173,7 +186,7 @@ impl Colouring {
         // the runs).
         self.keys.clear();
         let low = &self.low;
-        let key = |j: usize| (total_order(heights[low[j]]), low[j], j as u32);
+        let key = |j: usize| (heights[low[j]], low[j], j as u32);
         if same {
             self.keys
                 .extend(self.by_rank.iter().map(|&j| key(j as usize)));
@@ -182,6 +195,23 @@ impl Colouring {
         }
         if !(same && insertion_sort(&mut self.keys, |a, b| a < b, 4 * m)) {
             self.keys.sort_unstable();
+        }
+        // The manifolds the last call's and still in its rank order (only points
+        // within manifolds reordered): the colours, the manifold order and the
+        // positions of each manifold's places are the last call's, and only the
+        // contacts at those positions change (the 10-box stack reorders a face's
+        // points in a quarter of its steps, keeping its ranks).
+        if same && self.keys.iter().zip(&self.by_rank).all(|(k, &j)| k.2 == j) {
+            for (jj, &j) in self.by_colour.iter().enumerate() {
+                let (s, e) = (self.start[j as usize], self.start[j as usize + 1]);
+                let at =
+                    &self.manifold_points[self.manifold_start[jj]..self.manifold_start[jj + 1]];
+                for (&k, &pos) in self.runs[s..e].iter().zip(at) {
+                    self.out[pos] = k;
+                    self.position[k] = pos;
+                }
+            }
+            return true;
         }
         self.by_rank.clear();
         self.by_rank.extend(self.keys.iter().map(|k| k.2));
@@ -223,55 +253,77 @@ impl Colouring {
             self.by_colour[self.offset[c]] = j;
             self.offset[c] += 1;
         }
-        // Emit: per colour (its manifolds end at offset[c] now), place by place.
-        self.out.clear();
+        // Manifolds in colour order with their points' solve positions (the block
+        // normal solve walks a colour manifold by manifold: within a colour the
+        // manifolds touch disjoint moving bodies, so this is the same order of work):
+        // where each manifold's points start, known before the emit, which then
+        // writes the order, each contact's position and each manifold's positions in
+        // one pass (three passes over the points were 27 % of the 210-box pyramid's
+        // colouring, callgrind). Every entry of the three is written (the order is a
+        // permutation): sized, not cleared.
+        self.manifold_start.clear();
+        let mut total = 0;
+        for &j in &self.by_colour {
+            self.manifold_start.push(total);
+            total += self.start[j as usize + 1] - self.start[j as usize];
+        }
+        self.manifold_start.push(total);
+        self.out.resize(n, 0);
+        self.position.resize(n, 0);
+        self.manifold_points.resize(n, 0);
+        // Emit: per colour (its manifolds end at offset[c] now), place by place: the
+        // groups' sizes from the colour's manifold lengths (`next[place]`, the
+        // manifolds with more than `place` points, summed into where each group
+        // starts), then each manifold's points written at their group's next slot,
+        // manifold by manifold (the same positions as a scan of the colour's
+        // manifolds per place, which cost a pass over the colour per place).
         self.ranges.clear();
         let mut first = 0;
+        let mut pos = 0;
         self.serial_from = usize::MAX;
         self.colour_start.clear();
+        let len = |j: u32| self.start[j as usize + 1] - self.start[j as usize];
         for c in 0..self.colours {
             self.colour_start.push(first);
             if c == COLOURS as usize {
                 self.serial_from = self.ranges.len();
             }
-            let ms = &self.by_colour[first..self.offset[c]];
+            let colour = first..self.offset[c];
             first = self.offset[c];
-            let longest = ms
-                .iter()
-                .map(|&j| self.start[j as usize + 1] - self.start[j as usize])
-                .max()
-                .unwrap_or(0);
+            let ms = &self.by_colour[colour.clone()];
+            let longest = ms.iter().map(|&j| len(j)).max().unwrap_or(0);
+            self.next.clear();
+            self.next.resize(longest + 1, 0);
+            for &j in ms {
+                self.next[len(j)] += 1;
+            }
+            // Suffix sums: `next[place]` the manifolds with `place` points or more.
+            for place in (0..longest).rev() {
+                self.next[place] += self.next[place + 1];
+            }
+            // Prefix sums of the groups' sizes (manifolds with more than `place`
+            // points: `next[place + 1]`): where each place's group starts.
             for place in 0..longest {
-                self.ranges.push(self.out.len());
-                for &j in ms {
-                    let (s, e) = (self.start[j as usize], self.start[j as usize + 1]);
-                    if s + place < e {
-                        self.out.push(self.runs[s + place]);
-                    }
+                let count = self.next[place + 1];
+                self.next[place] = pos;
+                self.ranges.push(pos);
+                pos += count;
+            }
+            let starts = &self.manifold_start[colour.clone()];
+            for (&j, &at) in ms.iter().zip(starts) {
+                let (s, e) = (self.start[j as usize], self.start[j as usize + 1]);
+                let slots = self.next[..e - s].iter_mut();
+                let points = self.manifold_points[at..at + (e - s)].iter_mut();
+                for ((&k, slot), point) in self.runs[s..e].iter().zip(slots).zip(points) {
+                    self.out[*slot] = k;
+                    self.position[k] = *slot;
+                    *point = *slot;
+                    *slot += 1;
                 }
             }
         }
         self.serial_from = self.serial_from.min(self.ranges.len());
-        self.ranges.push(self.out.len());
-        // Manifolds in colour order with their points' solve positions (the block
-        // normal solve walks a colour manifold by manifold: within a colour the
-        // manifolds touch disjoint moving bodies, so this is the same order of work).
-        // Every entry is written (the order is a permutation): sized, not cleared.
-        self.position.resize(n, 0);
-        for (pos, &k) in self.out.iter().enumerate() {
-            self.position[k] = pos;
-        }
-        self.manifold_start.clear();
-        self.manifold_points.clear();
-        let position = &self.position;
-        for &j in &self.by_colour {
-            self.manifold_start.push(self.manifold_points.len());
-            let (s, e) = (self.start[j as usize], self.start[j as usize + 1]);
-            // One reserve a manifold, not a capacity check a point.
-            self.manifold_points
-                .extend(self.runs[s..e].iter().map(|&k| position[k]));
-        }
-        self.manifold_start.push(self.manifold_points.len());
+        self.ranges.push(pos);
         self.colour_start.push(m);
         false
     }
@@ -300,7 +352,7 @@ impl Colouring {
     /// `self.height` (strictly: the keys are unique), with the manifolds unchanged.
     fn still_bottom_up(&self) -> bool {
         let h = &self.height;
-        let below = |p: usize, q: usize| h[p].total_cmp(&h[q]).then(p.cmp(&q)).is_lt();
+        let below = |p: usize, q: usize| (h[p], p) < (h[q], q);
         // The runs first (checking the ranks first cost more on the 10-box stack and
         // on the 210-box pyramid, where one or the other changes every step).
         let runs_sorted = self
@@ -310,7 +362,7 @@ impl Colouring {
         runs_sorted
             && self.by_rank.windows(2).all(|r| {
                 let (p, q) = (self.low[r[0] as usize], self.low[r[1] as usize]);
-                (total_order(h[p]), p) < (total_order(h[q]), q)
+                (h[p], p) < (h[q], q)
             })
     }
 }
@@ -419,6 +471,34 @@ mod tests {
                 }
             }
         }
+        // The emit is the scan of each colour's manifolds place by place (first
+        // points, then second points, …), and the positions are its inverse.
+        let mut expect = Vec::new();
+        for w in c.colour_start.windows(2) {
+            let ms = &c.by_colour[w[0]..w[1]];
+            for place in 0.. {
+                let before = expect.len();
+                for &j in ms {
+                    let (s, e) = (c.start[j as usize], c.start[j as usize + 1]);
+                    if s + place < e {
+                        expect.push(c.runs[s + place]);
+                    }
+                }
+                if expect.len() == before {
+                    break;
+                }
+            }
+        }
+        assert_eq!(order, expect);
+        for (jj, &j) in c.by_colour.iter().enumerate() {
+            let (s, e) = (c.start[j as usize], c.start[j as usize + 1]);
+            let at = &c.manifold_points[c.manifold_start[jj]..c.manifold_start[jj + 1]];
+            assert_eq!(at.len(), e - s);
+            for (place, &pos) in at.iter().enumerate() {
+                assert_eq!(order[pos], c.runs[s + place]);
+                assert_eq!(c.position[c.runs[s + place]], pos);
+            }
+        }
         // Colour-major: colours never decrease along the order.
         let colours: Vec<u32> = order.iter().map(|&k| c.colour[pairs[k].0 .0]).collect();
         assert!(colours.windows(2).all(|w| w[0] <= w[1]), "{colours:?}");
@@ -463,8 +543,9 @@ mod tests {
             (8, |k| k as f64, false),
             // Raised by 0.25 with the order kept: kept.
             (8, |k| k as f64 + 0.25, true),
-            // Points 0 and 1 of the first manifold swapped: redone.
-            (8, |k| [1.0, 0.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0][k], false),
+            // Points 0 and 1 of the first manifold swapped, the ranks kept: the
+            // layout kept, the order rewritten.
+            (8, |k| [1.0, 0.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0][k], true),
             // Manifolds (2,3) and (3,4) swapped in rank: redone.
             (8, |k| [1.0, 0.0, 2.0, 3.0, 6.0, 7.0, 4.0, 5.0][k], false),
             // Three manifolds only: redone.

@@ -430,6 +430,13 @@ pub(super) struct SoftState {
     pub(super) total: Vec<[f64; 3]>,
     pub(super) warm: Vec<Warm>,
     pub(super) warm_next: Vec<Warm>,
+    /// Whether the keys in `warm` are unique (the step that stored them had no
+    /// repeated contact key: the narrow phase does not promise it), which lets
+    /// `prepare`'s merge take the entry after the last hit without a search.
+    pub(super) warm_unique: bool,
+    /// Whether this step's contact keys are unique (set by `prepare`; `warm_unique`
+    /// once `store` keeps them).
+    pub(super) unique_keys: bool,
     /// The previous step's impulses of each contact (natural order; zero if new).
     pub(super) found: Vec<(f64, DVec3, DVec3, f64)>,
     /// Whether each contact (natural order) was found in the previous step.
@@ -594,6 +601,8 @@ impl ContactWorld {
                 .iter()
                 .map(|&(key, (zn, ft))| (key, zn, ft, DVec3::ZERO, 0.0)),
         );
+        // Not checked: the merge searches every point.
+        st.warm_unique = false;
         st.warm_h = h;
     }
 
@@ -665,10 +674,11 @@ impl ContactWorld {
             for _ in 0..s.relax_passes {
                 solve(&mut st, hs, false, 0.0, false);
             }
-            for (t, z) in st.total.iter_mut().zip(&st.impulse) {
-                t[0] += z[0];
-                t[1] += z[1];
-                t[2] += z[2];
+            // As flat slices (the same additions, two a packed instruction: per point
+            // they were 9 instructions a sub-step, 0.7 % of the step, callgrind).
+            let total = st.total.as_flattened_mut();
+            for (t, z) in total.iter_mut().zip(st.impulse.as_flattened()) {
+                *t += *z;
             }
         }
         self.finish_soft(st, hs, stats)
@@ -787,6 +797,7 @@ impl ContactWorld {
             st.warm_next.sort_unstable_by_key(|e| e.0);
         }
         core::mem::swap(&mut st.warm, &mut st.warm_next);
+        st.warm_unique = st.unique_keys;
         st.warm_h = hs;
     }
 }
