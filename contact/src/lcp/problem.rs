@@ -82,11 +82,11 @@ impl SparseRows {
         }
         // Branch-free compaction (every entry is written, the cursor moves past the
         // non-zero ones): the zero pattern of a Delassus matrix defeats branch prediction.
+        // The entries kept (below the final cursor) were each written when the cursor
+        // stood on them, so the old ones need no zeroing: only the growth is filled.
         let SparseRows { start, cols, vals } = self;
         start.clear();
-        cols.clear();
         cols.resize(n * n, 0);
-        vals.clear();
         vals.resize(n * n, 0.0);
         let mut k = 0;
         start.push(0);
