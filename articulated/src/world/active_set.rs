@@ -524,7 +524,9 @@ impl World {
             }
             // Right-hand side: the tree's, the known impulses, the active rows' targets.
             let f = &st.factor;
-            st.x.clear();
+            // No zero-fill: the runs cover the tree's unknowns and the loop below the
+            // scatter sets every extra row's (`st.map` holds one per factor row), so
+            // every entry is written before it is read.
             st.x.resize(f.size, 0.0);
             f.copy_from_tree(&self.rhs, &mut st.x);
             for (i, r) in self.urows.iter().enumerate() {
@@ -954,11 +956,11 @@ impl World {
         let f = &st.factor;
         let d = st.schur.len();
         let nodes = self.solver.parent.len();
-        st.col.clear();
+        // `col`, `mark` and `node_slot` are left all zero / false / `usize::MAX` by
+        // every call (the loops below clear what they set: the forward pass of a
+        // marked node writes it and its parent, marked too), so they only grow.
         st.col.resize(f.size, 0.0);
-        st.mark.clear();
         st.mark.resize(nodes, false);
-        st.node_slot.clear();
         st.node_slot.resize(nodes, usize::MAX);
         st.path_nodes.clear();
         st.path_start.clear();
@@ -1007,9 +1009,9 @@ impl World {
         }
         st.path_start.push(st.path_nodes.len());
         st.val_start.push(st.path_s.len());
-        st.s_mat.clear();
+        // No fill: every `S_ab` is written below (`a ≥ b`, both halves), and the
+        // `seg_at` entries read (the path representatives') are reset per `b`.
         st.s_mat.resize(d * d, 0.0);
-        st.seg_at.clear();
         st.seg_at.resize(d, (usize::MAX, 0));
         let mut finite = true;
         for b in 0..d {

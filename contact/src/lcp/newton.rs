@@ -146,6 +146,10 @@ pub fn fischer_newton(
     // (above glibc's mmap threshold, 128 KiB or n ≥ 128, each was an mmap and its page
     // faults).
     let mut h: Vec<f64> = Vec::new();
+    // Whether every row of `M` lists all `n` columns (a humanoid's contacts: they all
+    // couple through its tree), so that `H`'s assembly writes every entry (found at
+    // the first step, with the buffers).
+    let mut all_full = false;
     for k in 0..=settings.max_iterations {
         if residual <= settings.tolerance {
             return Ok(Lcp::solved(z, w, residual, k));
@@ -157,6 +161,7 @@ pub fn fischer_newton(
             trial.resize(n, 0.0);
             phi_trial.resize(n, 0.0);
             work.resize(5 * n, 0.0);
+            all_full = (0..n).all(|i| lcp.row_nonzeros(i).0.len() == n);
         }
         let (da, rest) = work.split_at_mut(n);
         let (db, rest) = rest.split_at_mut(n);
@@ -175,9 +180,13 @@ pub fn fischer_newton(
         }
         // H = D_a + D_b M / α; ∇Ψ = Hᵀ Φ.
         // Over the non-zero M_ij only: an off-diagonal zero gives h_ij = +0 and adds ±0
-        // to the gradient (bit-neutral); the diagonal is always written.
-        h.clear();
+        // to the gradient (bit-neutral); the diagonal is always written. Full rows
+        // write all their entries: when every row is full the kept storage (the last
+        // iteration's factor) is not zeroed first.
         h.resize(n * n, 0.0);
+        if !all_full {
+            h.fill(0.0);
+        }
         grad.fill(0.0);
         for i in 0..n {
             let (cols, vals) = lcp.row_nonzeros(i);

@@ -82,15 +82,20 @@ impl SparseRows {
         }
         // Branch-free compaction (every entry is written, the cursor moves past the
         // non-zero ones): the zero pattern of a Delassus matrix defeats branch prediction.
+        // The entries kept (below the final cursor) were each written when the cursor
+        // stood on them, so the old ones need no zeroing: the buffers only grow, to
+        // room for a whole row past the cursor.
         let SparseRows { start, cols, vals } = self;
         start.clear();
-        cols.clear();
-        cols.resize(n * n, 0);
-        vals.clear();
-        vals.resize(n * n, 0.0);
         let mut k = 0;
         start.push(0);
         for row in m.chunks_exact(n.max(1)).take(n) {
+            if cols.len() < k + n {
+                cols.resize(k + n, 0);
+            }
+            if vals.len() < k + n {
+                vals.resize(k + n, 0.0);
+            }
             for (j, &v) in row.iter().enumerate() {
                 cols[k] = j;
                 vals[k] = v;
