@@ -929,6 +929,26 @@ pub(super) struct Rows<'a> {
     pub(super) fixed: usize,
 }
 
+impl Rows<'_> {
+    /// Stores the velocities `[(v_a, ω_a), (v_b, ω_b)]` of a point's bodies `[a, b]`;
+    /// the static slot keeps its zero velocity (its inverse mass and inertia are zero:
+    /// it stays at rest).
+    #[inline(always)]
+    pub(super) fn store_pair<B: Bodies>(
+        &self,
+        vel: &mut B,
+        [a, b]: [usize; 2],
+        [(va, wa), (vb, wb)]: [(DVec3, DVec3); 2],
+    ) {
+        if a != self.fixed {
+            vel.set_velocity(a, va, wa);
+        }
+        if b != self.fixed {
+            vel.set_velocity(b, vb, wb);
+        }
+    }
+}
+
 /// Settings of one Gauss–Seidel pass (see [`solve_point`]).
 #[derive(Clone, Copy)]
 pub(super) struct Pass {
@@ -1000,13 +1020,7 @@ pub(super) fn apply_point<B: Bodies>(rows: &Rows, p: usize, z: [f64; 3], vel: &m
     let wa = wa - (g[0][2] * z[0] + g[1][2] * z[1] + g[2][2] * z[2]);
     let vb = vb + lin * mb;
     let wb = wb + (g[0][3] * z[0] + g[1][3] * z[1] + g[2][3] * z[2]);
-    // The static slot's inverse mass and inertia are zero: it stays at rest.
-    if a != rows.fixed {
-        vel.set_velocity(a, va, wa);
-    }
-    if b != rows.fixed {
-        vel.set_velocity(b, vb, wb);
-    }
+    rows.store_pair(vel, [a, b], [(va, wa), (vb, wb)]);
 }
 
 mod block;

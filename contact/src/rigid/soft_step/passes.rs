@@ -494,12 +494,7 @@ pub(super) fn solve_block<B: Bodies>(
             pass,
         );
     }
-    if a != rows.fixed {
-        vel.set_velocity(a, va, wa);
-    }
-    if b != rows.fixed {
-        vel.set_velocity(b, vb, wb);
-    }
+    rows.store_pair(vel, [a, b], [(va, wa), (vb, wb)]);
     true
 }
 
@@ -622,13 +617,7 @@ pub(in crate::rigid) fn solve_point<B: Bodies>(
         (&mut va, &mut wa, &mut vb, &mut wb),
         pass,
     );
-    // The static slot's inverse mass and inertia are zero: it stays at rest.
-    if a != rows.fixed {
-        vel.set_velocity(a, va, wa);
-    }
-    if b != rows.fixed {
-        vel.set_velocity(b, vb, wb);
-    }
+    rows.store_pair(vel, [a, b], [(va, wa), (vb, wb)]);
 }
 
 /// `max(x, lo)` as one compare-and-select (x86 `maxsd`): `x` if `x > lo`, else `lo`.
