@@ -1151,7 +1151,8 @@ fn each_ref<'a, T, const W: usize>(f: impl FnMut(usize) -> &'a T) -> [&'a T; W] 
     core::array::from_fn(f)
 }
 
-#[cfg(all(test, feature = "std"))]
+#[cfg(test)]
+#[cfg(feature = "std")]
 mod tests {
     use crate::rigid::{ContactSolver, ContactWorld};
     use crate::scenes::{box_stack, pyramid};
