@@ -85,14 +85,17 @@ pub(super) fn for_manifold_pairs<S>(
                     colouring.ranges[colouring.serial_from]..points,
                 )
             } else {
-                let m0 = manifold(j);
                 if four && j + 3 < hi {
-                    let (m1, m2, m3) = (manifold(j + 1), manifold(j + 2), manifold(j + 3));
-                    if quad(j, [m0, m1, m2, m3], state) {
-                        j += 4;
-                        continue;
+                    // The five bounds of the four manifolds read (and checked) once.
+                    if let Some(&[b0, b1, b2, b3, b4]) = mp.get(j..j + 5) {
+                        let m = |a: usize, b: usize| &pts[a..b];
+                        if quad(j, [m(b0, b1), m(b1, b2), m(b2, b3), m(b3, b4)], state) {
+                            j += 4;
+                            continue;
+                        }
                     }
                 }
+                let m0 = manifold(j);
                 let m1 = if j + 1 < hi { manifold(j + 1) } else { empty };
                 j += 2;
                 if !m1.is_empty() && pair(j - 2, [m0, m1], state) {
