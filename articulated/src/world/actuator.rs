@@ -405,7 +405,9 @@ impl World {
         if self.coords.len() <= ji {
             self.coords.resize(ji + 1, None);
         }
-        let e = self.coords[ji].get_or_insert(KeptCoords {
+        // A new entry built only when there is none (`get_or_insert` evaluated its
+        // argument, the zeroed rows, on every call).
+        let e = self.coords[ji].get_or_insert_with(|| KeptCoords {
             key,
             q,
             has_rows: false,
