@@ -407,17 +407,24 @@ impl World {
         }
         // A new entry built only when there is none (`get_or_insert` evaluated its
         // argument, the zeroed rows, on every call).
-        let e = self.coords[ji].get_or_insert_with(|| KeptCoords {
-            key,
-            q,
-            has_rows: false,
-            rows: [[DVec3::ZERO; 4]; MAX_DOF],
-        });
-        e.key = key;
-        e.q = q;
-        e.has_rows = rows.is_some();
-        if let Some(rows) = rows {
-            e.rows = rows;
+        let slot = &mut self.coords[ji];
+        match slot {
+            Some(e) => {
+                e.key = key;
+                e.q = q;
+                e.has_rows = rows.is_some();
+                if let Some(rows) = rows {
+                    e.rows = rows;
+                }
+            }
+            None => {
+                *slot = Some(KeptCoords {
+                    key,
+                    q,
+                    has_rows: rows.is_some(),
+                    rows: rows.unwrap_or([[DVec3::ZERO; 4]; MAX_DOF]),
+                });
+            }
         }
         Some(q)
     }
