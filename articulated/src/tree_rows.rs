@@ -137,7 +137,8 @@ impl RowTree {
         for k in 0..nn {
             self.start[k + 1] += self.start[k];
         }
-        self.slot.clear();
+        // `slot` is a permutation of the rows (every entry written below), so it is
+        // only resized, not zero-filled first.
         self.slot.resize(rows.len(), 0);
         self.fill.clear();
         self.fill.extend_from_slice(&self.start[..nn]);
@@ -174,9 +175,10 @@ impl RowTree {
         // elsewhere), so the arenas are only resized, not cleared and zero-filled first.
         self.diag.resize(d, 0.0);
         self.off.resize(o, 0.0);
-        self.dinv.clear();
+        // `dinv` is written whole by `factor` (every node's `n` pivots, the schedule
+        // holding every node) before `dropped` reads it, and `pos` is written for every
+        // row below when this returns `true`: both only resized, not zero-filled.
         self.dinv.resize(x, 0.0);
-        self.pos.clear();
         self.pos.resize(rows.len(), 0);
         // The tree's blocks, zero-padded to the node's (and its parent's) total rows.
         for k in 0..nn {

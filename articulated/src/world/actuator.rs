@@ -405,17 +405,26 @@ impl World {
         if self.coords.len() <= ji {
             self.coords.resize(ji + 1, None);
         }
-        let e = self.coords[ji].get_or_insert(KeptCoords {
-            key,
-            q,
-            has_rows: false,
-            rows: [[DVec3::ZERO; 4]; MAX_DOF],
-        });
-        e.key = key;
-        e.q = q;
-        e.has_rows = rows.is_some();
-        if let Some(rows) = rows {
-            e.rows = rows;
+        // A new entry built only when there is none (`get_or_insert` evaluated its
+        // argument, the zeroed rows, on every call).
+        let slot = &mut self.coords[ji];
+        match slot {
+            Some(e) => {
+                e.key = key;
+                e.q = q;
+                e.has_rows = rows.is_some();
+                if let Some(rows) = rows {
+                    e.rows = rows;
+                }
+            }
+            None => {
+                *slot = Some(KeptCoords {
+                    key,
+                    q,
+                    has_rows: rows.is_some(),
+                    rows: rows.unwrap_or([[DVec3::ZERO; 4]; MAX_DOF]),
+                });
+            }
         }
         Some(q)
     }
