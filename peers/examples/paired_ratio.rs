@@ -16,7 +16,9 @@
 //! minutes apart give ratios that wander by ±30 %. Rounds of a few milliseconds see
 //! the same machine state for both engines; the median of the per-round ratios is
 //! the figure to compare, and its quartiles show how far to trust it. Prints the
-//! median ratio, its quartiles, and each engine's median µs per step.
+//! median ratio, its quartiles, and each engine's median µs per step, then the same as
+//! one tab-separated line `paired SCENE SUBSTEPS ROUNDS BATCH MEDIAN Q1 Q3 OURS_US
+//! RAPIER_US` (`cargo xtask bench` reads it into `target/bench/ratios.md`).
 
 use constraint_contact::rigid::ContactSolver;
 use constraint_peers::contact::{ours, rapier, Scene, DT};
@@ -73,14 +75,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         v.sort_by(f64::total_cmp);
         v[((v.len() - 1) as f64 * p).round() as usize]
     };
+    let (m, lo, hi) = (q(&mut ratio, 0.5), q(&mut ratio, 0.25), q(&mut ratio, 0.75));
+    let (a, b) = (q(&mut us_ours, 0.5), q(&mut us_rapier, 0.5));
+    let name = scene.name();
     println!(
-        "{} soft{substeps} / rapier3d: median {:.3} (quartiles {:.3} … {:.3}) over {rounds} rounds of {batch} steps; ours {:.2} µs/step, rapier3d {:.2} µs/step (medians)",
-        scene.name(),
-        q(&mut ratio, 0.5),
-        q(&mut ratio, 0.25),
-        q(&mut ratio, 0.75),
-        q(&mut us_ours, 0.5),
-        q(&mut us_rapier, 0.5),
+        "{name} soft{substeps} / rapier3d: median {m:.3} (quartiles {lo:.3} … {hi:.3}) over {rounds} rounds of {batch} steps; ours {a:.2} µs/step, rapier3d {b:.2} µs/step (medians)"
     );
+    // The same figures for `cargo xtask bench` to read.
+    println!("paired\t{name}\t{substeps}\t{rounds}\t{batch}\t{m}\t{lo}\t{hi}\t{a}\t{b}");
     Ok(())
 }

@@ -25,7 +25,10 @@
 //!   this library (`ContactSolver::Auto`, and sequential impulses on the stack) and
 //!   rapier3d in one run, and writes the 10 s accuracy runs (top-box drift and sink, worst
 //!   box displacement; the sliding box's stopping distance) to
-//!   `target/peers/contact_accuracy.tsv`; then MuJoCo on the same scenes
+//!   `target/peers/contact_accuracy.tsv`; then `cargo run -p constraint-peers --features
+//!   rapier --example paired_ratio` on the stack and the pyramid (the soft step and
+//!   rapier3d timed in alternating rounds in one process, a ratio that holds when the
+//!   machine's speed drifts between criterion's series); then MuJoCo on the same scenes
 //!   ([`crate::bench_contact`], left out with `--no-mujoco`) and one chart per scene,
 //!   accuracy against time per step (`target/bench/contact_<scene>.svg`, from
 //!   `target/bench/contact_points.tsv`, drawn by `verify-report --contact-points`).
@@ -45,7 +48,7 @@ use crate::bench_contact;
 use crate::bench_mjcf;
 use crate::models;
 use crate::mujoco::{ensure_venv, run as run_mujoco, RunOptions};
-use crate::run::{cargo, root};
+use crate::run::{cargo, output, root};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -542,6 +545,8 @@ struct ContactPeers {
     time: Vec<(String, String, f64)>,
     /// `(engine, scene) → 10 s accuracy run`.
     accuracy: Vec<(String, String, ContactAccuracy)>,
+    /// The interleaved ratios of `paired_ratio` ([`Paired`]), one per scene measured.
+    paired: Vec<Paired>,
     /// Notes for the report.
     notes: Vec<String>,
     /// The charts written (`(scene, file)` under `target/bench/`), or why none were.
@@ -553,6 +558,7 @@ impl Default for ContactPeers {
         Self {
             time: Vec::new(),
             accuracy: Vec::new(),
+            paired: Vec::new(),
             notes: Vec::new(),
             charts: Err("not drawn".into()),
         }
@@ -635,6 +641,104 @@ pub(crate) fn parse_contact_accuracy(text: &str) -> Vec<(String, String, Contact
 
 fn fmt_len(x: Option<f64>) -> String {
     x.map_or("–".into(), |x| format!("{x:.1e} m"))
+}
+
+/// One interleaved measurement of the soft step against rapier3d (`cargo run -p
+/// constraint-peers --features rapier --example paired_ratio`): the two engines timed
+/// in alternating rounds in one process, the ratio taken per round.
+#[derive(Clone, Debug, PartialEq)]
+struct Paired {
+    scene: String,
+    substeps: usize,
+    rounds: usize,
+    batch: usize,
+    /// Median of the per-round ratios ours / rapier3d, and its quartiles.
+    median: f64,
+    q1: f64,
+    q3: f64,
+    /// Each engine's median µs per step over the rounds.
+    ours_us: f64,
+    rapier_us: f64,
+}
+
+/// The `paired\t…` line of `paired_ratio`'s output, if there is one and it parses.
+fn parse_paired(out: &str) -> Option<Paired> {
+    let line = out.lines().find_map(|l| l.strip_prefix("paired\t"))?;
+    let f: Vec<&str> = line.split('\t').collect();
+    if f.len() != 9 {
+        return None;
+    }
+    let x = |i: usize| f[i].parse::<f64>().ok().filter(|v| v.is_finite());
+    Some(Paired {
+        scene: f[0].to_string(),
+        substeps: f[1].parse().ok()?,
+        rounds: f[2].parse().ok()?,
+        batch: f[3].parse().ok()?,
+        median: x(4)?,
+        q1: x(5)?,
+        q3: x(6)?,
+        ours_us: x(7)?,
+        rapier_us: x(8)?,
+    })
+}
+
+/// Runs `paired_ratio` on each scene of [`PAIRED_SCENES`]; a failed run becomes a note.
+fn run_paired(p: &mut ContactPeers) {
+    for scene in PAIRED_SCENES {
+        let (ok, out) = output(cargo().args([
+            "run",
+            "--release",
+            "-q",
+            "-p",
+            "constraint-peers",
+            "--features",
+            "rapier",
+            "--example",
+            "paired_ratio",
+            "--",
+            scene,
+        ]));
+        match parse_paired(&out).filter(|_| ok) {
+            Some(r) => p.paired.push(r),
+            None => p.notes.push(format!(
+                "paired_ratio {scene}: no result (run failed or output unreadable)"
+            )),
+        }
+    }
+}
+
+/// Scenes timed interleaved by `paired_ratio`: the two of issue 14's speed targets.
+const PAIRED_SCENES: [&str; 2] = ["stack10", "pyramid20"];
+
+/// The interleaved-ratio table of the contact section.
+fn paired_markdown(md: &mut String, p: &ContactPeers) {
+    if p.paired.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "\n## Interleaved: soft step against rapier3d in one process\n\n\
+         `cargo run --release -p constraint-peers --features rapier --example paired_ratio -- SCENE`: \
+         both engines stepped 1 s from rest, then timed in alternating rounds (ours first in \
+         even rounds, rapier3d first in odd ones), the ratio ours / rapier3d taken per round. \
+         Rounds of a few milliseconds see one machine state for both engines, so this ratio \
+         holds where criterion's medians of separate series drift apart (on a shared machine \
+         the same binary's series differ by up to ±30 % between runs). The default fast \
+         path: `ContactSolver::SoftStep` with 3 sub-steps (what `Auto` runs on the \
+         pyramid).\n"
+    );
+    let _ = writeln!(
+        md,
+        "| scene | sub-steps | ours / rapier3d (median of rounds) | quartiles | ours µs/step | rapier3d µs/step | rounds × steps |"
+    );
+    let _ = writeln!(md, "|---|---:|---:|---:|---:|---:|---:|");
+    for r in &p.paired {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.3} | {:.3} … {:.3} | {:.2} | {:.2} | {} × {} |",
+            r.scene, r.substeps, r.median, r.q1, r.q3, r.ours_us, r.rapier_us, r.rounds, r.batch
+        );
+    }
 }
 
 /// The contact section appended to `target/bench/ratios.md`.
@@ -735,6 +839,7 @@ fn contact_markdown(p: &ContactPeers) -> String {
     for n in notes {
         let _ = writeln!(md, "- {n}");
     }
+    paired_markdown(&mut md, p);
     charts_section(&mut md, p);
     pile_section(&mut md, p);
     md
@@ -872,6 +977,7 @@ fn contact_peers(criterion_args: &[String], mujoco: bool) -> Result<ContactPeers
             }
         }
     }
+    run_paired(&mut p);
     match std::fs::read_to_string(&path) {
         Ok(text) => p.accuracy = parse_contact_accuracy(&text),
         Err(_) => p
@@ -1173,6 +1279,32 @@ mod tests {
         let missing = Timing::parse("{\"scene\": \"a.xml\"}");
         assert_eq!((missing.seconds_per_step, missing.steps), (None, None));
         assert_eq!(Timing::parse("not json"), Timing::default());
+    }
+
+    #[test]
+    fn reads_paired_ratios_line_and_refuses_broken_ones() {
+        let out = "stack10 soft3 / rapier3d: median 0.556 (quartiles 0.551 … 0.562) over 41 \
+                   rounds of 100 steps; ours 28.68 µs/step, rapier3d 51.65 µs/step (medians)\n\
+                   paired\tstack10\t3\t41\t100\t0.556\t0.551\t0.562\t28.68\t51.65\n";
+        let r = parse_paired(out).expect("the line parses");
+        assert_eq!(
+            (r.scene.as_str(), r.substeps, r.rounds, r.batch),
+            ("stack10", 3, 41, 100)
+        );
+        assert_eq!((r.median, r.q1, r.q3), (0.556, 0.551, 0.562));
+        assert_eq!((r.ours_us, r.rapier_us), (28.68, 51.65));
+        // A short line, a NaN and no line at all give nothing, not a row of zeros.
+        assert_eq!(parse_paired("paired\tstack10\t3\t41\n"), None);
+        assert_eq!(
+            parse_paired("paired\tstack10\t3\t41\t100\tNaN\t0.5\t0.6\t1\t2\n"),
+            None
+        );
+        assert_eq!(parse_paired("median 0.5\n"), None);
+        let mut p = ContactPeers::default();
+        p.paired.push(r);
+        let mut md = String::new();
+        paired_markdown(&mut md, &p);
+        assert!(md.contains("| stack10 | 3 | 0.556 | 0.551 … 0.562 | 28.68 | 51.65 | 41 × 100 |"));
     }
 
     #[test]
