@@ -798,6 +798,22 @@ fn box_box(
             face_b = (s, j);
         }
     }
+    // Prefer faces of A, then faces of B, then edges, by small tolerances, so resting
+    // contact keeps one reference face from frame to frame: an edge axis wins only
+    // where its separation exceeds `edge_thr`.
+    let tol = 1e-3 * ha.min_element().min(hb.min_element());
+    let (face_sep, ref_is_b) = if face_b.0 > face_a.0 + 0.01 * face_a.0.abs() + tol {
+        (face_b.0, true)
+    } else {
+        (face_a.0, false)
+    };
+    let edge_thr = face_sep + 0.05 * face_sep.abs() + tol;
+    // An edge axis whose separation's numerator is `≤ 0` has `s = num / |l| ≤ 0`
+    // (`|l| > 0`), so with `margin ≥ 0` and `edge_thr ≥ 0` it neither separates
+    // (`s > margin`) nor wins (`s > edge_thr`), nor is it the first maximum of the
+    // axes above `edge_thr` when another axis wins: skipped without its `|l|` and
+    // division, the same result bit for bit (NaN fails `≤` and takes the full path).
+    let skip_overlapping = sink.margin >= 0.0 && edge_thr >= 0.0;
     // The nine edge axes, `i` major (the first of equal separations wins), each with
     // constant indices (`edge_axis!` written out: no index arithmetic or bounds checks
     // in the loop, 11 M instructions of the pyramid's 120 steps before).
@@ -805,21 +821,23 @@ fn box_box(
         ($i:literal, $j:literal) => {{
             let (i, i1, i2) = ($i, ($i + 1) % 3, ($i + 2) % 3);
             let (j, j1, j2) = ($j, ($j + 1) % 3, ($j + 2) % 3);
-            // a_i × b_j in A's frame is (0, −R_i2,j, R_i1,j) at (i, i1, i2).
-            let len = sqrt(r[i2][j] * r[i2][j] + r[i1][j] * r[i1][j]);
-            if len >= 1e-6 {
-                // (|t·l| − h_a,i1 |R_i2,j| − h_a,i2 |R_i1,j| − h_b,j1 |R_i,j2|
-                //  − h_b,j2 |R_i,j1|) / |l|
-                let tl = ta[i2] * r[i1][j] - ta[i1] * r[i2][j];
-                let s = (tl.abs()
-                    - (ha[i1] * ar[i2][j] + ha[i2] * ar[i1][j])
-                    - (hb[j1] * ar[i][j2] + hb[j2] * ar[i][j1]))
-                    / len;
-                if s > sink.margin {
-                    return;
-                }
-                if s > edge.0 {
-                    edge = (s, i, j);
+            // a_i × b_j in A's frame is (0, −R_i2,j, R_i1,j) at (i, i1, i2); the
+            // numerator |t·l| − h_a,i1 |R_i2,j| − h_a,i2 |R_i1,j| − h_b,j1 |R_i,j2|
+            // − h_b,j2 |R_i,j1| of the separation along l / |l|.
+            let tl = ta[i2] * r[i1][j] - ta[i1] * r[i2][j];
+            let num = tl.abs()
+                - (ha[i1] * ar[i2][j] + ha[i2] * ar[i1][j])
+                - (hb[j1] * ar[i][j2] + hb[j2] * ar[i][j1]);
+            if !(skip_overlapping && num <= 0.0) {
+                let len = sqrt(r[i2][j] * r[i2][j] + r[i1][j] * r[i1][j]);
+                if len >= 1e-6 {
+                    let s = num / len;
+                    if s > sink.margin {
+                        return;
+                    }
+                    if s > edge.0 {
+                        edge = (s, i, j);
+                    }
                 }
             }
         }};
@@ -833,15 +851,7 @@ fn box_box(
     edge_axis!(2, 0);
     edge_axis!(2, 1);
     edge_axis!(2, 2);
-    // Prefer faces of A, then faces of B, then edges, by small tolerances, so resting
-    // contact keeps one reference face from frame to frame.
-    let tol = 1e-3 * ha.min_element().min(hb.min_element());
-    let (face_sep, ref_is_b) = if face_b.0 > face_a.0 + 0.01 * face_a.0.abs() + tol {
-        (face_b.0, true)
-    } else {
-        (face_a.0, false)
-    };
-    if edge.0 > face_sep + 0.05 * face_sep.abs() + tol {
+    if edge.0 > edge_thr {
         // Edge–edge: the supporting edges of A (towards +n) and B (towards −n).
         let (_, i, j) = edge;
         let l = ua[i].cross(ub[j]);
