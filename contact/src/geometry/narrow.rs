@@ -23,7 +23,7 @@
 use alloc::vec::Vec;
 
 use constraint_core::Pose;
-use glam::{DMat3, DVec3};
+use glam::{DMat3, DVec3, Vec3Swizzles};
 
 use super::contact::{Contact, ParticleContact};
 use super::shape::{Collider, Shape};
@@ -770,17 +770,24 @@ fn box_box(
     // axis, as before.
     let row = |a: DVec3| [a.dot(ub[0]), a.dot(ub[1]), a.dot(ub[2])];
     let r = [row(ua[0]), row(ua[1]), row(ua[2])];
-    let abs = |x: [f64; 3]| [x[0].abs(), x[1].abs(), x[2].abs()];
-    let ar = [abs(r[0]), abs(r[1]), abs(r[2])];
+    // The rows of `R` and `|R|` (lane `j`), and `t` in both frames. The separations
+    // below are computed three axes at a time, lane-wise: each lane is its axis's
+    // scalar expression, the same operations in the same order (the same bits).
+    let rv = r.map(DVec3::from_array);
+    let arv = rv.map(DVec3::abs);
     let ta = [t.dot(ua[0]), t.dot(ua[1]), t.dot(ua[2])];
     let tb = [t.dot(ub[0]), t.dot(ub[1]), t.dot(ub[2])];
     // Best face of A, face of B, edge pair.
     let mut face_a = (f64::NEG_INFINITY, 0usize);
     let mut face_b = (f64::NEG_INFINITY, 0usize);
     let mut edge = (f64::NEG_INFINITY, 0usize, 0usize);
+    // Lane i: |t·a_i| − h_a,i − Σ_j h_b,j |R_ij| (the columns of |R| scaled by h_b).
+    let col = |j: usize| DVec3::new(arv[0][j], arv[1][j], arv[2][j]);
+    let sep_a = DVec3::from_array(ta).abs() - ha - (hb.x * col(0) + hb.y * col(1) + hb.z * col(2));
+    // Lane j: |t·b_j| − Σ_i h_a,i |R_ij| − h_b,j.
+    let sep_b = DVec3::from_array(tb).abs() - (ha.x * arv[0] + ha.y * arv[1] + ha.z * arv[2]) - hb;
     for i in 0..3 {
-        // |t·a_i| − h_a,i − Σ_j h_b,j |R_ij|
-        let s = ta[i].abs() - ha[i] - (hb.x * ar[i][0] + hb.y * ar[i][1] + hb.z * ar[i][2]);
+        let s = sep_a[i];
         if s > sink.margin {
             return;
         }
@@ -789,8 +796,7 @@ fn box_box(
         }
     }
     for j in 0..3 {
-        // |t·b_j| − Σ_i h_a,i |R_ij| − h_b,j
-        let s = tb[j].abs() - (ha.x * ar[0][j] + ha.y * ar[1][j] + ha.z * ar[2][j]) - hb[j];
+        let s = sep_b[j];
         if s > sink.margin {
             return;
         }
@@ -798,50 +804,58 @@ fn box_box(
             face_b = (s, j);
         }
     }
-    // The nine edge axes, `i` major (the first of equal separations wins), each with
-    // constant indices (`edge_axis!` written out: no index arithmetic or bounds checks
-    // in the loop, 11 M instructions of the pyramid's 120 steps before).
-    macro_rules! edge_axis {
-        ($i:literal, $j:literal) => {{
-            let (i, i1, i2) = ($i, ($i + 1) % 3, ($i + 2) % 3);
-            let (j, j1, j2) = ($j, ($j + 1) % 3, ($j + 2) % 3);
-            // a_i × b_j in A's frame is (0, −R_i2,j, R_i1,j) at (i, i1, i2).
-            let len = sqrt(r[i2][j] * r[i2][j] + r[i1][j] * r[i1][j]);
-            if len >= 1e-6 {
-                // (|t·l| − h_a,i1 |R_i2,j| − h_a,i2 |R_i1,j| − h_b,j1 |R_i,j2|
-                //  − h_b,j2 |R_i,j1|) / |l|
-                let tl = ta[i2] * r[i1][j] - ta[i1] * r[i2][j];
-                let s = (tl.abs()
-                    - (ha[i1] * ar[i2][j] + ha[i2] * ar[i1][j])
-                    - (hb[j1] * ar[i][j2] + hb[j2] * ar[i][j1]))
-                    / len;
-                if s > sink.margin {
-                    return;
-                }
-                if s > edge.0 {
-                    edge = (s, i, j);
-                }
-            }
-        }};
-    }
-    edge_axis!(0, 0);
-    edge_axis!(0, 1);
-    edge_axis!(0, 2);
-    edge_axis!(1, 0);
-    edge_axis!(1, 1);
-    edge_axis!(1, 2);
-    edge_axis!(2, 0);
-    edge_axis!(2, 1);
-    edge_axis!(2, 2);
     // Prefer faces of A, then faces of B, then edges, by small tolerances, so resting
-    // contact keeps one reference face from frame to frame.
+    // contact keeps one reference face from frame to frame: an edge axis wins only
+    // where its separation exceeds `edge_thr`.
     let tol = 1e-3 * ha.min_element().min(hb.min_element());
     let (face_sep, ref_is_b) = if face_b.0 > face_a.0 + 0.01 * face_a.0.abs() + tol {
         (face_b.0, true)
     } else {
         (face_a.0, false)
     };
-    if edge.0 > face_sep + 0.05 * face_sep.abs() + tol {
+    let edge_thr = face_sep + 0.05 * face_sep.abs() + tol;
+    // An edge axis whose separation's numerator is `≤ 0` has `s = num / |l| ≤ 0`
+    // (`|l| > 0`), so with `margin ≥ 0` and `edge_thr ≥ 0` it neither separates
+    // (`s > margin`) nor wins (`s > edge_thr`), nor is it the first maximum of the
+    // axes above `edge_thr` when another axis wins: skipped without its `|l|` and
+    // division, the same result bit for bit (NaN fails `≤` and takes the full path).
+    let skip_overlapping = sink.margin >= 0.0 && edge_thr >= 0.0;
+    // The nine edge axes, `i` major and `j` minor (the first of equal separations
+    // wins), the three of one `i` lane-wise (`edge_row!`, constant `i`): a row whose
+    // three numerators are all `≤ 0` is skipped whole (`skip_overlapping`).
+    macro_rules! edge_row {
+        ($i:literal) => {{
+            let (i, i1, i2) = ($i, ($i + 1) % 3, ($i + 2) % 3);
+            // a_i × b_j in A's frame is (0, −R_i2,j, R_i1,j) at (i, i1, i2); lane j
+            // of `num` is the numerator |t·l| − h_a,i1 |R_i2,j| − h_a,i2 |R_i1,j|
+            // − h_b,j1 |R_i,j2| − h_b,j2 |R_i,j1| of the separation along l / |l|
+            // (`yzx`, `zxy`: lane j reads j1 = j + 1, j2 = j + 2 mod 3).
+            let tl = rv[i1] * ta[i2] - rv[i2] * ta[i1];
+            let num = tl.abs()
+                - (arv[i2] * ha[i1] + arv[i1] * ha[i2])
+                - (hb.yzx() * arv[i].zxy() + hb.zxy() * arv[i].yzx());
+            if !(skip_overlapping && num.cmple(DVec3::ZERO).all()) {
+                for j in 0..3 {
+                    if !(skip_overlapping && num[j] <= 0.0) {
+                        let len = sqrt(rv[i2][j] * rv[i2][j] + rv[i1][j] * rv[i1][j]);
+                        if len >= 1e-6 {
+                            let s = num[j] / len;
+                            if s > sink.margin {
+                                return;
+                            }
+                            if s > edge.0 {
+                                edge = (s, i, j);
+                            }
+                        }
+                    }
+                }
+            }
+        }};
+    }
+    edge_row!(0);
+    edge_row!(1);
+    edge_row!(2);
+    if edge.0 > edge_thr {
         // Edge–edge: the supporting edges of A (towards +n) and B (towards −n).
         let (_, i, j) = edge;
         let l = ua[i].cross(ub[j]);
