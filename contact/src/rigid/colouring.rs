@@ -25,6 +25,10 @@ use alloc::vec::Vec;
 /// `COLOURS`.
 pub const COLOURS: u32 = 63;
 
+/// Manifolds the lane passes take at once (four AVX lanes, or two pairs of SSE2
+/// lanes): [`Colouring::rebatch`] cuts classes to multiples of it where it can.
+const BATCH: usize = 4;
+
 /// Kept buffers of the colouring.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Colouring {
@@ -43,8 +47,11 @@ pub(super) struct Colouring {
     used: Vec<u64>,
     /// Manifolds per colour, then (after the prefix sum) each colour's first slot.
     offset: Vec<usize>,
-    /// Manifolds in colour order, bottom-up within a colour.
+    /// Manifolds in colour order, bottom-up within a colour (after
+    /// [`Colouring::rebatch`], in class order).
     by_colour: Vec<u32>,
+    /// Where each class of `by_colour` ends (see [`Colouring::rebatch`]).
+    ends: Vec<usize>,
     /// The solve order: contacts (natural indices) colour-major (see
     /// [`Colouring::order`]).
     pub(super) out: Vec<usize>,
@@ -253,6 +260,19 @@ impl Colouring {
             self.by_colour[self.offset[c]] = j;
             self.offset[c] += 1;
         }
+        // The colours re-cut into the classes the passes solve (the same order of
+        // work: see `rebatch`), each manifold's colour then its class.
+        let overflow = highest == COLOURS as usize;
+        self.rebatch(self.colours, bodies);
+        self.colours = self.ends.len();
+        let mut lo = 0;
+        for (c, &hi) in self.ends.iter().enumerate() {
+            let last = overflow && c + 1 == self.colours;
+            for &j in &self.by_colour[lo..hi] {
+                self.colour[j as usize] = if last { COLOURS } else { c as u32 };
+            }
+            lo = hi;
+        }
         // Manifolds in colour order with their points' solve positions (the block
         // normal solve walks a colour manifold by manifold: within a colour the
         // manifolds touch disjoint moving bodies, so this is the same order of work):
@@ -271,7 +291,7 @@ impl Colouring {
         self.out.resize(n, 0);
         self.position.resize(n, 0);
         self.manifold_points.resize(n, 0);
-        // Emit: per colour (its manifolds end at offset[c] now), place by place: the
+        // Emit: per class (its manifolds end at ends[c]), place by place: the
         // groups' sizes from the colour's manifold lengths (`next[place]`, the
         // manifolds with more than `place` points, summed into where each group
         // starts), then each manifold's points written at their group's next slot,
@@ -285,11 +305,11 @@ impl Colouring {
         let len = |j: u32| self.start[j as usize + 1] - self.start[j as usize];
         for c in 0..self.colours {
             self.colour_start.push(first);
-            if c == COLOURS as usize {
+            if overflow && c + 1 == self.colours {
                 self.serial_from = self.ranges.len();
             }
-            let colour = first..self.offset[c];
-            first = self.offset[c];
+            let colour = first..self.ends[c];
+            first = self.ends[c];
             let ms = &self.by_colour[colour.clone()];
             let longest = ms.iter().map(|&j| len(j)).max().unwrap_or(0);
             self.next.clear();
@@ -326,6 +346,99 @@ impl Colouring {
         self.ranges.push(pos);
         self.colour_start.push(m);
         false
+    }
+
+    /// Re-cuts the greedy colours into the classes the passes solve, so that fewer
+    /// manifolds are left out of the lanes' batches of [`BATCH`] (the passes take a
+    /// class's manifolds four at a time in AVX lanes, two at a time in SSE2 lanes, and
+    /// solve a class's last one alone). `by_colour` holds the `colours` colours in
+    /// order, colour `c` ending at `offset[c]` (the overflow colour, if any, last);
+    /// the classes' ends go into `ends`.
+    ///
+    /// A colour whose size is not a multiple of [`BATCH`] leaves its last `r` manifolds
+    /// (the carry, as many points each) over; where the next colour has `BATCH − r`
+    /// manifolds with as many points that share no moving body with the carry, the
+    /// first such are moved to that colour's front and cut off with the carry into a
+    /// class of their own. The order of work is the same, bit for bit: manifolds
+    /// that share no moving body commute (their Gauss–Seidel updates read and write
+    /// disjoint velocities), and each moved manifold only passes the carry, with which
+    /// it shares none, so every pair of manifolds that share a moving body keeps its
+    /// order. The 10-box stack's colours of five (0 2 4 6 8 | 1 3 5 7 9, manifold `k`
+    /// on boxes `k`, `k + 1`) become 0 2 4 6 | 8 1 3 5 | 7 9: two quads and a pair,
+    /// none alone. The overflow colour is left as it is.
+    fn rebatch(&mut self, colours: usize, bodies: usize) {
+        self.ends.clear();
+        let mut lo = 0;
+        for c in 0..colours {
+            let hi = self.offset[c];
+            let taken = if c < COLOURS as usize {
+                self.take_carry(lo, hi, bodies)
+            } else {
+                0
+            };
+            if hi > lo + taken {
+                self.ends.push(hi);
+            }
+            lo = hi;
+        }
+    }
+
+    /// One step of [`Colouring::rebatch`]: the colour `lo..hi` of `by_colour` gives
+    /// the last class's carry its partners, if it has them all; returns how many it
+    /// gave (0 or `BATCH − r`), moved to its front and cut off.
+    fn take_carry(&mut self, lo: usize, hi: usize, bodies: usize) -> usize {
+        let n = self.ends.len();
+        let Some(&last) = self.ends.last() else {
+            return 0;
+        };
+        let first = if n >= 2 { self.ends[n - 2] } else { 0 };
+        let r = (last - first) % BATCH;
+        if r == 0 || last != lo {
+            return 0;
+        }
+        let need = BATCH - r;
+        let start = &self.start;
+        let len = |j: u32| start[j as usize + 1] - start[j as usize];
+        let carry = &self.by_colour[last - r..last];
+        let points = len(carry[0]);
+        if carry.iter().any(|&j| len(j) != points) {
+            return 0;
+        }
+        // The carry's moving bodies (static slots, `≥ bodies`, block nothing).
+        let mut busy = [usize::MAX; 2 * BATCH];
+        for (i, &j) in carry.iter().enumerate() {
+            let (_, [a, b]) = self.sig[j as usize];
+            busy[2 * i] = a;
+            busy[2 * i + 1] = b;
+        }
+        let free = |s: usize| s >= bodies || !busy.contains(&s);
+        let mut picked = [0; BATCH];
+        let mut count = 0;
+        for (i, &j) in self.by_colour[lo..hi].iter().enumerate() {
+            if count == need {
+                break;
+            }
+            let (_, [a, b]) = self.sig[j as usize];
+            if len(j) == points && free(a) && free(b) {
+                picked[count] = lo + i;
+                count += 1;
+            }
+        }
+        if count < need {
+            return 0;
+        }
+        // Moved to the colour's front, in order (the others keep theirs).
+        for (t, &i) in picked[..need].iter().enumerate() {
+            self.by_colour[lo + t..=i].rotate_right(1);
+        }
+        if last - r == first {
+            // The last class is the carry alone: it takes the partners.
+            self.ends[n - 1] = lo + need;
+        } else {
+            self.ends[n - 1] = last - r;
+            self.ends.push(lo + need);
+        }
+        need
     }
 
     /// Whether the `n` contacts form the last call's manifolds (runs of one pair,
@@ -490,6 +603,7 @@ mod tests {
             }
         }
         assert_eq!(order, expect);
+        keeps_the_greedy_order(&c, 8);
         for (jj, &j) in c.by_colour.iter().enumerate() {
             let (s, e) = (c.start[j as usize], c.start[j as usize + 1]);
             let at = &c.manifold_points[c.manifold_start[jj]..c.manifold_start[jj + 1]];
@@ -514,6 +628,64 @@ mod tests {
             assert!(manifolds.windows(2).all(|m| m[0] != m[1]), "{group:?}");
         }
     }
+    /// The greedy colour of each manifold (natural order) recomputed here: in rank
+    /// order the lowest colour free on both moving bodies (slots `≥ bodies` static).
+    fn greedy(c: &Colouring, bodies: usize) -> Vec<u32> {
+        let mut used = vec![0u64; bodies];
+        let mut colour = vec![0; c.sig.len()];
+        for &j in &c.by_rank {
+            let [a, b] = c.sig[j as usize].1;
+            let mask = |s: usize| if s < bodies { used[s] } else { 0 };
+            let k = (!(mask(a) | mask(b))).trailing_zeros().min(COLOURS);
+            for s in [a, b] {
+                if s < bodies && k < COLOURS {
+                    used[s] |= 1 << k;
+                }
+            }
+            colour[j as usize] = k;
+        }
+        colour
+    }
+
+    /// Every two manifolds that share a moving body are solved in the greedy
+    /// colours' order (the rebatched classes do the same work, bit for bit).
+    fn keeps_the_greedy_order(c: &Colouring, bodies: usize) {
+        let greedy = greedy(c, bodies);
+        let mut at = vec![0; c.sig.len()];
+        for (i, &j) in c.by_colour.iter().enumerate() {
+            at[j as usize] = i;
+        }
+        for j in 0..c.sig.len() {
+            for k in 0..c.sig.len() {
+                let (sj, sk) = (c.sig[j].1, c.sig[k].1);
+                let shared = sj.iter().any(|&s| s < bodies && sk.contains(&s));
+                if j != k && shared && greedy[j] < greedy[k] {
+                    assert!(at[j] < at[k], "{j} {k}");
+                    assert!(c.colour[j] < c.colour[k] || greedy[k] == COLOURS, "{j} {k}");
+                }
+            }
+        }
+    }
+
+    /// Ten manifolds of two points stacked (ground–1, 1–2, …, 9–10): the greedy
+    /// colours of five (0 2 4 6 8 | 1 3 5 7 9) are solved as classes of four, four
+    /// and two (0 2 4 6 | 8 1 3 5 | 7 9), in the greedy colours' order of work.
+    #[test]
+    fn a_ten_stack_is_cut_into_fours() {
+        let mut pairs = Vec::new();
+        for k in 0..10 {
+            // Slot 10 is static (10 bodies).
+            let slots = if k == 0 { [10, 0] } else { [k - 1, k] };
+            pairs.extend([((k, k + 1), slots); 2]);
+        }
+        let mut c = Colouring::default();
+        c.order(20, 10, (|k| pairs[k].0, |k| pairs[k].1), |k| k as f64);
+        assert_eq!(c.colour_start, [0, 4, 8, 10]);
+        assert_eq!(c.by_colour, [0, 2, 4, 6, 8, 1, 3, 5, 7, 9]);
+        assert_eq!(c.colours, 3);
+        keeps_the_greedy_order(&c, 10);
+    }
+
     /// A kept colouring is the one a fresh colouring computes: the same stack
     /// coloured again with heights that keep its order is kept, with heights that
     /// swap two points of a manifold or two manifolds' ranks it is redone, with
