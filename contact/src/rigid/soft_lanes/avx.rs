@@ -66,8 +66,7 @@ fn wide() -> bool {
     {
         use core::sync::atomic::{AtomicU8, Ordering::Relaxed};
         /// 0 before the first look, then 1 (no) or 2 (yes): one load per pass instead
-        /// of two feature tests (those were +13.5k instructions a step of the 210-box
-        /// pyramid, callgrind).
+        /// of two feature tests.
         static WIDE: AtomicU8 = AtomicU8::new(0);
         match WIDE.load(Relaxed) {
             0 => {
@@ -238,8 +237,9 @@ macro_rules! passes {
             let out = $body;
             // `ymm16`–`ymm31` zeroed before returning: `VZEROUPPER` (which the compiler
             // puts before the return) clears only the upper halves of `ymm0`–`ymm15`,
-            // and upper halves left dirty in the others made the caller's SSE code
-            // slower (soft_solve's time share, perf cpu-clock).
+            // and Intel's optimisation manual has upper halves left dirty slow the
+            // caller's SSE code (its effect here was within this machine's noise:
+            // `ab_time.sh` pyramid20 without / with the zeroing 1.011 median).
             // SAFETY: writes only the registers it names (declared clobbered), on a
             // processor with AVX-512F (this function's precondition).
             unsafe {
@@ -344,8 +344,9 @@ pub(in crate::rigid) fn relax_quad(
     let Some(pr) = pr else {
         return false;
     };
-    // One call site, its target chosen (two call sites cost their callers 16k
-    // instructions a step of the 210-box pyramid, callgrind).
+    // One call site, its target chosen (with two, one per build, the callers took
+    // +16.2k instructions a step of the 210-box pyramid over the AVX-only code; with
+    // one, +13.0k: callgrind, where valgrind hides AVX-512).
     let run: RelaxPass = if wide() { relax_wide } else { relax_avx };
     // SAFETY: `Paired::quad` gives rows only where `available()` found AVX; the wide
     // build only where `wide()` found AVX-512F and AVX-512VL too.
