@@ -8,6 +8,17 @@
 //! run only where [`available`] found it on this processor, once per step
 //! (`Paired::plan`); without `std` they are compiled only with
 //! `-C target-feature=+avx` (then always taken).
+//!
+//! Each pass is compiled twice ([`passes!`]): for AVX, and for AVX with AVX-512F and
+//! AVX-512VL, taken where [`wide`] finds those. The second runs the same 256-bit
+//! operations in the same order (EVEX-encoded where it names a register above
+//! `ymm15`; the same IEEE-754 rounding, and still no fused multiply-add: the lane
+//! operations are the intrinsics above, never contracted) but on AVX-512VL's 32
+//! vector registers instead of AVX's 16, so that the relax pass keeps its twelve
+//! velocity vectors and its rows in registers. 256-bit stack stores / stack operand
+//! reads of the AVX → AVX-512VL builds (`objdump -d` of `soft_points`): relax 45/58
+//! → 0/0, warm 15/15 → 2/2, block 130/80 → 52/15, gaps 28/28 → 5/5 (lane stores),
+//! build 94/164 → 39/90 (its `K` and `K⁻¹` are 32 vectors).
 
 use core::arch::x86_64::{
     __m256d, _mm256_add_pd, _mm256_cmp_pd, _mm256_div_pd, _mm256_loadu_pd, _mm256_max_pd,
@@ -36,6 +47,46 @@ pub(super) fn available() -> bool {
     }
 }
 
+/// Whether this processor has AVX-512F and AVX-512VL too, where the passes take
+/// their builds for those ([`passes!`]; the same bits either way).
+#[inline]
+fn wide() -> bool {
+    #[cfg(all(test, feature = "std"))]
+    if tests::NARROW.with(core::cell::Cell::get) {
+        return false;
+    }
+    #[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
+    {
+        true
+    }
+    #[cfg(all(
+        not(all(target_feature = "avx512f", target_feature = "avx512vl")),
+        feature = "std"
+    ))]
+    {
+        use core::sync::atomic::{AtomicU8, Ordering::Relaxed};
+        /// 0 before the first look, then 1 (no) or 2 (yes): one load per pass instead
+        /// of two feature tests.
+        static WIDE: AtomicU8 = AtomicU8::new(0);
+        match WIDE.load(Relaxed) {
+            0 => {
+                let wide = std::is_x86_feature_detected!("avx512f")
+                    && std::is_x86_feature_detected!("avx512vl");
+                WIDE.store(if wide { 2 } else { 1 }, Relaxed);
+                wide
+            }
+            w => w == 2,
+        }
+    }
+    #[cfg(all(
+        not(all(target_feature = "avx512f", target_feature = "avx512vl")),
+        not(feature = "std")
+    ))]
+    {
+        false
+    }
+}
+
 /// Proof that this processor has AVX: made only by [`Avx::detect`], where
 /// [`available`] found it (the passes that take one run the AVX code unchecked).
 #[derive(Clone, Copy, Debug)]
@@ -50,8 +101,9 @@ impl Avx {
 }
 
 /// Four `f64` lanes. Private to this module and made only inside the
-/// `#[target_feature(enable = "avx")]` functions below, which run only where
-/// [`available`] is true: every value of this type exists on a processor with AVX.
+/// `#[target_feature]` functions below, which enable AVX (AVX-512F implies it) and
+/// run only where [`available`] is true: every value of this type exists on a
+/// processor with AVX.
 #[derive(Clone, Copy, Debug)]
 struct F4(__m256d);
 
@@ -156,6 +208,127 @@ impl Lane for F4 {
     }
 }
 
+/// Each pass twice: `$avx` compiled for AVX, `$wide` for AVX with AVX-512F and
+/// AVX-512VL (the same four-lane operations on 32 vector registers: see the module's
+/// documentation), both `unsafe`, calling `$body` (a lane pass on `F4`).
+macro_rules! passes {
+    ($(
+        $(#[$doc:meta])*
+        fn $avx:ident / $wide:ident ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty = $body:expr;
+    )*) => {$(
+        $(#[$doc])*
+        ///
+        /// # Safety
+        ///
+        /// The processor has AVX ([`available`]).
+        #[target_feature(enable = "avx")]
+        unsafe fn $avx($($arg: $ty),*) -> $ret {
+            $body
+        }
+
+        $(#[$doc])*
+        /// Built for AVX-512F and AVX-512VL (the same bits).
+        ///
+        /// # Safety
+        ///
+        /// The processor has AVX, AVX-512F and AVX-512VL ([`available`], [`wide`]).
+        #[target_feature(enable = "avx,avx512f,avx512vl")]
+        unsafe fn $wide($($arg: $ty),*) -> $ret {
+            let out = $body;
+            // `ymm16`–`ymm31` zeroed before returning: `VZEROUPPER` (which the compiler
+            // puts before the return) clears only the upper halves of `ymm0`–`ymm15`,
+            // and Intel's optimisation manual has upper halves left dirty slow the
+            // caller's SSE code (its effect here was within this machine's noise:
+            // `ab_time.sh` pyramid20 without / with the zeroing 1.011 median).
+            // SAFETY: writes only the registers it names (declared clobbered), on a
+            // processor with AVX-512F (this function's precondition).
+            unsafe {
+                core::arch::asm!(
+                    "vpxord xmm16, xmm16, xmm16",
+                    "vpxord xmm17, xmm17, xmm17",
+                    "vpxord xmm18, xmm18, xmm18",
+                    "vpxord xmm19, xmm19, xmm19",
+                    "vpxord xmm20, xmm20, xmm20",
+                    "vpxord xmm21, xmm21, xmm21",
+                    "vpxord xmm22, xmm22, xmm22",
+                    "vpxord xmm23, xmm23, xmm23",
+                    "vpxord xmm24, xmm24, xmm24",
+                    "vpxord xmm25, xmm25, xmm25",
+                    "vpxord xmm26, xmm26, xmm26",
+                    "vpxord xmm27, xmm27, xmm27",
+                    "vpxord xmm28, xmm28, xmm28",
+                    "vpxord xmm29, xmm29, xmm29",
+                    "vpxord xmm30, xmm30, xmm30",
+                    "vpxord xmm31, xmm31, xmm31",
+                    out("zmm16") _, out("zmm17") _, out("zmm18") _, out("zmm19") _,
+                    out("zmm20") _, out("zmm21") _, out("zmm22") _, out("zmm23") _,
+                    out("zmm24") _, out("zmm25") _, out("zmm26") _, out("zmm27") _,
+                    out("zmm28") _, out("zmm29") _, out("zmm30") _, out("zmm31") _,
+                    options(nomem, nostack, preserves_flags),
+                );
+            }
+            out
+        }
+    )*};
+}
+
+passes! {
+    /// [`relax_lanes`](super::relax_lanes) in four AVX lanes.
+    fn relax_avx / relax_wide(
+        rows: &Rows,
+        pr: &[QuadRows],
+        pts: [&[usize]; 4],
+        io: &mut RelaxIo,
+        inv_h: f64,
+    ) -> bool = relax_lanes::<F4, 4>(rows, pr, 0, pts, io, inv_h);
+
+    /// [`warm_lanes`](super::warm_lanes) in four AVX lanes.
+    fn warm_avx / warm_wide(
+        rows: &Rows,
+        pr: &[QuadRows],
+        pts: [&[usize]; 4],
+        v: &mut [DVec3],
+        w: &mut [DVec3],
+        impulse: &[[f64; 3]],
+    ) -> bool = warm_lanes::<F4, 4>(rows, pr, 0, pts, v, w, impulse);
+
+    /// [`block_lanes`](super::block_lanes) in four AVX lanes.
+    fn block_avx / block_wide(
+        rows: &Rows,
+        pr: &[QuadRows],
+        blk: [&Block; 4],
+        io: &mut RelaxIo,
+        pass: Pass,
+    ) -> bool = block_lanes::<F4, 4>(rows, pr, 0, blk, io, pass);
+
+    /// [`gaps_lanes`](super::gaps_lanes) in four AVX lanes.
+    fn gaps_avx / gaps_wide(
+        rows: &Rows,
+        pts: [&[usize]; 4],
+        ab: [[usize; 2]; 4],
+        disp: (&[DVec3], &[DMat3]),
+        gap: &mut [f64],
+    ) -> bool = gaps_lanes::<F4, 4>(rows, pts, ab, disp, gap);
+
+    /// [`build_lanes`](super::build_lanes) in four AVX lanes.
+    fn build_avx / build_wide(rows: &Rows, pts: [&[usize]; 4], blk: [&mut Block; 4]) -> Built =
+        build_lanes::<F4, 4>(rows, pts, blk);
+}
+
+// The passes' signatures: one call site per pass, its target chosen by [`wide`].
+/// `relax_avx` or `relax_wide`.
+type RelaxPass = unsafe fn(&Rows, &[QuadRows], [&[usize]; 4], &mut RelaxIo, f64) -> bool;
+/// `warm_avx` or `warm_wide`.
+type WarmPass =
+    unsafe fn(&Rows, &[QuadRows], [&[usize]; 4], &mut [DVec3], &mut [DVec3], &[[f64; 3]]) -> bool;
+/// `block_avx` or `block_wide`.
+type BlockPass = unsafe fn(&Rows, &[QuadRows], [&Block; 4], &mut RelaxIo, Pass) -> bool;
+/// `gaps_avx` or `gaps_wide`.
+type GapsPass =
+    unsafe fn(&Rows, [&[usize]; 4], [[usize; 2]; 4], (&[DVec3], &[DMat3]), &mut [f64]) -> bool;
+/// `build_avx` or `build_wide`.
+type BuildPass = unsafe fn(&Rows, [&[usize]; 4], [&mut Block; 4]) -> Built;
+
 /// The relax pass over the quad of manifolds `pts` (one per lane; `pr`: their rows,
 /// [`Paired::quad`](super::Paired::quad), `Some` only where AVX was found), as
 /// [`relax_manifolds`](super::relax_manifolds) on its two pairs. Returns false, having
@@ -171,24 +344,13 @@ pub(in crate::rigid) fn relax_quad(
     let Some(pr) = pr else {
         return false;
     };
-    // SAFETY: `Paired::quad` gives rows only where `available()` found AVX.
-    unsafe { relax_avx(rows, pr, pts, io, inv_h) }
-}
-
-/// [`relax_lanes`](super::relax_lanes) in four AVX lanes.
-///
-/// # Safety
-///
-/// The processor has AVX ([`available`]).
-#[target_feature(enable = "avx")]
-unsafe fn relax_avx(
-    rows: &Rows,
-    pr: &[QuadRows],
-    pts: [&[usize]; 4],
-    io: &mut RelaxIo,
-    inv_h: f64,
-) -> bool {
-    relax_lanes::<F4, 4>(rows, pr, 0, pts, io, inv_h)
+    // One call site, its target chosen (with two, one per build, the callers took
+    // +16.2k instructions a step of the 210-box pyramid over the AVX-only code; with
+    // one, +13.0k: callgrind, where valgrind hides AVX-512).
+    let run: RelaxPass = if wide() { relax_wide } else { relax_avx };
+    // SAFETY: `Paired::quad` gives rows only where `available()` found AVX; the wide
+    // build only where `wide()` found AVX-512F and AVX-512VL too.
+    unsafe { run(rows, pr, pts, io, inv_h) }
 }
 
 /// The warm start of the quad of manifolds `pts` (as [`relax_quad`]), as
@@ -205,25 +367,9 @@ pub(in crate::rigid) fn warm_quad(
     let Some(pr) = pr else {
         return false;
     };
-    // SAFETY: `Paired::quad` gives rows only where `available()` found AVX.
-    unsafe { warm_avx(rows, pr, pts, v, w, impulse) }
-}
-
-/// [`warm_lanes`](super::warm_lanes) in four AVX lanes.
-///
-/// # Safety
-///
-/// The processor has AVX ([`available`]).
-#[target_feature(enable = "avx")]
-unsafe fn warm_avx(
-    rows: &Rows,
-    pr: &[QuadRows],
-    pts: [&[usize]; 4],
-    v: &mut [DVec3],
-    w: &mut [DVec3],
-    impulse: &[[f64; 3]],
-) -> bool {
-    warm_lanes::<F4, 4>(rows, pr, 0, pts, v, w, impulse)
+    let run: WarmPass = if wide() { warm_wide } else { warm_avx };
+    // SAFETY: as in `relax_quad`.
+    unsafe { run(rows, pr, pts, v, w, impulse) }
 }
 
 /// The biased pass's block solve of the quad of manifolds `blk` (as [`relax_quad`]),
@@ -240,24 +386,9 @@ pub(in crate::rigid) fn block_quad(
     let Some(pr) = pr else {
         return false;
     };
-    // SAFETY: `Paired::quad` gives rows only where `available()` found AVX.
-    unsafe { block_avx(rows, pr, blk, io, pass) }
-}
-
-/// [`block_lanes`](super::block_lanes) in four AVX lanes.
-///
-/// # Safety
-///
-/// The processor has AVX ([`available`]).
-#[target_feature(enable = "avx")]
-unsafe fn block_avx(
-    rows: &Rows,
-    pr: &[QuadRows],
-    blk: [&Block; 4],
-    io: &mut RelaxIo,
-    pass: Pass,
-) -> bool {
-    block_lanes::<F4, 4>(rows, pr, 0, blk, io, pass)
+    let run: BlockPass = if wide() { block_wide } else { block_avx };
+    // SAFETY: as in `relax_quad`.
+    unsafe { run(rows, pr, blk, io, pass) }
 }
 
 /// The gaps of four manifolds with as many points (one per lane), as
@@ -272,24 +403,10 @@ pub(in crate::rigid) fn gaps_quad(
     disp: (&[DVec3], &[DMat3]),
     gap: &mut [f64],
 ) -> bool {
-    // SAFETY: an `Avx` exists only where `available()` found AVX.
-    unsafe { gaps_avx(rows, pts, ab, disp, gap) }
-}
-
-/// [`gaps_lanes`](super::gaps_lanes) in four AVX lanes.
-///
-/// # Safety
-///
-/// The processor has AVX ([`available`]).
-#[target_feature(enable = "avx")]
-unsafe fn gaps_avx(
-    rows: &Rows,
-    pts: [&[usize]; 4],
-    ab: [[usize; 2]; 4],
-    disp: (&[DVec3], &[DMat3]),
-    gap: &mut [f64],
-) -> bool {
-    gaps_lanes::<F4, 4>(rows, pts, ab, disp, gap)
+    let run: GapsPass = if wide() { gaps_wide } else { gaps_avx };
+    // SAFETY: an `Avx` exists only where `available()` found AVX; the wide build only
+    // where `wide()` found AVX-512F and AVX-512VL too.
+    unsafe { run(rows, pts, ab, disp, gap) }
 }
 
 /// The blocks of four manifolds of `BLOCK_POINTS` points (one per lane), as
@@ -301,16 +418,62 @@ pub(in crate::rigid) fn build_quad(
     pts: [&[usize]; 4],
     blk: [&mut Block; 4],
 ) -> Built {
-    // SAFETY: an `Avx` exists only where `available()` found AVX.
-    unsafe { build_avx(rows, pts, blk) }
+    let run: BuildPass = if wide() { build_wide } else { build_avx };
+    // SAFETY: as in `gaps_quad`.
+    unsafe { run(rows, pts, blk) }
 }
 
-/// [`build_lanes`](super::build_lanes) in four AVX lanes.
-///
-/// # Safety
-///
-/// The processor has AVX ([`available`]).
-#[target_feature(enable = "avx")]
-unsafe fn build_avx(rows: &Rows, pts: [&[usize]; 4], blk: [&mut Block; 4]) -> Built {
-    build_lanes::<F4, 4>(rows, pts, blk)
+#[cfg(test)]
+#[cfg(feature = "std")]
+mod tests {
+    use super::super::tests::TWO_LANES;
+    use crate::rigid::{ContactSolver, ContactWorld};
+    use crate::scenes::{box_stack, pyramid};
+
+    std::thread_local! {
+        /// Where set, this thread's four-lane passes take their AVX builds even where
+        /// the processor has AVX-512F and AVX-512VL.
+        pub(super) static NARROW: core::cell::Cell<bool> = const { core::cell::Cell::new(false) };
+    }
+
+    /// Every body's pose and velocities after `steps` soft steps (3 sub-steps, h =
+    /// 1/60) of `w`, as bits, the passes' builds chosen by `narrow` and `two` (as
+    /// `NARROW` and `TWO_LANES`).
+    fn run(mut w: ContactWorld, steps: usize, narrow: bool, two: bool) -> Vec<u64> {
+        NARROW.with(|t| t.set(narrow));
+        TWO_LANES.with(|t| t.set(two));
+        w.settings.solver = ContactSolver::SoftStep { substeps: 3 };
+        for _ in 0..steps {
+            w.step(1.0 / 60.0).expect("the scene steps");
+        }
+        NARROW.with(|t| t.set(false));
+        TWO_LANES.with(|t| t.set(false));
+        let mut bits = Vec::new();
+        for b in w.bodies() {
+            let (x, q) = (b.pose.x, b.pose.q);
+            for c in [x.x, x.y, x.z, q.x, q.y, q.z, q.w] {
+                bits.push(c.to_bits());
+            }
+            for c in b.v.to_array().into_iter().chain(b.omega.to_array()) {
+                bits.push(c.to_bits());
+            }
+        }
+        bits
+    }
+
+    /// The AVX-512VL builds of the four-lane passes give the AVX builds' bits and the
+    /// two-lane passes' (tolerance 0: every pose and velocity bit-equal after 60
+    /// steps; measured equal) on the 10-box stack and the 21-box pyramid. Where the
+    /// processor has no AVX-512 the first two runs are the same build.
+    #[test]
+    fn wide_builds_match_avx_builds() {
+        for scene in [box_stack(10), pyramid(6)] {
+            let w = scene.expect("the scene builds");
+            let wide = run(w.clone(), 60, false, false);
+            let narrow = run(w.clone(), 60, true, false);
+            let two = run(w, 60, false, true);
+            assert_eq!(wide, narrow);
+            assert_eq!(wide, two);
+        }
+    }
 }
