@@ -31,14 +31,67 @@ fn distinct_ids(run: &[crate::geometry::Contact]) -> bool {
 /// tangent vector, anchor slip, preload floor; see [`Warm`]).
 type Found = (f64, DVec3, DVec3, f64);
 
-/// The warm start of each contact from the previous step's `warm` (sorted by
-/// collider pair; the contacts come in pair order): one forward merge, each contact
-/// finding the first entry of its pair's run with its id, or none (zeros).
+/// The forward merge of the contacts (in collider-pair order) with the previous
+/// step's `warm` (sorted by collider pair): each contact finds the first entry of its
+/// pair's run with its id, or none.
 ///
 /// Where `warm`'s keys are unique (`unique`, [`SoftState::warm_unique`]) the entry
 /// after the last hit, if it has the contact's key, is the one the search finds: a
 /// step whose contacts are the last step's finds every point there, without a
 /// search (the search was 1.2 % of the 210-box pyramid's step, callgrind).
+struct WarmMerge<'a> {
+    warm: &'a [Warm],
+    /// The first entry whose pair is not below the last contact's.
+    cursor: usize,
+    /// The entry after the last hit (`usize::MAX`: no shortcut).
+    next: usize,
+    unique: bool,
+}
+
+impl<'a> WarmMerge<'a> {
+    fn new(warm: &'a [Warm], unique: bool) -> Self {
+        let next = if unique { 0 } else { usize::MAX };
+        Self {
+            warm,
+            cursor: 0,
+            next,
+            unique,
+        }
+    }
+
+    /// The previous impulses of contact `c` (the next in pair order), if found.
+    #[inline(always)]
+    fn find(&mut self, c: &crate::geometry::Contact) -> Option<Found> {
+        let warm = self.warm;
+        let key = c.key();
+        let hit = match warm.get(self.next) {
+            Some(e) if e.0 == key => Some((self.next, e)),
+            _ => {
+                let (a, b, id) = key;
+                let mut cursor = self.cursor;
+                while cursor < warm.len() && (warm[cursor].0 .0, warm[cursor].0 .1) < (a, b) {
+                    cursor += 1;
+                }
+                self.cursor = cursor;
+                warm[cursor..]
+                    .iter()
+                    .take_while(|e| e.0 .0 == a && e.0 .1 == b)
+                    .position(|e| e.0 .2 == id)
+                    .map(|i| (cursor + i, &warm[cursor + i]))
+            }
+        };
+        hit.map(|(i, &(_, zn, ft, sl, fl))| {
+            if self.unique {
+                self.next = i + 1;
+            }
+            (zn, ft, sl, fl)
+        })
+    }
+}
+
+/// The warm start of each contact from the previous step's `warm` ([`WarmMerge`]):
+/// `found` the impulses (zeros where none), `found_hit` whether found.
+#[cfg(test)]
 fn merge_warm(
     contacts: &[crate::geometry::Contact],
     warm: &[Warm],
@@ -47,34 +100,14 @@ fn merge_warm(
     found_hit: &mut [bool],
 ) {
     let none = (0.0, DVec3::ZERO, DVec3::ZERO, 0.0);
-    let mut cursor = 0;
-    let mut next = if unique { 0 } else { usize::MAX };
+    let mut merge = WarmMerge::new(warm, unique);
     for (c, (f, h)) in contacts
         .iter()
         .zip(found.iter_mut().zip(found_hit.iter_mut()))
     {
-        let key = c.key();
-        let hit = match warm.get(next) {
-            Some(e) if e.0 == key => Some((next, e)),
-            _ => {
-                let (a, b, id) = key;
-                while cursor < warm.len() && (warm[cursor].0 .0, warm[cursor].0 .1) < (a, b) {
-                    cursor += 1;
-                }
-                warm[cursor..]
-                    .iter()
-                    .take_while(|e| e.0 .0 == a && e.0 .1 == b)
-                    .position(|e| e.0 .2 == id)
-                    .map(|i| (cursor + i, &warm[cursor + i]))
-            }
-        };
+        let hit = merge.find(c);
         *h = hit.is_some();
-        *f = hit.map_or(none, |(i, &(_, zn, ft, sl, fl))| {
-            if unique {
-                next = i + 1;
-            }
-            (zn, ft, sl, fl)
-        });
+        *f = hit.unwrap_or(none);
     }
 }
 
@@ -257,11 +290,7 @@ impl ContactWorld {
         let none = (0.0, DVec3::ZERO, DVec3::ZERO, 0.0);
         st.found.resize(contacts.len(), none);
         st.found_hit.resize(contacts.len(), false);
-        let (found, found_hit) = (
-            &mut st.found[..contacts.len()],
-            &mut st.found_hit[..contacts.len()],
-        );
-        merge_warm(contacts, &st.warm, st.warm_unique, found, found_hit);
+        let mut merge = WarmMerge::new(&st.warm, st.warm_unique);
         let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
         // Preload: the mean previous normal impulse of each manifold (a run of one
         // collider pair in natural order), the same on each of its points; a new
@@ -273,18 +302,26 @@ impl ContactWorld {
         let mut unique = true;
         // Whether some manifold has no point found (a new manifold).
         let mut fresh = false;
+        // The merge walks the contacts in the same pass as their manifolds (runs of one
+        // collider pair): each point found, then its manifold's sums.
+        let nc = contacts.len();
+        let (found, found_hit) = (&mut st.found[..nc], &mut st.found_hit[..nc]);
         let mut i = 0;
-        while i < contacts.len() {
+        while i < nc {
             let pair = (contacts[i].a, contacts[i].b);
             let mut j = i;
             let mut sum = 0.0;
             let mut hits = 0usize;
             // The ids' residues mod 64 as bits: no bit set twice, the ids are distinct.
             let (mut bits, mut clash) = (0u64, false);
-            while j < contacts.len() && (contacts[j].a, contacts[j].b) == pair {
-                sum += st.found[j].0;
-                hits += usize::from(st.found_hit[j]);
-                let bit = 1u64 << (contacts[j].id % 64);
+            while j < nc && (contacts[j].a, contacts[j].b) == pair {
+                let c = &contacts[j];
+                let hit = merge.find(c);
+                found_hit[j] = hit.is_some();
+                found[j] = hit.unwrap_or(none);
+                sum += found[j].0;
+                hits += usize::from(found_hit[j]);
+                let bit = 1u64 << (c.id % 64);
                 clash |= bits & bit != 0;
                 bits |= bit;
                 j += 1;
@@ -296,14 +333,14 @@ impl ContactWorld {
             if s.refill_renamed && hits > 0 && hits < j - i {
                 let (mut ft, mut fl) = (DVec3::ZERO, 0.0);
                 for q in i..j {
-                    ft += st.found[q].1;
-                    fl += st.found[q].3;
+                    ft += found[q].1;
+                    fl += found[q].3;
                 }
                 let share = 1.0 / hits as f64;
                 m = sum * share;
                 for q in i..j {
-                    if !st.found_hit[q] {
-                        st.found[q] = (m, ft * share, DVec3::ZERO, fl * share);
+                    if !found_hit[q] {
+                        found[q] = (m, ft * share, DVec3::ZERO, fl * share);
                     }
                 }
             }
@@ -313,7 +350,7 @@ impl ContactWorld {
             // points renamed is written (a fill per manifold was 0.15 % of the
             // 210-box pyramid's step, callgrind).
             if hits > 0 && hits < j - i {
-                st.found_hit[i..j].fill(true);
+                found_hit[i..j].fill(true);
             }
             i = j;
         }
