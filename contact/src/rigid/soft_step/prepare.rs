@@ -142,8 +142,8 @@ fn angular_terms(
         f64x2::new([ra.y, rb.y]),
         f64x2::new([ra.z, rb.z]),
     );
-    let mut mass = [0.0; 3];
-    for ((d, out), mass) in dirs.iter().zip(ang.iter_mut()).zip(&mut mass) {
+    let mut k = [0.0; 3];
+    for ((d, out), k) in dirs.iter().zip(ang.iter_mut()).zip(&mut k) {
         let (dx, dy, dz) = (f64x2::splat(d.x), f64x2::splat(d.y), f64x2::splat(d.z));
         // r × d (glam: `self.y * rhs.z - rhs.y * self.z`, …).
         let (ux, uy, uz) = (ry * dz - dy * rz, rz * dx - dz * rx, rx * dy - dx * ry);
@@ -151,8 +151,7 @@ fn angular_terms(
         let row = |i: usize| m[i][0] * ux + m[i][1] * uy + m[i][2] * uz;
         let (ix, iy, iz) = (row(0), row(1), row(2));
         let dot = (ux * ix + uy * iy + uz * iz).to_array();
-        let k = im_sum + dot[0] + dot[1];
-        *mass = if k > 0.0 { 1.0 / k } else { 0.0 };
+        *k = im_sum + dot[0] + dot[1];
         let (ux, uy, uz) = (ux.to_array(), uy.to_array(), uz.to_array());
         let (ix, iy, iz) = (ix.to_array(), iy.to_array(), iz.to_array());
         *out = [
@@ -162,7 +161,11 @@ fn angular_terms(
             DVec3::new(ix[1], iy[1], iz[1]),
         ];
     }
-    mass
+    // The masses `1/k` after the three `k`: the first two divided in one packed
+    // division (correctly rounded per lane, as the scalar's).
+    let inv = (f64x2::splat(1.0) / f64x2::new([k[0], k[1]])).to_array();
+    let inv = [inv[0], inv[1], 1.0 / k[2]];
+    core::array::from_fn(|r| if k[r] > 0.0 { inv[r] } else { 0.0 })
 }
 
 /// One body's load and supports for the static load estimate
@@ -182,6 +185,10 @@ pub(in crate::rigid) struct Pressure {
 
 impl Pressure {
     /// Adds a supporting point at `x`.
+    ///
+    /// The sums in `f64x2` lanes (`Σ x` both coordinates at once, `Σ x₀ x` as `[xx,
+    /// xy]`): each lane the scalar's operation, the same bits.
+    #[inline(always)]
     fn add_point(&mut self, x: [f64; 2]) {
         if self.count == 0.0 {
             (self.lo, self.hi) = (x, x);
@@ -191,10 +198,11 @@ impl Pressure {
             self.hi[k] = at_least(self.hi[k], x[k]);
         }
         self.count += 1.0;
-        self.sum[0] += x[0];
-        self.sum[1] += x[1];
-        self.second[0] += x[0] * x[0];
-        self.second[1] += x[0] * x[1];
+        let v = f64x2::new(x);
+        let sum = f64x2::new(self.sum) + v;
+        let second = f64x2::new([self.second[0], self.second[1]]) + f64x2::splat(x[0]) * v;
+        self.sum = sum.to_array();
+        [self.second[0], self.second[1]] = second.to_array();
         self.second[2] += x[1] * x[1];
     }
 }
@@ -213,21 +221,23 @@ impl Pressure {
 /// 1000-body pile was given hundreds of times its weight and was thrown 180 m).
 pub(super) fn pressure_share(load: f64, p: &Pressure) -> impl Fn([f64; 2]) -> f64 {
     let n = p.count;
-    let mean = [p.sum[0] / n, p.sum[1] / n];
+    // Divisions of two lanes in one `f64x2` division (correctly rounded per lane, the
+    // scalar's bits): the mean, the centre of pressure and `β`.
+    let mean = (f64x2::new(p.sum) / f64x2::splat(n)).to_array();
     let (sxx, sxy, syy) = (
         p.second[0] - n * mean[0] * mean[0],
         p.second[1] - n * mean[0] * mean[1],
         p.second[2] - n * mean[1] * mean[1],
     );
     let mut beta = if load > 0.0 {
-        let c = [p.moment[0] / load - mean[0], p.moment[1] / load - mean[1]];
+        let c = (f64x2::new(p.moment) / f64x2::splat(load) - f64x2::new(mean)).to_array();
         let det = sxx * syy - sxy * sxy;
         let tr = sxx + syy;
         if det > 1e-9 * tr * tr {
-            [
-                load * (syy * c[0] - sxy * c[1]) / det,
-                load * (sxx * c[1] - sxy * c[0]) / det,
-            ]
+            let (c, c_swapped) = (f64x2::new(c), f64x2::new([c[1], c[0]]));
+            let s_diag = f64x2::new([syy, sxx]);
+            (f64x2::splat(load) * (s_diag * c - f64x2::splat(sxy) * c_swapped) / f64x2::splat(det))
+                .to_array()
         } else if tr > 0.0 {
             let k = load / (tr * tr);
             [k * (sxx * c[0] + sxy * c[1]), k * (sxy * c[0] + syy * c[1])]
@@ -448,6 +458,19 @@ impl ContactWorld {
             st.colouring.manifold_points.as_slice(),
         );
         let mut bouncy = false;
+        // The settings read per point, and the per-contact arrays as slices of
+        // exactly `nc` entries (`k < nc` one check for all of them); the estimate
+        // exists only where `estimate_loads` ran (`every` or a new manifold).
+        let (warm_start, anchors) = (self.settings.warm_start, s.friction_anchors);
+        let estimated = every || new_manifolds;
+        let nc = contacts.len();
+        let (contacts, found, found_hit, mean) = (
+            &contacts[..nc],
+            &st.found[..nc],
+            &st.found_hit[..nc],
+            &st.mean[..nc],
+        );
+        let estimate = if estimated { &st.estimate[..nc] } else { &[] };
         for j in 0..mp.len().saturating_sub(1) {
             let pts = &mpts[mp[j]..mp[j + 1]];
             let Some(&first) = pts.first() else {
@@ -501,19 +524,24 @@ impl ContactWorld {
                 // ≈ 35 instructions a point (1 % of the 210-box pyramid's step).
                 let ang = &mut ang_out[p];
                 let mass = angular_terms((ra, rb), &dirs, &lanes, im_sum, ang);
-                let mut z = [0.0; 3];
-                if self.settings.warm_start {
-                    let (zn, ft, _, _) = st.found[k];
-                    z = [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale];
-                    if new_manifolds && !st.found_hit[k] {
-                        z[0] = st.estimate[k];
-                    }
-                }
+                // The point's previous impulses (zeros where not found), whether it
+                // starts from the estimate (a new manifold's point), and the estimate
+                // (read only where estimated).
+                let (zn, ft, sl, fl) = found[k];
+                let fresh_point = new_manifolds && !found_hit[k];
+                let est = if estimated { estimate[k] } else { 0.0 };
+                let z = if !warm_start {
+                    [0.0; 3]
+                } else if fresh_point {
+                    [est, ft.dot(t1) * scale, ft.dot(t2) * scale]
+                } else {
+                    [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale]
+                };
                 // The anchor's slip, stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ
                 // Δd` below is the slip (Δd: the anchors' separation vector, as for
                 // the gap); read only with anchors on.
-                if s.friction_anchors {
-                    let (sl, r) = (st.found[k].2, rb - ra);
+                if anchors {
+                    let r = rb - ra;
                     slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
                 }
                 paired.put(
@@ -549,19 +577,18 @@ impl ContactWorld {
                     n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a])
                 };
                 impulse[p] = z;
-                preload_out[p] =
-                    if (every && st.estimate[k] > 0.0) || (new_manifolds && !st.found_hit[k]) {
-                        s.preload * st.estimate[k]
-                    } else {
-                        preload * st.mean[k]
-                    };
-                preload_cap[p] = kappa * mass[0] * hs * omega2_pair;
-                preload_floor[p] = if !self.settings.warm_start {
-                    0.0
-                } else if new_manifolds && !st.found_hit[k] {
-                    s.preload * st.estimate[k]
+                preload_out[p] = if (every && est > 0.0) || fresh_point {
+                    s.preload * est
                 } else {
-                    st.found[k].3 * scale * PRELOAD_FLOOR_DECAY
+                    preload * mean[k]
+                };
+                preload_cap[p] = kappa * mass[0] * hs * omega2_pair;
+                preload_floor[p] = if !warm_start {
+                    0.0
+                } else if fresh_point {
+                    s.preload * est
+                } else {
+                    fl * scale * PRELOAD_FLOOR_DECAY
                 };
                 max_normal[p] = 0.0;
                 total[p] = [0.0; 3];
@@ -620,7 +647,16 @@ impl ContactWorld {
         let ratio = self.settings.soft_step.one_way_mass_ratio;
         // Horizontal coordinates: along two axes normal to `up`.
         let (e1, e2) = up.any_orthonormal_pair();
-        let flat = |x: DVec3| [x.dot(e1), x.dot(e2)];
+        // Both dot products at once in `f64x2` lanes, each lane glam's `dot` (`(x e_x +
+        // y e_y) + z e_z`): the same bits.
+        let (ex, ey, ez) = (
+            f64x2::new([e1.x, e2.x]),
+            f64x2::new([e1.y, e2.y]),
+            f64x2::new([e1.z, e2.z]),
+        );
+        let flat = |x: DVec3| {
+            (f64x2::splat(x.x) * ex + f64x2::splat(x.y) * ey + f64x2::splat(x.z) * ez).to_array()
+        };
         // Every entry is written below (each manifold's run; zero where it supports
         // nothing): sized, not cleared (zeroing it and the loads' moments each step
         // was 0.3 % of the 210-box pyramid's step, callgrind).
