@@ -31,14 +31,67 @@ fn distinct_ids(run: &[crate::geometry::Contact]) -> bool {
 /// tangent vector, anchor slip, preload floor; see [`Warm`]).
 type Found = (f64, DVec3, DVec3, f64);
 
-/// The warm start of each contact from the previous step's `warm` (sorted by
-/// collider pair; the contacts come in pair order): one forward merge, each contact
-/// finding the first entry of its pair's run with its id, or none (zeros).
+/// The forward merge of the contacts (in collider-pair order) with the previous
+/// step's `warm` (sorted by collider pair): each contact finds the first entry of its
+/// pair's run with its id, or none.
 ///
 /// Where `warm`'s keys are unique (`unique`, [`SoftState::warm_unique`]) the entry
 /// after the last hit, if it has the contact's key, is the one the search finds: a
 /// step whose contacts are the last step's finds every point there, without a
 /// search (the search was 1.2 % of the 210-box pyramid's step, callgrind).
+struct WarmMerge<'a> {
+    warm: &'a [Warm],
+    /// The first entry whose pair is not below the last contact's.
+    cursor: usize,
+    /// The entry after the last hit (`usize::MAX`: no shortcut).
+    next: usize,
+    unique: bool,
+}
+
+impl<'a> WarmMerge<'a> {
+    fn new(warm: &'a [Warm], unique: bool) -> Self {
+        let next = if unique { 0 } else { usize::MAX };
+        Self {
+            warm,
+            cursor: 0,
+            next,
+            unique,
+        }
+    }
+
+    /// The previous impulses of contact `c` (the next in pair order), if found.
+    #[inline(always)]
+    fn find(&mut self, c: &crate::geometry::Contact) -> Option<Found> {
+        let warm = self.warm;
+        let key = c.key();
+        let hit = match warm.get(self.next) {
+            Some(e) if e.0 == key => Some((self.next, e)),
+            _ => {
+                let (a, b, id) = key;
+                let mut cursor = self.cursor;
+                while cursor < warm.len() && (warm[cursor].0 .0, warm[cursor].0 .1) < (a, b) {
+                    cursor += 1;
+                }
+                self.cursor = cursor;
+                warm[cursor..]
+                    .iter()
+                    .take_while(|e| e.0 .0 == a && e.0 .1 == b)
+                    .position(|e| e.0 .2 == id)
+                    .map(|i| (cursor + i, &warm[cursor + i]))
+            }
+        };
+        hit.map(|(i, &(_, zn, ft, sl, fl))| {
+            if self.unique {
+                self.next = i + 1;
+            }
+            (zn, ft, sl, fl)
+        })
+    }
+}
+
+/// The warm start of each contact from the previous step's `warm` ([`WarmMerge`]):
+/// `found` the impulses (zeros where none), `found_hit` whether found.
+#[cfg(test)]
 fn merge_warm(
     contacts: &[crate::geometry::Contact],
     warm: &[Warm],
@@ -47,35 +100,72 @@ fn merge_warm(
     found_hit: &mut [bool],
 ) {
     let none = (0.0, DVec3::ZERO, DVec3::ZERO, 0.0);
-    let mut cursor = 0;
-    let mut next = if unique { 0 } else { usize::MAX };
+    let mut merge = WarmMerge::new(warm, unique);
     for (c, (f, h)) in contacts
         .iter()
         .zip(found.iter_mut().zip(found_hit.iter_mut()))
     {
-        let key = c.key();
-        let hit = match warm.get(next) {
-            Some(e) if e.0 == key => Some((next, e)),
-            _ => {
-                let (a, b, id) = key;
-                while cursor < warm.len() && (warm[cursor].0 .0, warm[cursor].0 .1) < (a, b) {
-                    cursor += 1;
-                }
-                warm[cursor..]
-                    .iter()
-                    .take_while(|e| e.0 .0 == a && e.0 .1 == b)
-                    .position(|e| e.0 .2 == id)
-                    .map(|i| (cursor + i, &warm[cursor + i]))
-            }
-        };
+        let hit = merge.find(c);
         *h = hit.is_some();
-        *f = hit.map_or(none, |(i, &(_, zn, ft, sl, fl))| {
-            if unique {
-                next = i + 1;
-            }
-            (zn, ft, sl, fl)
-        });
+        *f = hit.unwrap_or(none);
     }
+}
+
+/// A manifold's two inverse world inertias side by side: `m[i][c]` holds entry `(i,
+/// c)` (row `i`, column `c`) of `I_a⁻¹` in lane 0 and of `I_b⁻¹` in lane 1.
+type InertiaLanes = [[f64x2; 3]; 3];
+
+/// The lanes of `I_a⁻¹` and `I_b⁻¹` ([`InertiaLanes`]).
+#[inline(always)]
+fn inertia_lanes(ia: &DMat3, ib: &DMat3) -> InertiaLanes {
+    let (ca, cb) = (ia.to_cols_array_2d(), ib.to_cols_array_2d());
+    core::array::from_fn(|i| core::array::from_fn(|c| f64x2::new([ca[c][i], cb[c][i]])))
+}
+
+/// One point's angular terms and effective masses: per direction `d` of `dirs`,
+/// `ang[r] = [r_a × d, r_b × d, I_a⁻¹(r_a × d), I_b⁻¹(r_b × d)]` and
+/// `k = J M⁻¹ Jᵀ = 1/m_a + 1/m_b + (r_a×d)ᵀI_a⁻¹(r_a×d) + (r_b×d)ᵀI_b⁻¹(r_b×d)`,
+/// the mass `1/k` (zero where `k ≤ 0`). Bodies `a` and `b` in the two lanes of
+/// `f64x2`: each lane does glam's scalar operations in glam's order (`cross`,
+/// `mul_vec3` column by column, `dot` left to right, `k` summed left to right), so
+/// the bits are the scalar code's, at half the arithmetic instructions.
+#[inline(always)]
+fn angular_terms(
+    (ra, rb): (DVec3, DVec3),
+    dirs: &[DVec3; 3],
+    m: &InertiaLanes,
+    im_sum: f64,
+    ang: &mut [[DVec3; 4]; 3],
+) -> [f64; 3] {
+    let (rx, ry, rz) = (
+        f64x2::new([ra.x, rb.x]),
+        f64x2::new([ra.y, rb.y]),
+        f64x2::new([ra.z, rb.z]),
+    );
+    let mut k = [0.0; 3];
+    for ((d, out), k) in dirs.iter().zip(ang.iter_mut()).zip(&mut k) {
+        let (dx, dy, dz) = (f64x2::splat(d.x), f64x2::splat(d.y), f64x2::splat(d.z));
+        // r × d (glam: `self.y * rhs.z - rhs.y * self.z`, …).
+        let (ux, uy, uz) = (ry * dz - dy * rz, rz * dx - dz * rx, rx * dy - dx * ry);
+        // I⁻¹ u: column x scaled, then y, then z added (glam's `mul_vec3`).
+        let row = |i: usize| m[i][0] * ux + m[i][1] * uy + m[i][2] * uz;
+        let (ix, iy, iz) = (row(0), row(1), row(2));
+        let dot = (ux * ix + uy * iy + uz * iz).to_array();
+        *k = im_sum + dot[0] + dot[1];
+        let (ux, uy, uz) = (ux.to_array(), uy.to_array(), uz.to_array());
+        let (ix, iy, iz) = (ix.to_array(), iy.to_array(), iz.to_array());
+        *out = [
+            DVec3::new(ux[0], uy[0], uz[0]),
+            DVec3::new(ux[1], uy[1], uz[1]),
+            DVec3::new(ix[0], iy[0], iz[0]),
+            DVec3::new(ix[1], iy[1], iz[1]),
+        ];
+    }
+    // The masses `1/k` after the three `k`: the first two divided in one packed
+    // division (correctly rounded per lane, as the scalar's).
+    let inv = (f64x2::splat(1.0) / f64x2::new([k[0], k[1]])).to_array();
+    let inv = [inv[0], inv[1], 1.0 / k[2]];
+    core::array::from_fn(|r| if k[r] > 0.0 { inv[r] } else { 0.0 })
 }
 
 /// One body's load and supports for the static load estimate
@@ -95,6 +185,10 @@ pub(in crate::rigid) struct Pressure {
 
 impl Pressure {
     /// Adds a supporting point at `x`.
+    ///
+    /// The sums in `f64x2` lanes (`Σ x` both coordinates at once, `Σ x₀ x` as `[xx,
+    /// xy]`): each lane the scalar's operation, the same bits.
+    #[inline(always)]
     fn add_point(&mut self, x: [f64; 2]) {
         if self.count == 0.0 {
             (self.lo, self.hi) = (x, x);
@@ -104,10 +198,11 @@ impl Pressure {
             self.hi[k] = at_least(self.hi[k], x[k]);
         }
         self.count += 1.0;
-        self.sum[0] += x[0];
-        self.sum[1] += x[1];
-        self.second[0] += x[0] * x[0];
-        self.second[1] += x[0] * x[1];
+        let v = f64x2::new(x);
+        let sum = f64x2::new(self.sum) + v;
+        let second = f64x2::new([self.second[0], self.second[1]]) + f64x2::splat(x[0]) * v;
+        self.sum = sum.to_array();
+        [self.second[0], self.second[1]] = second.to_array();
         self.second[2] += x[1] * x[1];
     }
 }
@@ -126,21 +221,23 @@ impl Pressure {
 /// 1000-body pile was given hundreds of times its weight and was thrown 180 m).
 pub(super) fn pressure_share(load: f64, p: &Pressure) -> impl Fn([f64; 2]) -> f64 {
     let n = p.count;
-    let mean = [p.sum[0] / n, p.sum[1] / n];
+    // Divisions of two lanes in one `f64x2` division (correctly rounded per lane, the
+    // scalar's bits): the mean, the centre of pressure and `β`.
+    let mean = (f64x2::new(p.sum) / f64x2::splat(n)).to_array();
     let (sxx, sxy, syy) = (
         p.second[0] - n * mean[0] * mean[0],
         p.second[1] - n * mean[0] * mean[1],
         p.second[2] - n * mean[1] * mean[1],
     );
     let mut beta = if load > 0.0 {
-        let c = [p.moment[0] / load - mean[0], p.moment[1] / load - mean[1]];
+        let c = (f64x2::new(p.moment) / f64x2::splat(load) - f64x2::new(mean)).to_array();
         let det = sxx * syy - sxy * sxy;
         let tr = sxx + syy;
         if det > 1e-9 * tr * tr {
-            [
-                load * (syy * c[0] - sxy * c[1]) / det,
-                load * (sxx * c[1] - sxy * c[0]) / det,
-            ]
+            let (c, c_swapped) = (f64x2::new(c), f64x2::new([c[1], c[0]]));
+            let s_diag = f64x2::new([syy, sxx]);
+            (f64x2::splat(load) * (s_diag * c - f64x2::splat(sxy) * c_swapped) / f64x2::splat(det))
+                .to_array()
         } else if tr > 0.0 {
             let k = load / (tr * tr);
             [k * (sxx * c[0] + sxy * c[1]), k * (sxy * c[0] + syy * c[1])]
@@ -203,11 +300,7 @@ impl ContactWorld {
         let none = (0.0, DVec3::ZERO, DVec3::ZERO, 0.0);
         st.found.resize(contacts.len(), none);
         st.found_hit.resize(contacts.len(), false);
-        let (found, found_hit) = (
-            &mut st.found[..contacts.len()],
-            &mut st.found_hit[..contacts.len()],
-        );
-        merge_warm(contacts, &st.warm, st.warm_unique, found, found_hit);
+        let mut merge = WarmMerge::new(&st.warm, st.warm_unique);
         let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
         // Preload: the mean previous normal impulse of each manifold (a run of one
         // collider pair in natural order), the same on each of its points; a new
@@ -219,18 +312,26 @@ impl ContactWorld {
         let mut unique = true;
         // Whether some manifold has no point found (a new manifold).
         let mut fresh = false;
+        // The merge walks the contacts in the same pass as their manifolds (runs of one
+        // collider pair): each point found, then its manifold's sums.
+        let nc = contacts.len();
+        let (found, found_hit) = (&mut st.found[..nc], &mut st.found_hit[..nc]);
         let mut i = 0;
-        while i < contacts.len() {
+        while i < nc {
             let pair = (contacts[i].a, contacts[i].b);
             let mut j = i;
             let mut sum = 0.0;
             let mut hits = 0usize;
             // The ids' residues mod 64 as bits: no bit set twice, the ids are distinct.
             let (mut bits, mut clash) = (0u64, false);
-            while j < contacts.len() && (contacts[j].a, contacts[j].b) == pair {
-                sum += st.found[j].0;
-                hits += usize::from(st.found_hit[j]);
-                let bit = 1u64 << (contacts[j].id % 64);
+            while j < nc && (contacts[j].a, contacts[j].b) == pair {
+                let c = &contacts[j];
+                let hit = merge.find(c);
+                found_hit[j] = hit.is_some();
+                found[j] = hit.unwrap_or(none);
+                sum += found[j].0;
+                hits += usize::from(found_hit[j]);
+                let bit = 1u64 << (c.id % 64);
                 clash |= bits & bit != 0;
                 bits |= bit;
                 j += 1;
@@ -242,14 +343,14 @@ impl ContactWorld {
             if s.refill_renamed && hits > 0 && hits < j - i {
                 let (mut ft, mut fl) = (DVec3::ZERO, 0.0);
                 for q in i..j {
-                    ft += st.found[q].1;
-                    fl += st.found[q].3;
+                    ft += found[q].1;
+                    fl += found[q].3;
                 }
                 let share = 1.0 / hits as f64;
                 m = sum * share;
                 for q in i..j {
-                    if !st.found_hit[q] {
-                        st.found[q] = (m, ft * share, DVec3::ZERO, fl * share);
+                    if !found_hit[q] {
+                        found[q] = (m, ft * share, DVec3::ZERO, fl * share);
                     }
                 }
             }
@@ -259,7 +360,7 @@ impl ContactWorld {
             // points renamed is written (a fill per manifold was 0.15 % of the
             // 210-box pyramid's step, callgrind).
             if hits > 0 && hits < j - i {
-                st.found_hit[i..j].fill(true);
+                found_hit[i..j].fill(true);
             }
             i = j;
         }
@@ -357,6 +458,19 @@ impl ContactWorld {
             st.colouring.manifold_points.as_slice(),
         );
         let mut bouncy = false;
+        // The settings read per point, and the per-contact arrays as slices of
+        // exactly `nc` entries (`k < nc` one check for all of them); the estimate
+        // exists only where `estimate_loads` ran (`every` or a new manifold).
+        let (warm_start, anchors) = (self.settings.warm_start, s.friction_anchors);
+        let estimated = every || new_manifolds;
+        let nc = contacts.len();
+        let (contacts, found, found_hit, mean) = (
+            &contacts[..nc],
+            &st.found[..nc],
+            &st.found_hit[..nc],
+            &st.mean[..nc],
+        );
+        let estimate = if estimated { &st.estimate[..nc] } else { &[] };
         for j in 0..mp.len().saturating_sub(1) {
             let pts = &mpts[mp[j]..mp[j + 1]];
             let Some(&first) = pts.first() else {
@@ -380,6 +494,7 @@ impl ContactWorld {
                     inertia[lower] = &DMat3::ZERO;
                 }
             }
+            let (lanes, im_sum) = (inertia_lanes(inertia[0], inertia[1]), im[0] + im[1]);
             let mu = ca.friction.max(cb.friction);
             let e = ca.restitution.max(cb.restitution);
             bouncy |= e != 0.0;
@@ -408,28 +523,25 @@ impl ContactWorld {
                 // Written in place: built in a local and copied in, the 288 bytes cost
                 // ≈ 35 instructions a point (1 % of the 210-box pyramid's step).
                 let ang = &mut ang_out[p];
-                let mut mass = [0.0; 3];
-                for (r, d) in dirs.iter().enumerate() {
-                    let (ua, ub) = (ra.cross(*d), rb.cross(*d));
-                    let (ia, ib) = (inertia[0].mul_vec3(ua), inertia[1].mul_vec3(ub));
-                    // k = J M⁻¹ Jᵀ = 1/m_a + 1/m_b + (r_a×d)ᵀI_a⁻¹(r_a×d) + (r_b×d)ᵀI_b⁻¹(r_b×d)
-                    let k = im[0] + im[1] + ua.dot(ia) + ub.dot(ib);
-                    mass[r] = if k > 0.0 { 1.0 / k } else { 0.0 };
-                    ang[r] = [ua, ub, ia, ib];
-                }
-                let mut z = [0.0; 3];
-                if self.settings.warm_start {
-                    let (zn, ft, _, _) = st.found[k];
-                    z = [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale];
-                    if new_manifolds && !st.found_hit[k] {
-                        z[0] = st.estimate[k];
-                    }
-                }
+                let mass = angular_terms((ra, rb), &dirs, &lanes, im_sum, ang);
+                // The point's previous impulses (zeros where not found), whether it
+                // starts from the estimate (a new manifold's point), and the estimate
+                // (read only where estimated).
+                let (zn, ft, sl, fl) = found[k];
+                let fresh_point = new_manifolds && !found_hit[k];
+                let est = if estimated { estimate[k] } else { 0.0 };
+                let z = if !warm_start {
+                    [0.0; 3]
+                } else if fresh_point {
+                    [est, ft.dot(t1) * scale, ft.dot(t2) * scale]
+                } else {
+                    [zn * scale, ft.dot(t1) * scale, ft.dot(t2) * scale]
+                };
                 // The anchor's slip, stored as `s₀ − tᵀ(r_b − r_a)`, so that `s₀ + tᵀ
                 // Δd` below is the slip (Δd: the anchors' separation vector, as for
                 // the gap); read only with anchors on.
-                if s.friction_anchors {
-                    let (sl, r) = (st.found[k].2, rb - ra);
+                if anchors {
+                    let r = rb - ra;
                     slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
                 }
                 paired.put(
@@ -465,19 +577,18 @@ impl ContactWorld {
                     n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a])
                 };
                 impulse[p] = z;
-                preload_out[p] =
-                    if (every && st.estimate[k] > 0.0) || (new_manifolds && !st.found_hit[k]) {
-                        s.preload * st.estimate[k]
-                    } else {
-                        preload * st.mean[k]
-                    };
-                preload_cap[p] = kappa * mass[0] * hs * omega2_pair;
-                preload_floor[p] = if !self.settings.warm_start {
-                    0.0
-                } else if new_manifolds && !st.found_hit[k] {
-                    s.preload * st.estimate[k]
+                preload_out[p] = if (every && est > 0.0) || fresh_point {
+                    s.preload * est
                 } else {
-                    st.found[k].3 * scale * PRELOAD_FLOOR_DECAY
+                    preload * mean[k]
+                };
+                preload_cap[p] = kappa * mass[0] * hs * omega2_pair;
+                preload_floor[p] = if !warm_start {
+                    0.0
+                } else if fresh_point {
+                    s.preload * est
+                } else {
+                    fl * scale * PRELOAD_FLOOR_DECAY
                 };
                 max_normal[p] = 0.0;
                 total[p] = [0.0; 3];
@@ -536,7 +647,16 @@ impl ContactWorld {
         let ratio = self.settings.soft_step.one_way_mass_ratio;
         // Horizontal coordinates: along two axes normal to `up`.
         let (e1, e2) = up.any_orthonormal_pair();
-        let flat = |x: DVec3| [x.dot(e1), x.dot(e2)];
+        // Both dot products at once in `f64x2` lanes, each lane glam's `dot` (`(x e_x +
+        // y e_y) + z e_z`): the same bits.
+        let (ex, ey, ez) = (
+            f64x2::new([e1.x, e2.x]),
+            f64x2::new([e1.y, e2.y]),
+            f64x2::new([e1.z, e2.z]),
+        );
+        let flat = |x: DVec3| {
+            (f64x2::splat(x.x) * ex + f64x2::splat(x.y) * ey + f64x2::splat(x.z) * ez).to_array()
+        };
         // Every entry is written below (each manifold's run; zero where it supports
         // nothing): sized, not cleared (zeroing it and the loads' moments each step
         // was 0.3 % of the 210-box pyramid's step, callgrind).
