@@ -636,9 +636,9 @@ impl Lcp {
 
     /// `w = M z + q`.
     pub fn w(&self, z: &[f64]) -> Vec<f64> {
-        (0..self.n)
-            .map(|i| self.q[i] + self.row_dot(i, z))
-            .collect()
+        let mut out = Vec::with_capacity(self.n);
+        self.w_into(z, &mut out);
+        out
     }
 
     /// [`Lcp::w`] into `out` (cleared first; its buffer is kept: no allocation once it
