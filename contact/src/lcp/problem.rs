@@ -70,6 +70,19 @@ impl SparseRows {
     /// rewritten (a step whose rows are those of the last: one pass to compare the
     /// patterns, one gather of the listed values).
     pub fn assign_dense(&mut self, m: &[f64], n: usize) -> bool {
+        // Every entry listed (rows 0, 1, …, n−1 whole: a tree's dense Delassus matrix)
+        // and every entry of `m` non-zero: the same pattern, and the values are `m` as
+        // it stands (one count and one copy instead of the row-by-row comparison and
+        // gather).
+        if n > 0
+            && m.len() == n * n
+            && self.vals.len() == n * n
+            && self.is_full(n)
+            && m.iter().map(|&v| usize::from(v != 0.0)).sum::<usize>() == n * n
+        {
+            self.vals.copy_from_slice(m);
+            return true;
+        }
         if self.dense_pattern_is(m, n) {
             for i in 0..n {
                 let row = &m[i * n..(i + 1) * n];
@@ -106,6 +119,18 @@ impl SparseRows {
         cols.truncate(k);
         vals.truncate(k);
         false
+    }
+
+    /// Whether `self` lists every entry of an `n × n` matrix: `n + 1` row starts
+    /// `0, n, 2n, …` and each row's columns `0, 1, …, n−1` (checked whole: one pass).
+    fn is_full(&self, n: usize) -> bool {
+        self.start.len() == n + 1
+            && self.cols.len() == n * n
+            && self.start.iter().enumerate().all(|(i, &s)| s == i * n)
+            && self
+                .cols
+                .chunks_exact(n)
+                .all(|row| row.iter().enumerate().all(|(j, &c)| c == j))
     }
 
     /// Whether `self` lists exactly the non-zero entries (NaN included) of the
