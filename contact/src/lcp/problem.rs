@@ -70,6 +70,19 @@ impl SparseRows {
     /// rewritten (a step whose rows are those of the last: one pass to compare the
     /// patterns, one gather of the listed values).
     pub fn assign_dense(&mut self, m: &[f64], n: usize) -> bool {
+        // Every entry listed (rows 0, 1, …, n−1 whole: a tree's dense Delassus matrix)
+        // and every entry of `m` non-zero: the same pattern, and the values are `m` as
+        // it stands (one count and one copy instead of the row-by-row comparison and
+        // gather).
+        if n > 0
+            && m.len() == n * n
+            && self.vals.len() == n * n
+            && self.is_full(n)
+            && m.iter().map(|&v| usize::from(v != 0.0)).sum::<usize>() == n * n
+        {
+            self.vals.copy_from_slice(m);
+            return true;
+        }
         if self.dense_pattern_is(m, n) {
             for i in 0..n {
                 let row = &m[i * n..(i + 1) * n];
@@ -106,6 +119,18 @@ impl SparseRows {
         cols.truncate(k);
         vals.truncate(k);
         false
+    }
+
+    /// Whether `self` lists every entry of an `n × n` matrix: `n + 1` row starts
+    /// `0, n, 2n, …` and each row's columns `0, 1, …, n−1` (checked whole: one pass).
+    fn is_full(&self, n: usize) -> bool {
+        self.start.len() == n + 1
+            && self.cols.len() == n * n
+            && self.start.iter().enumerate().all(|(i, &s)| s == i * n)
+            && self
+                .cols
+                .chunks_exact(n)
+                .all(|row| row.iter().enumerate().all(|(j, &c)| c == j))
     }
 
     /// Whether `self` lists exactly the non-zero entries (NaN included) of the
@@ -570,6 +595,16 @@ impl Lcp {
         ))
     }
 
+    /// `M` row-major when every row lists all `n` columns (a Delassus block of a tree
+    /// whose contacts all share its bodies): then row `i`'s non-zeros are `M`'s row
+    /// `i` whole, in column order, and [`Lcp::row_dot`] is `M_i · z` over contiguous
+    /// slices, the same terms in the same order (the same bits). For the sweeps that
+    /// run over every row (PGS, `w = M z + q`): no row starts to read per row.
+    #[inline]
+    pub(crate) fn full_rows(&self) -> Option<&[f64]> {
+        (self.n > 0 && self.sparse.vals.len() == self.n * self.n).then_some(&self.m[..])
+    }
+
     /// `Σ_j M_ij z_j` over the non-zero `M_ij` (columns ascending: the bits of the dense
     /// sum, whose skipped terms are `±0`). A row with all `n` entries listed (a
     /// Delassus row of a tree whose contacts all share its bodies: humanoid_CMU's) has
@@ -626,16 +661,22 @@ impl Lcp {
 
     /// `w = M z + q`.
     pub fn w(&self, z: &[f64]) -> Vec<f64> {
-        (0..self.n)
-            .map(|i| self.q[i] + self.row_dot(i, z))
-            .collect()
+        let mut out = Vec::with_capacity(self.n);
+        self.w_into(z, &mut out);
+        out
     }
 
     /// [`Lcp::w`] into `out` (cleared first; its buffer is kept: no allocation once it
     /// has grown to `n`).
     pub fn w_into(&self, z: &[f64], out: &mut Vec<f64>) {
         out.clear();
-        out.extend((0..self.n).map(|i| self.q[i] + self.row_dot(i, z)));
+        match self.full_rows().filter(|_| z.len() == self.n) {
+            Some(m) => {
+                let rows = m.chunks_exact(self.n).zip(&self.q);
+                out.extend(rows.map(|(row, &qi)| qi + full_dot(row, z)));
+            }
+            None => out.extend((0..self.n).map(|i| self.q[i] + self.row_dot(i, z))),
+        }
     }
 
     /// `max(1, |q|_∞)`, the residual's scale.
@@ -683,8 +724,13 @@ impl Lcp {
         out.clear();
         let mut r = 0.0_f64;
         let mut finite = z.len() == self.n;
+        let full = self.full_rows().filter(|_| finite);
         for i in 0..self.n {
-            let wi = self.q[i] + self.row_dot(i, z);
+            let dot = match full {
+                Some(m) => full_dot(&m[i * self.n..(i + 1) * self.n], z),
+                None => self.row_dot(i, z),
+            };
+            let wi = self.q[i] + dot;
             out.push(wi);
             if finite {
                 if !z[i].is_finite() || !wi.is_finite() {
@@ -848,4 +894,11 @@ pub(crate) fn check_tolerance(tolerance: f64) -> Result<(), LcpError> {
     } else {
         Err(LcpError::BadSettings("tolerance must be finite and > 0"))
     }
+}
+
+/// `row · z` summed in column order from the first term: [`Lcp::row_dot`]'s full-row
+/// product (the same bits), for a row of [`Lcp::full_rows`].
+#[inline(always)]
+fn full_dot(row: &[f64], z: &[f64]) -> f64 {
+    row.iter().zip(z).map(|(v, x)| v * x).sum()
 }

@@ -431,6 +431,8 @@ pub(crate) struct RowScratch {
     lo: Vec<f64>,
     hi: Vec<f64>,
     zt0: Vec<f64>,
+    /// `z` on the other class's rows, for the couplings' products.
+    zo: Vec<f64>,
     /// The friction PGS's iterate, inverse diagonal and `w` (one solve per alternation).
     pgs: PgsScratch,
 }
@@ -521,18 +523,28 @@ pub(crate) fn solve_rows_in(
         lo,
         hi,
         zt0,
+        zo,
         pgs: pgs_scratch,
         ..
     } = scratch;
     let (normal, tangent) = (&normal[..], &tangent[..]);
     let nn = normal.len();
-    let coupled = |i: usize, z: &[f64]| -> f64 {
+    // `Σ_j A_ij z_j` over row `i`'s couplings (columns ascending). `other` holds `z`
+    // on the other class's rows in class order (ascending too): a row coupled to every
+    // one of them (a tree's dense Delassus matrix) takes the contiguous product, the
+    // same terms in the same order (the same bits) without the column gather.
+    let coupled = |i: usize, z: &[f64], other: &[f64]| -> f64 {
         let (s, e) = (cross_start[i], cross_start[i + 1]);
-        cross_cols[s..e]
-            .iter()
-            .zip(&cross_vals[s..e])
-            .map(|(&j, &v)| v * z[j])
-            .sum::<f64>()
+        let vals = &cross_vals[s..e];
+        if vals.len() == other.len() {
+            vals.iter().zip(other).map(|(&v, &x)| v * x).sum::<f64>()
+        } else {
+            cross_cols[s..e]
+                .iter()
+                .zip(vals)
+                .map(|(&j, &v)| v * z[j])
+                .sum::<f64>()
+        }
     };
     // The two sub-problems, built (and `A`'s blocks checked) once; each alternation
     // replaces only their right-hand sides and boxes.
@@ -579,8 +591,10 @@ pub(crate) fn solve_rows_in(
             let final_normal = done == max_sweeps;
             if !normal.is_empty() {
                 // The one-sided LCP with the other impulses fixed.
+                zo.clear();
+                zo.extend(tangent.iter().map(|&i| z[i]));
                 qn.clear();
-                qn.extend(normal.iter().map(|&i| q[i] + coupled(i, z)));
+                qn.extend(normal.iter().map(|&i| q[i] + coupled(i, z, zo)));
                 let lcp = match (&mut normal_lcp, ann_parts.take()) {
                     (Some(lcp), _) => {
                         *qn = lcp.swap_q(core::mem::take(qn))?;
@@ -669,8 +683,10 @@ pub(crate) fn solve_rows_in(
             // its dense block. The block is only semi-definite when a face touches at four
             // coplanar points, where PGS can converge slowly; when it runs out of sweeps, a
             // last budget of sweeps from the warm start is kept instead of failing.
+            zo.clear();
+            zo.extend(normal.iter().map(|&i| z[i]));
             qt.clear();
-            qt.extend(tangent.iter().map(|&i| q[i] + coupled(i, z)));
+            qt.extend(tangent.iter().map(|&i| q[i] + coupled(i, z, zo)));
             lo.clear();
             lo.extend(tangent.iter().map(|&i| bound(i, z).0));
             hi.clear();
