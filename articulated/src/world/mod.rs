@@ -97,6 +97,19 @@ struct CachedRows {
     rows: crate::joint::JointRows,
 }
 
+/// Whether two pose keys ([`CachedRows::key_of`]) are equal: the differences of all
+/// their words or-ed, one test (the array `==` called `memcmp`, whose early exit on
+/// keys that differ in a varying word mispredicts: 2.5 % of half_cheetah's time in
+/// `perf`). The same answer as `a == b`.
+#[inline]
+pub(crate) fn same_key(a: &[u64; 14], b: &[u64; 14]) -> bool {
+    let mut d = 0u64;
+    for (x, y) in a.iter().zip(b) {
+        d |= x ^ y;
+    }
+    d == 0
+}
+
 impl CachedRows {
     /// The bits of the poses `a` (parent) and `b` (child).
     fn key_of(a: &Pose, b: &Pose) -> [u64; 14] {
@@ -128,7 +141,7 @@ impl CachedRows {
         let key = Self::key_of(a, b);
         let hit = cache
             .get(j)
-            .is_some_and(|e| e.valid && e.key == key && (e.rates || !rates));
+            .is_some_and(|e| e.valid && same_key(&e.key, &key) && (e.rates || !rates));
         if !hit {
             let with = rates || keep_rates;
             if cache.len() <= j {
@@ -176,7 +189,7 @@ impl CachedRows {
     ) -> Option<&'c crate::joint::JointRows> {
         cache
             .get(j)
-            .filter(|e| e.valid && e.rates && e.key == Self::key_of(a, b))
+            .filter(|e| e.valid && e.rates && same_key(&e.key, &Self::key_of(a, b)))
             .map(|e| &e.rows)
     }
 }
