@@ -400,11 +400,12 @@ impl World {
     /// dense path without trying; a step that settles resets the count. One or two
     /// failures in a row skip nothing.
     pub(super) fn solve_unilateral_sparse(&mut self) -> bool {
-        if self.aset.skip > 0 {
-            self.aset.skip -= 1;
+        let mut st = self.aset.take().unwrap_or_default();
+        if st.skip > 0 {
+            st.skip -= 1;
+            self.aset = Some(st);
             return false;
         }
-        let mut st = core::mem::take(&mut self.aset);
         let ok = self.active_set_solve(&mut st);
         if ok {
             st.failures = 0;
@@ -412,7 +413,7 @@ impl World {
             st.failures = st.failures.saturating_add(1);
             st.skip = ((1u32 << st.failures.saturating_sub(2).min(6)) - 1).min(MAX_SKIP);
         }
-        self.aset = st;
+        self.aset = Some(st);
         ok
     }
 
@@ -1192,7 +1193,7 @@ impl World {
     /// After a dense solve: the statuses its impulses imply, for the next step's warm
     /// start of the active set.
     pub(super) fn remember_dense_statuses(&mut self) {
-        let mut st = core::mem::take(&mut self.aset);
+        let mut st = self.aset.take().unwrap_or_default();
         st.keys.clear();
         st.status.clear();
         for (i, r) in self.urows.iter().enumerate() {
@@ -1211,7 +1212,7 @@ impl World {
             st.status.push(s);
         }
         remember(&mut st, &self.uz);
-        self.aset = st;
+        self.aset = Some(st);
     }
 }
 

@@ -422,8 +422,10 @@ pub struct World {
     /// The dense row solve's buffers (scratch, [`constraint_contact::lcp::RowBuffers`]).
     urowbuf: constraint_contact::lcp::RowBuffers,
     /// The active-set solve of the one-sided rows in the tree factor (scratch and the
-    /// last step's statuses).
-    aset: active_set::ActiveSet,
+    /// last step's statuses), boxed and taken out for each solve (`Option::take`: a
+    /// pointer, where `mem::take` of the ~1.5 kB struct was a `memcpy`, a default
+    /// struct and its drop, twice a step).
+    aset: Option<alloc::boxed::Box<active_set::ActiveSet>>,
     /// Per joint, the generalized forces on its coordinates, and the coordinate table
     /// (scratch of the actuator, spring and tendon forces).
     dof_tau: Vec<[f64; MAX_DOF]>,
@@ -520,7 +522,7 @@ impl World {
             loop_scratch: crate::tree::LoopScratch::default(),
             ubounds: Vec::new(),
             urowbuf: Default::default(),
-            aset: active_set::ActiveSet::default(),
+            aset: Some(alloc::boxed::Box::default()),
             dof_tau: Vec::new(),
             dof_table: Vec::new(),
             coords: Vec::new(),
