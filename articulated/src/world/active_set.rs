@@ -996,15 +996,17 @@ impl World {
                 let (o, n) = (f.node_offset(k), f.node_len(k));
                 let s = &mut st.col[o..o + n];
                 st.path_s.extend_from_slice(s);
+                // `col` cleared as `u` is read (a separate `fill` of the few unknowns
+                // was a `memset` call per path node).
                 st.path_u
-                    .extend(s.iter().zip(f.pivot_inverses(o, n)).map(|(&sv, &di)| {
+                    .extend(s.iter_mut().zip(f.pivot_inverses(o, n)).map(|(sv, &di)| {
+                        let sv = core::mem::take(sv);
                         if di != 0.0 {
                             sv / di
                         } else {
                             0.0
                         }
                     }));
-                s.fill(0.0);
             }
             free_scale = free_scale.max(self.schur_free_scale(i, &mut inertia));
         }
