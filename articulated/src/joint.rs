@@ -304,7 +304,7 @@ impl Joint {
                 let rows = match kept {
                     Kept::Read(e) if e.has_rows => e.rows,
                     Kept::Read(e) => c.dof_rows(a, b, &e.q),
-                    Kept::Write(key, Some(e)) if e.key == *key => {
+                    Kept::Write(key, Some(e)) if crate::world::same_key(&e.key, key) => {
                         if !e.has_rows {
                             e.rows = c.dof_rows(a, b, &e.q);
                             e.has_rows = true;

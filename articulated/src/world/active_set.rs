@@ -400,11 +400,12 @@ impl World {
     /// dense path without trying; a step that settles resets the count. One or two
     /// failures in a row skip nothing.
     pub(super) fn solve_unilateral_sparse(&mut self) -> bool {
-        if self.aset.skip > 0 {
-            self.aset.skip -= 1;
+        let mut st = self.aset.take().unwrap_or_default();
+        if st.skip > 0 {
+            st.skip -= 1;
+            self.aset = Some(st);
             return false;
         }
-        let mut st = core::mem::take(&mut self.aset);
         let ok = self.active_set_solve(&mut st);
         if ok {
             st.failures = 0;
@@ -412,7 +413,7 @@ impl World {
             st.failures = st.failures.saturating_add(1);
             st.skip = ((1u32 << st.failures.saturating_sub(2).min(6)) - 1).min(MAX_SKIP);
         }
-        self.aset = st;
+        self.aset = Some(st);
         ok
     }
 
@@ -995,15 +996,17 @@ impl World {
                 let (o, n) = (f.node_offset(k), f.node_len(k));
                 let s = &mut st.col[o..o + n];
                 st.path_s.extend_from_slice(s);
+                // `col` cleared as `u` is read (a separate `fill` of the few unknowns
+                // was a `memset` call per path node).
                 st.path_u
-                    .extend(s.iter().zip(f.pivot_inverses(o, n)).map(|(&sv, &di)| {
+                    .extend(s.iter_mut().zip(f.pivot_inverses(o, n)).map(|(sv, &di)| {
+                        let sv = core::mem::take(sv);
                         if di != 0.0 {
                             sv / di
                         } else {
                             0.0
                         }
                     }));
-                s.fill(0.0);
             }
             free_scale = free_scale.max(self.schur_free_scale(i, &mut inertia));
         }
@@ -1192,7 +1195,7 @@ impl World {
     /// After a dense solve: the statuses its impulses imply, for the next step's warm
     /// start of the active set.
     pub(super) fn remember_dense_statuses(&mut self) {
-        let mut st = core::mem::take(&mut self.aset);
+        let mut st = self.aset.take().unwrap_or_default();
         st.keys.clear();
         st.status.clear();
         for (i, r) in self.urows.iter().enumerate() {
@@ -1211,7 +1214,7 @@ impl World {
             st.status.push(s);
         }
         remember(&mut st, &self.uz);
-        self.aset = st;
+        self.aset = Some(st);
     }
 }
 

@@ -327,7 +327,7 @@ impl World {
     fn fill_dof_state(&self, coords: &mut [Option<DofState>], ji: usize) {
         match &mut coords[ji] {
             Some(e) if e.live => {}
-            Some(e) if e.key == self.pose_key(ji) => {
+            Some(e) if same_key(&e.key, &self.pose_key(ji)) => {
                 e.live = true;
                 self.fill_rates(ji, e);
             }
@@ -341,7 +341,11 @@ impl World {
     fn cached_coordinates(&self, ji: usize) -> Option<&DofState> {
         let e = self.dof_table.get(ji)?.as_ref()?;
         let j = &self.joints[ji];
-        (e.key == CachedRows::key_of(&self.pose(j.parent), &self.pose(Some(j.child)))).then_some(e)
+        same_key(
+            &e.key,
+            &CachedRows::key_of(&self.pose(j.parent), &self.pose(Some(j.child))),
+        )
+        .then_some(e)
     }
 
     /// The coordinates of joint `ji` alone (those of [`Self::coordinates_and_rows`],
@@ -394,12 +398,12 @@ impl World {
         // readers of `coordinates_of`, in that order), then computed.
         let key = CachedRows::key_of(a, b);
         if let Some(Some(e)) = self.coords.get(ji) {
-            if e.key == key {
+            if same_key(&e.key, &key) {
                 return Some(e.q);
             }
         }
         let (q, rows) = match self.dof_table.get(ji) {
-            Some(Some(e)) if e.key == key => (e.q, Some(e.rows)),
+            Some(Some(e)) if same_key(&e.key, &key) => (e.q, Some(e.rows)),
             _ => (c.coordinates(a, b, &[0.0; MAX_DOF]), None),
         };
         if self.coords.len() <= ji {
@@ -466,7 +470,7 @@ impl World {
     /// Joint `ji`'s entry of the coordinate cache when it is of the current poses.
     fn kept_coordinates(&self, ji: usize) -> Option<&KeptCoords> {
         let e = self.coords.get(ji)?.as_ref()?;
-        (e.key == self.pose_key(ji)).then_some(e)
+        same_key(&e.key, &self.pose_key(ji)).then_some(e)
     }
 
     /// The coordinates of joint `ji` and the rows of their rates (hinge angle and its
@@ -826,7 +830,7 @@ pub(super) fn kept_at<'k>(
     b: &Pose,
 ) -> Kept<'k> {
     match coords.get(ji) {
-        Some(Some(e)) if e.key == CachedRows::key_of(a, b) => Kept::Read(e),
+        Some(Some(e)) if same_key(&e.key, &CachedRows::key_of(a, b)) => Kept::Read(e),
         _ => Kept::None,
     }
 }
