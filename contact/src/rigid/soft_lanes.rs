@@ -66,6 +66,7 @@ mod avx {
     pub(in crate::rigid) fn build_quad(
         avx: Avx,
         _: &Rows,
+        _: &[QuadRows],
         _: [&[usize]; 4],
         _: [&mut Block; 4],
     ) -> super::Built {

@@ -311,8 +311,12 @@ passes! {
     ) -> bool = gaps_lanes::<F4, 4>(rows, pts, ab, disp, gap);
 
     /// [`build_lanes`](super::build_lanes) in four AVX lanes.
-    fn build_avx / build_wide(rows: &Rows, pts: [&[usize]; 4], blk: [&mut Block; 4]) -> Built =
-        build_lanes::<F4, 4>(rows, pts, blk);
+    fn build_avx / build_wide(
+        rows: &Rows,
+        pr: &[QuadRows],
+        pts: [&[usize]; 4],
+        blk: [&mut Block; 4],
+    ) -> Built = build_lanes::<F4, 4>(rows, pts, Some((pr, 0)), blk);
 }
 
 // The passes' signatures: one call site per pass, its target chosen by [`wide`].
@@ -327,7 +331,7 @@ type BlockPass = unsafe fn(&Rows, &[QuadRows], [&Block; 4], &mut RelaxIo, Pass) 
 type GapsPass =
     unsafe fn(&Rows, [&[usize]; 4], [[usize; 2]; 4], (&[DVec3], &[DMat3]), &mut [f64]) -> bool;
 /// `build_avx` or `build_wide`.
-type BuildPass = unsafe fn(&Rows, [&[usize]; 4], [&mut Block; 4]) -> Built;
+type BuildPass = unsafe fn(&Rows, &[QuadRows], [&[usize]; 4], [&mut Block; 4]) -> Built;
 
 /// The relax pass over the quad of manifolds `pts` (one per lane; `pr`: their rows,
 /// [`Paired::quad`](super::Paired::quad), `Some` only where AVX was found), as
@@ -409,18 +413,20 @@ pub(in crate::rigid) fn gaps_quad(
     unsafe { run(rows, pts, ab, disp, gap) }
 }
 
-/// The blocks of four manifolds of `BLOCK_POINTS` points (one per lane), as
+/// The blocks of four manifolds of `BLOCK_POINTS` points (one per lane; `pr`: their
+/// packed rows, [`Paired::quad`](super::Paired::quad)), as
 /// [`build_lanes`](super::build_lanes) on two pairs.
 #[inline]
 pub(in crate::rigid) fn build_quad(
     _: Avx,
     rows: &Rows,
+    pr: &[QuadRows],
     pts: [&[usize]; 4],
     blk: [&mut Block; 4],
 ) -> Built {
     let run: BuildPass = if wide() { build_wide } else { build_avx };
     // SAFETY: as in `gaps_quad`.
-    unsafe { run(rows, pts, blk) }
+    unsafe { run(rows, pr, pts, blk) }
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 //! fails computes on, harmlessly, where the scalar inversion stops: its block keeps
 //! `len` 0 either way).
 
-use super::{Lane, Lanes3};
+use super::{Lane, Lanes3, QuadRows};
 use crate::rigid::soft_step::{Block, Rows, BLOCK_POINTS};
 
 const N: usize = BLOCK_POINTS;
@@ -22,10 +22,17 @@ pub(in crate::rigid) type Built = ([[f64; 4]; N * N], [[f64; 4]; N]);
 /// Gauss–Jordan without pivoting (Box2D v2.4's block solver's `K`, for four points).
 /// Returns the lanes of `K⁻¹`'s entries (row-major) and of `c` (for
 /// [`Paired::put_block`](super::Paired::put_block)).
+///
+/// `packed`: the manifolds' packed rows and the half of their lanes they take
+/// ([`Paired::of`](super::Paired::of)), where they are a packed pair (or quad): the
+/// normals, angular terms and inverse masses are then loaded from there, lanes at
+/// once, instead of gathered point by point from `rows` (`prepare` wrote the same
+/// values to both, [`Paired::put`](super::Paired::put)).
 #[inline(always)]
 pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
     rows: &Rows,
     pts: [&[usize]; W],
+    packed: Option<(&[QuadRows], usize)>,
     blk: [&mut Block; W],
 ) -> Built {
     let mut built = ([[0.0; 4]; N * N], [[0.0; 4]; N]);
@@ -43,30 +50,47 @@ pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
         }
     }
     let c: [L; N] = L::gather(|l| cs[l]);
-    let [m] = L::gather(|l| {
-        let [ma, mb] = rows.im[pts[l][0]];
-        [ma + mb]
-    });
-    // Per point: `r_a × n`, `r_b × n`, `I_a⁻¹(r_a × n)`, `I_b⁻¹(r_b × n)` and the normal.
-    let row = |i: usize, r: usize| {
-        Lanes3::<L>::of(|l| {
-            let p = pts[l][i];
-            if r == 4 {
-                rows.dir[p][0]
-            } else {
-                rows.ang[p][0][r]
-            }
-        })
-    };
     let zero = L::splat(0.0);
+    // Per point: `r_a × n`, `r_b × n`, `I_a⁻¹(r_a × n)`, `I_b⁻¹(r_b × n)` and the normal.
     // Plain loops: `core::array::from_fn` here was left out of line (its closures
     // cost 287k instructions a step of the 210-box pyramid, callgrind).
     let mut g = [[Lanes3::new(zero, zero, zero); 5]; N];
-    for (i, gi) in g.iter_mut().enumerate() {
-        for (r, x) in gi.iter_mut().enumerate() {
-            *x = row(i, r);
+    let m = match packed.and_then(|(pr, half)| Some((pr.get(..N)?, half))) {
+        Some((pr, half)) => {
+            for (gi, q) in g.iter_mut().zip(pr) {
+                for (r, x) in gi.iter_mut().enumerate() {
+                    *x = if r == 4 {
+                        q.dir(0, half)
+                    } else {
+                        q.ang(0, r, half)
+                    };
+                }
+            }
+            L::load(&pr[0].im[0], half) + L::load(&pr[0].im[1], half)
         }
-    }
+        None => {
+            let row = |i: usize, r: usize| {
+                Lanes3::<L>::of(|l| {
+                    let p = pts[l][i];
+                    if r == 4 {
+                        rows.dir[p][0]
+                    } else {
+                        rows.ang[p][0][r]
+                    }
+                })
+            };
+            for (i, gi) in g.iter_mut().enumerate() {
+                for (r, x) in gi.iter_mut().enumerate() {
+                    *x = row(i, r);
+                }
+            }
+            let [m] = L::gather(|l| {
+                let [ma, mb] = rows.im[pts[l][0]];
+                [ma + mb]
+            });
+            m
+        }
+    };
     let mut k = [zero; N * N];
     for i in 0..N {
         let (n, gi) = (g[i][4], &g[i]);

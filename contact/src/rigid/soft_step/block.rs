@@ -46,7 +46,7 @@ pub(super) fn build_blocks(st: &mut SoftState) {
     while j < manifolds {
         let starts = paired.starts(j);
         if starts && face(j) {
-            if let Some(avx) = avx.filter(|_| paired.quad(j, N).is_some()) {
+            if let (Some(avx), Some(pr)) = (avx, paired.quad(j, N)) {
                 if let [b0, b1, b2, b3] = &mut blocks[j..j + 4] {
                     let pts = [
                         manifold(j),
@@ -54,15 +54,15 @@ pub(super) fn build_blocks(st: &mut SoftState) {
                         manifold(j + 2),
                         manifold(j + 3),
                     ];
-                    let (kinv, c) = build_quad(avx, &rows, pts, [b0, b1, b2, b3]);
+                    let (kinv, c) = build_quad(avx, &rows, pr, pts, [b0, b1, b2, b3]);
                     paired.put_block::<4>(j, &kinv, &c);
                     j += 4;
                     continue;
                 }
             }
             if let [b0, b1] = &mut blocks[j..j + 2] {
-                let (kinv, c) =
-                    build_lanes::<f64x2, 2>(&rows, [manifold(j), manifold(j + 1)], [b0, b1]);
+                let pts = [manifold(j), manifold(j + 1)];
+                let (kinv, c) = build_lanes::<f64x2, 2>(&rows, pts, paired.of(j, N), [b0, b1]);
                 paired.put_block::<2>(j, &kinv, &c);
                 j += 2;
                 continue;
@@ -75,7 +75,7 @@ pub(super) fn build_blocks(st: &mut SoftState) {
                 Some(i) => {
                     let (head, tail) = blocks.split_at_mut(j);
                     let pts = [manifold(i), manifold(j)];
-                    build_lanes::<f64x2, 2>(&rows, pts, [&mut head[i], &mut tail[0]]);
+                    build_lanes::<f64x2, 2>(&rows, pts, None, [&mut head[i], &mut tail[0]]);
                 }
                 None => single = Some(j),
             }
