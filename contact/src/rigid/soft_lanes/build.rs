@@ -39,25 +39,17 @@ pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
     if pts.iter().any(|m| m.len() != N) {
         return built;
     }
+    let zero = L::splat(0.0);
     let mut ok = [true; W];
     let mut cs = [[0.0; N]; W];
-    for (s, pts) in pts.iter().enumerate() {
-        for (i, &p) in pts.iter().enumerate() {
-            let sp = rows.soft[p];
-            let m = rows.mass[p][0];
-            ok[s] &= m > 0.0 && sp.mass_scale > 0.0;
-            cs[s][i] = sp.impulse_scale / (sp.mass_scale * m);
-        }
-    }
-    let c: [L; N] = L::gather(|l| cs[l]);
-    let zero = L::splat(0.0);
+    let mut c = [zero; N];
     // Per point: `r_a × n`, `r_b × n`, `I_a⁻¹(r_a × n)`, `I_b⁻¹(r_b × n)` and the normal.
     // Plain loops: `core::array::from_fn` here was left out of line (its closures
     // cost 287k instructions a step of the 210-box pyramid, callgrind).
     let mut g = [[Lanes3::new(zero, zero, zero); 5]; N];
     let m = match packed.and_then(|(pr, half)| Some((pr.get(..N)?, half))) {
         Some((pr, half)) => {
-            for (gi, q) in g.iter_mut().zip(pr) {
+            for (i, (gi, q)) in g.iter_mut().zip(pr).enumerate() {
                 for (r, x) in gi.iter_mut().enumerate() {
                     *x = if r == 4 {
                         q.dir(0, half)
@@ -65,10 +57,32 @@ pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
                         q.ang(0, r, half)
                     };
                 }
+                // `c_i` of the lanes at once: one lane division where the scalar
+                // build takes one per lane.
+                let [scale, ms] = L::gather(|l| {
+                    let sp = &rows.soft[pts[l][i]];
+                    [sp.impulse_scale, sp.mass_scale]
+                });
+                let m = L::load(&q.mass[0], half);
+                c[i] = scale / (ms * m);
+                let (m, ms, ci) = (m.array(), ms.array(), c[i].array());
+                for (s, ok) in ok.iter_mut().enumerate() {
+                    *ok &= m[s] > 0.0 && ms[s] > 0.0;
+                    cs[s][i] = ci[s];
+                }
             }
             L::load(&pr[0].im[0], half) + L::load(&pr[0].im[1], half)
         }
         None => {
+            for (s, pts) in pts.iter().enumerate() {
+                for (i, &p) in pts.iter().enumerate() {
+                    let sp = rows.soft[p];
+                    let m = rows.mass[p][0];
+                    ok[s] &= m > 0.0 && sp.mass_scale > 0.0;
+                    cs[s][i] = sp.impulse_scale / (sp.mass_scale * m);
+                }
+            }
+            c = L::gather(|l| cs[l]);
             let row = |i: usize, r: usize| {
                 Lanes3::<L>::of(|l| {
                     let p = pts[l][i];
