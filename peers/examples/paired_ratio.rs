@@ -26,11 +26,8 @@ use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let scene = match args.first().map_or("stack10", String::as_str) {
-        "stack10" => Scene::Stack(10),
-        "pyramid20" => Scene::Pyramid(20),
-        other => return Err(format!("unknown scene {other}").into()),
-    };
+    let name = args.first().map_or("stack10", String::as_str);
+    let scene = Scene::from_name(name).ok_or(format!("unknown scene {name}"))?;
     let substeps: usize = args.get(1).map_or(Ok(3), |s| s.parse())?;
     let rounds: usize = args.get(2).map_or(Ok(41), |s| s.parse())?;
     let default_batch = if matches!(scene, Scene::Stack(_)) {

@@ -15,11 +15,8 @@ use constraint_peers::contact::Scene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let scene = match args.first().map_or("stack10", String::as_str) {
-        "stack10" => Scene::Stack(10),
-        "pyramid20" => Scene::Pyramid(20),
-        other => return Err(format!("unknown scene {other}").into()),
-    };
+    let name = args.first().map_or("stack10", String::as_str);
+    let scene = Scene::from_name(name).ok_or(format!("unknown scene {name}"))?;
     let steps: usize = args.get(1).map_or(Ok(600), |s| s.parse())?;
     let w = scene.world()?;
     let mut r = RapierBoxes::from_world(&w, 1.0 / 60.0)?;

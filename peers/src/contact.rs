@@ -72,6 +72,23 @@ impl Scene {
         }
     }
 
+    /// The scene named `name` as [`Scene::name`] writes it (`stack10`, `pyramid20`,
+    /// `heavy1e4`, `sliding_box`; any `stackN` or `pyramidN` with N ≥ 1), or `None`.
+    pub fn from_name(name: &str) -> Option<Scene> {
+        let count = |n: &str| n.parse::<usize>().ok().filter(|&n| n > 0);
+        match name {
+            "heavy1e4" => Some(Scene::HeavyOnLight),
+            "sliding_box" => Some(Scene::SlidingBox),
+            _ => {
+                if let Some(n) = name.strip_prefix("stack") {
+                    count(n).map(Scene::Stack)
+                } else {
+                    count(name.strip_prefix("pyramid")?).map(Scene::Pyramid)
+                }
+            }
+        }
+    }
+
     /// Number of boxes.
     pub fn boxes(&self) -> usize {
         match *self {
@@ -634,6 +651,27 @@ pub mod rapier {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn scene_names_read_back() {
+        for s in Scene::BENCH
+            .into_iter()
+            .chain([Scene::Stack(40), Scene::Pyramid(1)])
+        {
+            assert_eq!(Scene::from_name(&s.name()), Some(s));
+        }
+        for bad in [
+            "stack0",
+            "stack",
+            "pyramid-3",
+            "pyramidx",
+            "pile1000",
+            "",
+            "Stack10",
+        ] {
+            assert_eq!(Scene::from_name(bad), None, "{bad}");
+        }
+    }
 
     #[test]
     fn scenes_have_their_boxes_and_the_tracker_finds_the_top() {

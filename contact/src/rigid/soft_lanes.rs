@@ -1179,7 +1179,7 @@ mod tests {
 
     /// Every body's pose and velocities after `steps` soft steps (3 sub-steps, h =
     /// 1/60) of `w`, as bits.
-    fn run(mut w: ContactWorld, steps: usize, two: bool) -> Vec<u64> {
+    pub(super) fn run(mut w: ContactWorld, steps: usize, two: bool) -> Vec<u64> {
         TWO_LANES.with(|t| t.set(two));
         w.settings.solver = ContactSolver::SoftStep { substeps: 3 };
         for _ in 0..steps {

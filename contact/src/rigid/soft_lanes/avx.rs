@@ -432,8 +432,7 @@ pub(in crate::rigid) fn build_quad(
 #[cfg(test)]
 #[cfg(feature = "std")]
 mod tests {
-    use super::super::tests::TWO_LANES;
-    use crate::rigid::{ContactSolver, ContactWorld};
+    use crate::rigid::ContactWorld;
     use crate::scenes::{box_stack, pyramid};
 
     std::thread_local! {
@@ -445,25 +444,10 @@ mod tests {
     /// Every body's pose and velocities after `steps` soft steps (3 sub-steps, h =
     /// 1/60) of `w`, as bits, the passes' builds chosen by `narrow` and `two` (as
     /// `NARROW` and `TWO_LANES`).
-    fn run(mut w: ContactWorld, steps: usize, narrow: bool, two: bool) -> Vec<u64> {
+    fn run(w: ContactWorld, steps: usize, narrow: bool, two: bool) -> Vec<u64> {
         NARROW.with(|t| t.set(narrow));
-        TWO_LANES.with(|t| t.set(two));
-        w.settings.solver = ContactSolver::SoftStep { substeps: 3 };
-        for _ in 0..steps {
-            w.step(1.0 / 60.0).expect("the scene steps");
-        }
+        let bits = super::super::tests::run(w, steps, two);
         NARROW.with(|t| t.set(false));
-        TWO_LANES.with(|t| t.set(false));
-        let mut bits = Vec::new();
-        for b in w.bodies() {
-            let (x, q) = (b.pose.x, b.pose.q);
-            for c in [x.x, x.y, x.z, q.x, q.y, q.z, q.w] {
-                bits.push(c.to_bits());
-            }
-            for c in b.v.to_array().into_iter().chain(b.omega.to_array()) {
-                bits.push(c.to_bits());
-            }
-        }
         bits
     }
 
