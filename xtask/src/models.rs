@@ -14,9 +14,12 @@
 //! mujoco_models.py`, one process): sizes, µs per step of a passive run from the default pose
 //! with zero control in its C loop (`mujoco.rollout`, median of 3), most contacts at any
 //! step; ours: the `simulate` binary of `constraint-scene` (release), first with duration 0
-//! (does it load?), then for the same steps; its one-line error is the reason. Writes
-//! `models.md` and `models.csv` to `--out` (default `target/models/`) and prints the table.
-//! `--only` runs the named models alone (e.g. `--only gymnasium/ant,dm_control/humanoid`).
+//! (does it load?), then for the same steps; its one-line error is the reason. Then, per
+//! case both finished, the interleaved timing ([`timing`], `--repeats K`): the two engines
+//! alternately, K runs each, the ratio the median of the per-repeat ratios; those are the
+//! tables' times and ratios. Writes `models.md` and `models.csv` to `--out` (default
+//! `target/models/`) and prints the table. `--only` runs the named models alone (e.g.
+//! `--only gymnasium/ant,dm_control/humanoid`).
 
 use crate::bench::fmt_ratio;
 use crate::models_checks::{
@@ -29,6 +32,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+pub use timing::Paired;
+
+#[path = "models_timing.rs"]
+pub mod timing;
 
 pub const GYMNASIUM_VERSION: &str = "1.4.0";
 pub const DM_CONTROL_VERSION: &str = "1.0.50";
@@ -494,23 +501,19 @@ fn loads(bin: &Path, xml: &Path, out: &Path, limit: Duration) -> Result<(), (Str
     }
 }
 
-/// One case of a model that loads, in our binary: MuJoCo's step and step count (the
-/// file's step and `seconds` without them), its initial state and control file, a
-/// trajectory row every `every` steps (0: only the last) into `out`, the summary into
-/// `out` with `.json`; run `repeats` times, the median time per step.
-#[allow(clippy::too_many_arguments)]
-fn ours_case(
+/// Our binary's command line for one case: MuJoCo's step and step count (the file's
+/// step and `seconds` without them), its initial state and control file, a trajectory
+/// row every `every` steps (0: only the last) into `out`, the summary into `summary`.
+/// Returns the command and the step count (`None`: MuJoCo gave none).
+fn ours_command(
     bin: &Path,
     xml: &Path,
     mj: &Mujoco,
     seconds: f64,
     every: u64,
-    repeats: usize,
     out: &Path,
-    limit: Duration,
-) -> Ours {
-    let summary = out.with_extension("json");
-    let _ = std::fs::remove_file(&summary);
+    summary: &Path,
+) -> (Command, Option<u64>) {
     let mut c = Command::new(bin);
     c.arg(xml);
     let steps = match (&mj.timestep, mj.steps) {
@@ -539,7 +542,26 @@ fn ours_case(
     if let Some(u) = &mj.ctrl {
         c.args(["--ctrl", u]);
     }
-    c.arg("--summary").arg(&summary).arg("--out").arg(out);
+    c.arg("--summary").arg(summary).arg("--out").arg(out);
+    (c, steps)
+}
+
+/// One case of a model that loads, in our binary ([`ours_command`]; the summary into
+/// `out` with `.json`); run `repeats` times, the median time per step.
+#[allow(clippy::too_many_arguments)]
+fn ours_case(
+    bin: &Path,
+    xml: &Path,
+    mj: &Mujoco,
+    seconds: f64,
+    every: u64,
+    repeats: usize,
+    out: &Path,
+    limit: Duration,
+) -> Ours {
+    let summary = out.with_extension("json");
+    let _ = std::fs::remove_file(&summary);
+    let (mut c, steps) = ours_command(bin, xml, mj, seconds, every, out, &summary);
     let first = ours_run(&mut c, &summary, steps, limit);
     // Further runs of a case that finished only time it again (the same bits: the step
     // is deterministic); the time per step is the median, as MuJoCo's.
@@ -557,6 +579,46 @@ fn ours_case(
         us_per_step: times.get(times.len() / 2).copied(),
         ..first
     }
+}
+
+/// The interleaved timing of a case both engines finished ([`timing`]): `k` repeats,
+/// ours a run of the same case with only its last row written (to
+/// `work/<stem>.timing.csv`, the first run's files stay as they are), MuJoCo one rollout
+/// in `timer`. `Err`: why there is no figure.
+#[allow(clippy::too_many_arguments)]
+fn paired_case(
+    timer: &mut timing::Timer,
+    bin: &Path,
+    xml: &Path,
+    mj: &Mujoco,
+    seconds: f64,
+    k: usize,
+    work: &Path,
+    stem: &str,
+    limit: Duration,
+) -> Result<Paired, String> {
+    let steps = mj.steps.ok_or("MuJoCo gave no step count")?;
+    let request = timing::request(
+        xml,
+        mj.qpos.as_deref(),
+        mj.qvel.as_deref(),
+        mj.ctrl.as_deref(),
+        steps,
+    )?;
+    let out = work.join(format!("{stem}.timing.csv"));
+    let summary = work.join(format!("{stem}.timing.json"));
+    let (mut c, steps) = ours_command(bin, xml, mj, seconds, 0, &out, &summary);
+    let ours = || {
+        let _ = std::fs::remove_file(&summary);
+        let o = ours_run(&mut c, &summary, steps, limit);
+        match (o.error, o.us_per_step) {
+            (Some(e), _) => Err(e),
+            (None, Some(t)) => Ok(t),
+            (None, None) => Err("no time per step in the summary".into()),
+        }
+    };
+    let pairs = timing::interleave(k, ours, || timer.time(&request))?;
+    Paired::from_pairs(&pairs).ok_or_else(|| "no positive times to take a ratio of".into())
 }
 
 /// One run of our binary for [`ours_case`].
@@ -600,9 +662,31 @@ fn ours_run(c: &mut Command, summary: &Path, steps: Option<u64>, limit: Duration
 pub struct Case {
     pub mujoco: Mujoco,
     pub ours: Ours,
+    /// The interleaved timing ([`timing`]); `None`: not timed so, see `timing_note`.
+    pub paired: Option<Paired>,
+    /// Why the case has no interleaved timing (`None` when it has one, or with
+    /// `--repeats 0`).
+    pub timing_note: Option<String>,
 }
 
 impl Case {
+    /// Ours and MuJoCo's µs per step and the ratio: the interleaved medians where the
+    /// case has them, else the separate runs' figures (timed minutes apart).
+    pub fn times(&self) -> (Option<f64>, Option<f64>, Option<f64>) {
+        match &self.paired {
+            Some(p) => (Some(p.ours_us), Some(p.mujoco_us), Some(p.ratio)),
+            None => {
+                let (a, b) = (self.ours.us_per_step, self.mujoco.us_per_step);
+                (a, b, separate_ratio(a, b))
+            }
+        }
+    }
+
+    /// The spread cell: the per-repeat ratios' `min … max`, or `–`.
+    pub fn spread(&self) -> String {
+        self.paired.as_ref().map_or("–".into(), Paired::spread)
+    }
+
     /// The checks this case fails (empty: passes, or did not run).
     pub fn failed_checks(&self) -> Vec<String> {
         self.ours
@@ -667,6 +751,14 @@ pub fn is_smooth(row: &Row) -> bool {
     })
 }
 
+/// Ours over MuJoCo's, where both have a time.
+fn separate_ratio(ours: Option<f64>, mujoco: Option<f64>) -> Option<f64> {
+    match (ours, mujoco) {
+        (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+        _ => None,
+    }
+}
+
 fn opt<T: ToString>(v: &Option<T>) -> String {
     v.as_ref().map_or("–".into(), T::to_string)
 }
@@ -703,13 +795,32 @@ fn ours_status(o: &Ours) -> String {
     }
 }
 
-fn mujoco_cell(m: &Mujoco) -> String {
-    match (&m.status[..], m.us_per_step) {
+/// MuJoCo's cell: its time per step `t` (the interleaved median or its separate
+/// run's), with its status where that is not `ok`.
+fn mujoco_cell(m: &Mujoco, t: Option<f64>) -> String {
+    match (&m.status[..], t) {
         ("ok", t) => us(t),
         (s, Some(t)) => format!("{} ({s})", us(Some(t))),
         (s, None) => s.to_string(),
     }
 }
+
+/// A ratio cell.
+fn ratio_cell(r: Option<f64>) -> String {
+    fmt_ratio(r, Some(1.0))
+}
+
+/// How the time columns are measured: the note under [`timing_table`].
+pub const TIMING_NOTE: &str = "Times per step and the ratio come from interleaved \
+     repeats: per case, after the checked runs, our `simulate` (only its last row written; \
+     µs per step measured inside its step loop) and MuJoCo's `mujoco.rollout` (one \
+     long-lived Python process, the model loaded once, one untimed warm-up rollout) each \
+     run the case's steps K times, alternately and close together (ours first in even \
+     repeats, MuJoCo first in odd ones), so both see the same machine state; ours / \
+     MuJoCo is the median of the per-repeat ratios, the spread their smallest … largest, \
+     the µs columns each engine's median over the same repeats (K: `--repeats`, \
+     `timing_repeats` in models.csv). A spread of – marks a case not timed so (it did not \
+     finish in one engine): its figures are the separate runs', timed minutes apart.";
 
 /// The checks cell of a case: `ok`, what failed, or why it did not run.
 fn checks_cell(c: &Case) -> String {
@@ -735,19 +846,20 @@ pub fn timing_table(rows: &[Row]) -> String {
     let mut md = String::new();
     let _ = writeln!(
         md,
-        "| model | suite | nbody | njnt | nu | timestep (s) | integrator | contacts / limits (MuJoCo) | MuJoCo µs/step | ours: loads? / reason | ours µs/step | ours / MuJoCo |"
+        "| model | suite | nbody | njnt | nu | timestep (s) | integrator | contacts / limits (MuJoCo) | MuJoCo µs/step | ours: loads? / reason | ours µs/step | ours / MuJoCo | spread |"
     );
     let _ = writeln!(
         md,
-        "|---|---|---:|---:|---:|---:|---|---:|---:|---|---:|---:|"
+        "|---|---|---:|---:|---:|---:|---|---:|---:|---|---:|---:|---:|"
     );
     for r in rows {
         let c = r.passive();
         let m = &c.mujoco;
         let p = r.case("perturbed").map(|c| &c.mujoco);
+        let (ours, theirs, ratio) = c.times();
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} / {} | {} | {} | {} | {} | {} |",
             cell(&r.name),
             r.suite,
             opt(&m.nbody),
@@ -757,12 +869,14 @@ pub fn timing_table(rows: &[Row]) -> String {
             opt(&m.integrator),
             opt(&p.and_then(|p| p.max_ncon)),
             opt(&p.and_then(|p| p.max_nlimit)),
-            cell(&mujoco_cell(m)),
+            cell(&mujoco_cell(m, theirs)),
             cell(&ours_status(&c.ours)),
-            us(c.ours.us_per_step),
-            fmt_ratio(c.ours.us_per_step, m.us_per_step),
+            us(ours),
+            ratio_cell(ratio),
+            c.spread(),
         );
     }
+    let _ = writeln!(md, "\n{TIMING_NOTE}");
     md
 }
 
@@ -779,7 +893,7 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64, ctrl_seconds:
          engines with `--qpos/--qvel`; **controlled** {ctrl_seconds} s from qpos0 under one \
          seeded control sequence (a new value every 0.05 s, uniform in ctrlrange; \
          `target/models/work/*.ctrl.csv`). MuJoCo: `mujoco.rollout` (its C loop, one \
-         thread), median of the repeats; counts \
+         thread); counts \
          are MuJoCo's (nbody includes the world body); contacts and limits: most at any step \
          of the perturbed run. Ours: the `simulate` binary (release, default method); \
          \"loads\" means a zero-length run succeeded, the reason is its one-line error. \
@@ -803,24 +917,26 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64, ctrl_seconds:
     );
     let _ = writeln!(
         md,
-        "| model | case | ours: ran? | ours µs/step | MuJoCo µs/step | ours / MuJoCo | joints (m) | settled penetration (m) | contacts | first contact (s), ours / MuJoCo | root z at the end (m), ours / MuJoCo | energy rise (J) | unconverged dense steps (worst residual) | checks |"
+        "| model | case | ours: ran? | ours µs/step | MuJoCo µs/step | ours / MuJoCo | spread | joints (m) | settled penetration (m) | contacts | first contact (s), ours / MuJoCo | root z at the end (m), ours / MuJoCo | energy rise (J) | unconverged dense steps (worst residual) | checks |"
     );
     let _ = writeln!(
         md,
-        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
     );
     for r in rows.iter().filter(|r| r.loads()) {
         for c in &r.cases {
             let s = c.ours.summary.as_ref();
+            let (ours, theirs, ratio) = c.times();
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} / {} | {} / {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} / {} | {} / {} | {} | {} | {} |",
                 cell(&format!("{}/{}", r.suite, r.name)),
                 c.mujoco.case,
                 cell(&ours_status(&c.ours)),
-                us(c.ours.us_per_step),
-                cell(&mujoco_cell(&c.mujoco)),
-                fmt_ratio(c.ours.us_per_step, c.mujoco.us_per_step),
+                us(ours),
+                cell(&mujoco_cell(&c.mujoco, theirs)),
+                ratio_cell(ratio),
+                c.spread(),
                 sci(s.map(|s| s.max_joint_separation)),
                 sci(s.map(|s| s.settled_penetration)),
                 opt(&s.map(|s| s.max_contacts)),
@@ -887,8 +1003,9 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64, ctrl_seconds:
          walls), quadruped (floor size; removes walls, ball, the terrain height field and \
          the rangefinders unless a task uses them), manipulator (ball or peg), stacker \
          (number of boxes).\n\
-         - MuJoCo's times are medians of short rollouts; on a shared machine expect \
-         tens of per cent between runs. Models on RK4 (most gymnasium ones, acrobot, \
+         - Each engine's time alone moves by tens of per cent between runs on a shared \
+         machine (its speed drifts over minutes); the interleaved ratio moves much less, \
+         and its spread says how far to trust it. Models on RK4 (most gymnasium ones, acrobot, \
          cartpole) pay four evaluations per step.\n\
          - Contact-rich models part from MuJoCo after the first impact (MuJoCo's contacts \
          are soft, ours hard): only the checks above are compared for them, not \
@@ -944,10 +1061,16 @@ max_ncon,max_nlimit,mujoco_status,mujoco_us_per_step,ours_loads,ours_error,ours_
 ours_us_per_step,ratio,finite,max_joint_separation,max_penetration,settled_penetration,\
 energy_initial,max_energy_increase,ours_max_contacts,energy_checked,checks,fatal,\
 smooth_ours_com,smooth_euler_com,smooth_note,ours_first_contact,mujoco_first_contact,\
-ours_root_z,mujoco_root_z,ours_unconverged_steps,ours_worst_unconverged_residual";
+ours_root_z,mujoco_root_z,ours_unconverged_steps,ours_worst_unconverged_residual,\
+ratio_min,ratio_max,timing_repeats,timing_note,ours_us_per_step_separate,\
+mujoco_us_per_step_separate,ratio_separate";
 
 /// `models.csv`: one line per model and case (the smooth figures on the perturbed line),
 /// empty fields where there is none. `constraint_verify::models_report` reads it.
+/// `ours_us_per_step`, `mujoco_us_per_step` and `ratio` are the interleaved figures
+/// ([`Case::times`]; `ratio`: the median per-repeat ratio, `ratio_min`/`ratio_max` its
+/// spread); the `*_separate` columns keep the separate runs' figures (timed minutes
+/// apart), as the columns held before the interleaved timing.
 pub fn csv(rows: &[Row]) -> String {
     let e = |v: Option<String>| v.unwrap_or_default();
     let g = |v: Option<f64>| e(v.map(|v| format!("{v:e}")));
@@ -956,10 +1079,8 @@ pub fn csv(rows: &[Row]) -> String {
         for c in &r.cases {
             let m = &c.mujoco;
             let s = c.ours.summary.as_ref();
-            let ratio = match (c.ours.us_per_step, m.us_per_step) {
-                (Some(a), Some(b)) if b > 0.0 => Some(a / b),
-                _ => None,
-            };
+            let (ours_us, mujoco_us, ratio) = c.times();
+            let p = c.paired.as_ref();
             let smooth = r.smooth.as_ref().filter(|_| m.case == "perturbed");
             let f = [
                 r.name.clone(),
@@ -976,11 +1097,11 @@ pub fn csv(rows: &[Row]) -> String {
                 e(m.max_ncon.map(|v| v.to_string())),
                 e(m.max_nlimit.map(|v| v.to_string())),
                 m.status.clone(),
-                e(m.us_per_step.map(|v| format!("{v:.3}"))),
+                e(mujoco_us.map(|v| format!("{v:.3}"))),
                 c.ours.loads.to_string(),
                 e(c.ours.error.clone()),
                 c.ours.panicked.to_string(),
-                e(c.ours.us_per_step.map(|v| format!("{v:.3}"))),
+                e(ours_us.map(|v| format!("{v:.3}"))),
                 e(ratio.map(|v| format!("{v:.4}"))),
                 e(s.map(|s| s.finite.to_string())),
                 g(s.map(|s| s.max_joint_separation)),
@@ -1001,6 +1122,13 @@ pub fn csv(rows: &[Row]) -> String {
                 g(m.root_z),
                 e(s.and_then(|s| s.unconverged_steps).map(|v| v.to_string())),
                 g(s.and_then(|s| s.worst_unconverged_residual)),
+                e(p.map(|p| format!("{:.4}", p.ratio_min))),
+                e(p.map(|p| format!("{:.4}", p.ratio_max))),
+                e(p.map(|p| p.repeats.to_string())),
+                e(c.timing_note.clone()),
+                e(c.ours.us_per_step.map(|v| format!("{v:.3}"))),
+                e(m.us_per_step.map(|v| format!("{v:.3}"))),
+                e(separate_ratio(c.ours.us_per_step, m.us_per_step).map(|v| format!("{v:.4}"))),
             ];
             let line: Vec<String> = f.iter().map(|s| csv_field(s)).collect();
             out.push_str(&line.join(","));
@@ -1119,11 +1247,26 @@ fn smooth(xml: &Path, mj: &Mujoco, ours_csv: &Path, work: &Path, stem: &str) -> 
 /// smooth comparisons; writes `models.md` and `models.csv` into `a.out`. `Err` only when
 /// the suite could not run at all (MuJoCo missing, the download failed, the build failed).
 pub fn run_suite(a: &RunArgs) -> Result<Suite, String> {
-    run_models(a, &MODELS)
+    run_models(a, &MODELS, default_repeats(a.quick))
 }
 
-/// [`run_suite`] on `models` only (a subset of [`MODELS`], `run --only`).
-fn run_models(a: &RunArgs, models: &[(&str, &str)]) -> Result<Suite, String> {
+/// Interleaved repeats per case of a full run ([`timing`]).
+pub const REPEATS: usize = 5;
+/// Interleaved repeats per case of a `--quick` run (what `cargo xtask verify` runs).
+pub const QUICK_REPEATS: usize = 3;
+
+/// The interleaved repeats per case without `--repeats`.
+pub fn default_repeats(quick: bool) -> usize {
+    if quick {
+        QUICK_REPEATS
+    } else {
+        REPEATS
+    }
+}
+
+/// [`run_suite`] on `models` only (a subset of [`MODELS`], `run --only`), with `k`
+/// interleaved repeats per case (0: none).
+fn run_models(a: &RunArgs, models: &[(&str, &str)], k: usize) -> Result<Suite, String> {
     let t0 = Instant::now();
     let python = fetch()?;
     let dir = models_dir();
@@ -1184,6 +1327,17 @@ fn run_models(a: &RunArgs, models: &[(&str, &str)]) -> Result<Suite, String> {
     } else {
         OURS_TIMEOUT_S
     });
+    // MuJoCo's side of the interleaved repeats; without it the cases keep the separate
+    // runs' figures, each with the reason.
+    let mut timer = if k > 0 {
+        let script_dir = root().join("target/xtask");
+        timing::Timer::start(&python, &script_dir, limit).map_err(|e| {
+            eprintln!("xtask: no interleaved timing: {e}");
+            e
+        })
+    } else {
+        Err(String::new())
+    };
     let mut rows = Vec::new();
     for &(suite, name) in models {
         let key = format!("{suite}/{name}");
@@ -1230,7 +1384,32 @@ fn run_models(a: &RunArgs, models: &[(&str, &str)]) -> Result<Suite, String> {
                     )
                 }
             };
-            row.cases.push(Case { mujoco: m, ours });
+            let mut case = Case {
+                mujoco: m,
+                ours,
+                ..Case::default()
+            };
+            if k > 0 {
+                let timed = match (&mut timer, &case) {
+                    (Err(e), _) => Err(e.clone()),
+                    (_, c) if c.mujoco.status != "ok" || c.mujoco.us_per_step.is_none() => {
+                        Err("MuJoCo's run did not finish".into())
+                    }
+                    (_, c) if !c.ours.loads => Err("ours does not load".into()),
+                    (_, c) if c.ours.error.is_some() || c.ours.us_per_step.is_none() => {
+                        Err("our run did not finish".into())
+                    }
+                    (Ok(t), c) => {
+                        let stem = format!("{stem}.{}", c.mujoco.case);
+                        paired_case(t, &bin, &xml, &c.mujoco, seconds, k, &work, &stem, limit)
+                    }
+                };
+                match timed {
+                    Ok(p) => case.paired = Some(p),
+                    Err(e) => case.timing_note = Some(e),
+                }
+            }
+            row.cases.push(case);
         }
         if is_smooth(&row) {
             if let Some(c) = row.case("perturbed") {
@@ -1240,11 +1419,20 @@ fn run_models(a: &RunArgs, models: &[(&str, &str)]) -> Result<Suite, String> {
         }
         let p = row.passive();
         eprintln!(
-            "xtask: ours {key}: {}{}{}",
+            "xtask: ours {key}: {}{}{}{}",
             ours_status(&p.ours),
             p.ours
                 .us_per_step
                 .map_or(String::new(), |t| format!(", {t:.2} µs/step")),
+            p.paired.as_ref().map_or(String::new(), |q| format!(
+                "; interleaved: ours {:.2} µs/step, MuJoCo {:.2} µs/step, ours / MuJoCo {:.3} \
+                 ({}, {} repeats)",
+                q.ours_us,
+                q.mujoco_us,
+                q.ratio,
+                q.spread(),
+                q.repeats
+            )),
             row.smooth.as_ref().map_or(String::new(), |s| format!(
                 ", smooth: ours {} m, MuJoCo Euler {} m",
                 sci(s.ours),
@@ -1313,8 +1501,8 @@ pub enum Subcommand {
 /// The options of `cargo xtask models run`.
 #[derive(clap::Args, Clone, Debug, PartialEq)]
 pub struct RunOptions {
-    /// 0.5 s runs, one repeat [default: off: 5 s passive and perturbed, 2 s controlled,
-    /// MuJoCo's median of 3].
+    /// 0.5 s runs, one separate repeat, 3 interleaved [default: off: 5 s passive and
+    /// perturbed, 2 s controlled, MuJoCo's separate median of 3, 5 interleaved].
     #[arg(long)]
     pub quick: bool,
     /// Where models.md and models.csv go.
@@ -1324,6 +1512,11 @@ pub struct RunOptions {
     /// gymnasium/ant,dm_control/humanoid [default: all 33].
     #[arg(long, value_name = "SUITE/NAME,...", value_delimiter = ',', value_parser = model)]
     pub only: Vec<Model>,
+    /// Interleaved timing repeats per case: ours and MuJoCo alternately, K runs each,
+    /// the ratio the median of the per-repeat ratios; 0: none (the separate runs'
+    /// figures) [default: 5; with --quick 3].
+    #[arg(long, value_name = "K")]
+    pub repeats: Option<usize>,
 }
 
 impl RunOptions {
@@ -1344,10 +1537,15 @@ impl RunOptions {
             .copied()
             .collect()
     }
+
+    /// The interleaved repeats per case: `--repeats`, or [`default_repeats`].
+    pub fn repeats(&self) -> usize {
+        self.repeats.unwrap_or(default_repeats(self.quick))
+    }
 }
 
-fn run(a: &RunArgs, models: &[(&str, &str)]) -> Result<(), String> {
-    let suite = run_models(a, models)?;
+fn run(a: &RunArgs, models: &[(&str, &str)], k: usize) -> Result<(), String> {
+    let suite = run_models(a, models, k)?;
     println!("{}", suite.markdown);
     if suite.fatal.is_empty() {
         Ok(())
@@ -1372,7 +1570,7 @@ pub fn main(o: &Options) -> Result<(), String> {
             }
             Ok(())
         }
-        Subcommand::Run(r) => run(&r.args(), &r.models()),
+        Subcommand::Run(r) => run(&r.args(), &r.models(), r.repeats()),
     }
 }
 
@@ -1579,9 +1777,19 @@ mod tests {
                 suite: "gymnasium".into(),
                 name: "b_first".into(),
                 cases: vec![
+                    // Timed interleaved: its figures replace the separate runs' 5 / 10.
                     Case {
                         mujoco: mj("gymnasium/b_first", "passive", Some(10.0)),
                         ours: ran(5.0, summary.clone()),
+                        paired: Some(Paired {
+                            repeats: 5,
+                            ratio: 0.7,
+                            ratio_min: 0.6,
+                            ratio_max: 0.9,
+                            ours_us: 6.0,
+                            mujoco_us: 8.0,
+                        }),
+                        timing_note: None,
                     },
                     Case {
                         mujoco: mj("gymnasium/b_first", "perturbed", Some(10.0)),
@@ -1592,6 +1800,7 @@ mod tests {
                                 ..summary.clone()
                             },
                         ),
+                        ..Case::default()
                     },
                 ],
                 smooth: Some(Smooth {
@@ -1609,6 +1818,8 @@ mod tests {
                         error: Some("scene: bad \"x\", a|b, c".into()),
                         ..Ours::default()
                     },
+                    paired: None,
+                    timing_note: Some("our run did not finish".into()),
                 }],
                 smooth: None,
             },
@@ -1626,6 +1837,7 @@ mod tests {
                         error: Some("step 3 diverged (body 1 non-finite or beyond 1e12)".into()),
                         ..Ours::default()
                     },
+                    ..Case::default()
                 }],
                 smooth: None,
             },
@@ -1658,9 +1870,15 @@ mod tests {
                 "{l}"
             );
         }
-        // Ratio only where both engines have a time: ours 5 µs against MuJoCo's 10 µs.
-        assert!(main[2].ends_with("| 5.00 | 0.500 |"), "{}", main[2]);
-        assert!(main[3].ends_with("| – | – |"), "{}", main[3]);
+        // The interleaved figures where the case has them (ours 6 µs, MuJoCo 8 µs, the
+        // median per-repeat ratio 0.7 with its spread), not the separate runs' 5 / 10.
+        assert!(
+            main[2].ends_with("| 8.00 | yes, ran | 6.00 | 0.700 | 0.600 … 0.900 |"),
+            "{}",
+            main[2]
+        );
+        // Ratio only where both engines have a time.
+        assert!(main[3].ends_with("| – | – | – |"), "{}", main[3]);
         assert!(main[3].contains("no: scene: bad"));
         assert!(main[4].contains("yes; failed: step 3 diverged"));
         assert!(main[4].contains("load failed: nope"));
@@ -1668,6 +1886,17 @@ mod tests {
         // joints fail at 1e-3 m.
         assert_eq!(checks.len(), 2 + 3);
         assert!(checks[2].ends_with("| ok |"), "{}", checks[2]);
+        assert!(
+            checks[2].contains("| 6.00 | 8.00 | 0.700 | 0.600 … 0.900 |"),
+            "{}",
+            checks[2]
+        );
+        // Not timed interleaved: the separate runs' 20 / 10, spread –.
+        assert!(
+            checks[3].contains("| 20.00 | 10.00 | 2.000 | – |"),
+            "{}",
+            checks[3]
+        );
         assert!(
             checks[3].contains("joints 1.0e-3 m > 1e-6"),
             "{}",
@@ -1710,14 +1939,31 @@ mod tests {
             assert_eq!(field(&f, "ours_loads"), c.ours.loads.to_string());
             assert_eq!(field(&f, "fatal"), c.fatal().to_string());
         }
+        // The interleaved figures in the old columns, the separate runs' kept beside.
         let first = split_csv(lines[1]);
-        assert_eq!(field(&first, "ratio"), "0.5000");
+        assert_eq!(field(&first, "ratio"), "0.7000");
+        assert_eq!(
+            (field(&first, "ratio_min"), field(&first, "ratio_max")),
+            ("0.6000".into(), "0.9000".into())
+        );
+        assert_eq!(field(&first, "timing_repeats"), "5");
+        assert_eq!(field(&first, "ours_us_per_step"), "6.000");
+        assert_eq!(field(&first, "mujoco_us_per_step"), "8.000");
+        assert_eq!(field(&first, "ratio_separate"), "0.5000");
+        assert_eq!(field(&first, "ours_us_per_step_separate"), "5.000");
+        assert_eq!(field(&first, "mujoco_us_per_step_separate"), "10.000");
+        let third = split_csv(lines[3]);
+        assert_eq!(field(&third, "timing_note"), "our run did not finish");
+        assert_eq!(field(&third, "ratio_min"), "");
         assert_eq!(
             field(&first, "smooth_ours_com"),
             "",
             "smooth only on perturbed"
         );
         let second = split_csv(lines[2]);
+        assert_eq!(field(&second, "ratio"), field(&second, "ratio_separate"));
+        assert_eq!(field(&second, "ratio"), "2.0000");
+        assert_eq!(field(&second, "timing_repeats"), "");
         assert_eq!(field(&second, "smooth_ours_com"), "1e-4");
         assert_eq!(field(&second, "smooth_euler_com"), "1e-2");
         assert!(field(&second, "checks").starts_with("joints"));
@@ -1831,6 +2077,13 @@ mod tests {
                 simulate: None
             }
         );
+        // Interleaved repeats: 5 for a full run, 3 quick, or as given (0: none).
+        assert_eq!(run_options("").repeats(), REPEATS);
+        assert_eq!(run_options("--quick").repeats(), QUICK_REPEATS);
+        assert_eq!(run_options("--quick --repeats 7").repeats(), 7);
+        assert_eq!(run_options("--repeats 0").repeats(), 0);
+        assert!(parse("run --repeats -1").is_err());
+        assert!(parse("run --repeats many").is_err());
         assert_eq!(parse("fetch"), Ok(Subcommand::Fetch));
         assert_eq!(parse("list"), Ok(Subcommand::List));
         assert!(parse("run --out")
