@@ -682,7 +682,7 @@ impl Case {
         }
     }
 
-    /// The spread cell: the per-repeat ratios' `min … max`, or `–`.
+    /// The spread cell: the per-repeat ratios' quartiles `q1 … q3`, or `–`.
     pub fn spread(&self) -> String {
         self.paired.as_ref().map_or("–".into(), Paired::spread)
     }
@@ -817,7 +817,8 @@ pub const TIMING_NOTE: &str = "Times per step and the ratio come from interleave
      long-lived Python process, the model loaded once, one untimed warm-up rollout) each \
      run the case's steps K times, alternately and close together (ours first in even \
      repeats, MuJoCo first in odd ones), so both see the same machine state; ours / \
-     MuJoCo is the median of the per-repeat ratios, the spread their smallest … largest, \
+     MuJoCo is the median of the per-repeat ratios, the spread their quartiles (nearest \
+     rank; smallest and largest in models.csv), \
      the µs columns each engine's median over the same repeats (K: `--repeats`, \
      `timing_repeats` in models.csv). A spread of – marks a case not timed so (it did not \
      finish in one engine): its figures are the separate runs', timed minutes apart.";
@@ -1062,14 +1063,14 @@ ours_us_per_step,ratio,finite,max_joint_separation,max_penetration,settled_penet
 energy_initial,max_energy_increase,ours_max_contacts,energy_checked,checks,fatal,\
 smooth_ours_com,smooth_euler_com,smooth_note,ours_first_contact,mujoco_first_contact,\
 ours_root_z,mujoco_root_z,ours_unconverged_steps,ours_worst_unconverged_residual,\
-ratio_min,ratio_max,timing_repeats,timing_note,ours_us_per_step_separate,\
+ratio_q1,ratio_q3,ratio_min,ratio_max,timing_repeats,timing_note,ours_us_per_step_separate,\
 mujoco_us_per_step_separate,ratio_separate";
 
 /// `models.csv`: one line per model and case (the smooth figures on the perturbed line),
 /// empty fields where there is none. `constraint_verify::models_report` reads it.
 /// `ours_us_per_step`, `mujoco_us_per_step` and `ratio` are the interleaved figures
-/// ([`Case::times`]; `ratio`: the median per-repeat ratio, `ratio_min`/`ratio_max` its
-/// spread); the `*_separate` columns keep the separate runs' figures (timed minutes
+/// ([`Case::times`]; `ratio`: the median per-repeat ratio, `ratio_q1`/`ratio_q3` its
+/// quartiles, `ratio_min`/`ratio_max` its extremes); the `*_separate` columns keep the separate runs' figures (timed minutes
 /// apart), as the columns held before the interleaved timing.
 pub fn csv(rows: &[Row]) -> String {
     let e = |v: Option<String>| v.unwrap_or_default();
@@ -1122,6 +1123,8 @@ pub fn csv(rows: &[Row]) -> String {
                 g(m.root_z),
                 e(s.and_then(|s| s.unconverged_steps).map(|v| v.to_string())),
                 g(s.and_then(|s| s.worst_unconverged_residual)),
+                e(p.map(|p| format!("{:.4}", p.ratio_q1))),
+                e(p.map(|p| format!("{:.4}", p.ratio_q3))),
                 e(p.map(|p| format!("{:.4}", p.ratio_min))),
                 e(p.map(|p| format!("{:.4}", p.ratio_max))),
                 e(p.map(|p| p.repeats.to_string())),
@@ -1251,9 +1254,9 @@ pub fn run_suite(a: &RunArgs) -> Result<Suite, String> {
 }
 
 /// Interleaved repeats per case of a full run ([`timing`]).
-pub const REPEATS: usize = 5;
+pub const REPEATS: usize = 15;
 /// Interleaved repeats per case of a `--quick` run (what `cargo xtask verify` runs).
-pub const QUICK_REPEATS: usize = 3;
+pub const QUICK_REPEATS: usize = 5;
 
 /// The interleaved repeats per case without `--repeats`.
 pub fn default_repeats(quick: bool) -> usize {
@@ -1501,8 +1504,8 @@ pub enum Subcommand {
 /// The options of `cargo xtask models run`.
 #[derive(clap::Args, Clone, Debug, PartialEq)]
 pub struct RunOptions {
-    /// 0.5 s runs, one separate repeat, 3 interleaved [default: off: 5 s passive and
-    /// perturbed, 2 s controlled, MuJoCo's separate median of 3, 5 interleaved].
+    /// 0.5 s runs, one separate repeat, 5 interleaved [default: off: 5 s passive and
+    /// perturbed, 2 s controlled, MuJoCo's separate median of 3, 15 interleaved].
     #[arg(long)]
     pub quick: bool,
     /// Where models.md and models.csv go.
@@ -1514,7 +1517,7 @@ pub struct RunOptions {
     pub only: Vec<Model>,
     /// Interleaved timing repeats per case: ours and MuJoCo alternately, K runs each,
     /// the ratio the median of the per-repeat ratios; 0: none (the separate runs'
-    /// figures) [default: 5; with --quick 3].
+    /// figures) [default: 15; with --quick 5].
     #[arg(long, value_name = "K")]
     pub repeats: Option<usize>,
 }
@@ -1784,6 +1787,8 @@ mod tests {
                         paired: Some(Paired {
                             repeats: 5,
                             ratio: 0.7,
+                            ratio_q1: 0.65,
+                            ratio_q3: 0.8,
                             ratio_min: 0.6,
                             ratio_max: 0.9,
                             ours_us: 6.0,
@@ -1873,7 +1878,7 @@ mod tests {
         // The interleaved figures where the case has them (ours 6 µs, MuJoCo 8 µs, the
         // median per-repeat ratio 0.7 with its spread), not the separate runs' 5 / 10.
         assert!(
-            main[2].ends_with("| 8.00 | yes, ran | 6.00 | 0.700 | 0.600 … 0.900 |"),
+            main[2].ends_with("| 8.00 | yes, ran | 6.00 | 0.700 | 0.650 … 0.800 |"),
             "{}",
             main[2]
         );
@@ -1887,7 +1892,7 @@ mod tests {
         assert_eq!(checks.len(), 2 + 3);
         assert!(checks[2].ends_with("| ok |"), "{}", checks[2]);
         assert!(
-            checks[2].contains("| 6.00 | 8.00 | 0.700 | 0.600 … 0.900 |"),
+            checks[2].contains("| 6.00 | 8.00 | 0.700 | 0.650 … 0.800 |"),
             "{}",
             checks[2]
         );
@@ -1942,6 +1947,10 @@ mod tests {
         // The interleaved figures in the old columns, the separate runs' kept beside.
         let first = split_csv(lines[1]);
         assert_eq!(field(&first, "ratio"), "0.7000");
+        assert_eq!(
+            (field(&first, "ratio_q1"), field(&first, "ratio_q3")),
+            ("0.6500".into(), "0.8000".into())
+        );
         assert_eq!(
             (field(&first, "ratio_min"), field(&first, "ratio_max")),
             ("0.6000".into(), "0.9000".into())

@@ -26,6 +26,10 @@ pub struct Paired {
     pub repeats: usize,
     /// Median of ours / MuJoCo over the repeats.
     pub ratio: f64,
+    /// Lower and upper quartile of the per-repeat ratios ([`quantile`]): the spread
+    /// the tables show (a single disturbed repeat moves it little).
+    pub ratio_q1: f64,
+    pub ratio_q3: f64,
     /// Smallest and largest per-repeat ratio.
     pub ratio_min: f64,
     pub ratio_max: f64,
@@ -47,6 +51,16 @@ pub fn median(v: &[f64]) -> Option<f64> {
     }
 }
 
+/// The `p`-quantile of `v` (0 ≤ p ≤ 1) by nearest rank: the sorted value at
+/// `round((n - 1) p)`, as `peers/examples/paired_ratio.rs` takes its quartiles; `None`
+/// when `v` is empty.
+pub fn quantile(v: &[f64], p: f64) -> Option<f64> {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let i = ((s.len().checked_sub(1)?) as f64 * p.clamp(0.0, 1.0)).round() as usize;
+    s.get(i).copied()
+}
+
 impl Paired {
     /// From the repeats' `(ours µs, MuJoCo µs)` pairs; `None` without any pair, or when
     /// a time is not positive and finite (no ratio to take).
@@ -61,6 +75,8 @@ impl Paired {
         Some(Paired {
             repeats: pairs.len(),
             ratio: median(&ratios)?,
+            ratio_q1: quantile(&ratios, 0.25)?,
+            ratio_q3: quantile(&ratios, 0.75)?,
             ratio_min: ratios.iter().copied().fold(f64::INFINITY, f64::min),
             ratio_max: ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max),
             ours_us: median(&ours)?,
@@ -68,9 +84,9 @@ impl Paired {
         })
     }
 
-    /// The spread cell: `min … max` of the per-repeat ratios.
+    /// The spread cell: the quartiles `q1 … q3` of the per-repeat ratios.
     pub fn spread(&self) -> String {
-        format!("{:.3} … {:.3}", self.ratio_min, self.ratio_max)
+        format!("{:.3} … {:.3}", self.ratio_q1, self.ratio_q3)
     }
 }
 
@@ -264,16 +280,40 @@ mod tests {
         let p = Paired::from_pairs(&pairs).unwrap();
         assert_eq!(p.repeats, 5);
         assert_eq!((p.ratio, p.ratio_min, p.ratio_max), (2.0, 2.0, 2.0));
+        assert_eq!((p.ratio_q1, p.ratio_q3), (2.0, 2.0));
         assert_eq!((p.ours_us, p.mujoco_us), (6.0, 3.0));
         // Separate medians of shuffled series give another figure; the pairs do not.
         let q = Paired::from_pairs(&[(2.0, 1.0), (4.5, 1.5), (3.0, 2.0)]).unwrap();
         assert_eq!((q.ratio, q.ratio_min, q.ratio_max), (2.0, 1.5, 3.0));
         assert_eq!((q.ours_us, q.mujoco_us), (3.0, 1.5));
-        assert!(q.ratio_min <= q.ratio && q.ratio <= q.ratio_max);
-        assert_eq!(q.spread(), "1.500 … 3.000");
+        // Three repeats: the quartiles at ranks round(0.5) = 1 and round(1.5) = 2.
+        assert_eq!((q.ratio_q1, q.ratio_q3), (2.0, 3.0));
+        assert_eq!(q.spread(), "2.000 … 3.000");
         // The repeat order does not change the figures.
         let r = Paired::from_pairs(&[(3.0, 2.0), (2.0, 1.0), (4.5, 1.5)]).unwrap();
         assert_eq!(q, r);
+    }
+
+    #[test]
+    fn quartiles_bracket_the_median_and_ignore_one_wild_repeat() {
+        assert_eq!(quantile(&[], 0.5), None);
+        assert_eq!(quantile(&[7.0], 0.25), Some(7.0));
+        let v: Vec<f64> = (1..=9).rev().map(f64::from).collect();
+        assert_eq!(quantile(&v, 0.0), Some(1.0));
+        assert_eq!(quantile(&v, 0.25), Some(3.0));
+        assert_eq!(quantile(&v, 0.5), median(&v));
+        assert_eq!(quantile(&v, 0.75), Some(7.0));
+        assert_eq!(quantile(&v, 1.0), Some(9.0));
+        // Fifteen repeats at ratio 2 ± 0.1 and one preempted repeat at 12: the
+        // quartiles stay within the 0.1, the maximum does not.
+        let mut pairs: Vec<(f64, f64)> = (0..15)
+            .map(|i| (2.0 + 0.1 * f64::from(i % 3) - 0.1, 1.0))
+            .collect();
+        pairs.push((12.0, 1.0));
+        let p = Paired::from_pairs(&pairs).unwrap();
+        assert!(p.ratio_q1 >= 1.9 && p.ratio_q3 <= 2.1 + 1e-12, "{p:?}");
+        assert!(p.ratio_q1 <= p.ratio && p.ratio <= p.ratio_q3, "{p:?}");
+        assert_eq!(p.ratio_max, 12.0);
     }
 
     #[test]
