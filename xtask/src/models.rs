@@ -1005,8 +1005,11 @@ pub fn markdown(rows: &[Row], version: Option<&str>, seconds: f64, ctrl_seconds:
          the rangefinders unless a task uses them), manipulator (ball or peg), stacker \
          (number of boxes).\n\
          - Each engine's time alone moves by tens of per cent between runs on a shared \
-         machine (its speed drifts over minutes); the interleaved ratio moves much less, \
-         and its spread says how far to trust it. Models on RK4 (most gymnasium ones, acrobot, \
+         machine (its speed drifts over minutes); the interleaved ratio moves less, and \
+         its spread says how far to trust it. A repeat of a few milliseconds that the \
+         scheduler interrupts (more cores' worth of other work than cores) inflates that \
+         repeat's ratio: the median resists it while fewer than half are hit, the upper \
+         quartile shows it. Models on RK4 (most gymnasium ones, acrobot, \
          cartpole) pay four evaluations per step.\n\
          - Contact-rich models part from MuJoCo after the first impact (MuJoCo's contacts \
          are soft, ours hard): only the checks above are compared for them, not \
