@@ -1087,7 +1087,8 @@ fn models_markdown(s: &models::Suite) -> String {
          gymnasium {} and dm_control {} models (`cargo xtask models run`'s runner), MuJoCo {}, \
          each from its default pose with zero control for {} s at the file's time step and \
          integrator; MuJoCo timed by `mujoco.rollout` (its C loop), ours by the `simulate` \
-         binary (release, default method), medians of 3 runs. Ratio below 1: this library \
+         binary (release, default method), the two timed alternately in repeats (the ratio is \
+         the median of the per-repeat ratios, quartiles beside it). Ratio below 1: this library \
          is faster. Checks and the other cases: `target/bench/models/models.md`.\n",
         models::GYMNASIUM_VERSION,
         models::DM_CONTROL_VERSION,

@@ -30,8 +30,8 @@
 //!    first, and rapier3d's from an earlier `cargo xtask bench`, see
 //!    `bench_contact::verify_points`); the default plan (also CI's), `--full` the
 //!    dense one (about 18 minutes of sweeps)
-//! 9. the real models (`cargo xtask models run --quick`: 0.5 s runs, one repeat;
-//!    `--full`: 5 s runs, MuJoCo's median of 3):
+//! 9. the real models (`cargo xtask models run --quick`: 0.5 s runs, 5 interleaved timing
+//!    repeats; `--full`: 5 s runs, 15 repeats):
 //!    the 33 gymnasium and dm_control models in MuJoCo and here, per-model checks, the
 //!    "Real models" section and its charts (see `models.rs`,
 //!    `constraint_report::models_report`). Fails on a panic, when a model that loads
@@ -81,7 +81,7 @@ enum Mode {
     /// 0.5 s model runs, 256 proptest cases with `--ci`, packages packed but not built.
     Standard,
     /// `--full`: the dense plans (about 18 minutes of sweeps), 5 s model runs with
-    /// MuJoCo's median of 3, 2048 proptest cases, each library crate built from its
+    /// 15 interleaved timing repeats, 2048 proptest cases, each library crate built from its
     /// `.crate`; implies `--ci`.
     Full,
 }
@@ -447,9 +447,9 @@ fn real_models(
 ) -> (bool, String, String) {
     let quick = mode != Mode::Full;
     let how = if quick {
-        "`cargo xtask verify`: `cargo xtask models run --quick` (0.5 s runs, one repeat)"
+        "`cargo xtask verify`: `cargo xtask models run --quick` (0.5 s runs, ours and MuJoCo timed alternately, 5 repeats)"
     } else {
-        "`cargo xtask verify --full`: `cargo xtask models run` (5 s passive and perturbed, 2 s controlled, MuJoCo median of 3)"
+        "`cargo xtask verify --full`: `cargo xtask models run` (5 s passive and perturbed, 2 s controlled, ours and MuJoCo timed alternately, 15 repeats)"
     };
     let heading = "## Real models (gymnasium and dm_control)\n\n";
     if let Err(e) = crate::mujoco::ensure_venv() {
