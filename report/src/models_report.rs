@@ -188,7 +188,9 @@ pub fn section(lines: &[CaseLine], how: &str) -> (String, Vec<(String, String)>)
          impact: for them the table compares what both must agree on, the time of the first \
          contact and the height of the root body at the end of the passive run. A model \
          that does not load is a table entry with its typed reason; a panic (loading or \
-         stepping), or a loaded model that diverges, fails the run. Time ratio below 1: this library is faster.\n"
+         stepping), or a loaded model that diverges, fails the run. Times: the two engines \
+         timed alternately in repeats, the ratio the median of the per-repeat ratios \
+         (`models.csv` has its quartiles). Time ratio below 1: this library is faster.\n"
     );
     let _ = writeln!(
         md,
