@@ -437,6 +437,9 @@ pub(super) struct SoftState {
     /// Whether this step's contact keys are unique (set by `prepare`; `warm_unique`
     /// once `store` keeps them).
     pub(super) unique_keys: bool,
+    /// Whether this step's contacts come sorted by collider pair (set by `prepare`,
+    /// which walks their runs; `store` then keeps their keys without checking).
+    pub(super) pairs_ascending: bool,
     /// The previous step's impulses of each contact (natural order; zero if new).
     pub(super) found: Vec<(f64, DVec3, DVec3, f64)>,
     /// Whether each contact (natural order) was found in the previous step.
@@ -792,7 +795,9 @@ impl ContactWorld {
             *warm = (c.key(), zn, t1 * z1 + t2 * z2, slip, preload_floor[p]);
             out.copy_from_slice(&total[p]);
         }
-        if !st.warm_next.is_sorted_by_key(|e| (e.0 .0, e.0 .1)) {
+        // `warm_next` holds the contacts' keys in natural order: sorted by pair
+        // exactly when the contacts' runs ascend, which `prepare` saw.
+        if !st.pairs_ascending {
             // Keys are unique: the unstable sort is deterministic.
             st.warm_next.sort_unstable_by_key(|e| e.0);
         }
