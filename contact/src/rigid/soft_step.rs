@@ -706,26 +706,31 @@ impl ContactWorld {
     /// velocities after the implicit gyroscopic update over `h`, zero displacements.
     fn load_bodies(&mut self, st: &mut SoftState, h: f64) {
         let n = self.bodies.len() + 1;
-        // Sized to the slots with the static slot's values (its entry, the last, and
-        // an asleep body's are these) and written in place: one reserve an array, not
-        // a capacity check a push.
-        st.v.clear();
+        // Sized to the slots (a no-op when the body count is the last step's) and every
+        // entry written below, once: the bodies' in one pass over the seven arrays
+        // (the static values for an asleep body), then the static slot's (clearing
+        // and refilling each array, then overwriting the bodies' entries, was seven
+        // passes and four overwrites).
         st.v.resize(n, DVec3::ZERO);
-        st.w.clear();
         st.w.resize(n, DVec3::ZERO);
-        st.inv_mass.clear();
         st.inv_mass.resize(n, 0.0);
-        st.inv_inertia.clear();
         st.inv_inertia.resize(n, DMat3::ZERO);
+        st.dp.resize(n, DVec3::ZERO);
+        st.dq.resize(n, DQuat::IDENTITY);
+        st.rot.resize(n, DMat3::IDENTITY);
         let slots = st
             .inv_mass
             .iter_mut()
             .zip(&mut st.inv_inertia)
             .zip(st.v.iter_mut().zip(&mut st.w));
-        for (i, (b, ((im, ii), (v, w)))) in self.bodies.iter_mut().zip(slots).enumerate() {
+        let moves = st.dp.iter_mut().zip(&mut st.dq).zip(&mut st.rot);
+        let bodies = self.bodies.iter_mut().zip(slots.zip(moves));
+        for (i, (b, (((im, ii), (v, w)), ((dp, dq), rot)))) in bodies.enumerate() {
+            (*dp, *dq, *rot) = (DVec3::ZERO, DQuat::IDENTITY, DMat3::IDENTITY);
             // An asleep body (the sleep module's hook) takes a static slot: at rest, zero
             // inverse mass, not integrated (it is in no contact row either).
             if self.sleep.asleep.get(i).copied().unwrap_or(false) {
+                (*im, *ii, *v, *w) = (0.0, DMat3::ZERO, DVec3::ZERO, DVec3::ZERO);
                 continue;
             }
             // One rotation matrix for both (`world_inv_inertia`'s `R I⁻¹ Rᵀ`).
@@ -736,12 +741,11 @@ impl ContactWorld {
             *v = b.v;
             *w = b.omega;
         }
-        st.dp.clear();
-        st.dp.resize(n, DVec3::ZERO);
-        st.dq.clear();
-        st.dq.resize(n, DQuat::IDENTITY);
-        st.rot.clear();
-        st.rot.resize(n, DMat3::IDENTITY);
+        // The static slot, the last.
+        let last = n - 1;
+        (st.inv_mass[last], st.inv_inertia[last]) = (0.0, DMat3::ZERO);
+        (st.v[last], st.w[last]) = (DVec3::ZERO, DVec3::ZERO);
+        (st.dp[last], st.dq[last], st.rot[last]) = (DVec3::ZERO, DQuat::IDENTITY, DMat3::IDENTITY);
     }
 
     /// Writes the bodies back (`x = x₀ + Δx`, `q = Δq q₀`) and keeps the impulses for
