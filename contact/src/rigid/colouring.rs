@@ -165,7 +165,7 @@ impl Colouring {
             self.valid = true;
         }
         let heights = &self.height;
-        let below = |p: usize, q: usize| (heights[p], p).cmp(&(heights[q], q));
+        let below = |p: usize, q: usize| point_key(heights, p).cmp(&point_key(heights, q));
         let m = self.sig.len();
         // Each manifold's points bottom-up, in place (unique keys: one result whatever
         // the order they start from). With the manifolds unchanged they start from the
@@ -465,7 +465,7 @@ impl Colouring {
     /// `self.height` (strictly: the keys are unique), with the manifolds unchanged.
     fn still_bottom_up(&self) -> bool {
         let h = &self.height;
-        let below = |p: usize, q: usize| (h[p], p) < (h[q], q);
+        let below = |p: usize, q: usize| point_key(h, p) < point_key(h, q);
         // The runs first (checking the ranks first cost more on the 10-box stack and
         // on the 210-box pyramid, where one or the other changes every step).
         let runs_sorted = self
@@ -475,7 +475,7 @@ impl Colouring {
         runs_sorted
             && self.by_rank.windows(2).all(|r| {
                 let (p, q) = (self.low[r[0] as usize], self.low[r[1] as usize]);
-                (h[p], p) < (h[q], q)
+                point_key(h, p) < point_key(h, q)
             })
     }
 }
@@ -499,6 +499,14 @@ fn insertion_sort<T: Copy>(v: &mut [T], less: impl Fn(&T, &T) -> bool, budget: u
         }
     }
     true
+}
+
+/// Point `p`'s bottom-up key, `(height, index)` as one integer, `height · 2⁶⁴ +
+/// index` (`0 ≤ index < 2⁶⁴`): the tuples' lexicographic order, compared without a
+/// branch between the two parts.
+#[inline(always)]
+fn point_key(height: &[i64], p: usize) -> i128 {
+    (i128::from(height[p]) << 64) | p as i128
 }
 
 /// The integer whose order is `f64::total_cmp`'s.
