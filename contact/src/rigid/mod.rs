@@ -786,15 +786,15 @@ fn apply(bodies: &mut [RigidBody], r: &Row, dz: f64) {
 }
 
 /// Whether a body's position, orientation and velocities are all finite (the
-/// check's body test): `c − c` is `0` for a finite `c` and NaN for an infinite or NaN
-/// one, and a sum holding a NaN is NaN, so the sum of the thirteen differences is `0`
-/// exactly when every component is finite. One comparison a body instead of thirteen
-/// tests and branches (the same answer as `is_finite` on each of the four).
+/// check's body test): `0 c` is `±0` for a finite `c` and NaN for an infinite or NaN
+/// one, and a sum holding a NaN is NaN while a sum of zeros is a zero, so the sum of
+/// the thirteen products is zero exactly when every component is finite (as
+/// `broad::all_finite` tests poses). One comparison a body instead of thirteen tests
+/// and branches (the same answer as `is_finite` on each of the four).
 #[inline]
 fn finite_state(b: &RigidBody) -> bool {
-    let zero = |v: DVec3| (v.x - v.x) + (v.y - v.y) + (v.z - v.z);
-    let q = b.pose.q;
-    let q = (q.x - q.x) + (q.y - q.y) + (q.z - q.z) + (q.w - q.w);
+    let zero = |v: DVec3| (v * 0.0).element_sum();
+    let q = (glam::DVec4::from(b.pose.q) * 0.0).element_sum();
     zero(b.pose.x) + q + zero(b.v) + zero(b.omega) == 0.0
 }
 
@@ -857,7 +857,7 @@ mod tests {
             for d in c..13 {
                 for &x in &values {
                     for &y in &values {
-                        let mut b = base.clone();
+                        let mut b = base;
                         set(&mut b, c, x);
                         set(&mut b, d, y);
                         let finite = b.pose.x.is_finite()
