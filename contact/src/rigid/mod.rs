@@ -447,12 +447,7 @@ impl ContactWorld {
         if !self.gravity.is_finite() {
             return bad("gravity", "must be finite");
         }
-        if self.bodies.iter().any(|b| {
-            !(b.pose.x.is_finite()
-                && b.pose.q.is_finite()
-                && b.v.is_finite()
-                && b.omega.is_finite())
-        }) {
+        if !self.bodies.iter().all(finite_state) {
             return bad("body state", "positions and velocities must be finite");
         }
         Ok(ctx)
@@ -470,20 +465,16 @@ impl ContactWorld {
             stats.asleep = self.sleep.count();
             stats
         });
-        let result = result.and_then(|stats| {
-            let ok = constraint_core::math::within_limit;
-            match self
-                .bodies
-                .iter()
-                .position(|b| !ok(b.pose.x) || !ok(b.v) || !ok(b.omega))
-            {
-                Some(body) => Err(ContactError::Diverged {
-                    step: self.steps + 1,
-                    body,
-                }),
-                None => Ok(stats),
-            }
-        });
+        let result =
+            result.and_then(
+                |stats| match self.bodies.iter().position(|b| !within_limits(b)) {
+                    Some(body) => Err(ContactError::Diverged {
+                        step: self.steps + 1,
+                        body,
+                    }),
+                    None => Ok(stats),
+                },
+            );
         if result.is_ok() {
             self.steps += 1;
         } else {
@@ -791,5 +782,98 @@ fn apply(bodies: &mut [RigidBody], r: &Row, dz: f64) {
     if let Some(i) = r.b {
         bodies[i].v += r.mj[2] * dz;
         bodies[i].omega += r.mj[3] * dz;
+    }
+}
+
+/// Whether a body's position, orientation and velocities are all finite (the
+/// check's body test): `0 c` is `±0` for a finite `c` and NaN for an infinite or NaN
+/// one, and a sum holding a NaN is NaN while a sum of zeros is a zero, so the sum of
+/// the thirteen products is zero exactly when every component is finite (as
+/// `broad::all_finite` tests poses). One comparison a body instead of thirteen tests
+/// and branches (the same answer as `is_finite` on each of the four).
+#[inline]
+fn finite_state(b: &RigidBody) -> bool {
+    let zero = |v: DVec3| (v * 0.0).element_sum();
+    let q = (glam::DVec4::from(b.pose.q) * 0.0).element_sum();
+    zero(b.pose.x) + q + zero(b.v) + zero(b.omega) == 0.0
+}
+
+/// [`constraint_core::math::within_limit`] of a body's position, velocity and
+/// angular velocity: every component below [`constraint_core::math::DIVERGENCE_LIMIT`]
+/// in magnitude, which no NaN is (`NaN < L` is false) and no infinity, so the strict
+/// bound alone is `within_limit`'s finiteness test and bound; the nine comparisons
+/// combined without branches.
+#[inline]
+fn within_limits(b: &RigidBody) -> bool {
+    const L: f64 = constraint_core::math::DIVERGENCE_LIMIT;
+    let below = |v: DVec3| (v.x.abs() < L) & (v.y.abs() < L) & (v.z.abs() < L);
+    below(b.pose.x) & below(b.v) & below(b.omega)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use constraint_core::math::{within_limit, DIVERGENCE_LIMIT};
+    use constraint_core::DQuat;
+
+    /// The branch-free body tests give the answers of the tests they replace
+    /// (`is_finite` on position, orientation and velocities; `within_limit` on
+    /// position and velocities) on every body whose thirteen components are each one
+    /// of: 0, −0, 1, the limit and just below it, ±∞, NaN (one component changed at a
+    /// time, and pairs of the special values in two components).
+    #[test]
+    fn branch_free_body_tests_match_the_componentwise_ones() {
+        let limit = DIVERGENCE_LIMIT;
+        let values = [
+            0.0,
+            -0.0,
+            1.0,
+            -2.5,
+            limit,
+            -limit,
+            limit * (1.0 - f64::EPSILON),
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MAX,
+        ];
+        let pose = Pose {
+            x: DVec3::ZERO,
+            q: DQuat::IDENTITY,
+        };
+        let base = RigidBody::new(0, 1.0, DMat3::IDENTITY, pose).unwrap();
+        let set = |b: &mut RigidBody, c: usize, v: f64| match c {
+            0..3 => b.pose.x[c] = v,
+            3..7 => {
+                let mut q = b.pose.q.to_array();
+                q[c - 3] = v;
+                b.pose.q = DQuat::from_array(q);
+            }
+            7..10 => b.v[c - 7] = v,
+            _ => b.omega[c - 10] = v,
+        };
+        let mut checked = 0;
+        for c in 0..13 {
+            for d in c..13 {
+                for &x in &values {
+                    for &y in &values {
+                        let mut b = base;
+                        set(&mut b, c, x);
+                        set(&mut b, d, y);
+                        let finite = b.pose.x.is_finite()
+                            && b.pose.q.is_finite()
+                            && b.v.is_finite()
+                            && b.omega.is_finite();
+                        assert_eq!(finite_state(&b), finite, "{c} {d} {x} {y}");
+                        let ok =
+                            within_limit(b.pose.x) && within_limit(b.v) && within_limit(b.omega);
+                        assert_eq!(within_limits(&b), ok, "{c} {d} {x} {y}");
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        // 91 component pairs (with repeats) times 121 value pairs.
+        assert_eq!(checked, 91 * 121);
     }
 }

@@ -317,8 +317,14 @@ impl ContactWorld {
         let nc = contacts.len();
         let (found, found_hit) = (&mut st.found[..nc], &mut st.found_hit[..nc]);
         let mut i = 0;
+        // Whether the manifolds' pairs ascend (each run's pair above the last run's):
+        // the contacts, and the keys `store` keeps in natural order, are then sorted
+        // by pair (runs are maximal, so `≥` between runs is out of order).
+        let (mut ascending, mut last_pair) = (true, None);
         while i < nc {
             let pair = (contacts[i].a, contacts[i].b);
+            ascending &= last_pair < Some(pair);
+            last_pair = Some(pair);
             let mut j = i;
             let mut sum = 0.0;
             let mut hits = 0usize;
@@ -369,6 +375,7 @@ impl ContactWorld {
         // With `preload_estimate` every manifold is estimated, every step.
         let every = self.settings.warm_start && s.preload_estimate;
         st.unique_keys = unique;
+        st.pairs_ascending = ascending;
         let new_manifolds =
             self.settings.warm_start && self.estimate_loads(st, up, hs, every, !fresh);
         let preload = if self.settings.warm_start {
