@@ -744,7 +744,16 @@ fn update_dyn(
 
 /// One node's data for the solve kernels: `(D factor, 1/d, W, Wᵀ, offset, parent
 /// offset, n, n_parent)`.
-type NodeArgs<'a> = (&'a Blk, &'a [f64; 6], &'a Blk, &'a Blk, usize, usize, usize, usize);
+type NodeArgs<'a> = (
+    &'a Blk,
+    &'a [f64; 6],
+    &'a Blk,
+    &'a Blk,
+    usize,
+    usize,
+    usize,
+    usize,
+);
 
 /// Forward pass at one node: `u = L⁻¹ y`, `s = d⁻¹ u` (stored), `y_p −= Wᵀ s`.
 /// `N`/`NP` are the compile-time shapes when they match the runtime ones (the generic
