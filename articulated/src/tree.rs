@@ -463,11 +463,13 @@ impl TreeSolver {
     /// only (zero elsewhere): one body for both, so the node kernels keep a single
     /// call site each (and stay inlined).
     ///
+    /// The backward pass's `W x_p` reads the copy `Wᵀ` the factor writes, its sums
+    /// stored into `x` and read back ([`backward_sized`]): only with that store did the
+    /// compiler pair the rows' sums in vector lanes (an earlier try with the copy
+    /// alone, swimmer6 controlled 121.84M → 122.44M, gained nothing in the pass).
     /// Tried and left out (issue 13, `World::step` instructions, the same bits):
-    /// the backward pass's `W x_p` from a copy `Wᵀ` written by the factor (the rows'
-    /// sums in vector lanes, each still in column order): swimmer6 controlled 121.84M →
-    /// 122.44M, half_cheetah 43.39M → 43.54M (this function 26.04M → 26.26M on
-    /// swimmer6: no gain in the pass, and the copy costs the factor); the node kernel
+    /// the same store reading `W` itself (a gather of two rows' entries per pair):
+    /// humanoid_CMU controlled 0.1 s 81.47M → 83.00M against the copy; the node kernel
     /// chosen by its shape's index kept in the schedule (one jump) instead of the match
     /// on `(n, np)`: swimmer6 122.00M, dm hopper 72.43M → 72.51M; the dense contact
     /// path's columns of one contact (normal and tangents, the same bodies and marks)
