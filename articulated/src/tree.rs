@@ -63,6 +63,10 @@ pub(crate) struct NodeBlocks {
     /// [`TreeSolver::factor`], `W_i = L_i⁻¹ H_{i,parent(i)}` (`L_i` the unit lower
     /// factor of `D_i`).
     pub(crate) off: Blk,
+    /// `Wᵀ` (`dim_parent × dim_i`), written by [`TreeSolver::factor`] beside `W`: the
+    /// backward pass's `W x_p` reads it a column of `W` at a time, so that the sums of
+    /// neighbouring rows share vector lanes (contiguous in `Wᵀ`, not in `W`).
+    off_t: Blk,
     /// `1/d` of the node's pivots (0 for dropped pivots).
     dinv: [f64; 6],
 }
@@ -70,6 +74,7 @@ pub(crate) struct NodeBlocks {
 const ZERO_NODE: NodeBlocks = NodeBlocks {
     diag: ZERO,
     off: ZERO,
+    off_t: ZERO,
     dinv: [0.0; 6],
 };
 pub(crate) const NONE: usize = usize::MAX;
@@ -393,13 +398,13 @@ impl TreeSolver {
             let np = self.dim[p];
             let (bi, bp) = pair_mut(&mut self.blocks, i, p);
             // W overwrites H_{i,p} in place (set again at every assembly).
-            let (di, w, dp) = (&bi.diag, &mut bi.off, &mut bp.diag);
+            let (di, w, wt, dp) = (&bi.diag, &mut bi.off, &mut bi.off_t, &mut bp.diag);
             // Fixed-size kernels for the shapes of body/joint pairs (the loops unroll).
             macro_rules! dispatch {
                 ($($a:literal, $b:literal);*) => {
                     match (n, np) {
-                        $(($a, $b) => update::<$a, $b>(di, &dinv, w, dp),)*
-                        _ => update_dyn(n, np, di, &dinv, w, dp),
+                        $(($a, $b) => update::<$a, $b>(di, &dinv, w, wt, dp),)*
+                        _ => update_dyn(n, np, di, &dinv, w, wt, dp),
                     }
                 };
             }
@@ -458,11 +463,13 @@ impl TreeSolver {
     /// only (zero elsewhere): one body for both, so the node kernels keep a single
     /// call site each (and stay inlined).
     ///
+    /// The backward pass's `W x_p` reads the copy `Wᵀ` the factor writes, its sums
+    /// stored into `x` and read back ([`backward_sized`]): only with that store did the
+    /// compiler pair the rows' sums in vector lanes (an earlier try with the copy
+    /// alone, swimmer6 controlled 121.84M → 122.44M, gained nothing in the pass).
     /// Tried and left out (issue 13, `World::step` instructions, the same bits):
-    /// the backward pass's `W x_p` from a copy `Wᵀ` written by the factor (the rows'
-    /// sums in vector lanes, each still in column order): swimmer6 controlled 121.84M →
-    /// 122.44M, half_cheetah 43.39M → 43.54M (this function 26.04M → 26.26M on
-    /// swimmer6: no gain in the pass, and the copy costs the factor); the node kernel
+    /// the same store reading `W` itself (a gather of two rows' entries per pair):
+    /// humanoid_CMU controlled 0.1 s 81.47M → 83.00M against the copy; the node kernel
     /// chosen by its shape's index kept in the schedule (one jump) instead of the match
     /// on `(n, np)`: swimmer6 122.00M, dm hopper 72.43M → 72.51M; the dense contact
     /// path's columns of one contact (normal and tangents, the same bodies and marks)
@@ -485,7 +492,7 @@ impl TreeSolver {
                 continue;
             }
             let b = &self.blocks[i];
-            let args = (&b.diag, &b.dinv, &b.off, oi, op, n, np);
+            let args = (&b.diag, &b.dinv, &b.off, &b.off_t, oi, op, n, np);
             dispatch!(forward, n, np, (args, x);
                 6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
                 1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
@@ -493,7 +500,7 @@ impl TreeSolver {
         let Some(mark) = mark else {
             for &[i, n, oi, np, op] in self.schedule.iter().rev() {
                 let b = &self.blocks[i];
-                let args = (&b.diag, &b.dinv, &b.off, oi, op, n, np);
+                let args = (&b.diag, &b.dinv, &b.off, &b.off_t, oi, op, n, np);
                 dispatch!(backward, n, np, (args, x, true);
                     6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
                     1, 0; 2, 0; 3, 0; 4, 0; 5, 0);
@@ -502,7 +509,7 @@ impl TreeSolver {
         };
         for &[i, n, oi, np, op] in self.schedule.iter().rev() {
             let b = &self.blocks[i];
-            let args = (&b.diag, &b.dinv, &b.off, oi, op, n, np);
+            let args = (&b.diag, &b.dinv, &b.off, &b.off_t, oi, op, n, np);
             if mark[i] {
                 dispatch!(backward, n, np, (args, x, true);
                     6, 0; 6, 1; 6, 2; 6, 3; 6, 4; 6, 5; 6, 6; 1, 6; 2, 6; 3, 6; 4, 6; 5, 6;
@@ -635,10 +642,17 @@ fn pair_mut(v: &mut [NodeBlocks], i: usize, p: usize) -> (&mut NodeBlocks, &mut 
     }
 }
 
-/// `W = L⁻¹ W` (unit lower `L` in `d`'s strict lower triangle) and
-/// `D_p −= Wᵀ diag(dinv) W` on the lower triangle, for an `N`-node under an `NP`-parent.
+/// `W = L⁻¹ W` (unit lower `L` in `d`'s strict lower triangle), its transpose into
+/// `wt`, and `D_p −= Wᵀ diag(dinv) W` on the lower triangle, for an `N`-node under an
+/// `NP`-parent.
 #[inline]
-fn update<const N: usize, const NP: usize>(d: &Blk, dinv: &[f64; 6], w: &mut Blk, dp: &mut Blk) {
+fn update<const N: usize, const NP: usize>(
+    d: &Blk,
+    dinv: &[f64; 6],
+    w: &mut Blk,
+    wt: &mut Blk,
+    dp: &mut Blk,
+) {
     for r in 1..N {
         for t in 0..r {
             let l = d[r][t];
@@ -651,6 +665,7 @@ fn update<const N: usize, const NP: usize>(d: &Blk, dinv: &[f64; 6], w: &mut Blk
     for t in 0..N {
         for c in 0..NP {
             sw[t][c] = w[t][c] * dinv[t];
+            wt[c][t] = w[t][c];
         }
     }
     update_rows::<0, N, NP>(w, &sw, dp);
@@ -696,13 +711,26 @@ fn update_rows<const R0: usize, const N: usize, const NP: usize>(w: &Blk, sw: &B
 }
 
 /// [`update`] for any shape.
-fn update_dyn(n: usize, np: usize, d: &Blk, dinv: &[f64; 6], w: &mut Blk, dp: &mut Blk) {
+fn update_dyn(
+    n: usize,
+    np: usize,
+    d: &Blk,
+    dinv: &[f64; 6],
+    w: &mut Blk,
+    wt: &mut Blk,
+    dp: &mut Blk,
+) {
     for r in 1..n {
         for t in 0..r {
             let l = d[r][t];
             for c in 0..np {
                 w[r][c] -= l * w[t][c];
             }
+        }
+    }
+    for t in 0..n {
+        for c in 0..np {
+            wt[c][t] = w[t][c];
         }
     }
     for r in 0..np {
@@ -716,9 +744,18 @@ fn update_dyn(n: usize, np: usize, d: &Blk, dinv: &[f64; 6], w: &mut Blk, dp: &m
     }
 }
 
-/// One node's data for the solve kernels: `(D factor, 1/d, W, offset, parent offset,
-/// n, n_parent)`.
-type NodeArgs<'a> = (&'a Blk, &'a [f64; 6], &'a Blk, usize, usize, usize, usize);
+/// One node's data for the solve kernels: `(D factor, 1/d, W, Wᵀ, offset, parent
+/// offset, n, n_parent)`.
+type NodeArgs<'a> = (
+    &'a Blk,
+    &'a [f64; 6],
+    &'a Blk,
+    &'a Blk,
+    usize,
+    usize,
+    usize,
+    usize,
+);
 
 /// Forward pass at one node: `u = L⁻¹ y`, `s = d⁻¹ u` (stored), `y_p −= Wᵀ s`.
 /// `N`/`NP` are the compile-time shapes when they match the runtime ones (the generic
@@ -727,7 +764,7 @@ type NodeArgs<'a> = (&'a Blk, &'a [f64; 6], &'a Blk, usize, usize, usize, usize)
 /// calls, and once with the runtime sizes — the same operations in the same order.
 #[inline]
 fn forward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
-    let (n_rt, np_rt) = (args.5, args.6);
+    let (n_rt, np_rt) = (args.6, args.7);
     if N == n_rt && NP == np_rt {
         forward_sized(args, x, N, NP);
     } else {
@@ -738,7 +775,7 @@ fn forward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
 /// [`forward`] for `n` rows under a parent of `np` (0: a root).
 #[inline(always)]
 fn forward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
-    let (d, dinv, w, oi, op, _, _) = args;
+    let (d, dinv, w, _, oi, op, _, _) = args;
     let mut u = [0.0; 6];
     let xi = &mut x[oi..oi + n];
     for r in 0..n {
@@ -771,7 +808,7 @@ fn forward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
 /// `s` read from `x` when `read`, else zero (a node the forward pass skipped).
 #[inline]
 fn backward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64], read: bool) {
-    let (n_rt, np_rt) = (args.5, args.6);
+    let (n_rt, np_rt) = (args.6, args.7);
     if N == n_rt && NP == np_rt {
         backward_sized(args, x, N, NP, read);
     } else {
@@ -782,7 +819,7 @@ fn backward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64], 
 /// [`backward`] for `n` rows under a parent of `np` (0: a root).
 #[inline(always)]
 fn backward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize, read: bool) {
-    let (d, dinv, w, oi, op, _, _) = args;
+    let (d, dinv, _, wt, oi, op, _, _) = args;
     let mut s = [0.0; 6];
     if read {
         s[..n].copy_from_slice(&x[oi..oi + n]);
@@ -790,12 +827,25 @@ fn backward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize, read: 
     if np > 0 {
         let mut xp = [0.0; 6];
         xp[..np].copy_from_slice(&x[op..op + np]);
-        for r in 0..n {
-            let mut acc = 0.0;
-            for c in 0..np {
-                acc += w[r][c] * xp[c];
+        // `(W x_p)_r = Σ_c w_rc x_c`, each sum from 0 in `c` order, accumulated a row of
+        // `Wᵀ` (a column of `W`: two rows' sums side by side, contiguous), stored into
+        // `x` (the node's entries, overwritten below) and read back for
+        // `s −= d⁻¹ W x_p`. The store is what lets the compiler pair the sums in vector
+        // lanes (each lane the scalar sum, same order): with the sums kept in
+        // registers, or stored only as `s − d⁻¹ W x_p`, they stayed scalar (issue 13,
+        // humanoid_CMU controlled 0.1 s, this function 17.31M → 17.46M / 17.65M
+        // instructions, against 15.51M with this store).
+        let mut acc = [0.0; 6];
+        for c in 0..np {
+            let xc = xp[c];
+            for r in 0..n {
+                acc[r] += wt[c][r] * xc;
             }
-            s[r] -= dinv[r] * acc;
+        }
+        let xi = &mut x[oi..oi + n];
+        xi.copy_from_slice(&acc[..n]);
+        for r in 0..n {
+            s[r] -= dinv[r] * xi[r];
         }
     }
     for r in (0..n).rev() {

@@ -594,12 +594,19 @@ fn backward_fixed<const N: usize, const NP: usize>(a: NodeArgs<'_>) {
     u.copy_from_slice(xi);
     let mut y = [0.0; NP];
     y.copy_from_slice(xp);
-    for r in 0..N {
-        let mut acc = 0.0;
-        for c in 0..NP {
-            acc += w[r * NP + c] * y[c];
+    // `(W x_p)_r = Σ_c w_rc y_c`, each sum from 0 in `c` order, a column of `W` at a
+    // time, stored into `xi` and read back (as in `tree.rs`'s backward pass: the store
+    // lets the compiler pair two rows' sums in vector lanes, each the scalar sum).
+    let mut acc = [0.0; N];
+    for c in 0..NP {
+        let yc = y[c];
+        for r in 0..N {
+            acc[r] += w[r * NP + c] * yc;
         }
-        u[r] -= dinv[r] * acc;
+    }
+    xi.copy_from_slice(&acc);
+    for r in 0..N {
+        u[r] -= dinv[r] * xi[r];
     }
     for r in (0..N).rev() {
         let mut v = u[r];

@@ -161,7 +161,14 @@ impl TreeSolver {
         let (k, size) = (rows.len(), self.size);
         // Y = H⁻¹ Gᵀ, one tree solve per loop row, its forward pass on the row's
         // bodies' paths to the root only (the column cleared there alone).
-        cl.y.resize(k * size, 0.0);
+        // `Y` only grows: each of the `k` columns used is written whole below
+        // (`mark_paths` clears the marked nodes, the backward pass writes every entry),
+        // so columns past `k` from a call with more rows are left unread, and a later
+        // call with more rows finds them allocated instead of zero-filling them again
+        // (the `resize` after a shorter call filled the difference each time).
+        if cl.y.len() < k * size {
+            cl.y.resize(k * size, 0.0);
+        }
         for (r, (a, b, row)) in rows.iter().enumerate() {
             let col = &mut cl.y[r * size..(r + 1) * size];
             self.mark_paths(col, [*a, Some(*b)], mark);
