@@ -224,7 +224,7 @@ impl World {
         // previous flow's when the positions have not moved since (`factor_cache.rs`).
         let (key_h, key_rates) = self.free_factor_key(s, Rates::Full);
         let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
-        self.body_rhs_with(!reused, |b, _, iw| {
+        self.body_rhs_kept(!reused, |b, _, iw| {
             (b.v * b.mass() + g * (b.mass() * s), *iw * b.omega)
         });
         // The forces at `v` are kept for stage 2, which adds them again at the same
@@ -376,7 +376,7 @@ impl World {
         //    by the factor cache (`factor_cache.rs`).
         let (key_h, key_rates) = self.free_factor_key(hd, Rates::Armature);
         let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
-        self.body_rhs_with(!reused, |b, _, iw| {
+        self.body_rhs_kept(!reused, |b, _, iw| {
             (b.v * b.mass() + g * (b.mass() * half), *iw * b.omega)
         });
         // Compliant joints: half a kick of their spring force at x (Störmer–Verlet); their
@@ -413,7 +413,7 @@ impl World {
         let mut first_kick = core::mem::take(&mut self.rattle.first_kick);
         first_kick.clone_from(&self.impulses);
         // The world inertias at x₀, for the angular momenta `L = I₀ ω½` of the drift and
-        // SHAKE's corrections `I₀ δθ/h`: the kick's, computed by `body_rhs_with` at the
+        // SHAKE's corrections `I₀ δθ/h`: the kick's, computed by `body_rhs_kept` at the
         // same poses with the operations of `RigidBody::world_inertia`.
         let mut inertia0 = core::mem::take(&mut self.rattle.inertia0);
         inertia0.clone_from(&self.body_iw);
@@ -578,7 +578,7 @@ impl World {
         //    [M Jᵀ; J −C][v'; μ] = [M v½ + (h/2) m g; 0], angular part L½.
         let (key_h, key_rates) = self.free_factor_key(hd, Rates::Armature);
         let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
-        self.body_rhs_with(!reused, |b, _, _| {
+        self.body_rhs_kept(!reused, |b, _, _| {
             (b.v * b.mass() + g * (b.mass() * half), DVec3::ZERO)
         });
         {
