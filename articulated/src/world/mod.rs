@@ -955,12 +955,12 @@ impl World {
                 // D_{h/2} ∘ C_{w₁h} ∘ C_{w₀h} ∘ C_{w₁h} ∘ D_{h/2}.
                 let damped = self.joints.iter().any(|j| j.damping_rows() > 0);
                 if damped {
-                    self.damp(ctx.half_h(), false)?;
+                    self.damp(ctx.half_h(), false, false)?;
                 }
                 let mut fell_back = false;
                 for (i, w) in [w1, w0, w1].into_iter().enumerate() {
                     let (it, ok) = if damped {
-                        self.conservative_step(w * h, tolerance, max_iterations, true)?
+                        self.conservative_step(w * h, tolerance, max_iterations, true, false)?
                     } else {
                         // The first sub-step starts from the saved start of the step.
                         self.rattle_step(w * h, tolerance, max_iterations, i == 0)?
@@ -973,7 +973,7 @@ impl World {
                     }
                 }
                 if damped && !fell_back {
-                    self.damp(ctx.half_h(), false)?;
+                    self.damp(ctx.half_h(), false, false)?;
                 }
             }
         }
