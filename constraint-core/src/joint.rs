@@ -154,6 +154,17 @@ impl Orientation {
             add_dot_hessian(&ea, &fb, w[k], h);
         }
     }
+
+    /// `Σ_k |w_k| |R_a e_i| |R_b f_j|` with the rotations' scales `qa = |q_a|²`, `qb =
+    /// |q_b|²`: a bound on the Frobenius norm of either angular diagonal block of
+    /// [`Self::curvature`], over `√2` (`Hinge::angular_curvature_bounds`).
+    pub(crate) fn curvature_bound(&self, qa: f64, qb: f64, w: &[f64]) -> f64 {
+        let mut s = 0.0;
+        for (k, &(i, j)) in PAIRS.iter().enumerate() {
+            s += w[k].abs() * ((qa * self.e[i].length()) * (qb * self.f[j].length()));
+        }
+        s
+    }
 }
 
 /// Spherical (ball) joint: `C = R_a r_a + x_a − R_b r_b − x_b = 0` (3 rows), exactly the
@@ -456,6 +467,21 @@ impl Fixed {
             orient: Orientation::from_world(a, b),
         })
     }
+
+    /// Upper bounds, in exact arithmetic, on the Frobenius norms of the two angular
+    /// diagonal blocks of the curvature `Σ_r w_r ∂²C_r`, as
+    /// [`Hinge::angular_curvature_bounds`] (the three orientation rows in place of the
+    /// hinge's two direction rows).
+    pub fn angular_curvature_bounds(&self, a: &Pose, b: &Pose, w: &[f64; 6]) -> [f64; 2] {
+        let (qa, qb) = (a.q.length_squared(), b.q.length_squared());
+        let wp = DVec3::new(w[0], w[1], w[2]).length();
+        let dirs = self.orient.curvature_bound(qa, qb, &w[3..]);
+        let k = core::f64::consts::SQRT_2;
+        [
+            k * (wp * (qa * self.point.r_a.length()) + dirs),
+            k * (wp * (qb * self.point.r_b.length()) + dirs),
+        ]
+    }
 }
 
 impl BodyConstraint<6> for Fixed {
@@ -583,16 +609,17 @@ mod tests {
         (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
     }
 
-    /// `Hinge::angular_curvature_bounds` bounds the angular diagonal blocks of the
-    /// curvature it describes: 20 000 random hinges, poses (quaternions of length 0.5
-    /// to 1.5 in a quarter of them), anchors up to 2 m and weights up to 1e3. Measured:
-    /// the blocks' norms reach 0.990 of the bounds (tolerance: `≤ 1 + 1e-12`, round-off
-    /// where the bound is attained, `w ∥ p`; the geometric stiffness's skip keeps a
-    /// margin of 1e-9), and at least 0.9 (the bound is not loose).
+    /// `Hinge::angular_curvature_bounds` and `Fixed::angular_curvature_bounds` bound
+    /// the angular diagonal blocks of the curvatures they describe: 20 000 random
+    /// hinges and welds, poses (quaternions of length 0.5 to 1.5 in a quarter of them),
+    /// anchors up to 2 m and weights up to 1e3. Measured: the blocks' norms reach 0.982
+    /// (hinges) and 0.945 (welds) of the bounds (tolerance: `≤ 1 + 1e-12`, round-off
+    /// where a bound is attained, `w ∥ p`; the geometric stiffness's skip keeps a
+    /// margin of 1e-9), and at least 0.9 (the bounds are not loose).
     #[test]
     fn angular_curvature_bounds_hold() {
         let mut rng = Lcg(0x5eed_0013);
-        let mut worst: f64 = 0.0;
+        let (mut worst, mut worst_f): (f64, f64) = (0.0, 0.0);
         for i in 0..20_000 {
             let rest_a = Pose {
                 x: rng.vec(1.0),
@@ -625,15 +652,23 @@ mod tests {
                 x: rng.vec(3.0),
                 q: rng.quat(lb),
             };
-            let w = [(); 5].map(|_| rng.next() * 1e3);
-            let k = hinge.curvature(&a, &b, &w);
-            let bound = hinge.angular_curvature_bounds(&a, &b, &w);
+            let w = [(); 6].map(|_| rng.next() * 1e3);
+            let w5 = [w[0], w[1], w[2], w[3], w[4]];
+            let k = hinge.curvature(&a, &b, &w5);
+            let bound = hinge.angular_curvature_bounds(&a, &b, &w5);
+            let weld = Fixed::from_world(&rest_a, &rest_b, rng.vec(2.0)).unwrap();
+            let kf = weld.curvature(&a, &b, &w);
+            let bound_f = weld.angular_curvature_bounds(&a, &b, &w);
             for (side, blk) in [(0, 1), (1, 3)] {
                 let ratio = frobenius(&k.blocks[blk][blk]) / bound[side];
                 assert!(ratio <= 1.0 + 1e-12, "hinge {i} side {side}: ratio {ratio}");
                 worst = worst.max(ratio);
+                let ratio = frobenius(&kf.blocks[blk][blk]) / bound_f[side];
+                assert!(ratio <= 1.0 + 1e-12, "weld {i} side {side}: ratio {ratio}");
+                worst_f = worst_f.max(ratio);
             }
         }
-        assert!(worst > 0.9, "bounds looser than measured: {worst}");
+        assert!(worst > 0.9, "hinge bounds looser than measured: {worst}");
+        assert!(worst_f > 0.9, "weld bounds looser than measured: {worst_f}");
     }
 }

@@ -230,7 +230,8 @@ impl World {
             let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
             let b = self.bodies[joint.child].pose;
             // A side's block is skipped below when `‖h K‖_F` is under half its limit; a
-            // bound on both blocks' norms (a hinge's, `Joint::angular_curvature_bounds`)
+            // bound on both blocks' norms (a hinge's or a weld's,
+            // `Joint::angular_curvature_bounds`)
             // under it, with a margin of 1e-9 for the round-off of `K`, shows that of
             // both sides, so the curvature is not computed (gymnasium half_cheetah
             // controlled: none of its 630 curvatures added a block).
