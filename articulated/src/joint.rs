@@ -372,6 +372,25 @@ impl Joint {
         }
     }
 
+    /// Upper bounds on the Frobenius norms of the angular diagonal blocks `(θ_a, θ_a)`
+    /// and `(θ_b, θ_b)` of [`Self::curvature`] (exact arithmetic), for a hinge or a weld
+    /// ([`Hinge::angular_curvature_bounds`], [`Fixed::angular_curvature_bounds`]);
+    /// `None` for the other kinds.
+    pub fn angular_curvature_bounds(
+        &self,
+        a: &Pose,
+        b: &Pose,
+        w: &[f64; MAX_ROWS],
+    ) -> Option<[f64; 2]> {
+        match &self.kind {
+            JointKind::Hinge(c) => {
+                Some(c.angular_curvature_bounds(a, b, &[w[0], w[1], w[2], w[3], w[4]]))
+            }
+            JointKind::Fixed(c) => Some(c.angular_curvature_bounds(a, b, w)),
+            _ => None,
+        }
+    }
+
     /// `Σ_r w_r ∂²C_r` of the hard rows (`w` beyond [`Self::hard_rows`] ignored).
     pub fn curvature(&self, a: &Pose, b: &Pose, w: &[f64; MAX_ROWS]) -> TwistCurvature {
         match &self.kind {

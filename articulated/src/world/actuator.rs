@@ -437,16 +437,23 @@ impl World {
     /// joints whose limit or dry-friction rows [`Self::push_limit_rows`] reads at the
     /// current poses, so that it and the force evaluations at the same poses (the
     /// step's first kick) read them rather than computing the rows each.
+    ///
+    /// A hinge's or a slide's coordinate and row go into the force evaluations' table
+    /// (`dof_table`, as an entry that is not live) instead: [`Self::push_limit_rows`]
+    /// reads them from there, and so does the step's first force evaluation at the same
+    /// poses (the velocity level's `add_dof_forces`), which computed them a second time
+    /// before (issue 13, swimmer6 controlled: 1 750 of its 8 793 hinge angles).
     pub(super) fn keep_limit_coordinates(&mut self) {
         for ji in 0..self.joints.len() {
-            let JointKind::Compound(c, _) = &self.joints[ji].kind else {
-                continue;
-            };
             if self.limits[ji].iter().all(|l| l.is_none())
                 && self.frictionloss[ji].iter().all(|f| *f == 0.0)
             {
                 continue;
             }
+            let JointKind::Compound(c, _) = &self.joints[ji].kind else {
+                self.keep_table_coordinates(ji);
+                continue;
+            };
             let c = *c;
             let Some(q) = self.compound_coordinates_kept(ji) else {
                 continue;
@@ -465,6 +472,46 @@ impl World {
                 e.has_rows = true;
             }
         }
+    }
+
+    /// Writes joint `ji`'s coordinate and rate row at the current poses into its entry
+    /// of the coordinate table, not live (no rate: a force evaluation at these poses
+    /// takes the entry and fills it, `fill_dof_state`), unless the entry is already of
+    /// these poses; for the hinges and slides whose entry the last force evaluation
+    /// filled (live: a force read them, and will again). Other joints' entries are left
+    /// as they are: a passive hopper's limited joints, whose forces are zero, paid a key
+    /// comparison in every later lookup of their coordinates (dm hopper passive +0.4 %).
+    /// The values are [`Self::compute_coordinates`]'s (the same operations), written in
+    /// place (a taken entry was two 0.8 kB copies).
+    fn keep_table_coordinates(&mut self, ji: usize) {
+        if !matches!(self.dof_table.get(ji), Some(Some(e)) if e.live) {
+            return;
+        }
+        let j = &self.joints[ji];
+        let a = j.parent.map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+        let b = &self.bodies[j.child].pose;
+        let key = CachedRows::key_of(a, b);
+        if matches!(self.dof_table.get(ji), Some(Some(e)) if same_key(&e.key, &key)) {
+            return;
+        }
+        // `compute_coordinates` of a one-coordinate joint: the coordinate cache's
+        // value when it is of these poses, else computed; the row computed.
+        let kept = self.kept_coordinates(ji).map(|e| e.q[0]);
+        let (q, row) = match &j.kind {
+            JointKind::Hinge(c) => (kept.unwrap_or_else(|| c.angle(a, b)), c.angle_row(b)),
+            JointKind::Prismatic(c) => (
+                kept.unwrap_or_else(|| c.displacement(a, b)),
+                c.displacement_row(a, b),
+            ),
+            _ => return,
+        };
+        let Some(Some(e)) = self.dof_table.get_mut(ji) else {
+            return;
+        };
+        e.key = key;
+        e.live = false;
+        e.q[0] = q;
+        e.rows[0] = row;
     }
 
     /// Joint `ji`'s entry of the coordinate cache when it is of the current poses.

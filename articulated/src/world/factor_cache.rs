@@ -34,6 +34,7 @@ use alloc::vec::Vec;
 use crate::body::RigidBody;
 use crate::tree::FactorStore;
 use constraint_core::compound::MAX_DOF;
+use constraint_core::DMat3;
 
 use super::{Rates, Soft, World};
 
@@ -78,6 +79,69 @@ fn same_bits(k: &BodyBits, b: &RigidBody) -> bool {
         d |= a ^ c;
     }
     d == 0
+}
+
+/// Bits of what a body's rotation `R` and world inertia `R I Rᵀ` read: orientation (4)
+/// and body-frame inertia (9).
+type InertiaBits = [u64; 13];
+
+/// A body's [`InertiaBits`].
+#[inline]
+fn inertia_bits(b: &RigidBody) -> InertiaBits {
+    let (q, m) = (b.pose.q, b.inertia());
+    let (c0, c1, c2) = (m.x_axis, m.y_axis, m.z_axis);
+    [
+        q.x, q.y, q.z, q.w, c0.x, c0.y, c0.z, c1.x, c1.y, c1.z, c2.x, c2.y, c2.z,
+    ]
+    .map(f64::to_bits)
+}
+
+/// The bodies' rotations `R` as [`World::body_rhs_with`] last computed them (with the
+/// world inertias `R I Rᵀ` it keeps in `World::body_iw`), each with the bits it was
+/// computed from. RATTLE assembles at one configuration four times (the second kick
+/// and the damping flow at `x_{n+1}`, the next step's damping flow and first kick at
+/// the same `x_{n+1}`); the three assemblies that reuse the factor take the kept
+/// rotations and inertias of the bodies whose bits are unchanged — the same
+/// operations on the same bits would give the same values.
+#[derive(Clone, Debug, Default)]
+pub(super) struct KeptInertias {
+    keys: Vec<InertiaBits>,
+    rotations: Vec<DMat3>,
+}
+
+impl KeptInertias {
+    /// Body `i`'s kept rotation when it was computed from `b`'s bits (the world
+    /// inertia kept beside it is then `b`'s too).
+    #[inline]
+    pub(super) fn rotation(&self, i: usize, b: &RigidBody) -> Option<DMat3> {
+        let k = self.keys.get(i)?;
+        let now = inertia_bits(b);
+        let mut d = 0u64;
+        for (a, c) in k.iter().zip(&now) {
+            d |= a ^ c;
+        }
+        (d == 0).then(|| self.rotations[i])
+    }
+
+    /// Records body `i`'s rotation `r`, computed from `b`'s bits (`i` at most the
+    /// number kept).
+    #[inline]
+    pub(super) fn keep(&mut self, i: usize, b: &RigidBody, r: DMat3) {
+        let key = inertia_bits(b);
+        if i < self.keys.len() {
+            self.keys[i] = key;
+            self.rotations[i] = r;
+        } else {
+            self.keys.push(key);
+            self.rotations.push(r);
+        }
+    }
+
+    /// Keeps the first `n` bodies' entries only.
+    pub(super) fn truncate(&mut self, n: usize) {
+        self.keys.truncate(n);
+        self.rotations.truncate(n);
+    }
 }
 
 /// The inputs of one assembly's matrix, as bits (see the module documentation).
@@ -155,6 +219,8 @@ pub(super) struct FactorCache {
     spare: FactorStore,
     /// The key of the assembly being looked up.
     probe: FactorKey,
+    /// The bodies' rotations with the bits they were computed from.
+    pub(super) inertias: KeptInertias,
 }
 
 impl FactorCache {
@@ -201,6 +267,22 @@ impl World {
             c.current.valid = false;
         }
         spare_hit
+    }
+
+    /// [`Self::reuse_factor`] where the caller knows that the bodies have not moved
+    /// since the solver's factor was looked up or computed at them (RATTLE: a first
+    /// kick right after the damping flow's solves, a damping flow right after the
+    /// second kick; only velocities changed in between). The compliances and armatures
+    /// do not change within a step, so the factor is this assembly's exactly when its
+    /// key is valid with the same `(h, rates, soft)`; otherwise the full lookup. The
+    /// two lookups of a RATTLE step that this serves compared every body's 17 words
+    /// (issue 13, swimmer6 controlled: about 600 instructions each).
+    pub(super) fn reuse_factor_unmoved(&mut self, h: f64, rates: Rates, soft: Soft) -> bool {
+        let c = &self.factors.current;
+        if c.valid && c.assembly == Some((h.to_bits(), rates, soft)) {
+            return true;
+        }
+        self.reuse_factor(h, rates, soft)
     }
 
     /// Records the factor just computed for the assembly last looked up by

@@ -165,32 +165,35 @@ impl World {
         at_start: bool,
     ) -> Result<(usize, bool), ArticulatedError> {
         if !self.joints.iter().any(|j| j.damping_rows() > 0) && !self.has_velocity_forces() {
-            return self.conservative_step(h, tolerance, max_iterations, true);
+            return self.conservative_step(h, tolerance, max_iterations, true, false);
         }
         let w1 = 1.0 / (2.0 - libm::cbrt(2.0));
         let w0 = 1.0 - 2.0 * w1;
         if h < 0.0 {
             let full = h / w0;
             self.restore_start();
-            self.damp(0.5 * full, false)?;
-            let (first, ok) = self.conservative_step(w1 * full, tolerance, max_iterations, true)?;
+            let kept = self.damp(0.5 * full, false, false)?;
+            let (first, ok) =
+                self.conservative_step(w1 * full, tolerance, max_iterations, true, kept)?;
             if !ok {
                 return Ok((first, false));
             }
-            let (middle, ok) = self.conservative_step(h, tolerance, max_iterations, true)?;
+            let (middle, ok) = self.conservative_step(h, tolerance, max_iterations, true, true)?;
             return Ok((first + middle, ok));
         }
+        // A flow or step that ran to its end left the solver's factor at the bodies
+        // (`unmoved` below): only velocities changed since its lookup.
         if at_start || self.bodies == self.saved {
-            self.damp(0.5 * h, true)?;
-            let (it, ok) = self.conservative_step(h, tolerance, max_iterations, false)?;
+            let kept = self.damp(0.5 * h, true, false)?;
+            let (it, ok) = self.conservative_step(h, tolerance, max_iterations, false, kept)?;
             if ok {
-                self.damp(0.5 * h, true)?;
+                self.damp(0.5 * h, true, true)?;
             }
             return Ok((it, ok));
         }
-        let (it, ok) = self.conservative_step(h, tolerance, max_iterations, true)?;
+        let (it, ok) = self.conservative_step(h, tolerance, max_iterations, true, false)?;
         if ok {
-            self.damp(0.5 * h / w1, false)?;
+            self.damp(0.5 * h / w1, false, true)?;
         }
         Ok((it, ok))
     }
@@ -202,9 +205,18 @@ impl World {
     /// with one factor, right-hand side `M u (+ γτ f)`, the hard rows held at `J v = 0`
     /// (the compliant joints' hard rows free, as in the conservative step). Velocities
     /// change, positions and the stored joint impulses do not.
-    pub(super) fn damp(&mut self, tau: f64, forces: bool) -> Result<(), ArticulatedError> {
+    ///
+    /// `unmoved`: the caller knows that the bodies have not moved since the solver's
+    /// factor was looked up or computed at them ([`World::reuse_factor_unmoved`]).
+    /// Returns whether the flow ran (and so left its factor at the bodies).
+    pub(super) fn damp(
+        &mut self,
+        tau: f64,
+        forces: bool,
+        unmoved: bool,
+    ) -> Result<bool, ArticulatedError> {
         if !(tau > 0.0) {
-            return Ok(());
+            return Ok(false);
         }
         let gamma = 1.0 - core::f64::consts::FRAC_1_SQRT_2;
         // (1 − γ)/γ = 1 + √2.
@@ -223,8 +235,12 @@ impl World {
         // Stage 1: v₁ = BE_{γτ}(v) with the explicit forces at v. The matrix is the
         // previous flow's when the positions have not moved since (`factor_cache.rs`).
         let (key_h, key_rates) = self.free_factor_key(s, Rates::Full);
-        let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
-        self.body_rhs_with(!reused, |b, _, iw| {
+        let reused = if unmoved {
+            self.reuse_factor_unmoved(key_h, key_rates, Soft::Free)
+        } else {
+            self.reuse_factor(key_h, key_rates, Soft::Free)
+        };
+        self.body_rhs_kept(!reused, |b, _, iw| {
             (b.v * b.mass() + g * (b.mass() * s), *iw * b.omega)
         });
         // The forces at `v` are kept for stage 2, which adds them again at the same
@@ -318,7 +334,7 @@ impl World {
             self.bodies[i].v = v;
             self.bodies[i].omega = w;
         }
-        Ok(())
+        Ok(true)
     }
 
     /// The factor-cache key `(h, rates)` of an assembly `(h, rates, Soft::Free)`
@@ -358,13 +374,18 @@ impl World {
     /// composition); the damping rows are left out (decoupled, `λ_d = 0`); without
     /// `forces` also gravity and the springs (`C⁰_h`, constraints only). Returns the
     /// projection iterations and whether the projection converged (to `10³ ·
-    /// tolerance`, at least 1e-9 m).
+    /// tolerance`, at least 1e-9 m). `unmoved`: the caller knows that the bodies have
+    /// not moved since the solver's factor was looked up or computed at them (the
+    /// first kick's lookup, [`World::reuse_factor_unmoved`]). Whenever it returns
+    /// through its last line (not the `MAX_TURN` failure), the solver's factor is the
+    /// second kick's, at the bodies.
     pub(super) fn conservative_step(
         &mut self,
         h: f64,
         tolerance: f64,
         max_iterations: usize,
         forces: bool,
+        unmoved: bool,
     ) -> Result<(usize, bool), ArticulatedError> {
         let g = if forces { self.gravity } else { DVec3::ZERO };
         let half = 0.5 * h;
@@ -375,8 +396,12 @@ impl World {
         //    Its matrix is the previous step's second kick's (same x, same |h|/2), kept
         //    by the factor cache (`factor_cache.rs`).
         let (key_h, key_rates) = self.free_factor_key(hd, Rates::Armature);
-        let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
-        self.body_rhs_with(!reused, |b, _, iw| {
+        let reused = if unmoved {
+            self.reuse_factor_unmoved(key_h, key_rates, Soft::Free)
+        } else {
+            self.reuse_factor(key_h, key_rates, Soft::Free)
+        };
+        self.body_rhs_kept(!reused, |b, _, iw| {
             (b.v * b.mass() + g * (b.mass() * half), *iw * b.omega)
         });
         // Compliant joints: half a kick of their spring force at x (Störmer–Verlet); their
@@ -413,7 +438,7 @@ impl World {
         let mut first_kick = core::mem::take(&mut self.rattle.first_kick);
         first_kick.clone_from(&self.impulses);
         // The world inertias at x₀, for the angular momenta `L = I₀ ω½` of the drift and
-        // SHAKE's corrections `I₀ δθ/h`: the kick's, computed by `body_rhs_with` at the
+        // SHAKE's corrections `I₀ δθ/h`: the kick's, computed by `body_rhs_kept` at the
         // same poses with the operations of `RigidBody::world_inertia`.
         let mut inertia0 = core::mem::take(&mut self.rattle.inertia0);
         inertia0.clone_from(&self.body_iw);
@@ -578,7 +603,7 @@ impl World {
         //    [M Jᵀ; J −C][v'; μ] = [M v½ + (h/2) m g; 0], angular part L½.
         let (key_h, key_rates) = self.free_factor_key(hd, Rates::Armature);
         let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
-        self.body_rhs_with(!reused, |b, _, _| {
+        self.body_rhs_kept(!reused, |b, _, _| {
             (b.v * b.mass() + g * (b.mass() * half), DVec3::ZERO)
         });
         {
