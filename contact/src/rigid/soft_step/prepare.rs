@@ -434,7 +434,7 @@ impl ContactWorld {
     /// The point arrays written point by point, manifold by manifold (`prepare`'s
     /// per-point loop, from the constants `k`): returns whether some pair has
     /// restitution. Inlined into `prepare` and into the AVX and AVX-512F/VL builds of
-    /// [`fill_points`](super::soft_lanes::fill_points) (the same Rust, the same
+    /// [`fill_points`](crate::rigid::soft_lanes::fill_points) (the same Rust, the same
     /// operations in the same order: the same bits; only the registers differ).
     #[inline(always)]
     pub(in crate::rigid) fn fill_points(&self, st: &mut SoftState, k: &PointConsts) -> bool {
