@@ -39,7 +39,7 @@ use super::soft_step::{Block, Pass, Rows, BLOCK_POINTS};
 #[allow(unsafe_code)]
 #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx")))]
 mod avx;
-pub(super) use avx::{block_quad, build_quad, gaps_quad, relax_quad, warm_quad, Avx};
+pub(super) use avx::{block_quad, build_quad, fill_points, gaps_quad, relax_quad, warm_quad, Avx};
 
 mod build;
 pub(super) use build::{build_lanes, Built};
@@ -49,6 +49,15 @@ pub(super) use build::{build_lanes, Built};
 #[cfg(not(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx"))))]
 mod avx {
     use super::{Block, DMat3, DVec3, Pass, QuadRows, RelaxIo, Rows};
+
+    /// Declines (no AVX builds of the preparation's per-point loop here).
+    pub(in crate::rigid) fn fill_points(
+        _: &crate::rigid::ContactWorld,
+        _: &mut crate::rigid::soft_step::SoftState,
+        _: &crate::rigid::soft_step::PointConsts,
+    ) -> Option<bool> {
+        None
+    }
 
     /// No AVX here: no value of this type exists.
     #[derive(Clone, Copy, Debug)]

@@ -1061,6 +1061,8 @@ mod prepare;
 use block::*;
 pub(super) use passes::*;
 use prepare::*;
+// The per-point loop's constants, for its AVX builds (`soft_lanes::fill_points`).
+pub(super) use prepare::PointConsts;
 
 #[cfg(test)]
 mod tests {

@@ -262,6 +262,28 @@ pub(super) fn pressure_share(load: f64, p: &Pressure) -> impl Fn([f64; 2]) -> f6
     }
 }
 
+/// The per-step constants of `prepare`'s per-point loop ([`ContactWorld::fill_points`]).
+#[derive(Clone, Copy, Debug)]
+pub(in crate::rigid) struct PointConsts {
+    /// The unit vector against gravity (`Z` without gravity).
+    up: DVec3,
+    /// The sub-step.
+    hs: f64,
+    /// The springs' frequency (`hertz`, capped at a quarter of the sub-step rate).
+    hertz: f64,
+    /// The softness of a pair of moving bodies, and of a pair with a fixed one.
+    dynamic: Softness,
+    fixed: Softness,
+    /// The warm start's scale (this sub-step over the last step's) and the preload's.
+    scale: f64,
+    preload: f64,
+    /// Whether every manifold was estimated, and whether some manifold is new.
+    every: bool,
+    new_manifolds: bool,
+    /// Whether the colouring is the last step's (the lanes' plan is kept).
+    kept: bool,
+}
+
 impl ContactWorld {
     /// Builds the point arrays once per step (colour order, see the module docs),
     /// warm-started by contact key from the previous step.
@@ -383,6 +405,54 @@ impl ContactWorld {
         } else {
             0.0
         };
+        // The per-point loop: compiled for AVX and AVX-512F/VL where the processor has
+        // them (`soft_lanes::fill_points`, the same bits), else here.
+        let k = PointConsts {
+            up,
+            hs,
+            hertz,
+            dynamic,
+            fixed,
+            scale,
+            preload,
+            every,
+            new_manifolds,
+            kept,
+        };
+        let bouncy = match crate::rigid::soft_lanes::fill_points(self, st, &k) {
+            Some(bouncy) => bouncy,
+            None => self.fill_points(st, &k),
+        };
+        st.bouncy = bouncy;
+        if s.block_normal {
+            build_blocks(st);
+        } else {
+            st.blocks.clear();
+        }
+    }
+
+    /// The point arrays written point by point, manifold by manifold (`prepare`'s
+    /// per-point loop, from the constants `k`): returns whether some pair has
+    /// restitution. Inlined into `prepare` and into the AVX and AVX-512F/VL builds of
+    /// [`fill_points`](crate::rigid::soft_lanes::fill_points) (the same Rust, the same
+    /// operations in the same order: the same bits; only the registers differ).
+    #[inline(always)]
+    pub(in crate::rigid) fn fill_points(&self, st: &mut SoftState, k: &PointConsts) -> bool {
+        let PointConsts {
+            up,
+            hs,
+            hertz,
+            dynamic,
+            fixed,
+            scale,
+            preload,
+            every,
+            new_manifolds,
+            kept,
+        } = *k;
+        let s = self.settings.soft_step;
+        let nb = self.bodies.len();
+        let contacts = &self.contacts;
         // Spring stiffness over the sub-step, `h ω²` per unit effective mass, and the
         // cap's ratio `M γ/(1 − γ)` (`M` times the ratio of preload to spring force at
         // rest: `preload_cap_margin`).
@@ -601,12 +671,7 @@ impl ContactWorld {
                 total[p] = [0.0; 3];
             }
         }
-        st.bouncy = bouncy;
-        if s.block_normal {
-            build_blocks(st);
-        } else {
-            st.blocks.clear();
-        }
+        bouncy
     }
 
     /// Static load estimate of the contacts, for the manifolds met for the first time
