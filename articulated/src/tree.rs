@@ -570,33 +570,34 @@ fn ldlt_fixed<const N: usize>(a: &mut Blk) -> u8 {
     mask
 }
 
-/// Column `J` of [`ldlt_sized`] on an `N×N` block (nothing when `J ≥ N`):
-/// `d = a_JJ − Σ_{k<J} a_Jk² d_k`, dropped below `tol`, else
-/// `a_iJ = (a_iJ − Σ_{k<J} a_ik a_Jk d_k) / d` for `i > J`.
+/// Column `J` of [`ldlt_sized`] on an `N×N` block (nothing when `J ≥ N`), right-looking:
+/// on entry `a_JJ` and `a_iJ` (`i > J`) have had every earlier column's terms taken
+/// off, so `d = a_JJ`, dropped below `tol`, else `a_iJ /= d`; then this column's terms
+/// come off the later columns, `a_KK −= a_KJ² d`, `a_iK −= a_iJ a_KJ d` (`i > K > J`).
+/// Each entry takes [`ldlt_sized`]'s terms, `a_ik a_Jk d_k`, in the same `k` order, so
+/// the same bits; unrolled, fewer values are live at once than column by column.
 #[inline(always)]
 fn ldlt_column<const J: usize, const N: usize>(a: &mut Blk, tol: f64, mask: &mut u8) {
     if J >= N {
         return;
     }
-    let mut d = a[J][J];
-    for k in 0..J {
-        d -= a[J][k] * a[J][k] * a[k][k];
-    }
+    let d = a[J][J];
     if !(d.abs() > tol) {
         *mask |= 1 << J;
         a[J][J] = 0.0;
         for i in J + 1..N {
             a[i][J] = 0.0;
         }
-        return;
-    }
-    a[J][J] = d;
-    for i in J + 1..N {
-        let mut s = a[i][J];
-        for k in 0..J {
-            s -= a[i][k] * a[J][k] * a[k][k];
+    } else {
+        for i in J + 1..N {
+            a[i][J] /= d;
         }
-        a[i][J] = s / d;
+    }
+    for k in J + 1..N {
+        a[k][k] -= a[k][J] * a[k][J] * a[J][J];
+        for i in k + 1..N {
+            a[i][k] -= a[i][J] * a[k][J] * a[J][J];
+        }
     }
 }
 
