@@ -940,9 +940,6 @@ mod tests {
         }
     }
 
-    /// The unrolled [`ldlt_fixed`] gives [`ldlt_sized`]'s factor to the bit, on
-    /// symmetric blocks of every size 1..6, one with a dependent row (a dropped pivot,
-    /// the mask compared too). Bits, not a tolerance: the step's results depend on it.
     /// The truncation of one SVD at a larger tolerance gives the bits of a second
     /// decomposition at that tolerance: a 4×4 matrix with singular values (measured)
     /// 2.45, 1.32, 7.2e-4, 4.5e-8, tolerances that keep 4, 3, 2, 1 and 0 of them
@@ -968,6 +965,9 @@ mod tests {
         assert!(!min_norm_truncated(&svd, 1e-9, &b[..3], &mut [0.0; 4]));
     }
 
+    /// The unrolled [`ldlt_fixed`] gives [`ldlt_sized`]'s factor to the bit, on
+    /// symmetric blocks of every size 1..6, one with a dependent row (a dropped pivot,
+    /// the mask compared too). Bits, not a tolerance: the step's results depend on it.
     #[test]
     fn unrolled_ldlt_matches_the_loop_to_the_bit() {
         for n in 1..=6 {
