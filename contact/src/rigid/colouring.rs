@@ -657,6 +657,19 @@ mod tests {
         colour
     }
 
+    /// Every field of two colourings equal (a kept colouring against a fresh one).
+    fn same_colouring(a: &Colouring, b: &Colouring) {
+        assert_eq!(a.out, b.out);
+        assert_eq!(a.ranges, b.ranges);
+        assert_eq!(a.manifold_start, b.manifold_start);
+        assert_eq!(a.manifold_points, b.manifold_points);
+        assert_eq!(a.colour_start, b.colour_start);
+        assert_eq!(a.position, b.position);
+        assert_eq!(a.serial_from, b.serial_from);
+        assert_eq!(a.colours, b.colours);
+        assert_eq!(a.bottom_up(), b.bottom_up());
+    }
+
     /// Every two manifolds that share a moving body are solved in the greedy
     /// colours' order (the rebatched classes do the same work, bit for bit).
     fn keeps_the_greedy_order(c: &Colouring, bodies: usize) {
@@ -708,17 +721,6 @@ mod tests {
             c.order(n, 4, (|k| pairs[k].0, |k| pairs[k].1), h);
             c
         };
-        let same = |a: &Colouring, b: &Colouring| {
-            assert_eq!(a.out, b.out);
-            assert_eq!(a.ranges, b.ranges);
-            assert_eq!(a.manifold_start, b.manifold_start);
-            assert_eq!(a.manifold_points, b.manifold_points);
-            assert_eq!(a.colour_start, b.colour_start);
-            assert_eq!(a.position, b.position);
-            assert_eq!(a.serial_from, b.serial_from);
-            assert_eq!(a.colours, b.colours);
-            assert_eq!(a.bottom_up(), b.bottom_up());
-        };
         let mut c = Colouring::default();
         type Heights = fn(usize) -> f64;
         let steps: [(usize, Heights, bool); 5] = [
@@ -735,7 +737,7 @@ mod tests {
         ];
         for (n, h, kept) in steps {
             assert_eq!(c.order(n, 4, (|k| pairs[k].0, |k| pairs[k].1), h), kept);
-            same(&c, &fresh(n, &h));
+            same_colouring(&c, &fresh(n, &h));
         }
     }
 
@@ -788,15 +790,7 @@ mod tests {
                 kept_count += usize::from(kept);
                 let mut f = Colouring::default();
                 f.order(n, bodies, (|k| pairs[k].0, |k| pairs[k].1), h);
-                assert_eq!(c.out, f.out);
-                assert_eq!(c.ranges, f.ranges);
-                assert_eq!(c.manifold_start, f.manifold_start);
-                assert_eq!(c.manifold_points, f.manifold_points);
-                assert_eq!(c.colour_start, f.colour_start);
-                assert_eq!(c.position, f.position);
-                assert_eq!(c.serial_from, f.serial_from);
-                assert_eq!(c.colours, f.colours);
-                assert_eq!(c.bottom_up(), f.bottom_up());
+                same_colouring(&c, &f);
                 keeps_the_greedy_order(&c, bodies);
             }
             // The graph changed: the first manifold's slots, then one manifold fewer.
