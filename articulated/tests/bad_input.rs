@@ -206,3 +206,28 @@ fn divergence_is_a_typed_error_and_rolls_back() {
         assert_eq!(w.bodies(), &before[..]);
     }
 }
+
+/// The unilateral projection floor takes only positive finite values; a rejected value
+/// leaves the setting unchanged.
+#[test]
+fn unilateral_tolerance_rejects_bad_values() {
+    let mut w = World::new(DVec3::ZERO);
+    for t in [0.0, -1e-9, f64::NAN, f64::INFINITY] {
+        assert!(
+            matches!(
+                w.set_unilateral_tolerance(t),
+                Err(ArticulatedError::InvalidParameter {
+                    name: "unilateral_tolerance",
+                    ..
+                })
+            ),
+            "{t}"
+        );
+        assert_eq!(
+            w.unilateral_tolerance(),
+            World::DEFAULT_UNILATERAL_TOLERANCE
+        );
+    }
+    assert!(w.set_unilateral_tolerance(1e-7).is_ok());
+    assert_eq!(w.unilateral_tolerance(), 1e-7);
+}
