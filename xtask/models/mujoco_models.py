@@ -70,6 +70,32 @@ def one_line(e):
     return " ".join(s.split())
 
 
+def initial_state(m, qpos, qvel):
+    """MjData at (qpos, qvel) after mj_forward, and its full physics state (the state
+    `mujoco.rollout` starts from)."""
+    d = mujoco.MjData(m)
+    mujoco.mj_resetData(m, d)
+    d.qpos[:] = qpos
+    d.qvel[:] = qvel
+    mujoco.mj_forward(m, d)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state0 = np.empty(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(m, d, state0, spec)
+    return d, state0
+
+
+def hold_controls(m, ids, times, rows, nstep):
+    """The (nstep, nu) control before each step: row j of `rows` (actuators `ids`) from
+    time t_j on, held until the next (step k at k*dt + 1e-12)."""
+    dt = float(m.opt.timestep)
+    ctrl = np.zeros((nstep, m.nu))
+    for k in range(nstep):
+        j = max(0, bisect.bisect_right(times, k * dt + 1e-12) - 1)
+        for i, u in zip(ids, rows[j]):
+            ctrl[k, i] = u
+    return ctrl
+
+
 def perturbed_state(m, rng):
     """qpos0 plus the seeded hinge/slide perturbation, and the seeded dof velocities."""
     qpos = np.array(m.qpos0, dtype=float)
@@ -146,14 +172,7 @@ def run_case(m, qpos, qvel, ctrl, nstep, repeats):
     """Untimed pass (contacts, limits, divergence), then the timed rollouts. `ctrl`:
     None, or an (nstep, nu) array of the control before each step."""
     row = {"status": "ok"}
-    d = mujoco.MjData(m)
-    mujoco.mj_resetData(m, d)
-    d.qpos[:] = qpos
-    d.qvel[:] = qvel
-    mujoco.mj_forward(m, d)
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state0 = np.empty(mujoco.mj_stateSize(m, spec))
-    mujoco.mj_getState(m, d, state0, spec)
+    d, state0 = initial_state(m, qpos, qvel)
     limit = int(mujoco.mjtConstraint.mjCNSTR_LIMIT_JOINT)
     tendon_limit = int(mujoco.mjtConstraint.mjCNSTR_LIMIT_TENDON)
     max_ncon = max_nlimit = 0
@@ -219,11 +238,7 @@ def measure(name, path, duration, ctrl_duration, repeats, seed, work):
         csv = os.path.join(work, name.replace("/", "_") + ".ctrl.csv")
         write_controls(csv, names, times, rows)
         nc = max(1, int(round(ctrl_duration / dt)))
-        ctrl = np.zeros((nc, m.nu))
-        for k in range(nc):
-            j = bisect.bisect_right(times, k * dt + 1e-12) - 1
-            for i, u in zip(ids, rows[j]):
-                ctrl[k, i] = u
+        ctrl = hold_controls(m, ids, times, rows, nc)
         cases.append(("controlled", np.array(m.qpos0), np.zeros(m.nv), ctrl, nc,
                       {"ctrl": csv}))
     out = []

@@ -20,7 +20,7 @@ request's fields, the last case only); the first request of a key also runs one 
 timed one finds the model, data and buffers warm. End of input ends the process.
 """
 
-import bisect
+import os
 import sys
 import time
 
@@ -32,11 +32,10 @@ except ImportError as e:  # pragma: no cover - environment problem
     print(f"models_timing: cannot import mujoco/numpy ({e})", file=sys.stderr)
     sys.exit(1)
 
-
-def one_line(e):
-    s = str(e).strip()
-    s = s.splitlines()[0] if s else type(e).__name__
-    return " ".join(s.split())
+# The measuring script beside this one (xtask writes both to target/xtask/): the same
+# start state and zero-order hold of the controls as the checked runs.
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from models_mujoco import hold_controls, initial_state, one_line  # noqa: E402
 
 
 def numbers(text, n, what):
@@ -48,8 +47,8 @@ def numbers(text, n, what):
 
 
 def controls(m, path, nstep):
-    """The (nstep, nu) controls of CTRL.csv, each row held until the next (as
-    mujoco_models.py builds them: row j from time t_j, a step k at k*dt + 1e-12)."""
+    """The (nstep, nu) controls of CTRL.csv, each row held until the next
+    (`hold_controls`, as the checked runs build them)."""
     with open(path) as f:
         lines = [line.strip() for line in f if line.strip()]
     header = lines[0].split(",")
@@ -73,13 +72,7 @@ def controls(m, path, nstep):
         rows.append(f[1:])
     if not rows:
         raise ValueError(f"{path}: no rows")
-    dt = float(m.opt.timestep)
-    ctrl = np.zeros((nstep, m.nu))
-    for k in range(nstep):
-        j = max(0, bisect.bisect_right(times, k * dt + 1e-12) - 1)
-        for i, u in zip(ids, rows[j]):
-            ctrl[k, i] = u
-    return ctrl
+    return hold_controls(m, ids, times, rows, nstep)
 
 
 class Case:
@@ -89,18 +82,14 @@ class Case:
         if path not in models:
             models[path] = mujoco.MjModel.from_xml_path(path)
         m = self.m = models[path]
-        d = mujoco.MjData(m)
-        mujoco.mj_resetData(m, d)
+        q, v = np.array(m.qpos0, dtype=float), np.zeros(m.nv)
         if qpos != "-":
-            q = numbers(qpos, m.nq, "qpos")
-            d.qpos[: len(q)] = q
+            given = numbers(qpos, m.nq, "qpos")
+            q[: len(given)] = given
         if qvel != "-":
-            v = numbers(qvel, m.nv, "qvel")
-            d.qvel[: len(v)] = v
-        mujoco.mj_forward(m, d)
-        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-        state0 = np.empty(mujoco.mj_stateSize(m, spec))
-        mujoco.mj_getState(m, d, state0, spec)
+            given = numbers(qvel, m.nv, "qvel")
+            v[: len(given)] = given
+        _, state0 = initial_state(m, q, v)
         self.state0 = state0[None, :]
         if ctrl != "-":
             self.control = controls(m, ctrl, nstep)[None, :, :]

@@ -179,10 +179,17 @@ impl Timer {
     pub fn start(python: &Path, script_dir: &Path, limit: Duration) -> Result<Timer, String> {
         std::fs::create_dir_all(script_dir)
             .map_err(|e| format!("{}: {e}", script_dir.display()))?;
-        let script = script_dir.join("models_timing.py");
-        if std::fs::read_to_string(&script).ok().as_deref() != Some(SERVER) {
-            std::fs::write(&script, SERVER).map_err(|e| format!("{}: {e}", script.display()))?;
+        // The server imports the measuring script's start state and control hold.
+        for (name, text) in [
+            ("models_mujoco.py", super::MEASURE),
+            ("models_timing.py", SERVER),
+        ] {
+            let path = script_dir.join(name);
+            if std::fs::read_to_string(&path).ok().as_deref() != Some(text) {
+                std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+            }
         }
+        let script = script_dir.join("models_timing.py");
         let mut child = Command::new(python)
             .arg(&script)
             .stdin(Stdio::piped())
