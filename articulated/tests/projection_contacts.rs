@@ -67,8 +67,8 @@ fn projection_pushes_a_contact_out_to_the_slop() {
     assert!(pen <= slop + 1e-9, "penetration {pen:e}"); // measured 1.000000e-4 (the slop)
     assert!(pen >= 0.5 * slop, "pushed past the slop: {pen:e}"); // measured 1.0e-4
 
-    // The projection stops at the unilateral floor, 1e-9 m (measured 5.5e-10; 4.9e-15
-    // when it was the method's 1e-12).
+    // The projection stops at the unilateral floor, 1e-7 m (measured 5.5e-10 at a
+    // floor of 1e-9; 4.9e-15 when it was the method's 1e-12).
     assert!(sep <= w.unilateral_tolerance(), "hinge {sep:e}");
     // The projection moves positions only: the step's velocity is the velocity level's.
     assert!(dv <= 1e-9, "velocity changed by {dv:e}"); // measured 0

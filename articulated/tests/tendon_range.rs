@@ -45,6 +45,8 @@ fn projection_holds_the_tendon_range() {
     // Without the tendon rows in the projection both overshot by 1.379e-4 rad.
     // Gate: the projection tolerance (1e-10), measured 5.6e-16.
     assert!(p <= 1e-10, "velocity projected {p:e}");
-    // Gate: RATTLE's projection tolerance (1e-12), measured 4.4e-16.
-    assert!(r <= 1e-12, "rattle {r:e}");
+    // Gate: the projection tolerance of RATTLE's steps with a one-sided row active,
+    // the unilateral floor `World::DEFAULT_UNILATERAL_TOLERANCE` (1e-7), measured
+    // 8.2e-8 (4.4e-16 when RATTLE projected these steps to 1e-12).
+    assert!(r <= 1e-7, "rattle {r:e}");
 }
