@@ -119,6 +119,10 @@ pub struct RunOptions {
     pub qvel: Option<Vec<f64>>,
     /// Control file: CSV with columns `t, <actuator name>...`, zero-order hold.
     pub ctrl: Option<std::path::PathBuf>,
+    /// The floor on the projection tolerance of RATTLE's steps with one-sided rows
+    /// (`World::set_unilateral_tolerance`, m; `None`: the world's default,
+    /// `World::DEFAULT_UNILATERAL_TOLERANCE`).
+    pub unilateral_tolerance: Option<f64>,
 }
 
 impl Default for RunOptions {
@@ -134,6 +138,7 @@ impl Default for RunOptions {
             qpos: None,
             qvel: None,
             ctrl: None,
+            unilateral_tolerance: None,
         }
     }
 }
@@ -354,6 +359,12 @@ fn run_inner(
         }
         None => None,
     };
+    if let Some(t) = opts.unilateral_tolerance {
+        scene
+            .world
+            .set_unilateral_tolerance(t)
+            .map_err(|e| format!("--unilateral-tolerance {t}: {e}"))?;
+    }
     let h = opts.dt.unwrap_or(scene.timestep);
     let steps = step_count(h, opts)?;
     let m = method(&opts.method, h)?;

@@ -78,6 +78,11 @@ struct Cli {
     /// tolerance) [default: none].
     #[arg(long, value_name = "FILE.json")]
     summary: Option<PathBuf>,
+    /// The floor (m) on the joints' projection tolerance of RATTLE steps that limit or
+    /// contact rows send to the velocity level [default: 1e-7; 1e-12 holds joints as
+    /// tight as the other RATTLE steps].
+    #[arg(long, value_name = "TOL", allow_hyphen_values = true)]
+    unilateral_tolerance: Option<String>,
 }
 
 /// The names `--method` accepts, with their descriptions: the run's [`METHODS`] and
@@ -144,6 +149,11 @@ impl Cli {
                 .map(|s| list(s, "--qvel"))
                 .transpose()?,
             ctrl: self.ctrl,
+            unilateral_tolerance: self
+                .unilateral_tolerance
+                .as_deref()
+                .map(|s| num(s, "--unilateral-tolerance"))
+                .transpose()?,
         };
         Ok(Args {
             scene,
