@@ -463,13 +463,13 @@ fn unilateral_tolerance_sets_the_fallback_projection() {
     };
     let default_floor = World::new(DVec3::ZERO).unilateral_tolerance();
     assert_eq!(default_floor, World::DEFAULT_UNILATERAL_TOLERANCE);
-    assert_eq!(default_floor, 1e-7);
+    assert_eq!(default_floor, 1e-8);
     let tight = run(1e-12);
-    let mid = run(1e-9);
-    let loose = run(default_floor);
+    let mid = run(default_floor);
+    let loose = run(1e-7);
     // Measured: 285 one-sided steps of 2000 at each floor; projection iterations
-    // 2079 / 2051 / 1800; worst separation 9.6e-13 / 9.8e-10 / 9.5e-8 m.
-    for ((fallbacks, _, sep), floor) in [(tight, 1e-12), (mid, 1e-9), (loose, 1e-7)] {
+    // 2079 / 1989 / 1800; worst separation 9.6e-13 / 9.9e-9 / 9.5e-8 m.
+    for ((fallbacks, _, sep), floor) in [(tight, 1e-12), (mid, 1e-8), (loose, 1e-7)] {
         assert!(fallbacks > 0, "floor {floor}: no one-sided steps");
         assert!(sep <= floor, "floor {floor}: separation {sep}");
     }
