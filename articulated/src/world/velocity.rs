@@ -6,7 +6,7 @@
 //! the joints by `O(h²ω|v' − v|)` instead of `(ωh)²r/2`, and the projection often has
 //! nothing left to do (`simulate`, callgrind on `World::step`: gymnasium pusher
 //! perturbed 81 → 0 Newton factorizations in 200 steps, dm manipulator controlled
-//! 1,811 → 330 in 2,000, World::step −11 % and −19 %). Where the step is large against
+//! 1,811 → 330 in 2,000, World::step −11 % and −20 %). Where the step is large against
 //! the bodies' speed changes (contacts and actuators at 10 ms: the controlled runs of
 //! gymnasium pusher and half_cheetah, dm cheetah, walker and hopper) the projection
 //! still needs its Newton step, and the prediction (a joint evaluation at the moved
@@ -31,17 +31,19 @@ pub(super) enum Aim {
     /// `O(h² |v' − v|) = O(h³)` (the curvature along the start twist is in
     /// `C(x₀ + h v)`, evaluated at the pose the update `x' = x + h v'`,
     /// `R' = exp(h ω') R` gives for `v' = v`). Compliant joints keep `−C(x₀)/h`
-    /// (their spring is the compliance's), equality rows too.
+    /// (their spring is the compliance's), equality rows too, and so do joints whose
+    /// drift along the start twist is negligible (`World::predict_joint_values`).
     EndOfStep,
 }
 
 /// [`Aim::EndOfStep`]'s per-joint figures, reused from step to step.
 #[derive(Clone, Debug, Default)]
 pub(super) struct AimScratch {
-    /// Per joint: `C(x₀ + h v)` (`None`: a compliant joint, aimed at the start).
+    /// Per joint: `C(x₀ + h v)` (`None`: aimed at the start, a compliant joint or one
+    /// whose drift is negligible).
     joints: Vec<Option<[f64; MAX_ROWS]>>,
-    /// Per body: the pose moved by its start twist.
-    moved: Vec<Pose>,
+    /// Per body: the pose moved by its start twist, where a predicted joint needed it.
+    moved: Vec<Option<Pose>>,
     /// Per body: the start twist `(v, ω)`.
     twists: Vec<(DVec3, DVec3)>,
 }
@@ -219,27 +221,47 @@ impl World {
 
     /// Fills [`AimScratch`] for [`Aim::EndOfStep`]: each hard joint's `C` at the
     /// bodies moved by their start twists (`x + h v`, `R ← exp(h ω) R`, as
-    /// [`Self::velocity_solve_aimed`] moves them) and its start twists.
+    /// [`Self::velocity_solve_aimed`] moves them), and the start twists.
+    ///
+    /// A joint whose drift along the start twist is negligible keeps the start aim: the
+    /// aims differ by `J v − (C(x + h v) − C(x))/h = −(h/2) uᵀ∇²C u + O(h²)`, which
+    /// moves the end of the step by at most `h² lever (|ω_a|² + |ω_b|²)`
+    /// ([`Joint::lever`] bounds `|∇²C_r| ≤ 2 lever`; `C` is linear in the positions), and
+    /// under a tenth of the unilateral tolerance that is not worth a joint evaluation
+    /// (gymnasium pusher passive, at rest: +9.9 % World::step instructions without this).
     fn predict_joint_values(&mut self, h: f64) {
         let mut joints = core::mem::take(&mut self.aim.joints);
         let mut moved = core::mem::take(&mut self.aim.moved);
         joints.clear();
         moved.clear();
+        moved.resize(self.bodies.len(), None);
         self.aim.twists.clear();
-        for b in &self.bodies {
-            moved.push(Pose {
-                x: b.pose.x + b.v * h,
-                q: rotate_by(b.pose.q, b.omega * h),
-            });
-            self.aim.twists.push((b.v, b.omega));
-        }
-        let at = |b: Option<usize>| b.map_or(Pose::IDENTITY, |i| moved[i]);
+        self.aim
+            .twists
+            .extend(self.bodies.iter().map(|b| (b.v, b.omega)));
+        let negligible = 0.1 * self.unilateral_tolerance;
+        let spin = |b: Option<usize>| b.map_or(0.0, |i| self.bodies[i].omega.length_squared());
         for (j, joint) in self.joints.iter().enumerate() {
-            if self.is_soft(j) {
+            let drift = h * h * joint.lever() * (spin(joint.parent) + spin(Some(joint.child)));
+            // `!(drift > negligible)`: a NaN twist keeps the start aim (the step's
+            // divergence check reports it).
+            if self.is_soft(j) || !(drift > negligible) {
                 joints.push(None);
                 continue;
             }
-            joints.push(Some(joint.value(&at(joint.parent), &at(Some(joint.child)))));
+            let mut at = |b: Option<usize>| {
+                b.map_or(Pose::IDENTITY, |i| {
+                    *moved[i].get_or_insert_with(|| {
+                        let b = &self.bodies[i];
+                        Pose {
+                            x: b.pose.x + b.v * h,
+                            q: rotate_by(b.pose.q, b.omega * h),
+                        }
+                    })
+                })
+            };
+            let (a, b) = (at(joint.parent), at(Some(joint.child)));
+            joints.push(Some(joint.value(&a, &b)));
         }
         self.aim.moved = moved;
         self.aim.joints = joints;
