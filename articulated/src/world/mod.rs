@@ -273,7 +273,8 @@ impl Default for Method {
     /// projection tolerance; where its projection does not converge it redoes the step
     /// at the velocity level ([`StepStats::fallbacks`]). The velocity level
     /// (`Velocity { beta: 1.0 }`) is about 5× cheaper per step. Steps with one-sided rows
-    /// project to at most [`World::DEFAULT_UNILATERAL_TOLERANCE`] instead
+    /// go to the velocity level aimed at the end of the step (`J v' = J v − C(x + h v)/h`)
+    /// and project to at most [`World::DEFAULT_UNILATERAL_TOLERANCE`]
     /// ([`World::set_unilateral_tolerance`]).
     fn default() -> Self {
         Method::Rattle {
@@ -365,6 +366,9 @@ pub struct World {
     accel: acceleration::Scratch,
     /// Position projection scratch (`projection.rs`).
     proj: projection::Scratch,
+    /// The velocity level's end-of-step aim (`velocity.rs`, [`velocity::Aim`]): per
+    /// joint the predicted `C(x + h v)`, per body the moved pose and the start twist.
+    aim: velocity::AimScratch,
     /// Positional compliance `α ≥ 0` per joint (0: hard).
     compliance: Vec<f64>,
     /// Dry friction per joint and degree of freedom.
@@ -498,6 +502,7 @@ impl World {
             rattle: rattle::Scratch::default(),
             accel: acceleration::Scratch::default(),
             proj: projection::Scratch::default(),
+            aim: velocity::AimScratch::default(),
             compliance: Vec::new(),
             limits: Vec::new(),
             frictionloss: Vec::new(),
@@ -950,7 +955,9 @@ impl World {
                     max_iterations,
                 } => {
                     stats.unilateral_fallbacks = 1;
-                    self.velocity_solve(ctx, 1.0)?;
+                    // Aimed at the end of the step (`velocity::Aim::EndOfStep`): the
+                    // projection below then starts O(h³) from the joints, not O(h²).
+                    self.velocity_solve_aimed(ctx, velocity::Aim::EndOfStep)?;
                     // The looser of the method's tolerance and the unilateral floor.
                     let tolerance = tolerance.max(self.unilateral_tolerance);
                     stats.projection_iterations = self.project(tolerance, max_iterations, None)?;

@@ -1,5 +1,16 @@
 //! The velocity level (Otaduy 2010, "Opción 2"): `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`,
 //! with the joints' geometric stiffness where the explicit treatment would be unstable.
+//!
+//! RATTLE's fallback (steps with one-sided rows, projected after) aims the joint rows at
+//! the end of the step instead ([`Aim::EndOfStep`], issue 13): `x + h v'` then misses
+//! the joints by `O(h²ω|v' − v|)` instead of `(ωh)²r/2`, and the projection often has
+//! nothing left to do (`simulate`, callgrind on `World::step`: gymnasium pusher
+//! perturbed 81 → 0 Newton factorizations in 200 steps, dm manipulator controlled
+//! 1,811 → 330 in 2,000, World::step −11 % and −20 %). Where the step is large against
+//! the bodies' speed changes (contacts and actuators at 10 ms: the controlled runs of
+//! gymnasium pusher and half_cheetah, dm cheetah, walker and hopper) the projection
+//! still needs its Newton step, and the prediction (a joint evaluation at the moved
+//! poses and `J v` per joint, about one error evaluation) costs up to 5 % (pusher).
 
 use alloc::vec;
 use alloc::vec::Vec;
@@ -9,6 +20,34 @@ use constraint_core::{DVec3, Pose};
 
 use super::*;
 
+/// Where the velocity level aims the hard joint rows `J v' = b`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Aim {
+    /// `b = −β C(x₀)/h` (the lecture's Opción 2): `C(x₀ + h v') = O(h²)` for a moving
+    /// model, since `J` is the Jacobian at the start and the joints curve.
+    Start(f64),
+    /// `b = J v − C(x₀ + h v)/h`, the predictor: from `C(x₀ + h v') ≈ C(x₀ + h v) +
+    /// h J (v' − v)` the end-of-step position `x₀ + h v'` meets the joints to
+    /// `O(h² |v' − v|) = O(h³)` (the curvature along the start twist is in
+    /// `C(x₀ + h v)`, evaluated at the pose the update `x' = x + h v'`,
+    /// `R' = exp(h ω') R` gives for `v' = v`). Compliant joints keep `−C(x₀)/h`
+    /// (their spring is the compliance's), equality rows too, and so do joints whose
+    /// drift along the start twist is negligible (`World::predict_joint_values`).
+    EndOfStep,
+}
+
+/// [`Aim::EndOfStep`]'s per-joint figures, reused from step to step.
+#[derive(Clone, Debug, Default)]
+pub(super) struct AimScratch {
+    /// Per joint: `C(x₀ + h v)` (`None`: aimed at the start, a compliant joint or one
+    /// whose drift is negligible).
+    joints: Vec<Option<[f64; MAX_ROWS]>>,
+    /// Per body: the pose moved by its start twist, where a predicted joint needed it.
+    moved: Vec<Option<Pose>>,
+    /// Per body: the start twist `(v, ω)`.
+    twists: Vec<(DVec3, DVec3)>,
+}
+
 impl World {
     /// `[M Jᵀ; J −C][v'; λ] = [M v + h f; −β C/h]`, then `x' = x + h v'`.
     pub(super) fn velocity_solve(
@@ -16,11 +55,20 @@ impl World {
         ctx: &StepContext,
         beta: f64,
     ) -> Result<(), ArticulatedError> {
+        self.velocity_solve_aimed(ctx, Aim::Start(beta))
+    }
+
+    /// [`Self::velocity_solve`] with the hard rows aimed by `aim`.
+    pub(super) fn velocity_solve_aimed(
+        &mut self,
+        ctx: &StepContext,
+        aim: Aim,
+    ) -> Result<(), ArticulatedError> {
         let h = ctx.h();
         if !self.urows.is_empty() && self.unilateral.sparse {
             // The one-sided rows in the tree factor by an active set; the dense path
             // where that does not apply or does not settle.
-            let loops = self.velocity_assemble(ctx, beta);
+            let loops = self.velocity_assemble(ctx, aim);
             // Loop joints go by their Schur complement on the dense path only; equality
             // rows are the active set's always-active Schur rows (`world/active_set.rs`).
             if loops.0.is_empty() && self.solve_unilateral_sparse() {
@@ -39,7 +87,7 @@ impl World {
             #[cfg(feature = "contact")]
             self.store_warm_contacts();
         } else {
-            self.velocity_system_solve(ctx, beta)?;
+            self.velocity_system_solve(ctx, aim)?;
         }
         if !self.urows.is_empty() && !self.unilateral.sparse {
             // One-sided rows through the factored joint system: x' = x_free + Y z.
@@ -76,7 +124,7 @@ impl World {
     ) -> Result<Vec<(DVec3, DVec3)>, ArticulatedError> {
         let ctx = step_context(h)?;
         self.ensure_solver();
-        self.velocity_system_solve(&ctx, beta)?;
+        self.velocity_system_solve(&ctx, Aim::Start(beta))?;
         Ok((0..self.bodies.len())
             .map(|i| self.body_solution(i))
             .collect())
@@ -163,18 +211,69 @@ impl World {
     pub(super) fn velocity_system_solve(
         &mut self,
         ctx: &StepContext,
-        beta: f64,
+        aim: Aim,
     ) -> Result<(), ArticulatedError> {
-        let loops = self.velocity_assemble(ctx, beta);
+        let loops = self.velocity_assemble(ctx, aim);
         self.solve(loops)?;
         self.store_impulses();
         Ok(())
     }
 
+    /// Fills [`AimScratch`] for [`Aim::EndOfStep`]: each hard joint's `C` at the
+    /// bodies moved by their start twists (`x + h v`, `R ← exp(h ω) R`, as
+    /// [`Self::velocity_solve_aimed`] moves them), and the start twists.
+    ///
+    /// A joint whose drift along the start twist is negligible keeps the start aim: the
+    /// aims differ by `J v − (C(x + h v) − C(x))/h = −(h/2) uᵀ∇²C u + O(h²)`, which
+    /// moves the end of the step by at most `h² lever (|ω_a|² + |ω_b|²)`
+    /// ([`Joint::lever`] bounds `|∇²C_r| ≤ 2 lever`; `C` is linear in the positions), and
+    /// under a tenth of the unilateral tolerance that is not worth a joint evaluation
+    /// (gymnasium pusher passive, at rest: +9.9 % World::step instructions without this).
+    fn predict_joint_values(&mut self, h: f64) {
+        let mut joints = core::mem::take(&mut self.aim.joints);
+        let mut moved = core::mem::take(&mut self.aim.moved);
+        joints.clear();
+        moved.clear();
+        moved.resize(self.bodies.len(), None);
+        self.aim.twists.clear();
+        self.aim
+            .twists
+            .extend(self.bodies.iter().map(|b| (b.v, b.omega)));
+        let negligible = 0.1 * self.unilateral_tolerance;
+        let spin = |b: Option<usize>| b.map_or(0.0, |i| self.bodies[i].omega.length_squared());
+        for (j, joint) in self.joints.iter().enumerate() {
+            let drift = h * h * joint.lever() * (spin(joint.parent) + spin(Some(joint.child)));
+            // `!(drift > negligible)`: a NaN twist keeps the start aim (the step's
+            // divergence check reports it).
+            if self.is_soft(j) || !(drift > negligible) {
+                joints.push(None);
+                continue;
+            }
+            let mut at = |b: Option<usize>| {
+                b.map_or(Pose::IDENTITY, |i| {
+                    *moved[i].get_or_insert_with(|| {
+                        let b = &self.bodies[i];
+                        Pose {
+                            x: b.pose.x + b.v * h,
+                            q: rotate_by(b.pose.q, b.omega * h),
+                        }
+                    })
+                })
+            };
+            let (a, b) = (at(joint.parent), at(Some(joint.child)));
+            joints.push(Some(joint.value(&a, &b)));
+        }
+        self.aim.moved = moved;
+        self.aim.joints = joints;
+    }
+
     /// Loads the velocity-level system (bodies, joints, forces, equality rows) into the
     /// solver and `self.rhs` without factoring it; returns the loop rows.
-    fn velocity_assemble(&mut self, ctx: &StepContext, beta: f64) -> LoopRows {
+    fn velocity_assemble(&mut self, ctx: &StepContext, aim: Aim) -> LoopRows {
         let h = ctx.h();
+        if aim == Aim::EndOfStep {
+            self.predict_joint_values(h);
+        }
         let g = self.gravity;
         self.body_rhs(|b, r, iw| {
             let w = b.gyroscopic_step_with(r, h);
@@ -187,11 +286,41 @@ impl World {
         {
             self.add_geometric_stiffness(ctx);
         }
-        let loops = self.assemble(h, Rates::Full, Soft::Implicit, |_, _, rows, rhs| {
-            for r in 0..rows.n_hard {
-                rhs[r] = -beta * rows.value[r] / h;
+        let aimed = core::mem::take(&mut self.aim.joints);
+        let twists = core::mem::take(&mut self.aim.twists);
+        let twist = |b: Option<usize>| b.map_or((DVec3::ZERO, DVec3::ZERO), |i| twists[i]);
+        let loops = self.assemble(h, Rates::Full, Soft::Implicit, |j, joint, rows, rhs| {
+            match aim {
+                Aim::Start(beta) => {
+                    for r in 0..rows.n_hard {
+                        rhs[r] = -beta * rows.value[r] / h;
+                    }
+                }
+                Aim::EndOfStep => match aimed.get(j).and_then(Option::as_ref) {
+                    // J v − C(x + h v)/h.
+                    Some(c) => {
+                        let (va, wa) = twist(joint.parent);
+                        let (vb, wb) = twist(Some(joint.child));
+                        for r in 0..rows.n_hard {
+                            let g = &rows.rows[r];
+                            let rate = g[0].dot(va) + g[1].dot(wa) + g[2].dot(vb) + g[3].dot(wb);
+                            rhs[r] = rate - c[r] / h;
+                        }
+                    }
+                    None => {
+                        for r in 0..rows.n_hard {
+                            rhs[r] = -rows.value[r] / h;
+                        }
+                    }
+                },
             }
         });
+        self.aim.joints = aimed;
+        self.aim.twists = twists;
+        let beta = match aim {
+            Aim::Start(beta) => beta,
+            Aim::EndOfStep => 1.0,
+        };
         self.load_equalities(|c| -beta * c / h);
         loops
     }
