@@ -3,13 +3,13 @@
 //! `Aim::EndOfStep`), so that `x + h v'` meets the joints to `O(h³)` and the position
 //! projection after it has little or nothing to do. The reference is the same step
 //! aimed at the start (`Method::VelocityProjected`, `J v' = −C(x)/h`, the projection at
-//! the same tolerance): what the fallback was before.
+//! the same tolerance): what the fallback is without `World::set_end_of_step_aim`.
 //! Every tolerance carries the value measured when it was set.
 
 use constraint_articulated::{Joint, JointKind, Method, RigidBody, World};
 use constraint_core::{DMat3, DQuat, DVec3, Hinge, Pose};
 
-/// The unilateral projection floor (`World::DEFAULT_UNILATERAL_TOLERANCE`).
+/// The unilateral projection floor the runs set (`World::set_unilateral_tolerance`).
 const FLOOR: f64 = 1e-7;
 
 /// The fallback as it was: velocity level aimed at the start, then the projection.
@@ -89,6 +89,8 @@ fn chain_and_flap(rates: [f64; 3]) -> World {
 /// (m) and the largest `|E − E₀|` (J).
 fn run(method: Method, h: f64, steps: usize) -> (usize, usize, f64, f64) {
     let mut w = chain_and_flap([1.0, -0.5, 0.8]);
+    w.set_end_of_step_aim(true);
+    w.set_unilateral_tolerance(FLOOR).unwrap();
     let total = |w: &World| w.energy().0 + w.energy().1;
     let e0 = total(&w);
     let (mut iterations, mut fallbacks, mut sep, mut drift) = (0, 0, 0.0f64, 0.0f64);
@@ -157,4 +159,13 @@ fn aimed_fallback_keeps_the_energy_bounded() {
         "grew: {aimed_long} vs {aimed_drift}"
     );
     assert!(aimed_long <= start_long, "{aimed_long} vs {start_long}");
+}
+
+/// The aim is opt-in: a new world aims at the start of the step.
+#[test]
+fn end_of_step_aim_is_off_by_default() {
+    let mut w = World::new(DVec3::ZERO);
+    assert!(!w.end_of_step_aim());
+    w.set_end_of_step_aim(true);
+    assert!(w.end_of_step_aim());
 }

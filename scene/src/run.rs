@@ -123,6 +123,9 @@ pub struct RunOptions {
     /// (`World::set_unilateral_tolerance`, m; `None`: the world's default,
     /// `World::DEFAULT_UNILATERAL_TOLERANCE`).
     pub unilateral_tolerance: Option<f64>,
+    /// RATTLE's velocity-level fallback aimed at the end of the step
+    /// (`World::set_end_of_step_aim`).
+    pub end_of_step_aim: bool,
 }
 
 impl Default for RunOptions {
@@ -139,6 +142,7 @@ impl Default for RunOptions {
             qvel: None,
             ctrl: None,
             unilateral_tolerance: None,
+            end_of_step_aim: false,
         }
     }
 }
@@ -365,6 +369,7 @@ fn run_inner(
             .set_unilateral_tolerance(t)
             .map_err(|e| format!("--unilateral-tolerance {t}: {e}"))?;
     }
+    scene.world.set_end_of_step_aim(opts.end_of_step_aim);
     let h = opts.dt.unwrap_or(scene.timestep);
     let steps = step_count(h, opts)?;
     let m = method(&opts.method, h)?;
