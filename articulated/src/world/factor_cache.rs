@@ -7,6 +7,7 @@
 //! ```text
 //! B_{h/2} at x_n      (damping rows, compliance 1/(γ h/2 · d))   = the previous step's last
 //! kick 1  at x_n      (armature rows only, |h|/2)                 = the previous step's kick 2
+//!                     (looked up for SHAKE; not solved after the flow, `rattle.rs`)
 //! kick 2  at x_{n+1}  (the same assembly)                         new
 //! B_{h/2} at x_{n+1}                                              new
 //! ```
