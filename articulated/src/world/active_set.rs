@@ -197,6 +197,28 @@
 //! 72.76M (the path values of its Schur rows, summed, cost about the forward pass they
 //! replace), swimmer6 121.84M → 121.72M, pusher 49.50M → 49.42M: too little for a
 //! change of bits.
+//!
+//! Where dm hopper's cost at rest goes (issue 13, 2 s passive, 400 steps, lying on the
+//! floor: 5 contacts, 3 limits, 19 rows; callgrind call counts and a count of each
+//! try's path): `World::step` 153K instructions a step, the active set 77.9K a try
+//! (390 tries). The warm start holds: 244 tries end on their first iterate, 115 need
+//! a second (friction rows at `μ z_n` whose normal moved since the last step: one
+//! bounds' extrapolation, then the checking iterate), 26 more; 5 failed (3 a
+//! dependent one-sided row, 1 cycle, 1 not settled) and 1 step was skipped, and those
+//! 6 dense steps cost 336K each (2.0M, 3 % of the run). Per try: the factor of the
+//! augmented tree 23.5K (1.28 factors: the first, the matrix having moved, then one
+//! per changed set; `RowTree::assemble` and `factor`), the Schur rows 23.8K (3.7 rows
+//! per build: the foot's and calf's contacts beyond the one row their hinge leaves
+//! free: their forward passes 7.7K, `S` and its own loops 11K, [`PsdFactor`] 2K),
+//! 4.1 factor solves 17.4K (per iterate the solve and the Schur correction, two per
+//! normal in the extrapolation), the rows' gathers, residuals and updates the rest.
+//! So a try that ends on its first iterate still pays one factor, one build of the
+//! Schur rows and two solves: the base cost is the pipeline, not repeated work. The
+//! same count on the other small models (2 s, tries ending on their first iterate /
+//! second / failed): dm hopper perturbed 228/112/12, controlled 94/211/10, walker
+//! passive 799/1/0, perturbed 589/161/9, controlled 280/379/3, stacker 1703/19/1,
+//! 1689/109/4, 1704/33/1 (20.4 Schur rows per build perturbed: the boxes' contacts
+//! with each other), manipulator 1772/34/4, 1787/35/7, 1768/57/4.
 
 use alloc::vec::Vec;
 
