@@ -201,7 +201,8 @@
 //! Where dm hopper's cost at rest goes (issue 13, 2 s passive, 400 steps, lying on the
 //! floor: 5 contacts, 3 limits, 19 rows; callgrind call counts and a count of each
 //! try's path): `World::step` 153K instructions a step, the active set 77.9K a try
-//! (390 tries). The warm start holds: 244 tries end on their first iterate, 115 need
+//! (390 tries; counted before the extrapolation's update below). The warm start holds:
+//! 244 tries end on their first iterate, 115 need
 //! a second (friction rows at `μ z_n` whose normal moved since the last step: one
 //! bounds' extrapolation, then the checking iterate), 26 more; 5 failed (3 a
 //! dependent one-sided row, 1 cycle, 1 not settled) and 1 step was skipped, and those
