@@ -202,9 +202,9 @@
 //! floor: 5 contacts, 3 limits, 19 rows; callgrind call counts and a count of each
 //! try's path): `World::step` 153K instructions a step, the active set 77.9K a try
 //! (390 tries; counted before the extrapolation's update below). The warm start holds:
-//! 244 tries end on their first iterate, 115 need
-//! a second (friction rows at `μ z_n` whose normal moved since the last step: one
-//! bounds' extrapolation, then the checking iterate), 26 more; 5 failed (3 a
+//! 244 tries end on their first iterate, 115 need a second (friction rows at `μ z_n`
+//! whose normal moved since the last step: one bounds' extrapolation, then the
+//! checking iterate), 26 more; 5 failed (3 a
 //! dependent one-sided row, 1 cycle, 1 not settled) and 1 step was skipped, and those
 //! 6 dense steps cost 336K each (2.0M, 3 % of the run). Per try: the factor of the
 //! augmented tree 23.5K (1.28 factors: the first, the matrix having moved, then one
