@@ -197,6 +197,29 @@
 //! 72.76M (the path values of its Schur rows, summed, cost about the forward pass they
 //! replace), swimmer6 121.84M → 121.72M, pusher 49.50M → 49.42M: too little for a
 //! change of bits.
+//!
+//! Where dm hopper's cost at rest goes (issue 13, 2 s passive, 400 steps, lying on the
+//! floor: 5 contacts, 3 limits, 19 rows; callgrind call counts and a count of each
+//! try's path): `World::step` 153K instructions a step, the active set 77.9K a try
+//! (390 tries; counted before the extrapolation's update below). The warm start holds:
+//! 244 tries end on their first iterate, 115 need a second (friction rows at `μ z_n`
+//! whose normal moved since the last step: one bounds' extrapolation, then the
+//! checking iterate), 26 more; 5 failed (3 a
+//! dependent one-sided row, 1 cycle, 1 not settled) and 1 step was skipped, and those
+//! 6 dense steps cost 336K each (2.0M, 3 % of the run). Per try: the factor of the
+//! augmented tree 23.5K (1.28 factors: the first, the matrix having moved, then one
+//! per changed set; `RowTree::assemble` and `factor`), the Schur rows 23.8K (3.7 rows
+//! per build: the foot's and calf's contacts beyond the one row their hinge leaves
+//! free: their forward passes 7.7K, `S` and its own loops 11K, [`PsdFactor`] 2K),
+//! 4.1 factor solves 17.4K (per iterate the solve and the Schur correction, two per
+//! normal in the extrapolation), the rows' gathers, residuals and updates the rest.
+//! So a try that ends on its first iterate still pays one factor, one build of the
+//! Schur rows and two solves: the base cost is the pipeline, not repeated work. The
+//! same count on the other small models (2 s, tries ending on their first iterate /
+//! second / failed): dm hopper perturbed 228/112/12, controlled 94/211/10, walker
+//! passive 799/1/0, perturbed 589/161/9, controlled 280/379/3, stacker 1703/19/1,
+//! 1689/109/4, 1704/33/1 (20.4 Schur rows per build perturbed: the boxes' contacts
+//! with each other), manipulator 1772/34/4, 1787/35/7, 1768/57/4.
 
 use alloc::vec::Vec;
 
@@ -322,6 +345,10 @@ pub(super) struct ActiveSet {
     ex_resp: Vec<f64>,
     ex_mat: Vec<f64>,
     ex_dz: Vec<f64>,
+    /// The iterate's `ζ` and, per normal, the Schur rows' response `ζ_b` (`p × d`),
+    /// for the linear update of [`World::extrapolate_bounds`].
+    ex_zeta0: Vec<f64>,
+    ex_zeta: Vec<f64>,
     /// The factor rows (`map`) of the iteration that built `factor`, and whether it
     /// was built in this step: an iteration with the same rows reuses it.
     factor_map: Vec<usize>,
@@ -481,6 +508,9 @@ impl World {
         let accept = ACCEPT_FRACTION * self.unilateral.solver.friction_tolerance;
         let mut iterations = 0;
         let mut settled = false;
+        // The one-sided rows' natural-map residual of the last iterate (every exit
+        // that settles leaves `st.z`, `st.w` as that iterate's), for the statistics.
+        let mut worst: f64 = 0.0;
         st.history.clear();
         st.factor_current = false;
         st.y_current = false;
@@ -561,7 +591,9 @@ impl World {
             }
             // The first iterate within a tenth of the dense path's acceptance ends the
             // step (its set may still change by rows of |w| near the tolerance).
-            if self.natural_residual(st, bias_scale) <= accept {
+            let (one_sided, residual) = self.natural_residual(st, bias_scale);
+            worst = one_sided;
+            if residual <= accept {
                 settled = true;
                 break;
             }
@@ -658,7 +690,21 @@ impl World {
             if !changed {
                 // Same set, bounds still moving with their normals: jump to the
                 // bounds' fixed point for this set.
-                self.extrapolate_bounds(st);
+                if self.extrapolate_bounds(st) {
+                    // The iterate moved along the responses to the new normals (the
+                    // set unchanged, the system linear in the bounds): its residual
+                    // decides whether the checking iterate is needed.
+                    self.iterate_values(st);
+                    let (one_sided, residual) = self.natural_residual(st, bias_scale);
+                    worst = one_sided;
+                    if residual <= accept {
+                        settled = true;
+                        break;
+                    }
+                    for (a, &n) in st.ex_normals.iter().enumerate() {
+                        st.z[n] = st.ex_dz[a];
+                    }
+                }
             }
         }
         self.ustats.active_set_iterations = iterations;
@@ -685,15 +731,37 @@ impl World {
         }
         self.ustats.sparse = true;
         self.ustats.solver.iterations = iterations;
-        let mut worst: f64 = 0.0;
-        for i in 0..m {
-            let (lo, hi) = bounds(&self.urows[i].bound, &st.z);
-            let (z, w) = (st.z[i], st.w[i]);
-            worst = worst.max((z - (z - w).min(hi).max(lo)).abs());
-        }
         self.ustats.residual = worst / bias_scale;
         remember(st, &self.uz);
         true
+    }
+
+    /// The iterate's impulses and row values from `st.x` and `st.zeta`: `z = −x` at a
+    /// factor row, `−ζ` at a coupled Schur row, the bound at a bound (from the
+    /// iterate's normals), zero inactive; `w = G x − bias`.
+    fn iterate_values(&self, st: &mut ActiveSet) {
+        let m = self.urows.len();
+        let f = &st.factor;
+        for (k, &i) in st.map.iter().enumerate() {
+            st.z[i] = -st.x[f.row_position(k)];
+        }
+        for (c, &i) in st.schur.iter().enumerate() {
+            if st.schur_pos[c] == usize::MAX && i < m {
+                st.z[i] = -st.zeta[c];
+            }
+        }
+        for i in 0..m {
+            st.z[i] = match st.status[i] {
+                RowStatus::Inactive => 0.0,
+                RowStatus::Active => st.z[i],
+                RowStatus::Lo => bounds(&self.urows[i].bound, &st.z).0,
+                RowStatus::Hi => bounds(&self.urows[i].bound, &st.z).1,
+            };
+        }
+        st.w.clear();
+        for r in &self.urows {
+            st.w.push(gather(f, &st.x, r) - r.bias);
+        }
     }
 
     /// The natural-map residual of the current iterate (`st.z`, `st.w`, `st.x`), the
@@ -702,7 +770,9 @@ impl World {
     /// bounds `±μ z_n` at the iterate's normals), and `|E x − r_E|` over the equality
     /// rows, relative to `bias_scale`. Zero exactly at a solution; an iterate that
     /// leaves the set to change by rows of `|w|` near the tolerance still has it small.
-    fn natural_residual(&self, st: &ActiveSet, bias_scale: f64) -> f64 {
+    /// Returns the one-sided rows' maximum (absolute, for the step's statistics) and
+    /// the whole measure.
+    fn natural_residual(&self, st: &ActiveSet, bias_scale: f64) -> (f64, f64) {
         let m = self.urows.len();
         let mut worst: f64 = 0.0;
         for i in 0..m {
@@ -710,11 +780,12 @@ impl World {
             let (z, w) = (st.z[i], st.w[i]);
             worst = worst.max((z - (z - w).min(hi).max(lo)).abs());
         }
+        let one_sided = worst;
         for e in 0..self.eq.len() {
             let r = self.schur_gather(&st.factor, &st.x, m + e) - self.schur_bias(m + e);
             worst = worst.max(r.abs());
         }
-        worst / bias_scale
+        (one_sided, worst / bias_scale)
     }
 
     /// The staggered friction bounds' fixed point for the current set. With the
@@ -724,11 +795,24 @@ impl World {
     /// impulses (one factor solve per normal, through the Schur rows). The fixed
     /// point `(I − D) t = t₁ − D t₀` replaces the linear convergence of the plain
     /// iteration (factor 0.9 per iteration on a humanoid lying on the floor, where
-    /// `1e-11` took hundreds of iterations) by one small solve; the normals are set to
-    /// it for the next iteration, which checks it like any other. Does nothing when
-    /// no normal qualifies, a bound was clipped at zero, the Schur rows' solve is not
-    /// current, or the small system is singular or gives a negative normal.
-    fn extrapolate_bounds(&self, st: &mut ActiveSet) {
+    /// `1e-11` took hundreds of iterations) by one small solve. The set held, the
+    /// solution is affine in the normals, so the iterate moves along the responses
+    /// already solved for `D` (`x += Σ_b x_b (t_b − t₀_b)`, `ζ` likewise) and
+    /// `true` is returned: the caller ends the step on it when its natural residual
+    /// is acceptable (as on any iterate), else the normals are set to the fixed point
+    /// for the next iteration, which checks it like any other. The checking iterate
+    /// this replaces (a solve, the Schur rows' right-hand side and correction) was
+    /// the second iteration of 115 of dm hopper's 390 tries at rest (2 s passive) and
+    /// 211 of 400 controlled. Measured (issue 13, `World::step` instructions per step,
+    /// 2 s; the step's bits change by round-off): dm hopper passive 153.4K → 151.0K,
+    /// perturbed 174.9K → 172.1K, controlled 176.4K → 169.4K; walker 130.0K, 208.6K,
+    /// 177.6K → 130.2K, 205.0K, 170.9K; stacker 245.0K, 388.5K, 395.6K → 245.7K,
+    /// 297.5K, 395.0K (perturbed: tries that crept through iterations of 20 Schur
+    /// rows now end, and its 3 unconverged steps are gone); manipulator 229.6K,
+    /// 276.6K, 334.4K → 229.6K, 274.7K, 334.8K. Does nothing (`false`) when no normal
+    /// qualifies, a bound was clipped at zero, the Schur rows' solve is not current,
+    /// or the small system is singular or gives a negative normal.
+    fn extrapolate_bounds(&self, st: &mut ActiveSet) -> bool {
         let m = self.urows.len();
         let at_bound = |s: RowStatus| matches!(s, RowStatus::Lo | RowStatus::Hi);
         st.ex_normals.clear();
@@ -749,11 +833,14 @@ impl World {
         }
         let p = st.ex_normals.len();
         if p == 0 || p > MAX_SCHUR || (!st.schur.is_empty() && !st.s_ready) {
-            return;
+            return false;
         }
         if st.ex_t0.iter().any(|t| !(*t > 0.0)) {
-            return;
+            return false;
         }
+        st.ex_zeta0.clear();
+        st.ex_zeta0.extend_from_slice(&st.zeta);
+        st.ex_zeta.clear();
         st.ex_t1.clear();
         for &n in &st.ex_normals {
             st.ex_t1.push(st.z[n]);
@@ -788,12 +875,13 @@ impl World {
                     st.s_rhs.push(self.schur_gather(f, col, i));
                 }
                 if !st.s_fac.apply(&st.s_rhs, &mut st.zeta) {
-                    return;
+                    return false;
                 }
                 self.schur_correction(f, &st.schur, &st.zeta, &mut st.corr);
                 for (x, y) in col.iter_mut().zip(&st.corr) {
                     *x -= y;
                 }
+                st.ex_zeta.extend_from_slice(&st.zeta);
             }
             // The normals' response: −x at a factor row, −ζ at a Schur row.
             for (a, &n) in st.ex_normals.iter().enumerate() {
@@ -823,11 +911,33 @@ impl World {
             }
         }
         if !small_solve(&mut st.ex_mat, &mut st.ex_dz, p) || st.ex_dz.iter().any(|t| *t < 0.0) {
-            return;
+            return false;
         }
         for (a, &n) in st.ex_normals.iter().enumerate() {
             st.z[n] = st.ex_dz[a];
         }
+        // The iterate at the new normals: x += Σ_b x_b (t_b − t₀_b), ζ likewise (the
+        // responses `x_b` in `ex_resp`, `ζ_b` in `ex_zeta`).
+        st.zeta.clear();
+        st.zeta.extend_from_slice(&st.ex_zeta0);
+        for b in 0..p {
+            let dt = st.ex_dz[b] - st.ex_t0[b];
+            let col = &st.ex_resp[b * size..(b + 1) * size];
+            for (x, c) in st.x.iter_mut().zip(col) {
+                *x += c * dt;
+            }
+            if d > 0 {
+                for (z, c) in st.zeta.iter_mut().zip(&st.ex_zeta[b * d..(b + 1) * d]) {
+                    *z += c * dt;
+                }
+            }
+        }
+        for (c, &pos) in st.schur_pos.iter().enumerate() {
+            if pos != usize::MAX {
+                st.x[pos] = st.zeta[c];
+            }
+        }
+        true
     }
 
     /// Whether the next iteration's input is one met before in this step: the
@@ -1267,6 +1377,7 @@ fn scatter(f: &RowTree, x: &mut [f64], r: &URow, s: f64) {
 }
 
 /// `x += s · gᵀ` for a two-body row `g = [v_a, ω_a, v_b, ω_b]` in the augmented layout.
+#[inline]
 fn scatter_seg(
     f: &RowTree,
     x: &mut [f64],
@@ -1278,9 +1389,11 @@ fn scatter_seg(
     for (side, body) in [(0usize, a), (1usize, b)] {
         let Some(body) = body else { continue };
         let o = f.node_offset(body);
+        // One bounds check for the body's six unknowns.
+        let t = &mut x[o..o + 6];
         for c in 0..3 {
-            x[o + c] += s * j[2 * side][c];
-            x[o + 3 + c] += s * j[2 * side + 1][c];
+            t[c] += s * j[2 * side][c];
+            t[3 + c] += s * j[2 * side + 1][c];
         }
     }
 }
@@ -1291,13 +1404,16 @@ fn gather(f: &RowTree, x: &[f64], r: &URow) -> f64 {
 }
 
 /// `g x` for a two-body row `g = [v_a, ω_a, v_b, ω_b]` in the augmented layout.
+#[inline]
 fn gather_seg(f: &RowTree, x: &[f64], a: Option<usize>, b: Option<usize>, j: &[DVec3; 4]) -> f64 {
     let mut s = 0.0;
     for (side, body) in [(0usize, a), (1usize, b)] {
         let Some(body) = body else { continue };
         let o = f.node_offset(body);
-        s += j[2 * side].dot(DVec3::new(x[o], x[o + 1], x[o + 2]))
-            + j[2 * side + 1].dot(DVec3::new(x[o + 3], x[o + 4], x[o + 5]));
+        // One bounds check for the body's six unknowns.
+        let t = &x[o..o + 6];
+        s += j[2 * side].dot(DVec3::new(t[0], t[1], t[2]))
+            + j[2 * side + 1].dot(DVec3::new(t[3], t[4], t[5]));
     }
     s
 }
