@@ -875,16 +875,20 @@ fn one_world_hashes_are_deterministic_and_pinned() {
     );
 }
 
+// The five damped or forced `rattle` hashes re-pinned in stop 34: after the damping
+// flow RATTLE's first kick is not solved (its impulse was the last SHAKE residual,
+// `world/rattle.rs`), a round-off change (model runs moved by 1e-16 … 1e-13 m at first;
+// smooth-model errors against MuJoCo RK4 equal to 9 digits).
 const ONE_WORLD_PINNED: &[(&str, u64)] = &[
-    ("planar_leg rattle", 0xca789af4a2ec4f74),
+    ("planar_leg rattle", 0x246a93dcb9c2ab43),
     ("planar_leg velocity", 0x44b7a1dc936554c3),
-    ("two_hinge_pendulum rattle", 0x40ba6e97600a3c52),
+    ("two_hinge_pendulum rattle", 0x3b99b1706da83d9c),
     ("two_hinge_pendulum velocity", 0x03c25baad3e181ae),
-    ("actuated rattle", 0x803b3ed63638ed9c),
+    ("actuated rattle", 0x1c59421bbe121093),
     ("actuated velocity", 0xd1aac43e062e542e),
-    ("fluid_drag rattle", 0xdb5513da2695ab4f),
+    ("fluid_drag rattle", 0x62deb1463c8416d8),
     ("fluid_drag velocity", 0xa777ff894a4fbccb),
-    ("pendulum_damped rattle", 0x910fbf2258a2a255),
+    ("pendulum_damped rattle", 0x7eb92030727beec9),
     ("pendulum_damped velocity", 0x64170de2124e5743),
     // Re-pinned for the sparse one-sided rows (tree-contact): the trajectory moved by
     // 1.54e-13 m at most (articulated/tests/active_set.rs, pinned_floor_trajectory_…).
