@@ -512,12 +512,7 @@ impl Compound {
         }
         let nh = self.n_hinges;
         if nh > 0 {
-            let mut m = a.q * self.rel0;
-            let mut w = [DVec3::ZERO; 3];
-            for k in 0..nh {
-                w[k] = m * self.axes[k];
-                m *= DQuat::from_axis_angle(self.axes[k], q[ns + k]);
-            }
+            let w = self.world_hinge_axes(a, q);
             // Three hinges lose a degree of freedom where the first and last axes
             // line up (gimbal lock, `q₂ = ±90°` for orthogonal axes: humanoid_CMU's
             // shoulders have their limit there); the exact rows grow as `1/cos q₂`
@@ -544,18 +539,29 @@ impl Compound {
         rows
     }
 
-    /// The Gram determinant `det(WᵀW)` of the current world hinge axes
-    /// `w_k = R_a R_off J₁ ⋯ J_{k−1} e_k` at coordinates `q` (1 without hinges): `cos² q₂`
-    /// for three orthogonal hinges, zero at their gimbal lock. Below [`SINGULAR_GRAM`]
-    /// with three hinges, [`Self::dof_rows`] damps the hinges' rows (exact above).
-    pub fn hinge_gram(&self, a: &Pose, q: &[f64; MAX_DOF]) -> f64 {
+    /// The current world hinge axes `w_k = R_a R_off J₁ ⋯ J_{k−1} e_k` at coordinates
+    /// `q` (zero past the hinges). The last hinge's own turn `J_{n_h}` moves no axis, so
+    /// it is not formed (a `sin_cos` and a product per call that nothing read).
+    fn world_hinge_axes(&self, a: &Pose, q: &[f64; MAX_DOF]) -> [DVec3; 3] {
         let (ns, nh) = (self.n_slides, self.n_hinges);
         let mut m = a.q * self.rel0;
         let mut w = [DVec3::ZERO; 3];
         for k in 0..nh {
             w[k] = m * self.axes[k];
-            m *= DQuat::from_axis_angle(self.axes[k], q[ns + k]);
+            if k + 1 < nh {
+                m *= DQuat::from_axis_angle(self.axes[k], q[ns + k]);
+            }
         }
+        w
+    }
+
+    /// The Gram determinant `det(WᵀW)` of the current world hinge axes
+    /// `w_k = R_a R_off J₁ ⋯ J_{k−1} e_k` at coordinates `q` (1 without hinges): `cos² q₂`
+    /// for three orthogonal hinges, zero at their gimbal lock. Below [`SINGULAR_GRAM`]
+    /// with three hinges, [`Self::dof_rows`] damps the hinges' rows (exact above).
+    pub fn hinge_gram(&self, a: &Pose, q: &[f64; MAX_DOF]) -> f64 {
+        let nh = self.n_hinges;
+        let w = self.world_hinge_axes(a, q);
         match nh {
             0 => 1.0,
             1 => w[0].length_squared(),
