@@ -192,7 +192,21 @@ pub const SINGULAR_DAMPING: f64 = 1e-4;
 /// inverse of Nakamura & Hanafusa (1986): each singular value `σ` of `V` maps to
 /// `σ/(σ² + λ²) ≤ 1/(2λ)` instead of `1/σ`. `λ² = 0` gives the exact dual basis.
 fn dual_basis_damped(v: &[DVec3], lambda2: f64, out: &mut [DVec3]) {
-    let n = v.len();
+    // The body once per count with the count a constant (its loops unroll): the same
+    // operations in the same order as with the runtime count.
+    match v.len() {
+        1 => dual_basis_sized(v, lambda2, out, 1),
+        2 => dual_basis_sized(v, lambda2, out, 2),
+        3 => dual_basis_sized(v, lambda2, out, 3),
+        n => dual_basis_sized(v, lambda2, out, n),
+    }
+}
+
+/// [`dual_basis_damped`] of the first `n ≤ 3` vectors of `v` (inlined at each
+/// constant `n`).
+#[inline(always)]
+fn dual_basis_sized(v: &[DVec3], lambda2: f64, out: &mut [DVec3], n: usize) {
+    let (v, out) = (&v[..n], &mut out[..n]);
     let mut g = [[0.0; 3]; 3];
     for i in 0..n {
         for j in 0..n {
