@@ -66,6 +66,13 @@ pub struct Compound {
     perp: [DVec3; 2],
     /// Two hinges: `e₁ · e₂`.
     c0: f64,
+    /// Three hinges ([`Self::coordinates`]'s constants, the same operations on the
+    /// same axes as evaluating them there): `e₂ · e₃`, `e₁ × e₂`, `|e₁ × e₂|²` and
+    /// `e₃ − e₂ (e₂ · e₃)` (`e₃` projected on the plane ⊥ `e₂`).
+    c12: f64,
+    n12: DVec3,
+    n12_sq: f64,
+    e3_perp: DVec3,
     orient: Orientation,
     /// The rest relative rotation `R_off = A₀ᵀ B₀`.
     rel0: DQuat,
@@ -116,8 +123,18 @@ fn complement(v: &[DVec3]) -> Option<[DVec3; 3]> {
 /// Signed angle about unit `axis` taking `from` to `to` (both projected on the plane ⊥
 /// `axis`), in `(−π, π]`.
 fn angle_about(axis: DVec3, from: DVec3, to: DVec3) -> f64 {
-    let p = from - axis * axis.dot(from);
-    let q = to - axis * axis.dot(to);
+    angle_between(axis, perp(axis, from), perp(axis, to))
+}
+
+/// `v` projected on the plane ⊥ unit `axis`, `v − axis (axis · v)`.
+#[inline(always)]
+fn perp(axis: DVec3, v: DVec3) -> DVec3 {
+    v - axis * axis.dot(v)
+}
+
+/// [`angle_about`] from the projections `p`, `q` of `from`, `to` ([`perp`]).
+#[inline(always)]
+fn angle_between(axis: DVec3, p: DVec3, q: DVec3) -> f64 {
     libm::atan2(axis.dot(p.cross(q)), p.dot(q))
 }
 
@@ -301,6 +318,10 @@ impl Compound {
             e1_a,
             perp: [p1, p2],
             c0: axes[0].dot(axes[1]),
+            c12: axes[1].dot(axes[2]),
+            n12: axes[0].cross(axes[1]),
+            n12_sq: axes[0].cross(axes[1]).length_squared(),
+            e3_perp: perp(axes[1], axes[2]),
             orient: Orientation::from_world(a, b),
             rel0,
             skew: None,
@@ -468,22 +489,26 @@ impl Compound {
             3 => {
                 // D e₃ = J₁ J₂ e₃ (Paden–Kahan subproblem 2): c = J₂ e₃ = J₁ᵀ D e₃ has
                 // e₁ · c = e₁ · t and e₂ · c = e₂ · e₃, |c| = 1.
+                // The axes' constants are the joint's (`c0 = e₁ · e₂`, `c12`, `n12`,
+                // `n12_sq`, `e3_perp`: the values these expressions had here), and
+                // `t`'s projection ⊥ e₁ is shared by both solutions' first angle.
                 let t = d * e[2];
-                let k = e[0].dot(e[1]);
-                let (at, be) = (e[0].dot(t), e[1].dot(e[2]));
+                let k = self.c0;
+                let (at, be) = (e[0].dot(t), self.c12);
                 let den = 1.0 - k * k;
                 let alpha = (at - k * be) / den;
                 let beta = (be - k * at) / den;
-                let n = e[0].cross(e[1]);
-                let g2 = (1.0 - alpha * alpha - beta * beta - 2.0 * alpha * beta * k)
-                    / n.length_squared();
+                let n = self.n12;
+                let g2 = (1.0 - alpha * alpha - beta * beta - 2.0 * alpha * beta * k) / self.n12_sq;
                 let g = libm::sqrt(g2.max(0.0));
+                // `perp(e₁, t)`: `t − e₁ (e₁ · t)`, with `e₁ · t` the `at` above.
+                let t_perp = t - e[0] * at;
                 // The two solutions' first angles and their distance to the hint so far.
                 let h = [hint[ns], hint[ns + 1], hint[ns + 2]];
                 let first = |sign: f64| {
                     let c = e[0] * alpha + e[1] * beta + n * (g * sign);
-                    let q2 = angle_about(e[1], e[2], c);
-                    let q1 = angle_about(e[0], c, t);
+                    let q2 = angle_between(e[1], self.e3_perp, perp(e[1], c));
+                    let q1 = angle_between(e[0], perp(e[0], c), t_perp);
                     (q1, q2, (q1 - h[0]).abs() + (q2 - h[1]).abs())
                 };
                 // The third angle and the whole distance `Σ |q_k − hint_k|`.
