@@ -391,6 +391,7 @@ impl TreeSolver {
     /// factorization reads no more).
     pub fn factor(&mut self) -> Result<(), ArticulatedError> {
         self.closure.forget();
+        self.stamp = next_stamp();
         self.factor_blocks()
     }
 
@@ -398,7 +399,6 @@ impl TreeSolver {
     /// loop closure's drop was added in front of it).
     #[inline(never)]
     fn factor_blocks(&mut self) -> Result<(), ArticulatedError> {
-        self.stamp = next_stamp();
         for k in 0..self.order.len() {
             let i = self.order[k];
             let n = self.dim[i];

@@ -446,8 +446,24 @@ impl RowTree {
     /// the nodes below no change are taken from the last factor ([`Reuse`]): the same
     /// bits.
     pub fn factor(&mut self, tree: &TreeSolver) -> Result<(), ArticulatedError> {
+        if self.incremental && self.dirty.len() == tree.dim.len() {
+            self.factor_nodes::<true>(tree)?;
+        } else {
+            self.factor_nodes::<false>(tree)?;
+        }
+        self.factored = true;
+        self.stamp = tree.stamp();
+        Ok(())
+    }
+
+    /// [`Self::factor`]'s elimination; with `REUSE` the nodes `dirty` leaves out are
+    /// taken from the last factor (without it the code is the whole factor's alone).
+    #[inline(always)]
+    fn factor_nodes<const REUSE: bool>(
+        &mut self,
+        tree: &TreeSolver,
+    ) -> Result<(), ArticulatedError> {
         let nb = tree.n_bodies;
-        let reuse = self.incremental && self.dirty.len() == tree.dim.len();
         for &NodeShape {
             k,
             base: b,
@@ -460,7 +476,7 @@ impl RowTree {
         } in &self.schedule
         {
             // A node below no change: its `D_k`, `d⁻¹` and `W_k` are the last factor's.
-            let kept = reuse && !self.dirty[k];
+            let kept = REUSE && !self.dirty[k];
             if kept {
                 let p = &self.prev;
                 let (pd, px) = (p.dpos[k], p.xoff[k]);
@@ -521,8 +537,6 @@ impl RowTree {
                     15, 6);
             }
         }
-        self.factored = true;
-        self.stamp = tree.stamp();
         Ok(())
     }
 
