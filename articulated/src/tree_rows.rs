@@ -248,6 +248,10 @@ impl RowTree {
             }
         }
         self.size = x;
+        // The nodes the factor computes, against the last factor ([`Reuse`]): the
+        // others' blocks are not loaded (the factor copies its own), nor their rows.
+        self.mark_dirty(tree, rows);
+        let reuse = self.incremental;
         // Every element of `diag` and `off` is written below (the tree's block, zeros
         // elsewhere), so the arenas are only resized, not cleared and zero-filled first.
         self.diag.resize(d, 0.0);
@@ -264,6 +268,9 @@ impl RowTree {
         // extra row called it about 40 times an assembly: dm cheetah, 8 280 calls in
         // 209 assemblies).
         for k in 0..nn {
+            if reuse && !self.dirty[k] {
+                continue;
+            }
             let (b, n, dp) = (self.base[k], self.n[k], self.dpos[k]);
             let blk = &mut self.diag[dp..dp + n * n];
             if n != b {
@@ -321,6 +328,11 @@ impl RowTree {
                 let row = &rows[ri];
                 let lr = b + e - self.start[k];
                 self.pos[ri] = self.xoff[k] + lr;
+                // A kept node's rows are the last assembly's (which placed them), and
+                // they fill its own blocks and its children's, all kept.
+                if reuse && !self.dirty[k] {
+                    continue;
+                }
                 for (side, body) in [(0usize, row.a), (1usize, row.b)] {
                     let Some(body) = body else { continue };
                     let blk = |c: usize| row.j[2 * side + c / 3][c % 3];
@@ -352,7 +364,6 @@ impl RowTree {
                 }
             }
         }
-        self.mark_dirty(tree, rows);
         true
     }
 
