@@ -38,6 +38,7 @@
 
 use alloc::vec;
 use alloc::vec::Vec;
+use core::sync::atomic::{AtomicUsize, Ordering};
 
 use constraint_core::DVec3;
 
@@ -79,6 +80,16 @@ const ZERO_NODE: NodeBlocks = NodeBlocks {
 };
 pub(crate) const NONE: usize = usize::MAX;
 
+/// The source of [`TreeSolver::stamp`]: every state of any solver's blocks takes the
+/// next value (a solver and its clone share one only while their blocks are equal).
+static BLOCK_STAMPS: AtomicUsize = AtomicUsize::new(1);
+
+/// A stamp no earlier state of any solver's blocks had.
+#[inline]
+fn next_stamp() -> usize {
+    BLOCK_STAMPS.fetch_add(1, Ordering::Relaxed)
+}
+
 /// The structure of the tree (built once per topology) and the factor (per step).
 #[derive(Clone, Debug)]
 pub(crate) struct TreeSolver {
@@ -106,6 +117,10 @@ pub(crate) struct TreeSolver {
     /// `Y = H⁻¹ Gᵀ` and the SVD of the loop rows' Schur complement for the current
     /// factor (`tree/loops.rs`); dropped by every change of `blocks`.
     closure: LoopClosure,
+    /// Identifies the current contents of `blocks`: a new value ([`next_stamp`]) at
+    /// every change of them, so equal stamps mean equal blocks (the augmented factor's
+    /// reuse, `tree_rows.rs`).
+    stamp: usize,
 }
 
 /// The storage of one factor of the tree matrix ([`TreeSolver`]'s `blocks`), kept
@@ -244,7 +259,14 @@ impl TreeSolver {
             loops,
             size,
             closure: LoopClosure::default(),
+            stamp: next_stamp(),
         }
+    }
+
+    /// The stamp of the blocks' current contents (equal stamps: equal blocks).
+    #[inline]
+    pub(crate) fn stamp(&self) -> usize {
+        self.stamp
     }
 
     /// Exchanges the solver's factor storage with `store` (a buffer swap, no copy):
@@ -261,6 +283,7 @@ impl TreeSolver {
         }
         core::mem::swap(&mut self.blocks, &mut store.blocks);
         core::mem::swap(&mut self.closure, &mut store.closure);
+        self.stamp = next_stamp();
     }
 
     /// Offset of body `i`'s 6 unknowns `(v, ω)`.
@@ -279,6 +302,7 @@ impl TreeSolver {
     /// Sets body `i`'s mass block `diag(m, m, m) ⊕ I_world`.
     pub fn set_body(&mut self, i: usize, mass: f64, inertia: &constraint_core::DMat3) {
         self.closure.forget();
+        self.stamp = next_stamp();
         let d = &mut self.blocks[i].diag;
         *d = ZERO;
         for k in 0..3 {
@@ -297,6 +321,7 @@ impl TreeSolver {
         tt: &constraint_core::DMat3,
     ) {
         self.closure.forget();
+        self.stamp = next_stamp();
         let d = &mut self.blocks[i].diag;
         for k in 0..3 {
             for l in 0..3 {
@@ -318,6 +343,7 @@ impl TreeSolver {
         compliance: &[f64],
     ) {
         self.closure.forget();
+        self.stamp = next_stamp();
         let node = self.joint_node[j];
         let m = topo.rows;
         // The node's rows of its diagonal block: `−C` on the diagonal, zeros elsewhere
@@ -365,6 +391,7 @@ impl TreeSolver {
     /// factorization reads no more).
     pub fn factor(&mut self) -> Result<(), ArticulatedError> {
         self.closure.forget();
+        self.stamp = next_stamp();
         self.factor_blocks()
     }
 

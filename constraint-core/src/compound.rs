@@ -66,6 +66,13 @@ pub struct Compound {
     perp: [DVec3; 2],
     /// Two hinges: `e₁ · e₂`.
     c0: f64,
+    /// Three hinges ([`Self::coordinates`]'s constants, the same operations on the
+    /// same axes as evaluating them there): `e₂ · e₃`, `e₁ × e₂`, `|e₁ × e₂|²` and
+    /// `e₃ − e₂ (e₂ · e₃)` (`e₃` projected on the plane ⊥ `e₂`).
+    c12: f64,
+    n12: DVec3,
+    n12_sq: f64,
+    e3_perp: DVec3,
     orient: Orientation,
     /// The rest relative rotation `R_off = A₀ᵀ B₀`.
     rel0: DQuat,
@@ -116,8 +123,18 @@ fn complement(v: &[DVec3]) -> Option<[DVec3; 3]> {
 /// Signed angle about unit `axis` taking `from` to `to` (both projected on the plane ⊥
 /// `axis`), in `(−π, π]`.
 fn angle_about(axis: DVec3, from: DVec3, to: DVec3) -> f64 {
-    let p = from - axis * axis.dot(from);
-    let q = to - axis * axis.dot(to);
+    angle_between(axis, perp(axis, from), perp(axis, to))
+}
+
+/// `v` projected on the plane ⊥ unit `axis`, `v − axis (axis · v)`.
+#[inline(always)]
+fn perp(axis: DVec3, v: DVec3) -> DVec3 {
+    v - axis * axis.dot(v)
+}
+
+/// [`angle_about`] from the projections `p`, `q` of `from`, `to` ([`perp`]).
+#[inline(always)]
+fn angle_between(axis: DVec3, p: DVec3, q: DVec3) -> f64 {
     libm::atan2(axis.dot(p.cross(q)), p.dot(q))
 }
 
@@ -192,7 +209,21 @@ pub const SINGULAR_DAMPING: f64 = 1e-4;
 /// inverse of Nakamura & Hanafusa (1986): each singular value `σ` of `V` maps to
 /// `σ/(σ² + λ²) ≤ 1/(2λ)` instead of `1/σ`. `λ² = 0` gives the exact dual basis.
 fn dual_basis_damped(v: &[DVec3], lambda2: f64, out: &mut [DVec3]) {
-    let n = v.len();
+    // The body once per count with the count a constant (its loops unroll): the same
+    // operations in the same order as with the runtime count.
+    match v.len() {
+        1 => dual_basis_sized(v, lambda2, out, 1),
+        2 => dual_basis_sized(v, lambda2, out, 2),
+        3 => dual_basis_sized(v, lambda2, out, 3),
+        n => dual_basis_sized(v, lambda2, out, n),
+    }
+}
+
+/// [`dual_basis_damped`] of the first `n ≤ 3` vectors of `v` (inlined at each
+/// constant `n`).
+#[inline(always)]
+fn dual_basis_sized(v: &[DVec3], lambda2: f64, out: &mut [DVec3], n: usize) {
+    let (v, out) = (&v[..n], &mut out[..n]);
     let mut g = [[0.0; 3]; 3];
     for i in 0..n {
         for j in 0..n {
@@ -287,6 +318,10 @@ impl Compound {
             e1_a,
             perp: [p1, p2],
             c0: axes[0].dot(axes[1]),
+            c12: axes[1].dot(axes[2]),
+            n12: axes[0].cross(axes[1]),
+            n12_sq: axes[0].cross(axes[1]).length_squared(),
+            e3_perp: perp(axes[1], axes[2]),
             orient: Orientation::from_world(a, b),
             rel0,
             skew: None,
@@ -454,22 +489,26 @@ impl Compound {
             3 => {
                 // D e₃ = J₁ J₂ e₃ (Paden–Kahan subproblem 2): c = J₂ e₃ = J₁ᵀ D e₃ has
                 // e₁ · c = e₁ · t and e₂ · c = e₂ · e₃, |c| = 1.
+                // The axes' constants are the joint's (`c0 = e₁ · e₂`, `c12`, `n12`,
+                // `n12_sq`, `e3_perp`: the values these expressions had here), and
+                // `t`'s projection ⊥ e₁ is shared by both solutions' first angle.
                 let t = d * e[2];
-                let k = e[0].dot(e[1]);
-                let (at, be) = (e[0].dot(t), e[1].dot(e[2]));
+                let k = self.c0;
+                let (at, be) = (e[0].dot(t), self.c12);
                 let den = 1.0 - k * k;
                 let alpha = (at - k * be) / den;
                 let beta = (be - k * at) / den;
-                let n = e[0].cross(e[1]);
-                let g2 = (1.0 - alpha * alpha - beta * beta - 2.0 * alpha * beta * k)
-                    / n.length_squared();
+                let n = self.n12;
+                let g2 = (1.0 - alpha * alpha - beta * beta - 2.0 * alpha * beta * k) / self.n12_sq;
                 let g = libm::sqrt(g2.max(0.0));
+                // `perp(e₁, t)`: `t − e₁ (e₁ · t)`, with `e₁ · t` the `at` above.
+                let t_perp = t - e[0] * at;
                 // The two solutions' first angles and their distance to the hint so far.
                 let h = [hint[ns], hint[ns + 1], hint[ns + 2]];
                 let first = |sign: f64| {
                     let c = e[0] * alpha + e[1] * beta + n * (g * sign);
-                    let q2 = angle_about(e[1], e[2], c);
-                    let q1 = angle_about(e[0], c, t);
+                    let q2 = angle_between(e[1], self.e3_perp, perp(e[1], c));
+                    let q1 = angle_between(e[0], perp(e[0], c), t_perp);
                     (q1, q2, (q1 - h[0]).abs() + (q2 - h[1]).abs())
                 };
                 // The third angle and the whole distance `Σ |q_k − hint_k|`.
@@ -512,12 +551,7 @@ impl Compound {
         }
         let nh = self.n_hinges;
         if nh > 0 {
-            let mut m = a.q * self.rel0;
-            let mut w = [DVec3::ZERO; 3];
-            for k in 0..nh {
-                w[k] = m * self.axes[k];
-                m *= DQuat::from_axis_angle(self.axes[k], q[ns + k]);
-            }
+            let w = self.world_hinge_axes(a, q);
             // Three hinges lose a degree of freedom where the first and last axes
             // line up (gimbal lock, `q₂ = ±90°` for orthogonal axes: humanoid_CMU's
             // shoulders have their limit there); the exact rows grow as `1/cos q₂`
@@ -544,18 +578,29 @@ impl Compound {
         rows
     }
 
-    /// The Gram determinant `det(WᵀW)` of the current world hinge axes
-    /// `w_k = R_a R_off J₁ ⋯ J_{k−1} e_k` at coordinates `q` (1 without hinges): `cos² q₂`
-    /// for three orthogonal hinges, zero at their gimbal lock. Below [`SINGULAR_GRAM`]
-    /// with three hinges, [`Self::dof_rows`] damps the hinges' rows (exact above).
-    pub fn hinge_gram(&self, a: &Pose, q: &[f64; MAX_DOF]) -> f64 {
+    /// The current world hinge axes `w_k = R_a R_off J₁ ⋯ J_{k−1} e_k` at coordinates
+    /// `q` (zero past the hinges). The last hinge's own turn `J_{n_h}` moves no axis, so
+    /// it is not formed (a `sin_cos` and a product per call that nothing read).
+    fn world_hinge_axes(&self, a: &Pose, q: &[f64; MAX_DOF]) -> [DVec3; 3] {
         let (ns, nh) = (self.n_slides, self.n_hinges);
         let mut m = a.q * self.rel0;
         let mut w = [DVec3::ZERO; 3];
         for k in 0..nh {
             w[k] = m * self.axes[k];
-            m *= DQuat::from_axis_angle(self.axes[k], q[ns + k]);
+            if k + 1 < nh {
+                m *= DQuat::from_axis_angle(self.axes[k], q[ns + k]);
+            }
         }
+        w
+    }
+
+    /// The Gram determinant `det(WᵀW)` of the current world hinge axes
+    /// `w_k = R_a R_off J₁ ⋯ J_{k−1} e_k` at coordinates `q` (1 without hinges): `cos² q₂`
+    /// for three orthogonal hinges, zero at their gimbal lock. Below [`SINGULAR_GRAM`]
+    /// with three hinges, [`Self::dof_rows`] damps the hinges' rows (exact above).
+    pub fn hinge_gram(&self, a: &Pose, q: &[f64; MAX_DOF]) -> f64 {
+        let nh = self.n_hinges;
+        let w = self.world_hinge_axes(a, q);
         match nh {
             0 => 1.0,
             1 => w[0].length_squared(),

@@ -143,16 +143,21 @@ pub(crate) fn dot_grad(a: &FrameExpr, b: &FrameExpr) -> [DVec3; 4] {
 /// [`TwistCurvature::ZERO`] and only receives sums, so its entries are non-zero or
 /// `+0` (`x + (−x) = +0`, `+0 + (±0) = +0`). The result is the full product's to the
 /// bit (finite poses); a Hinge's two direction rows take 2 block products instead of 32.
+///
+/// Each block product `J_Aᵢᵀ J_Bⱼ` is formed by [`block_product`] from the blocks' shapes
+/// (`s I` or `−[p]×`) without its terms that multiply a zero entry: the same sums, in the
+/// same order, of the same non-zero terms, so each entry is the full product's up to
+/// the sign of a zero — which, as above, no entry of `h` keeps.
 pub(crate) fn add_dot_hessian(a: &FrameExpr, b: &FrameExpr, s: f64, h: &mut TwistCurvature) {
-    let ja = a.jac();
-    let jb = b.jac();
+    let ja = a.blocks();
+    let jb = b.blocks();
     let (la, lb) = (a.live_blocks(), b.live_blocks());
     for i in 0..4 {
         for j in 0..4 {
             let m = match (la[i] && lb[j], lb[i] && la[j]) {
-                (true, true) => ja[i].transpose() * jb[j] + jb[i].transpose() * ja[j],
-                (true, false) => ja[i].transpose() * jb[j],
-                (false, true) => jb[i].transpose() * ja[j],
+                (true, true) => block_product(&ja[i], &jb[j]) + block_product(&jb[i], &ja[j]),
+                (true, false) => block_product(&ja[i], &jb[j]),
+                (false, true) => block_product(&jb[i], &ja[j]),
                 (false, false) => continue,
             };
             h.blocks[i][j] += m * s;
@@ -160,6 +165,68 @@ pub(crate) fn add_dot_hessian(a: &FrameExpr, b: &FrameExpr, s: f64, h: &mut Twis
     }
     a.add_hessian(b.value, s, h);
     b.add_hessian(a.value, s, h);
+}
+
+/// One block of [`FrameExpr::jac`] by its shape: `s I` (a position's) or `M = −[p]×` (a
+/// rotated vector's: zero diagonal).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Block {
+    /// `s I`.
+    Scale(f64),
+    /// `−[p]×`, as [`FrameExpr::jac`] builds it.
+    Skew(DMat3),
+}
+
+impl FrameExpr {
+    /// [`Self::jac`]'s blocks with their shapes ([`Block`]).
+    #[inline]
+    pub fn blocks(&self) -> [Block; 4] {
+        [
+            Block::Scale(self.s_a),
+            Block::Skew(-skew(self.p_a)),
+            Block::Scale(self.s_b),
+            Block::Skew(-skew(self.p_b)),
+        ]
+    }
+}
+
+/// `Xᵀ Y` for two blocks ([`Block`]), entry for entry the product `Xᵀ * Y` of the full
+/// matrices (glam's: column `c` is `Xᵀ.x_axis y_0c + Xᵀ.y_axis y_1c + Xᵀ.z_axis y_2c`,
+/// summed in that order) without the terms with a zero factor (finite entries): a
+/// term `0 · y` is `±0`, and `(u + ±0) + v`, `(±0 + u) + v`, `(u + v) + ±0` are `u + v`
+/// up to the sign of a zero result. So `(sI)ᵀ(tI)` is `st` on the diagonal (zeros
+/// elsewhere), `(sI)ᵀ M` is `s M` and `Mᵀ (tI)` is `t Mᵀ` (one term per entry), and
+/// `Mᵀ N` of two zero-diagonal blocks keeps the one term `m_kr n_kc` (`k` the third
+/// index) off the diagonal and the two terms `k ≠ r` in `k` order on it.
+#[inline(always)]
+fn block_product(x: &Block, y: &Block) -> DMat3 {
+    match (x, y) {
+        (Block::Scale(s), Block::Scale(t)) => DMat3::from_diagonal(DVec3::splat(s * t)),
+        (Block::Scale(s), Block::Skew(m)) => *m * *s,
+        (Block::Skew(m), Block::Scale(t)) => m.transpose() * *t,
+        (Block::Skew(m), Block::Skew(n)) => {
+            // `m.col(c)[r]` is `m_rc`; entry `(r, c)` of `Mᵀ N` is `Σ_k m_kr n_kc`.
+            let e = |r: usize, c: usize| -> f64 {
+                let (mr, nc) = (m.col(r), n.col(c));
+                if r == c {
+                    let (k0, k1) = match r {
+                        0 => (1, 2),
+                        1 => (0, 2),
+                        _ => (0, 1),
+                    };
+                    mr[k0] * nc[k0] + mr[k1] * nc[k1]
+                } else {
+                    let k = 3 - r - c;
+                    mr[k] * nc[k]
+                }
+            };
+            DMat3::from_cols(
+                DVec3::new(e(0, 0), e(1, 0), e(2, 0)),
+                DVec3::new(e(0, 1), e(1, 1), e(2, 1)),
+                DVec3::new(e(0, 2), e(1, 2), e(2, 2)),
+            )
+        }
+    }
 }
 
 /// Adds `s · ∂²|A|` into `h` (`|A| > 0`): `J_Aᵀ (I − n nᵀ) J_A / |A| + H_A[n]`.
@@ -181,4 +248,91 @@ pub(crate) fn add_norm_hessian(a: &FrameExpr, s: f64, h: &mut TwistCurvature) {
         }
     }
     a.add_hessian(n, s, h);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DQuat;
+
+    /// The full block products [`add_dot_hessian`] replaced: `J_Aᵢᵀ J_Bⱼ` by glam's
+    /// 3×3 product of [`FrameExpr::jac`]'s blocks.
+    fn add_dot_hessian_full(a: &FrameExpr, b: &FrameExpr, s: f64, h: &mut TwistCurvature) {
+        let ja = a.jac();
+        let jb = b.jac();
+        let (la, lb) = (a.live_blocks(), b.live_blocks());
+        for i in 0..4 {
+            for j in 0..4 {
+                let m = match (la[i] && lb[j], lb[i] && la[j]) {
+                    (true, true) => ja[i].transpose() * jb[j] + jb[i].transpose() * ja[j],
+                    (true, false) => ja[i].transpose() * jb[j],
+                    (false, true) => jb[i].transpose() * ja[j],
+                    (false, false) => continue,
+                };
+                h.blocks[i][j] += m * s;
+            }
+        }
+        a.add_hessian(b.value, s, h);
+        b.add_hessian(a.value, s, h);
+    }
+
+    /// `add_dot_hessian` gives the bits of the full block products for every pair of
+    /// expression kinds (directions in `a` or `b`, separations, constants), vectors
+    /// with zero components (more zero entries in the skew blocks), and two products
+    /// accumulated into one `h` (as a joint's rows are): every entry equal to the bit.
+    #[test]
+    fn block_products_match_the_full_products_to_the_bit() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut checked = 0;
+        for trial in 0..400 {
+            let mut v = || {
+                let mut x = DVec3::new(next(), next(), next());
+                // Some components exactly zero (axis-aligned anchors and axes).
+                if trial % 3 == 0 {
+                    x.y = 0.0;
+                }
+                if trial % 5 == 0 {
+                    x.z = 0.0;
+                }
+                x
+            };
+            let pa = Pose::new(v(), DQuat::from_scaled_axis(v()).normalize()).unwrap();
+            let pb = Pose::new(v(), DQuat::from_scaled_axis(v()).normalize()).unwrap();
+            let (u1, u2, u3, u4) = (v(), v(), v(), v());
+            let exprs = [
+                FrameExpr::dir_a(&pa, u1),
+                FrameExpr::dir_b(&pb, u2),
+                FrameExpr::separation(&pa, u3, &pb, u4),
+                FrameExpr::constant(u1),
+                FrameExpr::dir_a(&Pose::IDENTITY, DVec3::Z),
+            ];
+            let (s1, s2) = (next(), next());
+            for x in &exprs {
+                for y in &exprs {
+                    let (mut h, mut want) = (TwistCurvature::ZERO, TwistCurvature::ZERO);
+                    add_dot_hessian(x, y, s1, &mut h);
+                    add_dot_hessian(y, &exprs[2], s2, &mut h);
+                    add_dot_hessian_full(x, y, s1, &mut want);
+                    add_dot_hessian_full(y, &exprs[2], s2, &mut want);
+                    for r in 0..12 {
+                        for c in 0..12 {
+                            assert_eq!(
+                                h.entry(r, c).to_bits(),
+                                want.entry(r, c).to_bits(),
+                                "trial {trial} entry ({r}, {c})"
+                            );
+                        }
+                    }
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!(checked, 400 * 25);
+    }
 }
