@@ -8,7 +8,7 @@
 //!
 //! | MJCF | here |
 //! |---|---|
-//! | `hinge` | [`Hinge`] through the joint anchor about its axis, damping on the axis rate |
+//! | `hinge` | [`Hinge`] through the joint anchor about its axis, damping on the axis rate; a limited one whose bound lies within 0.1 rad of `±π` (or past it) measured from the middle of its range (`hinge_centres`) |
 //! | `ball` | [`Spherical`] at the anchor, damping on the relative angular velocity |
 //! | `slide` | [`Prismatic`] along the axis, damping on the sliding rate |
 //! | `free` / `freejoint` | no constraint |
