@@ -188,7 +188,7 @@ pub struct UnilateralStats {
     /// The dense problem had no answer with the rows' push-out (no solver converged)
     /// and was solved again with every positive bias (Baumgarte correction,
     /// restitution) set to 0: the step keeps the rows from closing further and leaves
-    /// their violation as it was ([`World::solve_unilateral`]'s fallback).
+    /// their violation as it was (the dense solve's fallback, `world/unilateral.rs`).
     pub relaxed: bool,
 }
 
