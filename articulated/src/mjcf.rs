@@ -8,7 +8,7 @@
 //!
 //! | MJCF | here |
 //! |---|---|
-//! | `hinge` | [`Hinge`] through the joint anchor about its axis, damping on the axis rate |
+//! | `hinge` | [`Hinge`] through the joint anchor about its axis, damping on the axis rate; a limited one whose bound lies within 0.1 rad of `±π` (or past it) measured from the middle of its range (`hinge_centres`) |
 //! | `ball` | [`Spherical`] at the anchor, damping on the relative angular velocity |
 //! | `slide` | [`Prismatic`] along the axis, damping on the sliding rate |
 //! | `free` / `freejoint` | no constraint |
@@ -72,6 +72,69 @@ fn scene_err(e: impl ToString) -> ArticulatedError {
     ArticulatedError::Scene(e.to_string())
 }
 
+/// How close (rad) a limited hinge's bound may come to the branch cut of its angle before
+/// the loader moves the angle's zero to the middle of the range ([`hinge_centres`]): a
+/// limit row holds its joint at the bound to within the projection's tolerance (its
+/// speculative row stops the step there), so only a bound at the cut or past it (dm
+/// cheetah's `bfoot`, −230°) is in danger; 0.1 rad leaves the bounds 10° from the cut
+/// (hopper's hip at −170°, humanoid_CMU's elbows and knees at 170°) as they are.
+const BRANCH_CUT_MARGIN: f64 = 0.1;
+
+/// Per MuJoCo joint: the angle `c` (rad) by which the world's hinge measures from the
+/// middle of its range instead of from `qpos0` (0: not moved), so that its coordinate is
+/// MuJoCo's minus `ref + c` (the loader's *effective reference*).
+///
+/// A [`Hinge`]'s angle lies in `(−π, π]` (`atan2`, `constraint_core::Hinge::angle`), where
+/// MuJoCo's hinge coordinate is unbounded. A range reaching within
+/// [`BRANCH_CUT_MARGIN`] of `±π` puts a bound at or next to the cut: humanoid_CMU's
+/// `rwristry` (range −180° … 0) crossed −π within a step, read as +π, 3.1 rad past its
+/// upper bound, and the projection turned the hand half a turn back to 0 (issue 13: the
+/// fingers and thumb, now 1 cm inside each other from both sides, gave a velocity-level
+/// problem without a solution). Measured from the range's middle the cut lies
+/// `π − (hi − lo)/2` outside both bounds. Single limited hinges only, outside joint
+/// equalities (their polynomial is over the coordinates); hinges inside a [`Compound`]
+/// keep their zero.
+fn hinge_centres(model: &Model, limits: bool) -> Vec<f64> {
+    let mut coupled = alloc::vec![false; model.joints.len()];
+    for e in &model.joint_equalities {
+        for k in core::iter::once(e.joint1).chain(e.joint2) {
+            if let Some(c) = coupled.get_mut(k) {
+                *c = true;
+            }
+        }
+    }
+    let mut per_body = alloc::vec![0usize; model.bodies.len()];
+    for j in &model.joints {
+        if let Some(n) = per_body.get_mut(j.body) {
+            *n += 1;
+        }
+    }
+    model
+        .joints
+        .iter()
+        .zip(&coupled)
+        .map(|(j, &coupled)| {
+            let lo = j.range[0] - j.reference;
+            let hi = j.range[1] - j.reference;
+            let alone = per_body.get(j.body) == Some(&1);
+            let near_cut = lo.abs().max(hi.abs()) > core::f64::consts::PI - BRANCH_CUT_MARGIN;
+            if limits
+                && alone
+                && !coupled
+                && j.limited
+                && j.kind == MjKind::Hinge
+                && lo.is_finite()
+                && hi.is_finite()
+                && near_cut
+            {
+                0.5 * (lo + hi)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 impl MjcfScene {
     /// Builds the world of `model` with the state of keyframe `key` (`None`: default pose
     /// at rest).
@@ -105,6 +168,21 @@ impl MjcfScene {
                 slot.push(k);
             }
         }
+        // Hinges measured from the middle of their range (`hinge_centres`), and the
+        // effective references: MuJoCo's coordinate is ours plus `reference[k]`.
+        let centres = hinge_centres(model, !model.options.disabled("limit"));
+        let reference: Vec<f64> = model
+            .joints
+            .iter()
+            .zip(&centres)
+            .map(|(j, &c)| {
+                if c == 0.0 {
+                    j.reference
+                } else {
+                    j.reference + c
+                }
+            })
+            .collect();
         // Where each MuJoCo joint ended up: (world joint, its degree of freedom).
         let mut placed: Vec<Option<(usize, usize)>> = alloc::vec![None; model.joints.len()];
         for (i, b) in model.bodies.iter().enumerate() {
@@ -126,9 +204,23 @@ impl MjcfScene {
                     let axis = r * v3(j.axis);
                     let kind = match j.kind {
                         MjKind::Free => continue,
-                        MjKind::Hinge => JointKind::Hinge(
-                            Hinge::from_world(&pa, &pb, anchor, axis).map_err(wrap)?,
-                        ),
+                        MjKind::Hinge => {
+                            // Zero at the child turned by `c` about the hinge line: the
+                            // default pose reads `−c` (`hinge_centres`).
+                            let c = centres[joints_of[i][0]];
+                            let rest = if c == 0.0 {
+                                pb
+                            } else {
+                                let turn = DQuat::from_axis_angle(axis.normalize(), c);
+                                Pose {
+                                    x: anchor + turn * (pb.x - anchor),
+                                    q: turn * pb.q,
+                                }
+                            };
+                            JointKind::Hinge(
+                                Hinge::from_world(&pa, &rest, anchor, axis).map_err(wrap)?,
+                            )
+                        }
                         MjKind::Ball => {
                             if j.limited {
                                 return Err(scene_err(format!(
@@ -216,7 +308,12 @@ impl MjcfScene {
                 && !model.options.disabled("limit")
             {
                 world
-                    .set_dof_limit(wj, dof, j.range[0] - j.reference, j.range[1] - j.reference)
+                    .set_dof_limit(
+                        wj,
+                        dof,
+                        j.range[0] - reference[k],
+                        j.range[1] - reference[k],
+                    )
                     .map_err(at)?;
             }
             if j.frictionloss > 0.0 && !model.options.disabled("frictionloss") {
@@ -242,7 +339,7 @@ impl MjcfScene {
                         joint: wj,
                         dof,
                         stiffness: j.stiffness,
-                        reference: j.springref - j.reference,
+                        reference: j.springref - reference[k],
                     })
                     .map_err(at)?;
             }
@@ -285,7 +382,7 @@ impl MjcfScene {
                     )));
                 };
                 terms.push((wj, dof, c));
-                offset += c * j.reference;
+                offset += c * reference[k];
             }
             let rest_length = if t.springlength[0] < 0.0 {
                 0.0
@@ -324,7 +421,7 @@ impl MjcfScene {
                     else {
                         return Err(at("only hinge and slide joints can be actuated".into()));
                     };
-                    (Target::Dof { joint: wj, dof }, j.reference)
+                    (Target::Dof { joint: wj, dof }, reference[k])
                 }
                 Transmission::Tendon(t) => (Target::Tendon(t), tendon_ref[t]),
             };

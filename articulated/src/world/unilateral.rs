@@ -185,6 +185,11 @@ pub struct UnilateralStats {
     /// The active set was tried and the step went to the dense path (rows that do not
     /// keep the tree, loop joints, a set that did not settle).
     pub dense_fallback: bool,
+    /// The dense problem had no answer with the rows' push-out (no solver converged)
+    /// and was solved again with every positive bias (Baumgarte correction,
+    /// restitution) set to 0: the step keeps the rows from closing further and leaves
+    /// their violation as it was (the dense solve's fallback, `world/unilateral.rs`).
+    pub relaxed: bool,
 }
 
 impl World {
@@ -388,10 +393,41 @@ impl World {
         if m == 0 {
             return Ok(());
         }
-        let rows = core::mem::take(&mut self.urows);
+        let mut rows = core::mem::take(&mut self.urows);
         let mut z = core::mem::take(&mut self.uz);
         self.warm_unilateral_rows(&rows, &mut z);
-        let result = self.solve_rows_in_factor(&rows, &mut z, loops);
+        let mut result = self.solve_rows_in_factor(&rows, &mut z, loops);
+        if matches!(result, Err(ArticulatedError::Unilateral(_)))
+            && rows.iter().any(|r| r.bias > 0.0)
+        {
+            // No solver answered. A complementarity problem with a positive
+            // semi-definite `A` has a solution iff no ray `d ≥ 0`, `A d = 0` has
+            // `qᵀd < 0`; only the push-out (`bias > 0`: rows violated beyond the slop,
+            // restitution) makes such a ray, when the rows cannot all open at once —
+            // a contact whose separation a joint limit at its bound blocks, or two
+            // contacts of one rigid pair with opposite normals (issue 13: a thumb 1 cm
+            // inside two fingers from both sides). With every push-out at 0 the rows
+            // only keep from closing further, which the velocities of the start
+            // satisfy up to the joints' drift. Rows that did solve never get here (the
+            // same bits as before).
+            let first = result;
+            let kept: Vec<f64> = rows.iter().map(|r| r.bias).collect();
+            for r in rows.iter_mut() {
+                r.bias = r.bias.min(0.0);
+            }
+            z.fill(0.0);
+            self.warm_unilateral_rows(&rows, &mut z);
+            result = self.solve_rows_in_factor(&rows, &mut z, loops);
+            for (r, b) in rows.iter_mut().zip(kept) {
+                r.bias = b;
+            }
+            if result.is_ok() {
+                self.ustats.relaxed = true;
+            } else {
+                // The relaxed problem failed too: the first error is the one to report.
+                result = first;
+            }
+        }
         self.urows = rows;
         self.uz = z;
         let (stats, residual) = result?;
