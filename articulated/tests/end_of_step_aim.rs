@@ -3,7 +3,7 @@
 //! `Aim::EndOfStep`), so that `x + h v'` meets the joints to `O(h³)` and the position
 //! projection after it has little or nothing to do. The reference is the same step
 //! aimed at the start (`Method::VelocityProjected`, `J v' = −C(x)/h`, the projection at
-//! the same tolerance): what the fallback is without `World::set_end_of_step_aim`.
+//! the same tolerance): what the fallback is with `World::set_end_of_step_aim(false)`.
 //! Every tolerance carries the value measured when it was set.
 
 use constraint_articulated::{Joint, JointKind, Method, RigidBody, World};
@@ -161,11 +161,11 @@ fn aimed_fallback_keeps_the_energy_bounded() {
     assert!(aimed_long <= start_long, "{aimed_long} vs {start_long}");
 }
 
-/// The aim is opt-in: a new world aims at the start of the step.
+/// The aim is the default; a world can go back to the start aim.
 #[test]
-fn end_of_step_aim_is_off_by_default() {
+fn end_of_step_aim_is_on_by_default() {
     let mut w = World::new(DVec3::ZERO);
-    assert!(!w.end_of_step_aim());
-    w.set_end_of_step_aim(true);
     assert!(w.end_of_step_aim());
+    w.set_end_of_step_aim(false);
+    assert!(!w.end_of_step_aim());
 }

@@ -123,9 +123,9 @@ pub struct RunOptions {
     /// (`World::set_unilateral_tolerance`, m; `None`: the world's default,
     /// `World::DEFAULT_UNILATERAL_TOLERANCE`).
     pub unilateral_tolerance: Option<f64>,
-    /// RATTLE's velocity-level fallback aimed at the end of the step
-    /// (`World::set_end_of_step_aim`).
-    pub end_of_step_aim: bool,
+    /// RATTLE's velocity-level fallback aimed at the start of the step instead of its
+    /// end (`World::set_end_of_step_aim(false)`).
+    pub start_aim: bool,
 }
 
 impl Default for RunOptions {
@@ -142,7 +142,7 @@ impl Default for RunOptions {
             qvel: None,
             ctrl: None,
             unilateral_tolerance: None,
-            end_of_step_aim: false,
+            start_aim: false,
         }
     }
 }
@@ -369,7 +369,9 @@ fn run_inner(
             .set_unilateral_tolerance(t)
             .map_err(|e| format!("--unilateral-tolerance {t}: {e}"))?;
     }
-    scene.world.set_end_of_step_aim(opts.end_of_step_aim);
+    if opts.start_aim {
+        scene.world.set_end_of_step_aim(false);
+    }
     let h = opts.dt.unwrap_or(scene.timestep);
     let steps = step_count(h, opts)?;
     let m = method(&opts.method, h)?;

@@ -83,10 +83,10 @@ struct Cli {
     /// tight as the other RATTLE steps].
     #[arg(long, value_name = "TOL", allow_hyphen_values = true)]
     unilateral_tolerance: Option<String>,
-    /// Aim RATTLE's velocity-level fallback steps at the end of the step,
-    /// `J v' = J v − C(x + h v)/h` (fewer projection iterations; off by default).
+    /// Aim RATTLE's velocity-level fallback steps at the start of the step,
+    /// `J v' = −C(x)/h`, instead of its end, `J v' = J v − C(x + h v)/h` (the default).
     #[arg(long)]
-    end_of_step_aim: bool,
+    start_aim: bool,
 }
 
 /// The names `--method` accepts, with their descriptions: the run's [`METHODS`] and
@@ -158,7 +158,7 @@ impl Cli {
                 .as_deref()
                 .map(|s| num(s, "--unilateral-tolerance"))
                 .transpose()?,
-            end_of_step_aim: self.end_of_step_aim,
+            start_aim: self.start_aim,
         };
         Ok(Args {
             scene,
