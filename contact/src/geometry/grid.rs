@@ -138,11 +138,10 @@ fn cell_of(aabb: &Aabb, s: f64) -> Cell {
 #[inline]
 fn cell_coordinate(q: f64) -> i64 {
     let t = q as i64;
-    let f = if (t as f64) > q {
-        t.saturating_sub(1)
-    } else {
-        t
-    };
+    // `t − [t > q]`: the comparison's 0 or 1 subtracted, not a branch on it (the
+    // sign of a coordinate's fraction is data: 4.2k of the 210-box pyramid's
+    // simulated mispredicts in 60 steps, cachegrind `--branch-sim`).
+    let f = t.saturating_sub(i64::from((t as f64) > q));
     f.clamp(-CELL_LIMIT, CELL_LIMIT)
 }
 
