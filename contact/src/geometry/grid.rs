@@ -105,6 +105,9 @@ pub struct GridScratch {
     /// The cells (`cell`) the candidates were found for: while every box keeps its
     /// cell (and `was_filed` its filing), the sweep would test the same pairs.
     candidate_cells: Vec<Cell>,
+    /// Slots of the overlap test's branch-free compaction (at least as long as
+    /// `candidates`; its head, the overlapping ones, copied out).
+    hits: Vec<(usize, usize)>,
 }
 
 /// The neighbouring rows `(dz, dy)` (their packed offsets, [`Cell`]) the sweep walks
@@ -135,11 +138,10 @@ fn cell_of(aabb: &Aabb, s: f64) -> Cell {
 #[inline]
 fn cell_coordinate(q: f64) -> i64 {
     let t = q as i64;
-    let f = if (t as f64) > q {
-        t.saturating_sub(1)
-    } else {
-        t
-    };
+    // `t − [t > q]`: the comparison's 0 or 1 subtracted, not a branch on it (the
+    // sign of a coordinate's fraction is data: 4.2k of the 210-box pyramid's
+    // simulated mispredicts in 60 steps, cachegrind `--branch-sim`).
+    let f = t.saturating_sub(i64::from((t as f64) > q));
     f.clamp(-CELL_LIMIT, CELL_LIMIT)
 }
 
@@ -211,12 +213,26 @@ pub fn grid_pairs(
     if g.cell != g.candidate_cells || g.filed != g.was_filed {
         sweep_candidates(n, g);
     }
-    // The candidates that overlap, in the candidates' sorted order.
-    for &(i, j) in &g.candidates {
-        if !(is_fixed(i) && is_fixed(j)) && aabbs[i].overlaps(&aabbs[j]) {
-            out.push((i, j));
-        }
+    // The candidates that overlap, in the candidates' sorted order: every candidate
+    // written at the next free slot and the slot advanced by whether it overlaps (a
+    // branch-free compaction: whether a candidate overlaps is data, and the `push`
+    // behind `if` was the 210-box pyramid's largest broad-phase mispredict, 25k of
+    // 60 steps' simulated mispredicts, cachegrind `--branch-sim`).
+    // The slots are a kept scratch, grown (never cleared) to the candidates' count:
+    // sizing `out` itself per step zeroed it first, ≈ 14k instructions a step.
+    if g.hits.len() < g.candidates.len() {
+        g.hits.resize(g.candidates.len(), (0, 0));
     }
+    let mut kept = 0;
+    for (&(i, j), k) in g.candidates.iter().zip(0..) {
+        let hit = !(is_fixed(i) & is_fixed(j)) & aabbs[i].overlaps(&aabbs[j]);
+        // `kept ≤ k`: in bounds.
+        if let Some(slot) = g.hits.get_mut(kept.min(k)) {
+            *slot = (i, j);
+        }
+        kept += usize::from(hit);
+    }
+    out.extend_from_slice(g.hits.get(..kept).unwrap_or_default());
     BroadStats {
         tests: g.candidates.len(),
         pairs: out.len(),
@@ -241,6 +257,7 @@ fn sweep_candidates(n: usize, g: &mut GridScratch) {
         cursor,
         candidates,
         candidate_cells,
+        hits: _,
     } = g;
     sorted.retain(|&i| i < n && filed[i]);
     was_filed.resize(n, false);

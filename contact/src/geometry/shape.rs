@@ -397,14 +397,19 @@ impl Aabb {
     }
 
     /// Whether the closed boxes overlap (touching counts).
+    ///
+    /// All six comparisons are made and combined with `&`, not `&&`: which of them
+    /// fails first is data (the broad phase's candidates), and the short-circuit's
+    /// branches were 18.1k of the 210-box pyramid's 534k simulated mispredicts in 60
+    /// steps (cachegrind `--branch-sim`); the result is the same boolean.
     #[inline]
     pub fn overlaps(&self, other: &Aabb) -> bool {
-        self.min.x <= other.max.x
-            && other.min.x <= self.max.x
-            && self.min.y <= other.max.y
-            && other.min.y <= self.max.y
-            && self.min.z <= other.max.z
-            && other.min.z <= self.max.z
+        (self.min.x <= other.max.x)
+            & (other.min.x <= self.max.x)
+            & (self.min.y <= other.max.y)
+            & (other.min.y <= self.max.y)
+            & (self.min.z <= other.max.z)
+            & (other.min.z <= self.max.z)
     }
 }
 
