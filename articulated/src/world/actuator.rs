@@ -357,7 +357,9 @@ impl World {
             return Some(e.q);
         }
         if let Some(e) = self.kept_coordinates(ji) {
-            return Some(e.q);
+            let mut q = e.q;
+            self.continue_angles(ji, &mut q);
+            return Some(q);
         }
         let j = &self.joints[ji];
         let (a, b) = (self.pose(j.parent), self.pose(Some(j.child)));
@@ -368,7 +370,24 @@ impl World {
             JointKind::Compound(c, _) => q = c.coordinates(&a, &b, &q),
             _ => return None,
         }
+        self.continue_angles(ji, &mut q);
         Some(q)
+    }
+
+    /// Joint `ji`'s hinge angles in `q` (a hinge's, a compound joint's hinge
+    /// coordinates) on the branch nearest their last recorded values (continuous across
+    /// `±π`, `projection/branch.rs`); other coordinates as they are.
+    #[inline]
+    pub(super) fn continue_angles(&self, ji: usize, q: &mut [f64; MAX_DOF]) {
+        match &self.joints[ji].kind {
+            JointKind::Hinge(_) => q[0] = self.proj.branch.continuous(ji, 0, q[0]),
+            JointKind::Compound(c, _) => {
+                for (d, qd) in q.iter_mut().enumerate().take(c.dof()).skip(c.slides()) {
+                    *qd = self.proj.branch.continuous(ji, d, *qd);
+                }
+            }
+            _ => {}
+        }
     }
 
     /// [`Self::coordinates_of`] (the same bits), kept in the coordinate cache
@@ -399,13 +418,17 @@ impl World {
         let key = CachedRows::key_of(a, b);
         if let Some(Some(e)) = self.coords.get(ji) {
             if same_key(&e.key, &key) {
-                return Some(e.q);
+                // An entry of the rows' cache (`Joint::rows`) holds `atan2`'s angles.
+                let mut q = e.q;
+                self.continue_angles(ji, &mut q);
+                return Some(q);
             }
         }
-        let (q, rows) = match self.dof_table.get(ji) {
+        let (mut q, rows) = match self.dof_table.get(ji) {
             Some(Some(e)) if same_key(&e.key, &key) => (e.q, Some(e.rows)),
             _ => (c.coordinates(a, b, &[0.0; MAX_DOF]), None),
         };
+        self.continue_angles(ji, &mut q);
         if self.coords.len() <= ji {
             self.coords.resize(ji + 1, None);
         }
@@ -444,6 +467,7 @@ impl World {
     /// poses (the velocity level's `add_dof_forces`), which computed them a second time
     /// before (issue 13, swimmer6 controlled: 1 750 of its 8 793 hinge angles).
     pub(super) fn keep_limit_coordinates(&mut self) {
+        self.record_turned_angles();
         for ji in 0..self.joints.len() {
             if self.limits[ji].iter().all(|l| l.is_none())
                 && self.frictionloss[ji].iter().all(|f| *f == 0.0)
@@ -498,7 +522,13 @@ impl World {
         // value when it is of these poses, else computed; the row computed.
         let kept = self.kept_coordinates(ji).map(|e| e.q[0]);
         let (q, row) = match &j.kind {
-            JointKind::Hinge(c) => (kept.unwrap_or_else(|| c.angle(a, b)), c.angle_row(b)),
+            JointKind::Hinge(c) => {
+                let q = self
+                    .proj
+                    .branch
+                    .continuous(ji, 0, kept.unwrap_or_else(|| c.angle(a, b)));
+                (q, c.angle_row(b))
+            }
             JointKind::Prismatic(c) => (
                 kept.unwrap_or_else(|| c.displacement(a, b)),
                 c.displacement_row(a, b),
@@ -575,11 +605,12 @@ impl World {
                 _ => return false,
             }
             *q = e.q;
+            self.continue_angles(ji, q);
             return true;
         }
         match &j.kind {
             JointKind::Hinge(c) => {
-                q[0] = c.angle(a, b);
+                q[0] = self.proj.branch.continuous(ji, 0, c.angle(a, b));
                 rows[0] = c.angle_row(b);
             }
             JointKind::Prismatic(c) => {
@@ -589,6 +620,7 @@ impl World {
             JointKind::Compound(c, _) => {
                 *q = c.coordinates(a, b, &[0.0; MAX_DOF]);
                 *rows = c.dof_rows(a, b, q);
+                self.continue_angles(ji, q);
             }
             _ => return false,
         }

@@ -51,6 +51,7 @@
 use constraint_core::rigid::rotate_by;
 use constraint_core::DVec3;
 
+mod branch;
 mod chord;
 mod limits;
 
@@ -75,6 +76,9 @@ pub(super) struct Scratch {
     values_current: bool,
     /// The hinges' start angles for the limits' error (`limits.rs`).
     limits: limits::LimitRefs,
+    /// The joints' last recorded hinge angles: the branch of the next ones
+    /// (`branch.rs`, continuous across `±π`).
+    pub(super) branch: branch::AngleBranches,
     /// The joints with a limit within the tolerance of its bound (or past it) at the
     /// poses of the last error evaluation with the limits, in joint order: exactly the
     /// joints [`World::push_violated_limits`] pushes rows for at those poses.
