@@ -47,14 +47,19 @@ fn pose_angle(w: &World) -> f64 {
     (-tip.z).atan2(tip.x)
 }
 
+/// The continuous angle `a` a pose's angle `θ` stands for near `near`.
+fn near(theta: f64, near: f64) -> f64 {
+    near + (theta - near + PI).rem_euclid(2.0 * PI) - PI
+}
+
 /// Steps `w` `n` times (1 ms), returning per step the joint's coordinate and the pose's
-/// angle unwrapped step to step (the continuous angle the arm turned to).
-fn run(w: &mut World, n: usize) -> Vec<(f64, f64)> {
-    let mut angle = pose_angle(w);
+/// angle unwrapped step to step from `start` (the continuous angle the arm turned to).
+fn run(w: &mut World, n: usize, start: f64) -> Vec<(f64, f64)> {
+    let mut angle = near(pose_angle(w), start);
     let mut out = Vec::with_capacity(n);
     for _ in 0..n {
         w.step(1e-3, Method::default()).unwrap();
-        angle += (pose_angle(w) - angle + PI).rem_euclid(2.0 * PI) - PI;
+        angle = near(pose_angle(w), angle);
         out.push((w.joint_coordinates(0).unwrap().0[0], angle));
     }
     out
@@ -67,12 +72,20 @@ fn worst_gap(trace: &[(f64, f64)]) -> f64 {
 
 #[test]
 fn a_world_hinge_driven_into_its_bound_at_minus_pi_stays_there() {
-    // Limited to [−π, 0], from −170° at −20 rad/s into the bound −π, held 0.2 s. Before
-    // the fix the angle read +π a hair past the bound (3.1 rad past the upper one) and
-    // the projection turned the arm half a turn in one step.
+    // Limited to [−π, 0], from −170° at −20 rad/s into the bound −π, and pressed on it
+    // for 0.2 s by a spring towards −4 rad (0.86 N·m). Before the fix the angle read +π
+    // a hair past the bound (3.1 rad past the upper one) and the projection turned the
+    // arm half a turn in one step.
     let mut w = arm(-170f64.to_radians(), -20.0);
     w.set_limit(0, -PI, 0.0).unwrap();
-    let trace = run(&mut w, 200);
+    w.add_dof_spring(DofSpring {
+        joint: 0,
+        dof: 0,
+        stiffness: 1.0,
+        reference: -4.0,
+    })
+    .unwrap();
+    let trace = run(&mut w, 200, -170f64.to_radians());
     let lowest = trace.iter().map(|t| t.0).fold(f64::INFINITY, f64::min);
     let highest = trace.iter().map(|t| t.0).fold(f64::NEG_INFINITY, f64::max);
     let turn = trace
@@ -86,7 +99,7 @@ fn a_world_hinge_driven_into_its_bound_at_minus_pi_stays_there() {
     assert!(lowest > -PI - 1e-6, "{lowest}");
     assert!(lowest < -PI + 1e-3, "never reached the bound: {lowest}");
     assert!(highest < -170f64.to_radians() + 1e-9, "{highest}");
-    // About speed × step (20 rad/s · 1 ms): gate 0.025 rad, measured 2.00e-2.
+    // About speed × step (20 rad/s · 1 ms): gate 0.025 rad, measured 2.02e-2.
     assert!(turn < 0.025, "{turn}");
     // The coordinate is the pose's continuous angle: gate 1e-9 rad, measured 0.
     assert!(gap < 1e-9, "{gap}");
@@ -96,7 +109,7 @@ fn a_world_hinge_driven_into_its_bound_at_minus_pi_stays_there() {
 fn a_free_hinge_spins_through_several_turns_continuously() {
     // Unlimited, no force: 20 rad/s for 1 s is 20 rad, past ±π three times.
     let mut w = arm(0.0, 20.0);
-    let trace = run(&mut w, 1000);
+    let trace = run(&mut w, 1000, 0.0);
     let (q, angle) = trace[trace.len() - 1];
     println!("after 1 s: coordinate {q:.15}, pose angle {angle:.15}");
     // Gate 1e-9 rad, measured 0 (the same atan2, shifted by whole turns).
@@ -122,7 +135,7 @@ fn a_spring_acts_on_the_unbounded_angle() {
         reference: 0.0,
     })
     .unwrap();
-    let trace = run(&mut w, 1500);
+    let trace = run(&mut w, 1500, 0.0);
     let peak = trace.iter().map(|t| t.1).fold(f64::NEG_INFINITY, f64::max);
     let harmonic = trace
         .iter()
@@ -138,4 +151,29 @@ fn a_spring_acts_on_the_unbounded_angle() {
     assert!((peak - 4.0).abs() < 1e-3, "{peak}");
     // Follows 4 sin Ωt over 1.5 s: gate 1e-3 rad, measured 1.4e-5.
     assert!(harmonic < 1e-3, "{harmonic}");
+}
+
+#[test]
+fn a_world_hinge_a_hair_past_minus_pi_is_pushed_back_to_it() {
+    // Limited to [−π, 0], started 1e-7 rad past −π (atan2 reads +π − 1e-7, 3.1 rad past
+    // the upper bound) and pressing on at −1 rad/s. The first reading starts from the
+    // middle of the range (−π/2), so the limit sees −π − 1e-7 and holds the arm at −π;
+    // before the fix it turned the arm half a turn to 0 in the first step.
+    let mut w = arm(-PI - 1e-7, -1.0);
+    w.set_limit(0, -PI, 0.0).unwrap();
+    let trace = run(&mut w, 50, -PI);
+    let highest = trace.iter().map(|t| t.0).fold(f64::NEG_INFINITY, f64::max);
+    let lowest = trace.iter().map(|t| t.0).fold(f64::INFINITY, f64::min);
+    let gap = worst_gap(&trace);
+    println!(
+        "coordinate −π {:+.1e} … −π {:+.1e}, gap {gap:.1e}",
+        lowest + PI,
+        highest + PI
+    );
+    // Held at the bound: gate 1e-6 rad either side, measured 0 (−π to the bit).
+    assert!(highest < -PI + 1e-6, "{highest}");
+    assert!(lowest > -PI - 1e-6, "{lowest}");
+    // The coordinate is the pose's angle (the unwrapped start −π − 1e-7): gate 1e-9
+    // rad, measured 0.
+    assert!(gap < 1e-9, "{gap}");
 }

@@ -379,11 +379,15 @@ impl World {
     /// `±π`, `projection/branch.rs`); other coordinates as they are.
     #[inline]
     pub(super) fn continue_angles(&self, ji: usize, q: &mut [f64; MAX_DOF]) {
+        let branch = &self.proj.branch;
+        if !branch.tracks(ji) {
+            return;
+        }
         match &self.joints[ji].kind {
-            JointKind::Hinge(_) => q[0] = self.proj.branch.continuous(ji, 0, q[0]),
+            JointKind::Hinge(_) => q[0] = branch.continuous(ji, 0, q[0]),
             JointKind::Compound(c, _) => {
-                for (d, qd) in q.iter_mut().enumerate().take(c.dof()).skip(c.slides()) {
-                    *qd = self.proj.branch.continuous(ji, d, *qd);
+                for d in c.slides()..c.dof().min(MAX_DOF) {
+                    q[d] = branch.continuous(ji, d, q[d]);
                 }
             }
             _ => {}

@@ -48,9 +48,17 @@ const TURNED: f64 = 1.0 / (4.0 * PI * PI);
 pub(in crate::world) struct AngleBranches {
     prev: Vec<[f64; MAX_DOF]>,
     at: Vec<[DQuat; 2]>,
+    /// Per joint: whether its angles are recorded (the last step's classification).
+    tracked: Vec<bool>,
 }
 
 impl AngleBranches {
+    /// Whether joint `ji`'s angles are recorded (else never: its angles are `atan2`'s).
+    #[inline]
+    pub(in crate::world) fn tracks(&self, ji: usize) -> bool {
+        self.tracked.get(ji).copied().unwrap_or(false)
+    }
+
     /// `θ` (an angle in `(−π, π]`) on the branch nearest the last recorded value of
     /// coordinate `d` of joint `ji`: `θ + 2πk`, `k = round((q_prev − θ)/2π)`; `θ` itself
     /// (same bits) when `|q_prev − θ| ≤ π` or nothing is recorded.
@@ -84,23 +92,24 @@ impl World {
         if self.proj.branch.prev.len() != n {
             self.proj.branch.prev.resize(n, [f64::NAN; MAX_DOF]);
             self.proj.branch.at.resize(n, [DQuat::IDENTITY; 2]);
+            self.proj.branch.tracked.resize(n, false);
         }
         for ji in 0..n {
             let j = &self.joints[ji];
             let (first, count) = match &j.kind {
                 JointKind::Hinge(_) => (0, 1),
                 JointKind::Compound(c, _) => (c.slides(), c.hinges()),
-                _ => continue,
+                _ => (0, 0),
             };
             let narrow = |l: &Option<[f64; 2]>| {
                 l.is_some_and(|[lo, hi]| {
                     hi - lo <= WIDE && -PI + CUT_MARGIN < lo && hi < PI - CUT_MARGIN
                 })
             };
-            let Some(limits) = self.limits[ji].get(first..first + count) else {
-                continue;
-            };
-            if count == 0 || limits.iter().all(narrow) {
+            let limits = self.limits[ji].get(first..first + count).unwrap_or(&[]);
+            let tracked = count > 0 && !limits.iter().all(narrow);
+            self.proj.branch.tracked[ji] = tracked;
+            if !tracked {
                 continue;
             }
             let qa = j.parent.map_or(DQuat::IDENTITY, |i| self.bodies[i].pose.q);
