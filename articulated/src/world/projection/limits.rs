@@ -18,6 +18,9 @@
 //! both bounds and from the branch cut at `±π` is inside its range, so its term of
 //! `max(lo − q, q − hi, 0)` is the `0` it would be if computed: the error and the
 //! violated-limit flag are the same bits.
+//!
+//! The angles are continuous across `±π` (`branch.rs`): `q₀` may lie past `±π`, and the
+//! test against the cut stays only as a conservative bound (such a hinge is evaluated).
 
 use core::f64::consts::{FRAC_PI_2, PI};
 
