@@ -372,6 +372,21 @@ pub(super) struct ActiveSet {
     sorted_ok: bool,
 }
 
+impl ActiveSet {
+    /// The impulses the solve gives the rows it holds: `z = −x` at a factor row, `−ζ`
+    /// at a coupled Schur row (of the `m` one-sided rows); other rows keep their `z`.
+    fn solution_impulses(&mut self, m: usize) {
+        for (k, &i) in self.map.iter().enumerate() {
+            self.z[i] = -self.x[self.factor.row_position(k)];
+        }
+        for (c, &i) in self.schur.iter().enumerate() {
+            if self.schur_pos[c] == usize::MAX && i < m {
+                self.z[i] = -self.zeta[c];
+            }
+        }
+    }
+}
+
 impl World {
     fn row_key(&self, r: &URow) -> RowKey {
         match r.source {
@@ -572,16 +587,9 @@ impl World {
             if !self.schur_rows(st, tol_w) {
                 return false;
             }
+            st.solution_impulses(m);
             let f = &st.factor;
             let mut zmax: f64 = 0.0;
-            for (k, &i) in st.map.iter().enumerate() {
-                st.z[i] = -st.x[f.row_position(k)];
-            }
-            for (c, &i) in st.schur.iter().enumerate() {
-                if st.schur_pos[c] == usize::MAX && i < m {
-                    st.z[i] = -st.zeta[c];
-                }
-            }
             for i in 0..m {
                 zmax = zmax.max(st.z[i].abs());
             }
@@ -741,15 +749,8 @@ impl World {
     /// iterate's normals), zero inactive; `w = G x − bias`.
     fn iterate_values(&self, st: &mut ActiveSet) {
         let m = self.urows.len();
+        st.solution_impulses(m);
         let f = &st.factor;
-        for (k, &i) in st.map.iter().enumerate() {
-            st.z[i] = -st.x[f.row_position(k)];
-        }
-        for (c, &i) in st.schur.iter().enumerate() {
-            if st.schur_pos[c] == usize::MAX && i < m {
-                st.z[i] = -st.zeta[c];
-            }
-        }
         for i in 0..m {
             st.z[i] = match st.status[i] {
                 RowStatus::Inactive => 0.0,
