@@ -79,8 +79,8 @@ struct Cli {
     #[arg(long, value_name = "FILE.json")]
     summary: Option<PathBuf>,
     /// The floor (m) on the joints' projection tolerance of RATTLE steps that limit or
-    /// contact rows send to the velocity level [default: 1e-7; 1e-12 holds joints as
-    /// tight as the other RATTLE steps].
+    /// contact rows send to the velocity level [default: 1e-8, the world's default;
+    /// 1e-12 holds joints as tight as the other RATTLE steps].
     #[arg(long, value_name = "TOL", allow_hyphen_values = true)]
     unilateral_tolerance: Option<String>,
     /// Aim RATTLE's velocity-level fallback steps at the start of the step,
