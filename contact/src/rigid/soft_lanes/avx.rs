@@ -37,8 +37,7 @@ use core::arch::x86_64::{
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
 use super::{
-    block_lanes, build_lanes, gaps_lanes, relax_lanes, warm_lanes, Built, Lane, Quad, QuadRows,
-    RelaxIo,
+    block_lanes, build_lanes, gaps_lanes, relax_lanes, warm_lanes, Built, Lane, Pack, Quad, RelaxIo,
 };
 use crate::rigid::soft_step::{Block, Pass, PointConsts, Rows, SoftState};
 use crate::rigid::ContactWorld;
@@ -286,7 +285,7 @@ passes! {
     /// [`relax_lanes`](super::relax_lanes) in four AVX lanes.
     fn relax_avx / relax_wide(
         rows: &Rows,
-        pr: &[QuadRows],
+        pr: Pack,
         pts: [&[usize]; 4],
         io: &mut RelaxIo,
         inv_h: f64,
@@ -295,7 +294,7 @@ passes! {
     /// [`warm_lanes`](super::warm_lanes) in four AVX lanes.
     fn warm_avx / warm_wide(
         rows: &Rows,
-        pr: &[QuadRows],
+        pr: Pack,
         pts: [&[usize]; 4],
         v: &mut [DVec3],
         w: &mut [DVec3],
@@ -305,7 +304,7 @@ passes! {
     /// [`block_lanes`](super::block_lanes) in four AVX lanes.
     fn block_avx / block_wide(
         rows: &Rows,
-        pr: &[QuadRows],
+        pr: Pack,
         blk: [&Block; 4],
         io: &mut RelaxIo,
         pass: Pass,
@@ -323,7 +322,7 @@ passes! {
     /// [`build_lanes`](super::build_lanes) in four AVX lanes.
     fn build_avx / build_wide(
         rows: &Rows,
-        pr: &[QuadRows],
+        pr: Pack,
         pts: [&[usize]; 4],
         blk: [&mut Block; 4],
     ) -> Built = build_lanes::<F4, 4>(rows, pts, Some((pr, 0)), blk);
@@ -343,17 +342,17 @@ passes! {
 /// `points_avx` or `points_wide`.
 type PointsPass = unsafe fn(&ContactWorld, &mut SoftState, &PointConsts) -> bool;
 /// `relax_avx` or `relax_wide`.
-type RelaxPass = unsafe fn(&Rows, &[QuadRows], [&[usize]; 4], &mut RelaxIo, f64) -> bool;
+type RelaxPass = unsafe fn(&Rows, Pack, [&[usize]; 4], &mut RelaxIo, f64) -> bool;
 /// `warm_avx` or `warm_wide`.
 type WarmPass =
-    unsafe fn(&Rows, &[QuadRows], [&[usize]; 4], &mut [DVec3], &mut [DVec3], &[[f64; 3]]) -> bool;
+    unsafe fn(&Rows, Pack, [&[usize]; 4], &mut [DVec3], &mut [DVec3], &[[f64; 3]]) -> bool;
 /// `block_avx` or `block_wide`.
-type BlockPass = unsafe fn(&Rows, &[QuadRows], [&Block; 4], &mut RelaxIo, Pass) -> bool;
+type BlockPass = unsafe fn(&Rows, Pack, [&Block; 4], &mut RelaxIo, Pass) -> bool;
 /// `gaps_avx` or `gaps_wide`.
 type GapsPass =
     unsafe fn(&Rows, [&[usize]; 4], [[usize; 2]; 4], (&[DVec3], &[DMat3]), &mut [f64]) -> bool;
 /// `build_avx` or `build_wide`.
-type BuildPass = unsafe fn(&Rows, &[QuadRows], [&[usize]; 4], [&mut Block; 4]) -> Built;
+type BuildPass = unsafe fn(&Rows, Pack, [&[usize]; 4], [&mut Block; 4]) -> Built;
 
 /// The relax pass over the quad of manifolds `pts` (one per lane; `pr`: their rows,
 /// [`Paired::quad`](super::Paired::quad), `Some` only where AVX was found), as
@@ -362,7 +361,7 @@ type BuildPass = unsafe fn(&Rows, &[QuadRows], [&[usize]; 4], [&mut Block; 4]) -
 #[inline]
 pub(in crate::rigid) fn relax_quad(
     rows: &Rows,
-    pr: Option<&[QuadRows]>,
+    pr: Option<Pack>,
     pts: [&[usize]; 4],
     io: &mut RelaxIo,
     inv_h: f64,
@@ -384,7 +383,7 @@ pub(in crate::rigid) fn relax_quad(
 #[inline]
 pub(in crate::rigid) fn warm_quad(
     rows: &Rows,
-    pr: Option<&[QuadRows]>,
+    pr: Option<Pack>,
     pts: [&[usize]; 4],
     v: &mut [DVec3],
     w: &mut [DVec3],
@@ -404,7 +403,7 @@ pub(in crate::rigid) fn warm_quad(
 #[inline]
 pub(in crate::rigid) fn block_quad(
     rows: &Rows,
-    pr: Option<&[QuadRows]>,
+    pr: Option<Pack>,
     blk: [&Block; 4],
     io: &mut RelaxIo,
     pass: Pass,
@@ -442,7 +441,7 @@ pub(in crate::rigid) fn gaps_quad(
 pub(in crate::rigid) fn build_quad(
     _: Avx,
     rows: &Rows,
-    pr: &[QuadRows],
+    pr: Pack,
     pts: [&[usize]; 4],
     blk: [&mut Block; 4],
 ) -> Built {
