@@ -16,11 +16,12 @@ pub(super) fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
 /// manifolds of a colour touching disjoint moving bodies), a colour's odd manifold
 /// and the overflow colour's points (whose manifolds may share bodies) one by one.
 pub(super) fn warm_start(st: &mut SoftState) {
-    // The pairs' index (72 B) is taken, not borrowed: its `Vec`s as locals stay in
-    // registers across the velocity writes (borrowed from `st`, the 210-box
-    // pyramid's step took 8.580M instructions, taken with the blocks 8.550M;
-    // callgrind). The 430 B colouring is borrowed: taking it copied it twice a pass.
-    let paired = core::mem::take(&mut st.paired);
+    // The packed rows borrowed (taking them, seven `Vec`s since they were split by
+    // reader, cost a 176 B copy out and back and a drop per pass: `soft_points
+    // stack10` 137.4k → 136.6k instructions a step borrowed, pyramid20 4918.8k →
+    // 4917.1k; when it was four `Vec`s, taking saved 0.35 %). The 430 B colouring is
+    // borrowed too: taking it copied it twice a pass.
+    let paired = &st.paired;
     let colouring = &st.colouring;
     {
         let (rows, mut vel, impulse, _) = split!(st);
@@ -41,7 +42,6 @@ pub(super) fn warm_start(st: &mut SoftState) {
             &mut vel,
         );
     }
-    st.paired = paired;
 }
 
 /// Walks the colouring for the point passes that take two manifolds at a time: per
@@ -205,8 +205,8 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
     };
     let gap = core::mem::take(&mut st.gap);
     if use_bias && !st.blocks.is_empty() {
-        // Taken, not borrowed (see `warm_start`).
-        let paired = core::mem::take(&mut st.paired);
+        // Borrowed (see `warm_start`); the blocks taken.
+        let paired = &st.paired;
         let blocks = core::mem::take(&mut st.blocks);
         let colouring = &st.colouring;
         {
@@ -256,7 +256,6 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
                 }
             }
         }
-        st.paired = paired;
         st.blocks = blocks;
     } else if !use_bias {
         relax_in_lanes(st, &gap, pass);
@@ -274,11 +273,8 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
 /// ([`relax_manifolds`]: the same bits as one point at a time; see
 /// [`for_manifold_pairs`]).
 pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
-    // The pairs' index (72 B) is taken, not borrowed: its `Vec`s as locals stay in
-    // registers across the velocity writes (borrowed from `st`, the 210-box
-    // pyramid's step took 8.580M instructions, taken with the blocks 8.550M;
-    // callgrind). The 430 B colouring is borrowed: taking it copied it twice a pass.
-    let paired = core::mem::take(&mut st.paired);
+    // Borrowed (see `warm_start`).
+    let paired = &st.paired;
     let colouring = &st.colouring;
     {
         let (rows, vel, impulse, max_normal) = split!(st);
@@ -325,7 +321,6 @@ pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
             &mut io,
         );
     }
-    st.paired = paired;
 }
 
 /// The same slices as the lane passes take them.
