@@ -50,7 +50,7 @@ pub(super) use packed::{Paired, PointRows};
 /// `-C target-feature=+avx`): no quads ([`Paired::quad`] is `None`), two lanes only.
 #[cfg(not(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx"))))]
 mod avx {
-    use super::{Block, DMat3, DVec3, Pack, Pass, RelaxIo, Rows};
+    use super::{Block, DMat3, DVec3, Normals, Pack, Pass, RelaxIo, Rows};
 
     /// Declines (no AVX builds of the preparation's per-point loop here).
     pub(in crate::rigid) fn fill_points(
@@ -89,6 +89,7 @@ mod avx {
         avx: Avx,
         _: &Rows,
         _: [&[usize]; 4],
+        _: Normals,
         _: [[usize; 2]; 4],
         _: (&[DVec3], &[DMat3]),
         _: &mut [f64],
@@ -822,23 +823,33 @@ fn rotate<L: Lane>([x, y, z]: &[Lanes3<L>; 3], r: Lanes3<L>) -> Lanes3<L> {
 /// manifold per lane, their points in order (`ab[l]`: lane `l`'s two bodies, their
 /// displacements `(Δx, ΔR)` in `dp`, `rot`), `Δd = (Δx_b + ΔR_b r_b) − (Δx_a + ΔR_a
 /// r_a)`: the scalar arithmetic of `update_gaps` per lane in the same order (the same
-/// bits). Returns false, having written nothing, where the point counts differ.
+/// bits). `shared`: where the manifolds are a packed pair, their shared rows and lane
+/// half ([`Paired::of`]), whose normals are every point's (the same bits): loaded
+/// once instead of gathered per point. Returns false, having written nothing, where
+/// the point counts differ.
 #[inline(always)]
 pub(super) fn manifold_gaps(
     rows: &Rows,
     pts: [&[usize]; 2],
+    shared: Normals,
     ab: [[usize; 2]; 2],
     disp: (&[DVec3], &[DMat3]),
     gap: &mut [f64],
 ) -> bool {
-    gaps_lanes::<f64x2, 2>(rows, pts, ab, disp, gap)
+    gaps_lanes::<f64x2, 2>(rows, pts, shared, ab, disp, gap)
 }
+
+/// The shared rows of a packed pair or quad of manifolds and the half of their lanes
+/// a pair takes (0 for a quad), where the gap pass takes exactly those manifolds
+/// ([`manifold_gaps`]).
+pub(super) type Normals<'a> = Option<(&'a HeadRows, usize)>;
 
 /// [`manifold_gaps`] on `W` manifolds with as many points in the `W` lanes of `L`.
 #[inline(always)]
 fn gaps_lanes<L: Lane, const W: usize>(
     rows: &Rows,
     pts: [&[usize]; W],
+    shared: Normals,
     ab: [[usize; 2]; W],
     (dp, rot): (&[DVec3], &[DMat3]),
     gap: &mut [f64],
@@ -860,11 +871,15 @@ fn gaps_lanes<L: Lane, const W: usize>(
     let xb = Lanes3::<L>::of(|l| dp[ab[l][1]]);
     let ra_m = columns::<L, W>(each_ref(|l| &rot[ab[l][0]]));
     let rb_m = columns::<L, W>(each_ref(|l| &rot[ab[l][1]]));
+    let shared = shared.map(|(head, half)| head.dir::<L>(0, half));
     for i in 0..len {
         let p: [usize; W] = each(|l| pts[l][i]);
         let ra = Lanes3::<L>::of(|l| anchor[p[l]][0]);
         let rb = Lanes3::<L>::of(|l| anchor[p[l]][1]);
-        let nrm = Lanes3::<L>::of(|l| dir[p[l]][0]);
+        let nrm = match shared {
+            Some(n) => n,
+            None => Lanes3::<L>::of(|l| dir[p[l]][0]),
+        };
         let [base] = L::gather(|l| [base_gap[p[l]]]);
         let dd = xb.add(rotate(&rb_m, rb)).sub(xa.add(rotate(&ra_m, ra)));
         let g = base + nrm.dot(dd);

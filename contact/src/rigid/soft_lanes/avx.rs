@@ -37,7 +37,8 @@ use core::arch::x86_64::{
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
 use super::{
-    block_lanes, build_lanes, gaps_lanes, relax_lanes, warm_lanes, Built, Lane, Pack, Quad, RelaxIo,
+    block_lanes, build_lanes, gaps_lanes, relax_lanes, warm_lanes, Built, Lane, Normals, Pack,
+    Quad, RelaxIo,
 };
 use crate::rigid::soft_step::{Block, Pass, PointConsts, Rows, SoftState};
 use crate::rigid::ContactWorld;
@@ -314,10 +315,11 @@ passes! {
     fn gaps_avx / gaps_wide(
         rows: &Rows,
         pts: [&[usize]; 4],
+        shared: Normals,
         ab: [[usize; 2]; 4],
         disp: (&[DVec3], &[DMat3]),
         gap: &mut [f64],
-    ) -> bool = gaps_lanes::<F4, 4>(rows, pts, ab, disp, gap);
+    ) -> bool = gaps_lanes::<F4, 4>(rows, pts, shared, ab, disp, gap);
 
     /// [`build_lanes`](super::build_lanes) in four AVX lanes.
     fn build_avx / build_wide(
@@ -349,8 +351,14 @@ type WarmPass =
 /// `block_avx` or `block_wide`.
 type BlockPass = unsafe fn(&Rows, Pack, [&Block; 4], &mut RelaxIo, Pass) -> bool;
 /// `gaps_avx` or `gaps_wide`.
-type GapsPass =
-    unsafe fn(&Rows, [&[usize]; 4], [[usize; 2]; 4], (&[DVec3], &[DMat3]), &mut [f64]) -> bool;
+type GapsPass = unsafe fn(
+    &Rows,
+    [&[usize]; 4],
+    Normals,
+    [[usize; 2]; 4],
+    (&[DVec3], &[DMat3]),
+    &mut [f64],
+) -> bool;
 /// `build_avx` or `build_wide`.
 type BuildPass = unsafe fn(&Rows, Pack, [&[usize]; 4], [&mut Block; 4]) -> Built;
 
@@ -417,13 +425,15 @@ pub(in crate::rigid) fn block_quad(
 }
 
 /// The gaps of four manifolds with as many points (one per lane), as
-/// [`manifold_gaps`](super::manifold_gaps) on two pairs: false, having written
-/// nothing, where the point counts differ.
+/// [`manifold_gaps`](super::manifold_gaps) on two pairs (`shared`: where they are a
+/// packed quad, its shared rows): false, having written nothing, where the point
+/// counts differ.
 #[inline]
 pub(in crate::rigid) fn gaps_quad(
     _: Avx,
     rows: &Rows,
     pts: [&[usize]; 4],
+    shared: Normals,
     ab: [[usize; 2]; 4],
     disp: (&[DVec3], &[DMat3]),
     gap: &mut [f64],
@@ -431,7 +441,7 @@ pub(in crate::rigid) fn gaps_quad(
     let run: GapsPass = if wide() { gaps_wide } else { gaps_avx };
     // SAFETY: an `Avx` exists only where `available()` found AVX; the wide build only
     // where `wide()` found AVX-512F and AVX-512VL too.
-    unsafe { run(rows, pts, ab, disp, gap) }
+    unsafe { run(rows, pts, shared, ab, disp, gap) }
 }
 
 /// The blocks of four manifolds of `BLOCK_POINTS` points (one per lane; `pr`: their

@@ -436,6 +436,19 @@ impl Paired {
         self.off.iter().filter(|&&o| o).count()
     }
 
+    /// The shared rows of manifold pair `(j, j + 1)`, the half of their lanes it
+    /// takes and whether it starts a quad, if packed (and its group's normals shared
+    /// this step): [`Paired::of`] without the points' rows.
+    #[inline(always)]
+    pub(in crate::rigid) fn shared(&self, j: usize) -> Option<(&HeadRows, usize, bool)> {
+        let f = *self.first.get(j)?;
+        let k = (f / 2) as usize;
+        if *self.off.get(k)? {
+            return None;
+        }
+        Some((self.heads.get(k)?, (f % 2) as usize, *self.quad.get(j)?))
+    }
+
     /// Whether the passes take manifolds four at a time this step.
     #[inline(always)]
     pub(in crate::rigid) fn four(&self) -> bool {

@@ -118,11 +118,15 @@ pub(super) fn for_manifold_pairs<S>(
 /// with as many points go side by side in SIMD lanes ([`manifold_gaps`]: each gap
 /// reads only the step's rows and displacements, so any two manifolds may pair; the
 /// same bits), the others one point at a time (the 210-box pyramid's `update_gaps`
-/// 407k → 326k instructions a step, callgrind).
+/// 407k → 326k instructions a step, callgrind). The packed pairs and quads
+/// ([`Paired`]) go as they were packed, their normals loaded once from their shared
+/// rows instead of gathered per point; the other manifolds are taken together only
+/// where that keeps the packed groups whole.
 pub(super) fn update_gaps(st: &mut SoftState) {
     let mut gap = core::mem::take(&mut st.gap);
     let colouring = &st.colouring;
-    let avx = st.paired.avx();
+    let paired = &st.paired;
+    let avx = paired.avx();
     // Every point is in one manifold and is written below: no clear (zeroing 8 B a
     // point per sub-step cost 0.7 % of the 210-box pyramid's step, callgrind).
     gap.resize(st.slots.len(), 0.0);
@@ -143,29 +147,41 @@ pub(super) fn update_gaps(st: &mut SoftState) {
             };
             // The points of one manifold share their two bodies.
             let [a, b] = rows.slots[first];
-            // Four manifolds with as many points at a time in AVX lanes, where the
-            // processor has AVX.
-            if let Some(avx) = avx.filter(|_| j + 3 < manifolds) {
+            let len = m0.len();
+            // A packed quad (its shared normals), or four other manifolds with as many
+            // points none of which starts a packed pair, at a time in AVX lanes, where
+            // the processor has AVX.
+            let shared = paired.shared(j);
+            let free = |k: usize| (1..k).all(|m| !paired.starts(j + m));
+            let four = match shared {
+                Some((_, _, quad)) => quad,
+                None => j + 3 < manifolds && free(4),
+            };
+            if let (Some(avx), true) = (avx, four) {
                 let ms = [m0, manifold(j + 1), manifold(j + 2), manifold(j + 3)];
-                if ms.iter().all(|m| m.len() == m0.len()) {
+                if ms.iter().all(|m| m.len() == len) {
                     let ab = [
                         [a, b],
                         rows.slots[ms[1][0]],
                         rows.slots[ms[2][0]],
                         rows.slots[ms[3][0]],
                     ];
-                    if gaps_quad(avx, &rows, ms, ab, (vel.dp, vel.rot), &mut gap) {
+                    let normals = shared.map(|(head, _, _)| (head, 0));
+                    if gaps_quad(avx, &rows, ms, normals, ab, (vel.dp, vel.rot), &mut gap) {
                         j += 4;
                         continue;
                     }
                 }
             }
-            // Two manifolds with as many points at a time in SIMD lanes.
-            if j + 1 < manifolds {
+            // A packed pair (its shared normals), or two other manifolds with as many
+            // points, at a time in SIMD lanes.
+            if j + 1 < manifolds && (shared.is_some() || free(2)) {
                 let m1 = &pts[mp[j + 1]..mp[j + 2]];
                 if let Some(&first1) = m1.first() {
                     let ab = [[a, b], rows.slots[first1]];
-                    if manifold_gaps(&rows, [m0, m1], ab, (vel.dp, vel.rot), &mut gap) {
+                    let normals = shared.map(|(head, half, _)| (head, half));
+                    let disp = (vel.dp, vel.rot);
+                    if manifold_gaps(&rows, [m0, m1], normals, ab, disp, &mut gap) {
                         j += 2;
                         continue;
                     }
