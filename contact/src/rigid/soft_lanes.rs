@@ -89,7 +89,7 @@ mod avx {
         avx: Avx,
         _: &Rows,
         _: [&[usize]; 4],
-        _: Normals,
+        _: Option<Normals>,
         _: [[usize; 2]; 4],
         _: (&[DVec3], &[DMat3]),
         _: &mut [f64],
@@ -536,29 +536,31 @@ fn relax_rows<L: Lane, const W: usize>(
     // gap gives 0 either way; `inv_h` is positive and finite: see `relax_lanes`).
     let bias = gap.at_least(zero) * L::splat(inv_h);
     let d0 = head.dir::<L>(0, half);
-    let vn = d0.dot(vb.sub(*va)) + pr.ang(0, 1, half).dot(*wb) - pr.ang(0, 0, half).dot(*wa);
+    let vn =
+        d0.dot(vb.sub(*va)) + pr.ang(head, 0, 1, half).dot(*wb) - pr.ang(head, 0, 0, half).dot(*wa);
     let mass0 = pr.mass::<L>(0, half);
     let new = (z0 - mass0 * one * (vn + bias) - zero * (z0 - zero)).at_least(zero);
     let dz = new - z0;
     let max_normal = new.at_least(most);
     *va = va.sub(d0.scale(ma * dz));
-    *wa = wa.sub(pr.ang(0, 2, half).scale(dz));
+    *wa = wa.sub(pr.ang(head, 0, 2, half).scale(dz));
     *vb = vb.add(d0.scale(mb * dz));
-    *wb = wb.add(pr.ang(0, 3, half).scale(dz));
+    *wb = wb.add(pr.ang(head, 0, 3, half).scale(dz));
     let bound = head.friction::<L>(half) * new;
     let mut z = [new, z1, z2];
     for r in 1..3 {
         let d = head.dir::<L>(r, half);
         let zr = z[r];
-        let vt = d.dot(vb.sub(*va)) + pr.ang(r, 1, half).dot(*wb) - pr.ang(r, 0, half).dot(*wa);
+        let vt = d.dot(vb.sub(*va)) + pr.ang(head, r, 1, half).dot(*wb)
+            - pr.ang(head, r, 0, half).dot(*wa);
         let unbounded = zr - pr.mass::<L>(r, half) * vt;
         let new = unbounded.at_most(bound).at_least(-bound);
         let dz = new - zr;
         z[r] = new;
         *va = va.sub(d.scale(ma * dz));
-        *wa = wa.sub(pr.ang(r, 2, half).scale(dz));
+        *wa = wa.sub(pr.ang(head, r, 2, half).scale(dz));
         *vb = vb.add(d.scale(mb * dz));
-        *wb = wb.add(pr.ang(r, 3, half).scale(dz));
+        *wb = wb.add(pr.ang(head, r, 3, half).scale(dz));
     }
     // Each value's lanes stored once, then written lane by lane.
     let [z0, z1, z2, m] = [z[0].array(), z[1].array(), z[2].array(), max_normal.array()];
@@ -660,7 +662,8 @@ fn block_lanes<L: Lane, const W: usize>(
     for i in 0..len {
         let p: [usize; W] = each(|l| blk[l].pts[i]);
         let (q, d0) = (&rows_of[i], pr.head.dir::<L>(0, half));
-        let vn = d0.dot(vb.sub(va)) + q.ang(0, 1, half).dot(wb) - q.ang(0, 0, half).dot(wa);
+        let vn = d0.dot(vb.sub(va)) + q.ang(pr.head, 0, 1, half).dot(wb)
+            - q.ang(pr.head, 0, 0, half).dot(wa);
         let bias = (bias_rate * gap[i]).at_least(max_push);
         let [preload, cap, floor] = L::gather(|l| {
             let p = p[l];
@@ -711,9 +714,9 @@ fn block_lanes<L: Lane, const W: usize>(
         z[i][0] = z[i][0] + dz[i];
         most[i] = z[i][0].at_least(most[i]);
         va = va.sub(d0.scale(ma * dz[i]));
-        wa = wa.sub(q.ang(0, 2, half).scale(dz[i]));
+        wa = wa.sub(q.ang(head, 0, 2, half).scale(dz[i]));
         vb = vb.add(d0.scale(mb * dz[i]));
-        wb = wb.add(q.ang(0, 3, half).scale(dz[i]));
+        wb = wb.add(q.ang(head, 0, 3, half).scale(dz[i]));
     }
     // Friction point by point (no anchors: velocity rows, |λ_t| ≤ μ λ_n).
     for (i, zi) in z.iter_mut().enumerate().take(len) {
@@ -721,15 +724,16 @@ fn block_lanes<L: Lane, const W: usize>(
         let bound = head.friction::<L>(half) * zi[0];
         for rr in 1..3 {
             let d = head.dir::<L>(rr, half);
-            let vt = d.dot(vb.sub(va)) + q.ang(rr, 1, half).dot(wb) - q.ang(rr, 0, half).dot(wa);
+            let vt = d.dot(vb.sub(va)) + q.ang(head, rr, 1, half).dot(wb)
+                - q.ang(head, rr, 0, half).dot(wa);
             let unbounded = zi[rr] - q.mass::<L>(rr, half) * vt;
             let new = unbounded.at_most(bound).at_least(-bound);
             let dz = new - zi[rr];
             zi[rr] = new;
             va = va.sub(d.scale(ma * dz));
-            wa = wa.sub(q.ang(rr, 2, half).scale(dz));
+            wa = wa.sub(q.ang(head, rr, 2, half).scale(dz));
             vb = vb.add(d.scale(mb * dz));
-            wb = wb.add(q.ang(rr, 3, half).scale(dz));
+            wb = wb.add(q.ang(head, rr, 3, half).scale(dz));
         }
     }
     // Each value's lanes stored once, then written lane by lane.
@@ -793,9 +797,9 @@ fn warm_lanes<L: Lane, const W: usize>(
             .add(head.dir(1, half).scale(z[1]))
             .add(head.dir(2, half).scale(z[2]));
         va = va.sub(lin.scale(ma));
-        wa = wa.sub(q.ang_sum(&z, 2, half));
+        wa = wa.sub(q.inv_sum(&z, 0, half));
         vb = vb.add(lin.scale(mb));
-        wb = wb.add(q.ang_sum(&z, 3, half));
+        wb = wb.add(q.inv_sum(&z, 1, half));
     }
     store(v, w, &ab, [va, wa, vb, wb], rows.fixed);
     true
@@ -823,15 +827,15 @@ fn rotate<L: Lane>([x, y, z]: &[Lanes3<L>; 3], r: Lanes3<L>) -> Lanes3<L> {
 /// manifold per lane, their points in order (`ab[l]`: lane `l`'s two bodies, their
 /// displacements `(Δx, ΔR)` in `dp`, `rot`), `Δd = (Δx_b + ΔR_b r_b) − (Δx_a + ΔR_a
 /// r_a)`: the scalar arithmetic of `update_gaps` per lane in the same order (the same
-/// bits). `shared`: where the manifolds are a packed pair, their shared rows and lane
-/// half ([`Paired::of`]), whose normals are every point's (the same bits): loaded
-/// once instead of gathered per point. Returns false, having written nothing, where
-/// the point counts differ.
+/// bits). `shared`: where the manifolds are a packed pair, their packed rows and lane
+/// half ([`Paired::shared`]), whose normals are every point's (the same bits): the
+/// normals loaded once and the anchors point by point, instead of gathered per
+/// point. Returns false, having written nothing, where the point counts differ.
 #[inline(always)]
 pub(super) fn manifold_gaps(
     rows: &Rows,
     pts: [&[usize]; 2],
-    shared: Normals,
+    shared: Option<Normals>,
     ab: [[usize; 2]; 2],
     disp: (&[DVec3], &[DMat3]),
     gap: &mut [f64],
@@ -839,17 +843,17 @@ pub(super) fn manifold_gaps(
     gaps_lanes::<f64x2, 2>(rows, pts, shared, ab, disp, gap)
 }
 
-/// The shared rows of a packed pair or quad of manifolds and the half of their lanes
-/// a pair takes (0 for a quad), where the gap pass takes exactly those manifolds
-/// ([`manifold_gaps`]).
-pub(super) type Normals<'a> = Option<(&'a HeadRows, usize)>;
+/// The shared rows and the points' rows of a packed pair or quad of manifolds and the
+/// half of their lanes a pair takes (0 for a quad), where the gap pass takes exactly
+/// those manifolds ([`manifold_gaps`]).
+pub(super) type Normals<'a> = (&'a HeadRows, &'a [QuadRows], usize);
 
 /// [`manifold_gaps`] on `W` manifolds with as many points in the `W` lanes of `L`.
 #[inline(always)]
 fn gaps_lanes<L: Lane, const W: usize>(
     rows: &Rows,
     pts: [&[usize]; W],
-    shared: Normals,
+    shared: Option<Normals>,
     ab: [[usize; 2]; W],
     (dp, rot): (&[DVec3], &[DMat3]),
     gap: &mut [f64],
@@ -871,14 +875,20 @@ fn gaps_lanes<L: Lane, const W: usize>(
     let xb = Lanes3::<L>::of(|l| dp[ab[l][1]]);
     let ra_m = columns::<L, W>(each_ref(|l| &rot[ab[l][0]]));
     let rb_m = columns::<L, W>(each_ref(|l| &rot[ab[l][1]]));
-    let shared = shared.map(|(head, half)| head.dir::<L>(0, half));
+    let shared = shared
+        .and_then(|(head, rows, half)| Some((head.dir::<L>(0, half), rows.get(..len)?, half)));
     for i in 0..len {
         let p: [usize; W] = each(|l| pts[l][i]);
-        let ra = Lanes3::<L>::of(|l| anchor[p[l]][0]);
-        let rb = Lanes3::<L>::of(|l| anchor[p[l]][1]);
-        let nrm = match shared {
-            Some(n) => n,
-            None => Lanes3::<L>::of(|l| dir[p[l]][0]),
+        let (ra, rb, nrm) = match shared {
+            Some((n, rows, half)) => {
+                let [ra, rb] = rows[i].anchors(half);
+                (ra, rb, n)
+            }
+            None => (
+                Lanes3::<L>::of(|l| anchor[p[l]][0]),
+                Lanes3::<L>::of(|l| anchor[p[l]][1]),
+                Lanes3::<L>::of(|l| dir[p[l]][0]),
+            ),
         };
         let [base] = L::gather(|l| [base_gap[p[l]]]);
         let dd = xb.add(rotate(&rb_m, rb)).sub(xa.add(rotate(&ra_m, ra)));

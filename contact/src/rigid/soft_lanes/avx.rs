@@ -315,7 +315,7 @@ passes! {
     fn gaps_avx / gaps_wide(
         rows: &Rows,
         pts: [&[usize]; 4],
-        shared: Normals,
+        shared: Option<Normals>,
         ab: [[usize; 2]; 4],
         disp: (&[DVec3], &[DMat3]),
         gap: &mut [f64],
@@ -354,7 +354,7 @@ type BlockPass = unsafe fn(&Rows, Pack, [&Block; 4], &mut RelaxIo, Pass) -> bool
 type GapsPass = unsafe fn(
     &Rows,
     [&[usize]; 4],
-    Normals,
+    Option<Normals>,
     [[usize; 2]; 4],
     (&[DVec3], &[DMat3]),
     &mut [f64],
@@ -433,7 +433,7 @@ pub(in crate::rigid) fn gaps_quad(
     _: Avx,
     rows: &Rows,
     pts: [&[usize]; 4],
-    shared: Normals,
+    shared: Option<Normals>,
     ab: [[usize; 2]; 4],
     disp: (&[DVec3], &[DMat3]),
     gap: &mut [f64],

@@ -54,7 +54,7 @@ pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
                     *x = if r == 4 {
                         head.dir(0, half)
                     } else {
-                        q.ang(0, r, half)
+                        q.ang(head, 0, r, half)
                     };
                 }
                 // `c_i` of the lanes at once: one lane division where the scalar

@@ -4,22 +4,26 @@
 //! - [`HeadRows`], once per group of manifolds (a packed pair, or a quad): what every
 //!   point of a manifold shares, normal and tangents, the inverse masses and the
 //!   friction coefficient (12 four-lane values);
-//! - [`QuadRows`], once per place of the group's points: the angular terms and the
-//!   effective masses (39 values), the inverse-inertia terms first (the warm start
-//!   reads only those of a point);
+//! - [`QuadRows`], once per place of the group's points: the inverse-inertia terms
+//!   `I⁻¹(r × d)` first (the warm start reads only those of a point), the anchors
+//!   `r_a`, `r_b` (the passes take `r × d` from them and the shared directions, as
+//!   `prepare` does: the same bits) and the effective masses (27 values);
 //! - [`BlockRows`], beside them: `K⁻¹` and `c` of the block normal solves (5 values),
 //!   read by the biased pass alone.
 //!
 //! Before, one 56-value entry per place held all of them (1,792 B, the shared values
-//! repeated at every point): the 210-box pyramid's passes streamed about 717 KB of
-//! it a step.
+//! repeated at every point, `r × d` stored): the 210-box pyramid's passes streamed
+//! about 717 KB of it a step. Computing `r × d` in the passes (six cross products a
+//! place and pass) instead of loading it: `soft_points pyramid20` a step 4913.2k →
+//! 5048.9k instructions, 178.9k → 162.8k D1 misses (cachegrind, the gap pass reading
+//! the packed anchors too); stack10 136.6k → 141.3k instructions.
 
 use alloc::vec::Vec;
 
 use constraint_core::DVec3;
 use wide::f64x2;
 
-use super::{pair, Avx, Lane, Lanes3, Quad};
+use super::{pair, Avx, Lane, Lanes3, Normals, Quad};
 use crate::rigid::colouring::Colouring;
 use crate::rigid::soft_step::BLOCK_POINTS;
 
@@ -97,32 +101,59 @@ pub(in crate::rigid) struct QuadRows {
     /// Per direction `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)` (first and contiguous: all the
     /// warm start reads of a point).
     inv: [[Quad3; 2]; 3],
-    /// Per direction `r_a × d`, `r_b × d`.
-    cross: [[Quad3; 2]; 3],
+    /// The anchors `r_a`, `r_b` (from the bodies' centres): the passes take `r × d`
+    /// from them as `prepare` does (six values where the three directions' `r_a ×
+    /// d`, `r_b × d` took eighteen).
+    anchor: [Quad3; 2],
     /// Effective masses of the three rows.
     mass: [Quad; 3],
+}
+
+/// `r × d` per lane as `prepare`'s `angular_terms` (glam's `cross`): `(r_y d_z − d_y
+/// r_z, r_z d_x − d_z r_x, r_x d_y − d_x r_y)`, the same operations (the same bits).
+#[inline(always)]
+fn cross<L: Lane>(r: Lanes3<L>, d: Lanes3<L>) -> Lanes3<L> {
+    Lanes3 {
+        x: r.y * d.z - d.y * r.z,
+        y: r.z * d.x - d.z * r.x,
+        z: r.x * d.y - d.x * r.y,
+    }
 }
 
 impl QuadRows {
     /// Angular term `k` of direction `r` of the lanes, in the order `r_a × d`, `r_b ×
     /// d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)` (`k` a constant once inlined: no
-    /// branch).
+    /// branch); `head`: the lanes' shared rows (their directions).
     #[inline(always)]
-    pub(super) fn ang<L: Lane>(&self, r: usize, k: usize, half: usize) -> Lanes3<L> {
+    pub(super) fn ang<L: Lane>(
+        &self,
+        head: &HeadRows,
+        r: usize,
+        k: usize,
+        half: usize,
+    ) -> Lanes3<L> {
         if k < 2 {
-            self.cross[r][k].load(half)
+            cross(self.anchor[k].load(half), head.dir(r, half))
         } else {
             self.inv[r][k - 2].load(half)
         }
     }
 
-    /// `Σ_r ang[r][k] λ_r`, summed left to right (an angular part of `M⁻¹ Jᵀ λ`).
+    /// The anchors `r_a`, `r_b` of the lanes.
     #[inline(always)]
-    pub(super) fn ang_sum<L: Lane>(&self, z: &[L; 3], k: usize, half: usize) -> Lanes3<L> {
-        self.ang(0, k, half)
+    pub(super) fn anchors<L: Lane>(&self, half: usize) -> [Lanes3<L>; 2] {
+        [self.anchor[0].load(half), self.anchor[1].load(half)]
+    }
+
+    /// `Σ_r I⁻¹(r_k × d_r) λ_r` (`k` 0: body a, 1: body b), summed left to right (an
+    /// angular part of `M⁻¹ Jᵀ λ`).
+    #[inline(always)]
+    pub(super) fn inv_sum<L: Lane>(&self, z: &[L; 3], k: usize, half: usize) -> Lanes3<L> {
+        let inv = |r: usize| self.inv[r][k].load::<L>(half);
+        inv(0)
             .scale(z[0])
-            .add(self.ang(1, k, half).scale(z[1]))
-            .add(self.ang(2, k, half).scale(z[2]))
+            .add(inv(1).scale(z[1]))
+            .add(inv(2).scale(z[2]))
     }
 
     /// The effective mass of row `r` of the lanes.
@@ -203,6 +234,8 @@ pub(in crate::rigid) struct Paired {
 
 /// One point's rows as `prepare` computes them (what [`Paired::put`] writes).
 pub(in crate::rigid) struct PointRows<'a> {
+    /// The anchors `r_a`, `r_b`.
+    pub(in crate::rigid) anchor: [DVec3; 2],
     /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
     pub(in crate::rigid) ang: &'a [[DVec3; 4]; 3],
     /// Effective masses.
@@ -224,7 +257,7 @@ const ZERO_HEAD: HeadRows = HeadRows {
 };
 const ZERO_ROWS: QuadRows = QuadRows {
     inv: [[ZERO_QUAD3; 2]; 3],
-    cross: [[ZERO_QUAD3; 2]; 3],
+    anchor: [ZERO_QUAD3; 2],
     mass: [ZERO_QUAD; 3],
 };
 const ZERO_BLOCK: BlockRows = BlockRows {
@@ -364,10 +397,10 @@ impl Paired {
             return;
         };
         let (h, l) = ((at / 2 % 2) as usize, (at % 2) as usize);
+        pr.anchor[0].set(h, l, point.anchor[0]);
+        pr.anchor[1].set(h, l, point.anchor[1]);
         for r in 0..3 {
             let ang = &point.ang[r];
-            pr.cross[r][0].set(h, l, ang[0]);
-            pr.cross[r][1].set(h, l, ang[1]);
             pr.inv[r][0].set(h, l, ang[2]);
             pr.inv[r][1].set(h, l, ang[3]);
             pr.mass[r][h].as_mut_array()[l] = point.mass[r];
@@ -436,17 +469,19 @@ impl Paired {
         self.off.iter().filter(|&&o| o).count()
     }
 
-    /// The shared rows of manifold pair `(j, j + 1)`, the half of their lanes it
-    /// takes and whether it starts a quad, if packed (and its group's normals shared
-    /// this step): [`Paired::of`] without the points' rows.
+    /// The shared rows and the points' rows of manifold pair `(j, j + 1)` (`len`
+    /// points each), the half of their lanes it takes and whether it starts a quad,
+    /// if packed (and its group's normals shared this step): [`Paired::of`] without
+    /// the blocks.
     #[inline(always)]
-    pub(in crate::rigid) fn shared(&self, j: usize) -> Option<(&HeadRows, usize, bool)> {
+    pub(in crate::rigid) fn shared(&self, j: usize, len: usize) -> Option<(Normals<'_>, bool)> {
         let f = *self.first.get(j)?;
         let k = (f / 2) as usize;
         if *self.off.get(k)? {
             return None;
         }
-        Some((self.heads.get(k)?, (f % 2) as usize, *self.quad.get(j)?))
+        let (head, rows) = (self.heads.get(k)?, self.rows.get(k..k + len)?);
+        Some(((head, rows, (f % 2) as usize), *self.quad.get(j)?))
     }
 
     /// Whether the passes take manifolds four at a time this step.

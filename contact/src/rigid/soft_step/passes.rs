@@ -151,10 +151,10 @@ pub(super) fn update_gaps(st: &mut SoftState) {
             // A packed quad (its shared normals), or four other manifolds with as many
             // points none of which starts a packed pair, at a time in AVX lanes, where
             // the processor has AVX.
-            let shared = paired.shared(j);
+            let shared = paired.shared(j, len);
             let free = |k: usize| (1..k).all(|m| !paired.starts(j + m));
             let four = match shared {
-                Some((_, _, quad)) => quad,
+                Some((_, quad)) => quad,
                 None => j + 3 < manifolds && free(4),
             };
             if let (Some(avx), true) = (avx, four) {
@@ -166,7 +166,7 @@ pub(super) fn update_gaps(st: &mut SoftState) {
                         rows.slots[ms[2][0]],
                         rows.slots[ms[3][0]],
                     ];
-                    let normals = shared.map(|(head, _, _)| (head, 0));
+                    let normals = shared.map(|((head, rows, _), _)| (head, rows, 0));
                     if gaps_quad(avx, &rows, ms, normals, ab, (vel.dp, vel.rot), &mut gap) {
                         j += 4;
                         continue;
@@ -179,7 +179,7 @@ pub(super) fn update_gaps(st: &mut SoftState) {
                 let m1 = &pts[mp[j + 1]..mp[j + 2]];
                 if let Some(&first1) = m1.first() {
                     let ab = [[a, b], rows.slots[first1]];
-                    let normals = shared.map(|(head, half, _)| (head, half));
+                    let normals = shared.map(|(normals, _)| normals);
                     let disp = (vel.dp, vel.rot);
                     if manifold_gaps(&rows, [m0, m1], normals, ab, disp, &mut gap) {
                         j += 2;

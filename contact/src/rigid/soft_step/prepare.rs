@@ -651,7 +651,14 @@ impl ContactWorld {
                     let r = rb - ra;
                     slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
                 }
-                paired.put(p, PointRows { ang, mass });
+                paired.put(
+                    p,
+                    PointRows {
+                        anchor: [ra, rb],
+                        ang,
+                        mass,
+                    },
+                );
                 slots[p] = [a, b];
                 dir[p] = dirs;
                 anchor[p] = [ra, rb];
