@@ -236,7 +236,8 @@ pub(in crate::rigid) struct Paired {
 pub(in crate::rigid) struct PointRows<'a> {
     /// The anchors `r_a`, `r_b`.
     pub(in crate::rigid) anchor: [DVec3; 2],
-    /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
+    /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)` (the
+    /// last two packed; the passes take the first two from the anchors).
     pub(in crate::rigid) ang: &'a [[DVec3; 4]; 3],
     /// Effective masses.
     pub(in crate::rigid) mass: [f64; 3],
