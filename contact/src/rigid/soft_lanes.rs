@@ -26,13 +26,11 @@
 //! that the four-lane passes load them with one 256-bit load and the two-lane passes
 //! with one 128-bit load of either half.
 
-use alloc::vec::Vec;
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
 use constraint_core::{DMat3, DVec3};
 use wide::f64x2;
 
-use super::colouring::Colouring;
 use super::soft_step::{Block, Pass, Rows, BLOCK_POINTS};
 
 // The crate's one `unsafe`: AVX intrinsics, run only where the processor has AVX.
@@ -44,11 +42,15 @@ pub(super) use avx::{block_quad, build_quad, fill_points, gaps_quad, relax_quad,
 mod build;
 pub(super) use build::{build_lanes, Built};
 
+mod packed;
+use packed::{HeadRows, Pack, QuadRows};
+pub(super) use packed::{Paired, PointRows};
+
 /// Without AVX (other processors, or `no_std` builds without
 /// `-C target-feature=+avx`): no quads ([`Paired::quad`] is `None`), two lanes only.
 #[cfg(not(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx"))))]
 mod avx {
-    use super::{Block, DMat3, DVec3, Pass, QuadRows, RelaxIo, Rows};
+    use super::{Block, DMat3, DVec3, Normals, Pack, Pass, RelaxIo, Rows};
 
     /// Declines (no AVX builds of the preparation's per-point loop here).
     pub(in crate::rigid) fn fill_points(
@@ -75,7 +77,7 @@ mod avx {
     pub(in crate::rigid) fn build_quad(
         avx: Avx,
         _: &Rows,
-        _: &[QuadRows],
+        _: Pack,
         _: [&[usize]; 4],
         _: [&mut Block; 4],
     ) -> super::Built {
@@ -87,6 +89,7 @@ mod avx {
         avx: Avx,
         _: &Rows,
         _: [&[usize]; 4],
+        _: Option<Normals>,
         _: [[usize; 2]; 4],
         _: (&[DVec3], &[DMat3]),
         _: &mut [f64],
@@ -97,7 +100,7 @@ mod avx {
     /// Declines (no four-lane passes here).
     pub(in crate::rigid) fn relax_quad(
         _: &Rows,
-        _: Option<&[QuadRows]>,
+        _: Option<Pack>,
         _: [&[usize]; 4],
         _: &mut RelaxIo,
         _: f64,
@@ -108,7 +111,7 @@ mod avx {
     /// Declines (no four-lane passes here).
     pub(in crate::rigid) fn warm_quad(
         _: &Rows,
-        _: Option<&[QuadRows]>,
+        _: Option<Pack>,
         _: [&[usize]; 4],
         _: &mut [DVec3],
         _: &mut [DVec3],
@@ -120,7 +123,7 @@ mod avx {
     /// Declines (no four-lane passes here).
     pub(in crate::rigid) fn block_quad(
         _: &Rows,
-        _: Option<&[QuadRows]>,
+        _: Option<Pack>,
         _: [&Block; 4],
         _: &mut RelaxIo,
         _: Pass,
@@ -239,16 +242,6 @@ impl<L: Lane> Lanes3<L> {
         Self { x, y, z }
     }
 
-    /// The lanes of packed vector `q` ([`Lane::load`]).
-    #[inline(always)]
-    fn load(q: &Quad3, half: usize) -> Self {
-        Self {
-            x: L::load(&q.x, half),
-            y: L::load(&q.y, half),
-            z: L::load(&q.z, half),
-        }
-    }
-
     /// The lanes of each component stored once ([`Lane::array`]).
     #[inline(always)]
     fn array(self) -> Arrays3 {
@@ -338,130 +331,6 @@ fn at_most(x: f64x2, hi: f64x2) -> f64x2 {
     }
 }
 
-/// Four lanes of a packed 3-vector.
-#[derive(Clone, Copy, Debug)]
-struct Quad3 {
-    x: Quad,
-    y: Quad,
-    z: Quad,
-}
-
-impl Quad3 {
-    /// Sets lane `h, l` (half `h`, lane `l` of it) to `v`.
-    #[inline(always)]
-    fn set(&mut self, h: usize, l: usize, v: DVec3) {
-        self.x[h].as_mut_array()[l] = v.x;
-        self.y[h].as_mut_array()[l] = v.y;
-        self.z[h].as_mut_array()[l] = v.z;
-    }
-}
-
-/// The rows of four points side by side, one per lane (written by `prepare` once per
-/// step, so that the passes load the lanes of each value at once instead of
-/// gathering them from four places). 32-byte aligned: every value's four lanes are
-/// one aligned 256-bit load.
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
-pub(super) struct QuadRows {
-    /// Normal and tangents.
-    dir: [Quad3; 3],
-    /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
-    ang: [[Quad3; 4]; 3],
-    /// Effective masses of the three rows.
-    mass: [Quad; 3],
-    /// Inverse masses of the two bodies as the rows see them.
-    im: [Quad; 2],
-    friction: Quad,
-    /// Of a block of [`BLOCK_POINTS`] points per lane (point `i` of the manifolds):
-    /// row `i` of `K⁻¹`, by column, and `c_i` (written by `build_blocks` with the
-    /// blocks, [`Paired::put_block`]; read by the biased pass only where every lane's
-    /// block was built this step).
-    kinv: [Quad; BLOCK_POINTS],
-    c: Quad,
-}
-
-impl QuadRows {
-    /// Direction `r` (normal, tangents) of the lanes ([`Lane::load`]).
-    #[inline(always)]
-    fn dir<L: Lane>(&self, r: usize, half: usize) -> Lanes3<L> {
-        Lanes3::load(&self.dir[r], half)
-    }
-
-    /// Angular term `k` of direction `r` of the lanes ([`QuadRows::ang`]'s order).
-    #[inline(always)]
-    fn ang<L: Lane>(&self, r: usize, k: usize, half: usize) -> Lanes3<L> {
-        Lanes3::load(&self.ang[r][k], half)
-    }
-
-    /// `Σ_r ang[r][k] λ_r`, summed left to right (an angular part of `M⁻¹ Jᵀ λ`).
-    #[inline(always)]
-    fn ang_sum<L: Lane>(&self, z: &[L; 3], k: usize, half: usize) -> Lanes3<L> {
-        self.ang(0, k, half)
-            .scale(z[0])
-            .add(self.ang(1, k, half).scale(z[1]))
-            .add(self.ang(2, k, half).scale(z[2]))
-    }
-}
-
-/// The rows packed four points at a time, per quad of manifolds: the manifolds of
-/// each colour before the overflow colour (no shared moving body) taken two at a
-/// time, `(j, j + 1)` from the colour's first, as the passes take them; where the two
-/// have the same point count (at most [`BLOCK_POINTS`]) their points' rows side by
-/// side, place by place (the passes read them in order: no lookup per point), in
-/// lanes 0–1, and where the next pair `(j + 2, j + 3)` of the colour has that point
-/// count too, its rows in lanes 2–3 of the same entries (a quad: the four-lane passes
-/// take the four manifolds at once), the quad's next pair then starting at `j + 4`.
-/// Kept buffers: no allocation once grown.
-#[derive(Clone, Debug, Default)]
-pub(super) struct Paired {
-    rows: Vec<QuadRows>,
-    /// Of manifold pair `(j, j + 1)`, by `j` (colour order): `2 ×` where its rows
-    /// start in `rows` `+` the half of the lanes they take (`u32::MAX` where `j`
-    /// starts no packed pair).
-    first: Vec<u32>,
-    /// Whether manifold `j` starts a quad (pairs `(j, j + 1)` and `(j + 2, j + 3)` in
-    /// the two halves of the same entries).
-    quad: Vec<bool>,
-    /// Of each point (solve position): `4 ×` its entry in `rows` `+` its lane
-    /// (`u32::MAX` where it is not packed).
-    lane_of: Vec<u32>,
-    /// Where the passes take quads four lanes at a time (the processor has AVX:
-    /// [`Avx::detect`], checked once per step by [`Paired::plan`]).
-    avx: Option<Avx>,
-}
-
-/// One point's rows as `prepare` computes them (what [`Paired::put`] writes).
-pub(super) struct PointRows<'a> {
-    /// Normal and tangents.
-    pub(super) dir: &'a [DVec3; 3],
-    /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)`.
-    pub(super) ang: &'a [[DVec3; 4]; 3],
-    /// Effective masses.
-    pub(super) mass: [f64; 3],
-    /// Inverse masses as the rows see them.
-    pub(super) im: [f64; 2],
-    /// Friction coefficient.
-    pub(super) friction: f64,
-}
-
-const ZERO_QUAD: Quad = [f64x2::ZERO; 2];
-const ZERO_QUAD3: Quad3 = Quad3 {
-    x: ZERO_QUAD,
-    y: ZERO_QUAD,
-    z: ZERO_QUAD,
-};
-
-/// Rows of zeros (the entries `Paired::plan` sizes before `prepare` writes them).
-const ZERO_ROWS: QuadRows = QuadRows {
-    dir: [ZERO_QUAD3; 3],
-    ang: [[ZERO_QUAD3; 4]; 3],
-    mass: [ZERO_QUAD; 3],
-    im: [ZERO_QUAD; 2],
-    friction: ZERO_QUAD,
-    kinv: [ZERO_QUAD; BLOCK_POINTS],
-    c: ZERO_QUAD,
-};
-
 /// Where this processor runs the four-lane passes (AVX: detected at run time with
 /// `std`, or compiled in with `-C target-feature=+avx`; never without `std` otherwise).
 #[inline]
@@ -471,172 +340,6 @@ fn four_lanes() -> Option<Avx> {
         return None;
     }
     Avx::detect()
-}
-
-impl Paired {
-    /// Pairs up the manifolds of `colouring` (pairs of pairs into quads where they
-    /// have the same point count) and sizes the packed rows; `prepare` then writes
-    /// each point's rows into its lane ([`Paired::put`]) as it computes them (packing
-    /// them afterwards from the state's arrays read them back, 3 % of the 210-box
-    /// pyramid's step).
-    pub(super) fn plan(&mut self, colouring: &Colouring) {
-        let (mp, pts) = (&colouring.manifold_start, &colouring.manifold_points);
-        let manifolds = mp.len().saturating_sub(1);
-        self.avx = four_lanes();
-        self.first.clear();
-        self.first.resize(manifolds, u32::MAX);
-        self.quad.clear();
-        self.quad.resize(manifolds, false);
-        self.lane_of.clear();
-        self.lane_of.resize(pts.len(), u32::MAX);
-        let starts = &colouring.colour_start;
-        let colours = starts.len().saturating_sub(1);
-        let serial = colouring.serial_from + 1 < colouring.ranges.len();
-        let laned = if serial { colours - 1 } else { colours };
-        let mut count = 0;
-        for c in 0..laned {
-            let (mut j, hi) = (starts[c], starts[c + 1]);
-            while j + 1 < hi {
-                let manifold = |k: usize| &pts[mp[k]..mp[k + 1]];
-                let len = manifold(j).len();
-                // Past both where their point counts differ. Stepping by one instead
-                // (the passes too), so that a pair may start at an odd place, packed
-                // more of the 1000-box pile's manifolds but cost more: 25.58M → 25.89M
-                // instructions a step (callgrind, `soft_points pile1000`, (I(300 3) −
-                // I(200 3))/100; the 10-box stack and the pyramid unchanged).
-                if len == 0 || len > BLOCK_POINTS || manifold(j + 1).len() != len {
-                    j += 2;
-                    continue;
-                }
-                let quad = j + 3 < hi && (2..4).all(|m| manifold(j + m).len() == len);
-                let lanes = if quad { 4 } else { 2 };
-                self.first[j] = 2 * count as u32;
-                if quad {
-                    self.first[j + 2] = 2 * count as u32 + 1;
-                    self.quad[j] = true;
-                }
-                for m in 0..lanes {
-                    for (i, &p) in manifold(j + m).iter().enumerate() {
-                        if let Some(l) = self.lane_of.get_mut(p) {
-                            *l = 4 * (count + i) as u32 + m as u32;
-                        }
-                    }
-                }
-                count += len;
-                j += lanes;
-            }
-        }
-        // Kept at least at its bound (an entry holds two points or more; grown as
-        // `Vec` grows, doubling), so that a step that packs more pairs than any before
-        // does not allocate: the 6-level pyramid's colouring packed one more pair at
-        // step 70 with `preload_cap_margin` 4, and `soft_step_allocations` saw it.
-        let bound = pts.len() / 2;
-        if self.rows.capacity() < bound {
-            self.rows.reserve(bound - self.rows.len());
-        }
-        // Every entry is written by `put` before the passes read it.
-        self.rows.resize(count, ZERO_ROWS);
-    }
-
-    /// Writes point `p`'s rows into its lane, if it is in a packed pair.
-    ///
-    /// Compiled (out of line, to read it) to the 51 loads and 51 stores of the
-    /// values and 15 instructions of lane lookup, nothing else. Written instead row by
-    /// row from registers as `prepare` computes each (a lane handle per point, the
-    /// branch per row or per point), the 210-box pyramid's step took 5.366M →
-    /// 5.398M / 5.409M instructions and stack10's 157.4k → 158.5k / 158.3k (the
-    /// values kept live spill; callgrind per step, `soft_points pyramid20 40 3`
-    /// minus `20 3`, over 20).
-    #[inline(always)]
-    pub(super) fn put(&mut self, p: usize, point: PointRows) {
-        let Some(&at) = self.lane_of.get(p) else {
-            return;
-        };
-        let Some(pr) = self.rows.get_mut((at / 4) as usize) else {
-            return;
-        };
-        let (h, l) = ((at / 2 % 2) as usize, (at % 2) as usize);
-        for r in 0..3 {
-            pr.dir[r].set(h, l, point.dir[r]);
-            for k in 0..4 {
-                pr.ang[r][k].set(h, l, point.ang[r][k]);
-            }
-            pr.mass[r][h].as_mut_array()[l] = point.mass[r];
-        }
-        pr.im[0][h].as_mut_array()[l] = point.im[0];
-        pr.im[1][h].as_mut_array()[l] = point.im[1];
-        pr.friction[h].as_mut_array()[l] = point.friction;
-    }
-
-    /// Whether manifold `j` starts a packed pair `(j, j + 1)` (its own or half of a
-    /// quad's).
-    #[inline(always)]
-    pub(super) fn starts(&self, j: usize) -> bool {
-        self.first.get(j).is_some_and(|&f| f != u32::MAX)
-    }
-
-    /// Writes the blocks of the `W` manifolds from `j` (a packed pair, `W` 2, or a
-    /// quad, `W` 4; each of [`BLOCK_POINTS`] points) into their lanes: `kinv[i N +
-    /// c]` the lanes of `K⁻¹`'s entry `(i, c)`, `c[i]` those of `c_i`
-    /// ([`build_lanes`]).
-    #[inline(always)]
-    pub(super) fn put_block<const W: usize>(
-        &mut self,
-        j: usize,
-        kinv: &[[f64; 4]; BLOCK_POINTS * BLOCK_POINTS],
-        c: &[[f64; 4]; BLOCK_POINTS],
-    ) {
-        let Some(&f) = self.first.get(j) else {
-            return;
-        };
-        let (k, half) = ((f / 2) as usize, (f % 2) as usize);
-        let Some(rows) = self.rows.get_mut(k..k + BLOCK_POINTS) else {
-            return;
-        };
-        let put = |q: &mut Quad, x: &[f64; 4]| {
-            q[half] = pair(x[0], x[1]);
-            if W == 4 {
-                q[1] = pair(x[2], x[3]);
-            }
-        };
-        for (i, q) in rows.iter_mut().enumerate() {
-            for (col, e) in q.kinv.iter_mut().enumerate() {
-                put(e, &kinv[i * BLOCK_POINTS + col]);
-            }
-            put(&mut q.c, &c[i]);
-        }
-    }
-
-    /// The packed rows of manifold pair `(j, j + 1)` (`len` points each) and the half
-    /// of their lanes it takes, if packed.
-    #[inline(always)]
-    pub(super) fn of(&self, j: usize, len: usize) -> Option<(&[QuadRows], usize)> {
-        let f = *self.first.get(j)?;
-        let k = (f / 2) as usize;
-        Some((self.rows.get(k..k + len)?, (f % 2) as usize))
-    }
-
-    /// Whether the passes take manifolds four at a time this step.
-    #[inline(always)]
-    pub(super) fn four(&self) -> bool {
-        self.avx.is_some()
-    }
-
-    /// Where the passes take manifolds four at a time this step: the proof of AVX.
-    #[inline(always)]
-    pub(super) fn avx(&self) -> Option<Avx> {
-        self.avx
-    }
-
-    /// The packed rows of the quad of manifolds `j … j + 3` (`len` points each), if
-    /// `j` starts one and the passes take quads ([`Paired::four`]).
-    #[inline(always)]
-    pub(super) fn quad(&self, j: usize, len: usize) -> Option<&[QuadRows]> {
-        if self.avx.is_none() || !*self.quad.get(j)? {
-            return None;
-        }
-        self.of(j, len).map(|(rows, _)| rows)
-    }
 }
 
 /// The velocities and impulses the lane passes write (the single-thread state's own
@@ -684,12 +387,8 @@ fn each<T: Copy + Default, const W: usize>(mut f: impl FnMut(usize) -> T) -> [T;
 /// side by side (`pr`) with the same number of points; `None` otherwise (the caller
 /// then solves them one point at a time).
 #[inline(always)]
-fn packed<const W: usize>(
-    rows: &Rows,
-    pr: &[QuadRows],
-    pts: &[&[usize]; W],
-) -> Option<[[usize; 2]; W]> {
-    let len = pr.len();
+fn packed<const W: usize>(rows: &Rows, pr: Pack, pts: &[&[usize]; W]) -> Option<[[usize; 2]; W]> {
+    let len = pr.rows.len();
     if len == 0 || pts.iter().any(|m| m.len() != len) {
         return None;
     }
@@ -765,7 +464,7 @@ fn store<L: Lane, const W: usize>(
 #[inline(always)]
 pub(super) fn relax_manifolds(
     rows: &Rows,
-    pr: Option<(&[QuadRows], usize)>,
+    pr: Option<(Pack, usize)>,
     pts: [&[usize]; 2],
     io: &mut RelaxIo,
     inv_h: f64,
@@ -778,7 +477,7 @@ pub(super) fn relax_manifolds(
 #[inline(always)]
 fn relax_lanes<L: Lane, const W: usize>(
     rows: &Rows,
-    pr: &[QuadRows],
+    pr: Pack,
     half: usize,
     pts: [&[usize]; W],
     io: &mut RelaxIo,
@@ -797,10 +496,10 @@ fn relax_lanes<L: Lane, const W: usize>(
     };
     let io = &mut io;
     let [mut va, mut wa, mut vb, mut wb] = load::<L, W>(io.v, io.w, &ab);
-    for (i, q) in pr.iter().enumerate() {
+    for (i, q) in pr.rows.iter().enumerate() {
         let p: [usize; W] = each(|l| pts[l][i]);
         let vel = (&mut va, &mut wa, &mut vb, &mut wb);
-        relax_rows(q, half, &p, io, vel, inv_h);
+        relax_rows(pr.head, q, half, &p, io, vel, inv_h);
     }
     store(io.v, io.w, &ab, [va, wa, vb, wb], rows.fixed);
     true
@@ -810,6 +509,7 @@ fn relax_lanes<L: Lane, const W: usize>(
 /// (`[v_a, ω_a, v_b, ω_b]`).
 #[inline(always)]
 fn relax_rows<L: Lane, const W: usize>(
+    head: &HeadRows,
     pr: &QuadRows,
     half: usize,
     p: &[usize; W],
@@ -822,7 +522,7 @@ fn relax_rows<L: Lane, const W: usize>(
     ),
     inv_h: f64,
 ) {
-    let (ma, mb) = (L::load(&pr.im[0], half), L::load(&pr.im[1], half));
+    let (ma, mb) = head.im::<L>(half);
     // Speculative where separated: approach at most to the surface within the
     // sub-step; rigid (mass_scale 1, impulse_scale 0, no preload) either way.
     // The point's impulses, largest normal impulse and gap gathered at once.
@@ -835,30 +535,32 @@ fn relax_rows<L: Lane, const W: usize>(
     // `gap · inv_h` where `gap > 0`, else `+0`: `max(gap, 0) · inv_h` per lane (a NaN
     // gap gives 0 either way; `inv_h` is positive and finite: see `relax_lanes`).
     let bias = gap.at_least(zero) * L::splat(inv_h);
-    let d0 = Lanes3::<L>::load(&pr.dir[0], half);
-    let vn = d0.dot(vb.sub(*va)) + pr.ang(0, 1, half).dot(*wb) - pr.ang(0, 0, half).dot(*wa);
-    let mass0 = L::load(&pr.mass[0], half);
+    let d0 = head.dir::<L>(0, half);
+    let vn =
+        d0.dot(vb.sub(*va)) + pr.ang(head, 0, 1, half).dot(*wb) - pr.ang(head, 0, 0, half).dot(*wa);
+    let mass0 = pr.mass::<L>(0, half);
     let new = (z0 - mass0 * one * (vn + bias) - zero * (z0 - zero)).at_least(zero);
     let dz = new - z0;
     let max_normal = new.at_least(most);
     *va = va.sub(d0.scale(ma * dz));
-    *wa = wa.sub(pr.ang(0, 2, half).scale(dz));
+    *wa = wa.sub(pr.ang(head, 0, 2, half).scale(dz));
     *vb = vb.add(d0.scale(mb * dz));
-    *wb = wb.add(pr.ang(0, 3, half).scale(dz));
-    let bound = L::load(&pr.friction, half) * new;
+    *wb = wb.add(pr.ang(head, 0, 3, half).scale(dz));
+    let bound = head.friction::<L>(half) * new;
     let mut z = [new, z1, z2];
     for r in 1..3 {
-        let d = Lanes3::<L>::load(&pr.dir[r], half);
+        let d = head.dir::<L>(r, half);
         let zr = z[r];
-        let vt = d.dot(vb.sub(*va)) + pr.ang(r, 1, half).dot(*wb) - pr.ang(r, 0, half).dot(*wa);
-        let unbounded = zr - L::load(&pr.mass[r], half) * vt;
+        let vt = d.dot(vb.sub(*va)) + pr.ang(head, r, 1, half).dot(*wb)
+            - pr.ang(head, r, 0, half).dot(*wa);
+        let unbounded = zr - pr.mass::<L>(r, half) * vt;
         let new = unbounded.at_most(bound).at_least(-bound);
         let dz = new - zr;
         z[r] = new;
         *va = va.sub(d.scale(ma * dz));
-        *wa = wa.sub(pr.ang(r, 2, half).scale(dz));
+        *wa = wa.sub(pr.ang(head, r, 2, half).scale(dz));
         *vb = vb.add(d.scale(mb * dz));
-        *wb = wb.add(pr.ang(r, 3, half).scale(dz));
+        *wb = wb.add(pr.ang(head, r, 3, half).scale(dz));
     }
     // Each value's lanes stored once, then written lane by lane.
     let [z0, z1, z2, m] = [z[0].array(), z[1].array(), z[2].array(), max_normal.array()];
@@ -880,7 +582,7 @@ fn relax_rows<L: Lane, const W: usize>(
 #[inline(always)]
 pub(super) fn block_pair(
     rows: &Rows,
-    pr: Option<(&[QuadRows], usize)>,
+    pr: Option<(Pack, usize)>,
     blk: [&Block; 2],
     io: &mut RelaxIo,
     pass: Pass,
@@ -893,7 +595,7 @@ pub(super) fn block_pair(
 #[inline(always)]
 fn block_lanes<L: Lane, const W: usize>(
     rows: &Rows,
-    pr: &[QuadRows],
+    pr: Pack,
     half: usize,
     blk: [&Block; W],
     io: &mut RelaxIo,
@@ -901,9 +603,13 @@ fn block_lanes<L: Lane, const W: usize>(
 ) -> bool {
     const N: usize = BLOCK_POINTS;
     let len = blk[0].len;
-    if len == 0 || len > N || blk.iter().any(|b| b.len != len) || pr.len() != len || pass.anchors {
+    if len == 0 || len > N || blk.iter().any(|b| b.len != len) || pass.anchors {
         return false;
     }
+    // One length for the packed rows too (one bounds check each).
+    let (Some(rows_of), Some(blocks_of)) = (pr.rows.get(..len), pr.blocks.get(..len)) else {
+        return false;
+    };
     // One length for every slice indexed by a point (see `RelaxIo::even`).
     let Some(io) = io.even() else {
         return false;
@@ -955,8 +661,9 @@ fn block_lanes<L: Lane, const W: usize>(
     let mut r = [zero; N];
     for i in 0..len {
         let p: [usize; W] = each(|l| blk[l].pts[i]);
-        let (q, d0) = (&pr[i], Lanes3::<L>::load(&pr[i].dir[0], half));
-        let vn = d0.dot(vb.sub(va)) + q.ang(0, 1, half).dot(wb) - q.ang(0, 0, half).dot(wa);
+        let (q, d0) = (&rows_of[i], pr.head.dir::<L>(0, half));
+        let vn = d0.dot(vb.sub(va)) + q.ang(pr.head, 0, 1, half).dot(wb)
+            - q.ang(pr.head, 0, 0, half).dot(wa);
         let bias = (bias_rate * gap[i]).at_least(max_push);
         let [preload, cap, floor] = L::gather(|l| {
             let p = p[l];
@@ -964,7 +671,7 @@ fn block_lanes<L: Lane, const W: usize>(
         });
         // `c` as the blocks' build packed it (the same values) where it did.
         let c = if len == N {
-            L::load(&q.c, half)
+            blocks_of[i].c::<L>(half)
         } else {
             L::gather(|l| [blk[l].c[i]])[0]
         };
@@ -977,12 +684,12 @@ fn block_lanes<L: Lane, const W: usize>(
         // `K⁻¹` as the blocks' build packed it (`Paired::put_block`: every lane's
         // block has `len` N and was built this step), else gathered from the blocks.
         let k = if len == N {
-            let k = &pr[i].kinv;
+            let k = &blocks_of[i];
             [
-                L::load(&k[0], half),
-                L::load(&k[1], half),
-                L::load(&k[2], half),
-                L::load(&k[3], half),
+                k.kinv::<L>(0, half),
+                k.kinv::<L>(1, half),
+                k.kinv::<L>(2, half),
+                k.kinv::<L>(3, half),
             ]
         } else {
             L::gather(|l| {
@@ -1000,33 +707,33 @@ fn block_lanes<L: Lane, const W: usize>(
             return false;
         }
     }
+    let (head, (ma, mb)) = (pr.head, pr.head.im::<L>(half));
     for i in 0..len {
-        let q = &pr[i];
-        let d0 = Lanes3::<L>::load(&q.dir[0], half);
-        let (ma, mb) = (L::load(&q.im[0], half), L::load(&q.im[1], half));
+        let q = &rows_of[i];
+        let d0 = head.dir::<L>(0, half);
         z[i][0] = z[i][0] + dz[i];
         most[i] = z[i][0].at_least(most[i]);
         va = va.sub(d0.scale(ma * dz[i]));
-        wa = wa.sub(Lanes3::load(&q.ang[0][2], half).scale(dz[i]));
+        wa = wa.sub(q.ang(head, 0, 2, half).scale(dz[i]));
         vb = vb.add(d0.scale(mb * dz[i]));
-        wb = wb.add(Lanes3::load(&q.ang[0][3], half).scale(dz[i]));
+        wb = wb.add(q.ang(head, 0, 3, half).scale(dz[i]));
     }
     // Friction point by point (no anchors: velocity rows, |λ_t| ≤ μ λ_n).
     for (i, zi) in z.iter_mut().enumerate().take(len) {
-        let q = &pr[i];
-        let (ma, mb) = (L::load(&q.im[0], half), L::load(&q.im[1], half));
-        let bound = L::load(&q.friction, half) * zi[0];
+        let q = &rows_of[i];
+        let bound = head.friction::<L>(half) * zi[0];
         for rr in 1..3 {
-            let d = Lanes3::<L>::load(&q.dir[rr], half);
-            let vt = d.dot(vb.sub(va)) + q.ang(rr, 1, half).dot(wb) - q.ang(rr, 0, half).dot(wa);
-            let unbounded = zi[rr] - L::load(&q.mass[rr], half) * vt;
+            let d = head.dir::<L>(rr, half);
+            let vt = d.dot(vb.sub(va)) + q.ang(head, rr, 1, half).dot(wb)
+                - q.ang(head, rr, 0, half).dot(wa);
+            let unbounded = zi[rr] - q.mass::<L>(rr, half) * vt;
             let new = unbounded.at_most(bound).at_least(-bound);
             let dz = new - zi[rr];
             zi[rr] = new;
             va = va.sub(d.scale(ma * dz));
-            wa = wa.sub(q.ang(rr, 2, half).scale(dz));
+            wa = wa.sub(q.ang(head, rr, 2, half).scale(dz));
             vb = vb.add(d.scale(mb * dz));
-            wb = wb.add(q.ang(rr, 3, half).scale(dz));
+            wb = wb.add(q.ang(head, rr, 3, half).scale(dz));
         }
     }
     // Each value's lanes stored once, then written lane by lane.
@@ -1056,7 +763,7 @@ fn block_lanes<L: Lane, const W: usize>(
 #[inline(always)]
 pub(super) fn warm_manifolds(
     rows: &Rows,
-    pr: Option<(&[QuadRows], usize)>,
+    pr: Option<(Pack, usize)>,
     pts: [&[usize]; 2],
     v: &mut [DVec3],
     w: &mut [DVec3],
@@ -1070,7 +777,7 @@ pub(super) fn warm_manifolds(
 #[inline(always)]
 fn warm_lanes<L: Lane, const W: usize>(
     rows: &Rows,
-    pr: &[QuadRows],
+    pr: Pack,
     half: usize,
     pts: [&[usize]; W],
     v: &mut [DVec3],
@@ -1081,18 +788,18 @@ fn warm_lanes<L: Lane, const W: usize>(
         return false;
     };
     let [mut va, mut wa, mut vb, mut wb] = load::<L, W>(v, w, &ab);
-    for (i, q) in pr.iter().enumerate() {
+    let (head, (ma, mb)) = (pr.head, pr.head.im::<L>(half));
+    for (i, q) in pr.rows.iter().enumerate() {
         let z = L::gather(|l| impulse[pts[l][i]]);
-        let lin = q
+        let lin = head
             .dir(0, half)
             .scale(z[0])
-            .add(q.dir(1, half).scale(z[1]))
-            .add(q.dir(2, half).scale(z[2]));
-        let (ma, mb) = (L::load(&q.im[0], half), L::load(&q.im[1], half));
+            .add(head.dir(1, half).scale(z[1]))
+            .add(head.dir(2, half).scale(z[2]));
         va = va.sub(lin.scale(ma));
-        wa = wa.sub(q.ang_sum(&z, 2, half));
+        wa = wa.sub(q.inv_sum(&z, 0, half));
         vb = vb.add(lin.scale(mb));
-        wb = wb.add(q.ang_sum(&z, 3, half));
+        wb = wb.add(q.inv_sum(&z, 1, half));
     }
     store(v, w, &ab, [va, wa, vb, wb], rows.fixed);
     true
@@ -1120,23 +827,33 @@ fn rotate<L: Lane>([x, y, z]: &[Lanes3<L>; 3], r: Lanes3<L>) -> Lanes3<L> {
 /// manifold per lane, their points in order (`ab[l]`: lane `l`'s two bodies, their
 /// displacements `(Δx, ΔR)` in `dp`, `rot`), `Δd = (Δx_b + ΔR_b r_b) − (Δx_a + ΔR_a
 /// r_a)`: the scalar arithmetic of `update_gaps` per lane in the same order (the same
-/// bits). Returns false, having written nothing, where the point counts differ.
+/// bits). `shared`: where the manifolds are a packed pair, their packed rows and lane
+/// half ([`Paired::shared`]), whose normals are every point's (the same bits): the
+/// normals loaded once and the anchors point by point, instead of gathered per
+/// point. Returns false, having written nothing, where the point counts differ.
 #[inline(always)]
 pub(super) fn manifold_gaps(
     rows: &Rows,
     pts: [&[usize]; 2],
+    shared: Option<Normals>,
     ab: [[usize; 2]; 2],
     disp: (&[DVec3], &[DMat3]),
     gap: &mut [f64],
 ) -> bool {
-    gaps_lanes::<f64x2, 2>(rows, pts, ab, disp, gap)
+    gaps_lanes::<f64x2, 2>(rows, pts, shared, ab, disp, gap)
 }
+
+/// The shared rows and the points' rows of a packed pair or quad of manifolds and the
+/// half of their lanes a pair takes (0 for a quad), where the gap pass takes exactly
+/// those manifolds ([`manifold_gaps`]).
+pub(super) type Normals<'a> = (&'a HeadRows, &'a [QuadRows], usize);
 
 /// [`manifold_gaps`] on `W` manifolds with as many points in the `W` lanes of `L`.
 #[inline(always)]
 fn gaps_lanes<L: Lane, const W: usize>(
     rows: &Rows,
     pts: [&[usize]; W],
+    shared: Option<Normals>,
     ab: [[usize; 2]; W],
     (dp, rot): (&[DVec3], &[DMat3]),
     gap: &mut [f64],
@@ -1158,11 +875,21 @@ fn gaps_lanes<L: Lane, const W: usize>(
     let xb = Lanes3::<L>::of(|l| dp[ab[l][1]]);
     let ra_m = columns::<L, W>(each_ref(|l| &rot[ab[l][0]]));
     let rb_m = columns::<L, W>(each_ref(|l| &rot[ab[l][1]]));
+    let shared = shared
+        .and_then(|(head, rows, half)| Some((head.dir::<L>(0, half), rows.get(..len)?, half)));
     for i in 0..len {
         let p: [usize; W] = each(|l| pts[l][i]);
-        let ra = Lanes3::<L>::of(|l| anchor[p[l]][0]);
-        let rb = Lanes3::<L>::of(|l| anchor[p[l]][1]);
-        let nrm = Lanes3::<L>::of(|l| dir[p[l]][0]);
+        let (ra, rb, nrm) = match shared {
+            Some((n, rows, half)) => {
+                let [ra, rb] = rows[i].anchors(half);
+                (ra, rb, n)
+            }
+            None => (
+                Lanes3::<L>::of(|l| anchor[p[l]][0]),
+                Lanes3::<L>::of(|l| anchor[p[l]][1]),
+                Lanes3::<L>::of(|l| dir[p[l]][0]),
+            ),
+        };
         let [base] = L::gather(|l| [base_gap[p[l]]]);
         let dd = xb.add(rotate(&rb_m, rb)).sub(xa.add(rotate(&ra_m, ra)));
         let g = base + nrm.dot(dd);
@@ -1182,8 +909,10 @@ fn each_ref<'a, T, const W: usize>(f: impl FnMut(usize) -> &'a T) -> [&'a T; W] 
 #[cfg(test)]
 #[cfg(feature = "std")]
 mod tests {
-    use crate::rigid::{ContactSolver, ContactWorld};
+    use super::Paired;
+    use crate::rigid::{ContactSolver, ContactStats, ContactWorld};
     use crate::scenes::{box_stack, pyramid};
+    use constraint_core::DVec3;
 
     std::thread_local! {
         /// Where set, this thread's steps take the two-lane passes only (as on a
@@ -1223,6 +952,46 @@ mod tests {
             let w = scene.expect("the scene builds");
             let (four, two) = (run(w.clone(), 60, false), run(w, 60, true));
             assert_eq!(four, two);
+        }
+    }
+
+    /// Every body's pose and velocities after one soft step (3 sub-steps, h = 1/60)
+    /// on the contacts already in `w` (packed or, with `no_pack`, none packed: the
+    /// colouring is the last step's, so the step keeps the emptied plan), as bits,
+    /// and how many groups the step unpacked for normals not shared.
+    fn step_on_contacts(mut w: ContactWorld, no_pack: bool) -> (Vec<u64>, usize) {
+        if let (true, Some(st)) = (no_pack, w.soft.as_mut()) {
+            st.paired = Paired::default();
+        }
+        let _ = w.soft_with_contacts(1.0 / 60.0, 3, ContactStats::default());
+        let unshared = w.soft.as_ref().map_or(0, |st| st.paired.unshared());
+        (run(w, 0, false), unshared)
+    }
+
+    /// A manifold whose points do not share their normal's bits (here every second
+    /// contact's normal tilted by about 1e-6 rad) has its group unpacked for the step,
+    /// and the step gives the bits of a step with nothing packed (tolerance 0: every
+    /// pose and velocity bit-equal; measured equal); with the normals as found
+    /// nothing is unpacked. The 10-box stack and the 21-box pyramid, after 5 steps.
+    #[test]
+    fn unshared_normals_unpack_their_group() {
+        for scene in [box_stack(10), pyramid(6)] {
+            let mut w = scene.expect("the scene builds");
+            w.settings.solver = ContactSolver::SoftStep { substeps: 3 };
+            for _ in 0..5 {
+                w.step(1.0 / 60.0).expect("the scene steps");
+            }
+            let (_, unshared) = step_on_contacts(w.clone(), false);
+            assert_eq!(unshared, 0);
+            for (k, c) in w.contacts.iter_mut().enumerate() {
+                if k % 2 == 1 {
+                    c.normal = (c.normal + DVec3::new(1e-6, 0.0, 0.0)).normalize();
+                }
+            }
+            let (packed, unshared) = step_on_contacts(w.clone(), false);
+            let (none, _) = step_on_contacts(w, true);
+            assert_eq!(packed, none);
+            assert!(unshared > 0, "{unshared} groups unpacked");
         }
     }
 }

@@ -37,8 +37,8 @@ use core::arch::x86_64::{
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
 use super::{
-    block_lanes, build_lanes, gaps_lanes, relax_lanes, warm_lanes, Built, Lane, Quad, QuadRows,
-    RelaxIo,
+    block_lanes, build_lanes, gaps_lanes, relax_lanes, warm_lanes, Built, Lane, Normals, Pack,
+    Quad, RelaxIo,
 };
 use crate::rigid::soft_step::{Block, Pass, PointConsts, Rows, SoftState};
 use crate::rigid::ContactWorld;
@@ -286,7 +286,7 @@ passes! {
     /// [`relax_lanes`](super::relax_lanes) in four AVX lanes.
     fn relax_avx / relax_wide(
         rows: &Rows,
-        pr: &[QuadRows],
+        pr: Pack,
         pts: [&[usize]; 4],
         io: &mut RelaxIo,
         inv_h: f64,
@@ -295,7 +295,7 @@ passes! {
     /// [`warm_lanes`](super::warm_lanes) in four AVX lanes.
     fn warm_avx / warm_wide(
         rows: &Rows,
-        pr: &[QuadRows],
+        pr: Pack,
         pts: [&[usize]; 4],
         v: &mut [DVec3],
         w: &mut [DVec3],
@@ -305,7 +305,7 @@ passes! {
     /// [`block_lanes`](super::block_lanes) in four AVX lanes.
     fn block_avx / block_wide(
         rows: &Rows,
-        pr: &[QuadRows],
+        pr: Pack,
         blk: [&Block; 4],
         io: &mut RelaxIo,
         pass: Pass,
@@ -315,15 +315,16 @@ passes! {
     fn gaps_avx / gaps_wide(
         rows: &Rows,
         pts: [&[usize]; 4],
+        shared: Option<Normals>,
         ab: [[usize; 2]; 4],
         disp: (&[DVec3], &[DMat3]),
         gap: &mut [f64],
-    ) -> bool = gaps_lanes::<F4, 4>(rows, pts, ab, disp, gap);
+    ) -> bool = gaps_lanes::<F4, 4>(rows, pts, shared, ab, disp, gap);
 
     /// [`build_lanes`](super::build_lanes) in four AVX lanes.
     fn build_avx / build_wide(
         rows: &Rows,
-        pr: &[QuadRows],
+        pr: Pack,
         pts: [&[usize]; 4],
         blk: [&mut Block; 4],
     ) -> Built = build_lanes::<F4, 4>(rows, pts, Some((pr, 0)), blk);
@@ -343,17 +344,23 @@ passes! {
 /// `points_avx` or `points_wide`.
 type PointsPass = unsafe fn(&ContactWorld, &mut SoftState, &PointConsts) -> bool;
 /// `relax_avx` or `relax_wide`.
-type RelaxPass = unsafe fn(&Rows, &[QuadRows], [&[usize]; 4], &mut RelaxIo, f64) -> bool;
+type RelaxPass = unsafe fn(&Rows, Pack, [&[usize]; 4], &mut RelaxIo, f64) -> bool;
 /// `warm_avx` or `warm_wide`.
 type WarmPass =
-    unsafe fn(&Rows, &[QuadRows], [&[usize]; 4], &mut [DVec3], &mut [DVec3], &[[f64; 3]]) -> bool;
+    unsafe fn(&Rows, Pack, [&[usize]; 4], &mut [DVec3], &mut [DVec3], &[[f64; 3]]) -> bool;
 /// `block_avx` or `block_wide`.
-type BlockPass = unsafe fn(&Rows, &[QuadRows], [&Block; 4], &mut RelaxIo, Pass) -> bool;
+type BlockPass = unsafe fn(&Rows, Pack, [&Block; 4], &mut RelaxIo, Pass) -> bool;
 /// `gaps_avx` or `gaps_wide`.
-type GapsPass =
-    unsafe fn(&Rows, [&[usize]; 4], [[usize; 2]; 4], (&[DVec3], &[DMat3]), &mut [f64]) -> bool;
+type GapsPass = unsafe fn(
+    &Rows,
+    [&[usize]; 4],
+    Option<Normals>,
+    [[usize; 2]; 4],
+    (&[DVec3], &[DMat3]),
+    &mut [f64],
+) -> bool;
 /// `build_avx` or `build_wide`.
-type BuildPass = unsafe fn(&Rows, &[QuadRows], [&[usize]; 4], [&mut Block; 4]) -> Built;
+type BuildPass = unsafe fn(&Rows, Pack, [&[usize]; 4], [&mut Block; 4]) -> Built;
 
 /// The relax pass over the quad of manifolds `pts` (one per lane; `pr`: their rows,
 /// [`Paired::quad`](super::Paired::quad), `Some` only where AVX was found), as
@@ -362,7 +369,7 @@ type BuildPass = unsafe fn(&Rows, &[QuadRows], [&[usize]; 4], [&mut Block; 4]) -
 #[inline]
 pub(in crate::rigid) fn relax_quad(
     rows: &Rows,
-    pr: Option<&[QuadRows]>,
+    pr: Option<Pack>,
     pts: [&[usize]; 4],
     io: &mut RelaxIo,
     inv_h: f64,
@@ -384,7 +391,7 @@ pub(in crate::rigid) fn relax_quad(
 #[inline]
 pub(in crate::rigid) fn warm_quad(
     rows: &Rows,
-    pr: Option<&[QuadRows]>,
+    pr: Option<Pack>,
     pts: [&[usize]; 4],
     v: &mut [DVec3],
     w: &mut [DVec3],
@@ -404,7 +411,7 @@ pub(in crate::rigid) fn warm_quad(
 #[inline]
 pub(in crate::rigid) fn block_quad(
     rows: &Rows,
-    pr: Option<&[QuadRows]>,
+    pr: Option<Pack>,
     blk: [&Block; 4],
     io: &mut RelaxIo,
     pass: Pass,
@@ -418,13 +425,15 @@ pub(in crate::rigid) fn block_quad(
 }
 
 /// The gaps of four manifolds with as many points (one per lane), as
-/// [`manifold_gaps`](super::manifold_gaps) on two pairs: false, having written
-/// nothing, where the point counts differ.
+/// [`manifold_gaps`](super::manifold_gaps) on two pairs (`shared`: where they are a
+/// packed quad, its shared rows): false, having written nothing, where the point
+/// counts differ.
 #[inline]
 pub(in crate::rigid) fn gaps_quad(
     _: Avx,
     rows: &Rows,
     pts: [&[usize]; 4],
+    shared: Option<Normals>,
     ab: [[usize; 2]; 4],
     disp: (&[DVec3], &[DMat3]),
     gap: &mut [f64],
@@ -432,7 +441,7 @@ pub(in crate::rigid) fn gaps_quad(
     let run: GapsPass = if wide() { gaps_wide } else { gaps_avx };
     // SAFETY: an `Avx` exists only where `available()` found AVX; the wide build only
     // where `wide()` found AVX-512F and AVX-512VL too.
-    unsafe { run(rows, pts, ab, disp, gap) }
+    unsafe { run(rows, pts, shared, ab, disp, gap) }
 }
 
 /// The blocks of four manifolds of `BLOCK_POINTS` points (one per lane; `pr`: their
@@ -442,7 +451,7 @@ pub(in crate::rigid) fn gaps_quad(
 pub(in crate::rigid) fn build_quad(
     _: Avx,
     rows: &Rows,
-    pr: &[QuadRows],
+    pr: Pack,
     pts: [&[usize]; 4],
     blk: [&mut Block; 4],
 ) -> Built {

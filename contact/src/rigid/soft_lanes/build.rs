@@ -7,7 +7,7 @@
 //! fails computes on, harmlessly, where the scalar inversion stops: its block keeps
 //! `len` 0 either way).
 
-use super::{Lane, Lanes3, QuadRows};
+use super::{Lane, Lanes3, Pack};
 use crate::rigid::soft_step::{Block, Rows, BLOCK_POINTS};
 
 const N: usize = BLOCK_POINTS;
@@ -32,7 +32,7 @@ pub(in crate::rigid) type Built = ([[f64; 4]; N * N], [[f64; 4]; N]);
 pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
     rows: &Rows,
     pts: [&[usize]; W],
-    packed: Option<(&[QuadRows], usize)>,
+    packed: Option<(Pack, usize)>,
     blk: [&mut Block; W],
 ) -> Built {
     let mut built = ([[0.0; 4]; N * N], [[0.0; 4]; N]);
@@ -47,14 +47,14 @@ pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
     // Plain loops: `core::array::from_fn` here was left out of line (its closures
     // cost 287k instructions a step of the 210-box pyramid, callgrind).
     let mut g = [[Lanes3::new(zero, zero, zero); 5]; N];
-    let m = match packed.and_then(|(pr, half)| Some((pr.get(..N)?, half))) {
-        Some((pr, half)) => {
+    let m = match packed.and_then(|(pr, half)| Some((pr.head, pr.rows.get(..N)?, half))) {
+        Some((head, pr, half)) => {
             for (i, (gi, q)) in g.iter_mut().zip(pr).enumerate() {
                 for (r, x) in gi.iter_mut().enumerate() {
                     *x = if r == 4 {
-                        q.dir(0, half)
+                        head.dir(0, half)
                     } else {
-                        q.ang(0, r, half)
+                        q.ang(head, 0, r, half)
                     };
                 }
                 // `c_i` of the lanes at once: one lane division where the scalar
@@ -63,7 +63,7 @@ pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
                     let sp = &rows.soft[pts[l][i]];
                     [sp.impulse_scale, sp.mass_scale]
                 });
-                let m = L::load(&q.mass[0], half);
+                let m = q.mass::<L>(0, half);
                 c[i] = scale / (ms * m);
                 let (m, ms, ci) = (m.array(), ms.array(), c[i].array());
                 for (s, ok) in ok.iter_mut().enumerate() {
@@ -71,7 +71,8 @@ pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
                     cs[s][i] = ci[s];
                 }
             }
-            L::load(&pr[0].im[0], half) + L::load(&pr[0].im[1], half)
+            let (ma, mb) = head.im::<L>(half);
+            ma + mb
         }
         None => {
             for (s, pts) in pts.iter().enumerate() {

@@ -16,11 +16,12 @@ pub(super) fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
 /// manifolds of a colour touching disjoint moving bodies), a colour's odd manifold
 /// and the overflow colour's points (whose manifolds may share bodies) one by one.
 pub(super) fn warm_start(st: &mut SoftState) {
-    // The pairs' index (72 B) is taken, not borrowed: its `Vec`s as locals stay in
-    // registers across the velocity writes (borrowed from `st`, the 210-box
-    // pyramid's step took 8.580M instructions, taken with the blocks 8.550M;
-    // callgrind). The 430 B colouring is borrowed: taking it copied it twice a pass.
-    let paired = core::mem::take(&mut st.paired);
+    // The packed rows borrowed (taking them, seven `Vec`s since they were split by
+    // reader, cost a 176 B copy out and back and a drop per pass: `soft_points
+    // stack10` 137.4k → 136.6k instructions a step borrowed, pyramid20 4918.8k →
+    // 4917.1k; when it was four `Vec`s, taking saved 0.35 %). The 430 B colouring is
+    // borrowed too: taking it copied it twice a pass.
+    let paired = &st.paired;
     let colouring = &st.colouring;
     {
         let (rows, mut vel, impulse, _) = split!(st);
@@ -41,7 +42,6 @@ pub(super) fn warm_start(st: &mut SoftState) {
             &mut vel,
         );
     }
-    st.paired = paired;
 }
 
 /// Walks the colouring for the point passes that take two manifolds at a time: per
@@ -118,11 +118,15 @@ pub(super) fn for_manifold_pairs<S>(
 /// with as many points go side by side in SIMD lanes ([`manifold_gaps`]: each gap
 /// reads only the step's rows and displacements, so any two manifolds may pair; the
 /// same bits), the others one point at a time (the 210-box pyramid's `update_gaps`
-/// 407k → 326k instructions a step, callgrind).
+/// 407k → 326k instructions a step, callgrind). The packed pairs and quads
+/// ([`Paired`]) go as they were packed, their normals loaded once from their shared
+/// rows instead of gathered per point; the other manifolds are taken together only
+/// where that keeps the packed groups whole.
 pub(super) fn update_gaps(st: &mut SoftState) {
     let mut gap = core::mem::take(&mut st.gap);
     let colouring = &st.colouring;
-    let avx = st.paired.avx();
+    let paired = &st.paired;
+    let avx = paired.avx();
     // Every point is in one manifold and is written below: no clear (zeroing 8 B a
     // point per sub-step cost 0.7 % of the 210-box pyramid's step, callgrind).
     gap.resize(st.slots.len(), 0.0);
@@ -143,29 +147,41 @@ pub(super) fn update_gaps(st: &mut SoftState) {
             };
             // The points of one manifold share their two bodies.
             let [a, b] = rows.slots[first];
-            // Four manifolds with as many points at a time in AVX lanes, where the
-            // processor has AVX.
-            if let Some(avx) = avx.filter(|_| j + 3 < manifolds) {
+            let len = m0.len();
+            // A packed quad (its shared normals), or four other manifolds with as many
+            // points none of which starts a packed pair, at a time in AVX lanes, where
+            // the processor has AVX.
+            let shared = paired.shared(j, len);
+            let free = |k: usize| (1..k).all(|m| !paired.starts(j + m));
+            let four = match shared {
+                Some((_, quad)) => quad,
+                None => j + 3 < manifolds && free(4),
+            };
+            if let (Some(avx), true) = (avx, four) {
                 let ms = [m0, manifold(j + 1), manifold(j + 2), manifold(j + 3)];
-                if ms.iter().all(|m| m.len() == m0.len()) {
+                if ms.iter().all(|m| m.len() == len) {
                     let ab = [
                         [a, b],
                         rows.slots[ms[1][0]],
                         rows.slots[ms[2][0]],
                         rows.slots[ms[3][0]],
                     ];
-                    if gaps_quad(avx, &rows, ms, ab, (vel.dp, vel.rot), &mut gap) {
+                    let normals = shared.map(|((head, rows, _), _)| (head, rows, 0));
+                    if gaps_quad(avx, &rows, ms, normals, ab, (vel.dp, vel.rot), &mut gap) {
                         j += 4;
                         continue;
                     }
                 }
             }
-            // Two manifolds with as many points at a time in SIMD lanes.
-            if j + 1 < manifolds {
+            // A packed pair (its shared normals), or two other manifolds with as many
+            // points, at a time in SIMD lanes.
+            if j + 1 < manifolds && (shared.is_some() || free(2)) {
                 let m1 = &pts[mp[j + 1]..mp[j + 2]];
                 if let Some(&first1) = m1.first() {
                     let ab = [[a, b], rows.slots[first1]];
-                    if manifold_gaps(&rows, [m0, m1], ab, (vel.dp, vel.rot), &mut gap) {
+                    let normals = shared.map(|(normals, _)| normals);
+                    let disp = (vel.dp, vel.rot);
+                    if manifold_gaps(&rows, [m0, m1], normals, ab, disp, &mut gap) {
                         j += 2;
                         continue;
                     }
@@ -205,8 +221,8 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
     };
     let gap = core::mem::take(&mut st.gap);
     if use_bias && !st.blocks.is_empty() {
-        // Taken, not borrowed (see `warm_start`).
-        let paired = core::mem::take(&mut st.paired);
+        // Borrowed (see `warm_start`); the blocks taken.
+        let paired = &st.paired;
         let blocks = core::mem::take(&mut st.blocks);
         let colouring = &st.colouring;
         {
@@ -256,7 +272,6 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
                 }
             }
         }
-        st.paired = paired;
         st.blocks = blocks;
     } else if !use_bias {
         relax_in_lanes(st, &gap, pass);
@@ -274,11 +289,8 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
 /// ([`relax_manifolds`]: the same bits as one point at a time; see
 /// [`for_manifold_pairs`]).
 pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
-    // The pairs' index (72 B) is taken, not borrowed: its `Vec`s as locals stay in
-    // registers across the velocity writes (borrowed from `st`, the 210-box
-    // pyramid's step took 8.580M instructions, taken with the blocks 8.550M;
-    // callgrind). The 430 B colouring is borrowed: taking it copied it twice a pass.
-    let paired = core::mem::take(&mut st.paired);
+    // Borrowed (see `warm_start`).
+    let paired = &st.paired;
     let colouring = &st.colouring;
     {
         let (rows, vel, impulse, max_normal) = split!(st);
@@ -325,7 +337,6 @@ pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
             &mut io,
         );
     }
-    st.paired = paired;
 }
 
 /// The same slices as the lane passes take them.

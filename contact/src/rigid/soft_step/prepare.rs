@@ -541,6 +541,7 @@ impl ContactWorld {
             st.paired.plan(&st.colouring);
         }
         let paired = &mut st.paired;
+        paired.begin();
         // One-way coupling off (the default, an infinite ratio): `im[lower] > ∞ ·
         // im[upper]` never holds (∞ · 0 is NaN), so the heights need not be read.
         let one_way = s.one_way_mass_ratio < f64::INFINITY;
@@ -609,6 +610,10 @@ impl ContactWorld {
                 (bits(n), [n, t1, t2])
             };
             let mut last = tangents(c0.normal);
+            // The manifold's shared rows, from its first point (every point's where
+            // their normals are its bits; where one is not, the point loop below
+            // unpacks the manifold's group for this step).
+            paired.put_head(first, &last.1, im, mu);
             for &p in pts {
                 let k = order[p];
                 let c = &contacts[k];
@@ -618,6 +623,7 @@ impl ContactWorld {
                 let (now, key) = (bits(n), last.0);
                 if (now[0] ^ key[0]) | (now[1] ^ key[1]) | (now[2] ^ key[2]) != 0 {
                     last = tangents(n);
+                    paired.unshare(first);
                 }
                 let dirs = last.1;
                 let [_, t1, t2] = dirs;
@@ -648,11 +654,9 @@ impl ContactWorld {
                 paired.put(
                     p,
                     PointRows {
-                        dir: &dirs,
+                        anchor: [ra, rb],
                         ang,
                         mass,
-                        im,
-                        friction: mu,
                     },
                 );
                 slots[p] = [a, b];
