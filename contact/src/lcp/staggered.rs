@@ -13,7 +13,7 @@
 use alloc::vec;
 use alloc::vec::Vec;
 
-use super::pgs::{pgs_in, PgsEnd, PgsScratch};
+use super::pgs::{pgs_free_rows, PgsEnd, PgsScratch};
 use super::{
     fischer_newton, lemke, pgs, Lcp, LcpError, LcpSolution, LemkeSettings, NewtonSettings,
     PgsSettings, SparseRows,
@@ -723,7 +723,9 @@ pub(crate) fn solve_rows_in(
             // In the residual-driven mode the whole problem's residual follows: the
             // last sweep goes unchecked (its iterate is kept either way).
             let check_last = !residual_driven;
-            match pgs_in(lcp, &friction_settings, Some(zt0), pgs_scratch, check_last)? {
+            // Without the rows pinned at zero, the friction of contacts without normal
+            // impulse (`pgs/pinned.rs`: the same iterate on the others).
+            match pgs_free_rows(lcp, &friction_settings, zt0, pgs_scratch, check_last)? {
                 PgsEnd::Solved { iterations, .. } => {
                     stats.iterations += iterations;
                     for (k, &i) in tangent.iter().enumerate() {
