@@ -20,6 +20,10 @@ use alloc::vec::Vec;
 
 use super::problem::{check_tolerance, Lcp, LcpError, LcpSolution};
 
+mod pinned;
+
+pub(crate) use pinned::pgs_free_rows;
+
 /// Settings of [`pgs`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PgsSettings {
@@ -117,6 +121,11 @@ pub(crate) struct PgsScratch {
     inv_diag: Vec<f64>,
     /// `w = M z + q` at the last residual check.
     pub(crate) w: Vec<f64>,
+    /// [`pgs_free_rows`]: the rows whose box is not `[0, 0]`, their block of `M`
+    /// (row-major) and their iterate.
+    free: Vec<usize>,
+    block: Vec<f64>,
+    zf: Vec<f64>,
 }
 
 /// How [`pgs_in`] ended (its errors are the settings' and the start's).
@@ -157,7 +166,7 @@ pub(crate) fn pgs_in(
         return Err(LcpError::BadSettings("PGS check_every must be ≥ 1"));
     }
     let n = lcp.n();
-    let PgsScratch { z, inv_diag, w } = s;
+    let PgsScratch { z, inv_diag, w, .. } = s;
     z.clear();
     match z0 {
         Some(z0) => {
