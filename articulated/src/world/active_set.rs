@@ -310,21 +310,26 @@ pub(super) struct ActiveSet {
     val_start: Vec<usize>,
     path_s: Vec<f64>,
     path_u: Vec<f64>,
-    /// Per Schur row: the first Schur row with the same path (equal ids: equal paths;
-    /// a foot's or a box's contact rows share one), and those first rows.
+    /// Per Schur row: its path's index among the distinct paths (equal ids: equal
+    /// paths; a foot's or a box's contact rows share one), and per distinct path the
+    /// first Schur row on it.
     path_id: Vec<usize>,
     path_reps: Vec<usize>,
-    /// Per tree node: whether it is on the path being built, and where the Schur row
-    /// at hand keeps its values (`usize::MAX`: not on its path); both clear between
-    /// uses.
+    /// Per tree node: whether it is on the path being built, and where the path at
+    /// hand keeps its values (`usize::MAX`: not on it); both clear between uses.
     mark: Vec<bool>,
     node_slot: Vec<usize>,
-    /// For the Schur row `b` at hand: the nodes its path shares with another path,
-    /// as `(offset in that path's values, offset in b's values, length)`, adjacent
-    /// nodes merged; `seg_at[p]`: path `p`'s (a representative row) range in `seg`
-    /// (`usize::MAX` start: not yet built for this `b`).
+    /// Per pair of distinct paths `(p, q)` (`g` of them), in `seg[seg_at[p · g + q]]`:
+    /// the nodes of `p` on `q`, along `p`, as `(offset in p's values, offset in q's
+    /// values, length)`, nodes adjacent in both merged. A row's values are laid out as
+    /// its path's, so the offsets hold for every row on either path.
     seg: Vec<(usize, usize, usize)>,
     seg_at: Vec<(usize, usize)>,
+    /// The path being built, as elimination steps ([`RowTree::forward_steps`]).
+    steps: Vec<usize>,
+    /// Per row (one-sided, then equality) of the step: its scale without the tree,
+    /// `g M⁻¹ gᵀ` ([`World::schur_free_scale`]), NaN until first needed.
+    row_scale: Vec<f64>,
     /// A full-length column for one forward pass, zero between uses.
     col: Vec<f64>,
     /// `H_A⁻¹ G_Dᵀ ζ` (one factor solve), the Schur rows' correction of a solution.
@@ -527,6 +532,8 @@ impl World {
         // that settles leaves `st.z`, `st.w` as that iterate's), for the statistics.
         let mut worst: f64 = 0.0;
         st.history.clear();
+        st.row_scale.clear();
+        st.row_scale.resize(m + self.eq.len(), f64::NAN);
         st.factor_current = false;
         st.y_current = false;
         while iterations < MAX_ITERATIONS {
@@ -1059,7 +1066,7 @@ impl World {
     /// iterations that keep both reuse it. With the factor `H_A = L D Lᵀ` (leaves
     /// first), `g H_A⁻¹ g'ᵀ = uᵀ D⁺ u'` for `u = L⁻¹ gᵀ`, and the forward pass of a row
     /// on one or two bodies touches only those bodies and their ancestors
-    /// ([`RowTree::forward_marked`]): per row a pass over its paths to the root
+    /// ([`RowTree::forward_steps`]): per row a pass over its paths to the root
     /// (about a quarter of a humanoid's nodes, no backward pass) instead of a whole
     /// factor solve, and `S_ab = Σ u_a s_b` over `a`'s path (`s = D⁺ u`, the pass's
     /// output; `D⁺`: zero at a dropped pivot). `false` when `S` or its factor is not
@@ -1090,111 +1097,114 @@ impl World {
             self.schur_scatter(f, &mut st.col, i, 1.0);
             self.schur_path(i, &mut st.mark, &mut st.path_nodes);
             let path = &st.path_nodes[first..];
-            let rep = st.path_reps.iter().copied().find(|&r| {
+            // (The first node, the row's body, is compared first: a slice
+            // comparison of equal lengths is a `bcmp` call.)
+            let rep = st.path_reps.iter().position(|&r| {
                 let (a, b) = (st.path_start[r], st.path_start[r + 1]);
-                st.path_nodes[a..b] == *path
+                st.path_nodes.get(a) == path.first() && st.path_nodes[a..b] == *path
             });
-            st.path_id.push(rep.unwrap_or(c));
+            st.path_id.push(rep.unwrap_or(st.path_reps.len()));
             if rep.is_none() {
                 st.path_reps.push(c);
             }
-            f.forward_marked(&self.solver, &mut st.col, &st.mark);
-            // Keep s and u = s / d⁻¹ on the path; leave `col` and `mark` clear.
-            // (Whole node slices: a per-unknown push with its bounds and capacity
-            // checks was a third of the step's own instructions on dm hopper.)
-            for &k in &st.path_nodes[first..] {
+            // The path in the elimination order (a chain to the root already is:
+            // children come first; a two-body row's second walk is merged in).
+            st.steps.clear();
+            st.steps
+                .extend(st.path_nodes[first..].iter().map(|&k| f.step_of(k)));
+            insertion_sort(&mut st.steps);
+            f.forward_steps(&mut st.col, &st.steps);
+            // Keep s and u = s / d⁻¹ on the path; leave `col` and `mark` clear. The
+            // row's values are sized once and written node slice by node slice (a
+            // `memcpy` call and a capacity check per node and per unknown before).
+            let path = &st.path_nodes[first..];
+            let len: usize = path.iter().map(|&k| f.node_len(k)).sum();
+            let at = st.path_s.len();
+            st.path_s.resize(at + len, 0.0);
+            st.path_u.resize(at + len, 0.0);
+            take_path_values(
+                f,
+                path,
+                &mut st.col,
+                &mut st.path_s[at..],
+                &mut st.path_u[at..],
+            );
+            for &k in path {
                 st.mark[k] = false;
-                let (o, n) = (f.node_offset(k), f.node_len(k));
-                let s = &mut st.col[o..o + n];
-                st.path_s.extend_from_slice(s);
-                // `col` cleared as `u` is read (a separate `fill` of the few unknowns
-                // was a `memset` call per path node).
-                st.path_u
-                    .extend(s.iter_mut().zip(f.pivot_inverses(o, n)).map(|(sv, &di)| {
-                        let sv = core::mem::take(sv);
-                        if di != 0.0 {
-                            sv / di
-                        } else {
-                            0.0
-                        }
-                    }));
             }
-            free_scale = free_scale.max(self.schur_free_scale(i, &mut inertia));
+            // The row's scale is the step's (its Jacobian and bodies are fixed in it).
+            let scale = match st.row_scale.get(i) {
+                Some(v) if !v.is_nan() => *v,
+                _ => {
+                    let v = self.schur_free_scale(i, &mut inertia);
+                    if let Some(slot) = st.row_scale.get_mut(i) {
+                        *slot = v;
+                    }
+                    v
+                }
+            };
+            free_scale = free_scale.max(scale);
         }
         st.path_start.push(st.path_nodes.len());
         st.val_start.push(st.path_s.len());
-        // No fill: every `S_ab` is written below (`a ≥ b`, both halves), and the
-        // `seg_at` entries read (the path representatives') are reset per `b`.
+        // S_ab = Σ u_a s_b over the nodes a's path shares with b's, node after node
+        // along a's path (rows on one path: every node, one contiguous run). The shared
+        // nodes are found once per pair of distinct paths met (it was once per row `b`
+        // and path of `a`), with `b`'s offsets in `node_slot`. No fill: every `S_ab` is
+        // written below (`a ≥ b`, both halves).
+        let g = st.path_reps.len();
+        st.seg.clear();
+        st.seg_at.clear();
+        st.seg_at.resize(g * g, (usize::MAX, 0));
         st.s_mat.resize(d * d, 0.0);
-        st.seg_at.resize(d, (usize::MAX, 0));
         let mut finite = true;
         for b in 0..d {
-            // Where b's values of each node on its path are.
-            let mut off = st.val_start[b];
-            for &k in &st.path_nodes[st.path_start[b]..st.path_start[b + 1]] {
-                st.node_slot[k] = off;
-                off += f.node_len(k);
-            }
-            st.seg.clear();
-            for &r in &st.path_reps {
-                st.seg_at[r] = (usize::MAX, 0);
-            }
+            let (vb, q) = (st.val_start[b], st.path_id[b]);
+            let path_b = &st.path_nodes[st.path_start[b]..st.path_start[b + 1]];
+            let mut slots = false;
             for a in b..d {
-                let mut v = 0.0;
-                if st.path_id[a] == st.path_id[b] {
-                    // The same path (rows on the same bodies: a foot's contacts): the
-                    // loop below would read both rows' values contiguously, node after
-                    // node in the same order, so one pass over them sums the same
-                    // products in the same order.
-                    let (va, vb) = (st.val_start[a], st.val_start[b]);
-                    let len = st.val_start[a + 1] - va;
-                    let (ua, sb) = (&st.path_u[va..va + len], &st.path_s[vb..vb + len]);
-                    for (x, y) in ua.iter().zip(sb) {
-                        v += x * y;
+                let (va, p) = (st.val_start[a], st.path_id[a]);
+                if st.seg_at[p * g + q].0 == usize::MAX {
+                    if !slots {
+                        let mut off = 0;
+                        for &k in path_b {
+                            st.node_slot[k] = off;
+                            off += f.node_len(k);
+                        }
+                        slots = true;
                     }
-                    st.s_mat[a * d + b] = v;
-                    st.s_mat[b * d + a] = v;
-                    finite &= v.is_finite();
-                    continue;
-                }
-                // The nodes a's path shares with b's, built once per path (rows with
-                // the same path have the same nodes, lengths and value offsets): the
-                // products summed node after node along a's path as the node walk
-                // would, merged nodes adjacent in both rows' values read as one.
-                let p = st.path_id[a];
-                if st.seg_at[p].0 == usize::MAX {
                     let first = st.seg.len();
                     let mut ra = 0;
                     for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
                         let n = f.node_len(k);
                         let ob = st.node_slot[k];
                         if ob != usize::MAX {
-                            let own = st.seg.len() > first;
-                            match st.seg.last_mut() {
-                                Some(g) if own && g.0 + g.2 == ra && g.1 + g.2 == ob => {
-                                    g.2 += n;
-                                }
+                            match st.seg[first..].last_mut() {
+                                Some(sg) if sg.0 + sg.2 == ra && sg.1 + sg.2 == ob => sg.2 += n,
                                 _ => st.seg.push((ra, ob, n)),
                             }
                         }
                         ra += n;
                     }
-                    st.seg_at[p] = (first, st.seg.len());
+                    st.seg_at[p * g + q] = (first, st.seg.len());
                 }
-                let va = st.val_start[a];
-                let (s0, s1) = st.seg_at[p];
+                let (s0, s1) = st.seg_at[p * g + q];
+                let mut v = 0.0;
                 for &(ra, ob, n) in &st.seg[s0..s1] {
-                    let (ua, sb) = (&st.path_u[va + ra..va + ra + n], &st.path_s[ob..ob + n]);
-                    for (x, y) in ua.iter().zip(sb) {
-                        v += x * y;
-                    }
+                    let (ua, sb) = (
+                        &st.path_u[va + ra..va + ra + n],
+                        &st.path_s[vb + ob..vb + ob + n],
+                    );
+                    v = dot_on(v, ua, sb);
                 }
                 st.s_mat[a * d + b] = v;
                 st.s_mat[b * d + a] = v;
                 finite &= v.is_finite();
             }
-            for &k in &st.path_nodes[st.path_start[b]..st.path_start[b + 1]] {
-                st.node_slot[k] = usize::MAX;
+            if slots {
+                for &k in path_b {
+                    st.node_slot[k] = usize::MAX;
+                }
             }
         }
         if !finite {
@@ -1370,6 +1380,55 @@ fn bounds(b: &RowBound, z: &[f64]) -> (f64, f64) {
         }
         RowBound::Boxed { lo, hi } => (lo, hi),
     }
+}
+
+/// A forward pass's values on a path's nodes `path` (factor `f`), packed node after
+/// node: `s` (taken from `col`, left zero there) into `ps`, `u = s / d⁻¹` (zero at a
+/// dropped pivot) into `pu`. A function of its own so that the slices are known apart
+/// (inlined into the loop over the path's nodes, the compiler checked them for overlap
+/// at every node: 60 instructions a node).
+#[inline(never)]
+fn take_path_values(f: &RowTree, path: &[usize], col: &mut [f64], ps: &mut [f64], pu: &mut [f64]) {
+    let mut at = 0;
+    for &k in path {
+        let (o, n) = (f.node_offset(k), f.node_len(k));
+        let (ps, pu) = (&mut ps[at..at + n], &mut pu[at..at + n]);
+        let src = col[o..o + n].iter_mut().zip(f.pivot_inverses(o, n));
+        for ((sv, &di), (ps, pu)) in src.zip(ps.iter_mut().zip(pu.iter_mut())) {
+            let sv = core::mem::take(sv);
+            *ps = sv;
+            *pu = if di != 0.0 { sv / di } else { 0.0 };
+        }
+        at += n;
+    }
+}
+
+/// Sorts a short list in place (a path's few elimination steps, mostly in order).
+fn insertion_sort(v: &mut [usize]) {
+    for i in 1..v.len() {
+        let mut j = i;
+        while j > 0 && v[j - 1] > v[j] {
+            v.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+}
+
+/// `v + Σ a_i b_i`, the products added one after another in `i` order (four to a
+/// loop turn: the same sums, fewer loop instructions).
+#[inline(always)]
+fn dot_on(mut v: f64, a: &[f64], b: &[f64]) -> f64 {
+    let (mut ca, mut cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    for (x, y) in (&mut ca).zip(&mut cb) {
+        v += x[0] * y[0];
+        v += x[1] * y[1];
+        v += x[2] * y[2];
+        v += x[3] * y[3];
+    }
+    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
+        v += x * y;
+    }
+    v
 }
 
 /// `x += s · Gᵀ` on the row's bodies' unknowns in the augmented layout.
