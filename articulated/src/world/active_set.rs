@@ -1503,6 +1503,10 @@ struct PsdFactor {
     /// the reflections' `τ`.
     qr: Vec<f64>,
     hv0: Vec<f64>,
+    /// The vectors below their first entries, reflection after reflection (`hv_at`:
+    /// where each starts), for [`Self::reflect`].
+    hv: Vec<f64>,
+    hv_at: Vec<usize>,
     tau: Vec<f64>,
     /// Scratch of `r` values.
     tmp: Vec<f64>,
@@ -1560,15 +1564,7 @@ impl PsdFactor {
                 a[i * d + k] /= lkk;
                 col.push(a[i * d + k]);
             }
-            for i in k + 1..d {
-                let lik = col[i - k - 1];
-                if lik != 0.0 {
-                    let row = &mut a[i * d + k + 1..=i * d + i];
-                    for (x, l) in row.iter_mut().zip(&col[..i - k]) {
-                        *x -= lik * l;
-                    }
-                }
-            }
+            schur_update_lower(a, d, k, &col);
         }
         self.tmp = col;
         self.rank = rank;
@@ -1610,27 +1606,7 @@ impl PsdFactor {
             let (head, rows) = q.split_at_mut((k + 1) * r);
             let qk = &mut head[k * r..];
             if r - k > ROW_WISE_COLUMNS {
-                let tj = &mut t[k + 1..r];
-                for (s, &x) in tj.iter_mut().zip(&qk[k + 1..]) {
-                    *s = v0 * x;
-                }
-                for row in rows.chunks_exact(r) {
-                    let qik = row[k];
-                    for (s, &x) in tj.iter_mut().zip(&row[k + 1..]) {
-                        *s += qik * x;
-                    }
-                }
-                for (s, x) in tj.iter_mut().zip(&mut qk[k + 1..]) {
-                    *s *= tau;
-                    *x -= *s * v0;
-                }
-                for row in rows.chunks_exact_mut(r) {
-                    let (left, right) = row.split_at_mut(k + 1);
-                    let qik = left[k];
-                    for (x, &s) in right.iter_mut().zip(&*tj) {
-                        *x -= s * qik;
-                    }
-                }
+                reflect_row_wise(qk, rows, &mut t[k + 1..r], k, r, v0, tau);
             } else {
                 for j in k + 1..r {
                     let mut sdot = v0 * qk[j];
@@ -1653,21 +1629,30 @@ impl PsdFactor {
             self.tau.push(tau);
         }
         self.tmp = t;
+        // Each reflection's vector below its first entry, contiguous, for `reflect`
+        // (read down a column of `qr` it cost a bounds check and a multiply a value).
+        self.hv.clear();
+        self.hv_at.clear();
+        for k in 0..r {
+            self.hv_at.push(self.hv.len());
+            self.hv.extend((k + 1..d).map(|i| self.qr[i * r + k]));
+        }
         true
     }
 
     /// `t ← H_k t` for the Householder reflection `k` of [`Self::factor`].
     fn reflect(&self, k: usize, t: &mut [f64]) {
-        let (d, r, q) = (self.d, self.rank, &self.qr);
-        let v0 = self.hv0[k];
-        let mut sdot = v0 * t[k];
-        for i in k + 1..d {
-            sdot += q[i * r + k] * t[i];
+        let (d, v0) = (self.d, self.hv0[k]);
+        let (tk, rest) = t[k..d].split_at_mut(1);
+        let h = &self.hv[self.hv_at[k]..self.hv_at[k] + rest.len()];
+        let mut sdot = v0 * tk[0];
+        for (x, y) in h.iter().zip(rest.iter()) {
+            sdot += x * y;
         }
         let c = self.tau[k] * sdot;
-        t[k] -= c * v0;
-        for i in k + 1..d {
-            t[i] -= c * q[i * r + k];
+        tk[0] -= c * v0;
+        for (x, y) in rest.iter_mut().zip(h) {
+            *x -= c * y;
         }
     }
 
@@ -1686,10 +1671,12 @@ impl PsdFactor {
         let l = &self.l;
         if r == d {
             // L y = Π rhs, then Lᵀ u = y; ζ = Πᵀ u.
+            // (Iterators over rows and strided columns: the same products and
+            // sums in the same order, without an index check and multiply a term.)
             for i in 0..d {
                 let mut v = rhs[self.perm[i]];
-                for k in 0..i {
-                    v -= l[i * d + k] * t[k];
+                for (a, b) in l[i * d..i * d + i].iter().zip(&t[..i]) {
+                    v -= a * b;
                 }
                 t[i] = v / l[i * d + i];
             }
@@ -1714,8 +1701,8 @@ impl PsdFactor {
             let q = &self.qr;
             for i in (0..r).rev() {
                 let mut v = t[i];
-                for j in i + 1..r {
-                    v -= q[i * r + j] * t[j];
+                for (a, b) in q[i * r + i + 1..(i + 1) * r].iter().zip(&t[i + 1..r]) {
+                    v -= a * b;
                 }
                 t[i] = v / q[i * r + i];
             }
@@ -1736,6 +1723,61 @@ impl PsdFactor {
         }
         self.tmp = t;
         zeta.iter().all(|z| z.is_finite())
+    }
+}
+
+/// [`PsdFactor::factor`]'s Schur complement update after pivot `k`: `a_ij −= l_ik l_jk`
+/// for `k < j ≤ i` on the lower triangle of the `d × d` row-major `a`, row by row
+/// against column `k` below the pivot, `col` (`l_jk` at `j − k − 1`). A function of
+/// its own so that `a` and `col` are known apart (inlined, every row's loop checked
+/// them for overlap first).
+#[inline(never)]
+fn schur_update_lower(a: &mut [f64], d: usize, k: usize, col: &[f64]) {
+    for i in k + 1..d {
+        let lik = col[i - k - 1];
+        if lik != 0.0 {
+            let row = &mut a[i * d + k + 1..=i * d + i];
+            for (x, l) in row.iter_mut().zip(&col[..i - k]) {
+                *x -= lik * l;
+            }
+        }
+    }
+}
+
+/// [`PsdFactor::factor`]'s Householder step `k` on the columns `j > k` of the `d × r`
+/// row-major QR arena, row by row over the contiguous columns: `qk` is row `k` (from
+/// column 0), `rows` the rows below it, `tj` scratch for the columns `k + 1..r`:
+/// `t_j = τ (v₀ q_kj + Σ_{i>k} q_ik q_ij)` (the sum in `i` order), `q_kj −= t_j v₀`,
+/// `q_ij −= t_j q_ik`. A function of its own so that the slices are known apart.
+#[inline(never)]
+fn reflect_row_wise(
+    qk: &mut [f64],
+    rows: &mut [f64],
+    tj: &mut [f64],
+    k: usize,
+    r: usize,
+    v0: f64,
+    tau: f64,
+) {
+    for (s, &x) in tj.iter_mut().zip(&qk[k + 1..r]) {
+        *s = v0 * x;
+    }
+    for row in rows.chunks_exact(r) {
+        let qik = row[k];
+        for (s, &x) in tj.iter_mut().zip(&row[k + 1..]) {
+            *s += qik * x;
+        }
+    }
+    for (s, x) in tj.iter_mut().zip(&mut qk[k + 1..r]) {
+        *s *= tau;
+        *x -= *s * v0;
+    }
+    for row in rows.chunks_exact_mut(r) {
+        let (left, right) = row.split_at_mut(k + 1);
+        let qik = left[k];
+        for (x, &s) in right.iter_mut().zip(&*tj) {
+            *x -= s * qik;
+        }
     }
 }
 
