@@ -1084,16 +1084,15 @@ impl World {
         st.path_nodes.clear();
         st.path_start.clear();
         st.val_start.clear();
-        st.path_s.clear();
-        st.path_u.clear();
         st.path_id.clear();
         st.path_reps.clear();
         let mut free_scale: f64 = 0.0;
         let mut inertia = FreeInertia::default();
+        let mut vals = 0;
         for (c, &i) in st.schur.iter().enumerate() {
             let first = st.path_nodes.len();
             st.path_start.push(first);
-            st.val_start.push(st.path_s.len());
+            st.val_start.push(vals);
             self.schur_scatter(f, &mut st.col, i, 1.0);
             self.schur_path(i, &mut st.mark, &mut st.path_nodes);
             let path = &st.path_nodes[first..];
@@ -1119,9 +1118,13 @@ impl World {
             // `memcpy` call and a capacity check per node and per unknown before).
             let path = &st.path_nodes[first..];
             let len: usize = path.iter().map(|&k| f.node_len(k)).sum();
-            let at = st.path_s.len();
-            st.path_s.resize(at + len, 0.0);
-            st.path_u.resize(at + len, 0.0);
+            // (The arenas only grow: no zero fill of what is written next.)
+            let at = vals;
+            vals += len;
+            if st.path_s.len() < vals {
+                st.path_s.resize(vals, 0.0);
+                st.path_u.resize(vals, 0.0);
+            }
             take_path_values(
                 f,
                 path,
@@ -1146,7 +1149,7 @@ impl World {
             free_scale = free_scale.max(scale);
         }
         st.path_start.push(st.path_nodes.len());
-        st.val_start.push(st.path_s.len());
+        st.val_start.push(vals);
         // S_ab = Σ u_a s_b over the nodes a's path shares with b's, node after node
         // along a's path (rows on one path: every node, one contiguous run). The shared
         // nodes are found once per pair of distinct paths met (it was once per row `b`
