@@ -325,8 +325,10 @@ pub(super) struct ActiveSet {
     /// its path's, so the offsets hold for every row on either path.
     seg: Vec<(usize, usize, usize)>,
     seg_at: Vec<(usize, usize)>,
-    /// The path being built, as elimination steps ([`RowTree::forward_steps`]).
+    /// Per distinct path: its nodes as elimination steps ([`RowTree::forward_steps`])
+    /// in `steps[s0..s1]` and its number of unknowns, `(s0, s1, len)`.
     steps: Vec<usize>,
+    path_steps: Vec<(usize, usize, usize)>,
     /// Per row (one-sided, then equality) of the step: its scale without the tree,
     /// `g M⁻¹ gᵀ` ([`World::schur_free_scale`]), NaN until first needed.
     row_scale: Vec<f64>,
@@ -1086,6 +1088,8 @@ impl World {
         st.val_start.clear();
         st.path_id.clear();
         st.path_reps.clear();
+        st.steps.clear();
+        st.path_steps.clear();
         let mut free_scale: f64 = 0.0;
         let mut inertia = FreeInertia::default();
         let mut vals = 0;
@@ -1105,19 +1109,22 @@ impl World {
             st.path_id.push(rep.unwrap_or(st.path_reps.len()));
             if rep.is_none() {
                 st.path_reps.push(c);
+                // The path in the elimination order (a chain to the root already
+                // is: children come first; a two-body row's second walk is merged
+                // in) and its number of unknowns, once per distinct path.
+                let s0 = st.steps.len();
+                st.steps
+                    .extend(st.path_nodes[first..].iter().map(|&k| f.step_of(k)));
+                insertion_sort(&mut st.steps[s0..]);
+                let len = st.path_nodes[first..].iter().map(|&k| f.node_len(k)).sum();
+                st.path_steps.push((s0, st.steps.len(), len));
             }
-            // The path in the elimination order (a chain to the root already is:
-            // children come first; a two-body row's second walk is merged in).
-            st.steps.clear();
-            st.steps
-                .extend(st.path_nodes[first..].iter().map(|&k| f.step_of(k)));
-            insertion_sort(&mut st.steps);
-            f.forward_steps(&mut st.col, &st.steps);
+            let (s0, s1, len) = st.path_steps[rep.unwrap_or(st.path_steps.len() - 1)];
+            f.forward_steps(&mut st.col, &st.steps[s0..s1]);
             // Keep s and u = s / d⁻¹ on the path; leave `col` and `mark` clear. The
             // row's values are sized once and written node slice by node slice (a
             // `memcpy` call and a capacity check per node and per unknown before).
             let path = &st.path_nodes[first..];
-            let len: usize = path.iter().map(|&k| f.node_len(k)).sum();
             // (The arenas only grow: no zero fill of what is written next.)
             let at = vals;
             vals += len;
