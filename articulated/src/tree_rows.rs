@@ -1222,6 +1222,65 @@ mod tests {
             .collect()
     }
 
+    /// `g H_A⁻¹ g'ᵀ` of two rows outside the factor (contacts on bodies 5 and 10, on
+    /// two branches that share bodies 2 to 0) from [`RowTree::forward_steps`] over
+    /// each row's path alone, `Σ u s'` over the kept pivots (`u = s / d⁻¹`, the Schur
+    /// rows' formula in `world/active_set.rs`), against `g x'` of a whole solve
+    /// `x' = H_A⁻¹ g'ᵀ`; and the pass leaves the unknowns off the path zero.
+    #[test]
+    fn forward_steps_on_a_path_give_the_rows_coupling() {
+        let (t, nodes) = branched_tree(1.0);
+        let rows = alloc::vec![limit_row(&nodes, 3, 0.1), contact_row(&t, 11, 0.3)];
+        let mut f = RowTree::default();
+        assert!(f.assemble(&t, &rows));
+        f.factor(&t).expect("factor");
+        let column = |r: &ExtraRow| {
+            let mut x = alloc::vec![0.0; f.size];
+            for (side, body) in [(0usize, r.a), (1usize, r.b)] {
+                if let Some(b) = body {
+                    let o = f.node_offset(b);
+                    for c in 0..3 {
+                        x[o + c] += r.j[2 * side][c];
+                        x[o + 3 + c] += r.j[2 * side + 1][c];
+                    }
+                }
+            }
+            x
+        };
+        // A body's path: it and its ancestors, in the elimination order.
+        let path = |body: usize| {
+            let (mut k, mut steps, mut on) = (body, Vec::new(), alloc::vec![false; f.size]);
+            while k != NONE {
+                steps.push(f.step_of(k));
+                let o = f.node_offset(k);
+                on[o..o + f.node_len(k)].iter_mut().for_each(|v| *v = true);
+                k = t.parent[k];
+            }
+            steps.sort_unstable();
+            (steps, on)
+        };
+        let (g0, g1) = (contact_row(&t, 5, 0.7), contact_row(&t, 10, -0.4));
+        let ((p0, on0), (p1, _)) = (path(5), path(10));
+        let (mut s0, mut s1) = (column(&g0), column(&g1));
+        f.forward_steps(&mut s0, &p0);
+        f.forward_steps(&mut s1, &p1);
+        assert!(s0.iter().zip(&on0).all(|(v, on)| *on || *v == 0.0));
+        let coupling: f64 = (0..f.size)
+            .filter(|&u| f.dinv[u] != 0.0)
+            .map(|u| s0[u] / f.dinv[u] * s1[u])
+            .sum();
+        let mut x1 = column(&g1);
+        f.solve(&t, &mut x1);
+        let want: f64 = column(&g0).iter().zip(&x1).map(|(a, b)| a * b).sum();
+        // Measured: g x' = 1.774e-2, the two differ by 7.8e-16 relative (round-off of
+        // the two summation orders).
+        assert!(want.abs() > 1e-3, "{want}");
+        assert!(
+            (coupling - want).abs() <= 1e-12 * want.abs(),
+            "{coupling} vs {want}"
+        );
+    }
+
     /// An active set's sequence of row sets on one tree matrix: each factor after the
     /// first keeps the nodes below no change ([`Reuse`]) and gives the bits of a fresh
     /// factor of the same rows (blocks, pivots and a solve); a changed tree matrix (a

@@ -220,6 +220,36 @@
 //! passive 799/1/0, perturbed 589/161/9, controlled 280/379/3, stacker 1703/19/1,
 //! 1689/109/4, 1704/33/1 (20.4 Schur rows per build perturbed: the boxes' contacts
 //! with each other), manipulator 1772/34/4, 1787/35/7, 1768/57/4.
+//!
+//! The Schur rows' bookkeeping (issue 13, dm_control's humanoid perturbed, 2 s, 400
+//! steps, callgrind `--toggle-collect` on `World::step`, main d600c41: 537.5M, of
+//! which 233.6M in 334 tries). The build of `S` ([`World::schur_columns`]) was
+//! 113.4M in 768 builds (a build follows every new factor of `H_A` with Schur rows
+//! not yet held; 14.9 rows, 7.4 distinct paths, 128 path nodes and 824 path values
+//! a build on average, 235 builds rank-deficient at `d` 9 to 28): `S`'s factor
+//! 29.6M, the forward passes 23.1M, the products `u_a s_b` 14.3M, and 46M of
+//! bookkeeping around them, mostly per path node and per pair of rows. Cut with the
+//! same bits (the same operations in the same order; the 13 reference runs
+//! `cmp`-equal): the forward pass walks the path's elimination steps
+//! ([`RowTree::forward_steps`], the steps and length once per distinct path) instead
+//! of testing a mark at every node; a path's values are taken in one call whose
+//! slices are known apart (inlined, the compiler checked them for overlap at every
+//! node), into arenas that only grow; the shared nodes of a pair of paths are found
+//! once per pair met; a row's free scale once per step; `S`'s Cholesky update and
+//! Householder step in functions of their own (no overlap check per row), the
+//! Householder vectors kept contiguous for [`PsdFactor::reflect`]. The same run:
+//! 537.5M → 515.9M (tries 233.6M → 211.9M); humanoid_CMU perturbed 0.5 s 210.3M →
+//! 208.6M, gymnasium's humanoid perturbed 381.9M → 372.0M, humanoidstandup 446.2M →
+//! 424.8M; the 13 runs of `instr34`: dm humanoid passive −4.3 %, controlled −1.0 %,
+//! gymnasium's humanoid passive −2.8 %, humanoid_CMU passive −1.5 %, controlled
+//! −0.3 %, dm hopper −0.4 %, the others within +0.15 % (swimmer6 +0.12 %, pusher
+//! +0.15 %: paths of few, small nodes, where the per-node call costs about what the
+//! inlined copies did). Tried and left out: the pairs of rows in blocks per pair of
+//! paths (517.2M → 517.4M), the row-wise Householder step from 1 column on instead
+//! of 4 (516.0M → 516.1M), the path values inlined (520.7M: the overlap checks
+//! return). What is left is arithmetic (the products, `S`'s factor, the forward
+//! passes) or per build: any change of a factor row changes the root's block, on
+//! every Schur row's path, so no build can reuse the last one's columns whole.
 
 use alloc::vec::Vec;
 
