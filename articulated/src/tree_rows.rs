@@ -599,7 +599,7 @@ impl RowTree {
     /// Node `k`'s index in the elimination order ([`Self::forward_steps`]).
     #[inline]
     pub fn step_of(&self, k: usize) -> usize {
-        self.step_of[k]
+        self.step_of.get(k).copied().unwrap_or(usize::MAX)
     }
 
     /// [`Self::solve`]'s forward pass (`s = d⁻¹ L⁻¹ y` at each node, `y_p −= Wᵀ s`) at
@@ -621,8 +621,12 @@ impl RowTree {
                 }
             };
         }
+        // (A step past the schedule, `usize::MAX` from `step_of` of a node it does
+        // not hold, is no node's: skipped, as the marked walk would have.)
         for &i in steps {
-            let s = &self.schedule[i];
+            let Some(s) = self.schedule.get(i) else {
+                continue;
+            };
             dispatch!(forward, s, x;
                 6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 10; 6, 11; 6, 12;
                 6, 13; 6, 14; 6, 15;
