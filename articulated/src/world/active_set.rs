@@ -240,7 +240,7 @@
 //! Householder vectors kept contiguous for [`PsdFactor::reflect`]. The same run:
 //! 537.5M → 515.9M (tries 233.6M → 211.9M); humanoid_CMU perturbed 0.5 s 210.3M →
 //! 208.6M, gymnasium's humanoid perturbed 381.9M → 372.0M, humanoidstandup 446.2M →
-//! 424.8M; the 13 runs of `instr34`: dm humanoid passive −4.3 %, controlled −1.0 %,
+//! 424.6M; the 13 runs of `instr34`: dm humanoid passive −4.3 %, controlled −1.0 %,
 //! gymnasium's humanoid passive −2.8 %, humanoid_CMU passive −1.5 %, controlled
 //! −0.3 %, dm hopper −0.4 %, the others within +0.15 % (swimmer6 +0.12 %, pusher
 //! +0.15 %: paths of few, small nodes, where the per-node call costs about what the
