@@ -220,6 +220,36 @@
 //! passive 799/1/0, perturbed 589/161/9, controlled 280/379/3, stacker 1703/19/1,
 //! 1689/109/4, 1704/33/1 (20.4 Schur rows per build perturbed: the boxes' contacts
 //! with each other), manipulator 1772/34/4, 1787/35/7, 1768/57/4.
+//!
+//! The Schur rows' bookkeeping (issue 13, dm_control's humanoid perturbed, 2 s, 400
+//! steps, callgrind `--toggle-collect` on `World::step`, main d600c41: 537.5M, of
+//! which 233.6M in 334 tries). The build of `S` ([`World::schur_columns`]) was
+//! 113.4M in 768 builds (a build follows every new factor of `H_A` with Schur rows
+//! not yet held; 14.9 rows, 7.4 distinct paths, 128 path nodes and 824 path values
+//! a build on average, 235 builds rank-deficient at `d` 9 to 28): `S`'s factor
+//! 29.6M, the forward passes 23.1M, the products `u_a s_b` 14.3M, and 46M of
+//! bookkeeping around them, mostly per path node and per pair of rows. Cut with the
+//! same bits (the same operations in the same order; the 13 reference runs
+//! `cmp`-equal): the forward pass walks the path's elimination steps
+//! ([`RowTree::forward_steps`], the steps and length once per distinct path) instead
+//! of testing a mark at every node; a path's values are taken in one call whose
+//! slices are known apart (inlined, the compiler checked them for overlap at every
+//! node), into arenas that only grow; the shared nodes of a pair of paths are found
+//! once per pair met; a row's free scale once per step; `S`'s Cholesky update and
+//! Householder step in functions of their own (no overlap check per row), the
+//! Householder vectors kept contiguous for [`PsdFactor::reflect`]. The same run:
+//! 537.5M → 515.9M (tries 233.6M → 211.9M); humanoid_CMU perturbed 0.5 s 210.3M →
+//! 208.6M, gymnasium's humanoid perturbed 381.9M → 372.0M, humanoidstandup 446.2M →
+//! 424.6M; the 13 runs of `instr34`: dm humanoid passive −4.3 %, controlled −1.0 %,
+//! gymnasium's humanoid passive −2.8 %, humanoid_CMU passive −1.5 %, controlled
+//! −0.3 %, dm hopper −0.4 %, the others within +0.15 % (swimmer6 +0.12 %, pusher
+//! +0.15 %: paths of few, small nodes, where the per-node call costs about what the
+//! inlined copies did). Tried and left out: the pairs of rows in blocks per pair of
+//! paths (517.2M → 517.4M), the row-wise Householder step from 1 column on instead
+//! of 4 (516.0M → 516.1M), the path values inlined (520.7M: the overlap checks
+//! return). What is left is arithmetic (the products, `S`'s factor, the forward
+//! passes) or per build: any change of a factor row changes the root's block, on
+//! every Schur row's path, so no build can reuse the last one's columns whole.
 
 use alloc::vec::Vec;
 
@@ -310,21 +340,28 @@ pub(super) struct ActiveSet {
     val_start: Vec<usize>,
     path_s: Vec<f64>,
     path_u: Vec<f64>,
-    /// Per Schur row: the first Schur row with the same path (equal ids: equal paths;
-    /// a foot's or a box's contact rows share one), and those first rows.
+    /// Per Schur row: its path's index among the distinct paths (equal ids: equal
+    /// paths; a foot's or a box's contact rows share one), and per distinct path the
+    /// first Schur row on it.
     path_id: Vec<usize>,
     path_reps: Vec<usize>,
-    /// Per tree node: whether it is on the path being built, and where the Schur row
-    /// at hand keeps its values (`usize::MAX`: not on its path); both clear between
-    /// uses.
+    /// Per tree node: whether it is on the path being built, and where the path at
+    /// hand keeps its values (`usize::MAX`: not on it); both clear between uses.
     mark: Vec<bool>,
     node_slot: Vec<usize>,
-    /// For the Schur row `b` at hand: the nodes its path shares with another path,
-    /// as `(offset in that path's values, offset in b's values, length)`, adjacent
-    /// nodes merged; `seg_at[p]`: path `p`'s (a representative row) range in `seg`
-    /// (`usize::MAX` start: not yet built for this `b`).
+    /// Per pair of distinct paths `(p, q)` (`g` of them), in `seg[seg_at[p · g + q]]`:
+    /// the nodes of `p` on `q`, along `p`, as `(offset in p's values, offset in q's
+    /// values, length)`, nodes adjacent in both merged. A row's values are laid out as
+    /// its path's, so the offsets hold for every row on either path.
     seg: Vec<(usize, usize, usize)>,
     seg_at: Vec<(usize, usize)>,
+    /// Per distinct path: its nodes as elimination steps ([`RowTree::forward_steps`])
+    /// in `steps[s0..s1]` and its number of unknowns, `(s0, s1, len)`.
+    steps: Vec<usize>,
+    path_steps: Vec<(usize, usize, usize)>,
+    /// Per row (one-sided, then equality) of the step: its scale without the tree,
+    /// `g M⁻¹ gᵀ` ([`World::schur_free_scale`]), NaN until first needed.
+    row_scale: Vec<f64>,
     /// A full-length column for one forward pass, zero between uses.
     col: Vec<f64>,
     /// `H_A⁻¹ G_Dᵀ ζ` (one factor solve), the Schur rows' correction of a solution.
@@ -527,6 +564,8 @@ impl World {
         // that settles leaves `st.z`, `st.w` as that iterate's), for the statistics.
         let mut worst: f64 = 0.0;
         st.history.clear();
+        st.row_scale.clear();
+        st.row_scale.resize(m + self.eq.len(), f64::NAN);
         st.factor_current = false;
         st.y_current = false;
         while iterations < MAX_ITERATIONS {
@@ -1059,7 +1098,7 @@ impl World {
     /// iterations that keep both reuse it. With the factor `H_A = L D Lᵀ` (leaves
     /// first), `g H_A⁻¹ g'ᵀ = uᵀ D⁺ u'` for `u = L⁻¹ gᵀ`, and the forward pass of a row
     /// on one or two bodies touches only those bodies and their ancestors
-    /// ([`RowTree::forward_marked`]): per row a pass over its paths to the root
+    /// ([`RowTree::forward_steps`]): per row a pass over its paths to the root
     /// (about a quarter of a humanoid's nodes, no backward pass) instead of a whole
     /// factor solve, and `S_ab = Σ u_a s_b` over `a`'s path (`s = D⁺ u`, the pass's
     /// output; `D⁺`: zero at a dropped pivot). `false` when `S` or its factor is not
@@ -1077,124 +1116,135 @@ impl World {
         st.path_nodes.clear();
         st.path_start.clear();
         st.val_start.clear();
-        st.path_s.clear();
-        st.path_u.clear();
         st.path_id.clear();
         st.path_reps.clear();
+        st.steps.clear();
+        st.path_steps.clear();
         let mut free_scale: f64 = 0.0;
         let mut inertia = FreeInertia::default();
+        let mut vals = 0;
         for (c, &i) in st.schur.iter().enumerate() {
             let first = st.path_nodes.len();
             st.path_start.push(first);
-            st.val_start.push(st.path_s.len());
+            st.val_start.push(vals);
             self.schur_scatter(f, &mut st.col, i, 1.0);
             self.schur_path(i, &mut st.mark, &mut st.path_nodes);
             let path = &st.path_nodes[first..];
-            let rep = st.path_reps.iter().copied().find(|&r| {
+            // (The first node, the row's body, is compared first: a slice
+            // comparison of equal lengths is a `bcmp` call.)
+            let rep = st.path_reps.iter().position(|&r| {
                 let (a, b) = (st.path_start[r], st.path_start[r + 1]);
-                st.path_nodes[a..b] == *path
+                st.path_nodes.get(a) == path.first() && st.path_nodes[a..b] == *path
             });
-            st.path_id.push(rep.unwrap_or(c));
+            st.path_id.push(rep.unwrap_or(st.path_reps.len()));
             if rep.is_none() {
                 st.path_reps.push(c);
+                // The path in the elimination order (a chain to the root already
+                // is: children come first; a two-body row's second walk is merged
+                // in) and its number of unknowns, once per distinct path.
+                let s0 = st.steps.len();
+                st.steps
+                    .extend(st.path_nodes[first..].iter().map(|&k| f.step_of(k)));
+                insertion_sort(&mut st.steps[s0..]);
+                let len = st.path_nodes[first..].iter().map(|&k| f.node_len(k)).sum();
+                st.path_steps.push((s0, st.steps.len(), len));
             }
-            f.forward_marked(&self.solver, &mut st.col, &st.mark);
-            // Keep s and u = s / d⁻¹ on the path; leave `col` and `mark` clear.
-            // (Whole node slices: a per-unknown push with its bounds and capacity
-            // checks was a third of the step's own instructions on dm hopper.)
-            for &k in &st.path_nodes[first..] {
+            let (s0, s1, len) = st.path_steps[rep.unwrap_or(st.path_steps.len() - 1)];
+            f.forward_steps(&mut st.col, &st.steps[s0..s1]);
+            // Keep s and u = s / d⁻¹ on the path; leave `col` and `mark` clear. The
+            // row's values are sized once and written node slice by node slice (a
+            // `memcpy` call and a capacity check per node and per unknown before).
+            let path = &st.path_nodes[first..];
+            // (The arenas only grow: no zero fill of what is written next.)
+            let at = vals;
+            vals += len;
+            if st.path_s.len() < vals {
+                st.path_s.resize(vals, 0.0);
+                st.path_u.resize(vals, 0.0);
+            }
+            take_path_values(
+                f,
+                path,
+                &mut st.col,
+                &mut st.path_s[at..],
+                &mut st.path_u[at..],
+            );
+            for &k in path {
                 st.mark[k] = false;
-                let (o, n) = (f.node_offset(k), f.node_len(k));
-                let s = &mut st.col[o..o + n];
-                st.path_s.extend_from_slice(s);
-                // `col` cleared as `u` is read (a separate `fill` of the few unknowns
-                // was a `memset` call per path node).
-                st.path_u
-                    .extend(s.iter_mut().zip(f.pivot_inverses(o, n)).map(|(sv, &di)| {
-                        let sv = core::mem::take(sv);
-                        if di != 0.0 {
-                            sv / di
-                        } else {
-                            0.0
-                        }
-                    }));
             }
-            free_scale = free_scale.max(self.schur_free_scale(i, &mut inertia));
+            // The row's scale is the step's (its Jacobian and bodies are fixed in it).
+            let scale = match st.row_scale.get(i) {
+                Some(v) if !v.is_nan() => *v,
+                _ => {
+                    let v = self.schur_free_scale(i, &mut inertia);
+                    if let Some(slot) = st.row_scale.get_mut(i) {
+                        *slot = v;
+                    }
+                    v
+                }
+            };
+            free_scale = free_scale.max(scale);
         }
         st.path_start.push(st.path_nodes.len());
-        st.val_start.push(st.path_s.len());
-        // No fill: every `S_ab` is written below (`a ≥ b`, both halves), and the
-        // `seg_at` entries read (the path representatives') are reset per `b`.
+        st.val_start.push(vals);
+        // S_ab = Σ u_a s_b over the nodes a's path shares with b's, node after node
+        // along a's path (rows on one path: every node, one contiguous run). The shared
+        // nodes are found once per pair of distinct paths met (it was once per row `b`
+        // and path of `a`), with `b`'s offsets in `node_slot`. No fill: every `S_ab` is
+        // written below (`a ≥ b`, both halves).
+        let g = st.path_reps.len();
+        st.seg.clear();
+        st.seg_at.clear();
+        st.seg_at.resize(g * g, (usize::MAX, 0));
         st.s_mat.resize(d * d, 0.0);
-        st.seg_at.resize(d, (usize::MAX, 0));
         let mut finite = true;
         for b in 0..d {
-            // Where b's values of each node on its path are.
-            let mut off = st.val_start[b];
-            for &k in &st.path_nodes[st.path_start[b]..st.path_start[b + 1]] {
-                st.node_slot[k] = off;
-                off += f.node_len(k);
-            }
-            st.seg.clear();
-            for &r in &st.path_reps {
-                st.seg_at[r] = (usize::MAX, 0);
-            }
+            let (vb, q) = (st.val_start[b], st.path_id[b]);
+            let path_b = &st.path_nodes[st.path_start[b]..st.path_start[b + 1]];
+            let mut slots = false;
             for a in b..d {
-                let mut v = 0.0;
-                if st.path_id[a] == st.path_id[b] {
-                    // The same path (rows on the same bodies: a foot's contacts): the
-                    // loop below would read both rows' values contiguously, node after
-                    // node in the same order, so one pass over them sums the same
-                    // products in the same order.
-                    let (va, vb) = (st.val_start[a], st.val_start[b]);
-                    let len = st.val_start[a + 1] - va;
-                    let (ua, sb) = (&st.path_u[va..va + len], &st.path_s[vb..vb + len]);
-                    for (x, y) in ua.iter().zip(sb) {
-                        v += x * y;
+                let (va, p) = (st.val_start[a], st.path_id[a]);
+                if st.seg_at[p * g + q].0 == usize::MAX {
+                    if !slots {
+                        let mut off = 0;
+                        for &k in path_b {
+                            st.node_slot[k] = off;
+                            off += f.node_len(k);
+                        }
+                        slots = true;
                     }
-                    st.s_mat[a * d + b] = v;
-                    st.s_mat[b * d + a] = v;
-                    finite &= v.is_finite();
-                    continue;
-                }
-                // The nodes a's path shares with b's, built once per path (rows with
-                // the same path have the same nodes, lengths and value offsets): the
-                // products summed node after node along a's path as the node walk
-                // would, merged nodes adjacent in both rows' values read as one.
-                let p = st.path_id[a];
-                if st.seg_at[p].0 == usize::MAX {
                     let first = st.seg.len();
                     let mut ra = 0;
                     for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
                         let n = f.node_len(k);
                         let ob = st.node_slot[k];
                         if ob != usize::MAX {
-                            let own = st.seg.len() > first;
-                            match st.seg.last_mut() {
-                                Some(g) if own && g.0 + g.2 == ra && g.1 + g.2 == ob => {
-                                    g.2 += n;
-                                }
+                            match st.seg[first..].last_mut() {
+                                Some(sg) if sg.0 + sg.2 == ra && sg.1 + sg.2 == ob => sg.2 += n,
                                 _ => st.seg.push((ra, ob, n)),
                             }
                         }
                         ra += n;
                     }
-                    st.seg_at[p] = (first, st.seg.len());
+                    st.seg_at[p * g + q] = (first, st.seg.len());
                 }
-                let va = st.val_start[a];
-                let (s0, s1) = st.seg_at[p];
+                let (s0, s1) = st.seg_at[p * g + q];
+                let mut v = 0.0;
                 for &(ra, ob, n) in &st.seg[s0..s1] {
-                    let (ua, sb) = (&st.path_u[va + ra..va + ra + n], &st.path_s[ob..ob + n]);
-                    for (x, y) in ua.iter().zip(sb) {
-                        v += x * y;
-                    }
+                    let (ua, sb) = (
+                        &st.path_u[va + ra..va + ra + n],
+                        &st.path_s[vb + ob..vb + ob + n],
+                    );
+                    v = dot_on(v, ua, sb);
                 }
                 st.s_mat[a * d + b] = v;
                 st.s_mat[b * d + a] = v;
                 finite &= v.is_finite();
             }
-            for &k in &st.path_nodes[st.path_start[b]..st.path_start[b + 1]] {
-                st.node_slot[k] = usize::MAX;
+            if slots {
+                for &k in path_b {
+                    st.node_slot[k] = usize::MAX;
+                }
             }
         }
         if !finite {
@@ -1372,6 +1422,55 @@ fn bounds(b: &RowBound, z: &[f64]) -> (f64, f64) {
     }
 }
 
+/// A forward pass's values on a path's nodes `path` (factor `f`), packed node after
+/// node: `s` (taken from `col`, left zero there) into `ps`, `u = s / d⁻¹` (zero at a
+/// dropped pivot) into `pu`. A function of its own so that the slices are known apart
+/// (inlined into the loop over the path's nodes, the compiler checked them for overlap
+/// at every node: 60 instructions a node).
+#[inline(never)]
+fn take_path_values(f: &RowTree, path: &[usize], col: &mut [f64], ps: &mut [f64], pu: &mut [f64]) {
+    let mut at = 0;
+    for &k in path {
+        let (o, n) = (f.node_offset(k), f.node_len(k));
+        let (ps, pu) = (&mut ps[at..at + n], &mut pu[at..at + n]);
+        let src = col[o..o + n].iter_mut().zip(f.pivot_inverses(o, n));
+        for ((sv, &di), (ps, pu)) in src.zip(ps.iter_mut().zip(pu.iter_mut())) {
+            let sv = core::mem::take(sv);
+            *ps = sv;
+            *pu = if di != 0.0 { sv / di } else { 0.0 };
+        }
+        at += n;
+    }
+}
+
+/// Sorts a short list in place (a path's few elimination steps, mostly in order).
+fn insertion_sort(v: &mut [usize]) {
+    for i in 1..v.len() {
+        let mut j = i;
+        while j > 0 && v[j - 1] > v[j] {
+            v.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+}
+
+/// `v + Σ a_i b_i`, the products added one after another in `i` order (four to a
+/// loop turn: the same sums, fewer loop instructions).
+#[inline(always)]
+fn dot_on(mut v: f64, a: &[f64], b: &[f64]) -> f64 {
+    let (mut ca, mut cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    for (x, y) in (&mut ca).zip(&mut cb) {
+        v += x[0] * y[0];
+        v += x[1] * y[1];
+        v += x[2] * y[2];
+        v += x[3] * y[3];
+    }
+    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
+        v += x * y;
+    }
+    v
+}
+
 /// `x += s · Gᵀ` on the row's bodies' unknowns in the augmented layout.
 fn scatter(f: &RowTree, x: &mut [f64], r: &URow, s: f64) {
     scatter_seg(f, x, r.a, r.b, &r.j, s);
@@ -1444,6 +1543,10 @@ struct PsdFactor {
     /// the reflections' `τ`.
     qr: Vec<f64>,
     hv0: Vec<f64>,
+    /// The vectors below their first entries, reflection after reflection (`hv_at`:
+    /// where each starts), for [`Self::reflect`].
+    hv: Vec<f64>,
+    hv_at: Vec<usize>,
     tau: Vec<f64>,
     /// Scratch of `r` values.
     tmp: Vec<f64>,
@@ -1501,15 +1604,7 @@ impl PsdFactor {
                 a[i * d + k] /= lkk;
                 col.push(a[i * d + k]);
             }
-            for i in k + 1..d {
-                let lik = col[i - k - 1];
-                if lik != 0.0 {
-                    let row = &mut a[i * d + k + 1..=i * d + i];
-                    for (x, l) in row.iter_mut().zip(&col[..i - k]) {
-                        *x -= lik * l;
-                    }
-                }
-            }
+            schur_update_lower(a, d, k, &col);
         }
         self.tmp = col;
         self.rank = rank;
@@ -1551,27 +1646,7 @@ impl PsdFactor {
             let (head, rows) = q.split_at_mut((k + 1) * r);
             let qk = &mut head[k * r..];
             if r - k > ROW_WISE_COLUMNS {
-                let tj = &mut t[k + 1..r];
-                for (s, &x) in tj.iter_mut().zip(&qk[k + 1..]) {
-                    *s = v0 * x;
-                }
-                for row in rows.chunks_exact(r) {
-                    let qik = row[k];
-                    for (s, &x) in tj.iter_mut().zip(&row[k + 1..]) {
-                        *s += qik * x;
-                    }
-                }
-                for (s, x) in tj.iter_mut().zip(&mut qk[k + 1..]) {
-                    *s *= tau;
-                    *x -= *s * v0;
-                }
-                for row in rows.chunks_exact_mut(r) {
-                    let (left, right) = row.split_at_mut(k + 1);
-                    let qik = left[k];
-                    for (x, &s) in right.iter_mut().zip(&*tj) {
-                        *x -= s * qik;
-                    }
-                }
+                reflect_row_wise(qk, rows, &mut t[k + 1..r], k, r, v0, tau);
             } else {
                 for j in k + 1..r {
                     let mut sdot = v0 * qk[j];
@@ -1594,21 +1669,30 @@ impl PsdFactor {
             self.tau.push(tau);
         }
         self.tmp = t;
+        // Each reflection's vector below its first entry, contiguous, for `reflect`
+        // (read down a column of `qr` it cost a bounds check and a multiply a value).
+        self.hv.clear();
+        self.hv_at.clear();
+        for k in 0..r {
+            self.hv_at.push(self.hv.len());
+            self.hv.extend((k + 1..d).map(|i| self.qr[i * r + k]));
+        }
         true
     }
 
     /// `t ← H_k t` for the Householder reflection `k` of [`Self::factor`].
     fn reflect(&self, k: usize, t: &mut [f64]) {
-        let (d, r, q) = (self.d, self.rank, &self.qr);
-        let v0 = self.hv0[k];
-        let mut sdot = v0 * t[k];
-        for i in k + 1..d {
-            sdot += q[i * r + k] * t[i];
+        let (d, v0) = (self.d, self.hv0[k]);
+        let (tk, rest) = t[k..d].split_at_mut(1);
+        let h = &self.hv[self.hv_at[k]..self.hv_at[k] + rest.len()];
+        let mut sdot = v0 * tk[0];
+        for (x, y) in h.iter().zip(rest.iter()) {
+            sdot += x * y;
         }
         let c = self.tau[k] * sdot;
-        t[k] -= c * v0;
-        for i in k + 1..d {
-            t[i] -= c * q[i * r + k];
+        tk[0] -= c * v0;
+        for (x, y) in rest.iter_mut().zip(h) {
+            *x -= c * y;
         }
     }
 
@@ -1627,10 +1711,12 @@ impl PsdFactor {
         let l = &self.l;
         if r == d {
             // L y = Π rhs, then Lᵀ u = y; ζ = Πᵀ u.
+            // (Iterators over rows and strided columns: the same products and
+            // sums in the same order, without an index check and multiply a term.)
             for i in 0..d {
                 let mut v = rhs[self.perm[i]];
-                for k in 0..i {
-                    v -= l[i * d + k] * t[k];
+                for (a, b) in l[i * d..i * d + i].iter().zip(&t[..i]) {
+                    v -= a * b;
                 }
                 t[i] = v / l[i * d + i];
             }
@@ -1655,8 +1741,8 @@ impl PsdFactor {
             let q = &self.qr;
             for i in (0..r).rev() {
                 let mut v = t[i];
-                for j in i + 1..r {
-                    v -= q[i * r + j] * t[j];
+                for (a, b) in q[i * r + i + 1..(i + 1) * r].iter().zip(&t[i + 1..r]) {
+                    v -= a * b;
                 }
                 t[i] = v / q[i * r + i];
             }
@@ -1677,6 +1763,61 @@ impl PsdFactor {
         }
         self.tmp = t;
         zeta.iter().all(|z| z.is_finite())
+    }
+}
+
+/// [`PsdFactor::factor`]'s Schur complement update after pivot `k`: `a_ij −= l_ik l_jk`
+/// for `k < j ≤ i` on the lower triangle of the `d × d` row-major `a`, row by row
+/// against column `k` below the pivot, `col` (`l_jk` at `j − k − 1`). A function of
+/// its own so that `a` and `col` are known apart (inlined, every row's loop checked
+/// them for overlap first).
+#[inline(never)]
+fn schur_update_lower(a: &mut [f64], d: usize, k: usize, col: &[f64]) {
+    for i in k + 1..d {
+        let lik = col[i - k - 1];
+        if lik != 0.0 {
+            let row = &mut a[i * d + k + 1..=i * d + i];
+            for (x, l) in row.iter_mut().zip(&col[..i - k]) {
+                *x -= lik * l;
+            }
+        }
+    }
+}
+
+/// [`PsdFactor::factor`]'s Householder step `k` on the columns `j > k` of the `d × r`
+/// row-major QR arena, row by row over the contiguous columns: `qk` is row `k` (from
+/// column 0), `rows` the rows below it, `tj` scratch for the columns `k + 1..r`:
+/// `t_j = τ (v₀ q_kj + Σ_{i>k} q_ik q_ij)` (the sum in `i` order), `q_kj −= t_j v₀`,
+/// `q_ij −= t_j q_ik`. A function of its own so that the slices are known apart.
+#[inline(never)]
+fn reflect_row_wise(
+    qk: &mut [f64],
+    rows: &mut [f64],
+    tj: &mut [f64],
+    k: usize,
+    r: usize,
+    v0: f64,
+    tau: f64,
+) {
+    for (s, &x) in tj.iter_mut().zip(&qk[k + 1..r]) {
+        *s = v0 * x;
+    }
+    for row in rows.chunks_exact(r) {
+        let qik = row[k];
+        for (s, &x) in tj.iter_mut().zip(&row[k + 1..]) {
+            *s += qik * x;
+        }
+    }
+    for (s, x) in tj.iter_mut().zip(&mut qk[k + 1..r]) {
+        *s *= tau;
+        *x -= *s * v0;
+    }
+    for row in rows.chunks_exact_mut(r) {
+        let (left, right) = row.split_at_mut(k + 1);
+        let qik = left[k];
+        for (x, &s) in right.iter_mut().zip(&*tj) {
+            *x -= s * qik;
+        }
     }
 }
 
