@@ -634,17 +634,19 @@ impl World {
     /// The generalized force on every degree of freedom at the current state
     /// (actuators, joint springs, tendons) into `tau`, with the coordinate table into
     /// `coords`, and the force along each spatial tendon's path into `path_f` (empty
-    /// without paths; all reused buffers); `false` when nothing acts.
+    /// without paths; all reused buffers). Returns `(evaluated, acting)`: `evaluated`
+    /// false when there are no actuators, springs or tendons (nothing written), `acting`
+    /// whether some entry of `tau` is nonzero.
     fn generalized_forces(
         &self,
         tau: &mut Vec<[f64; MAX_DOF]>,
         coords: &mut Vec<Option<DofState>>,
         path_f: &mut Vec<f64>,
         part: ForcePart,
-    ) -> bool {
+    ) -> (bool, bool) {
         path_f.clear();
         if self.actuators.is_empty() && self.springs.is_empty() && self.tendons.is_empty() {
-            return false;
+            return (false, false);
         }
         // The coordinate table, lazily: first the joints whose coordinates or rates a
         // force reads (springs; tendons with stiffness or damping, or driven; actuators
@@ -754,12 +756,14 @@ impl World {
                 *p += f;
             }
         }
+        let mut acting = false;
         for (ji, t) in tau.iter().enumerate() {
             if t.iter().any(|v| *v != 0.0) {
+                acting = true;
                 self.fill_dof_state(coords, ji);
             }
         }
-        true
+        (true, acting)
     }
 
     /// Adds `scale · Σ_k G_kᵀ τ_k` (the actuator, spring and tendon impulses over
@@ -797,7 +801,12 @@ impl World {
         let mut tau = core::mem::take(&mut self.dof_tau);
         let mut coords = core::mem::take(&mut self.dof_table);
         let mut path_f = core::mem::take(&mut self.paths.force);
-        let any = self.generalized_forces(&mut tau, &mut coords, &mut path_f, part);
+        let (evaluated, acting) = self.generalized_forces(&mut tau, &mut coords, &mut path_f, part);
+        // Every force zero and no tendon paths: the impulses would add nothing
+        // ([`Self::apply_dof_impulses`] skips zero forces), so nothing acts, for this
+        // call and for [`Self::reapply_dof_forces`] (dm swimmer6 passive, controls zero:
+        // 6 000 empty passes over the joints in 1 000 steps).
+        let any = evaluated && (acting || !path_f.is_empty());
         self.paths.force = path_f;
         if any {
             self.apply_dof_impulses(&tau, &coords, scale);
@@ -868,7 +877,7 @@ impl World {
         let mut tau = core::mem::take(&mut self.dof_tau);
         let mut coords = core::mem::take(&mut self.dof_table);
         let mut path_f = core::mem::take(&mut self.paths.force);
-        let any = self.generalized_forces(&mut tau, &mut coords, &mut path_f, ForcePart::Full);
+        let (any, _) = self.generalized_forces(&mut tau, &mut coords, &mut path_f, ForcePart::Full);
         self.paths.force = path_f;
         if any {
             // Every joint's rows, as before the table was built lazily (the loop below

@@ -279,12 +279,12 @@ impl World {
         let mut v1 = core::mem::take(&mut self.rattle.v1);
         v1.clear();
         if explicit {
-            v1.extend((0..self.bodies.len()).map(|i| self.body_solution(i)));
+            v1.extend((0..self.bodies.len()).map(|i| self.solver.body_twist(&self.rhs, i)));
         }
         let mut stage = core::mem::take(&mut self.rattle.stage);
         stage.clear();
         stage.extend((0..self.bodies.len()).map(|i| {
-            let (v1, w1) = self.body_solution(i);
+            let (v1, w1) = self.solver.body_twist(&self.rhs, i);
             let b = &self.bodies[i];
             (b.v + (v1 - b.v) * c, b.omega + (w1 - b.omega) * c)
         }));
@@ -343,7 +343,7 @@ impl World {
         self.last_loops = loops_2;
         solved?;
         for i in 0..self.bodies.len() {
-            let (v, w) = self.body_solution(i);
+            let (v, w) = self.solver.body_twist(&self.rhs, i);
             self.bodies[i].v = v;
             self.bodies[i].omega = w;
         }
@@ -536,8 +536,11 @@ impl World {
                 }
             };
             let mut rate = [0.0; MAX_ROWS];
-            let tw =
-                |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| self.body_solution(i));
+            let tw = |i: Option<usize>| {
+                i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
+                    self.solver.body_twist(&self.rhs, i)
+                })
+            };
             let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
             for r in rows.n_hard..rows.n {
                 let g = rows.rows[r];
@@ -554,7 +557,7 @@ impl World {
         momenta.clear();
         let mut max_turn: f64 = 0.0;
         for i in 0..self.bodies.len() {
-            let (v, w) = self.body_solution(i);
+            let (v, w) = self.solver.body_twist(&self.rhs, i);
             let b = &mut self.bodies[i];
             let l = inertia0[i] * w;
             let q0 = b.pose.q;
@@ -642,7 +645,7 @@ impl World {
             }
             self.solve_factored(&loops_n)?;
             for i in 0..self.bodies.len() {
-                let (dx, dth) = self.body_solution(i);
+                let (dx, dth) = self.solver.body_twist(&self.rhs, i);
                 let b = &mut self.bodies[i];
                 b.pose.x += dx;
                 b.pose.q = rotate_by(b.pose.q, dth);
@@ -654,7 +657,7 @@ impl World {
                 let joint = &self.joints[*j];
                 let tw = |i: Option<usize>| {
                     i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
-                        let (dx, dth) = self.body_solution(i);
+                        let (dx, dth) = self.solver.body_twist(&self.rhs, i);
                         (dx / h, dth / h)
                     })
                 };
@@ -704,7 +707,7 @@ impl World {
             }
         }
         for i in 0..self.bodies.len() {
-            let (v, w) = self.body_solution(i);
+            let (v, w) = self.solver.body_twist(&self.rhs, i);
             self.bodies[i].v = v;
             self.bodies[i].omega = w;
         }
