@@ -833,39 +833,52 @@ impl World {
         self.dof_table = coords;
     }
 
+    /// Adds `scale · G_kᵀ τ_k` for every live entry of `coords` and nonzero `τ_k`, on the
+    /// joint's parent's then its child's six entries of the right-hand side. One pass
+    /// over the joints with the right-hand side and the solver's offsets borrowed once
+    /// (the same products and sums per entry, in the same order, as a lookup per body).
     fn apply_dof_impulses(
         &mut self,
         tau: &[[f64; MAX_DOF]],
         coords: &[Option<DofState>],
         scale: f64,
     ) {
-        for ji in 0..self.joints.len() {
+        let solver = &self.solver;
+        let rhs = &mut self.rhs;
+        // `r += g s` on body `i`'s six entries (linear `g[0]`, angular `g[1]`).
+        let mut add = |i: usize, lin: DVec3, ang: DVec3, s: f64| {
+            let o = solver.body_offset(i);
+            // The body's six entries as one slice (one bounds check).
+            let Some(r) = rhs.get_mut(o..o + 6) else {
+                return;
+            };
+            for c in 0..3 {
+                r[c] += lin[c] * s;
+                r[3 + c] += ang[c] * s;
+            }
+        };
+        for ((joint, t), entry) in self.joints.iter().zip(tau).zip(coords) {
             let Some(DofState {
                 live: true, rows, ..
-            }) = &coords[ji]
+            }) = entry
             else {
                 continue;
             };
-            let (parent, child) = (self.joints[ji].parent, self.joints[ji].child);
-            // Forces act on the joint's own degrees of freedom only.
-            for k in 0..self.dofs_of(ji) {
-                if tau[ji][k] == 0.0 {
+            // Forces act on the joint's own degrees of freedom only (`dofs_of`).
+            let dofs = match &joint.kind {
+                JointKind::Hinge(_) | JointKind::Prismatic(_) => 1,
+                JointKind::Compound(c, _) => c.dof(),
+                _ => 0,
+            };
+            for k in 0..dofs.min(MAX_DOF) {
+                if t[k] == 0.0 {
                     continue;
                 }
-                let s = tau[ji][k] * scale;
-                for (side, body) in [(0usize, parent), (1usize, Some(child))] {
-                    let Some(i) = body else { continue };
-                    let o = self.solver.body_offset(i);
-                    // The body's six entries as one slice (one bounds check).
-                    let Some(r) = self.rhs.get_mut(o..o + 6) else {
-                        continue;
-                    };
-                    let (lin, ang) = (rows[k][2 * side], rows[k][2 * side + 1]);
-                    for c in 0..3 {
-                        r[c] += lin[c] * s;
-                        r[3 + c] += ang[c] * s;
-                    }
+                let s = t[k] * scale;
+                if let Some(p) = joint.parent {
+                    add(p, rows[k][0], rows[k][1], s);
                 }
+                add(joint.child, rows[k][2], rows[k][3], s);
             }
         }
     }
