@@ -513,7 +513,11 @@ impl TreeSolver {
     /// path's columns of one contact (normal and tangents, the same bodies and marks)
     /// through one multi-column pass, each node's kernel on the three columns in turn
     /// (humanoid_CMU controlled 0.5 s 617.17M → 617.97M, gymnasium humanoid passive
-    /// 2 s 444.70M → 444.77M: the node kernels' arithmetic is the cost, not the walk).
+    /// 2 s 444.70M → 444.77M: the node kernels' arithmetic is the cost, not the walk);
+    /// the forward `L⁻¹` by columns from a copy `Lᵀ` written by the factor (the same
+    /// terms in the same order, contiguous rows): swimmer6 passive 2 s, this function
+    /// 20.03M → 19.67M but `factor_blocks` 11.22M → 13.76M for the copy (84.61M → 84.04M
+    /// in all, left out).
     fn solve_marked(&self, x: &mut [f64], mark: Option<&[bool]>) {
         // Fixed-size kernels for the node shapes of body/joint pairs (loops unroll);
         // `NP = 0` is a root.
