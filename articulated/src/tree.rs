@@ -516,8 +516,8 @@ impl TreeSolver {
     /// 2 s 444.70M → 444.77M: the node kernels' arithmetic is the cost, not the walk);
     /// the forward `L⁻¹` by columns from a copy `Lᵀ` written by the factor (the same
     /// terms in the same order, contiguous rows): swimmer6 passive 2 s, this function
-    /// 20.03M → 19.67M but `factor_blocks` 11.22M → 13.76M for the copy (84.61M → 84.04M
-    /// in all, left out).
+    /// 20.03M → 19.67M but `factor_blocks` 11.22M → 13.76M for the copy (`World::step`
+    /// 81.87M → 84.04M in all, left out).
     fn solve_marked(&self, x: &mut [f64], mark: Option<&[bool]>) {
         // Fixed-size kernels for the node shapes of body/joint pairs (loops unroll);
         // `NP = 0` is a root.
