@@ -292,6 +292,17 @@ impl TreeSolver {
         self.offset[i]
     }
 
+    /// Body `i`'s six entries of a solution `x` of this tree's system, `(v, ω)` (or a
+    /// correction `(δx, δθ)`), read in place: the callers' per-body loops (RATTLE's
+    /// stages, drift and SHAKE, about 60 reads a step on swimmer6) read them without a
+    /// call and a copy through memory each.
+    #[inline(always)]
+    pub(crate) fn body_twist(&self, x: &[f64], i: usize) -> (DVec3, DVec3) {
+        let o = self.offset[i];
+        let b = &x[o..o + 6];
+        (DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]))
+    }
+
     /// Offset of tree joint `j`'s rows (`None` for a loop joint).
     #[inline]
     pub fn joint_offset(&self, j: usize) -> Option<usize> {
@@ -502,7 +513,11 @@ impl TreeSolver {
     /// path's columns of one contact (normal and tangents, the same bodies and marks)
     /// through one multi-column pass, each node's kernel on the three columns in turn
     /// (humanoid_CMU controlled 0.5 s 617.17M → 617.97M, gymnasium humanoid passive
-    /// 2 s 444.70M → 444.77M: the node kernels' arithmetic is the cost, not the walk).
+    /// 2 s 444.70M → 444.77M: the node kernels' arithmetic is the cost, not the walk);
+    /// the forward `L⁻¹` by columns from a copy `Lᵀ` written by the factor (the same
+    /// terms in the same order, contiguous rows): swimmer6 passive 2 s, this function
+    /// 20.03M → 19.67M but `factor_blocks` 11.22M → 13.76M for the copy (`World::step`
+    /// 81.87M → 84.04M in all, left out).
     fn solve_marked(&self, x: &mut [f64], mark: Option<&[bool]>) {
         // Fixed-size kernels for the node shapes of body/joint pairs (loops unroll);
         // `NP = 0` is a root.

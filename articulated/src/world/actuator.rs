@@ -634,17 +634,19 @@ impl World {
     /// The generalized force on every degree of freedom at the current state
     /// (actuators, joint springs, tendons) into `tau`, with the coordinate table into
     /// `coords`, and the force along each spatial tendon's path into `path_f` (empty
-    /// without paths; all reused buffers); `false` when nothing acts.
+    /// without paths; all reused buffers). Returns `(evaluated, acting)`: `evaluated`
+    /// false when there are no actuators, springs or tendons (nothing written), `acting`
+    /// whether some entry of `tau` is nonzero.
     fn generalized_forces(
         &self,
         tau: &mut Vec<[f64; MAX_DOF]>,
         coords: &mut Vec<Option<DofState>>,
         path_f: &mut Vec<f64>,
         part: ForcePart,
-    ) -> bool {
+    ) -> (bool, bool) {
         path_f.clear();
         if self.actuators.is_empty() && self.springs.is_empty() && self.tendons.is_empty() {
-            return false;
+            return (false, false);
         }
         // The coordinate table, lazily: first the joints whose coordinates or rates a
         // force reads (springs; tendons with stiffness or damping, or driven; actuators
@@ -754,12 +756,14 @@ impl World {
                 *p += f;
             }
         }
+        let mut acting = false;
         for (ji, t) in tau.iter().enumerate() {
             if t.iter().any(|v| *v != 0.0) {
+                acting = true;
                 self.fill_dof_state(coords, ji);
             }
         }
-        true
+        (true, acting)
     }
 
     /// Adds `scale · Σ_k G_kᵀ τ_k` (the actuator, spring and tendon impulses over
@@ -797,7 +801,12 @@ impl World {
         let mut tau = core::mem::take(&mut self.dof_tau);
         let mut coords = core::mem::take(&mut self.dof_table);
         let mut path_f = core::mem::take(&mut self.paths.force);
-        let any = self.generalized_forces(&mut tau, &mut coords, &mut path_f, part);
+        let (evaluated, acting) = self.generalized_forces(&mut tau, &mut coords, &mut path_f, part);
+        // Every force zero and no tendon paths: the impulses would add nothing
+        // ([`Self::apply_dof_impulses`] skips zero forces), so nothing acts, for this
+        // call and for [`Self::reapply_dof_forces`] (dm swimmer6 passive, controls zero:
+        // 6 000 empty passes over the joints in 1 000 steps).
+        let any = evaluated && (acting || !path_f.is_empty());
         self.paths.force = path_f;
         if any {
             self.apply_dof_impulses(&tau, &coords, scale);
@@ -824,39 +833,52 @@ impl World {
         self.dof_table = coords;
     }
 
+    /// Adds `scale · G_kᵀ τ_k` for every live entry of `coords` and nonzero `τ_k`, on the
+    /// joint's parent's then its child's six entries of the right-hand side. One pass
+    /// over the joints with the right-hand side and the solver's offsets borrowed once
+    /// (the same products and sums per entry, in the same order, as a lookup per body).
     fn apply_dof_impulses(
         &mut self,
         tau: &[[f64; MAX_DOF]],
         coords: &[Option<DofState>],
         scale: f64,
     ) {
-        for ji in 0..self.joints.len() {
+        let solver = &self.solver;
+        let rhs = &mut self.rhs;
+        // `r += g s` on body `i`'s six entries (linear `g[0]`, angular `g[1]`).
+        let mut add = |i: usize, lin: DVec3, ang: DVec3, s: f64| {
+            let o = solver.body_offset(i);
+            // The body's six entries as one slice (one bounds check).
+            let Some(r) = rhs.get_mut(o..o + 6) else {
+                return;
+            };
+            for c in 0..3 {
+                r[c] += lin[c] * s;
+                r[3 + c] += ang[c] * s;
+            }
+        };
+        for ((joint, t), entry) in self.joints.iter().zip(tau).zip(coords) {
             let Some(DofState {
                 live: true, rows, ..
-            }) = &coords[ji]
+            }) = entry
             else {
                 continue;
             };
-            let (parent, child) = (self.joints[ji].parent, self.joints[ji].child);
-            // Forces act on the joint's own degrees of freedom only.
-            for k in 0..self.dofs_of(ji) {
-                if tau[ji][k] == 0.0 {
+            // Forces act on the joint's own degrees of freedom only (`dofs_of`).
+            let dofs = match &joint.kind {
+                JointKind::Hinge(_) | JointKind::Prismatic(_) => 1,
+                JointKind::Compound(c, _) => c.dof(),
+                _ => 0,
+            };
+            for k in 0..dofs.min(MAX_DOF) {
+                if t[k] == 0.0 {
                     continue;
                 }
-                let s = tau[ji][k] * scale;
-                for (side, body) in [(0usize, parent), (1usize, Some(child))] {
-                    let Some(i) = body else { continue };
-                    let o = self.solver.body_offset(i);
-                    // The body's six entries as one slice (one bounds check).
-                    let Some(r) = self.rhs.get_mut(o..o + 6) else {
-                        continue;
-                    };
-                    let (lin, ang) = (rows[k][2 * side], rows[k][2 * side + 1]);
-                    for c in 0..3 {
-                        r[c] += lin[c] * s;
-                        r[3 + c] += ang[c] * s;
-                    }
+                let s = t[k] * scale;
+                if let Some(p) = joint.parent {
+                    add(p, rows[k][0], rows[k][1], s);
                 }
+                add(joint.child, rows[k][2], rows[k][3], s);
             }
         }
     }
@@ -868,7 +890,7 @@ impl World {
         let mut tau = core::mem::take(&mut self.dof_tau);
         let mut coords = core::mem::take(&mut self.dof_table);
         let mut path_f = core::mem::take(&mut self.paths.force);
-        let any = self.generalized_forces(&mut tau, &mut coords, &mut path_f, ForcePart::Full);
+        let (any, _) = self.generalized_forces(&mut tau, &mut coords, &mut path_f, ForcePart::Full);
         self.paths.force = path_f;
         if any {
             // Every joint's rows, as before the table was built lazily (the loop below
