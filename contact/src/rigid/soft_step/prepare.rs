@@ -128,14 +128,17 @@ fn inertia_lanes(ia: &DMat3, ib: &DMat3) -> InertiaLanes {
 /// the mass `1/k` (zero where `k ≤ 0`). Bodies `a` and `b` in the two lanes of
 /// `f64x2`: each lane does glam's scalar operations in glam's order (`cross`,
 /// `mul_vec3` column by column, `dot` left to right, `k` summed left to right), so
-/// the bits are the scalar code's, at half the arithmetic instructions.
+/// the bits are the scalar code's, at half the arithmetic instructions. `inv` gets
+/// the lanes of `I⁻¹(r × d)` per direction (x, y, z; body `a` in lane 0, `b` in lane
+/// 1), for [`Paired::put`](crate::rigid::soft_lanes::Paired::put) to store lane by
+/// lane from registers instead of reading `ang` back.
 #[inline(always)]
 fn angular_terms(
     (ra, rb): (DVec3, DVec3),
     dirs: &[DVec3; 3],
     m: &InertiaLanes,
     im_sum: f64,
-    ang: &mut [[DVec3; 4]; 3],
+    (ang, inv): (&mut [[DVec3; 4]; 3], &mut [[f64x2; 3]; 3]),
 ) -> [f64; 3] {
     let (rx, ry, rz) = (
         f64x2::new([ra.x, rb.x]),
@@ -143,13 +146,14 @@ fn angular_terms(
         f64x2::new([ra.z, rb.z]),
     );
     let mut k = [0.0; 3];
-    for ((d, out), k) in dirs.iter().zip(ang.iter_mut()).zip(&mut k) {
+    for (((d, out), k), lanes) in dirs.iter().zip(ang.iter_mut()).zip(&mut k).zip(inv) {
         let (dx, dy, dz) = (f64x2::splat(d.x), f64x2::splat(d.y), f64x2::splat(d.z));
         // r × d (glam: `self.y * rhs.z - rhs.y * self.z`, …).
         let (ux, uy, uz) = (ry * dz - dy * rz, rz * dx - dz * rx, rx * dy - dx * ry);
         // I⁻¹ u: column x scaled, then y, then z added (glam's `mul_vec3`).
         let row = |i: usize| m[i][0] * ux + m[i][1] * uy + m[i][2] * uz;
         let (ix, iy, iz) = (row(0), row(1), row(2));
+        *lanes = [ix, iy, iz];
         let dot = (ux * ix + uy * iy + uz * iz).to_array();
         *k = im_sum + dot[0] + dot[1];
         let (ux, uy, uz) = (ux.to_array(), uy.to_array(), uz.to_array());
@@ -630,7 +634,8 @@ impl ContactWorld {
                 // Written in place: built in a local and copied in, the 288 bytes cost
                 // ≈ 35 instructions a point (1 % of the 210-box pyramid's step).
                 let ang = &mut ang_out[p];
-                let mass = angular_terms((ra, rb), &dirs, &lanes, im_sum, ang);
+                let mut inv = [[f64x2::ZERO; 3]; 3];
+                let mass = angular_terms((ra, rb), &dirs, &lanes, im_sum, (ang, &mut inv));
                 // The point's previous impulses (zeros where not found), whether it
                 // starts from the estimate (a new manifold's point), and the estimate
                 // (read only where estimated).
@@ -655,7 +660,7 @@ impl ContactWorld {
                     p,
                     PointRows {
                         anchor: [ra, rb],
-                        ang,
+                        inv,
                         mass,
                     },
                 );
