@@ -444,8 +444,12 @@ pub(super) struct SoftState {
     /// Whether this step's contacts come sorted by collider pair (set by `prepare`,
     /// which walks their runs; `store` then keeps their keys without checking).
     pub(super) pairs_ascending: bool,
-    /// The previous step's impulses of each contact (natural order; zero if new).
-    pub(super) found: Vec<(f64, DVec3, DVec3, f64)>,
+    /// The previous step's impulses of each contact (natural order; zero if new):
+    /// normal, tangent vector, preload floor (see [`Warm`]).
+    pub(super) found: Vec<(f64, DVec3, f64)>,
+    /// The previous step's anchor slip of each contact (natural order; zero if new),
+    /// kept apart from `found` and only with friction anchors on (the only reader).
+    pub(super) found_slip: Vec<DVec3>,
     /// Whether each contact (natural order) was found in the previous step.
     pub(super) found_hit: Vec<bool>,
     /// Static load estimate of each contact (natural order), as a normal impulse per

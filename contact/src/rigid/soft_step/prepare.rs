@@ -341,9 +341,16 @@ impl ContactWorld {
         // sorted by pair, so one forward merge finds every previous point (the same
         // matches as a search per point, reading `warm` once, in order).
         // Sized once and written by position (as the point arrays below).
+        // The anchors' slips apart (read only with anchors on): a contact's entry 40
+        // bytes, not 64 (the 210-box pyramid's merge wrote and its point loop read
+        // 1.6k and 2.0k D1 misses a step of them, cachegrind).
         let none = (0.0, DVec3::ZERO, DVec3::ZERO, 0.0);
-        st.found.resize(contacts.len(), none);
+        let anchors = s.friction_anchors;
+        st.found.resize(contacts.len(), (0.0, DVec3::ZERO, 0.0));
         st.found_hit.resize(contacts.len(), false);
+        if anchors {
+            st.found_slip.resize(contacts.len(), DVec3::ZERO);
+        }
         let mut merge = WarmMerge::new(&st.warm, st.warm_unique);
         let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
         // Preload: the mean previous normal impulse of each manifold (a run of one
@@ -360,6 +367,11 @@ impl ContactWorld {
         // collider pair): each point found, then its manifold's sums.
         let nc = contacts.len();
         let (found, found_hit) = (&mut st.found[..nc], &mut st.found_hit[..nc]);
+        let found_slip = if anchors {
+            &mut st.found_slip[..nc]
+        } else {
+            &mut []
+        };
         let mut i = 0;
         // Whether the manifolds' pairs ascend (each run's pair above the last run's):
         // the contacts, and the keys `store` keeps in natural order, are then sorted
@@ -378,8 +390,12 @@ impl ContactWorld {
                 let c = &contacts[j];
                 let hit = merge.find(c);
                 found_hit[j] = hit.is_some();
-                found[j] = hit.unwrap_or(none);
-                sum += found[j].0;
+                let (zn, ft, sl, fl) = hit.unwrap_or(none);
+                found[j] = (zn, ft, fl);
+                if anchors {
+                    found_slip[j] = sl;
+                }
+                sum += zn;
                 hits += usize::from(found_hit[j]);
                 let bit = 1u64 << (c.id % 64);
                 clash |= bits & bit != 0;
@@ -394,13 +410,16 @@ impl ContactWorld {
                 let (mut ft, mut fl) = (DVec3::ZERO, 0.0);
                 for q in i..j {
                     ft += found[q].1;
-                    fl += found[q].3;
+                    fl += found[q].2;
                 }
                 let share = 1.0 / hits as f64;
                 m = sum * share;
                 for q in i..j {
                     if !found_hit[q] {
-                        found[q] = (m, ft * share, DVec3::ZERO, fl * share);
+                        found[q] = (m, ft * share, fl * share);
+                        if anchors {
+                            found_slip[q] = DVec3::ZERO;
+                        }
                     }
                 }
             }
@@ -571,6 +590,7 @@ impl ContactWorld {
             &st.mean[..nc],
         );
         let estimate = if estimated { &st.estimate[..nc] } else { &[] };
+        let found_slip = if anchors { &st.found_slip[..nc] } else { &[] };
         for j in 0..mp.len().saturating_sub(1) {
             let pts = &mpts[mp[j]..mp[j + 1]];
             let Some(&first) = pts.first() else {
@@ -639,7 +659,7 @@ impl ContactWorld {
                 // The point's previous impulses (zeros where not found), whether it
                 // starts from the estimate (a new manifold's point), and the estimate
                 // (read only where estimated).
-                let (zn, ft, sl, fl) = found[k];
+                let (zn, ft, fl) = found[k];
                 let fresh_point = new_manifolds && !found_hit[k];
                 let est = if estimated { estimate[k] } else { 0.0 };
                 let z = if !warm_start {
@@ -653,7 +673,7 @@ impl ContactWorld {
                 // Δd` below is the slip (Δd: the anchors' separation vector, as for
                 // the gap); read only with anchors on.
                 if anchors {
-                    let r = rb - ra;
+                    let (sl, r) = (found_slip[k], rb - ra);
                     slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
                 }
                 paired.put(
