@@ -28,8 +28,8 @@ fn distinct_ids(run: &[crate::geometry::Contact]) -> bool {
 }
 
 /// A previous step's impulses of one point as `prepare` reads them (normal,
-/// tangent vector, anchor slip, preload floor; see [`Warm`]).
-type Found = (f64, DVec3, DVec3, f64);
+/// tangent vector, preload floor; see [`Warm`]).
+type Found = (f64, DVec3, f64);
 
 /// The forward merge of the contacts (in collider-pair order) with the previous
 /// step's `warm` (sorted by collider pair): each contact finds the first entry of its
@@ -59,9 +59,10 @@ impl<'a> WarmMerge<'a> {
         }
     }
 
-    /// The previous impulses of contact `c` (the next in pair order), if found.
+    /// The previous impulses of contact `c` (the next in pair order) and their
+    /// entry's index in `warm`, if found.
     #[inline(always)]
-    fn find(&mut self, c: &crate::geometry::Contact) -> Option<Found> {
+    fn find(&mut self, c: &crate::geometry::Contact) -> Option<(usize, Found)> {
         let warm = self.warm;
         let key = c.key();
         let hit = match warm.get(self.next) {
@@ -80,11 +81,11 @@ impl<'a> WarmMerge<'a> {
                     .map(|i| (cursor + i, &warm[cursor + i]))
             }
         };
-        hit.map(|(i, &(_, zn, ft, sl, fl))| {
+        hit.map(|(i, &(_, zn, ft, fl))| {
             if self.unique {
                 self.next = i + 1;
             }
-            (zn, ft, sl, fl)
+            (i, (zn, ft, fl))
         })
     }
 }
@@ -99,7 +100,7 @@ fn merge_warm(
     found: &mut [Found],
     found_hit: &mut [bool],
 ) {
-    let none = (0.0, DVec3::ZERO, DVec3::ZERO, 0.0);
+    let none = (0.0, DVec3::ZERO, 0.0);
     let mut merge = WarmMerge::new(warm, unique);
     for (c, (f, h)) in contacts
         .iter()
@@ -107,7 +108,7 @@ fn merge_warm(
     {
         let hit = merge.find(c);
         *h = hit.is_some();
-        *f = hit.unwrap_or(none);
+        *f = hit.map_or(none, |(_, f)| f);
     }
 }
 
@@ -344,7 +345,7 @@ impl ContactWorld {
         // The anchors' slips apart (read only with anchors on): a contact's entry 40
         // bytes, not 64 (the 210-box pyramid's merge wrote and its point loop read
         // 1.6k and 2.0k D1 misses a step of them, cachegrind).
-        let none = (0.0, DVec3::ZERO, DVec3::ZERO, 0.0);
+        let none = (0.0, DVec3::ZERO, 0.0);
         let anchors = s.friction_anchors;
         st.found.resize(contacts.len(), (0.0, DVec3::ZERO, 0.0));
         st.found_hit.resize(contacts.len(), false);
@@ -352,6 +353,7 @@ impl ContactWorld {
             st.found_slip.resize(contacts.len(), DVec3::ZERO);
         }
         let mut merge = WarmMerge::new(&st.warm, st.warm_unique);
+        let warm_slip = &st.warm_slip;
         let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
         // Preload: the mean previous normal impulse of each manifold (a run of one
         // collider pair in natural order), the same on each of its points; a new
@@ -390,10 +392,12 @@ impl ContactWorld {
                 let c = &contacts[j];
                 let hit = merge.find(c);
                 found_hit[j] = hit.is_some();
-                let (zn, ft, sl, fl) = hit.unwrap_or(none);
+                let (zn, ft, fl) = hit.map_or(none, |(_, f)| f);
                 found[j] = (zn, ft, fl);
                 if anchors {
-                    found_slip[j] = sl;
+                    // A slip not kept (the last step had anchors off) is zero.
+                    let at = |(i, _)| warm_slip.get(i).copied();
+                    found_slip[j] = hit.and_then(at).unwrap_or(DVec3::ZERO);
                 }
                 sum += zn;
                 hits += usize::from(found_hit[j]);
@@ -889,12 +893,12 @@ mod tests {
         let at = |k: usize| DVec3::splat(k as f64);
         keys.iter()
             .enumerate()
-            .map(|(k, &key)| (key, k as f64, at(k), at(k), 0.5 * k as f64))
+            .map(|(k, &key)| (key, k as f64, at(k), 0.5 * k as f64))
             .collect()
     }
 
     fn merge(contacts: &[Contact], warm: &[Warm], unique: bool) -> (Vec<Found>, Vec<bool>) {
-        let mut found = alloc::vec![(0.0, DVec3::ZERO, DVec3::ZERO, 0.0); contacts.len()];
+        let mut found = alloc::vec![(0.0, DVec3::ZERO, 0.0); contacts.len()];
         let mut hit = alloc::vec![false; contacts.len()];
         merge_warm(contacts, warm, unique, &mut found, &mut hit);
         (found, hit)
