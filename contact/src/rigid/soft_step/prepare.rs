@@ -357,8 +357,9 @@ impl ContactWorld {
         let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
         // Preload: the mean previous normal impulse of each manifold (a run of one
         // collider pair in natural order), the same on each of its points; a new
-        // manifold's is its estimate.
-        st.mean.clear();
+        // manifold's is its estimate. Sized, and every entry written by position
+        // below (an `extend` per manifold cost its length and capacity bookkeeping).
+        st.mean.resize(contacts.len(), 0.0);
         // Whether this step's keys are unique (kept with them for the next step's
         // merge), checked manifold by manifold: the ids of a run of one pair are
         // distinct (a run longer than `UNIQUE_RUN` counts as not).
@@ -369,6 +370,7 @@ impl ContactWorld {
         // collider pair): each point found, then its manifold's sums.
         let nc = contacts.len();
         let (found, found_hit) = (&mut st.found[..nc], &mut st.found_hit[..nc]);
+        let mean = &mut st.mean[..nc];
         let found_slip = if anchors {
             &mut st.found_slip[..nc]
         } else {
@@ -427,7 +429,7 @@ impl ContactWorld {
                     }
                 }
             }
-            st.mean.extend(core::iter::repeat_n(m, j - i));
+            mean[i..j].fill(m);
             // From here on `found_hit` marks the points of known manifolds: where no
             // point or every point was found they do already, so only a manifold with
             // points renamed is written (a fill per manifold was 0.15 % of the
