@@ -319,13 +319,18 @@ impl Softness {
 }
 
 /// A previous step's impulses of one point, for warm starting: key, normal impulse
-/// per sub-step, tangent impulse per sub-step as a world vector, the friction
-/// anchor's slip (world vector, zero when sliding or anchors are off), and the
-/// preload floor per sub-step (see [`SoftStepSettings::preload`]).
-type Warm = ((usize, usize, u64), f64, DVec3, DVec3, f64);
+/// per sub-step, tangent impulse per sub-step as a world vector, and the preload
+/// floor per sub-step (see [`SoftStepSettings::preload`]). The friction anchor's slip
+/// is kept apart ([`SoftState::warm_slip`]): 64 bytes an entry, not 88, where anchors
+/// are off (the default), for `store` to write and `prepare`'s merge to read.
+type Warm = ((usize, usize, u64), f64, DVec3, f64);
 
 /// One manifold's normal rows solved together (at most [`BLOCK_POINTS`] points).
+/// 64-byte aligned (256 B, of which 200 used): `pts` and `len`, all the lane passes
+/// read of a block whose rows are packed, then lie in one cache line (at a 200-byte
+/// stride half of the blocks had them across two).
 #[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
 pub(super) struct Block {
     /// Solve positions of the points.
     pub(super) pts: [usize; BLOCK_POINTS],
@@ -430,6 +435,14 @@ pub(super) struct SoftState {
     pub(super) total: Vec<[f64; 3]>,
     pub(super) warm: Vec<Warm>,
     pub(super) warm_next: Vec<Warm>,
+    /// The friction anchor's slip of each entry of `warm` (world vector, zero when
+    /// sliding), in its order; empty where the step that stored `warm` had anchors
+    /// off (a slip not kept reads as zero).
+    pub(super) warm_slip: Vec<DVec3>,
+    pub(super) warm_slip_next: Vec<DVec3>,
+    /// Scratch of `store`'s sort of `warm_next` with its slips (anchors on, pairs
+    /// out of order): kept, so that the sort does not allocate once grown.
+    pub(super) warm_sort: Vec<(Warm, DVec3)>,
     /// Whether the keys in `warm` are unique (the step that stored them had no
     /// repeated contact key: the narrow phase does not promise it), which lets
     /// `prepare`'s merge take the entry after the last hit without a search.
@@ -440,8 +453,12 @@ pub(super) struct SoftState {
     /// Whether this step's contacts come sorted by collider pair (set by `prepare`,
     /// which walks their runs; `store` then keeps their keys without checking).
     pub(super) pairs_ascending: bool,
-    /// The previous step's impulses of each contact (natural order; zero if new).
-    pub(super) found: Vec<(f64, DVec3, DVec3, f64)>,
+    /// The previous step's impulses of each contact (natural order; zero if new):
+    /// normal, tangent vector, preload floor (see [`Warm`]).
+    pub(super) found: Vec<(f64, DVec3, f64)>,
+    /// The previous step's anchor slip of each contact (natural order; zero if new),
+    /// kept apart from `found` and only with friction anchors on (the only reader).
+    pub(super) found_slip: Vec<DVec3>,
     /// Whether each contact (natural order) was found in the previous step.
     pub(super) found_hit: Vec<bool>,
     /// Static load estimate of each contact (natural order), as a normal impulse per
@@ -599,11 +616,9 @@ impl ContactWorld {
     pub(super) fn warm_dense_to_soft(&mut self, h: f64) {
         let st = self.soft.get_or_insert_with(Default::default);
         st.warm.clear();
-        st.warm.extend(
-            self.warm
-                .iter()
-                .map(|&(key, (zn, ft))| (key, zn, ft, DVec3::ZERO, 0.0)),
-        );
+        st.warm
+            .extend(self.warm.iter().map(|&(key, (zn, ft))| (key, zn, ft, 0.0)));
+        st.warm_slip.clear();
         // Not checked: the merge searches every point.
         st.warm_unique = false;
         st.warm_h = h;
@@ -620,7 +635,7 @@ impl ContactWorld {
             self.soft
                 .iter()
                 .flat_map(|st| &st.warm)
-                .map(|&(key, zn, ft, _, _)| (key, (zn * k, ft * k))),
+                .map(|&(key, zn, ft, _)| (key, (zn * k, ft * k))),
         );
         // Keys are unique: the unstable sort is deterministic.
         self.warm.sort_unstable_by_key(|e| e.0);
@@ -761,8 +776,12 @@ impl ContactWorld {
         }
         // Sized once and written by position (every contact's entry is written).
         let nc = self.contacts.len();
-        st.warm_next
-            .resize(nc, ((0, 0, 0), 0.0, DVec3::ZERO, DVec3::ZERO, 0.0));
+        st.warm_next.resize(nc, ((0, 0, 0), 0.0, DVec3::ZERO, 0.0));
+        // The slips only with anchors on (empty otherwise: read as zeros).
+        st.warm_slip_next.clear();
+        if anchors {
+            st.warm_slip_next.resize(nc, DVec3::ZERO);
+        }
         // Every contact's three entries are written below: no clear.
         self.impulses.resize(3 * self.contacts.len(), 0.0);
         // In natural order: the contacts come sorted by collider pair, which is all
@@ -780,7 +799,9 @@ impl ContactWorld {
         let outputs = st.warm_next[..nc]
             .iter_mut()
             .zip(self.impulses[..3 * nc].chunks_exact_mut(3));
-        for ((c, &p), (warm, out)) in self.contacts.iter().zip(position).zip(outputs) {
+        for (k, ((c, &p), (warm, out))) in
+            self.contacts.iter().zip(position).zip(outputs).enumerate()
+        {
             let [zn, z1, z2] = impulse[p];
             let [_, t1, t2] = dir[p];
             // The anchor's slip at the end of the step; forgotten when the friction
@@ -796,16 +817,34 @@ impl ContactWorld {
             } else {
                 DVec3::ZERO
             };
-            *warm = (c.key(), zn, t1 * z1 + t2 * z2, slip, preload_floor[p]);
+            *warm = (c.key(), zn, t1 * z1 + t2 * z2, preload_floor[p]);
+            if let Some(s) = st.warm_slip_next.get_mut(k) {
+                *s = slip;
+            }
             out.copy_from_slice(&total[p]);
         }
         // `warm_next` holds the contacts' keys in natural order: sorted by pair
         // exactly when the contacts' runs ascend, which `prepare` saw.
         if !st.pairs_ascending {
             // Keys are unique: the unstable sort is deterministic.
-            st.warm_next.sort_unstable_by_key(|e| e.0);
+            if anchors {
+                // The slips sorted with their entries.
+                st.warm_sort.clear();
+                let (warm, slip) = (&st.warm_next, &st.warm_slip_next);
+                st.warm_sort
+                    .extend(warm.iter().copied().zip(slip.iter().copied()));
+                st.warm_sort.sort_unstable_by_key(|e| e.0 .0);
+                let (warm, slip) = (&mut st.warm_next, &mut st.warm_slip_next);
+                for ((w, s), &(e, sl)) in warm.iter_mut().zip(slip.iter_mut()).zip(&st.warm_sort) {
+                    *w = e;
+                    *s = sl;
+                }
+            } else {
+                st.warm_next.sort_unstable_by_key(|e| e.0);
+            }
         }
         core::mem::swap(&mut st.warm, &mut st.warm_next);
+        core::mem::swap(&mut st.warm_slip, &mut st.warm_slip_next);
         st.warm_unique = st.unique_keys;
         st.warm_h = hs;
     }

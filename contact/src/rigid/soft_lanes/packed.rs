@@ -233,12 +233,13 @@ pub(in crate::rigid) struct Paired {
 }
 
 /// One point's rows as `prepare` computes them (what [`Paired::put`] writes).
-pub(in crate::rigid) struct PointRows<'a> {
+pub(in crate::rigid) struct PointRows {
     /// The anchors `r_a`, `r_b`.
     pub(in crate::rigid) anchor: [DVec3; 2],
-    /// Per direction `r_a × d`, `r_b × d`, `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)` (the
-    /// last two packed; the passes take the first two from the anchors).
-    pub(in crate::rigid) ang: &'a [[DVec3; 4]; 3],
+    /// Per direction the lanes of `I⁻¹(r × d)` by axis (x, y, z), `I_a⁻¹(r_a × d)` in
+    /// lane 0 and `I_b⁻¹(r_b × d)` in lane 1, as `prepare` computes them (stored from
+    /// them lane by lane; the passes take `r × d` from the anchors).
+    pub(in crate::rigid) inv: [[f64x2; 3]; 3],
     /// Effective masses.
     pub(in crate::rigid) mass: [f64; 3],
 }
@@ -401,9 +402,9 @@ impl Paired {
         pr.anchor[0].set(h, l, point.anchor[0]);
         pr.anchor[1].set(h, l, point.anchor[1]);
         for r in 0..3 {
-            let ang = &point.ang[r];
-            pr.inv[r][0].set(h, l, ang[2]);
-            pr.inv[r][1].set(h, l, ang[3]);
+            let [x, y, z] = point.inv[r].map(f64x2::to_array);
+            pr.inv[r][0].set(h, l, DVec3::new(x[0], y[0], z[0]));
+            pr.inv[r][1].set(h, l, DVec3::new(x[1], y[1], z[1]));
             pr.mass[r][h].as_mut_array()[l] = point.mass[r];
         }
     }

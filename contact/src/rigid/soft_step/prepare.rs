@@ -28,8 +28,8 @@ fn distinct_ids(run: &[crate::geometry::Contact]) -> bool {
 }
 
 /// A previous step's impulses of one point as `prepare` reads them (normal,
-/// tangent vector, anchor slip, preload floor; see [`Warm`]).
-type Found = (f64, DVec3, DVec3, f64);
+/// tangent vector, preload floor; see [`Warm`]).
+type Found = (f64, DVec3, f64);
 
 /// The forward merge of the contacts (in collider-pair order) with the previous
 /// step's `warm` (sorted by collider pair): each contact finds the first entry of its
@@ -59,9 +59,10 @@ impl<'a> WarmMerge<'a> {
         }
     }
 
-    /// The previous impulses of contact `c` (the next in pair order), if found.
+    /// The previous impulses of contact `c` (the next in pair order) and their
+    /// entry's index in `warm`, if found.
     #[inline(always)]
-    fn find(&mut self, c: &crate::geometry::Contact) -> Option<Found> {
+    fn find(&mut self, c: &crate::geometry::Contact) -> Option<(usize, Found)> {
         let warm = self.warm;
         let key = c.key();
         let hit = match warm.get(self.next) {
@@ -80,11 +81,11 @@ impl<'a> WarmMerge<'a> {
                     .map(|i| (cursor + i, &warm[cursor + i]))
             }
         };
-        hit.map(|(i, &(_, zn, ft, sl, fl))| {
+        hit.map(|(i, &(_, zn, ft, fl))| {
             if self.unique {
                 self.next = i + 1;
             }
-            (zn, ft, sl, fl)
+            (i, (zn, ft, fl))
         })
     }
 }
@@ -99,7 +100,7 @@ fn merge_warm(
     found: &mut [Found],
     found_hit: &mut [bool],
 ) {
-    let none = (0.0, DVec3::ZERO, DVec3::ZERO, 0.0);
+    let none = (0.0, DVec3::ZERO, 0.0);
     let mut merge = WarmMerge::new(warm, unique);
     for (c, (f, h)) in contacts
         .iter()
@@ -107,7 +108,7 @@ fn merge_warm(
     {
         let hit = merge.find(c);
         *h = hit.is_some();
-        *f = hit.unwrap_or(none);
+        *f = hit.map_or(none, |(_, f)| f);
     }
 }
 
@@ -128,14 +129,17 @@ fn inertia_lanes(ia: &DMat3, ib: &DMat3) -> InertiaLanes {
 /// the mass `1/k` (zero where `k ≤ 0`). Bodies `a` and `b` in the two lanes of
 /// `f64x2`: each lane does glam's scalar operations in glam's order (`cross`,
 /// `mul_vec3` column by column, `dot` left to right, `k` summed left to right), so
-/// the bits are the scalar code's, at half the arithmetic instructions.
+/// the bits are the scalar code's, at half the arithmetic instructions. `inv` gets
+/// the lanes of `I⁻¹(r × d)` per direction (x, y, z; body `a` in lane 0, `b` in lane
+/// 1), for [`Paired::put`](crate::rigid::soft_lanes::Paired::put) to store lane by
+/// lane from registers instead of reading `ang` back.
 #[inline(always)]
 fn angular_terms(
     (ra, rb): (DVec3, DVec3),
     dirs: &[DVec3; 3],
     m: &InertiaLanes,
     im_sum: f64,
-    ang: &mut [[DVec3; 4]; 3],
+    (ang, inv): (&mut [[DVec3; 4]; 3], &mut [[f64x2; 3]; 3]),
 ) -> [f64; 3] {
     let (rx, ry, rz) = (
         f64x2::new([ra.x, rb.x]),
@@ -143,13 +147,14 @@ fn angular_terms(
         f64x2::new([ra.z, rb.z]),
     );
     let mut k = [0.0; 3];
-    for ((d, out), k) in dirs.iter().zip(ang.iter_mut()).zip(&mut k) {
+    for (((d, out), k), lanes) in dirs.iter().zip(ang.iter_mut()).zip(&mut k).zip(inv) {
         let (dx, dy, dz) = (f64x2::splat(d.x), f64x2::splat(d.y), f64x2::splat(d.z));
         // r × d (glam: `self.y * rhs.z - rhs.y * self.z`, …).
         let (ux, uy, uz) = (ry * dz - dy * rz, rz * dx - dz * rx, rx * dy - dx * ry);
         // I⁻¹ u: column x scaled, then y, then z added (glam's `mul_vec3`).
         let row = |i: usize| m[i][0] * ux + m[i][1] * uy + m[i][2] * uz;
         let (ix, iy, iz) = (row(0), row(1), row(2));
+        *lanes = [ix, iy, iz];
         let dot = (ux * ix + uy * iy + uz * iz).to_array();
         *k = im_sum + dot[0] + dot[1];
         let (ux, uy, uz) = (ux.to_array(), uy.to_array(), uz.to_array());
@@ -337,15 +342,24 @@ impl ContactWorld {
         // sorted by pair, so one forward merge finds every previous point (the same
         // matches as a search per point, reading `warm` once, in order).
         // Sized once and written by position (as the point arrays below).
-        let none = (0.0, DVec3::ZERO, DVec3::ZERO, 0.0);
-        st.found.resize(contacts.len(), none);
+        // The anchors' slips apart (read only with anchors on): a contact's entry 40
+        // bytes, not 64 (the 210-box pyramid's merge wrote and its point loop read
+        // 1.6k and 2.0k D1 misses a step of them, cachegrind).
+        let none = (0.0, DVec3::ZERO, 0.0);
+        let anchors = s.friction_anchors;
+        st.found.resize(contacts.len(), (0.0, DVec3::ZERO, 0.0));
         st.found_hit.resize(contacts.len(), false);
+        if anchors {
+            st.found_slip.resize(contacts.len(), DVec3::ZERO);
+        }
         let mut merge = WarmMerge::new(&st.warm, st.warm_unique);
+        let warm_slip = &st.warm_slip;
         let scale = if st.warm_h > 0.0 { hs / st.warm_h } else { 0.0 };
         // Preload: the mean previous normal impulse of each manifold (a run of one
         // collider pair in natural order), the same on each of its points; a new
-        // manifold's is its estimate.
-        st.mean.clear();
+        // manifold's is its estimate. Sized, and every entry written by position
+        // below (an `extend` per manifold cost its length and capacity bookkeeping).
+        st.mean.resize(contacts.len(), 0.0);
         // Whether this step's keys are unique (kept with them for the next step's
         // merge), checked manifold by manifold: the ids of a run of one pair are
         // distinct (a run longer than `UNIQUE_RUN` counts as not).
@@ -356,6 +370,12 @@ impl ContactWorld {
         // collider pair): each point found, then its manifold's sums.
         let nc = contacts.len();
         let (found, found_hit) = (&mut st.found[..nc], &mut st.found_hit[..nc]);
+        let mean = &mut st.mean[..nc];
+        let found_slip = if anchors {
+            &mut st.found_slip[..nc]
+        } else {
+            &mut []
+        };
         let mut i = 0;
         // Whether the manifolds' pairs ascend (each run's pair above the last run's):
         // the contacts, and the keys `store` keeps in natural order, are then sorted
@@ -374,8 +394,14 @@ impl ContactWorld {
                 let c = &contacts[j];
                 let hit = merge.find(c);
                 found_hit[j] = hit.is_some();
-                found[j] = hit.unwrap_or(none);
-                sum += found[j].0;
+                let (zn, ft, fl) = hit.map_or(none, |(_, f)| f);
+                found[j] = (zn, ft, fl);
+                if anchors {
+                    // A slip not kept (the last step had anchors off) is zero.
+                    let at = |(i, _)| warm_slip.get(i).copied();
+                    found_slip[j] = hit.and_then(at).unwrap_or(DVec3::ZERO);
+                }
+                sum += zn;
                 hits += usize::from(found_hit[j]);
                 let bit = 1u64 << (c.id % 64);
                 clash |= bits & bit != 0;
@@ -390,17 +416,20 @@ impl ContactWorld {
                 let (mut ft, mut fl) = (DVec3::ZERO, 0.0);
                 for q in i..j {
                     ft += found[q].1;
-                    fl += found[q].3;
+                    fl += found[q].2;
                 }
                 let share = 1.0 / hits as f64;
                 m = sum * share;
                 for q in i..j {
                     if !found_hit[q] {
-                        found[q] = (m, ft * share, DVec3::ZERO, fl * share);
+                        found[q] = (m, ft * share, fl * share);
+                        if anchors {
+                            found_slip[q] = DVec3::ZERO;
+                        }
                     }
                 }
             }
-            st.mean.extend(core::iter::repeat_n(m, j - i));
+            mean[i..j].fill(m);
             // From here on `found_hit` marks the points of known manifolds: where no
             // point or every point was found they do already, so only a manifold with
             // points renamed is written (a fill per manifold was 0.15 % of the
@@ -567,6 +596,7 @@ impl ContactWorld {
             &st.mean[..nc],
         );
         let estimate = if estimated { &st.estimate[..nc] } else { &[] };
+        let found_slip = if anchors { &st.found_slip[..nc] } else { &[] };
         for j in 0..mp.len().saturating_sub(1) {
             let pts = &mpts[mp[j]..mp[j + 1]];
             let Some(&first) = pts.first() else {
@@ -630,11 +660,12 @@ impl ContactWorld {
                 // Written in place: built in a local and copied in, the 288 bytes cost
                 // ≈ 35 instructions a point (1 % of the 210-box pyramid's step).
                 let ang = &mut ang_out[p];
-                let mass = angular_terms((ra, rb), &dirs, &lanes, im_sum, ang);
+                let mut inv = [[f64x2::ZERO; 3]; 3];
+                let mass = angular_terms((ra, rb), &dirs, &lanes, im_sum, (ang, &mut inv));
                 // The point's previous impulses (zeros where not found), whether it
                 // starts from the estimate (a new manifold's point), and the estimate
                 // (read only where estimated).
-                let (zn, ft, sl, fl) = found[k];
+                let (zn, ft, fl) = found[k];
                 let fresh_point = new_manifolds && !found_hit[k];
                 let est = if estimated { estimate[k] } else { 0.0 };
                 let z = if !warm_start {
@@ -648,14 +679,14 @@ impl ContactWorld {
                 // Δd` below is the slip (Δd: the anchors' separation vector, as for
                 // the gap); read only with anchors on.
                 if anchors {
-                    let r = rb - ra;
+                    let (sl, r) = (found_slip[k], rb - ra);
                     slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
                 }
                 paired.put(
                     p,
                     PointRows {
                         anchor: [ra, rb],
-                        ang,
+                        inv,
                         mass,
                     },
                 );
@@ -864,12 +895,12 @@ mod tests {
         let at = |k: usize| DVec3::splat(k as f64);
         keys.iter()
             .enumerate()
-            .map(|(k, &key)| (key, k as f64, at(k), at(k), 0.5 * k as f64))
+            .map(|(k, &key)| (key, k as f64, at(k), 0.5 * k as f64))
             .collect()
     }
 
     fn merge(contacts: &[Contact], warm: &[Warm], unique: bool) -> (Vec<Found>, Vec<bool>) {
-        let mut found = alloc::vec![(0.0, DVec3::ZERO, DVec3::ZERO, 0.0); contacts.len()];
+        let mut found = alloc::vec![(0.0, DVec3::ZERO, 0.0); contacts.len()];
         let mut hit = alloc::vec![false; contacts.len()];
         merge_warm(contacts, warm, unique, &mut found, &mut hit);
         (found, hit)
