@@ -123,7 +123,7 @@ mod tests {
 
     /// A branched chain: a forward pass on a two-body row's path leaves the rest of
     /// `x` untouched, and `Σ u s'` over the shared unknowns equals `g' · H⁻¹ gᵀ` from
-    /// a whole solve (measured 4e-16 relative apart; tolerance 1e-12).
+    /// a whole solve (measured 3.7e-14 relative apart; tolerance 1e-12).
     #[test]
     fn path_forward_pass_gives_the_row_coupling() {
         let n = 9;
@@ -198,7 +198,9 @@ mod tests {
         t.solve(&mut y);
         let want: f64 = g1.iter().zip(&y).map(|(a, b)| a * b).sum();
         assert!(want.abs() > 1e-3, "{want}");
-        assert!((a12 - want).abs() <= 1e-12 * want.abs(), "{a12} {want}");
+        let rel = (a12 - want).abs() / want.abs();
+        eprintln!("relative difference {rel:e}");
+        assert!(rel <= 1e-12, "{a12} {want}");
         assert!(mark.iter().all(|m| !m));
     }
 }
