@@ -44,6 +44,7 @@ use constraint_core::DVec3;
 
 use crate::error::ArticulatedError;
 
+mod forward;
 mod loops;
 #[cfg(test)]
 use loops::min_norm_truncated;

@@ -18,6 +18,10 @@
 //! updates the body velocities *and* the joint impulses, so every row holds in the same
 //! solve. Loop joints enter through the same Schur complement as in the plain solve.
 //!
+//! Without loop rows, equality rows and tendon rows (the humanoids) `Y` is not formed:
+//! `A = G H⁻¹ Gᵀ` from forward passes along the rows' paths to the root and
+//! `x' = x_free + H⁻¹ (Gᵀ z)` by one solve (`unilateral/path_delassus.rs`).
+//!
 //! That dense path costs one tree solve per row and a dense `m × m` solve: quadratic
 //! and worse in the rows of a chain lying on the floor. Rows that keep the joint tree a
 //! tree (limits and dry friction of tree joints, contacts with the static world) are
@@ -42,6 +46,7 @@ use constraint_core::DVec3;
 use super::*;
 
 mod loop_columns;
+mod path_delassus;
 
 use loop_columns::LoopColumns;
 
@@ -444,6 +449,9 @@ impl World {
     /// solution (`x_free`) is in `self.rhs`: `Y = H⁻¹ Gᵀ` (one tree solve per row, with
     /// the loop closure and the equality rows), `A = G Y`, `q = G x_free − bias`, solved
     /// from the impulses in `z` (warm start); then `x' = x_free + Y z` in `self.rhs`.
+    /// Without loop rows, equality rows and tendon rows, `A` comes from forward passes
+    /// along the rows' paths and `x' = x_free + H⁻¹ (Gᵀ z)` from one solve instead
+    /// ([`Self::solve_rows_by_paths`], unilateral/path_delassus.rs).
     /// Returns the solver's statistics and the natural-map residual at `z`. `loops` are
     /// the loop rows the factor was assembled with.
     pub(super) fn solve_rows_in_factor(
@@ -452,6 +460,11 @@ impl World {
         z: &mut [f64],
         loops: &LoopRows,
     ) -> Result<(RowStats, f64), ArticulatedError> {
+        // Without loops, equality rows and tendon rows: `A` from forward passes along
+        // the rows' paths, no `Y` (unilateral/path_delassus.rs).
+        if self.rows_on_paths(rows, loops) {
+            return self.solve_rows_by_paths(rows, z);
+        }
         let m = rows.len();
         let size = self.solver.size;
         // Y = H⁻¹ Gᵀ, one tree solve (with the loop closure) per row.
