@@ -427,6 +427,8 @@ pub struct World {
     /// Per tree node: on a column's path to the root (scratch of
     /// [`crate::tree::TreeSolver::solve_sparse`]).
     umark: Vec<bool>,
+    /// The path-wise Delassus build's index buffers (`unilateral/path_delassus.rs`).
+    upaths: unilateral::PathDelassus,
     /// Buffers of the loop-closed tree solve (scratch,
     /// [`crate::tree::TreeSolver::solve_with_loops_in`]).
     loop_scratch: crate::tree::LoopScratch,
@@ -535,6 +537,7 @@ impl World {
             umu: Vec::new(),
             uzero: Vec::new(),
             umark: Vec::new(),
+            upaths: unilateral::PathDelassus::default(),
             loop_scratch: crate::tree::LoopScratch::default(),
             ubounds: Vec::new(),
             urowbuf: Default::default(),

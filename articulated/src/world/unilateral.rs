@@ -47,6 +47,7 @@ use super::*;
 
 mod loop_columns;
 mod path_delassus;
+pub(super) use path_delassus::PathDelassus;
 
 use loop_columns::LoopColumns;
 

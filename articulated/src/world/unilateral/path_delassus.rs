@@ -23,8 +23,7 @@
 //! passive 2 s, the dense solve 28.0M → 21.8M; seven humanoid runs (dm humanoid
 //! passive, perturbed, controlled 2 s; gymnasium humanoid passive 2 s; humanoid_CMU
 //! passive 2 s, perturbed and controlled 1 s) 5445.3M → 5274.1M, their summaries
-//! unchanged. The index buffers are this struct's, made per call (the world holds no
-//! field for them).
+//! unchanged. The index buffers are this struct's, kept by the world across steps.
 
 use alloc::vec::Vec;
 
@@ -35,9 +34,10 @@ use crate::error::ArticulatedError;
 use crate::tree::TreeSolver;
 use crate::world::{LoopRows, World};
 
-/// The buffers of one build of `A` by paths.
-#[derive(Default)]
-pub(super) struct PathDelassus {
+/// The buffers of one build of `A` by paths (the world's, only grown: no allocation
+/// per step once they have grown).
+#[derive(Clone, Debug, Default)]
+pub(in crate::world) struct PathDelassus {
     /// All rows' path nodes, one row after another.
     nodes: Vec<usize>,
     /// Per row (and one past the last): its first node in `nodes`.
@@ -254,10 +254,8 @@ impl World {
             a_buf.resize(m * m, 0.0);
         }
         let a = &mut a_buf[..m * m];
-        let mut paths = PathDelassus {
-            mark: core::mem::take(&mut self.umark),
-            ..PathDelassus::default()
-        };
+        let mut paths = core::mem::take(&mut self.upaths);
+        paths.mark = core::mem::take(&mut self.umark);
         paths.build(&self.solver, rows, &mut col, a);
         let col_s = &mut col[..size];
         let mut q = core::mem::take(&mut self.uq);
@@ -304,7 +302,8 @@ impl World {
         self.udel = a_buf;
         self.uq = q;
         self.ubounds = bounds;
-        self.umark = paths.mark;
+        self.umark = core::mem::take(&mut paths.mark);
+        self.upaths = paths;
         outcome
     }
 }
