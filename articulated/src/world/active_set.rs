@@ -424,6 +424,20 @@ impl ActiveSet {
     }
 }
 
+/// Each row's impulse by its status, in row order: zero inactive, kept active, its bound
+/// at a bound (friction bounds `±μ z_n` from the normals' current impulses, rows before
+/// it already updated, as the status update reads them).
+fn status_impulses(urows: &[URow], st: &mut ActiveSet) {
+    for (i, r) in urows.iter().enumerate() {
+        st.z[i] = match st.status[i] {
+            RowStatus::Inactive => 0.0,
+            RowStatus::Active => st.z[i],
+            RowStatus::Lo => bounds(&r.bound, &st.z).0,
+            RowStatus::Hi => bounds(&r.bound, &st.z).1,
+        };
+    }
+}
+
 impl World {
     fn row_key(&self, r: &URow) -> RowKey {
         match r.source {
@@ -571,14 +585,7 @@ impl World {
         while iterations < MAX_ITERATIONS {
             iterations += 1;
             // Impulses of the rows off the factor (bounds from the current normals).
-            for i in 0..m {
-                st.z[i] = match st.status[i] {
-                    RowStatus::Inactive => 0.0,
-                    RowStatus::Active => st.z[i],
-                    RowStatus::Lo => bounds(&self.urows[i].bound, &st.z).0,
-                    RowStatus::Hi => bounds(&self.urows[i].bound, &st.z).1,
-                };
-            }
+            status_impulses(&self.urows, st);
             st.rows.clear();
             st.map.clear();
             for (i, r) in self.urows.iter().enumerate() {
@@ -789,15 +796,8 @@ impl World {
     fn iterate_values(&self, st: &mut ActiveSet) {
         let m = self.urows.len();
         st.solution_impulses(m);
+        status_impulses(&self.urows, st);
         let f = &st.factor;
-        for i in 0..m {
-            st.z[i] = match st.status[i] {
-                RowStatus::Inactive => 0.0,
-                RowStatus::Active => st.z[i],
-                RowStatus::Lo => bounds(&self.urows[i].bound, &st.z).0,
-                RowStatus::Hi => bounds(&self.urows[i].bound, &st.z).1,
-            };
-        }
         st.w.clear();
         for r in &self.urows {
             st.w.push(gather(f, &st.x, r) - r.bias);
