@@ -446,6 +446,31 @@ impl World {
         Ok(())
     }
 
+    /// The complementarity problem `w = A z + q` of `rows` (their bounds into
+    /// `self.ubounds`), solved from `z` (the warm start) by [`solve_movable`].
+    fn solve_assembled(
+        &mut self,
+        rows: &[URow],
+        a: &[f64],
+        q: &[f64],
+        z: &mut [f64],
+    ) -> Result<RowStats, ArticulatedError> {
+        let mut bounds = core::mem::take(&mut self.ubounds);
+        bounds.clear();
+        bounds.extend(rows.iter().map(|r| r.bound));
+        let settings: RowSettings = self.unilateral.solver;
+        let out = solve_movable(&mut self.urowbuf, a, q, &bounds, &settings, z);
+        self.ubounds = bounds;
+        out.map_err(ArticulatedError::Unilateral)
+    }
+
+    /// The natural-map residual at `z` of the problem [`Self::solve_assembled`] solved
+    /// (its bounds in `self.ubounds`; the shapes were built there and checked by the
+    /// solve).
+    fn assembled_residual(&self, a: &[f64], q: &[f64], z: &[f64]) -> Result<f64, ArticulatedError> {
+        row_residual(a, q, &self.ubounds, z).map_err(ArticulatedError::Unilateral)
+    }
+
     /// The complementarity problem of `rows` through the factored joint system whose
     /// solution (`x_free`) is in `self.rhs`: `Y = H⁻¹ Gᵀ` (one tree solve per row, with
     /// the loop closure and the equality rows), `A = G Y`, `q = G x_free − bias`, solved
@@ -572,13 +597,8 @@ impl World {
                 a[i * m + k] = a[k * m + i];
             }
         }
-        let mut bounds = core::mem::take(&mut self.ubounds);
-        bounds.clear();
-        bounds.extend(rows.iter().map(|r| r.bound));
-        let settings: RowSettings = self.unilateral.solver;
         let a = &*a;
-        let result = solve_movable(&mut self.urowbuf, a, &q, &bounds, &settings, z);
-        let outcome = match result {
+        let outcome = match self.solve_assembled(rows, a, &q, z) {
             Ok(stats) => {
                 // x' = x_free + Y z.
                 for (k, zk) in z.iter().enumerate() {
@@ -589,19 +609,15 @@ impl World {
                         }
                     }
                 }
-                // The shapes were built here and checked by the solve: no error.
-                row_residual(a, &q, &bounds, z)
-                    .map(|r| (stats, r))
-                    .map_err(ArticulatedError::Unilateral)
+                self.assembled_residual(a, &q, z).map(|r| (stats, r))
             }
-            Err(e) => Err(ArticulatedError::Unilateral(e)),
+            Err(e) => Err(e),
         };
         self.ucols = ycols;
         self.udel = a_buf;
         self.uq = q;
         self.umu = mu;
         self.uzero = zero_rhs;
-        self.ubounds = bounds;
         self.umark = mark;
         outcome
     }

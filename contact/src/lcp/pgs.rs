@@ -175,14 +175,7 @@ pub(crate) fn pgs_in(
         }
         None => z.resize(n, 0.0),
     }
-    inv_diag.clear();
-    for i in 0..n {
-        let d = lcp.m_ij(i, i);
-        if !(d > 0.0) {
-            return Err(LcpError::NonPositiveDiagonal { index: i });
-        }
-        inv_diag.push(1.0 / d);
-    }
+    inverse_diagonal(lcp, inv_diag)?;
     // Project the start: fixed-bound rows first, then the friction rows that read them.
     for pass in 0..2 {
         for i in 0..n {
@@ -276,6 +269,20 @@ pub(crate) fn pgs_in(
 /// (the row starts, the friction match, the bounds checks: as many instructions as
 /// the product itself on the friction block of a lying humanoid).
 #[inline]
+/// `1 / M_ii` per row into `inv_diag` (cleared first); a diagonal that is not positive
+/// (or NaN) is [`LcpError::NonPositiveDiagonal`]: a Gauss–Seidel sweep divides by it.
+fn inverse_diagonal(lcp: &Lcp, inv_diag: &mut Vec<f64>) -> Result<(), LcpError> {
+    inv_diag.clear();
+    for i in 0..lcp.n() {
+        let d = lcp.m_ij(i, i);
+        if !(d > 0.0) {
+            return Err(LcpError::NonPositiveDiagonal { index: i });
+        }
+        inv_diag.push(1.0 / d);
+    }
+    Ok(())
+}
+
 fn sweep_fixed_full(m: &[f64], lcp: &Lcp, inv_diag: &[f64], omega: f64, z: &mut [f64]) {
     let n = z.len();
     let bounds = lcp.lo().iter().zip(lcp.hi());

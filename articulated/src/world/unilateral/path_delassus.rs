@@ -27,9 +27,9 @@
 
 use alloc::vec::Vec;
 
-use constraint_contact::lcp::{row_residual, RowSettings, RowStats};
+use constraint_contact::lcp::RowStats;
 
-use super::{gather, solve_movable, URow};
+use super::{gather, URow};
 use crate::error::ArticulatedError;
 use crate::tree::TreeSolver;
 use crate::world::{LoopRows, World};
@@ -263,13 +263,8 @@ impl World {
         for r in rows {
             q.push(gather(&self.solver, &self.tendon_spans, &self.rhs, r) - r.bias);
         }
-        let mut bounds = core::mem::take(&mut self.ubounds);
-        bounds.clear();
-        bounds.extend(rows.iter().map(|r| r.bound));
-        let settings: RowSettings = self.unilateral.solver;
         let a = &*a;
-        let result = solve_movable(&mut self.urowbuf, a, &q, &bounds, &settings, z);
-        let outcome = match result {
+        let outcome = match self.solve_assembled(rows, a, &q, z) {
             Ok(stats) => {
                 // x' = x_free + H⁻¹ (Gᵀ z).
                 let mut any = false;
@@ -292,16 +287,13 @@ impl World {
                         *x += y;
                     }
                 }
-                row_residual(a, &q, &bounds, z)
-                    .map(|r| (stats, r))
-                    .map_err(ArticulatedError::Unilateral)
+                self.assembled_residual(a, &q, z).map(|r| (stats, r))
             }
-            Err(e) => Err(ArticulatedError::Unilateral(e)),
+            Err(e) => Err(e),
         };
         self.ucols = col;
         self.udel = a_buf;
         self.uq = q;
-        self.ubounds = bounds;
         self.umark = core::mem::take(&mut paths.mark);
         self.upaths = paths;
         outcome

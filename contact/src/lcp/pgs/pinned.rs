@@ -58,14 +58,7 @@ pub(crate) fn pgs_free_rows(
         zf,
         ..
     } = s;
-    inv_diag.clear();
-    for i in 0..n {
-        let d = lcp.m_ij(i, i);
-        if !(d > 0.0) {
-            return Err(LcpError::NonPositiveDiagonal { index: i });
-        }
-        inv_diag.push(1.0 / d);
-    }
+    super::inverse_diagonal(lcp, inv_diag)?;
     // The start projected into the boxes (the pinned rows' zeros), then the free block.
     z.clear();
     z.extend(z0.iter().enumerate().map(|(i, &v)| v.max(lo[i]).min(hi[i])));
