@@ -106,6 +106,11 @@ pub(crate) struct TreeSolver {
     /// n_parent, parent offset]` (`0, 0` for a root), read once per node instead of from
     /// the `dim`, `offset` and `parent` tables.
     schedule: Vec<[usize; 5]>,
+    /// Per node: `false` for a body without children (a leaf of the tree), `true`
+    /// otherwise — the forward pass's flags ([`Self::solve_marked`]) of a right-hand
+    /// side zero on every body ([`Self::solve_zero_bodies`]); empty when the tree has
+    /// no such body.
+    leaf_bodies: Vec<bool>,
     /// Per node: its diagonal block, its block to the parent and its inverse pivots
     /// (the factor once [`Self::factor`] ran; a dropped pivot is a zero `1/d`).
     pub(crate) blocks: Vec<NodeBlocks>,
@@ -248,6 +253,20 @@ impl TreeSolver {
                 [i, dim[i], offset[i], np, op]
             })
             .collect();
+        // Bodies that are no node's parent (joints only have bodies as children and
+        // bodies only joints, so a body without children is a leaf).
+        let mut leaf_bodies = vec![true; n_nodes];
+        for i in 0..n_bodies {
+            leaf_bodies[i] = false;
+        }
+        for &p in &parent {
+            if p != NONE && p < n_bodies {
+                leaf_bodies[p] = true;
+            }
+        }
+        if leaf_bodies.iter().all(|v| *v) {
+            leaf_bodies.clear();
+        }
         Self {
             n_bodies,
             dim,
@@ -255,6 +274,7 @@ impl TreeSolver {
             parent,
             order,
             schedule,
+            leaf_bodies,
             blocks: vec![ZERO_NODE; n_nodes],
             joint_node,
             loops,
@@ -457,6 +477,22 @@ impl TreeSolver {
     /// backward (root first) `x_i = L_i⁻ᵀ (s_i − d_i⁻¹ W_i x_p)`.
     pub fn solve(&self, x: &mut [f64]) {
         self.solve_marked(x, None);
+    }
+
+    /// [`Self::solve`] for a right-hand side whose bodies' entries are all `+0.0`
+    /// (SHAKE's corrections: only joint rows carry `−C`): the forward pass skips the
+    /// bodies without children. At such a leaf it would compute `u = L⁻¹ 0 = +0`
+    /// (`+0 − d·(±0) = +0`), `s = d⁻¹ u = +0` (a body's pivots are positive) and take
+    /// `Wᵀ s = +0` (sums from `+0`) off its parent, which leaves every bit of the
+    /// parent's entries as it was (`y − (+0) = y`, also for `y = −0`); the backward
+    /// pass then reads `s = +0` there, as the skipped node's zero right-hand side. So
+    /// the solution is [`Self::solve`]'s to the bit (for a finite factor).
+    pub fn solve_zero_bodies(&self, x: &mut [f64]) {
+        if self.leaf_bodies.is_empty() {
+            self.solve_marked(x, None);
+        } else {
+            self.solve_marked(x, Some(&self.leaf_bodies));
+        }
     }
 
     /// Flags in `mark` (scratch, one flag per node, kept by the caller) the nodes of
@@ -981,6 +1017,68 @@ mod tests {
             assert!(full.iter().any(|v| *v != 0.0));
             assert_eq!(full, sparse, "bodies {bodies:?}");
         }
+    }
+
+    /// A right-hand side zero on every body and nonzero on the joints (SHAKE's
+    /// corrections) gives the same solution by [`TreeSolver::solve_zero_bodies`] (the
+    /// forward pass skipping the childless bodies: here bodies 7 and 11 of the
+    /// branched tree of the test above, and body 12 hung by a 1-row joint) as by
+    /// [`TreeSolver::solve`], to the bit (compared as bits, so also the signs of
+    /// zeros; one joint's right-hand side `−0.0`, one row `+0.0`).
+    #[test]
+    fn zero_body_solve_gives_the_full_solve_to_the_bit() {
+        let n = 13;
+        let mut topo = vec![JointTopo {
+            a: None,
+            b: 0,
+            rows: 3,
+        }];
+        for i in 1..n {
+            let a = match i {
+                8 => 2,
+                12 => 5,
+                _ => i - 1,
+            };
+            topo.push(JointTopo {
+                a: Some(a),
+                b: i,
+                rows: if i == 12 { 1 } else { 3 },
+            });
+        }
+        let mut t = TreeSolver::new(n, &topo);
+        let leaves: Vec<usize> = (0..n).filter(|&i| !t.leaf_bodies[i]).collect();
+        assert_eq!(leaves, [7, 11, 12]);
+        for i in 0..n {
+            let m = 1.0 + 0.1 * i as f64;
+            t.set_body(i, m, &(DMat3::IDENTITY * (0.01 + 0.001 * i as f64)));
+        }
+        for (j, tp) in topo.iter().enumerate() {
+            let r = DVec3::new(0.1, 0.02 * j as f64, -0.05);
+            let mut rows = [[DVec3::ZERO; 4]; 3];
+            for (k, row) in rows.iter_mut().enumerate() {
+                let e = DVec3::AXES[k];
+                *row = [-e, -r.cross(e) * 0.5, e, r.cross(e)];
+            }
+            t.set_joint(j, tp, &rows[..tp.rows], 0, &[0.0; 3][..tp.rows]);
+        }
+        t.factor().expect("factor");
+        let mut full = vec![0.0; t.size];
+        for (j, tp) in topo.iter().enumerate() {
+            let o = t.joint_offset(j).expect("tree joint");
+            for r in 0..tp.rows {
+                full[o + r] = match (j, r) {
+                    (3, _) => -0.0,
+                    (4, 1) => 0.0,
+                    _ => libm::sin(1.3 * j as f64 + 0.7 * r as f64) * 1e-3,
+                };
+            }
+        }
+        let mut skipped = full.clone();
+        t.solve(&mut full);
+        t.solve_zero_bodies(&mut skipped);
+        assert!(full.iter().any(|v| *v != 0.0));
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&full), bits(&skipped));
     }
 
     /// The truncation of one SVD at a larger tolerance gives the bits of a second

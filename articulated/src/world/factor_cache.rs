@@ -124,6 +124,12 @@ impl KeptInertias {
         (d == 0).then(|| self.rotations[i])
     }
 
+    /// [`Self::rotation`], not inlined.
+    #[inline(never)]
+    pub(super) fn rotation_out_of_line(&self, i: usize, b: &RigidBody) -> Option<DMat3> {
+        self.rotation(i, b)
+    }
+
     /// Records body `i`'s rotation `r`, computed from `b`'s bits (`i` at most the
     /// number kept).
     #[inline]

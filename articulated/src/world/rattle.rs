@@ -256,7 +256,7 @@ impl World {
         } else {
             self.reuse_factor(key_h, key_rates, Soft::Free)
         };
-        self.body_rhs_kept(!reused, |b, _, iw| {
+        self.body_rhs_kept(!reused, false, |b, _, iw| {
             (b.v * b.mass() + g * (b.mass() * s), *iw * b.omega)
         });
         // The forces at `v` are kept for stage 2, which adds them again at the same
@@ -446,7 +446,7 @@ impl World {
             // The flow's solution (`v`, in `rhs`) is `v½`; its world inertias are at x₀.
             return self.drift_and_second_kick(h, tolerance, max_iterations, forces, true);
         }
-        self.body_rhs_kept(!reused, |b, _, iw| {
+        self.body_rhs_kept(!reused, false, |b, _, iw| {
             (b.v * b.mass() + g * (b.mass() * half), *iw * b.omega)
         });
         // Compliant joints: half a kick of their spring force at x (Störmer–Verlet); their
@@ -646,7 +646,8 @@ impl World {
             if err <= tolerance || it == max_iterations || !err.is_finite() {
                 break;
             }
-            self.solve_factored(&loops_n)?;
+            // The bodies' right-hand side is +0.0 (cleared above).
+            self.solve_factored_zero_bodies(&loops_n)?;
             for i in 0..self.bodies.len() {
                 let (dx, dth) = self.solver.body_twist(&self.rhs, i);
                 let b = &mut self.bodies[i];
@@ -675,7 +676,8 @@ impl World {
         //    [M Jᵀ; J −C][v'; μ] = [M v½ + (h/2) m g; 0], angular part L½.
         let (key_h, key_rates) = self.free_factor_key(hd, Rates::Armature);
         let reused = self.reuse_factor(key_h, key_rates, Soft::Free);
-        self.body_rhs_kept(!reused, |b, _, _| {
+        // The drift moved the bodies: their kept inertias (at x₀) are not compared.
+        self.body_rhs_kept(!reused, true, |b, _, _| {
             (b.v * b.mass() + g * (b.mass() * half), DVec3::ZERO)
         });
         {
