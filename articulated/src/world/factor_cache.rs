@@ -184,6 +184,16 @@ impl FactorKey {
             .extend(armature.iter().map(|a| a.map(f64::to_bits)));
     }
 
+    /// Copies `other` into this key, field by field into the buffers already grown
+    /// (the derived `clone_from` would allocate a new key).
+    fn copy_from(&mut self, other: &FactorKey) {
+        self.valid = other.valid;
+        self.assembly = other.assembly;
+        self.bodies.clone_from(&other.bodies);
+        self.compliance.clone_from(&other.compliance);
+        self.armature.clone_from(&other.armature);
+    }
+
     /// The key valid and equal bit for bit to the one [`Self::fill`] would build from
     /// these inputs, compared without building it (most lookups hit the solver's
     /// factor, and then no key is written; the first differing body ends the scan).
@@ -228,6 +238,12 @@ pub(super) struct FactorCache {
     probe: FactorKey,
     /// The bodies' rotations with the bits they were computed from.
     pub(super) inertias: KeptInertias,
+    /// `current`'s and `spare_key`'s keys (when both valid) hold the same bodies,
+    /// compliances and armatures, bit for bit, and differ at most in their assembly:
+    /// set by a miss of [`World::reuse_factor_unmoved`] (the new key is the one set
+    /// aside with another assembly), kept by hits and swaps, cleared by every other
+    /// miss.
+    twin: bool,
 }
 
 impl FactorCache {
@@ -272,6 +288,7 @@ impl World {
         }
         if !spare_hit {
             c.current.valid = false;
+            c.twin = false;
         }
         spare_hit
     }
@@ -280,16 +297,50 @@ impl World {
     /// since the solver's factor was looked up or computed at them (RATTLE: a first
     /// kick right after the damping flow's solves, a damping flow right after the
     /// second kick; only velocities changed in between). The compliances and armatures
-    /// do not change within a step, so the factor is this assembly's exactly when its
-    /// key is valid with the same `(h, rates, soft)`; otherwise the full lookup. The
-    /// two lookups of a RATTLE step that this serves compared every body's 17 words
-    /// (issue 13, swimmer6 controlled: about 600 instructions each).
+    /// do not change within a step, so the solver's factor (its key valid) is this
+    /// assembly's exactly when its key has the same `(h, rates, soft)`, the set-aside
+    /// one when it is the solver's twin (`FactorCache::twin`) with that assembly, and on
+    /// a miss the new key is the solver's with this assembly — copied, not built from
+    /// the bodies (a twin after the swap). Without a valid key, the full lookup.
+    ///
+    /// A RATTLE step with damping looks up four factors (`factor_cache.rs` above): the
+    /// first kick (twin of the flow's factor at `x_n`) now hits without comparing the
+    /// bodies, and the second flow's key is copied. The two lookups of a RATTLE step
+    /// that this serves compared every body's 17 words (issue 13, swimmer6 controlled:
+    /// about 600 instructions each).
     pub(super) fn reuse_factor_unmoved(&mut self, h: f64, rates: Rates, soft: Soft) -> bool {
-        let c = &self.factors.current;
-        if c.valid && c.assembly == Some((h.to_bits(), rates, soft)) {
+        let c = &mut self.factors;
+        if !c.current.valid {
+            return self.reuse_factor(h, rates, soft);
+        }
+        let assembly = Some((h.to_bits(), rates, soft));
+        if c.current.assembly == assembly {
             return true;
         }
-        self.reuse_factor(h, rates, soft)
+        let spare_hit = if c.twin {
+            c.spare_key.valid && c.spare_key.assembly == assembly
+        } else {
+            c.spare_key.matches_inputs(
+                (h, rates, soft),
+                &self.bodies,
+                &self.compliance,
+                &self.armature,
+            )
+        };
+        if !spare_hit {
+            // The current key's bodies, compliances and armatures are the inputs'.
+            c.probe.copy_from(&c.current);
+            c.probe.assembly = assembly;
+        }
+        self.solver.swap_factor(&mut c.spare);
+        core::mem::swap(&mut c.current, &mut c.spare_key);
+        if !spare_hit {
+            c.current.valid = false;
+            // After `keep_factor` the solver's key is the probe, the one set aside
+            // the key it was copied from.
+            c.twin = true;
+        }
+        spare_hit
     }
 
     /// Records the factor just computed for the assembly last looked up by
@@ -303,5 +354,88 @@ impl World {
     pub(super) fn drop_factors(&mut self) {
         self.factors.current.valid = false;
         self.factors.spare_key.valid = false;
+        self.factors.twin = false;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Joint, JointKind, Method, World};
+    use crate::body::RigidBody;
+    use constraint_core::{DMat3, DQuat, DVec3, Hinge, Pose};
+
+    /// A chain of three damped hinge links hanging from the world, the middle hinge
+    /// with armature (so the kicks and the damping flows have different factors).
+    fn chain() -> World {
+        let mut w = World::new(DVec3::new(0.0, 0.0, -9.81));
+        let mut top = DVec3::ZERO;
+        let mut parent = None;
+        for i in 0..3 {
+            let q = DQuat::from_rotation_y(0.4 + 0.3 * i as f64);
+            let down = q * DVec3::new(0.0, 0.0, -0.5);
+            let pose = Pose {
+                x: top + down * 0.5,
+                q,
+            };
+            let inertia = DMat3::from_diagonal(DVec3::new(0.02, 0.02, 1e-3));
+            let b = RigidBody::new(i, 1.0 - 0.2 * i as f64, inertia, pose).expect("body");
+            w.add_body(b).expect("add body");
+            let a = parent.map_or(Pose::IDENTITY, |p: usize| w.bodies()[p].pose);
+            let hinge = Hinge::from_world(&a, &pose, top, DVec3::Y).expect("hinge");
+            w.add_joint(Joint {
+                parent,
+                child: i,
+                kind: JointKind::Hinge(hinge),
+                damping: 0.05 * (1 + i) as f64,
+            })
+            .expect("add joint");
+            parent = Some(i);
+            top += down;
+        }
+        w.set_armature(1, 0, 2e-3).expect("armature");
+        w
+    }
+
+    /// The first kick's lookup through the twin flag (no comparison of the bodies)
+    /// takes the factor the full comparison takes: a world whose flag is cleared
+    /// before every step (so the kick compares the set-aside key with the bodies)
+    /// records the same state bits over 200 RATTLE steps, also across a change of the
+    /// armature and of a compliance between steps. The flag is set after each step of
+    /// the other world (the path is taken).
+    #[test]
+    fn twin_lookup_gives_the_compared_lookup_bits() {
+        let method = Method::Rattle {
+            tolerance: 1e-12,
+            max_iterations: 30,
+        };
+        let (mut a, mut b) = (chain(), chain());
+        for step in 0..200 {
+            if step == 80 {
+                for w in [&mut a, &mut b] {
+                    w.set_armature(1, 0, 5e-3).expect("armature");
+                }
+            }
+            if step == 140 {
+                for w in [&mut a, &mut b] {
+                    w.set_compliance(2, 1e-6).expect("compliance");
+                }
+            }
+            b.factors.twin = false;
+            a.step(2e-3, method).expect("step a");
+            b.step(2e-3, method).expect("step b");
+            assert!(a.factors.twin, "step {step}: twin path unused");
+            for (x, y) in a.bodies().iter().zip(b.bodies()) {
+                let bits = |r: &RigidBody| {
+                    let (p, q) = (r.pose.x, r.pose.q);
+                    [p.x, p.y, p.z, q.x, q.y, q.z, q.w, r.v.x, r.v.y, r.v.z]
+                        .map(f64::to_bits)
+                        .to_vec()
+                        .into_iter()
+                        .chain(r.omega.to_array().map(f64::to_bits))
+                        .collect::<alloc::vec::Vec<_>>()
+                };
+                assert_eq!(bits(x), bits(y), "step {step}");
+            }
+        }
     }
 }
