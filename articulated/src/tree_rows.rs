@@ -188,6 +188,7 @@ struct NodeShape {
 /// The node shapes `(n, np)` with fixed-size solve kernels, by kernel index; index 0
 /// (`(0, 0)`) is the runtime-sized kernel for every other shape. [`kernel_dispatch!`]
 /// lists the same shapes in the same order.
+#[cfg_attr(not(test), allow(dead_code))]
 const KERNEL_SHAPES: [(usize, usize); 33] = [
     (0, 0),
     (6, 0),
@@ -225,12 +226,19 @@ const KERNEL_SHAPES: [(usize, usize); 33] = [
 ];
 
 /// The kernel index of the shape `(n, np)` ([`KERNEL_SHAPES`]; 0 for a shape without a
-/// fixed kernel).
+/// fixed kernel), by arithmetic on the table's runs (a search of the table cost about
+/// 60 instructions a node and assembly).
 fn kernel_of(n: usize, np: usize) -> u8 {
-    KERNEL_SHAPES
-        .iter()
-        .position(|&s| s == (n, np))
-        .map_or(0, |i| i as u8)
+    let i = match (n, np) {
+        (6, 0) => 1,
+        (6, 3..=15) => 2 + (np - 3),
+        (3..=5, 6) => 15 + (n - 3),
+        (7..=15, 6) => 18 + (n - 7),
+        (3..=5, 0) => 27 + (n - 3),
+        (7..=9, 0) => 30 + (n - 7),
+        _ => 0,
+    };
+    i as u8
 }
 
 /// `$f::<N, NP>($args)` for the kernel `$kind` ([`KERNEL_SHAPES`]' order; any other
