@@ -337,28 +337,28 @@ impl RowTree {
             self.slot[self.fill[r.node]] = i;
             self.fill[r.node] += 1;
         }
-        // Sizes and offsets.
-        self.base.clear();
-        self.n.clear();
-        self.xoff.clear();
-        self.dpos.clear();
-        self.opos.clear();
+        // Sizes and offsets (the tables sized, then written along zipped iterators:
+        // a push per entry checked the capacity each time).
+        self.base.clone_from(&tree.dim);
+        self.n.resize(nn, 0);
+        self.xoff.resize(nn, 0);
+        self.dpos.resize(nn, 0);
+        self.opos.resize(nn, 0);
         let (mut x, mut d) = (0, 0);
-        for k in 0..nn {
-            let n = tree.dim[k] + self.start[k + 1] - self.start[k];
-            self.base.push(tree.dim[k]);
-            self.n.push(n);
-            self.xoff.push(x);
-            self.dpos.push(d);
+        let sizes = self.n.iter_mut().zip(&mut self.xoff).zip(&mut self.dpos);
+        for (((nk, xo), dp), (&b, w)) in sizes.zip(tree.dim.iter().zip(self.start.windows(2))) {
+            let n = b + w[1] - w[0];
+            *nk = n;
+            *xo = x;
+            *dp = d;
             x += n;
             d += n * n;
         }
         let mut o = 0;
-        for k in 0..nn {
-            self.opos.push(o);
-            let p = tree.parent[k];
-            if p != NONE {
-                o += self.n[k] * self.n[p];
+        for ((op, &nk), &p) in self.opos.iter_mut().zip(&self.n).zip(&tree.parent) {
+            *op = o;
+            if let Some(&npar) = self.n.get(p) {
+                o += nk * npar;
             }
         }
         self.size = x;
@@ -436,12 +436,14 @@ impl RowTree {
                 kind: kernel_of(self.n[k], np),
             });
         }
-        // The extra rows.
-        for k in 0..nn {
+        // The extra rows, in `slot` order (node after node), a row at a time (not a
+        // node at a time: most nodes have none).
+        for e in 0..rows.len() {
+            let ri = self.slot[e];
+            let row = &rows[ri];
+            let k = row.node;
             let (b, n) = (self.base[k], self.n[k]);
-            for e in self.start[k]..self.start[k + 1] {
-                let ri = self.slot[e];
-                let row = &rows[ri];
+            {
                 let lr = b + e - self.start[k];
                 self.pos[ri] = self.xoff[k] + lr;
                 // A kept node's rows are the last assembly's (which placed them), and
