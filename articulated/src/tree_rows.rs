@@ -401,20 +401,29 @@ impl RowTree {
                 copy_rows(blk, np, &tree.blocks[k].off, b, bp);
             }
         }
-        // The base unknowns' runs, node order (both layouts place the nodes in it).
+        // The base unknowns' runs, node order (both layouts place the nodes in it); the
+        // run being extended is kept aside, pushed when the next one starts.
         self.runs.clear();
-        for k in 0..nn {
-            let (o, xo, b) = (tree.offset[k], self.xoff[k], self.base[k]);
-            match self.runs.last_mut() {
+        let mut run: Option<(usize, usize, usize)> = None;
+        for ((&o, &xo), &b) in tree.offset.iter().zip(&self.xoff).zip(&self.base) {
+            match &mut run {
                 Some(r) if r.0 + r.2 == o && r.1 + r.2 == xo => r.2 += b,
-                _ => self.runs.push((o, xo, b)),
+                _ => {
+                    if let Some(r) = run {
+                        self.runs.push(r);
+                    }
+                    run = Some((o, xo, b));
+                }
             }
         }
-        // The schedule the factor and the solve walk.
-        self.schedule.clear();
+        if let Some(r) = run {
+            self.runs.push(r);
+        }
+        // The schedule the factor and the solve walk (sized, then written in order).
+        self.schedule.resize(tree.order.len(), NodeShape::default());
         self.step_of.clear();
         self.step_of.resize(nn, usize::MAX);
-        for (i, &k) in tree.order.iter().enumerate() {
+        for (i, (s, &k)) in self.schedule.iter_mut().zip(&tree.order).enumerate() {
             if let Some(v) = self.step_of.get_mut(k) {
                 *v = i;
             }
@@ -424,17 +433,18 @@ impl RowTree {
             } else {
                 (self.n[p], self.xoff[p], self.opos[k])
             };
-            self.schedule.push(NodeShape {
+            let n = self.n[k];
+            *s = NodeShape {
                 k,
                 base: self.base[k],
-                n: self.n[k],
+                n,
                 np,
                 dp: self.dpos[k],
                 xo: self.xoff[k],
                 xp,
                 op,
-                kind: kernel_of(self.n[k], np),
-            });
+                kind: kernel_of(n, np),
+            };
         }
         // The extra rows, in `slot` order (node after node), a row at a time (not a
         // node at a time: most nodes have none).
