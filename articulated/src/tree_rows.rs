@@ -49,6 +49,23 @@
 //! 541.46M; humanoid_CMU controlled 566.32M → 563.05M, passive 234.66M → 234.20M;
 //! swimmer6, dm hopper, pusher and the cheetahs within ±0.2 % (swimmer6 controlled
 //! +0.1 %, the cheetahs −0.6 % to −1.1 %).
+//!
+//! The assembly and the solve's bookkeeping (issue 13, the small models, where the
+//! active set factors about 1.6 times and solves about 4.3 times a step: gymnasium's
+//! half_cheetah controlled, 2 s, 168 tries, 297 iterations, 272 factors, 719 factor
+//! solves). Cut with the same bits: the solve kernels picked by a per-node index into
+//! one jump table ([`KERNEL_SHAPES`], where `(n, np)` was compared with 32 shapes at
+//! every node of every pass), the tree blocks' rows copied by fixed-length loops per
+//! row length (no `memcpy` call per hinge row), the sizes, offsets, runs and schedule
+//! written into sized tables along iterators, the extra rows placed a row at a time.
+//! `instr34` (`World::step` instructions): half_cheetah 36.16M → 35.61M (−1.5 %),
+//! dm cheetah −1.6 %, walker −1.6 %, pusher −1.4 %, dm hopper −1.3 %, swimmer6
+//! −0.6 %, the humanoids −0.8 % to −1.5 %, fish and reacher unchanged. Tried and left
+//! out (each measured worse, the compiler's inlining moving): the Schur correction's
+//! forward pass on its rows' paths only (`0 · d⁻¹` elsewhere, the same bits), with
+//! the backward pass out of line (half_cheetah +0.04 %, dm humanoid +0.44 %); the
+//! Schur rows' values gathered once for the hold test and `S ζ = r`, and the base
+//! pivots' check by iterators (half_cheetah +0.23 %, every run worse).
 
 use alloc::vec::Vec;
 
