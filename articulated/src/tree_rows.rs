@@ -49,6 +49,23 @@
 //! 541.46M; humanoid_CMU controlled 566.32M → 563.05M, passive 234.66M → 234.20M;
 //! swimmer6, dm hopper, pusher and the cheetahs within ±0.2 % (swimmer6 controlled
 //! +0.1 %, the cheetahs −0.6 % to −1.1 %).
+//!
+//! The assembly and the solve's bookkeeping (issue 13, the small models, where the
+//! active set factors about 1.6 times and solves about 4.3 times a step: gymnasium's
+//! half_cheetah controlled, 2 s, 168 tries, 297 iterations, 272 factors, 719 factor
+//! solves). Cut with the same bits: the solve kernels picked by a per-node index into
+//! one jump table ([`KERNEL_SHAPES`], where `(n, np)` was compared with 32 shapes at
+//! every node of every pass), the tree blocks' rows copied by fixed-length loops per
+//! row length (no `memcpy` call per hinge row), the sizes, offsets, runs and schedule
+//! written into sized tables along iterators, the extra rows placed a row at a time.
+//! `instr34` (`World::step` instructions): half_cheetah 36.16M → 35.61M (−1.5 %),
+//! dm cheetah −1.6 %, walker −1.6 %, pusher −1.4 %, dm hopper −1.3 %, swimmer6
+//! −0.6 %, the humanoids −0.8 % to −1.5 %, fish and reacher unchanged. Tried and left
+//! out (each measured worse, the compiler's inlining moving): the Schur correction's
+//! forward pass on its rows' paths only (`0 · d⁻¹` elsewhere, the same bits), with
+//! the backward pass out of line (half_cheetah +0.04 %, dm humanoid +0.44 %); the
+//! Schur rows' values gathered once for the hold test and `S ζ = r`, and the base
+//! pivots' check by iterators (half_cheetah +0.23 %, every run worse).
 
 use alloc::vec::Vec;
 
@@ -179,6 +196,109 @@ struct NodeShape {
     xp: usize,
     /// Offset of the off-diagonal block in `off`.
     op: usize,
+    /// The solve kernel of the shape `(n, np)`: its index in [`KERNEL_SHAPES`] (0: the
+    /// runtime-sized one), so that the passes pick it by one jump table
+    /// ([`kernel_dispatch!`]) rather than by comparing `(n, np)` with each shape.
+    kind: u8,
+}
+
+/// The node shapes `(n, np)` with fixed-size solve kernels, by kernel index; index 0
+/// (`(0, 0)`) is the runtime-sized kernel for every other shape. [`kernel_dispatch!`]
+/// lists the same shapes in the same order.
+#[cfg_attr(not(test), allow(dead_code))]
+const KERNEL_SHAPES: [(usize, usize); 33] = [
+    (0, 0),
+    (6, 0),
+    (6, 3),
+    (6, 4),
+    (6, 5),
+    (6, 6),
+    (6, 7),
+    (6, 8),
+    (6, 9),
+    (6, 10),
+    (6, 11),
+    (6, 12),
+    (6, 13),
+    (6, 14),
+    (6, 15),
+    (3, 6),
+    (4, 6),
+    (5, 6),
+    (7, 6),
+    (8, 6),
+    (9, 6),
+    (10, 6),
+    (11, 6),
+    (12, 6),
+    (13, 6),
+    (14, 6),
+    (15, 6),
+    (3, 0),
+    (4, 0),
+    (5, 0),
+    (7, 0),
+    (8, 0),
+    (9, 0),
+];
+
+/// The kernel index of the shape `(n, np)` ([`KERNEL_SHAPES`]; 0 for a shape without a
+/// fixed kernel), by arithmetic on the table's runs (a search of the table cost about
+/// 60 instructions a node and assembly).
+fn kernel_of(n: usize, np: usize) -> u8 {
+    let i = match (n, np) {
+        (6, 0) => 1,
+        (6, 3..=15) => 2 + (np - 3),
+        (3..=5, 6) => 15 + (n - 3),
+        (7..=15, 6) => 18 + (n - 7),
+        (3..=5, 0) => 27 + (n - 3),
+        (7..=9, 0) => 30 + (n - 7),
+        _ => 0,
+    };
+    i as u8
+}
+
+/// `$f::<N, NP>($args)` for the kernel `$kind` ([`KERNEL_SHAPES`]' order; any other
+/// index: the runtime-sized `$f::<0, 0>`). `$args` is a macro called with the shape, so
+/// that the arguments are built for it.
+macro_rules! kernel_dispatch {
+    ($kind:expr, $f:ident, $args:ident) => {
+        match $kind {
+            1 => $f::<6, 0>($args!(6, 0)),
+            2 => $f::<6, 3>($args!(6, 3)),
+            3 => $f::<6, 4>($args!(6, 4)),
+            4 => $f::<6, 5>($args!(6, 5)),
+            5 => $f::<6, 6>($args!(6, 6)),
+            6 => $f::<6, 7>($args!(6, 7)),
+            7 => $f::<6, 8>($args!(6, 8)),
+            8 => $f::<6, 9>($args!(6, 9)),
+            9 => $f::<6, 10>($args!(6, 10)),
+            10 => $f::<6, 11>($args!(6, 11)),
+            11 => $f::<6, 12>($args!(6, 12)),
+            12 => $f::<6, 13>($args!(6, 13)),
+            13 => $f::<6, 14>($args!(6, 14)),
+            14 => $f::<6, 15>($args!(6, 15)),
+            15 => $f::<3, 6>($args!(3, 6)),
+            16 => $f::<4, 6>($args!(4, 6)),
+            17 => $f::<5, 6>($args!(5, 6)),
+            18 => $f::<7, 6>($args!(7, 6)),
+            19 => $f::<8, 6>($args!(8, 6)),
+            20 => $f::<9, 6>($args!(9, 6)),
+            21 => $f::<10, 6>($args!(10, 6)),
+            22 => $f::<11, 6>($args!(11, 6)),
+            23 => $f::<12, 6>($args!(12, 6)),
+            24 => $f::<13, 6>($args!(13, 6)),
+            25 => $f::<14, 6>($args!(14, 6)),
+            26 => $f::<15, 6>($args!(15, 6)),
+            27 => $f::<3, 0>($args!(3, 0)),
+            28 => $f::<4, 0>($args!(4, 0)),
+            29 => $f::<5, 0>($args!(5, 0)),
+            30 => $f::<7, 0>($args!(7, 0)),
+            31 => $f::<8, 0>($args!(8, 0)),
+            32 => $f::<9, 0>($args!(9, 0)),
+            _ => $f::<0, 0>($args!(0, 0)),
+        }
+    };
 }
 
 impl RowTree {
@@ -234,28 +354,28 @@ impl RowTree {
             self.slot[self.fill[r.node]] = i;
             self.fill[r.node] += 1;
         }
-        // Sizes and offsets.
-        self.base.clear();
-        self.n.clear();
-        self.xoff.clear();
-        self.dpos.clear();
-        self.opos.clear();
+        // Sizes and offsets (the tables sized, then written along zipped iterators:
+        // a push per entry checked the capacity each time).
+        self.base.clone_from(&tree.dim);
+        self.n.resize(nn, 0);
+        self.xoff.resize(nn, 0);
+        self.dpos.resize(nn, 0);
+        self.opos.resize(nn, 0);
         let (mut x, mut d) = (0, 0);
-        for k in 0..nn {
-            let n = tree.dim[k] + self.start[k + 1] - self.start[k];
-            self.base.push(tree.dim[k]);
-            self.n.push(n);
-            self.xoff.push(x);
-            self.dpos.push(d);
+        let sizes = self.n.iter_mut().zip(&mut self.xoff).zip(&mut self.dpos);
+        for (((nk, xo), dp), (&b, w)) in sizes.zip(tree.dim.iter().zip(self.start.windows(2))) {
+            let n = b + w[1] - w[0];
+            *nk = n;
+            *xo = x;
+            *dp = d;
             x += n;
             d += n * n;
         }
         let mut o = 0;
-        for k in 0..nn {
-            self.opos.push(o);
-            let p = tree.parent[k];
-            if p != NONE {
-                o += self.n[k] * self.n[p];
+        for ((op, &nk), &p) in self.opos.iter_mut().zip(&self.n).zip(&tree.parent) {
+            *op = o;
+            if let Some(&npar) = self.n.get(p) {
+                o += nk * npar;
             }
         }
         self.size = x;
@@ -287,9 +407,7 @@ impl RowTree {
             if n != b {
                 blk.fill(0.0);
             }
-            for (r, dst) in blk.chunks_exact_mut(n).take(b).enumerate() {
-                copy_head(dst, &tree.blocks[k].diag[r], b);
-            }
+            copy_rows(blk, n, &tree.blocks[k].diag, b, b);
             let p = tree.parent[k];
             if p != NONE {
                 let (bp, np, op) = (self.base[p], self.n[p], self.opos[k]);
@@ -297,25 +415,32 @@ impl RowTree {
                 if n != b || np != bp {
                     blk.fill(0.0);
                 }
-                for (r, dst) in blk.chunks_exact_mut(np).take(b).enumerate() {
-                    copy_head(dst, &tree.blocks[k].off[r], bp);
+                copy_rows(blk, np, &tree.blocks[k].off, b, bp);
+            }
+        }
+        // The base unknowns' runs, node order (both layouts place the nodes in it); the
+        // run being extended is kept aside, pushed when the next one starts.
+        self.runs.clear();
+        let mut run: Option<(usize, usize, usize)> = None;
+        for ((&o, &xo), &b) in tree.offset.iter().zip(&self.xoff).zip(&self.base) {
+            match &mut run {
+                Some(r) if r.0 + r.2 == o && r.1 + r.2 == xo => r.2 += b,
+                _ => {
+                    if let Some(r) = run {
+                        self.runs.push(r);
+                    }
+                    run = Some((o, xo, b));
                 }
             }
         }
-        // The base unknowns' runs, node order (both layouts place the nodes in it).
-        self.runs.clear();
-        for k in 0..nn {
-            let (o, xo, b) = (tree.offset[k], self.xoff[k], self.base[k]);
-            match self.runs.last_mut() {
-                Some(r) if r.0 + r.2 == o && r.1 + r.2 == xo => r.2 += b,
-                _ => self.runs.push((o, xo, b)),
-            }
+        if let Some(r) = run {
+            self.runs.push(r);
         }
-        // The schedule the factor and the solve walk.
-        self.schedule.clear();
+        // The schedule the factor and the solve walk (sized, then written in order).
+        self.schedule.resize(tree.order.len(), NodeShape::default());
         self.step_of.clear();
         self.step_of.resize(nn, usize::MAX);
-        for (i, &k) in tree.order.iter().enumerate() {
+        for (i, (s, &k)) in self.schedule.iter_mut().zip(&tree.order).enumerate() {
             if let Some(v) = self.step_of.get_mut(k) {
                 *v = i;
             }
@@ -325,23 +450,27 @@ impl RowTree {
             } else {
                 (self.n[p], self.xoff[p], self.opos[k])
             };
-            self.schedule.push(NodeShape {
+            let n = self.n[k];
+            *s = NodeShape {
                 k,
                 base: self.base[k],
-                n: self.n[k],
+                n,
                 np,
                 dp: self.dpos[k],
                 xo: self.xoff[k],
                 xp,
                 op,
-            });
+                kind: kernel_of(n, np),
+            };
         }
-        // The extra rows.
-        for k in 0..nn {
+        // The extra rows, in `slot` order (node after node), a row at a time (not a
+        // node at a time: most nodes have none).
+        for e in 0..rows.len() {
+            let ri = self.slot[e];
+            let row = &rows[ri];
+            let k = row.node;
             let (b, n) = (self.base[k], self.n[k]);
-            for e in self.start[k]..self.start[k + 1] {
-                let ri = self.slot[e];
-                let row = &rows[ri];
+            {
                 let lr = b + e - self.start[k];
                 self.pos[ri] = self.xoff[k] + lr;
                 // A kept node's rows are the last assembly's (which placed them), and
@@ -572,27 +701,21 @@ impl RowTree {
     /// `x = L⁻ᵀ (s − d⁻¹ W x_p)`. The tree's structure is read from the schedule
     /// [`Self::assemble`] built from `_tree` (the same tree).
     pub fn solve(&self, _tree: &TreeSolver, x: &mut [f64]) {
-        macro_rules! dispatch {
-            ($f:ident, $s:expr, $x:expr; $($a:literal, $b:literal);*) => {
-                match ($s.n, $s.np) {
-                    $(($a, $b) => $f::<$a, $b>(self.node_args::<$a, $b>($s, $x)),)*
-                    _ => $f::<0, 0>(self.node_args::<0, 0>($s, $x)),
-                }
-            };
-        }
         for s in &self.schedule {
-            dispatch!(forward, s, x;
-                6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 10; 6, 11; 6, 12;
-                6, 13; 6, 14; 6, 15;
-                3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 10, 6; 11, 6; 12, 6; 13, 6; 14, 6;
-                15, 6; 3, 0; 4, 0; 5, 0; 7, 0; 8, 0; 9, 0);
+            macro_rules! args {
+                ($a:literal, $b:literal) => {
+                    self.node_args::<$a, $b>(s, x)
+                };
+            }
+            kernel_dispatch!(s.kind, forward, args);
         }
         for s in self.schedule.iter().rev() {
-            dispatch!(backward, s, x;
-                6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 10; 6, 11; 6, 12;
-                6, 13; 6, 14; 6, 15;
-                3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 10, 6; 11, 6; 12, 6; 13, 6; 14, 6;
-                15, 6; 3, 0; 4, 0; 5, 0; 7, 0; 8, 0; 9, 0);
+            macro_rules! args {
+                ($a:literal, $b:literal) => {
+                    self.node_args::<$a, $b>(s, x)
+                };
+            }
+            kernel_dispatch!(s.kind, backward, args);
         }
     }
 
@@ -613,25 +736,18 @@ impl RowTree {
     /// mark per node, before: a fifth of the pass on dm_control's humanoid, whose
     /// Schur rows' paths hold about 9 of its nodes.
     pub fn forward_steps(&self, x: &mut [f64], steps: &[usize]) {
-        macro_rules! dispatch {
-            ($f:ident, $s:expr, $x:expr; $($a:literal, $b:literal);*) => {
-                match ($s.n, $s.np) {
-                    $(($a, $b) => $f::<$a, $b>(self.node_args::<$a, $b>($s, $x)),)*
-                    _ => $f::<0, 0>(self.node_args::<0, 0>($s, $x)),
-                }
-            };
-        }
         // (A step past the schedule, `usize::MAX` from `step_of` of a node it does
         // not hold, is no node's: skipped, as the marked walk would have.)
         for &i in steps {
             let Some(s) = self.schedule.get(i) else {
                 continue;
             };
-            dispatch!(forward, s, x;
-                6, 0; 6, 3; 6, 4; 6, 5; 6, 6; 6, 7; 6, 8; 6, 9; 6, 10; 6, 11; 6, 12;
-                6, 13; 6, 14; 6, 15;
-                3, 6; 4, 6; 5, 6; 7, 6; 8, 6; 9, 6; 10, 6; 11, 6; 12, 6; 13, 6; 14, 6;
-                15, 6; 3, 0; 4, 0; 5, 0; 7, 0; 8, 0; 9, 0);
+            macro_rules! args {
+                ($a:literal, $b:literal) => {
+                    self.node_args::<$a, $b>(s, x)
+                };
+            }
+            kernel_dispatch!(s.kind, forward, args);
         }
     }
 
@@ -690,14 +806,32 @@ impl RowTree {
     }
 }
 
-/// `dst[..len] = src[..len]`: a tree block's row into a node row of `dst.len() ≥ len`
-/// unknowns (the rest of the row already zero). A full row (`len = 6`, every body row)
-/// is copied as a fixed-size array (moves, not a `memcpy` call).
+/// The first `rows` rows of a tree block, `len` entries each, into the first `len`
+/// columns of the row-major `dst` of `stride` columns (the rest already zero). Each
+/// length a node has (1 to 6: a body's 6, a hinge's 5, …) is copied by a loop of its
+/// own, of fixed-size rows (moves, not a `memcpy` call: with the joints' rows of 5
+/// copied by slice, the assembly called `memcpy` about 20 times, 2 940 of 7 085 calls
+/// on gymnasium's half_cheetah controlled, 2 s).
 #[inline(always)]
-fn copy_head(dst: &mut [f64], src: &[f64; 6], len: usize) {
-    match dst.first_chunk_mut::<6>() {
-        Some(head) if len == 6 => *head = *src,
-        _ => dst[..len].copy_from_slice(&src[..len]),
+fn copy_rows(dst: &mut [f64], stride: usize, src: &[[f64; 6]; 6], rows: usize, len: usize) {
+    #[inline(always)]
+    fn fixed<const L: usize>(dst: &mut [f64], stride: usize, src: &[[f64; 6]; 6], rows: usize) {
+        for (d, s) in dst.chunks_exact_mut(stride).zip(src).take(rows) {
+            d[..L].copy_from_slice(&s[..L]);
+        }
+    }
+    match len {
+        6 => fixed::<6>(dst, stride, src, rows),
+        5 => fixed::<5>(dst, stride, src, rows),
+        4 => fixed::<4>(dst, stride, src, rows),
+        3 => fixed::<3>(dst, stride, src, rows),
+        2 => fixed::<2>(dst, stride, src, rows),
+        1 => fixed::<1>(dst, stride, src, rows),
+        _ => {
+            for (d, s) in dst.chunks_exact_mut(stride).zip(src).take(rows) {
+                d[..len].copy_from_slice(&s[..len]);
+            }
+        }
     }
 }
 
@@ -1424,6 +1558,27 @@ mod tests {
         check::<13, 6>();
         check::<14, 6>();
         check::<15, 6>();
+    }
+
+    /// Every kernel index dispatches to the kernel of its shape in [`KERNEL_SHAPES`],
+    /// and [`kernel_of`] maps each listed shape to its index, any other to 0.
+    #[test]
+    fn kernel_indices_name_their_shapes() {
+        fn shape<const N: usize, const NP: usize>(_: ()) -> (usize, usize) {
+            (N, NP)
+        }
+        macro_rules! unit {
+            ($a:literal, $b:literal) => {
+                ()
+            };
+        }
+        for (i, &want) in KERNEL_SHAPES.iter().enumerate() {
+            assert_eq!(kernel_dispatch!(i as u8, shape, unit), want, "kernel {i}");
+            assert_eq!(kernel_of(want.0, want.1) as usize, i, "shape {want:?}");
+        }
+        assert_eq!(kernel_dispatch!(200u8, shape, unit), (0, 0));
+        assert_eq!(kernel_of(6, 1), 0);
+        assert_eq!(kernel_of(16, 6), 0);
     }
 
     /// The unrolled [`ldlt_two_segment_fixed`] gives [`ldlt_two_segment_sized`]'s
