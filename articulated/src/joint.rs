@@ -351,6 +351,27 @@ impl Joint {
         v
     }
 
+    /// [`Self::value`] written into `v` (the same bits in its first
+    /// [`Self::hard_rows`] entries; the others are left as they were), without the
+    /// zeroed array and its copy; a hinge also returns the directions `[n, u]` its
+    /// orientation rows rotated ([`Hinge::value_and_dirs`]), from which
+    /// [`Hinge::angle_from`] gives its angle at these poses without rotating them again.
+    pub fn value_into(&self, a: &Pose, b: &Pose, v: &mut [f64; MAX_ROWS]) -> Option<[DVec3; 2]> {
+        match &self.kind {
+            JointKind::Spherical(c) => v[..3].copy_from_slice(&c.value(a, b)),
+            // `MAX_ROWS ≥ 5`: the first five entries always exist.
+            JointKind::Hinge(c) => return v.first_chunk_mut().map(|h| c.value_and_dirs(a, b, h)),
+            JointKind::Prismatic(c) => v[..5].copy_from_slice(&c.value(a, b)),
+            JointKind::Fixed(c) => v[..6].copy_from_slice(&c.value(a, b)),
+            JointKind::Distance(c) => v[..1].copy_from_slice(&c.value(a, b)),
+            JointKind::Compound(c, _) => {
+                let n = c.rows();
+                v[..n].copy_from_slice(&c.value6(a, b)[..n]);
+            }
+        }
+        None
+    }
+
     /// Largest separation of the joint's anchor points (m): the norm of the three
     /// position rows for spherical, hinge and fixed joints, the two sliding-plane rows
     /// for a prismatic joint, `|C|` for a distance joint.
