@@ -671,7 +671,7 @@ impl Compound {
     pub fn value6(&self, a: &Pose, b: &Pose) -> [f64; MAX_DOF] {
         let mut v = [0.0; MAX_DOF];
         let mut r = 0;
-        let d = self.point.sep(a, b).value;
+        let d = self.point.sep_value(a, b);
         if let Some(delta) = self.skew {
             let ea = a.q * self.e1_a;
             let eb = b.q * self.axes[1];
