@@ -82,6 +82,7 @@ impl Point {
         })
     }
 
+    #[inline]
     pub(crate) fn sep(&self, a: &Pose, b: &Pose) -> FrameExpr {
         FrameExpr::separation(a, self.r_a, b, self.r_b)
     }
@@ -135,6 +136,7 @@ impl Orientation {
             f: basis.map(|d| b.dir_to_local(d)),
         }
     }
+    #[inline]
     fn exprs(&self, a: &Pose, b: &Pose, k: usize) -> (FrameExpr, FrameExpr) {
         let (i, j) = PAIRS[k];
         (
