@@ -240,15 +240,26 @@ impl Joint {
         out.n_hard = 0;
         match &self.kind {
             JointKind::Spherical(c) => out.push_hard(c.jacobian(a, b)),
-            JointKind::Hinge(c) => out.push_hard(c.jacobian(a, b)),
+            // In place (the same bits as `jacobian`, without its 520-byte copy);
+            // `MAX_ROWS ≥ 5`: the chunks always exist.
+            JointKind::Hinge(c) => {
+                if let (Some(v), Some(r)) =
+                    (out.value.first_chunk_mut(), out.rows.first_chunk_mut())
+                {
+                    c.jacobian_into(a, b, v, r);
+                }
+                out.n = 5;
+                out.n_hard = 5;
+            }
             JointKind::Prismatic(c) => out.push_hard(c.jacobian(a, b)),
             JointKind::Fixed(c) => out.push_hard(c.jacobian(a, b)),
             JointKind::Distance(c) => out.push_hard(c.jacobian(a, b)),
             JointKind::Compound(c, _) => {
-                let j = c.jacobian6(a, b);
-                for r in 0..c.rows() {
-                    out.value[r] = j.value[r];
-                    out.rows[r] = j.rows[r];
+                // In place, as the hinge's (`MAX_ROWS ≥ MAX_DOF`).
+                if let (Some(v), Some(r)) =
+                    (out.value.first_chunk_mut(), out.rows.first_chunk_mut())
+                {
+                    c.jacobian6_into(a, b, v, r);
                 }
                 out.n = c.rows();
                 out.n_hard = out.n;

@@ -309,6 +309,26 @@ impl Hinge {
         [n, u]
     }
 
+    /// [`BodyConstraint::jacobian`] written into `value` and `rows` (the same
+    /// operations, so the same bits), for a caller that keeps the rows in place (no
+    /// copy of a returned [`TwistJacobian`]).
+    #[inline]
+    pub fn jacobian_into(
+        &self,
+        a: &Pose,
+        b: &Pose,
+        value: &mut [f64; 5],
+        rows: &mut [[DVec3; 4]; 5],
+    ) {
+        self.point.rows(a, b, &mut value[..3], &mut rows[..3]);
+        let ub = FrameExpr::dir_b(b, self.u_b);
+        for k in 0..2 {
+            let na = FrameExpr::dir_a(a, self.n[k]);
+            value[3 + k] = na.value.dot(ub.value);
+            rows[3 + k] = dot_grad(&na, &ub);
+        }
+    }
+
     /// The Jacobian row `[0, −u, 0, u]` of [`Hinge::angle`] (`u` the axis in the world).
     pub fn angle_row(&self, b: &Pose) -> [DVec3; 4] {
         let u = b.q * self.u_b;
@@ -364,13 +384,7 @@ impl BodyConstraint<5> for Hinge {
             value: [0.0; 5],
             rows: [[DVec3::ZERO; 4]; 5],
         };
-        self.point.rows(a, b, &mut j.value[..3], &mut j.rows[..3]);
-        let ub = FrameExpr::dir_b(b, self.u_b);
-        for k in 0..2 {
-            let na = FrameExpr::dir_a(a, self.n[k]);
-            j.value[3 + k] = na.value.dot(ub.value);
-            j.rows[3 + k] = dot_grad(&na, &ub);
-        }
+        self.jacobian_into(a, b, &mut j.value, &mut j.rows);
         j
     }
     fn curvature(&self, a: &Pose, b: &Pose, w: &[f64; 5]) -> TwistCurvature {
