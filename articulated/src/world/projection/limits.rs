@@ -47,9 +47,6 @@ pub(in crate::world) struct LimitRefs {
     started: bool,
     /// The projection's tolerance: a limit closer than it to its bound is active.
     tolerance: f64,
-    /// Per body: its turn bound `π|p − q|` since the start (module doc), at the poses of
-    /// the current error evaluation; computed once per body, not once per hinge side.
-    turns: Vec<f64>,
 }
 
 impl World {
@@ -89,16 +86,6 @@ impl World {
         let mut nearest = f64::NEG_INFINITY;
         let tol = self.proj.limits.tolerance;
         self.proj.near.clear();
-        if tracking {
-            let refs = &mut self.proj.limits;
-            refs.turns.clear();
-            refs.turns
-                .extend(self.bodies.iter().zip(&refs.start).map(|(b, &p)| {
-                    let q = b.pose.q;
-                    let chord = f64::min((p - q).length_squared(), (p + q).length_squared());
-                    PI * libm::sqrt(chord)
-                }));
-        }
         for ji in 0..self.joints.len() {
             if self.limits[ji].iter().all(|l| l.is_none()) {
                 continue;
@@ -173,12 +160,15 @@ impl World {
         let Some([lo, hi]) = self.limits[ji][0] else {
             return false;
         };
-        // The bodies' turns of this evaluation (`LimitRefs::turns`).
-        let turn = |b: Option<usize>| b.map_or(Some(0.0), |i| refs.turns.get(i).copied());
-        let joint = &self.joints[ji];
-        let (Some(ta), Some(tb)) = (turn(joint.parent), turn(Some(joint.child))) else {
-            return false;
+        let turn = |b: Option<usize>| {
+            b.map_or(0.0, |i| {
+                let (p, q) = (refs.start[i], self.bodies[i].pose.q);
+                let chord = f64::min((p - q).length_squared(), (p + q).length_squared());
+                PI * libm::sqrt(chord)
+            })
         };
+        let joint = &self.joints[ji];
+        let (ta, tb) = (turn(joint.parent), turn(Some(joint.child)));
         let d = 2.0 * ta + 3.0 * tb;
         if !(d < 0.5 * r0) {
             return false;
