@@ -240,15 +240,26 @@ impl Joint {
         out.n_hard = 0;
         match &self.kind {
             JointKind::Spherical(c) => out.push_hard(c.jacobian(a, b)),
-            JointKind::Hinge(c) => out.push_hard(c.jacobian(a, b)),
+            // In place (the same bits as `jacobian`, without its 520-byte copy);
+            // `MAX_ROWS ≥ 5`: the chunks always exist.
+            JointKind::Hinge(c) => {
+                if let (Some(v), Some(r)) =
+                    (out.value.first_chunk_mut(), out.rows.first_chunk_mut())
+                {
+                    c.jacobian_into(a, b, v, r);
+                }
+                out.n = 5;
+                out.n_hard = 5;
+            }
             JointKind::Prismatic(c) => out.push_hard(c.jacobian(a, b)),
             JointKind::Fixed(c) => out.push_hard(c.jacobian(a, b)),
             JointKind::Distance(c) => out.push_hard(c.jacobian(a, b)),
             JointKind::Compound(c, _) => {
-                let j = c.jacobian6(a, b);
-                for r in 0..c.rows() {
-                    out.value[r] = j.value[r];
-                    out.rows[r] = j.rows[r];
+                // In place, as the hinge's (`MAX_ROWS ≥ MAX_DOF`).
+                if let (Some(v), Some(r)) =
+                    (out.value.first_chunk_mut(), out.rows.first_chunk_mut())
+                {
+                    c.jacobian6_into(a, b, v, r);
                 }
                 out.n = c.rows();
                 out.n_hard = out.n;
@@ -349,6 +360,27 @@ impl Joint {
             }
         }
         v
+    }
+
+    /// [`Self::value`] written into `v` (the same bits in its first
+    /// [`Self::hard_rows`] entries; the others are left as they were), without the
+    /// zeroed array and its copy; a hinge also returns the directions `[n, u]` its
+    /// orientation rows rotated ([`Hinge::value_and_dirs`]), from which
+    /// [`Hinge::angle_from`] gives its angle at these poses without rotating them again.
+    pub fn value_into(&self, a: &Pose, b: &Pose, v: &mut [f64; MAX_ROWS]) -> Option<[DVec3; 2]> {
+        match &self.kind {
+            JointKind::Spherical(c) => v[..3].copy_from_slice(&c.value(a, b)),
+            // `MAX_ROWS ≥ 5`: the first five entries always exist.
+            JointKind::Hinge(c) => return v.first_chunk_mut().map(|h| c.value_and_dirs(a, b, h)),
+            JointKind::Prismatic(c) => v[..5].copy_from_slice(&c.value(a, b)),
+            JointKind::Fixed(c) => v[..6].copy_from_slice(&c.value(a, b)),
+            JointKind::Distance(c) => v[..1].copy_from_slice(&c.value(a, b)),
+            JointKind::Compound(c, _) => {
+                let n = c.rows();
+                v[..n].copy_from_slice(&c.value6(a, b)[..n]);
+            }
+        }
+        None
     }
 
     /// Largest separation of the joint's anchor points (m): the norm of the three

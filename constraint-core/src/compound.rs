@@ -618,50 +618,65 @@ impl Compound {
             value: [0.0; MAX_DOF],
             rows: [[DVec3::ZERO; 4]; MAX_DOF],
         };
+        self.jacobian6_into(a, b, &mut j.value, &mut j.rows);
+        j
+    }
+
+    /// [`Self::jacobian6`]'s first [`Self::rows`] values and rows written into `value`
+    /// and `rows` (the same operations, so the same bits; the other entries are left as
+    /// they were), for a caller that keeps the rows in place (no copy of a returned
+    /// [`TwistJacobian`]).
+    #[inline]
+    pub fn jacobian6_into(
+        &self,
+        a: &Pose,
+        b: &Pose,
+        value: &mut [f64; MAX_DOF],
+        rows: &mut [[DVec3; 4]; MAX_DOF],
+    ) {
         let mut r = 0;
         let d = self.point.sep(a, b);
         if let Some(delta) = self.skew {
             let ea = FrameExpr::dir_a(a, self.e1_a);
             let eb = FrameExpr::dir_b(b, self.axes[1]);
             let s = 0.5 / delta;
-            j.value[0] = ea.value.dot(d.value);
-            j.rows[0] = dot_grad(&ea, &d);
-            j.value[1] = d.value.dot(eb.value);
-            j.rows[1] = dot_grad(&d, &eb);
-            j.value[2] = (d.value.dot(d.value) - delta * delta) * s;
-            j.rows[2] = dot_grad(&d, &d).map(|g| g * s);
-            j.value[3] = ea.value.dot(eb.value) - self.c0;
-            j.rows[3] = dot_grad(&ea, &eb);
-            return j;
+            value[0] = ea.value.dot(d.value);
+            rows[0] = dot_grad(&ea, &d);
+            value[1] = d.value.dot(eb.value);
+            rows[1] = dot_grad(&d, &eb);
+            value[2] = (d.value.dot(d.value) - delta * delta) * s;
+            rows[2] = dot_grad(&d, &d).map(|g| g * s);
+            value[3] = ea.value.dot(eb.value) - self.c0;
+            rows[3] = dot_grad(&ea, &eb);
+            return;
         }
         for k in 0..3 - self.n_slides {
             let na = FrameExpr::dir_a(a, self.normals[k]);
-            j.value[r] = na.value.dot(d.value);
-            j.rows[r] = dot_grad(&na, &d);
+            value[r] = na.value.dot(d.value);
+            rows[r] = dot_grad(&na, &d);
             r += 1;
         }
         match self.n_hinges {
             0 => self
                 .orient
-                .rows(a, b, &mut j.value[r..r + 3], &mut j.rows[r..r + 3]),
+                .rows(a, b, &mut value[r..r + 3], &mut rows[r..r + 3]),
             1 => {
                 let ub = FrameExpr::dir_b(b, self.axes[0]);
                 for p in &self.perp {
                     let na = FrameExpr::dir_a(a, *p);
-                    j.value[r] = na.value.dot(ub.value);
-                    j.rows[r] = dot_grad(&na, &ub);
+                    value[r] = na.value.dot(ub.value);
+                    rows[r] = dot_grad(&na, &ub);
                     r += 1;
                 }
             }
             2 => {
                 let ea = FrameExpr::dir_a(a, self.e1_a);
                 let eb = FrameExpr::dir_b(b, self.axes[1]);
-                j.value[r] = ea.value.dot(eb.value) - self.c0;
-                j.rows[r] = dot_grad(&ea, &eb);
+                value[r] = ea.value.dot(eb.value) - self.c0;
+                rows[r] = dot_grad(&ea, &eb);
             }
             _ => {}
         }
-        j
     }
 
     /// The values of the `6 − dof` rows of [`Self::jacobian6`] alone (the rest zero):
@@ -671,7 +686,7 @@ impl Compound {
     pub fn value6(&self, a: &Pose, b: &Pose) -> [f64; MAX_DOF] {
         let mut v = [0.0; MAX_DOF];
         let mut r = 0;
-        let d = self.point.sep(a, b).value;
+        let d = self.point.sep_value(a, b);
         if let Some(delta) = self.skew {
             let ea = a.q * self.e1_a;
             let eb = b.q * self.axes[1];

@@ -71,6 +71,10 @@ pub(super) struct Scratch {
     /// [`World::projection_error`], per joint (soft joints: not written); a chord step's
     /// right-hand side `−C(x_k)` reads them when they are at its iterate.
     values: Vec<[f64; MAX_ROWS]>,
+    /// The hard hinges' directions `[n, u]` ([`Joint::value_into`]) at the poses of
+    /// `values`, per joint (other joints: not written): the limits' error takes the
+    /// hinge's angle from them ([`constraint_core::Hinge::angle_from`]).
+    dirs: Vec<[DVec3; 2]>,
     /// Whether `values` are at the current poses (no pose changed since they were
     /// evaluated).
     values_current: bool,
@@ -284,17 +288,30 @@ impl World {
     /// `Scratch::values`.
     fn hard_separation_keeping_values(&mut self) -> f64 {
         let mut values = core::mem::take(&mut self.proj.values);
+        let mut dirs = core::mem::take(&mut self.proj.dirs);
         values.resize(self.joints.len(), [0.0; MAX_ROWS]);
+        dirs.resize(self.joints.len(), [DVec3::ZERO; 2]);
         let mut worst = 0.0;
-        for (j, joint) in self.joints.iter().enumerate() {
+        for ((j, joint), (v, d)) in self
+            .joints
+            .iter()
+            .enumerate()
+            .zip(values.iter_mut().zip(&mut dirs))
+        {
             if self.is_soft(j) {
                 continue;
             }
-            let v = joint.value(&self.pose(joint.parent), &self.pose(Some(joint.child)));
-            worst = f64::max(worst, joint.separation_of(&v));
-            values[j] = v;
+            let a = joint
+                .parent
+                .map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+            let b = &self.bodies[joint.child].pose;
+            if let Some(n_u) = joint.value_into(a, b, v) {
+                *d = n_u;
+            }
+            worst = f64::max(worst, joint.separation_of(v));
         }
         self.proj.values = values;
+        self.proj.dirs = dirs;
         self.proj.values_current = true;
         worst
     }

@@ -93,7 +93,7 @@ impl World {
             if tracking && self.hinge_inside(ji) {
                 continue;
             }
-            let Some(q) = self.coordinates_kept(ji) else {
+            let Some(q) = self.limit_coordinates(ji) else {
                 continue;
             };
             if recording {
@@ -114,6 +114,25 @@ impl World {
         }
         self.proj.limits.recording = false;
         (worst, nearest > -tol)
+    }
+
+    /// Joint `ji`'s coordinates for its limits' error: a hard hinge's angle from the
+    /// directions its rows' values rotated at these poses (`Scratch::dirs`, the same
+    /// operations as [`constraint_core::Hinge::angle`], so the same bits as
+    /// [`Self::coordinates_of`]), on its continuous branch; other joints'
+    /// from [`Self::coordinates_kept`].
+    fn limit_coordinates(&mut self, ji: usize) -> Option<[f64; MAX_DOF]> {
+        let joint = &self.joints[ji];
+        if let JointKind::Hinge(c) = &joint.kind {
+            let dirs = self.proj.dirs.get(ji).filter(|_| self.proj.values_current);
+            if let (Some(&[n, u]), false) = (dirs, self.is_soft(ji)) {
+                let mut q = [0.0; MAX_DOF];
+                q[0] = c.angle_from(&self.bodies[joint.child].pose, n, u);
+                self.continue_angles(ji, &mut q);
+                return Some(q);
+            }
+        }
+        self.coordinates_kept(ji)
     }
 
     /// `(q₀, r₀)` of hinge `ji` at the current poses, `q₀` its angle there (NaN: not
