@@ -249,7 +249,6 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
                 }
                 // A packed manifold whose `ang` is not kept: its terms rebuilt from
                 // its packed rows (the same bits), read by position as from `ang`.
-                scratch.resize(rows.slots.len(), [[DVec3::ZERO; 4]; 3]);
                 for &p in pts {
                     if let (Some(g), Some(s)) = (
                         rebuild_ang(paired, rows.anchor, rows.dir, p),

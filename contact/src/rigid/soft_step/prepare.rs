@@ -591,6 +591,12 @@ impl ContactWorld {
         let manifolds = st.colouring.manifold_start.len().saturating_sub(1);
         st.ang_kept.resize(manifolds, true);
         let ang_kept = &mut st.ang_kept[..manifolds];
+        // Grown here with the point arrays, not in the pass that fills it (a step
+        // allocates nothing once grown), and never shrunk (entries are read only
+        // where that pass wrote them: no zeroing as the point count varies).
+        if st.ang_scratch.len() < np {
+            st.ang_scratch.resize(np, [[DVec3::ZERO; 4]; 3]);
+        }
         // The SIMD lanes' packed rows, written point by point below (their plan, a
         // function of the colouring alone, is the last step's when the colouring is).
         if !kept {
@@ -672,8 +678,9 @@ impl ContactWorld {
             // unpacks the manifold's group for this step).
             paired.put_head(first, &last.1, im, mu);
             // Its `ang` kept unless packed with `BLOCK_POINTS` points (then the lane
-            // passes and the packed blocks' build read its packed rows).
-            let keep = keep_all || pts.len() != BLOCK_POINTS || !paired.packs(first);
+            // passes and the packed blocks' build read its packed rows) and without
+            // restitution (whose pass reads them).
+            let keep = keep_all || e != 0.0 || pts.len() != BLOCK_POINTS || !paired.packs(first);
             if let Some(k) = ang_kept.get_mut(j) {
                 *k = keep;
             }
