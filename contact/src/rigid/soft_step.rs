@@ -394,7 +394,30 @@ pub(super) struct SoftState {
     /// 4.3 % more instructions (6.5 % on the stack and pyramid: a conversion per
     /// component), but the box dropped on a 4-stack then slept again 58 steps later
     /// (step 407: `sleep_allocations` waits 400), so they are kept in `f64`.
+    ///
+    /// Written only for the manifolds of `ang_kept` (the lane passes read a packed
+    /// point's rows from [`Paired`] instead).
     pub(super) ang: Vec<[[DVec3; 4]; 3]>,
+    /// Per manifold (colour order): whether its points' `ang` is written this step.
+    /// It is where the manifold is not packed (the one-point passes solve it), not
+    /// of [`BLOCK_POINTS`] points (the blocks' one-point build reads it), has
+    /// restitution (the restitution pass reads it), in a group
+    /// whose normals are not shared (solved one point at a time), and for every
+    /// manifold in a step after one that solved as many points one at a time as
+    /// there are points (`one_point`), on threads, without the block normal solve,
+    /// or with the residual. Where it
+    /// is not, a packed manifold that the biased pass solves one point at a time has
+    /// its terms rebuilt for it into `ang_scratch` ([`rebuild_ang`]). Not writing
+    /// them saves the 210-box pyramid's preparation 288 B of writes a point (≈ 7k of
+    /// its 160k D1 misses a step, cachegrind); the 1000-box pile, many of whose lane
+    /// groups decline the biased pass, mostly keeps them (its step +0.4 % instructions).
+    pub(super) ang_kept: Vec<bool>,
+    /// Where `ang` is not kept: the angular terms rebuilt for the one-point biased
+    /// pass, by solve position.
+    pub(super) ang_scratch: Vec<[[DVec3; 4]; 3]>,
+    /// Points solved one at a time in the biased and relax passes since the last
+    /// `prepare` (see `ang_kept`).
+    pub(super) one_point: usize,
     /// Effective masses `1/(J M⁻¹ Jᵀ)` of the three rows (0 for a row with none).
     pub(super) mass: Vec<[f64; 3]>,
     /// Inverse masses of the two bodies as the point's rows see them (zero for a
@@ -1019,6 +1042,24 @@ impl Rows<'_> {
     }
 }
 
+/// Point `p`'s `ang` (see [`SoftState::ang`]) from its packed rows ([`Paired::inv_of`])
+/// and its anchors and directions: `r × d` as `prepare` computes it (glam's
+/// `cross`, the same operations), `I⁻¹(r × d)` as it stored it: the same bits.
+/// `None` where `p` is not packed.
+#[inline]
+pub(super) fn rebuild_ang(
+    paired: &Paired,
+    anchor: &[[DVec3; 2]],
+    dir: &[[DVec3; 3]],
+    p: usize,
+) -> Option<[[DVec3; 4]; 3]> {
+    let inv = paired.inv_of(p)?;
+    let ([ra, rb], d) = (*anchor.get(p)?, dir.get(p)?);
+    Some(core::array::from_fn(|r| {
+        [ra.cross(d[r]), rb.cross(d[r]), inv[r][0], inv[r][1]]
+    }))
+}
+
 /// Settings of one Gauss–Seidel pass (see [`solve_point`]).
 #[derive(Clone, Copy)]
 pub(super) struct Pass {
@@ -1106,6 +1147,85 @@ pub(super) use prepare::PointConsts;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Where a step does not keep a packed manifold's angular terms
+    /// ([`SoftState::ang_kept`]), [`rebuild_ang`] gives, bit for bit, what a step that
+    /// keeps every manifold's stored (the same state: the residual, which keeps them
+    /// all, changes no bits), on the 6-level pyramid and the 10-box stack after 20
+    /// steps; and the steps do leave manifolds unkept there.
+    #[test]
+    fn rebuilt_angular_terms_are_the_stored_ones() {
+        use crate::rigid::ContactSolver;
+        use crate::scenes::{box_stack, pyramid};
+        for scene in [pyramid(6), box_stack(10)] {
+            let mut w = scene.expect("the scene builds");
+            w.settings.solver = ContactSolver::SoftStep { substeps: 3 };
+            let mut all = w.clone();
+            all.settings.soft_step.residual = true;
+            for _ in 0..20 {
+                w.step(1.0 / 60.0).expect("the scene steps");
+                all.step(1.0 / 60.0).expect("the scene steps");
+            }
+            let (Some(st), Some(kept)) = (w.soft.as_ref(), all.soft.as_ref()) else {
+                panic!("no soft state");
+            };
+            assert!(kept.ang_kept.iter().all(|&k| k));
+            let (mp, pts) = (&st.colouring.manifold_start, &st.colouring.manifold_points);
+            let mut rebuilt = 0;
+            for j in 0..mp.len() - 1 {
+                if st.ang_kept[j] {
+                    continue;
+                }
+                for &p in &pts[mp[j]..mp[j + 1]] {
+                    let g = rebuild_ang(&st.paired, &st.anchor, &st.dir, p).expect("packed");
+                    let bits =
+                        |g: &[[DVec3; 4]; 3]| g.map(|r| r.map(|v| v.to_array().map(f64::to_bits)));
+                    assert_eq!(bits(&g), bits(&kept.ang[p]), "point {p}");
+                    rebuilt += 1;
+                }
+            }
+            assert!(rebuilt > 0, "no manifold left unkept");
+        }
+    }
+
+    /// Restitution reads the angular terms (`rate`, `apply`): a bouncy manifold keeps
+    /// them ([`SoftState::ang_kept`]), so the 6-level pyramid with restitution 0.5,
+    /// its boxes thrown down at 2 m/s after 10 steps, ends 20 steps later with the
+    /// same bits as with every manifold's terms kept (the residual keeps them all).
+    #[test]
+    fn restitution_reads_kept_angular_terms() {
+        use crate::rigid::ContactSolver;
+        use crate::scenes::pyramid;
+        let mut w = pyramid(6).expect("the scene builds");
+        w.settings.solver = ContactSolver::SoftStep { substeps: 3 };
+        for c in &mut w.colliders {
+            c.restitution = 0.5;
+        }
+        let mut all = w.clone();
+        all.settings.soft_step.residual = true;
+        let state = |w: &ContactWorld| -> Vec<u64> {
+            let mut bits = Vec::new();
+            for b in w.bodies() {
+                for v in [b.pose.x, b.v, b.omega] {
+                    bits.extend(v.to_array().map(f64::to_bits));
+                }
+            }
+            bits
+        };
+        for w in [&mut w, &mut all] {
+            for k in 0..30 {
+                if k == 10 {
+                    for b in w.bodies_mut() {
+                        b.v.z -= 2.0;
+                    }
+                }
+                w.step(1.0 / 60.0).expect("the scene steps");
+            }
+        }
+        assert_eq!(state(&w), state(&all));
+        let st = w.soft.as_ref().expect("soft state");
+        assert!(st.bouncy && st.ang_kept.iter().all(|&k| k));
+    }
 
     /// [`rotated_inertia`] gives glam's `r * m * r.transpose()` bit for bit, on
     /// rotations about random axes and random (non-symmetric, signed) matrices.

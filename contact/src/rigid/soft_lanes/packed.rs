@@ -389,6 +389,36 @@ impl Paired {
         }
     }
 
+    /// Whether point `p` (solve position) is packed.
+    #[inline(always)]
+    pub(in crate::rigid) fn packs(&self, p: usize) -> bool {
+        self.lane_of.get(p).is_some_and(|&at| at != u32::MAX)
+    }
+
+    /// Whether some group's manifolds do not all share their normals this step
+    /// ([`Paired::unshare`]).
+    #[inline]
+    pub(in crate::rigid) fn any_unshared(&self) -> bool {
+        self.off.contains(&true)
+    }
+
+    /// Per direction `I_a⁻¹(r_a × d)`, `I_b⁻¹(r_b × d)` of point `p` (solve position) as
+    /// [`Paired::put`] wrote them (for its own directions, shared or not), if it is
+    /// packed.
+    #[inline]
+    pub(in crate::rigid) fn inv_of(&self, p: usize) -> Option<[[DVec3; 2]; 3]> {
+        let at = *self.lane_of.get(p)?;
+        let q = self.rows.get((at / 4) as usize)?;
+        let (h, l) = ((at / 2 % 2) as usize, (at % 2) as usize);
+        let lane = |v: &Quad3| {
+            let x = |q: &Quad| q[h].as_array()[l];
+            DVec3::new(x(&v.x), x(&v.y), x(&v.z))
+        };
+        Some(core::array::from_fn(|r| {
+            [lane(&q.inv[r][0]), lane(&q.inv[r][1])]
+        }))
+    }
+
     /// Writes point `p`'s rows into its lane, if it is in a packed pair.
     #[inline(always)]
     pub(in crate::rigid) fn put(&mut self, p: usize, point: PointRows) {

@@ -220,11 +220,15 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
         anchors,
     };
     let gap = core::mem::take(&mut st.gap);
+    // Points solved one at a time (see `SoftState::ang_kept`).
+    let mut one_point = 0;
     if use_bias && !st.blocks.is_empty() {
-        // Borrowed (see `warm_start`); the blocks taken.
+        // Borrowed (see `warm_start`); the blocks and the scratch terms taken.
         let paired = &st.paired;
         let blocks = core::mem::take(&mut st.blocks);
+        let mut scratch = core::mem::take(&mut st.ang_scratch);
         let colouring = &st.colouring;
+        let kept = &st.ang_kept;
         {
             let (rows, mut vel, impulse, max_normal) = split!(st);
             let (mp, pts) = (
@@ -236,8 +240,27 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
                 max_normal: &mut *max_normal,
                 gap: &gap,
             };
-            let one = |j: usize, io: &mut PointSlices, vel: &mut Slices| {
+            let mut one = |j: usize, io: &mut PointSlices, vel: &mut Slices| {
                 let pts = &pts[mp[j]..mp[j + 1]];
+                one_point += pts.len();
+                if kept.get(j).copied().unwrap_or(true) {
+                    solve_manifold(&rows, &blocks[j], pts, io, vel, pass);
+                    return;
+                }
+                // A packed manifold whose `ang` is not kept: its terms rebuilt from
+                // its packed rows (the same bits), read by position as from `ang`.
+                for &p in pts {
+                    if let (Some(g), Some(s)) = (
+                        rebuild_ang(paired, rows.anchor, rows.dir, p),
+                        scratch.get_mut(p),
+                    ) {
+                        *s = g;
+                    }
+                }
+                let rows = Rows {
+                    ang: &scratch,
+                    ..rows
+                };
                 solve_manifold(&rows, &blocks[j], pts, io, vel, pass);
             };
             // Colour by colour, two manifolds at a time in SIMD lanes
@@ -273,22 +296,26 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
             }
         }
         st.blocks = blocks;
+        st.ang_scratch = scratch;
     } else if !use_bias {
-        relax_in_lanes(st, &gap, pass);
+        one_point = relax_in_lanes(st, &gap, pass);
     } else {
         let (rows, mut vel, impulse, max_normal) = split!(st);
         for (p, (z, m)) in impulse.iter_mut().zip(max_normal.iter_mut()).enumerate() {
             solve_point(&rows, p, gap[p], z, m, &mut vel, pass);
         }
+        one_point = rows.slots.len();
     }
+    st.one_point += one_point;
     st.gap = gap;
 }
 
 /// The relax pass ([`solve_point`] without bias on every point, in solve order) with
 /// the manifolds of each colour taken two at a time in SIMD lanes
 /// ([`relax_manifolds`]: the same bits as one point at a time; see
-/// [`for_manifold_pairs`]).
-pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
+/// [`for_manifold_pairs`]). Returns how many points it solved one at a time.
+pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) -> usize {
+    let mut one_point = 0;
     // Borrowed (see `warm_start`).
     let paired = &st.paired;
     let colouring = &st.colouring;
@@ -303,6 +330,7 @@ pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
             gap,
         };
         let mut one = |p: usize, io: &mut RelaxIo| {
+            one_point += 1;
             let mut vel = Slices {
                 v: &mut *io.v,
                 w: &mut *io.w,
@@ -337,6 +365,7 @@ pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) {
             &mut io,
         );
     }
+    one_point
 }
 
 /// The same slices as the lane passes take them.

@@ -123,23 +123,24 @@ fn inertia_lanes(ia: &DMat3, ib: &DMat3) -> InertiaLanes {
     core::array::from_fn(|i| core::array::from_fn(|c| f64x2::new([ca[c][i], cb[c][i]])))
 }
 
-/// One point's angular terms and effective masses: per direction `d` of `dirs`,
-/// `ang[r] = [r_a × d, r_b × d, I_a⁻¹(r_a × d), I_b⁻¹(r_b × d)]` and
+/// One point's angular terms and effective masses: per direction `d` of `dirs` the
+/// lanes of `r × d` (`cross`) and of `I⁻¹(r × d)` (`inv`), by axis (x, y, z; body
+/// `a` in lane 0, `b` in lane 1: [`ang_of`] makes the point's `ang[r] = [r_a × d,
+/// r_b × d, I_a⁻¹(r_a × d), I_b⁻¹(r_b × d)]` of them), and
 /// `k = J M⁻¹ Jᵀ = 1/m_a + 1/m_b + (r_a×d)ᵀI_a⁻¹(r_a×d) + (r_b×d)ᵀI_b⁻¹(r_b×d)`,
 /// the mass `1/k` (zero where `k ≤ 0`). Bodies `a` and `b` in the two lanes of
 /// `f64x2`: each lane does glam's scalar operations in glam's order (`cross`,
 /// `mul_vec3` column by column, `dot` left to right, `k` summed left to right), so
-/// the bits are the scalar code's, at half the arithmetic instructions. `inv` gets
-/// the lanes of `I⁻¹(r × d)` per direction (x, y, z; body `a` in lane 0, `b` in lane
-/// 1), for [`Paired::put`](crate::rigid::soft_lanes::Paired::put) to store lane by
-/// lane from registers instead of reading `ang` back.
+/// the bits are the scalar code's, at half the arithmetic instructions. Kept in
+/// registers: [`Paired::put`](crate::rigid::soft_lanes::Paired::put) stores `inv`
+/// lane by lane, and only a point whose `ang` is kept stores that.
 #[inline(always)]
 fn angular_terms(
     (ra, rb): (DVec3, DVec3),
     dirs: &[DVec3; 3],
     m: &InertiaLanes,
     im_sum: f64,
-    (ang, inv): (&mut [[DVec3; 4]; 3], &mut [[f64x2; 3]; 3]),
+    (cross, inv): (&mut [[f64x2; 3]; 3], &mut [[f64x2; 3]; 3]),
 ) -> [f64; 3] {
     let (rx, ry, rz) = (
         f64x2::new([ra.x, rb.x]),
@@ -147,7 +148,7 @@ fn angular_terms(
         f64x2::new([ra.z, rb.z]),
     );
     let mut k = [0.0; 3];
-    for (((d, out), k), lanes) in dirs.iter().zip(ang.iter_mut()).zip(&mut k).zip(inv) {
+    for (((d, out), k), lanes) in dirs.iter().zip(cross).zip(&mut k).zip(inv) {
         let (dx, dy, dz) = (f64x2::splat(d.x), f64x2::splat(d.y), f64x2::splat(d.z));
         // r × d (glam: `self.y * rhs.z - rhs.y * self.z`, …).
         let (ux, uy, uz) = (ry * dz - dy * rz, rz * dx - dz * rx, rx * dy - dx * ry);
@@ -155,22 +156,33 @@ fn angular_terms(
         let row = |i: usize| m[i][0] * ux + m[i][1] * uy + m[i][2] * uz;
         let (ix, iy, iz) = (row(0), row(1), row(2));
         *lanes = [ix, iy, iz];
+        *out = [ux, uy, uz];
         let dot = (ux * ix + uy * iy + uz * iz).to_array();
         *k = im_sum + dot[0] + dot[1];
-        let (ux, uy, uz) = (ux.to_array(), uy.to_array(), uz.to_array());
-        let (ix, iy, iz) = (ix.to_array(), iy.to_array(), iz.to_array());
-        *out = [
-            DVec3::new(ux[0], uy[0], uz[0]),
-            DVec3::new(ux[1], uy[1], uz[1]),
-            DVec3::new(ix[0], iy[0], iz[0]),
-            DVec3::new(ix[1], iy[1], iz[1]),
-        ];
     }
     // The masses `1/k` after the three `k`: the first two divided in one packed
     // division (correctly rounded per lane, as the scalar's).
     let inv = (f64x2::splat(1.0) / f64x2::new([k[0], k[1]])).to_array();
     let inv = [inv[0], inv[1], 1.0 / k[2]];
     core::array::from_fn(|r| if k[r] > 0.0 { inv[r] } else { 0.0 })
+}
+
+/// The lanes of a 3-vector by axis (body `a` in lane 0, `b` in lane 1) as the two
+/// vectors.
+#[inline(always)]
+fn unlane([x, y, z]: [f64x2; 3]) -> [DVec3; 2] {
+    let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
+    [DVec3::new(x[0], y[0], z[0]), DVec3::new(x[1], y[1], z[1])]
+}
+
+/// A point's `ang[r] = [r_a × d, r_b × d, I_a⁻¹(r_a × d), I_b⁻¹(r_b × d)]` from
+/// [`angular_terms`]' lanes.
+#[inline(always)]
+fn ang_of(cross: &[[f64x2; 3]; 3], inv: &[[f64x2; 3]; 3]) -> [[DVec3; 4]; 3] {
+    core::array::from_fn(|r| {
+        let ([ua, ub], [ia, ib]) = (unlane(cross[r]), unlane(inv[r]));
+        [ua, ub, ia, ib]
+    })
 }
 
 /// One body's load and supports for the static load estimate
@@ -564,6 +576,27 @@ impl ContactWorld {
             &mut st.preload_floor[..np],
         );
         let gap = &mut st.gap[..np];
+        // Every manifold's `ang` kept this step where the last step solved as many
+        // points one at a time as this one has, on threads or without the block
+        // normal solve (one point at a time), with the residual (it reads them), or
+        // where the relax lanes would decline (`inv_h` not positive and finite); else
+        // only those that the one-point passes read (see `SoftState::ang_kept`).
+        let inv_h = 1.0 / hs;
+        let keep_all = st.one_point >= np
+            || s.threads > 1
+            || !s.block_normal
+            || s.residual
+            || !(inv_h > 0.0 && inv_h.is_finite());
+        st.one_point = 0;
+        let manifolds = st.colouring.manifold_start.len().saturating_sub(1);
+        st.ang_kept.resize(manifolds, true);
+        let ang_kept = &mut st.ang_kept[..manifolds];
+        // Grown here with the point arrays, not in the pass that fills it (a step
+        // allocates nothing once grown), and never shrunk (entries are read only
+        // where that pass wrote them: no zeroing as the point count varies).
+        if st.ang_scratch.len() < np {
+            st.ang_scratch.resize(np, [[DVec3::ZERO; 4]; 3]);
+        }
         // The SIMD lanes' packed rows, written point by point below (their plan, a
         // function of the colouring alone, is the last step's when the colouring is).
         if !kept {
@@ -644,6 +677,13 @@ impl ContactWorld {
             // their normals are its bits; where one is not, the point loop below
             // unpacks the manifold's group for this step).
             paired.put_head(first, &last.1, im, mu);
+            // Its `ang` kept unless packed with `BLOCK_POINTS` points (then the lane
+            // passes and the packed blocks' build read its packed rows) and without
+            // restitution (whose pass reads them).
+            let keep = keep_all || e != 0.0 || pts.len() != BLOCK_POINTS || !paired.packs(first);
+            if let Some(k) = ang_kept.get_mut(j) {
+                *k = keep;
+            }
             for &p in pts {
                 let k = order[p];
                 let c = &contacts[k];
@@ -657,11 +697,12 @@ impl ContactWorld {
                 }
                 let dirs = last.1;
                 let [_, t1, t2] = dirs;
-                // Written in place: built in a local and copied in, the 288 bytes cost
-                // ≈ 35 instructions a point (1 % of the 210-box pyramid's step).
-                let ang = &mut ang_out[p];
+                let mut cross = [[f64x2::ZERO; 3]; 3];
                 let mut inv = [[f64x2::ZERO; 3]; 3];
-                let mass = angular_terms((ra, rb), &dirs, &lanes, im_sum, (ang, &mut inv));
+                let mass = angular_terms((ra, rb), &dirs, &lanes, im_sum, (&mut cross, &mut inv));
+                if keep {
+                    ang_out[p] = ang_of(&cross, &inv);
+                }
                 // The point's previous impulses (zeros where not found), whether it
                 // starts from the estimate (a new manifold's point), and the estimate
                 // (read only where estimated).
@@ -710,7 +751,8 @@ impl ContactWorld {
                 approach[p] = if e == 0.0 {
                     0.0
                 } else {
-                    n.dot(st.v[b] - st.v[a]) + ang[0][1].dot(st.w[b]) - ang[0][0].dot(st.w[a])
+                    let [ua, ub] = unlane(cross[0]);
+                    n.dot(st.v[b] - st.v[a]) + ub.dot(st.w[b]) - ua.dot(st.w[a])
                 };
                 impulse[p] = z;
                 preload_out[p] = if (every && est > 0.0) || fresh_point {
@@ -728,6 +770,22 @@ impl ContactWorld {
                 };
                 max_normal[p] = 0.0;
                 total[p] = [0.0; 3];
+            }
+        }
+        // A group whose normals are not shared is solved one point at a time: its
+        // manifolds' `ang` rebuilt from their packed rows (the same bits; rare: a
+        // point's normal not its manifold's first's, bit for bit).
+        if !keep_all && st.paired.any_unshared() {
+            for j in 0..mp.len().saturating_sub(1) {
+                if st.ang_kept.get(j).copied().unwrap_or(true) {
+                    continue;
+                }
+                for &p in &mpts[mp[j]..mp[j + 1]] {
+                    if let Some(g) = rebuild_ang(&st.paired, &st.anchor, &st.dir, p) {
+                        st.ang[p] = g;
+                    }
+                }
+                st.ang_kept[j] = true;
             }
         }
         bouncy
