@@ -221,6 +221,28 @@
 //! 1689/109/4, 1704/33/1 (20.4 Schur rows per build perturbed: the boxes' contacts
 //! with each other), manipulator 1772/34/4, 1787/35/7, 1768/57/4.
 //!
+//! Friction entering with its normal (issue 13): a normal that enters at iteration `k`
+//! had its friction rows held inactive (their bounds `±μ z_n` zero while `z_n = 0`),
+//! to enter only at `k + 1`. They now enter with it, at the bound `−w` points to
+//! (where `|w| > tol_w`). Measured (`instr34`, callgrind `--toggle-collect` on
+//! `World::step`, 2 s; against the base 7a31e40): half_cheetah controlled 35.61M →
+//! 35.58M, dm cheetah controlled 38.03M → 37.06M, dm hopper passive 58.77M → 54.32M,
+//! walker controlled 134.44M → 131.50M, pusher unchanged; ensembles (passive,
+//! controlled, root kicks `--qvel 1,0,0.5,0,0,0` and `0,-1,0,1,2,0`) dm_control's
+//! humanoid 1 369.9M → 1 333.4M, gymnasium's humanoid (no controlled run) 1 046.9M →
+//! 983.4M, humanoid_CMU 0.5 s passive and controlled 611.4M → 604.9M. The gain is
+//! in failed tries (dense steps), not iterations: failed tries dm cheetah 6 → 4,
+//! walker 5 → 0, hopper passive 3 → 1, controlled 11 → 3, gymnasium's humanoid
+//! passive 13 → 8, kicked 16 → 5, humanoid_CMU controlled 23 → 16; iterations per
+//! settled try about the same (half_cheetah 1.77 → 1.79, dm cheetah 1.62 → 1.66,
+//! hopper 1.19 → 1.21). The summaries (`simulate --summary`: joint separation,
+//! penetration, settled penetration, energy, root height) agree to 3–4 digits on
+//! the small models and within the humanoids' chaos. Tried and left out: entering
+//! free (sticking) instead of at a bound: half_cheetah 37.22M, dm cheetah 41.21M,
+//! dm humanoid passive 365.7M, controlled 354.9M (a sliding row entered free goes to
+//! its bound an iteration later, a change of the factor's rows, where one entered at
+//! its bound is no factor row).
+//!
 //! The Schur rows' bookkeeping (issue 13, dm_control's humanoid perturbed, 2 s, 400
 //! steps, callgrind `--toggle-collect` on `World::step`, main d600c41: 537.5M, of
 //! which 233.6M in 334 tries). The build of `S` ([`World::schur_columns`]) was
@@ -250,6 +272,18 @@
 //! return). What is left is arithmetic (the products, `S`'s factor, the forward
 //! passes) or per build: any change of a factor row changes the root's block, on
 //! every Schur row's path, so no build can reuse the last one's columns whole.
+//! Tried and left out (issue 13, this session): a row's forward-pass values kept
+//! across builds of one step where the factor kept the nodes (`RowTree`'s reuse
+//! test: the node and every node below it kept their rows; the same bits, the 13
+//! reference runs `cmp`-equal), the kept nodes' values put back and only their
+//! update of a recomputed parent sent: dm humanoid 2 s passive, 2 121 of 9 025 row
+//! passes reused, but `forward_steps` 19.24M → 15.09M + 4.15M for the reusing pass
+//! (few path nodes are kept: a change at a foot recomputes its leg to the root), and
+//! `World::step` 338.65M → 340.61M (dm humanoid controlled 309.09M → 310.62M, dm
+//! hopper 58.77M → 59.02M, half_cheetah 35.61M → 35.68M, humanoid_CMU controlled
+//! 393.28M → 392.87M). Line counts of the same run (a build with line tables): the
+//! products `u_a s_b` 10M of the 51M the Schur rows' own code costs over 497 builds
+//! (18.6 rows, 183 pairs a build), the rest spread over the builds' loops.
 
 use alloc::vec::Vec;
 
@@ -693,7 +727,30 @@ impl World {
                     b => {
                         let (lo, hi) = bounds(&b, &st.z);
                         if lo == 0.0 && hi == 0.0 {
-                            RowStatus::Inactive
+                            // A friction row whose normal enters now (active, no
+                            // impulse yet: its bounds ±μ z_n are still zero) enters
+                            // with it where it is off zero, at the bound that `−w`
+                            // points to (the natural map's choice once the bounds
+                            // open); its impulse follows the normal's (the bounds'
+                            // drift and extrapolation), and it comes back free where
+                            // `w` turns against the bound. It waited an iteration
+                            // before, inactive until the normal had an impulse.
+                            let entering = match b {
+                                RowBound::Friction { normal, .. } => {
+                                    st.status.get(normal) == Some(&RowStatus::Active)
+                                        && st.z.get(normal) == Some(&0.0)
+                                }
+                                _ => false,
+                            };
+                            if entering && old == RowStatus::Inactive && w.abs() > tol_w {
+                                if w < 0.0 {
+                                    RowStatus::Hi
+                                } else {
+                                    RowStatus::Lo
+                                }
+                            } else {
+                                RowStatus::Inactive
+                            }
                         } else {
                             match old {
                                 RowStatus::Active if z > hi + tz => RowStatus::Hi,
