@@ -110,7 +110,7 @@ pub(crate) struct TreeSolver {
     /// otherwise — the forward pass's flags ([`Self::solve_marked`]) of a right-hand
     /// side zero on every body ([`Self::solve_zero_bodies`]); empty when the tree has
     /// no such body.
-    leaf_bodies: Vec<bool>,
+    forward_nodes: Vec<bool>,
     /// Per node: its diagonal block, its block to the parent and its inverse pivots
     /// (the factor once [`Self::factor`] ran; a dropped pivot is a zero `1/d`).
     pub(crate) blocks: Vec<NodeBlocks>,
@@ -255,17 +255,17 @@ impl TreeSolver {
             .collect();
         // Bodies that are no node's parent (joints only have bodies as children and
         // bodies only joints, so a body without children is a leaf).
-        let mut leaf_bodies = vec![true; n_nodes];
+        let mut forward_nodes = vec![true; n_nodes];
         for i in 0..n_bodies {
-            leaf_bodies[i] = false;
+            forward_nodes[i] = false;
         }
         for &p in &parent {
             if p != NONE && p < n_bodies {
-                leaf_bodies[p] = true;
+                forward_nodes[p] = true;
             }
         }
-        if leaf_bodies.iter().all(|v| *v) {
-            leaf_bodies.clear();
+        if forward_nodes.iter().all(|v| *v) {
+            forward_nodes.clear();
         }
         Self {
             n_bodies,
@@ -274,7 +274,7 @@ impl TreeSolver {
             parent,
             order,
             schedule,
-            leaf_bodies,
+            forward_nodes,
             blocks: vec![ZERO_NODE; n_nodes],
             joint_node,
             loops,
@@ -488,10 +488,10 @@ impl TreeSolver {
     /// pass then reads `s = +0` there, as the skipped node's zero right-hand side. So
     /// the solution is [`Self::solve`]'s to the bit (for a finite factor).
     pub fn solve_zero_bodies(&self, x: &mut [f64]) {
-        if self.leaf_bodies.is_empty() {
+        if self.forward_nodes.is_empty() {
             self.solve_marked(x, None);
         } else {
-            self.solve_marked(x, Some(&self.leaf_bodies));
+            self.solve_marked(x, Some(&self.forward_nodes));
         }
     }
 
@@ -956,25 +956,24 @@ mod tests {
     use constraint_lagrange::solve::svd::SvdSolver;
     use constraint_lagrange::solve::DenseMatrix;
 
-    /// A branched tree (a chain of 8 bodies hung from the world, with a second chain of
-    /// 4 on body 2) held by 3-row ball joints: a column `Gᵀ` of a contact row on one
-    /// or two bodies gives the same solution by [`TreeSolver::solve_sparse`] (forward
-    /// pass on the bodies' paths to the root only, a column left NaN outside them) as
-    /// by [`TreeSolver::solve`], to the bit (`==`, which equates the two zeros).
-    #[test]
-    fn sparse_forward_pass_gives_the_full_solve() {
-        let n = 12;
+    /// The branched trees of the tests below, factored: `n` bodies, body 0 hung from
+    /// the world, body `i` from `parent(i)`, by ball joints (the first `rows(i)` of
+    /// their three rows) at the child's origin offset by `r`.
+    fn branched_tree(
+        n: usize,
+        parent: impl Fn(usize) -> usize,
+        rows: impl Fn(usize) -> usize,
+    ) -> (Vec<JointTopo>, TreeSolver) {
         let mut topo = vec![JointTopo {
             a: None,
             b: 0,
             rows: 3,
         }];
         for i in 1..n {
-            let a = if i == 8 { 2 } else { i - 1 };
             topo.push(JointTopo {
-                a: Some(a),
+                a: Some(parent(i)),
                 b: i,
-                rows: 3,
+                rows: rows(i),
             });
         }
         let mut t = TreeSolver::new(n, &topo);
@@ -990,9 +989,20 @@ mod tests {
                 let e = DVec3::AXES[k];
                 *row = [-e, -r.cross(e) * 0.5, e, r.cross(e)];
             }
-            t.set_joint(j, tp, &rows, 0, &[0.0; 3]);
+            t.set_joint(j, tp, &rows[..tp.rows], 0, &[0.0; 3][..tp.rows]);
         }
         t.factor().expect("factor");
+        (topo, t)
+    }
+
+    /// A branched tree (a chain of 8 bodies hung from the world, with a second chain of
+    /// 4 on body 2) held by 3-row ball joints: a column `Gᵀ` of a contact row on one
+    /// or two bodies gives the same solution by [`TreeSolver::solve_sparse`] (forward
+    /// pass on the bodies' paths to the root only, a column left NaN outside them) as
+    /// by [`TreeSolver::solve`], to the bit (`==`, which equates the two zeros).
+    #[test]
+    fn sparse_forward_pass_gives_the_full_solve() {
+        let (_, t) = branched_tree(12, |i| if i == 8 { 2 } else { i - 1 }, |_| 3);
         let mut mark = Vec::new();
         for bodies in [[Some(5), None], [Some(10), Some(4)], [Some(0), Some(11)]] {
             let mut full = vec![0.0; t.size];
@@ -1028,40 +1038,14 @@ mod tests {
     #[test]
     fn zero_body_solve_gives_the_full_solve_to_the_bit() {
         let n = 13;
-        let mut topo = vec![JointTopo {
-            a: None,
-            b: 0,
-            rows: 3,
-        }];
-        for i in 1..n {
-            let a = match i {
-                8 => 2,
-                12 => 5,
-                _ => i - 1,
-            };
-            topo.push(JointTopo {
-                a: Some(a),
-                b: i,
-                rows: if i == 12 { 1 } else { 3 },
-            });
-        }
-        let mut t = TreeSolver::new(n, &topo);
-        let leaves: Vec<usize> = (0..n).filter(|&i| !t.leaf_bodies[i]).collect();
+        let parent = |i| match i {
+            8 => 2,
+            12 => 5,
+            _ => i - 1,
+        };
+        let (topo, t) = branched_tree(n, parent, |i| if i == 12 { 1 } else { 3 });
+        let leaves: Vec<usize> = (0..n).filter(|&i| !t.forward_nodes[i]).collect();
         assert_eq!(leaves, [7, 11, 12]);
-        for i in 0..n {
-            let m = 1.0 + 0.1 * i as f64;
-            t.set_body(i, m, &(DMat3::IDENTITY * (0.01 + 0.001 * i as f64)));
-        }
-        for (j, tp) in topo.iter().enumerate() {
-            let r = DVec3::new(0.1, 0.02 * j as f64, -0.05);
-            let mut rows = [[DVec3::ZERO; 4]; 3];
-            for (k, row) in rows.iter_mut().enumerate() {
-                let e = DVec3::AXES[k];
-                *row = [-e, -r.cross(e) * 0.5, e, r.cross(e)];
-            }
-            t.set_joint(j, tp, &rows[..tp.rows], 0, &[0.0; 3][..tp.rows]);
-        }
-        t.factor().expect("factor");
         let mut full = vec![0.0; t.size];
         for (j, tp) in topo.iter().enumerate() {
             let o = t.joint_offset(j).expect("tree joint");
