@@ -295,6 +295,8 @@ use super::*;
 use crate::tree::NONE;
 use crate::tree_rows::{ExtraRow, RowTree};
 
+mod products;
+
 /// Iterations of the active set before the step goes to the dense path. The steps that
 /// settle do so in 1–2 iterations (the odd one in about 11), and a failed try costs
 /// about three dense steps, so the cap is 12 (it was 20: dm_control's humanoid, 1 s
@@ -365,20 +367,18 @@ pub(super) struct ActiveSet {
     /// ([`World::schur_columns`]), and the small system `S ζ = r` with its solution.
     schur: Vec<usize>,
     schur_pos: Vec<usize>,
-    /// Per Schur row `c`: its path nodes (its bodies and their ancestors) in
-    /// `path_nodes[path_start[c]..path_start[c + 1]]`, their unknowns' `s` and `u`
-    /// packed node after node in `path_s[val_start[c]..val_start[c + 1]]`, `path_u[..]`
-    /// likewise (one entry more than the rows: the end).
+    /// Per distinct path `p` of the Schur rows (a row's bodies and their ancestors;
+    /// a foot's or a box's contact rows share one): its nodes in
+    /// `path_nodes[path_start[p]..path_start[p + 1]]` (one entry more than the paths).
+    /// Per Schur row `c`: its path's index `path_id[c]`, and its unknowns' `s` and `u`
+    /// on the path, packed node after node, in `path_s[val_start[c]..val_start[c +
+    /// 1]]`, `path_u[..]` likewise (one entry more than the rows: the end).
     path_nodes: Vec<usize>,
     path_start: Vec<usize>,
     val_start: Vec<usize>,
     path_s: Vec<f64>,
     path_u: Vec<f64>,
-    /// Per Schur row: its path's index among the distinct paths (equal ids: equal
-    /// paths; a foot's or a box's contact rows share one), and per distinct path the
-    /// first Schur row on it.
     path_id: Vec<usize>,
-    path_reps: Vec<usize>,
     /// Per tree node: whether it is on the path being built, and where the path at
     /// hand keeps its values (`usize::MAX`: not on it); both clear between uses.
     mark: Vec<bool>,
@@ -1163,6 +1163,7 @@ impl World {
     fn schur_columns(&self, st: &mut ActiveSet) -> bool {
         let f = &st.factor;
         let d = st.schur.len();
+        let m = self.urows.len();
         let nodes = self.solver.parent.len();
         // `col`, `mark` and `node_slot` are left all zero / false / `usize::MAX` by
         // every call (the loops below clear what they set: the forward pass of a
@@ -1172,46 +1173,68 @@ impl World {
         st.node_slot.resize(nodes, usize::MAX);
         st.path_nodes.clear();
         st.path_start.clear();
+        st.path_start.push(0);
         st.val_start.clear();
         st.path_id.clear();
-        st.path_reps.clear();
         st.steps.clear();
         st.path_steps.clear();
         let mut free_scale: f64 = 0.0;
         let mut inertia = FreeInertia::default();
         let mut vals = 0;
         for (c, &i) in st.schur.iter().enumerate() {
-            let first = st.path_nodes.len();
-            st.path_start.push(first);
             st.val_start.push(vals);
             self.schur_scatter(f, &mut st.col, i, 1.0);
-            self.schur_path(i, &mut st.mark, &mut st.path_nodes);
-            let path = &st.path_nodes[first..];
-            // (The first node, the row's body, is compared first: a slice
-            // comparison of equal lengths is a `bcmp` call.)
-            let rep = st.path_reps.iter().position(|&r| {
-                let (a, b) = (st.path_start[r], st.path_start[r + 1]);
-                st.path_nodes.get(a) == path.first() && st.path_nodes[a..b] == *path
-            });
-            st.path_id.push(rep.unwrap_or(st.path_reps.len()));
-            if rep.is_none() {
-                st.path_reps.push(c);
-                // The path in the elimination order (a chain to the root already
-                // is: children come first; a two-body row's second walk is merged
-                // in) and its number of unknowns, once per distinct path.
-                let s0 = st.steps.len();
-                st.steps
-                    .extend(st.path_nodes[first..].iter().map(|&k| f.step_of(k)));
-                insertion_sort(&mut st.steps[s0..]);
-                let len = st.path_nodes[first..].iter().map(|&k| f.node_len(k)).sum();
-                st.path_steps.push((s0, st.steps.len(), len));
-            }
-            let (s0, s1, len) = st.path_steps[rep.unwrap_or(st.path_steps.len() - 1)];
+            // A one-sided row on the bodies of the row before it (a contact's normal
+            // and tangents, a foot's contacts) is on that row's path: no walk and no
+            // search (the walk is a function of the bodies alone).
+            let same = c > 0 && i < m && {
+                let h = st.schur[c - 1];
+                h < m && self.urows[h].a == self.urows[i].a && self.urows[h].b == self.urows[i].b
+            };
+            let id = if same {
+                st.path_id[c - 1]
+            } else {
+                let first = st.path_nodes.len();
+                self.schur_path(i, &mut st.mark, &mut st.path_nodes);
+                for &k in &st.path_nodes[first..] {
+                    st.mark[k] = false;
+                }
+                let path = &st.path_nodes[first..];
+                let g = st.path_steps.len();
+                // (The first node, the row's body, is compared first: a slice
+                // comparison of equal lengths is a `bcmp` call.)
+                let rep = (0..g).position(|r| {
+                    let (a, b) = (st.path_start[r], st.path_start[r + 1]);
+                    st.path_nodes.get(a) == path.first() && st.path_nodes[a..b] == *path
+                });
+                match rep {
+                    Some(r) => {
+                        st.path_nodes.truncate(first);
+                        r
+                    }
+                    None => {
+                        // A new path: its nodes stay, in the elimination order (a
+                        // chain to the root already is: children come first; a
+                        // two-body row's second walk is merged in) and with its number
+                        // of unknowns.
+                        st.path_start.push(st.path_nodes.len());
+                        let s0 = st.steps.len();
+                        st.steps
+                            .extend(st.path_nodes[first..].iter().map(|&k| f.step_of(k)));
+                        insertion_sort(&mut st.steps[s0..]);
+                        let len = st.path_nodes[first..].iter().map(|&k| f.node_len(k)).sum();
+                        st.path_steps.push((s0, st.steps.len(), len));
+                        g
+                    }
+                }
+            };
+            st.path_id.push(id);
+            let (s0, s1, len) = st.path_steps[id];
             f.forward_steps(&mut st.col, &st.steps[s0..s1]);
-            // Keep s and u = s / d⁻¹ on the path; leave `col` and `mark` clear. The
-            // row's values are sized once and written node slice by node slice (a
-            // `memcpy` call and a capacity check per node and per unknown before).
-            let path = &st.path_nodes[first..];
+            // Keep s and u = s / d⁻¹ on the path; leave `col` clear. The row's values
+            // are sized once and written node slice by node slice (a `memcpy` call and
+            // a capacity check per node and per unknown before).
+            let path = &st.path_nodes[st.path_start[id]..st.path_start[id + 1]];
             // (The arenas only grow: no zero fill of what is written next.)
             let at = vals;
             vals += len;
@@ -1226,9 +1249,6 @@ impl World {
                 &mut st.path_s[at..],
                 &mut st.path_u[at..],
             );
-            for &k in path {
-                st.mark[k] = false;
-            }
             // The row's scale is the step's (its Jacobian and bodies are fixed in it).
             let scale = match st.row_scale.get(i) {
                 Some(v) if !v.is_nan() => *v,
@@ -1242,14 +1262,15 @@ impl World {
             };
             free_scale = free_scale.max(scale);
         }
-        st.path_start.push(st.path_nodes.len());
         st.val_start.push(vals);
         // S_ab = Σ u_a s_b over the nodes a's path shares with b's, node after node
         // along a's path (rows on one path: every node, one contiguous run). The shared
         // nodes are found once per pair of distinct paths met (it was once per row `b`
-        // and path of `a`), with `b`'s offsets in `node_slot`. No fill: every `S_ab` is
-        // written below (`a ≥ b`, both halves).
-        let g = st.path_reps.len();
+        // and path of `a`), with `b`'s offsets in `node_slot`. Against one row `b`, the
+        // rows `a ≥ b` go up to four at a time while they share a path (one walk of the
+        // shared nodes, `s_b` read once for them: [`products`]). No fill: every `S_ab`
+        // is written below (`a ≥ b`, both halves).
+        let g = st.path_steps.len();
         st.seg.clear();
         st.seg_at.clear();
         st.seg_at.resize(g * g, (usize::MAX, 0));
@@ -1257,10 +1278,15 @@ impl World {
         let mut finite = true;
         for b in 0..d {
             let (vb, q) = (st.val_start[b], st.path_id[b]);
-            let path_b = &st.path_nodes[st.path_start[b]..st.path_start[b + 1]];
+            let path_b = &st.path_nodes[st.path_start[q]..st.path_start[q + 1]];
             let mut slots = false;
-            for a in b..d {
-                let (va, p) = (st.val_start[a], st.path_id[a]);
+            let mut a = b;
+            while a < d {
+                let p = st.path_id[a];
+                let mut e = a + 1;
+                while e < d && e < a + 4 && st.path_id[e] == p {
+                    e += 1;
+                }
                 if st.seg_at[p * g + q].0 == usize::MAX {
                     if !slots {
                         let mut off = 0;
@@ -1272,7 +1298,7 @@ impl World {
                     }
                     let first = st.seg.len();
                     let mut ra = 0;
-                    for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
+                    for &k in &st.path_nodes[st.path_start[p]..st.path_start[p + 1]] {
                         let n = f.node_len(k);
                         let ob = st.node_slot[k];
                         if ob != usize::MAX {
@@ -1286,17 +1312,29 @@ impl World {
                     st.seg_at[p * g + q] = (first, st.seg.len());
                 }
                 let (s0, s1) = st.seg_at[p * g + q];
-                let mut v = 0.0;
+                let mut v = [0.0f64; 4];
                 for &(ra, ob, n) in &st.seg[s0..s1] {
-                    let (ua, sb) = (
-                        &st.path_u[va + ra..va + ra + n],
-                        &st.path_s[vb + ob..vb + ob + n],
-                    );
-                    v = dot_on(v, ua, sb);
+                    let sb = &st.path_s[vb + ob..vb + ob + n];
+                    // Row `a + t`'s values on the shared nodes (from; the kernels
+                    // take the length of `sb`).
+                    let ua = |t: usize| &st.path_u[st.val_start[a + t] + ra..];
+                    match e - a {
+                        1 => v[0] = products::dot_on(v[0], &ua(0)[..n], sb),
+                        2 => {
+                            let w = products::dot2_on([v[0], v[1]], ua(0), ua(1), sb);
+                            v[..2].copy_from_slice(&w);
+                        }
+                        // (Three rows: the third twice, the fourth lane dropped.)
+                        3 => v = products::dot4_on(v, [ua(0), ua(1), ua(2), ua(2)], sb),
+                        _ => v = products::dot4_on(v, [ua(0), ua(1), ua(2), ua(3)], sb),
+                    }
                 }
-                st.s_mat[a * d + b] = v;
-                st.s_mat[b * d + a] = v;
-                finite &= v.is_finite();
+                for (t, &x) in v[..e - a].iter().enumerate() {
+                    st.s_mat[(a + t) * d + b] = x;
+                    st.s_mat[b * d + a + t] = x;
+                    finite &= x.is_finite();
+                }
+                a = e;
             }
             if slots {
                 for &k in path_b {
@@ -1509,23 +1547,6 @@ fn insertion_sort(v: &mut [usize]) {
             j -= 1;
         }
     }
-}
-
-/// `v + Σ a_i b_i`, the products added one after another in `i` order (four to a
-/// loop turn: the same sums, fewer loop instructions).
-#[inline(always)]
-fn dot_on(mut v: f64, a: &[f64], b: &[f64]) -> f64 {
-    let (mut ca, mut cb) = (a.chunks_exact(4), b.chunks_exact(4));
-    for (x, y) in (&mut ca).zip(&mut cb) {
-        v += x[0] * y[0];
-        v += x[1] * y[1];
-        v += x[2] * y[2];
-        v += x[3] * y[3];
-    }
-    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
-        v += x * y;
-    }
-    v
 }
 
 /// `x += s · Gᵀ` on the row's bodies' unknowns in the augmented layout.
