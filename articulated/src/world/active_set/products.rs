@@ -28,8 +28,9 @@ pub(super) fn dot_on(mut v: f64, a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// [`dot_on`] of two rows against one: `v_t + Σ_i a_t[i] b_i` for `t = 0, 1` (`a_t`
-/// at least as long as `b`).
-#[inline(always)]
+/// at least as long as `b`). Not inlined, so that its loop is compiled as here
+/// alone (inlined into the Gram loop, the lanes were not formed).
+#[inline(never)]
 pub(super) fn dot2_on(v: [f64; 2], a0: &[f64], a1: &[f64], b: &[f64]) -> [f64; 2] {
     let n = b.len();
     let (a0, a1) = (&a0[..n], &a1[..n]);
@@ -42,8 +43,8 @@ pub(super) fn dot2_on(v: [f64; 2], a0: &[f64], a1: &[f64], b: &[f64]) -> [f64; 2
 }
 
 /// [`dot_on`] of four rows against one: `v_t + Σ_i a_t[i] b_i` for `t = 0..4` (each
-/// `a_t` at least as long as `b`).
-#[inline(always)]
+/// `a_t` at least as long as `b`). Not inlined (as [`dot2_on`]).
+#[inline(never)]
 pub(super) fn dot4_on(v: [f64; 4], a: [&[f64]; 4], b: &[f64]) -> [f64; 4] {
     let n = b.len();
     let (a0, a1, a2, a3) = (&a[0][..n], &a[1][..n], &a[2][..n], &a[3][..n]);
