@@ -1656,11 +1656,13 @@ impl PsdFactor {
         let mut rank = d;
         let mut col = core::mem::take(&mut self.tmp);
         for k in 0..d {
-            // The pivot: the largest remaining diagonal (the Schur complement's).
-            let mut p = k;
-            for i in k + 1..d {
-                if a[i * d + i] > a[p * d + p] {
-                    p = i;
+            // The pivot: the largest remaining diagonal (the Schur complement's), the
+            // first of equals (a walk down the diagonal, one stride a step).
+            let (mut p, mut best) = (k, a[k * d + k]);
+            let rest = a.get((k + 1) * (d + 1)..).unwrap_or(&[]);
+            for (i, &x) in rest.iter().step_by(d + 1).take(d - k - 1).enumerate() {
+                if x > best {
+                    (p, best) = (k + 1 + i, x);
                 }
             }
             if !(a[p * d + p] > cut) {
@@ -1678,9 +1680,11 @@ impl PsdFactor {
             let lkk = libm::sqrt(a[k * d + k]);
             a[k * d + k] = lkk;
             col.clear();
-            for i in k + 1..d {
-                a[i * d + k] /= lkk;
-                col.push(a[i * d + k]);
+            col.resize(d - k - 1, 0.0);
+            let below = a[(k + 1) * d..d * d].chunks_exact_mut(d);
+            for (c, row) in col.iter_mut().zip(below) {
+                row[k] /= lkk;
+                *c = row[k];
             }
             schur_update_lower(a, d, k, &col);
         }
@@ -1695,10 +1699,10 @@ impl PsdFactor {
         let r = rank;
         self.qr.clear();
         self.qr.resize(d * r, 0.0);
-        for i in 0..d {
-            for j in 0..=i.min(r - 1) {
-                self.qr[i * r + j] = a[i * d + j];
-            }
+        let rows = self.qr.chunks_exact_mut(r).zip(a.chunks_exact(d));
+        for (i, (q, l)) in rows.enumerate() {
+            let w = i.min(r - 1) + 1;
+            q[..w].copy_from_slice(&l[..w]);
         }
         self.hv0.clear();
         self.tau.clear();
@@ -1709,11 +1713,19 @@ impl PsdFactor {
         t.resize(r, 0.0);
         for k in 0..r {
             // H_k = I − τ v vᵀ, v = x − α e₁ on rows k.., α = −sign(x₀) ‖x‖.
-            let norm = libm::sqrt((k..d).map(|i| q[i * r + k] * q[i * r + k]).sum::<f64>());
+            // ‖x‖² summed from x₀², and the sum below x₀ on its own (for `vᵀv`), in
+            // one walk down the column (each sum in `i` order, as two walks did).
             let x0 = q[k * r + k];
+            let (mut nn, mut below) = (-0.0 + x0 * x0, -0.0);
+            for row in q[(k + 1) * r..].chunks_exact(r) {
+                let x = row[k] * row[k];
+                nn += x;
+                below += x;
+            }
+            let norm = libm::sqrt(nn);
             let alpha = if x0 > 0.0 { -norm } else { norm };
             let v0 = x0 - alpha;
-            let vv = v0 * v0 + (k + 1..d).map(|i| q[i * r + k] * q[i * r + k]).sum::<f64>();
+            let vv = v0 * v0 + below;
             let tau = if vv > 0.0 { 2.0 / vv } else { 0.0 };
             // Each column j > k: `t_j = τ (v₀ q_kj + Σ_{i>k} q_ik q_ij)`, `q_kj −= t_j v₀`,
             // `q_ij −= t_j q_ik`, each sum in `i` order from `v₀ q_kj`. Columns are
