@@ -389,6 +389,9 @@ pub(super) struct ActiveSet {
     /// its path's, so the offsets hold for every row on either path.
     seg: Vec<(usize, usize, usize)>,
     seg_at: Vec<(usize, usize)>,
+    /// The Schur rows in runs of consecutive rows on one path, `(path, first row,
+    /// end)`.
+    runs: Vec<(usize, usize, usize)>,
     /// Per distinct path: its nodes as elimination steps ([`RowTree::forward_steps`])
     /// in `steps[s0..s1]` and its number of unknowns, `(s0, s1, len)`.
     steps: Vec<usize>,
@@ -1276,17 +1279,25 @@ impl World {
         st.seg_at.resize(g * g, (usize::MAX, 0));
         st.s_mat.resize(d * d, 0.0);
         let mut finite = true;
+        // The runs of consecutive rows on one path, `(path, first row, end)`: against
+        // a row `b`, the rows `a ≥ b` of a run share the nodes of `b`'s path.
+        st.runs.clear();
+        for (c, &p) in st.path_id.iter().enumerate() {
+            match st.runs.last_mut() {
+                Some(r) if r.0 == p => r.2 = c + 1,
+                _ => st.runs.push((p, c, c + 1)),
+            }
+        }
+        let mut run_b = 0;
         for b in 0..d {
             let (vb, q) = (st.val_start[b], st.path_id[b]);
             let path_b = &st.path_nodes[st.path_start[q]..st.path_start[q + 1]];
             let mut slots = false;
-            let mut a = b;
-            while a < d {
-                let p = st.path_id[a];
-                let mut e = a + 1;
-                while e < d && e < a + 4 && st.path_id[e] == p {
-                    e += 1;
-                }
+            while st.runs[run_b].2 <= b {
+                run_b += 1;
+            }
+            for ri in run_b..st.runs.len() {
+                let (p, r0, r1) = st.runs[ri];
                 if st.seg_at[p * g + q].0 == usize::MAX {
                     if !slots {
                         let mut off = 0;
@@ -1312,29 +1323,33 @@ impl World {
                     st.seg_at[p * g + q] = (first, st.seg.len());
                 }
                 let (s0, s1) = st.seg_at[p * g + q];
-                let mut v = [0.0f64; 4];
-                for &(ra, ob, n) in &st.seg[s0..s1] {
-                    let sb = &st.path_s[vb + ob..vb + ob + n];
-                    // Row `a + t`'s values on the shared nodes (from; the kernels
-                    // take the length of `sb`).
-                    let ua = |t: usize| &st.path_u[st.val_start[a + t] + ra..];
-                    match e - a {
-                        1 => v[0] = products::dot_on(v[0], &ua(0)[..n], sb),
-                        2 => {
-                            let w = products::dot2_on([v[0], v[1]], ua(0), ua(1), sb);
-                            v[..2].copy_from_slice(&w);
+                let mut a = r0.max(b);
+                while a < r1 {
+                    let e = (a + 4).min(r1);
+                    let mut v = [0.0f64; 4];
+                    for &(ra, ob, n) in &st.seg[s0..s1] {
+                        let sb = &st.path_s[vb + ob..vb + ob + n];
+                        // Row `a + t`'s values on the shared nodes (from; the kernels
+                        // take the length of `sb`).
+                        let ua = |t: usize| &st.path_u[st.val_start[a + t] + ra..];
+                        match e - a {
+                            1 => v[0] = products::dot_on(v[0], &ua(0)[..n], sb),
+                            2 => {
+                                let w = products::dot2_on([v[0], v[1]], ua(0), ua(1), sb);
+                                v[..2].copy_from_slice(&w);
+                            }
+                            // (Three rows: the third twice, the fourth lane dropped.)
+                            3 => v = products::dot4_on(v, [ua(0), ua(1), ua(2), ua(2)], sb),
+                            _ => v = products::dot4_on(v, [ua(0), ua(1), ua(2), ua(3)], sb),
                         }
-                        // (Three rows: the third twice, the fourth lane dropped.)
-                        3 => v = products::dot4_on(v, [ua(0), ua(1), ua(2), ua(2)], sb),
-                        _ => v = products::dot4_on(v, [ua(0), ua(1), ua(2), ua(3)], sb),
                     }
+                    for (t, &x) in v[..e - a].iter().enumerate() {
+                        st.s_mat[(a + t) * d + b] = x;
+                        st.s_mat[b * d + a + t] = x;
+                        finite &= x.is_finite();
+                    }
+                    a = e;
                 }
-                for (t, &x) in v[..e - a].iter().enumerate() {
-                    st.s_mat[(a + t) * d + b] = x;
-                    st.s_mat[b * d + a + t] = x;
-                    finite &= x.is_finite();
-                }
-                a = e;
             }
             if slots {
                 for &k in path_b {
@@ -1765,7 +1780,8 @@ impl PsdFactor {
         self.hv_at.clear();
         for k in 0..r {
             self.hv_at.push(self.hv.len());
-            self.hv.extend((k + 1..d).map(|i| self.qr[i * r + k]));
+            let below = self.qr[(k + 1) * r..d * r].chunks_exact(r);
+            self.hv.extend(below.map(|row| row[k]));
         }
         true
     }
@@ -1915,15 +1931,16 @@ fn reflect_row_wise(
 /// lower triangle (LAPACK's `dsyswapr`, lower): `a ← Π a Πᵀ` for the transposition
 /// `Π = (k p)`, with the factored columns `c < k` (rows of `L`) swapped as rows.
 fn swap_lower(a: &mut [f64], d: usize, k: usize, p: usize) {
-    for c in 0..k {
-        a.swap(k * d + c, p * d + c);
-    }
+    // Rows k and p left of column k: two contiguous runs (one slice swap).
+    let (upper, lower) = a.split_at_mut(p * d);
+    upper[k * d..k * d + k].swap_with_slice(&mut lower[..k]);
     a.swap(k * d + k, p * d + p);
     for i in k + 1..p {
         a.swap(i * d + k, p * d + i);
     }
-    for i in p + 1..d {
-        a.swap(i * d + k, i * d + p);
+    // Columns k and p below row p: one row at a time.
+    for row in a[(p + 1) * d..d * d].chunks_exact_mut(d) {
+        row.swap(k, p);
     }
 }
 
