@@ -1334,9 +1334,11 @@ impl World {
                         let ua = |t: usize| &st.path_u[st.val_start[a + t] + ra..];
                         match e - a {
                             1 => v[0] = products::dot_on(v[0], &ua(0)[..n], sb),
+                            // (Two rows: one at a time, inlined; the kernel of two cost
+                            // as many instructions a product, and a call.)
                             2 => {
-                                let w = products::dot2_on([v[0], v[1]], ua(0), ua(1), sb);
-                                v[..2].copy_from_slice(&w);
+                                v[0] = products::dot_on(v[0], &ua(0)[..n], sb);
+                                v[1] = products::dot_on(v[1], &ua(1)[..n], sb);
                             }
                             // (Three rows: the third twice, the fourth lane dropped.)
                             3 => v = products::dot4_on(v, [ua(0), ua(1), ua(2), ua(2)], sb),
@@ -1674,10 +1676,10 @@ impl PsdFactor {
             // The pivot: the largest remaining diagonal (the Schur complement's), the
             // first of equals (a walk down the diagonal, one stride a step).
             let (mut p, mut best) = (k, a[k * d + k]);
-            let rest = a.get((k + 1) * (d + 1)..).unwrap_or(&[]);
-            for (i, &x) in rest.iter().step_by(d + 1).take(d - k - 1).enumerate() {
+            for i in k + 1..d {
+                let x = a[i * d + i];
                 if x > best {
-                    (p, best) = (k + 1 + i, x);
+                    (p, best) = (i, x);
                 }
             }
             if !(a[p * d + p] > cut) {
@@ -1695,11 +1697,9 @@ impl PsdFactor {
             let lkk = libm::sqrt(a[k * d + k]);
             a[k * d + k] = lkk;
             col.clear();
-            col.resize(d - k - 1, 0.0);
-            let below = a[(k + 1) * d..d * d].chunks_exact_mut(d);
-            for (c, row) in col.iter_mut().zip(below) {
+            for row in a[(k + 1) * d..d * d].chunks_exact_mut(d) {
                 row[k] /= lkk;
-                *c = row[k];
+                col.push(row[k]);
             }
             schur_update_lower(a, d, k, &col);
         }
