@@ -284,6 +284,29 @@
 //! 393.28M → 392.87M). Line counts of the same run (a build with line tables): the
 //! products `u_a s_b` 10M of the 51M the Schur rows' own code costs over 497 builds
 //! (18.6 rows, 183 pairs a build), the rest spread over the builds' loops.
+//!
+//! The active set's own cost (issue 13, main 9d8e62a, dm humanoid 2 s passive,
+//! `World::step` 328.2M instructions, `active_set_solve`'s own code 64.5M; its lines
+//! by the inlined frames of each instruction, `addr2line -i` on a build with line
+//! tables): `S`'s products 16.4M (3.6M products in 90K pairs, 17 instructions per
+//! four), the Schur build's bookkeeping 16.2M, [`PsdFactor::factor`] 9.2M, and
+//! `RowTree::assemble` 7.4M (inlined here, counted as ours). Reuse across the builds
+//! of one step does not pay: of 503 builds one had the factor of the build before,
+//! 11 % of the rows' path values were bit-equal to their last build's, and 4 % of the
+//! products were of two such rows (a change at a foot reaches the root, on every
+//! path). Cut with the same bits (13 reference runs `cmp`-equal): rows on the bodies
+//! of the row before take its path without a walk or search; `S_ab` by runs of rows
+//! on one path, up to four rows `a` against one `b` in vector lanes ([`products`]);
+//! small loops of [`PsdFactor::factor`] without index checks. `World::step`, main →
+//! this (`instr34`, 2 s; humanoid_CMU 0.5 s): dm humanoid passive 328.19M → 317.39M
+//! (−3.3 %), controlled 300.22M → 300.06M, gymnasium's humanoid passive 279.81M →
+//! 276.93M (−1.0 %), humanoid_CMU passive 213.75M → 212.55M, controlled 379.80M →
+//! 379.62M, dm hopper 53.16M → 53.11M; the small models within ±0.03 % (walker
+//! controlled +0.009 %, swimmer6 +0.006 %: sets of 3 to 5 Schur rows).
+//! Tried and left out: a kernel of two rows (as many instructions a product as one
+//! row's, and a call); `u = s / d⁻¹` in one run over a row with the path's `d⁻¹`
+//! gathered once (317.57M → 324.18M: the per-node copy became `memcpy` and `memset`
+//! calls).
 
 use alloc::vec::Vec;
 
@@ -1109,12 +1132,15 @@ impl World {
         st.s_ready = false;
         st.zeta.clear();
         st.zeta.resize(d, 0.0);
-        // Rows the others already hold (|w| ≤ tol) need nothing more.
-        let held = st
-            .schur
-            .iter()
-            .all(|&i| (self.schur_gather(f, &st.x, i) - self.schur_bias(i)).abs() <= tol_w);
-        if held {
+        // The rows' values `G_D x_A − bias_D` (the right-hand side of `S ζ = r`,
+        // gathered once: `st.x` is not touched until the correction). Rows the others
+        // already hold (|w| ≤ tol) need nothing more.
+        st.s_rhs.clear();
+        for &i in &st.schur {
+            st.s_rhs
+                .push(self.schur_gather(f, &st.x, i) - self.schur_bias(i));
+        }
+        if st.s_rhs.iter().all(|w| w.abs() <= tol_w) {
             return true;
         }
         if d > MAX_SCHUR {
@@ -1128,12 +1154,6 @@ impl World {
             st.y_current = true;
             st.y_schur.clear();
             st.y_schur.extend_from_slice(&st.schur);
-        }
-        let f = &st.factor;
-        st.s_rhs.clear();
-        for &i in &st.schur {
-            st.s_rhs
-                .push(self.schur_gather(f, &st.x, i) - self.schur_bias(i));
         }
         if st.s_rhs.iter().any(|v| !v.is_finite()) || !st.s_fac.apply(&st.s_rhs, &mut st.zeta) {
             return false;
