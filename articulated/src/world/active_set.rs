@@ -297,12 +297,13 @@
 //! path). Cut with the same bits (13 reference runs `cmp`-equal): rows on the bodies
 //! of the row before take its path without a walk or search; `S_ab` by runs of rows
 //! on one path, up to four rows `a` against one `b` in vector lanes ([`products`]);
-//! small loops of [`PsdFactor::factor`] without index checks. `World::step`, main →
-//! this (`instr34`, 2 s; humanoid_CMU 0.5 s): dm humanoid passive 328.19M → 317.39M
-//! (−3.3 %), controlled 300.22M → 300.06M, gymnasium's humanoid passive 279.81M →
-//! 276.93M (−1.0 %), humanoid_CMU passive 213.75M → 212.55M, controlled 379.80M →
-//! 379.62M, dm hopper 53.16M → 53.11M; the small models within ±0.03 % (walker
-//! controlled +0.009 %, swimmer6 +0.006 %: sets of 3 to 5 Schur rows).
+//! small loops of [`PsdFactor::factor`] without index checks; the Schur rows' values
+//! gathered once per iteration. `World::step`, main → this (`instr34`, 2 s;
+//! humanoid_CMU 0.5 s): dm humanoid passive 328.19M → 317.34M (−3.3 %), controlled
+//! 300.22M → 299.91M, gymnasium's humanoid passive 279.81M → 276.87M (−1.1 %),
+//! humanoid_CMU passive 213.75M → 212.53M, controlled 379.80M → 379.54M, dm hopper
+//! 53.16M → 53.05M, walker controlled 127.92M → 127.82M, the other six within
+//! −0.12 % to +0.002 %.
 //! Tried and left out: a kernel of two rows (as many instructions a product as one
 //! row's, and a call); `u = s / d⁻¹` in one run over a row with the path's `d⁻¹`
 //! gathered once (317.57M → 324.18M: the per-node copy became `memcpy` and `memset`
