@@ -284,6 +284,30 @@
 //! 393.28M → 392.87M). Line counts of the same run (a build with line tables): the
 //! products `u_a s_b` 10M of the 51M the Schur rows' own code costs over 497 builds
 //! (18.6 rows, 183 pairs a build), the rest spread over the builds' loops.
+//!
+//! The active set's own cost (issue 13, main 9d8e62a, dm humanoid 2 s passive,
+//! `World::step` 328.2M instructions, `active_set_solve`'s own code 64.5M; its lines
+//! by the inlined frames of each instruction, `addr2line -i` on a build with line
+//! tables): `S`'s products 16.4M (3.6M products in 90K pairs, 17 instructions per
+//! four), the Schur build's bookkeeping 16.2M, [`PsdFactor::factor`] 9.2M, and
+//! `RowTree::assemble` 7.4M (inlined here, counted as ours). Reuse across the builds
+//! of one step does not pay: of 503 builds one had the factor of the build before,
+//! 11 % of the rows' path values were bit-equal to their last build's, and 4 % of the
+//! products were of two such rows (a change at a foot reaches the root, on every
+//! path). Cut with the same bits (13 reference runs `cmp`-equal): rows on the bodies
+//! of the row before take its path without a walk or search; `S_ab` by runs of rows
+//! on one path, up to four rows `a` against one `b` in vector lanes ([`products`]);
+//! small loops of [`PsdFactor::factor`] without index checks; the Schur rows' values
+//! gathered once per iteration. `World::step`, main → this (`instr34`, 2 s;
+//! humanoid_CMU 0.5 s): dm humanoid passive 328.19M → 317.34M (−3.3 %), controlled
+//! 300.22M → 299.91M, gymnasium's humanoid passive 279.81M → 276.87M (−1.1 %),
+//! humanoid_CMU passive 213.75M → 212.53M, controlled 379.80M → 379.54M, dm hopper
+//! 53.16M → 53.05M, walker controlled 127.92M → 127.82M, the other six within
+//! −0.12 % to +0.002 %.
+//! Tried and left out: a kernel of two rows (as many instructions a product as one
+//! row's, and a call); `u = s / d⁻¹` in one run over a row with the path's `d⁻¹`
+//! gathered once (317.57M → 324.18M: the per-node copy became `memcpy` and `memset`
+//! calls).
 
 use alloc::vec::Vec;
 
@@ -294,6 +318,8 @@ use super::unilateral::{RowSource, URow};
 use super::*;
 use crate::tree::NONE;
 use crate::tree_rows::{ExtraRow, RowTree};
+
+mod products;
 
 /// Iterations of the active set before the step goes to the dense path. The steps that
 /// settle do so in 1–2 iterations (the odd one in about 11), and a failed try costs
@@ -365,20 +391,18 @@ pub(super) struct ActiveSet {
     /// ([`World::schur_columns`]), and the small system `S ζ = r` with its solution.
     schur: Vec<usize>,
     schur_pos: Vec<usize>,
-    /// Per Schur row `c`: its path nodes (its bodies and their ancestors) in
-    /// `path_nodes[path_start[c]..path_start[c + 1]]`, their unknowns' `s` and `u`
-    /// packed node after node in `path_s[val_start[c]..val_start[c + 1]]`, `path_u[..]`
-    /// likewise (one entry more than the rows: the end).
+    /// Per distinct path `p` of the Schur rows (a row's bodies and their ancestors;
+    /// a foot's or a box's contact rows share one): its nodes in
+    /// `path_nodes[path_start[p]..path_start[p + 1]]` (one entry more than the paths).
+    /// Per Schur row `c`: its path's index `path_id[c]`, and its unknowns' `s` and `u`
+    /// on the path, packed node after node, in `path_s[val_start[c]..val_start[c +
+    /// 1]]`, `path_u[..]` likewise (one entry more than the rows: the end).
     path_nodes: Vec<usize>,
     path_start: Vec<usize>,
     val_start: Vec<usize>,
     path_s: Vec<f64>,
     path_u: Vec<f64>,
-    /// Per Schur row: its path's index among the distinct paths (equal ids: equal
-    /// paths; a foot's or a box's contact rows share one), and per distinct path the
-    /// first Schur row on it.
     path_id: Vec<usize>,
-    path_reps: Vec<usize>,
     /// Per tree node: whether it is on the path being built, and where the path at
     /// hand keeps its values (`usize::MAX`: not on it); both clear between uses.
     mark: Vec<bool>,
@@ -389,6 +413,9 @@ pub(super) struct ActiveSet {
     /// its path's, so the offsets hold for every row on either path.
     seg: Vec<(usize, usize, usize)>,
     seg_at: Vec<(usize, usize)>,
+    /// The Schur rows in runs of consecutive rows on one path, `(path, first row,
+    /// end)`.
+    runs: Vec<(usize, usize, usize)>,
     /// Per distinct path: its nodes as elimination steps ([`RowTree::forward_steps`])
     /// in `steps[s0..s1]` and its number of unknowns, `(s0, s1, len)`.
     steps: Vec<usize>,
@@ -1106,12 +1133,15 @@ impl World {
         st.s_ready = false;
         st.zeta.clear();
         st.zeta.resize(d, 0.0);
-        // Rows the others already hold (|w| ≤ tol) need nothing more.
-        let held = st
-            .schur
-            .iter()
-            .all(|&i| (self.schur_gather(f, &st.x, i) - self.schur_bias(i)).abs() <= tol_w);
-        if held {
+        // The rows' values `G_D x_A − bias_D` (the right-hand side of `S ζ = r`,
+        // gathered once: `st.x` is not touched until the correction). Rows the others
+        // already hold (|w| ≤ tol) need nothing more.
+        st.s_rhs.clear();
+        for &i in &st.schur {
+            st.s_rhs
+                .push(self.schur_gather(f, &st.x, i) - self.schur_bias(i));
+        }
+        if st.s_rhs.iter().all(|w| w.abs() <= tol_w) {
             return true;
         }
         if d > MAX_SCHUR {
@@ -1125,12 +1155,6 @@ impl World {
             st.y_current = true;
             st.y_schur.clear();
             st.y_schur.extend_from_slice(&st.schur);
-        }
-        let f = &st.factor;
-        st.s_rhs.clear();
-        for &i in &st.schur {
-            st.s_rhs
-                .push(self.schur_gather(f, &st.x, i) - self.schur_bias(i));
         }
         if st.s_rhs.iter().any(|v| !v.is_finite()) || !st.s_fac.apply(&st.s_rhs, &mut st.zeta) {
             return false;
@@ -1163,6 +1187,7 @@ impl World {
     fn schur_columns(&self, st: &mut ActiveSet) -> bool {
         let f = &st.factor;
         let d = st.schur.len();
+        let m = self.urows.len();
         let nodes = self.solver.parent.len();
         // `col`, `mark` and `node_slot` are left all zero / false / `usize::MAX` by
         // every call (the loops below clear what they set: the forward pass of a
@@ -1172,46 +1197,68 @@ impl World {
         st.node_slot.resize(nodes, usize::MAX);
         st.path_nodes.clear();
         st.path_start.clear();
+        st.path_start.push(0);
         st.val_start.clear();
         st.path_id.clear();
-        st.path_reps.clear();
         st.steps.clear();
         st.path_steps.clear();
         let mut free_scale: f64 = 0.0;
         let mut inertia = FreeInertia::default();
         let mut vals = 0;
         for (c, &i) in st.schur.iter().enumerate() {
-            let first = st.path_nodes.len();
-            st.path_start.push(first);
             st.val_start.push(vals);
             self.schur_scatter(f, &mut st.col, i, 1.0);
-            self.schur_path(i, &mut st.mark, &mut st.path_nodes);
-            let path = &st.path_nodes[first..];
-            // (The first node, the row's body, is compared first: a slice
-            // comparison of equal lengths is a `bcmp` call.)
-            let rep = st.path_reps.iter().position(|&r| {
-                let (a, b) = (st.path_start[r], st.path_start[r + 1]);
-                st.path_nodes.get(a) == path.first() && st.path_nodes[a..b] == *path
-            });
-            st.path_id.push(rep.unwrap_or(st.path_reps.len()));
-            if rep.is_none() {
-                st.path_reps.push(c);
-                // The path in the elimination order (a chain to the root already
-                // is: children come first; a two-body row's second walk is merged
-                // in) and its number of unknowns, once per distinct path.
-                let s0 = st.steps.len();
-                st.steps
-                    .extend(st.path_nodes[first..].iter().map(|&k| f.step_of(k)));
-                insertion_sort(&mut st.steps[s0..]);
-                let len = st.path_nodes[first..].iter().map(|&k| f.node_len(k)).sum();
-                st.path_steps.push((s0, st.steps.len(), len));
-            }
-            let (s0, s1, len) = st.path_steps[rep.unwrap_or(st.path_steps.len() - 1)];
+            // A one-sided row on the bodies of the row before it (a contact's normal
+            // and tangents, a foot's contacts) is on that row's path: no walk and no
+            // search (the walk is a function of the bodies alone).
+            let same = c > 0 && i < m && {
+                let h = st.schur[c - 1];
+                h < m && self.urows[h].a == self.urows[i].a && self.urows[h].b == self.urows[i].b
+            };
+            let id = if same {
+                st.path_id[c - 1]
+            } else {
+                let first = st.path_nodes.len();
+                self.schur_path(i, &mut st.mark, &mut st.path_nodes);
+                for &k in &st.path_nodes[first..] {
+                    st.mark[k] = false;
+                }
+                let path = &st.path_nodes[first..];
+                let g = st.path_steps.len();
+                // (The first node, the row's body, is compared first: a slice
+                // comparison of equal lengths is a `bcmp` call.)
+                let rep = (0..g).position(|r| {
+                    let (a, b) = (st.path_start[r], st.path_start[r + 1]);
+                    st.path_nodes.get(a) == path.first() && st.path_nodes[a..b] == *path
+                });
+                match rep {
+                    Some(r) => {
+                        st.path_nodes.truncate(first);
+                        r
+                    }
+                    None => {
+                        // A new path: its nodes stay, in the elimination order (a
+                        // chain to the root already is: children come first; a
+                        // two-body row's second walk is merged in) and with its number
+                        // of unknowns.
+                        st.path_start.push(st.path_nodes.len());
+                        let s0 = st.steps.len();
+                        st.steps
+                            .extend(st.path_nodes[first..].iter().map(|&k| f.step_of(k)));
+                        insertion_sort(&mut st.steps[s0..]);
+                        let len = st.path_nodes[first..].iter().map(|&k| f.node_len(k)).sum();
+                        st.path_steps.push((s0, st.steps.len(), len));
+                        g
+                    }
+                }
+            };
+            st.path_id.push(id);
+            let (s0, s1, len) = st.path_steps[id];
             f.forward_steps(&mut st.col, &st.steps[s0..s1]);
-            // Keep s and u = s / d⁻¹ on the path; leave `col` and `mark` clear. The
-            // row's values are sized once and written node slice by node slice (a
-            // `memcpy` call and a capacity check per node and per unknown before).
-            let path = &st.path_nodes[first..];
+            // Keep s and u = s / d⁻¹ on the path; leave `col` clear. The row's values
+            // are sized once and written node slice by node slice (a `memcpy` call and
+            // a capacity check per node and per unknown before).
+            let path = &st.path_nodes[st.path_start[id]..st.path_start[id + 1]];
             // (The arenas only grow: no zero fill of what is written next.)
             let at = vals;
             vals += len;
@@ -1226,9 +1273,6 @@ impl World {
                 &mut st.path_s[at..],
                 &mut st.path_u[at..],
             );
-            for &k in path {
-                st.mark[k] = false;
-            }
             // The row's scale is the step's (its Jacobian and bodies are fixed in it).
             let scale = match st.row_scale.get(i) {
                 Some(v) if !v.is_nan() => *v,
@@ -1242,25 +1286,39 @@ impl World {
             };
             free_scale = free_scale.max(scale);
         }
-        st.path_start.push(st.path_nodes.len());
         st.val_start.push(vals);
         // S_ab = Σ u_a s_b over the nodes a's path shares with b's, node after node
         // along a's path (rows on one path: every node, one contiguous run). The shared
         // nodes are found once per pair of distinct paths met (it was once per row `b`
-        // and path of `a`), with `b`'s offsets in `node_slot`. No fill: every `S_ab` is
-        // written below (`a ≥ b`, both halves).
-        let g = st.path_reps.len();
+        // and path of `a`), with `b`'s offsets in `node_slot`. Against one row `b`, the
+        // rows `a ≥ b` go up to four at a time while they share a path (one walk of the
+        // shared nodes, `s_b` read once for them: [`products`]). No fill: every `S_ab`
+        // is written below (`a ≥ b`, both halves).
+        let g = st.path_steps.len();
         st.seg.clear();
         st.seg_at.clear();
         st.seg_at.resize(g * g, (usize::MAX, 0));
         st.s_mat.resize(d * d, 0.0);
         let mut finite = true;
+        // The runs of consecutive rows on one path, `(path, first row, end)`: against
+        // a row `b`, the rows `a ≥ b` of a run share the nodes of `b`'s path.
+        st.runs.clear();
+        for (c, &p) in st.path_id.iter().enumerate() {
+            match st.runs.last_mut() {
+                Some(r) if r.0 == p => r.2 = c + 1,
+                _ => st.runs.push((p, c, c + 1)),
+            }
+        }
+        let mut run_b = 0;
         for b in 0..d {
             let (vb, q) = (st.val_start[b], st.path_id[b]);
-            let path_b = &st.path_nodes[st.path_start[b]..st.path_start[b + 1]];
+            let path_b = &st.path_nodes[st.path_start[q]..st.path_start[q + 1]];
             let mut slots = false;
-            for a in b..d {
-                let (va, p) = (st.val_start[a], st.path_id[a]);
+            while st.runs[run_b].2 <= b {
+                run_b += 1;
+            }
+            for ri in run_b..st.runs.len() {
+                let (p, r0, r1) = st.runs[ri];
                 if st.seg_at[p * g + q].0 == usize::MAX {
                     if !slots {
                         let mut off = 0;
@@ -1272,7 +1330,7 @@ impl World {
                     }
                     let first = st.seg.len();
                     let mut ra = 0;
-                    for &k in &st.path_nodes[st.path_start[a]..st.path_start[a + 1]] {
+                    for &k in &st.path_nodes[st.path_start[p]..st.path_start[p + 1]] {
                         let n = f.node_len(k);
                         let ob = st.node_slot[k];
                         if ob != usize::MAX {
@@ -1286,17 +1344,35 @@ impl World {
                     st.seg_at[p * g + q] = (first, st.seg.len());
                 }
                 let (s0, s1) = st.seg_at[p * g + q];
-                let mut v = 0.0;
-                for &(ra, ob, n) in &st.seg[s0..s1] {
-                    let (ua, sb) = (
-                        &st.path_u[va + ra..va + ra + n],
-                        &st.path_s[vb + ob..vb + ob + n],
-                    );
-                    v = dot_on(v, ua, sb);
+                let mut a = r0.max(b);
+                while a < r1 {
+                    let e = (a + 4).min(r1);
+                    let mut v = [0.0f64; 4];
+                    for &(ra, ob, n) in &st.seg[s0..s1] {
+                        let sb = &st.path_s[vb + ob..vb + ob + n];
+                        // Row `a + t`'s values on the shared nodes (from; the kernels
+                        // take the length of `sb`).
+                        let ua = |t: usize| &st.path_u[st.val_start[a + t] + ra..];
+                        match e - a {
+                            1 => v[0] = products::dot_on(v[0], &ua(0)[..n], sb),
+                            // (Two rows: one at a time, inlined; the kernel of two cost
+                            // as many instructions a product, and a call.)
+                            2 => {
+                                v[0] = products::dot_on(v[0], &ua(0)[..n], sb);
+                                v[1] = products::dot_on(v[1], &ua(1)[..n], sb);
+                            }
+                            // (Three rows: the third twice, the fourth lane dropped.)
+                            3 => v = products::dot4_on(v, [ua(0), ua(1), ua(2), ua(2)], sb),
+                            _ => v = products::dot4_on(v, [ua(0), ua(1), ua(2), ua(3)], sb),
+                        }
+                    }
+                    for (t, &x) in v[..e - a].iter().enumerate() {
+                        st.s_mat[(a + t) * d + b] = x;
+                        st.s_mat[b * d + a + t] = x;
+                        finite &= x.is_finite();
+                    }
+                    a = e;
                 }
-                st.s_mat[a * d + b] = v;
-                st.s_mat[b * d + a] = v;
-                finite &= v.is_finite();
             }
             if slots {
                 for &k in path_b {
@@ -1511,23 +1587,6 @@ fn insertion_sort(v: &mut [usize]) {
     }
 }
 
-/// `v + Σ a_i b_i`, the products added one after another in `i` order (four to a
-/// loop turn: the same sums, fewer loop instructions).
-#[inline(always)]
-fn dot_on(mut v: f64, a: &[f64], b: &[f64]) -> f64 {
-    let (mut ca, mut cb) = (a.chunks_exact(4), b.chunks_exact(4));
-    for (x, y) in (&mut ca).zip(&mut cb) {
-        v += x[0] * y[0];
-        v += x[1] * y[1];
-        v += x[2] * y[2];
-        v += x[3] * y[3];
-    }
-    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
-        v += x * y;
-    }
-    v
-}
-
 /// `x += s · Gᵀ` on the row's bodies' unknowns in the augmented layout.
 fn scatter(f: &RowTree, x: &mut [f64], r: &URow, s: f64) {
     scatter_seg(f, x, r.a, r.b, &r.j, s);
@@ -1635,11 +1694,13 @@ impl PsdFactor {
         let mut rank = d;
         let mut col = core::mem::take(&mut self.tmp);
         for k in 0..d {
-            // The pivot: the largest remaining diagonal (the Schur complement's).
-            let mut p = k;
+            // The pivot: the largest remaining diagonal (the Schur complement's), the
+            // first of equals (a walk down the diagonal, one stride a step).
+            let (mut p, mut best) = (k, a[k * d + k]);
             for i in k + 1..d {
-                if a[i * d + i] > a[p * d + p] {
-                    p = i;
+                let x = a[i * d + i];
+                if x > best {
+                    (p, best) = (i, x);
                 }
             }
             if !(a[p * d + p] > cut) {
@@ -1657,9 +1718,9 @@ impl PsdFactor {
             let lkk = libm::sqrt(a[k * d + k]);
             a[k * d + k] = lkk;
             col.clear();
-            for i in k + 1..d {
-                a[i * d + k] /= lkk;
-                col.push(a[i * d + k]);
+            for row in a[(k + 1) * d..d * d].chunks_exact_mut(d) {
+                row[k] /= lkk;
+                col.push(row[k]);
             }
             schur_update_lower(a, d, k, &col);
         }
@@ -1674,10 +1735,10 @@ impl PsdFactor {
         let r = rank;
         self.qr.clear();
         self.qr.resize(d * r, 0.0);
-        for i in 0..d {
-            for j in 0..=i.min(r - 1) {
-                self.qr[i * r + j] = a[i * d + j];
-            }
+        let rows = self.qr.chunks_exact_mut(r).zip(a.chunks_exact(d));
+        for (i, (q, l)) in rows.enumerate() {
+            let w = i.min(r - 1) + 1;
+            q[..w].copy_from_slice(&l[..w]);
         }
         self.hv0.clear();
         self.tau.clear();
@@ -1688,11 +1749,19 @@ impl PsdFactor {
         t.resize(r, 0.0);
         for k in 0..r {
             // H_k = I − τ v vᵀ, v = x − α e₁ on rows k.., α = −sign(x₀) ‖x‖.
-            let norm = libm::sqrt((k..d).map(|i| q[i * r + k] * q[i * r + k]).sum::<f64>());
+            // ‖x‖² summed from x₀², and the sum below x₀ on its own (for `vᵀv`), in
+            // one walk down the column (each sum in `i` order, as two walks did).
             let x0 = q[k * r + k];
+            let (mut nn, mut below) = (-0.0 + x0 * x0, -0.0);
+            for row in q[(k + 1) * r..].chunks_exact(r) {
+                let x = row[k] * row[k];
+                nn += x;
+                below += x;
+            }
+            let norm = libm::sqrt(nn);
             let alpha = if x0 > 0.0 { -norm } else { norm };
             let v0 = x0 - alpha;
-            let vv = v0 * v0 + (k + 1..d).map(|i| q[i * r + k] * q[i * r + k]).sum::<f64>();
+            let vv = v0 * v0 + below;
             let tau = if vv > 0.0 { 2.0 / vv } else { 0.0 };
             // Each column j > k: `t_j = τ (v₀ q_kj + Σ_{i>k} q_ik q_ij)`, `q_kj −= t_j v₀`,
             // `q_ij −= t_j q_ik`, each sum in `i` order from `v₀ q_kj`. Columns are
@@ -1732,7 +1801,8 @@ impl PsdFactor {
         self.hv_at.clear();
         for k in 0..r {
             self.hv_at.push(self.hv.len());
-            self.hv.extend((k + 1..d).map(|i| self.qr[i * r + k]));
+            let below = self.qr[(k + 1) * r..d * r].chunks_exact(r);
+            self.hv.extend(below.map(|row| row[k]));
         }
         true
     }
@@ -1882,15 +1952,16 @@ fn reflect_row_wise(
 /// lower triangle (LAPACK's `dsyswapr`, lower): `a ← Π a Πᵀ` for the transposition
 /// `Π = (k p)`, with the factored columns `c < k` (rows of `L`) swapped as rows.
 fn swap_lower(a: &mut [f64], d: usize, k: usize, p: usize) {
-    for c in 0..k {
-        a.swap(k * d + c, p * d + c);
-    }
+    // Rows k and p left of column k: two contiguous runs (one slice swap).
+    let (upper, lower) = a.split_at_mut(p * d);
+    upper[k * d..k * d + k].swap_with_slice(&mut lower[..k]);
     a.swap(k * d + k, p * d + p);
     for i in k + 1..p {
         a.swap(i * d + k, p * d + i);
     }
-    for i in p + 1..d {
-        a.swap(i * d + k, i * d + p);
+    // Columns k and p below row p: one row at a time.
+    for row in a[(p + 1) * d..d * d].chunks_exact_mut(d) {
+        row.swap(k, p);
     }
 }
 
