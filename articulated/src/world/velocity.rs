@@ -14,6 +14,13 @@
 //! Rows assembled at the predicted poses leave less (the projection's chord steps on
 //! half_cheetah controlled halve), but their impulses damp the joints' turning:
 //! opt-in, [`World::set_end_of_step_rows_predicted`].
+//!
+//! Tried and left out: the drift the last aimed step left (`C(x') + d̂` at its
+//! projection's start) taken off this step's aim as its estimate `d̂` (the impulses stay
+//! along the start rows). Under contacts and actuators the drift is not smooth from step
+//! to step: half_cheetah controlled chord steps 147 → 136, dm hopper passive Newton
+//! steps 357 → 311, but World::step instructions dm cheetah controlled 36.12M → 36.72M,
+//! walker controlled 127.9M → 133.7M.
 
 use alloc::vec;
 use alloc::vec::Vec;
