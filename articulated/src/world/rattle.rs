@@ -79,6 +79,26 @@
 //!   116.0k, dm reacher perturbed 53.8k → 49.4k, controlled 76.1k → 71.1k; errors
 //!   against MuJoCo RK4 unchanged to 8 digits. Worlds with loop joints or equalities
 //!   still solve the kick (its loop rows and equality rows load with it).
+//! * SHAKE's first correction also solves a predicted remainder (`ShakeHistory`): the
+//!   chord iteration's total right-hand side is `−C` at the drift's end plus the later
+//!   iterations' remainder, which changes smoothly from step to step; the first solve
+//!   takes `−C + 2R₋₁ − R₋₂` (`R` of the last two steps, consecutive RATTLE steps with
+//!   a skipped first kick and tree joints only), so the chord iteration starts `O(h²)`
+//!   relatively closer to its fixed point. Same equations and stop, results move at the
+//!   tolerance's level. Issue 13 (2 s, SHAKE solves / `World::step` instructions):
+//!   dm swimmer6 controlled 1635 → 1065 / 94.27M → 89.90M, perturbed 1150 → 1003 /
+//!   88.24M → 87.82M, fish controlled 1700 → 1442 / 52.43M → 51.25M, perturbed 1018 →
+//!   535 / 48.04M → 45.43M, dm reacher controlled 499 → 487 / 6.561M → 6.610M (its 20
+//!   ms steps: the remainder hardly predictable), gymnasium reacher 361 → 336 / 14.22M
+//!   → 14.20M; repeating `R₋₁` alone: 1299, 1002, 1549, 578, 479, 341 solves. Errors
+//!   against MuJoCo RK4 (`xtask models run`, perturbed): swimmer6 8.040018109e-7 →
+//!   8.040018064e-7 m, fish 8.172783070e-6 → 8.172783012e-6, dm reacher
+//!   2.3399109665e-5 both, gymnasium reacher 1.434310912e-7 both. After three
+//!   recorded steps the extrapolation is quadratic, `3R₋₁ − 3R₋₂ + R₋₃` (`O(h³)`):
+//!   solves 1065 → 754 / 89.92M → 87.18M on swimmer6 controlled, fish controlled
+//!   1442 → 1400 / 51.27M → 51.05M, perturbed 535 → 520 / 45.44M → 45.40M; dm reacher
+//!   487 → 499 / 6.613M → 6.673M and swimmer6 perturbed 87.82M → 87.93M (steps the
+//!   remainder's history predicts less well).
 //! * The old kicks (backward-Euler damping at `v½` and at `v'`) gave
 //!   `(1 + hA/2)⁻² = 1 − hA + ¾ h²A² + …`, an `O(h²)` local error: first order.
 
@@ -125,6 +145,90 @@ pub(super) struct Scratch {
     v1: Vec<(DVec3, DVec3)>,
     /// Rate-row counts of the joints (with loop joints only).
     passive: Vec<usize>,
+    /// A SHAKE iteration's body corrections over `h`, `(δx/h, δθ/h)` (with armature
+    /// rows only).
+    shake_rates: Vec<(DVec3, DVec3)>,
+    /// SHAKE's remainders of the last steps, for its predictor.
+    history: ShakeHistory,
+}
+
+/// SHAKE's predictor. The chord iteration's total right-hand side `T = Σₖ bₖ` (its
+/// fixed point: `C(x(T)) = 0`, `x(T)` the drift's end moved by the solve of `T` with
+/// the kick's factor) is its first term `b₀ = −C(x_drift)` plus a remainder `R` (the
+/// later iterations', of relative size `O(h)`: the Jacobian's turn over the drift),
+/// which changes smoothly from step to step. The first correction solves `b₀ + R̂` with
+/// `R̂ = 3R₋₁ − 3R₋₂ + R₋₃` extrapolated from the last three steps (`2R₋₁ − R₋₂` after
+/// two, `R₋₁` after one), so the chord iteration starts `O(h³)` relatively closer
+/// (repeating `R₋₁`: `O(h)`, fewer iterations saved, module documentation). The
+/// corrections stay in the range of `M₀⁻¹J₀ᵀ` and SHAKE still stops on
+/// `|C(x)| ≤ tolerance`: the step solves the same equations, its result moves at the
+/// tolerance's level.
+#[derive(Clone, Debug, Default)]
+pub(super) struct ShakeHistory {
+    /// This step's remainder, accumulated.
+    total: Vec<f64>,
+    /// `R₋₁`.
+    last: Vec<f64>,
+    /// `R₋₂`.
+    before: Vec<f64>,
+    /// `R₋₃`.
+    third: Vec<f64>,
+    /// Consecutive steps recorded (0 to 3).
+    kept: u8,
+    /// The world's step count when `last` was recorded.
+    step: u64,
+}
+
+impl ShakeHistory {
+    /// Whether a prediction is at hand for the step after `steps` completed ones, of
+    /// `size` unknowns: the last step was recorded (consecutive, same size).
+    fn ready(&self, steps: u64, size: usize) -> bool {
+        self.kept > 0 && self.step.checked_add(1) == Some(steps) && self.last.len() == size
+    }
+
+    /// Grows the records to `size` unknowns at once (the buffers rotate through
+    /// [`Self::keep`]: each must hold a step's remainder, no allocation in later steps).
+    fn reserve(&mut self, size: usize) {
+        for v in [&mut self.last, &mut self.before, &mut self.third] {
+            v.reserve(size.saturating_sub(v.len()));
+        }
+    }
+
+    /// Adds `R̂` to `rhs` (of the recorded size), keeping it as this step's remainder
+    /// so far.
+    fn predict(&mut self, rhs: &mut [f64]) {
+        let two = self.kept >= 2 && self.before.len() == self.last.len();
+        let three = self.kept >= 3 && self.third.len() == self.last.len();
+        for (i, (r, t)) in rhs.iter_mut().zip(self.total.iter_mut()).enumerate() {
+            let p = if three {
+                3.0 * self.last[i] - 3.0 * self.before[i] + self.third[i]
+            } else if two {
+                2.0 * self.last[i] - self.before[i]
+            } else {
+                self.last[i]
+            };
+            *r += p;
+            *t = p;
+        }
+    }
+
+    /// Records this step's remainder as `R₋₁` (during step `steps + 1`).
+    fn keep(&mut self, steps: u64) {
+        core::mem::swap(&mut self.third, &mut self.before);
+        core::mem::swap(&mut self.before, &mut self.last);
+        core::mem::swap(&mut self.last, &mut self.total);
+        self.kept = if self.kept > 0 && self.step.checked_add(1) == Some(steps) {
+            (self.kept + 1).min(3)
+        } else {
+            1
+        };
+        self.step = steps;
+    }
+
+    /// Drops the record (a step not recorded breaks the sequence).
+    fn forget(&mut self) {
+        self.kept = 0;
+    }
 }
 
 impl World {
@@ -599,12 +703,24 @@ impl World {
         // 3. SHAKE: the constraint impulse of the first kick acts along J(x₀)ᵀ, so the
         //    corrections are δ = −M₀⁻¹J₀ᵀ(J₀M₀⁻¹J₀ᵀ)⁻¹ C(x') with the factor of step 1
         //    (a chord iteration: linear convergence at rate O(h)); δ/h enters the
-        //    half-step velocities and I₀ δθ/h the angular momenta.
+        //    half-step velocities and I₀ δθ/h the angular momenta. The first correction
+        //    also solves the predicted remainder of the iteration (`ShakeHistory`).
         // Rate-row counts of the loop joints' rows (no allocation without loops).
         let mut passive = core::mem::take(&mut self.rattle.passive);
         passive.clear();
         if !self.solver.loops.is_empty() {
             passive.extend((0..self.joints.len()).map(|j| self.passive_rows_of(j)));
+        }
+        // The predictor (`ShakeHistory`): tree joints only, after a skipped first kick
+        // (the drift from `v½ = v`, as in the steps recorded).
+        let size = self.solver.size;
+        let mut history = core::mem::take(&mut self.rattle.history);
+        let record = skipped && self.solver.loops.is_empty() && self.equalities.is_empty();
+        let predict = record && history.ready(self.steps, size);
+        history.total.clear();
+        history.total.resize(size, 0.0);
+        if record {
+            history.reserve(size);
         }
         let mut iterations = 0;
         let mut final_err = 0.0;
@@ -612,26 +728,39 @@ impl World {
             let mut err: f64 = 0.0;
             let loop_rhs = &mut loops_n.2;
             loop_rhs.clear();
-            let size = self.solver.size;
             self.rhs.clear();
             self.rhs.resize(size, 0.0);
             let solver = &self.solver;
             for (j, joint) in self.joints.iter().enumerate() {
-                let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
-                let b = self.bodies[joint.child].pose;
+                // The poses by reference (a copy of both cost 0.2k instructions a
+                // SHAKE iteration on swimmer6).
+                let a = joint
+                    .parent
+                    .map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+                let b = &self.bodies[joint.child].pose;
                 let c = if self.compliance.get(j).is_some_and(|&a| a > 0.0) {
                     [0.0; MAX_ROWS]
                 } else {
                     // `C` once: the separation is read from the same values.
-                    let c = joint.value(&a, &b);
+                    let c = joint.value(a, b);
                     err = err.max(joint.separation_of(&c));
                     c
                 };
                 let n = joint.hard_rows();
                 match solver.joint_offset(j) {
                     Some(o) => {
-                        for r in 0..n {
-                            self.rhs[o + r] = -c[r];
+                        // The joint's rows as one slice: one bounds check, not one a row.
+                        if let Some(dst) = self.rhs.get_mut(o..o + n) {
+                            for (d, v) in dst.iter_mut().zip(&c) {
+                                *d = -v;
+                            }
+                        }
+                        if record && it > 0 {
+                            if let Some(t) = history.total.get_mut(o..o + n) {
+                                for (t, v) in t.iter_mut().zip(&c) {
+                                    *t -= v;
+                                }
+                            }
                         }
                     }
                     None => {
@@ -646,25 +775,33 @@ impl World {
             if err <= tolerance || it == max_iterations || !err.is_finite() {
                 break;
             }
+            if predict && it == 0 {
+                // The first correction also solves the predicted remainder.
+                history.predict(&mut self.rhs);
+            }
             // The bodies' right-hand side is +0.0 (cleared above).
             self.solve_factored_zero_bodies(&loops_n)?;
+            // The corrections' rates `δ/h` per body, kept for the armature rows below
+            // (the same quotients, computed once a body instead of once a joint side).
+            let rates = &mut self.rattle.shake_rates;
+            rates.clear();
             for i in 0..self.bodies.len() {
                 let (dx, dth) = self.solver.body_twist(&self.rhs, i);
                 let b = &mut self.bodies[i];
                 b.pose.x += dx;
                 b.pose.q = rotate_by(b.pose.q, dth);
-                b.v += dx / h;
-                b.omega += dth / h;
-                momenta[i] += inertia0[i] * (dth / h);
+                let (dv, dw) = (dx / h, dth / h);
+                b.v += dv;
+                b.omega += dw;
+                momenta[i] += inertia0[i] * dw;
+                if !arm.is_empty() {
+                    rates.push((dv, dw));
+                }
             }
+            let rates = &self.rattle.shake_rates;
             for (j, [n_hard, n, start], rate) in &mut arm {
                 let joint = &self.joints[*j];
-                let tw = |i: Option<usize>| {
-                    i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
-                        let (dx, dth) = self.solver.body_twist(&self.rhs, i);
-                        (dx / h, dth / h)
-                    })
-                };
+                let tw = |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| rates[i]);
                 let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
                 for r in *n_hard..*n {
                     let g = arm_rows[*start + r - *n_hard];
@@ -722,7 +859,58 @@ impl World {
         self.rattle.arm = arm;
         self.rattle.arm_rows = arm_rows;
         self.rattle.passive = passive;
+        if record && final_err <= tolerance {
+            history.keep(self.steps);
+        } else {
+            history.forget();
+        }
+        self.rattle.history = history;
         self.recycle_loops(loops_n);
         Ok((iterations, final_err <= (1e3 * tolerance).max(1e-9)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ShakeHistory;
+    use alloc::vec;
+
+    /// The history predicts only for the step right after a recorded one of the same
+    /// size; it repeats `R₋₁` after one record and extrapolates `2R₋₁ − R₋₂` after two,
+    /// `3R₋₁ − 3R₋₂ + R₋₃` after three, adding the prediction to the right-hand side and
+    /// keeping it as the remainder.
+    #[test]
+    fn predictor_extrapolates_consecutive_steps_only() {
+        let mut h = ShakeHistory::default();
+        assert!(!h.ready(1, 3));
+        h.total = vec![1.0, 0.0, -2.0];
+        h.keep(4);
+        assert!(h.ready(5, 3) && !h.ready(6, 3) && !h.ready(5, 4));
+        h.total = vec![0.0; 3];
+        let mut rhs = vec![0.5, 0.0, 0.25];
+        h.predict(&mut rhs);
+        assert_eq!(rhs, vec![1.5, 0.0, -1.75]);
+        assert_eq!(h.total, vec![1.0, 0.0, -2.0]);
+        h.total = vec![3.0, 0.0, -1.0];
+        h.keep(5);
+        h.total = vec![0.0; 3];
+        let mut rhs = vec![0.0; 3];
+        h.predict(&mut rhs);
+        assert_eq!(rhs, vec![5.0, 0.0, 0.0]);
+        h.total = vec![2.0, 1.0, 0.0];
+        h.keep(6);
+        h.total = vec![0.0; 3];
+        let mut rhs = vec![0.0; 3];
+        h.predict(&mut rhs);
+        assert_eq!(rhs, vec![-2.0, 3.0, 1.0]);
+        // A gap (a step not recorded) starts the sequence again: `R₋₁` alone.
+        h.total = vec![1.0, 1.0, 1.0];
+        h.keep(8);
+        h.total = vec![0.0; 3];
+        let mut rhs = vec![0.0; 3];
+        h.predict(&mut rhs);
+        assert_eq!(rhs, vec![1.0, 1.0, 1.0]);
+        h.forget();
+        assert!(!h.ready(9, 3));
     }
 }
