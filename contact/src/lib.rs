@@ -61,11 +61,8 @@
 //! # fn main() {}
 //! ```
 #![cfg_attr(not(feature = "std"), no_std)]
-// Denied, not forbidden: the exceptions are the soft step's AVX lanes
-// (`rigid::soft_lanes::avx`, the intrinsics behind a run-time CPU feature check) and the
-// AVX builds of the same Rust code (the soft step's pair passes and body, the narrow
-// phase's `collide_framed`): `#[target_feature]` functions called only after
-// `is_x86_feature_detected!` said the processor has the feature.
+// Denied, not forbidden: the one exception is the soft step's AVX lanes
+// (`rigid::soft_lanes::avx`, the intrinsics behind a run-time CPU feature check).
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
