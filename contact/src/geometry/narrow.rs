@@ -224,42 +224,6 @@ pub(crate) fn collide_framed(
     bufs: &mut ClipBuffers,
     out: &mut Vec<Contact>,
 ) -> usize {
-    #[cfg(all(target_arch = "x86_64", feature = "std"))]
-    if std::is_x86_feature_detected!("avx") {
-        /// [`collide_framed_in`] compiled for AVX.
-        ///
-        /// # Safety
-        ///
-        /// The processor has AVX.
-        #[allow(unsafe_code)]
-        #[target_feature(enable = "avx")]
-        unsafe fn avx(
-            pair: (usize, usize),
-            a: Framed,
-            b: Framed,
-            margin: f64,
-            bufs: &mut ClipBuffers,
-            out: &mut Vec<Contact>,
-        ) -> usize {
-            collide_framed_in(pair, a, b, margin, bufs, out)
-        }
-        // SAFETY: AVX was found.
-        #[allow(unsafe_code)]
-        return unsafe { avx(pair, a, b, margin, bufs, out) };
-    }
-    collide_framed_in(pair, a, b, margin, bufs, out)
-}
-
-/// [`collide_framed`]'s body.
-#[inline(always)]
-fn collide_framed_in(
-    pair: (usize, usize),
-    a: Framed,
-    b: Framed,
-    margin: f64,
-    bufs: &mut ClipBuffers,
-    out: &mut Vec<Contact>,
-) -> usize {
     let ((ca, mut fa, mut ra), (cb, mut fb, mut rb)) = (a, b);
     // The shapes by reference (not copied per pair).
     let (mut sa, mut sb) = (&ca.shape, &cb.shape);
@@ -328,7 +292,6 @@ fn segment(s: &Shape, f: &Pose) -> (DVec3, DVec3, f64) {
     }
 }
 
-#[inline(always)]
 fn plane_box(fp: &Pose, normal: DVec3, offset: f64, fb: &Pose, half: DVec3, sink: &mut Sink) {
     let n = fp.q * normal;
     let d = offset + n.dot(fp.x);
@@ -785,7 +748,6 @@ fn others(k: usize) -> (usize, usize) {
 pub const CLIP_SLACK: f64 = 1e-4;
 
 /// Box `a` (frame `fa`, rotation matrix `ra`, half extents `ha`) against box `b`.
-#[inline(always)]
 fn box_box(
     (fa, ra): (&Pose, &DMat3),
     ha: DVec3,
@@ -1150,76 +1112,4 @@ fn reduce(pts: &[(DVec3, f64, u64)], n: DVec3) -> [bool; 12] {
         keep[k] = true;
     }
     keep
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::geometry::shape::{Collider, Shape};
-    use glam::DQuat;
-
-    /// [`collide_framed`] (its AVX build where the processor has AVX) gives the
-    /// baseline build's contacts bit for bit (tolerance 0: every point, normal,
-    /// depth and id equal; measured equal) on 3000 random pairs of boxes, spheres,
-    /// capsules and a plane, placed within reach of each other and turned at random.
-    #[test]
-    fn avx_build_matches_baseline_build() {
-        let mut s = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
-        let shapes = [
-            Shape::cuboid(DVec3::new(0.5, 0.4, 0.3)).expect("a box"),
-            Shape::cuboid(DVec3::new(0.5, 0.5, 0.5)).expect("a box"),
-            Shape::sphere(0.4).expect("a sphere"),
-            Shape::capsule(0.2, 0.5).expect("a capsule"),
-            Shape::plane(DVec3::Z, 0.0).expect("a plane"),
-        ];
-        let bits = |c: &Contact| {
-            let v = |x: DVec3| x.to_array().map(f64::to_bits);
-            (c.a, c.b, v(c.point), v(c.normal), c.depth.to_bits(), c.id)
-        };
-        let mut compared = 0;
-        for k in 0..3000 {
-            let (sa, sb) = (&shapes[k % 5], &shapes[(k / 5) % 4]);
-            // The plane static (its frame the world's when the broad phase frames it).
-            let body = |shape: &Shape, b| {
-                let on = (!matches!(shape, Shape::Plane { .. })).then_some(b);
-                Collider::simple(on, *shape)
-            };
-            let (ca, cb) = (body(sa, 0).expect("a"), body(sb, 1).expect("b"));
-            let mut pose = || {
-                let axis = DVec3::new(next(), next(), next()).normalize_or(DVec3::Z);
-                // Mostly resting faces (small turns), some at any angle.
-                let angle = if k % 3 == 0 {
-                    3.0 * next()
-                } else {
-                    0.02 * next()
-                };
-                let x = DVec3::new(0.6 * next(), 0.6 * next(), 0.5 + 0.6 * next());
-                Pose {
-                    x,
-                    q: DQuat::from_axis_angle(axis, angle),
-                }
-            };
-            let (pa, pb) = (pose(), pose());
-            let (fa, fb) = (ca.world_pose(&pa), cb.world_pose(&pb));
-            let (ra, rb) = (ca.rotation(&fa), cb.rotation(&fb));
-            let (a, b) = ((&ca, &fa, &ra), (&cb, &fb, &rb));
-            let (mut got, mut want) = (Vec::new(), Vec::new());
-            let mut bufs = ClipBuffers::default();
-            collide_framed((2, 5), a, b, 0.01, &mut bufs, &mut got);
-            collide_framed_in((2, 5), a, b, 0.01, &mut bufs, &mut want);
-            let (got, want): (Vec<_>, Vec<_>) = (
-                got.iter().map(bits).collect(),
-                want.iter().map(bits).collect(),
-            );
-            assert_eq!(got, want, "pair {k}");
-            compared += got.len();
-        }
-        assert!(compared > 1000, "{compared} contacts compared");
-    }
 }
