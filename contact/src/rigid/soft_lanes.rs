@@ -39,32 +39,20 @@ use super::soft_step::{Block, Pass, Rows, BLOCK_POINTS};
 mod avx;
 pub(super) use avx::solve_steps;
 use avx::{block_pair_lanes, gaps_pair, relax_pair, warm_pair};
-pub(super) use avx::{
-    block_quad, build_quad, fill_cross, fill_points, gaps_quad, relax_quad, warm_quad, Avx,
-};
+pub(super) use avx::{block_quad, build_quad, fill_points, gaps_quad, relax_quad, warm_quad, Avx};
 
 mod build;
 pub(super) use build::{build_lanes, Built};
 
 mod packed;
-pub(super) use packed::CrossRows;
-use packed::{angular, cross_at, HeadRows, Pack, QuadRows};
+use packed::{HeadRows, Pack, QuadRows};
 pub(super) use packed::{Paired, PointRows};
 
 /// Without AVX (other processors, or `no_std` builds without
 /// `-C target-feature=+avx`): no quads ([`Paired::quad`] is `None`), two lanes only.
 #[cfg(not(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx"))))]
 mod avx {
-    use super::{Block, CrossRows, DMat3, DVec3, Normals, Pack, Pass, RelaxIo, Rows};
-
-    /// The two-lane build of [`Paired::fill_cross`](super::Paired::fill_cross) (a
-    /// no-op here: a step stores `r × d` only where its passes take quads).
-    pub(in crate::rigid) fn fill_cross(
-        paired: &mut super::Paired,
-        colouring: &crate::rigid::colouring::Colouring,
-    ) {
-        paired.fill_cross::<wide::f64x2>(colouring);
-    }
+    use super::{Block, DMat3, DVec3, Normals, Pack, Pass, RelaxIo, Rows};
 
     /// Declines (no AVX builds of the preparation's per-point loop here).
     pub(in crate::rigid) fn fill_points(
@@ -127,7 +115,6 @@ mod avx {
     pub(in crate::rigid) fn relax_pair(
         _: &Rows,
         _: Pack,
-        _: &[CrossRows],
         _: usize,
         _: [&[usize]; 2],
         _: &mut RelaxIo,
@@ -153,7 +140,6 @@ mod avx {
     pub(in crate::rigid) fn block_pair_lanes(
         _: &Rows,
         _: Pack,
-        _: &[CrossRows],
         _: usize,
         _: [&Block; 2],
         _: &mut RelaxIo,
@@ -178,7 +164,6 @@ mod avx {
     pub(in crate::rigid) fn relax_quad(
         _: &Rows,
         _: Option<Pack>,
-        _: &[CrossRows],
         _: [&[usize]; 4],
         _: &mut RelaxIo,
         _: f64,
@@ -202,7 +187,6 @@ mod avx {
     pub(in crate::rigid) fn block_quad(
         _: &Rows,
         _: Option<Pack>,
-        _: &[CrossRows],
         _: [&Block; 4],
         _: &mut RelaxIo,
         _: Pass,
@@ -243,10 +227,6 @@ pub(super) trait Lane:
     /// The lanes of packed value `q`: half `half` (two lanes) or all four (`half`
     /// ignored).
     fn load(q: &Quad, half: usize) -> Self;
-    /// Stores the lanes into packed value `q` ([`Lane::load`]'s inverse).
-    fn store(self, q: &mut Quad, half: usize);
-    /// The number of lanes.
-    const WIDTH: usize;
 }
 
 impl Lane for f64x2 {
@@ -289,11 +269,6 @@ impl Lane for f64x2 {
     fn load(q: &Quad, half: usize) -> Self {
         q[half & 1]
     }
-    #[inline(always)]
-    fn store(self, q: &mut Quad, half: usize) {
-        q[half & 1] = self;
-    }
-    const WIDTH: usize = 2;
 }
 
 /// The lanes of a [`Lanes3`], by component.
@@ -553,28 +528,23 @@ fn store<L: Lane, const W: usize>(
 pub(super) fn relax_manifolds(
     rows: &Rows,
     pr: Option<(Pack, usize)>,
-    cross: &[CrossRows],
     pts: [&[usize]; 2],
     io: &mut RelaxIo,
     inv_h: f64,
 ) -> bool {
-    // Its AVX build where the processor has AVX (the same bits), else the baseline
-    // (which computes `r × d`: a step stores them only where it has AVX).
+    // Its AVX build where the processor has AVX (the same bits), else the baseline.
     pr.is_some_and(|(pr, half)| {
-        relax_pair(rows, pr, cross, half, pts, io, inv_h)
-            .unwrap_or_else(|| relax_lanes::<f64x2, 2, false>(rows, pr, &[], half, pts, io, inv_h))
+        relax_pair(rows, pr, half, pts, io, inv_h)
+            .unwrap_or_else(|| relax_lanes::<f64x2, 2>(rows, pr, half, pts, io, inv_h))
     })
 }
 
 /// [`relax_manifolds`] on `W` manifolds in the `W` lanes of `L` (`half`: the lanes of
-/// the packed rows `pr` two lanes take), their `r × d` loaded from `cross`
-/// where `STORED` (the caller's choice where the step stores them), else computed from
-/// the anchors (the same bits).
+/// the packed rows `pr` two lanes take).
 #[inline(always)]
-fn relax_lanes<L: Lane, const W: usize, const STORED: bool>(
+fn relax_lanes<L: Lane, const W: usize>(
     rows: &Rows,
     pr: Pack,
-    cross: &[CrossRows],
     half: usize,
     pts: [&[usize]; W],
     io: &mut RelaxIo,
@@ -593,11 +563,10 @@ fn relax_lanes<L: Lane, const W: usize, const STORED: bool>(
     };
     let io = &mut io;
     let [mut va, mut wa, mut vb, mut wb] = load::<L, W>(io.v, io.w, &ab);
-    let cross = if STORED { cross } else { &[] };
     for (i, q) in pr.rows.iter().enumerate() {
         let p: [usize; W] = each(|l| pts[l][i]);
         let vel = (&mut va, &mut wa, &mut vb, &mut wb);
-        relax_rows::<L, W, STORED>(pr.head, (q, cross_at(cross, i)), half, &p, io, vel, inv_h);
+        relax_rows(pr.head, q, half, &p, io, vel, inv_h);
     }
     store(io.v, io.w, &ab, [va, wa, vb, wb], rows.fixed);
     true
@@ -606,9 +575,9 @@ fn relax_lanes<L: Lane, const W: usize, const STORED: bool>(
 /// Points `p` of [`relax_lanes`], one per lane, on velocities held by the caller
 /// (`[v_a, ω_a, v_b, ω_b]`).
 #[inline(always)]
-fn relax_rows<L: Lane, const W: usize, const STORED: bool>(
+fn relax_rows<L: Lane, const W: usize>(
     head: &HeadRows,
-    (pr, cr): (&QuadRows, &CrossRows),
+    pr: &QuadRows,
     half: usize,
     p: &[usize; W],
     io: &mut RelaxIo,
@@ -634,31 +603,31 @@ fn relax_rows<L: Lane, const W: usize, const STORED: bool>(
     // gap gives 0 either way; `inv_h` is positive and finite: see `relax_lanes`).
     let bias = gap.at_least(zero) * L::splat(inv_h);
     let d0 = head.dir::<L>(0, half);
-    let vn = d0.dot(vb.sub(*va)) + angular::<L, STORED>(pr, cr, head, 0, 1, half).dot(*wb)
-        - angular::<L, STORED>(pr, cr, head, 0, 0, half).dot(*wa);
+    let vn =
+        d0.dot(vb.sub(*va)) + pr.ang(head, 0, 1, half).dot(*wb) - pr.ang(head, 0, 0, half).dot(*wa);
     let mass0 = pr.mass::<L>(0, half);
     let new = (z0 - mass0 * one * (vn + bias) - zero * (z0 - zero)).at_least(zero);
     let dz = new - z0;
     let max_normal = new.at_least(most);
     *va = va.sub(d0.scale(ma * dz));
-    *wa = wa.sub(angular::<L, STORED>(pr, cr, head, 0, 2, half).scale(dz));
+    *wa = wa.sub(pr.ang(head, 0, 2, half).scale(dz));
     *vb = vb.add(d0.scale(mb * dz));
-    *wb = wb.add(angular::<L, STORED>(pr, cr, head, 0, 3, half).scale(dz));
+    *wb = wb.add(pr.ang(head, 0, 3, half).scale(dz));
     let bound = head.friction::<L>(half) * new;
     let mut z = [new, z1, z2];
     for r in 1..3 {
         let d = head.dir::<L>(r, half);
         let zr = z[r];
-        let vt = d.dot(vb.sub(*va)) + angular::<L, STORED>(pr, cr, head, r, 1, half).dot(*wb)
-            - angular::<L, STORED>(pr, cr, head, r, 0, half).dot(*wa);
+        let vt = d.dot(vb.sub(*va)) + pr.ang(head, r, 1, half).dot(*wb)
+            - pr.ang(head, r, 0, half).dot(*wa);
         let unbounded = zr - pr.mass::<L>(r, half) * vt;
         let new = unbounded.at_most(bound).at_least(-bound);
         let dz = new - zr;
         z[r] = new;
         *va = va.sub(d.scale(ma * dz));
-        *wa = wa.sub(angular::<L, STORED>(pr, cr, head, r, 2, half).scale(dz));
+        *wa = wa.sub(pr.ang(head, r, 2, half).scale(dz));
         *vb = vb.add(d.scale(mb * dz));
-        *wb = wb.add(angular::<L, STORED>(pr, cr, head, r, 3, half).scale(dz));
+        *wb = wb.add(pr.ang(head, r, 3, half).scale(dz));
     }
     // Each value's lanes stored once, then written lane by lane.
     let [z0, z1, z2, m] = [z[0].array(), z[1].array(), z[2].array(), max_normal.array()];
@@ -681,28 +650,23 @@ fn relax_rows<L: Lane, const W: usize, const STORED: bool>(
 pub(super) fn block_pair(
     rows: &Rows,
     pr: Option<(Pack, usize)>,
-    cross: &[CrossRows],
     blk: [&Block; 2],
     io: &mut RelaxIo,
     pass: Pass,
 ) -> bool {
-    // Its AVX build where the processor has AVX (the same bits), else the baseline
-    // (which computes `r × d`: a step stores them only where it has AVX).
+    // Its AVX build where the processor has AVX (the same bits), else the baseline.
     pr.is_some_and(|(pr, half)| {
-        block_pair_lanes(rows, pr, cross, half, blk, io, pass)
-            .unwrap_or_else(|| block_lanes::<f64x2, 2, false>(rows, pr, &[], half, blk, io, pass))
+        block_pair_lanes(rows, pr, half, blk, io, pass)
+            .unwrap_or_else(|| block_lanes::<f64x2, 2>(rows, pr, half, blk, io, pass))
     })
 }
 
 /// [`block_pair`] on `W` manifolds in the `W` lanes of `L` (`half`: the lanes of the
-/// packed rows `pr` two lanes take), their `r × d` loaded from `cross` where
-/// `STORED` (the caller's choice where the step stores them), else computed from the
-/// anchors (the same bits).
+/// packed rows `pr` two lanes take).
 #[inline(always)]
-fn block_lanes<L: Lane, const W: usize, const STORED: bool>(
+fn block_lanes<L: Lane, const W: usize>(
     rows: &Rows,
     pr: Pack,
-    cross: &[CrossRows],
     half: usize,
     blk: [&Block; W],
     io: &mut RelaxIo,
@@ -766,13 +730,11 @@ fn block_lanes<L: Lane, const W: usize, const STORED: bool>(
     }
     // r = J v + b + c∘(λ − λ_pre), zero in the padding.
     let mut r = [zero; N];
-    let cross = if STORED { cross } else { &[] };
     for i in 0..len {
         let p: [usize; W] = each(|l| blk[l].pts[i]);
         let (q, d0) = (&rows_of[i], pr.head.dir::<L>(0, half));
-        let cr = cross_at(cross, i);
-        let vn = d0.dot(vb.sub(va)) + angular::<L, STORED>(q, cr, pr.head, 0, 1, half).dot(wb)
-            - angular::<L, STORED>(q, cr, pr.head, 0, 0, half).dot(wa);
+        let vn = d0.dot(vb.sub(va)) + q.ang(pr.head, 0, 1, half).dot(wb)
+            - q.ang(pr.head, 0, 0, half).dot(wa);
         let bias = (bias_rate * gap[i]).at_least(max_push);
         let [preload, cap, floor] = L::gather(|l| {
             let p = p[l];
@@ -818,31 +780,31 @@ fn block_lanes<L: Lane, const W: usize, const STORED: bool>(
     }
     let (head, (ma, mb)) = (pr.head, pr.head.im::<L>(half));
     for i in 0..len {
-        let (q, cr) = (&rows_of[i], cross_at(cross, i));
+        let q = &rows_of[i];
         let d0 = head.dir::<L>(0, half);
         z[i][0] = z[i][0] + dz[i];
         most[i] = z[i][0].at_least(most[i]);
         va = va.sub(d0.scale(ma * dz[i]));
-        wa = wa.sub(angular::<L, STORED>(q, cr, head, 0, 2, half).scale(dz[i]));
+        wa = wa.sub(q.ang(head, 0, 2, half).scale(dz[i]));
         vb = vb.add(d0.scale(mb * dz[i]));
-        wb = wb.add(angular::<L, STORED>(q, cr, head, 0, 3, half).scale(dz[i]));
+        wb = wb.add(q.ang(head, 0, 3, half).scale(dz[i]));
     }
     // Friction point by point (no anchors: velocity rows, |λ_t| ≤ μ λ_n).
     for (i, zi) in z.iter_mut().enumerate().take(len) {
-        let (q, cr) = (&rows_of[i], cross_at(cross, i));
+        let q = &rows_of[i];
         let bound = head.friction::<L>(half) * zi[0];
         for rr in 1..3 {
             let d = head.dir::<L>(rr, half);
-            let vt = d.dot(vb.sub(va)) + angular::<L, STORED>(q, cr, head, rr, 1, half).dot(wb)
-                - angular::<L, STORED>(q, cr, head, rr, 0, half).dot(wa);
+            let vt = d.dot(vb.sub(va)) + q.ang(head, rr, 1, half).dot(wb)
+                - q.ang(head, rr, 0, half).dot(wa);
             let unbounded = zi[rr] - q.mass::<L>(rr, half) * vt;
             let new = unbounded.at_most(bound).at_least(-bound);
             let dz = new - zi[rr];
             zi[rr] = new;
             va = va.sub(d.scale(ma * dz));
-            wa = wa.sub(angular::<L, STORED>(q, cr, head, rr, 2, half).scale(dz));
+            wa = wa.sub(q.ang(head, rr, 2, half).scale(dz));
             vb = vb.add(d.scale(mb * dz));
-            wb = wb.add(angular::<L, STORED>(q, cr, head, rr, 3, half).scale(dz));
+            wb = wb.add(q.ang(head, rr, 3, half).scale(dz));
         }
     }
     // Each value's lanes stored once, then written lane by lane.

@@ -47,10 +47,9 @@ use core::arch::x86_64::{
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
 use super::{
-    block_lanes, build_lanes, gaps_lanes, relax_lanes, warm_lanes, Built, CrossRows, Lane, Normals,
-    Pack, Paired, Quad, RelaxIo,
+    block_lanes, build_lanes, gaps_lanes, relax_lanes, warm_lanes, Built, Lane, Normals, Pack,
+    Quad, RelaxIo,
 };
-use crate::rigid::colouring::Colouring;
 use crate::rigid::soft_step::{Block, Pass, PointConsts, Rows, SoftState};
 use crate::rigid::{ContactStats, ContactWorld};
 use alloc::boxed::Box;
@@ -229,12 +228,6 @@ impl Lane for F4 {
         // `q` is 32 contiguous bytes (two `f64x2`), read as one unaligned load.
         F4(avx!(_mm256_loadu_pd(q.as_ptr().cast::<f64>())))
     }
-    #[inline(always)]
-    fn store(self, q: &mut Quad, _half: usize) {
-        // `q` is 32 contiguous bytes (two `f64x2`), written as one unaligned store.
-        avx!(_mm256_storeu_pd(q.as_mut_ptr().cast::<f64>(), self.0));
-    }
-    const WIDTH: usize = 4;
 }
 
 /// Each pass twice: `$avx` compiled for AVX, `$wide` for AVX with AVX-512F and
@@ -309,17 +302,7 @@ passes! {
         pts: [&[usize]; 4],
         io: &mut RelaxIo,
         inv_h: f64,
-    ) -> bool = relax_lanes::<F4, 4, false>(rows, pr, &[], 0, pts, io, inv_h);
-
-    /// [`relax_avx`] on a group whose `r × d` are stored (`cross`).
-    fn relax_x_avx / relax_x_wide(
-        rows: &Rows,
-        pr: Pack,
-        cross: &[CrossRows],
-        pts: [&[usize]; 4],
-        io: &mut RelaxIo,
-        inv_h: f64,
-    ) -> bool = relax_lanes::<F4, 4, true>(rows, pr, cross, 0, pts, io, inv_h);
+    ) -> bool = relax_lanes::<F4, 4>(rows, pr, 0, pts, io, inv_h);
 
     /// [`warm_lanes`](super::warm_lanes) in four AVX lanes.
     fn warm_avx / warm_wide(
@@ -338,17 +321,7 @@ passes! {
         blk: [&Block; 4],
         io: &mut RelaxIo,
         pass: Pass,
-    ) -> bool = block_lanes::<F4, 4, false>(rows, pr, &[], 0, blk, io, pass);
-
-    /// [`block_avx`] on a group whose `r × d` are stored (`cross`).
-    fn block_x_avx / block_x_wide(
-        rows: &Rows,
-        pr: Pack,
-        cross: &[CrossRows],
-        blk: [&Block; 4],
-        io: &mut RelaxIo,
-        pass: Pass,
-    ) -> bool = block_lanes::<F4, 4, true>(rows, pr, cross, 0, blk, io, pass);
+    ) -> bool = block_lanes::<F4, 4>(rows, pr, 0, blk, io, pass);
 
     /// [`gaps_lanes`](super::gaps_lanes) in four AVX lanes.
     fn gaps_avx / gaps_wide(
@@ -378,18 +351,7 @@ passes! {
         pts: [&[usize]; 2],
         io: &mut RelaxIo,
         inv_h: f64,
-    ) -> bool = relax_lanes::<f64x2, 2, false>(rows, pr, &[], half, pts, io, inv_h);
-
-    /// [`relax_pair_avx`] on a group whose `r × d` are stored (`cross`).
-    fn relax_pair_x_avx / relax_pair_x_wide(
-        rows: &Rows,
-        pr: Pack,
-        cross: &[CrossRows],
-        half: usize,
-        pts: [&[usize]; 2],
-        io: &mut RelaxIo,
-        inv_h: f64,
-    ) -> bool = relax_lanes::<f64x2, 2, true>(rows, pr, cross, half, pts, io, inv_h);
+    ) -> bool = relax_lanes::<f64x2, 2>(rows, pr, half, pts, io, inv_h);
 
     /// [`warm_lanes`](super::warm_lanes) in two lanes, compiled for AVX.
     fn warm_pair_avx / warm_pair_wide(
@@ -410,24 +372,7 @@ passes! {
         blk: [&Block; 2],
         io: &mut RelaxIo,
         pass: Pass,
-    ) -> bool = block_lanes::<f64x2, 2, false>(rows, pr, &[], half, blk, io, pass);
-
-    /// [`block_pair_avx`] on a group whose `r × d` are stored (`cross`).
-    fn block_pair_x_avx / block_pair_x_wide(
-        rows: &Rows,
-        pr: Pack,
-        cross: &[CrossRows],
-        half: usize,
-        blk: [&Block; 2],
-        io: &mut RelaxIo,
-        pass: Pass,
-    ) -> bool = block_lanes::<f64x2, 2, true>(rows, pr, cross, half, blk, io, pass);
-
-    /// [`Paired::fill_cross`](super::Paired::fill_cross) in four AVX lanes.
-    fn cross_avx / cross_wide(
-        paired: &mut Paired,
-        colouring: &Colouring,
-    ) -> () = paired.fill_cross::<F4>(colouring);
+    ) -> bool = block_lanes::<f64x2, 2>(rows, pr, half, blk, io, pass);
 
     /// [`gaps_lanes`](super::gaps_lanes) in two lanes, compiled for AVX.
     fn gaps_pair_avx / gaps_pair_wide(
@@ -466,18 +411,6 @@ passes! {
 type PointsPass = unsafe fn(&ContactWorld, &mut SoftState, &PointConsts) -> bool;
 /// `relax_avx` or `relax_wide`.
 type RelaxPass = unsafe fn(&Rows, Pack, [&[usize]; 4], &mut RelaxIo, f64) -> bool;
-/// `relax_x_avx` or `relax_x_wide`.
-type RelaxXPass = unsafe fn(&Rows, Pack, &[CrossRows], [&[usize]; 4], &mut RelaxIo, f64) -> bool;
-/// `block_x_avx` or `block_x_wide`.
-type BlockXPass = unsafe fn(&Rows, Pack, &[CrossRows], [&Block; 4], &mut RelaxIo, Pass) -> bool;
-/// `relax_pair_x_avx` or `relax_pair_x_wide`.
-type RelaxPairXPass =
-    unsafe fn(&Rows, Pack, &[CrossRows], usize, [&[usize]; 2], &mut RelaxIo, f64) -> bool;
-/// `block_pair_x_avx` or `block_pair_x_wide`.
-type BlockPairXPass =
-    unsafe fn(&Rows, Pack, &[CrossRows], usize, [&Block; 2], &mut RelaxIo, Pass) -> bool;
-/// `cross_avx` or `cross_wide`.
-type CrossPass = unsafe fn(&mut Paired, &Colouring);
 /// `warm_avx` or `warm_wide`.
 type WarmPass =
     unsafe fn(&Rows, Pack, [&[usize]; 4], &mut [DVec3], &mut [DVec3], &[[f64; 3]]) -> bool;
@@ -534,7 +467,6 @@ fn pair_builds() -> bool {
 pub(in crate::rigid) fn relax_pair(
     rows: &Rows,
     pr: Pack,
-    cross: &[CrossRows],
     half: usize,
     pts: [&[usize]; 2],
     io: &mut RelaxIo,
@@ -543,22 +475,13 @@ pub(in crate::rigid) fn relax_pair(
     if !pair_builds() {
         return None;
     }
-    if !cross.is_empty() {
-        let run: RelaxPairXPass = if wide() {
-            relax_pair_x_wide
-        } else {
-            relax_pair_x_avx
-        };
-        // SAFETY: `available()` found AVX; the wide build only where `wide()` found
-        // AVX-512F and AVX-512VL too.
-        return Some(unsafe { run(rows, pr, cross, half, pts, io, inv_h) });
-    }
     let run: RelaxPairPass = if wide() {
         relax_pair_wide
     } else {
         relax_pair_avx
     };
-    // SAFETY: as above.
+    // SAFETY: `available()` found AVX; the wide build only where `wide()` found
+    // AVX-512F and AVX-512VL too.
     Some(unsafe { run(rows, pr, half, pts, io, inv_h) })
 }
 
@@ -592,7 +515,6 @@ pub(in crate::rigid) fn warm_pair(
 pub(in crate::rigid) fn block_pair_lanes(
     rows: &Rows,
     pr: Pack,
-    cross: &[CrossRows],
     half: usize,
     blk: [&Block; 2],
     io: &mut RelaxIo,
@@ -600,15 +522,6 @@ pub(in crate::rigid) fn block_pair_lanes(
 ) -> Option<bool> {
     if !pair_builds() {
         return None;
-    }
-    if !cross.is_empty() {
-        let run: BlockPairXPass = if wide() {
-            block_pair_x_wide
-        } else {
-            block_pair_x_avx
-        };
-        // SAFETY: as in `relax_pair`.
-        return Some(unsafe { run(rows, pr, cross, half, blk, io, pass) });
     }
     let run: BlockPairPass = if wide() {
         block_pair_wide
@@ -650,7 +563,6 @@ pub(in crate::rigid) fn gaps_pair(
 pub(in crate::rigid) fn relax_quad(
     rows: &Rows,
     pr: Option<Pack>,
-    cross: &[CrossRows],
     pts: [&[usize]; 4],
     io: &mut RelaxIo,
     inv_h: f64,
@@ -658,11 +570,6 @@ pub(in crate::rigid) fn relax_quad(
     let Some(pr) = pr else {
         return false;
     };
-    if !cross.is_empty() {
-        let run: RelaxXPass = if wide() { relax_x_wide } else { relax_x_avx };
-        // SAFETY: as below.
-        return unsafe { run(rows, pr, cross, pts, io, inv_h) };
-    }
     // One call site, its target chosen (with two, one per build, the callers took
     // +16.2k instructions a step of the 210-box pyramid over the AVX-only code; with
     // one, +13.0k: callgrind, where valgrind hides AVX-512).
@@ -698,7 +605,6 @@ pub(in crate::rigid) fn warm_quad(
 pub(in crate::rigid) fn block_quad(
     rows: &Rows,
     pr: Option<Pack>,
-    cross: &[CrossRows],
     blk: [&Block; 4],
     io: &mut RelaxIo,
     pass: Pass,
@@ -706,11 +612,6 @@ pub(in crate::rigid) fn block_quad(
     let Some(pr) = pr else {
         return false;
     };
-    if !cross.is_empty() {
-        let run: BlockXPass = if wide() { block_x_wide } else { block_x_avx };
-        // SAFETY: as in `relax_quad`.
-        return unsafe { run(rows, pr, cross, blk, io, pass) };
-    }
     let run: BlockPass = if wide() { block_wide } else { block_avx };
     // SAFETY: as in `relax_quad`.
     unsafe { run(rows, pr, blk, io, pass) }
@@ -796,20 +697,6 @@ pub(in crate::rigid) fn solve_steps(
     // SAFETY: `available()` found AVX; the wide build only where `wide()` found
     // AVX-512F and AVX-512VL too.
     Ok(unsafe { run(world, st, h, substeps, stats) })
-}
-
-/// [`Paired::fill_cross`](super::Paired::fill_cross) in four AVX lanes (or its
-/// AVX-512F/VL build); a step stores `r × d` only where the processor has AVX (the
-/// same bits as two lanes, which the baseline would take).
-#[inline]
-pub(in crate::rigid) fn fill_cross(paired: &mut Paired, colouring: &Colouring) {
-    if !paired.crossed() || !available() {
-        return;
-    }
-    let run: CrossPass = if wide() { cross_wide } else { cross_avx };
-    // SAFETY: `available()` found AVX; the wide build only where `wide()` found
-    // AVX-512F and AVX-512VL too.
-    unsafe { run(paired, colouring) }
 }
 
 #[cfg(test)]

@@ -9,19 +9,14 @@
 //!   `r_a`, `r_b` (the passes take `r × d` from them and the shared directions, as
 //!   `prepare` does: the same bits) and the effective masses (27 values);
 //! - [`BlockRows`], beside them: `K⁻¹` and `c` of the block normal solves (5 values),
-//!   read by the biased pass alone;
-//! - [`CrossRows`], beside them in a step of at most [`CROSS_POINTS`] points: the
-//!   angular terms `r × d` as `prepare` computed them (18 values), which the biased
-//!   and relax passes then load instead of taking them from the anchors.
+//!   read by the biased pass alone.
 //!
 //! Before, one 56-value entry per place held all of them (1,792 B, the shared values
 //! repeated at every point, `r × d` stored): the 210-box pyramid's passes streamed
 //! about 717 KB of it a step. Computing `r × d` in the passes (six cross products a
 //! place and pass) instead of loading it: `soft_points pyramid20` a step 4913.2k →
 //! 5048.9k instructions, 178.9k → 162.8k D1 misses (cachegrind, the gap pass reading
-//! the packed anchors too); stack10 136.6k → 141.3k instructions. A small step's rows
-//! stay in the first-level cache either way, so there `prepare` also stores `r × d`
-//! ([`CrossRows`], at most [`CROSS_POINTS`] points).
+//! the packed anchors too); stack10 136.6k → 141.3k instructions.
 
 use alloc::vec::Vec;
 
@@ -47,14 +42,6 @@ impl Quad3 {
         self.x[h].as_mut_array()[l] = v.x;
         self.y[h].as_mut_array()[l] = v.y;
         self.z[h].as_mut_array()[l] = v.z;
-    }
-
-    /// Stores the lanes of `v` ([`Lane::store`]: half `half`, or all four).
-    #[inline(always)]
-    fn put<L: Lane>(&mut self, half: usize, v: Lanes3<L>) {
-        v.x.store(&mut self.x, half);
-        v.y.store(&mut self.y, half);
-        v.z.store(&mut self.z, half);
     }
 
     /// The lanes ([`Lane::load`]).
@@ -201,58 +188,6 @@ impl BlockRows {
     }
 }
 
-/// Of a point per lane (beside the [`QuadRows`] of its place), in a step of at most
-/// [`CROSS_POINTS`] points: per direction `d` the angular terms `r_a × d`, `r_b × d`
-/// as `prepare` computed them (the bits [`QuadRows::ang`] takes from the anchors and
-/// the shared directions), written by [`Paired::put`].
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
-pub(in crate::rigid) struct CrossRows {
-    cross: [[Quad3; 2]; 3],
-}
-
-/// The most points a step has for `prepare` to store the packed `r × d`
-/// ([`CrossRows`]) for the lane passes: 18 more values a point (144 B), which a
-/// small step's passes read from the first-level cache instead of computing six
-/// cross products a point and pass (the 10-box stack's 40 points, the 21-box
-/// pyramid's 144). The 210-box pyramid's 1600 points and the 1000-box pile's are
-/// above it, where loading them cost D1 misses (see the module documentation).
-/// Callgrind, a step of `soft_points stack10` 134.26k → 131.48k instructions (the
-/// passes −5.0k, writing them +1.5k); `pyramid20` 4.882M → 4.887M (the lookups of
-/// the empty rows and a wider dispatch).
-pub(in crate::rigid) const CROSS_POINTS: usize = 256;
-
-/// No stored `r × d` (what the passes take where a step stores none: never read).
-static NO_CROSS: CrossRows = CrossRows {
-    cross: [[ZERO_QUAD3; 2]; 3],
-};
-
-/// Angular term `k` of direction `r` of a place's lanes ([`QuadRows::ang`]), `r × d`
-/// (`k < 2`) loaded from `c` where `STORED` (the step stores them: [`CrossRows`]),
-/// else computed from the anchors; the same bits either way.
-#[inline(always)]
-pub(super) fn angular<L: Lane, const STORED: bool>(
-    q: &QuadRows,
-    c: &CrossRows,
-    head: &HeadRows,
-    r: usize,
-    k: usize,
-    half: usize,
-) -> Lanes3<L> {
-    if STORED && k < 2 {
-        c.cross[r][k].load(half)
-    } else {
-        q.ang(head, r, k, half)
-    }
-}
-
-/// The stored `r × d` of place `i` of `cross` ([`Paired::cross_of`]), or
-/// [`NO_CROSS`] where none is stored.
-#[inline(always)]
-pub(super) fn cross_at(cross: &[CrossRows], i: usize) -> &CrossRows {
-    cross.get(i).unwrap_or(&NO_CROSS)
-}
-
 /// A group's packed rows as the passes read them ([`Paired::of`], [`Paired::quad`]):
 /// its shared rows, and its points' rows and blocks, place by place.
 #[derive(Clone, Copy, Debug)]
@@ -278,9 +213,6 @@ pub(in crate::rigid) struct Paired {
     heads: Vec<HeadRows>,
     rows: Vec<QuadRows>,
     blocks: Vec<BlockRows>,
-    /// The stored `r × d` beside `rows` (empty in a step of more than
-    /// [`CROSS_POINTS`] points).
-    cross: Vec<CrossRows>,
     /// Of manifold pair `(j, j + 1)`, by `j` (colour order): `2 ×` where its rows
     /// start in `rows` `+` the half of the lanes they take (`u32::MAX` where `j`
     /// starts no packed pair).
@@ -407,13 +339,6 @@ impl Paired {
         size(&mut self.rows, bound, count, ZERO_ROWS);
         size(&mut self.blocks, bound, count, ZERO_BLOCK);
         size(&mut self.heads, bound, count, ZERO_HEAD);
-        // The stored `r × d` only in a small step whose passes take quads (emptied
-        // otherwise: the passes compute them).
-        if self.avx.is_some() && pts.len() <= CROSS_POINTS {
-            size(&mut self.cross, bound, count, NO_CROSS);
-        } else {
-            self.cross.clear();
-        }
         size(&mut self.off, bound, count, false);
     }
 
@@ -511,72 +436,6 @@ impl Paired {
             pr.inv[r][0].set(h, l, DVec3::new(x[0], y[0], z[0]));
             pr.inv[r][1].set(h, l, DVec3::new(x[1], y[1], z[1]));
             pr.mass[r][h].as_mut_array()[l] = point.mass[r];
-        }
-    }
-
-    /// Whether this step stores the points' `r × d` ([`CrossRows`]: a step of at most
-    /// [`CROSS_POINTS`] points where the passes take quads).
-    #[inline(always)]
-    pub(in crate::rigid) fn crossed(&self) -> bool {
-        !self.cross.is_empty()
-    }
-
-    /// The stored `r × d` ([`CrossRows`]) of manifold pair `(j, j + 1)` (`len` points
-    /// each), place by place as [`Paired::of`]'s rows; empty where the step stores
-    /// none ([`Paired::crossed`]) or the pair is not packed.
-    #[inline(always)]
-    pub(in crate::rigid) fn cross_of(&self, j: usize, len: usize) -> &[CrossRows] {
-        if self.cross.is_empty() {
-            return &[];
-        }
-        let Some(&f) = self.first.get(j) else {
-            return &[];
-        };
-        let k = (f / 2) as usize;
-        self.cross.get(k..k + len).unwrap_or(&[])
-    }
-
-    /// Writes every packed place's `r × d` ([`CrossRows`]) from its anchors and its
-    /// group's directions in the lanes of `L` (two at a time in `f64x2`, or four), as
-    /// the passes compute them ([`QuadRows::ang`]: the same operations, the same
-    /// bits), where the step stores them ([`Paired::crossed`]); after `prepare` has
-    /// written the rows. A pair's unused half is computed too (never read).
-    #[inline(always)]
-    pub(in crate::rigid) fn fill_cross<L: Lane>(&mut self, colouring: &Colouring) {
-        if self.cross.is_empty() {
-            return;
-        }
-        let mp = &colouring.manifold_start;
-        // Two halves of two lanes, or one of four.
-        let halves = if L::WIDTH == 4 { 1 } else { 2 };
-        for (j, &f) in self.first.iter().enumerate() {
-            // A group starts at a pair in the lower half (a quad's second pair is in
-            // the upper half of the same entries).
-            if f == u32::MAX || f % 2 == 1 {
-                continue;
-            }
-            let (Some(&lo), Some(&hi)) = (mp.get(j), mp.get(j + 1)) else {
-                continue;
-            };
-            let (k, len) = ((f / 2) as usize, hi - lo);
-            let (Some(head), Some(rows), Some(out)) = (
-                self.heads.get(k),
-                self.rows.get(k..k + len),
-                self.cross.get_mut(k..k + len),
-            ) else {
-                continue;
-            };
-            for (q, c) in rows.iter().zip(out) {
-                for half in 0..halves {
-                    for r in 0..3 {
-                        let d = head.dir::<L>(r, half);
-                        for side in 0..2 {
-                            let x = cross(q.anchor[side].load::<L>(half), d);
-                            c.cross[r][side].put(half, x);
-                        }
-                    }
-                }
-            }
         }
     }
 

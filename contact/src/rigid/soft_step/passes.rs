@@ -227,8 +227,6 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
     if use_bias && !st.blocks.is_empty() {
         // Borrowed (see `warm_start`); the blocks and the scratch terms taken.
         let paired = &st.paired;
-        // Whether the step stores `r × d` (read once, not per group).
-        let crossed = paired.crossed();
         let blocks = core::mem::take(&mut st.blocks);
         let mut scratch = core::mem::take(&mut st.ang_scratch);
         let colouring = &st.colouring;
@@ -280,26 +278,14 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
                         if paired.four() && j + 3 < hi {
                             let quad = [&blocks[j], &blocks[j + 1], &blocks[j + 2], &blocks[j + 3]];
                             let pr = paired.quad(j, blocks[j].len);
-                            let cross = if crossed {
-                                paired.cross_of(j, blocks[j].len)
-                            } else {
-                                &[]
-                            };
-                            let lane_io = &mut lanes(&mut io, &mut vel);
-                            if block_quad(&rows, pr, cross, quad, lane_io, pass) {
+                            if block_quad(&rows, pr, quad, &mut lanes(&mut io, &mut vel), pass) {
                                 j += 4;
                                 continue;
                             }
                         }
                         let pair = [&blocks[j], &blocks[j + 1]];
                         let pr = paired.of(j, blocks[j].len);
-                        let cross = if crossed {
-                            paired.cross_of(j, blocks[j].len)
-                        } else {
-                            &[]
-                        };
-                        let lane_io = &mut lanes(&mut io, &mut vel);
-                        if !block_pair(&rows, pr, cross, pair, lane_io, pass) {
+                        if !block_pair(&rows, pr, pair, &mut lanes(&mut io, &mut vel), pass) {
                             one(j, &mut io, &mut vel);
                             one(j + 1, &mut io, &mut vel);
                         }
@@ -335,8 +321,6 @@ pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) -> usi
     // Borrowed (see `warm_start`).
     let paired = &st.paired;
     let colouring = &st.colouring;
-    // Whether the step stores `r × d` (read once, not per group).
-    let crossed = paired.crossed();
     {
         let (rows, vel, impulse, max_normal) = split!(st);
         let (dp, rot) = (vel.dp, vel.rot);
@@ -374,22 +358,10 @@ pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) -> usi
             rows.slots.len(),
             paired.four(),
             |j, pts, io: &mut RelaxIo| {
-                let len = pts[0].len();
-                let cross = if crossed {
-                    paired.cross_of(j, len)
-                } else {
-                    &[]
-                };
-                relax_quad(&rows, paired.quad(j, len), cross, pts, io, pass.inv_h)
+                relax_quad(&rows, paired.quad(j, pts[0].len()), pts, io, pass.inv_h)
             },
             |j, pts, io: &mut RelaxIo| {
-                let len = pts[0].len();
-                let cross = if crossed {
-                    paired.cross_of(j, len)
-                } else {
-                    &[]
-                };
-                relax_manifolds(&rows, paired.of(j, len), cross, pts, io, pass.inv_h)
+                relax_manifolds(&rows, paired.of(j, pts[0].len()), pts, io, pass.inv_h)
             },
             &mut one,
             &mut io,

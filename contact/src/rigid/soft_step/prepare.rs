@@ -483,8 +483,6 @@ impl ContactWorld {
             None => self.fill_points(st, &k),
         };
         st.bouncy = bouncy;
-        // A small step's packed `r × d`, for the lane passes to load.
-        crate::rigid::soft_lanes::fill_cross(&mut st.paired, &st.colouring);
         if s.block_normal {
             build_blocks(st);
         } else {
