@@ -37,8 +37,6 @@ use super::soft_step::{Block, Pass, Rows, BLOCK_POINTS};
 #[allow(unsafe_code)]
 #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx")))]
 mod avx;
-pub(super) use avx::solve_steps;
-use avx::{block_pair_lanes, gaps_pair, relax_pair, warm_pair};
 pub(super) use avx::{block_quad, build_quad, fill_points, gaps_quad, relax_quad, warm_quad, Avx};
 
 mod build;
@@ -97,67 +95,6 @@ mod avx {
         _: &mut [f64],
     ) -> bool {
         match avx {}
-    }
-
-    /// Declines (no AVX build of the soft step's body here).
-    pub(in crate::rigid) fn solve_steps(
-        _: &mut crate::rigid::ContactWorld,
-        st: alloc::boxed::Box<crate::rigid::soft_step::SoftState>,
-        _: f64,
-        _: usize,
-        _: crate::rigid::ContactStats,
-    ) -> Result<crate::rigid::ContactStats, alloc::boxed::Box<crate::rigid::soft_step::SoftState>>
-    {
-        Err(st)
-    }
-
-    /// Declines (no AVX builds of the two-lane passes here).
-    pub(in crate::rigid) fn relax_pair(
-        _: &Rows,
-        _: Pack,
-        _: usize,
-        _: [&[usize]; 2],
-        _: &mut RelaxIo,
-        _: f64,
-    ) -> Option<bool> {
-        None
-    }
-
-    /// Declines (no AVX builds of the two-lane passes here).
-    pub(in crate::rigid) fn warm_pair(
-        _: &Rows,
-        _: Pack,
-        _: usize,
-        _: [&[usize]; 2],
-        _: &mut [DVec3],
-        _: &mut [DVec3],
-        _: &[[f64; 3]],
-    ) -> Option<bool> {
-        None
-    }
-
-    /// Declines (no AVX builds of the two-lane passes here).
-    pub(in crate::rigid) fn block_pair_lanes(
-        _: &Rows,
-        _: Pack,
-        _: usize,
-        _: [&Block; 2],
-        _: &mut RelaxIo,
-        _: Pass,
-    ) -> Option<bool> {
-        None
-    }
-
-    /// Declines (no AVX builds of the two-lane passes here).
-    pub(in crate::rigid) fn gaps_pair(
-        _: &Rows,
-        _: [&[usize]; 2],
-        _: Option<Normals>,
-        _: [[usize; 2]; 2],
-        _: (&[DVec3], &[DMat3]),
-        _: &mut [f64],
-    ) -> Option<bool> {
-        None
     }
 
     /// Declines (no four-lane passes here).
@@ -532,11 +469,7 @@ pub(super) fn relax_manifolds(
     io: &mut RelaxIo,
     inv_h: f64,
 ) -> bool {
-    // Its AVX build where the processor has AVX (the same bits), else the baseline.
-    pr.is_some_and(|(pr, half)| {
-        relax_pair(rows, pr, half, pts, io, inv_h)
-            .unwrap_or_else(|| relax_lanes::<f64x2, 2>(rows, pr, half, pts, io, inv_h))
-    })
+    pr.is_some_and(|(pr, half)| relax_lanes::<f64x2, 2>(rows, pr, half, pts, io, inv_h))
 }
 
 /// [`relax_manifolds`] on `W` manifolds in the `W` lanes of `L` (`half`: the lanes of
@@ -654,11 +587,7 @@ pub(super) fn block_pair(
     io: &mut RelaxIo,
     pass: Pass,
 ) -> bool {
-    // Its AVX build where the processor has AVX (the same bits), else the baseline.
-    pr.is_some_and(|(pr, half)| {
-        block_pair_lanes(rows, pr, half, blk, io, pass)
-            .unwrap_or_else(|| block_lanes::<f64x2, 2>(rows, pr, half, blk, io, pass))
-    })
+    pr.is_some_and(|(pr, half)| block_lanes::<f64x2, 2>(rows, pr, half, blk, io, pass))
 }
 
 /// [`block_pair`] on `W` manifolds in the `W` lanes of `L` (`half`: the lanes of the
@@ -840,11 +769,7 @@ pub(super) fn warm_manifolds(
     w: &mut [DVec3],
     impulse: &[[f64; 3]],
 ) -> bool {
-    // Its AVX build where the processor has AVX (the same bits), else the baseline.
-    pr.is_some_and(|(pr, half)| {
-        warm_pair(rows, pr, half, pts, v, w, impulse)
-            .unwrap_or_else(|| warm_lanes::<f64x2, 2>(rows, pr, half, pts, v, w, impulse))
-    })
+    pr.is_some_and(|(pr, half)| warm_lanes::<f64x2, 2>(rows, pr, half, pts, v, w, impulse))
 }
 
 /// [`warm_manifolds`] on `W` manifolds in the `W` lanes of `L` (`half`: the lanes of
@@ -915,9 +840,7 @@ pub(super) fn manifold_gaps(
     disp: (&[DVec3], &[DMat3]),
     gap: &mut [f64],
 ) -> bool {
-    // Its AVX build where the processor has AVX (the same bits), else the baseline.
-    gaps_pair(rows, pts, shared, ab, disp, gap)
-        .unwrap_or_else(|| gaps_lanes::<f64x2, 2>(rows, pts, shared, ab, disp, gap))
+    gaps_lanes::<f64x2, 2>(rows, pts, shared, ab, disp, gap)
 }
 
 /// The shared rows and the points' rows of a packed pair or quad of manifolds and the

@@ -665,32 +665,8 @@ impl ContactWorld {
     }
 
     /// The sub-steps and the rest of the soft step from the contacts in
-    /// `self.contacts`: [`ContactWorld::soft_solve_in`] in its AVX or AVX-512F/VL
-    /// build where the processor has AVX (`soft_lanes::solve_steps`: the same Rust,
-    /// the same bits), else in its baseline build.
+    /// `self.contacts`.
     fn soft_solve(
-        &mut self,
-        st: Box<SoftState>,
-        h: f64,
-        substeps: usize,
-        stats: ContactStats,
-    ) -> ContactStats {
-        match super::soft_lanes::solve_steps(self, st, h, substeps, stats) {
-            Ok(stats) => stats,
-            Err(st) => self.soft_solve_in(st, h, substeps, stats),
-        }
-    }
-
-    /// [`ContactWorld::soft_solve`]'s body: the bodies loaded, the points prepared,
-    /// the sub-steps, restitution and the impulses kept. Inlined into its baseline and
-    /// AVX builds, with the functions it calls once a step or once a sub-step that
-    /// are not lane passes of their own (`load_bodies`, `warm_start`, `update_gaps`,
-    /// `finish_soft`, `store`): in the AVX build their scalar and `f64x2` code takes
-    /// three-operand VEX forms (the SSE2 build copied registers before many of its
-    /// operations). `prepare` and `solve` stay out of line (inlined, the 10-box
-    /// stack's step took 134.32k instructions, against 134.26k; callgrind).
-    #[inline(always)]
-    pub(super) fn soft_solve_in(
         &mut self,
         mut st: Box<SoftState>,
         h: f64,
@@ -751,7 +727,6 @@ impl ContactWorld {
 
     /// After the sub-steps: restitution, the residual, the bodies written back and the
     /// impulses kept.
-    #[inline(always)]
     fn finish_soft(
         &mut self,
         mut st: Box<SoftState>,
@@ -767,7 +742,6 @@ impl ContactWorld {
 
     /// Body slots: inverse masses and world inverse inertias at the start of the step,
     /// velocities after the implicit gyroscopic update over `h`, zero displacements.
-    #[inline(always)]
     fn load_bodies(&mut self, st: &mut SoftState, h: f64) {
         let n = self.bodies.len() + 1;
         // Sized to the slots (a no-op when the body count is the last step's) and every
@@ -814,7 +788,6 @@ impl ContactWorld {
 
     /// Writes the bodies back (`x = x₀ + Δx`, `q = Δq q₀`) and keeps the impulses for
     /// the next step's warm start, sorted by collider pair.
-    #[inline(always)]
     fn store(&mut self, st: &mut SoftState, hs: f64) {
         let anchors = self.settings.soft_step.friction_anchors;
         let moves = st.dp.iter().zip(&st.dq).zip(st.v.iter().zip(&st.w));
@@ -960,10 +933,7 @@ pub(super) fn integrate_position(
 
 /// [`integrate_position`] for every moving body (the static slot is last).
 /// The six slices are cut to `n` once and zipped: no per-body bounds checks, and fewer
-/// pointers live across the `sincos` call. Inlined into both builds of
-/// [`ContactWorld::soft_solve_in`] (out of line, the AVX build called the baseline
-/// one: the 10-box stack's step 134.26k → 135.08k instructions, callgrind).
-#[inline(always)]
+/// pointers live across the `sincos` call.
 fn integrate_positions(st: &mut SoftState, hs: f64) {
     let n = st.v.len() - 1;
     let poses = st.dp[..n].iter_mut().zip(&mut st.dq[..n]);

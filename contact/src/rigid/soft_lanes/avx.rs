@@ -20,16 +20,6 @@
 //! → 0/0, warm 15/15 → 2/2, block 130/80 → 52/15, gaps 28/28 → 5/5 (lane stores),
 //! build 94/164 → 39/90 (its `K` and `K⁻¹` are 32 vectors).
 //!
-//! The two-lane passes (a colour's pair of manifolds beside its quads: [`relax_pair`],
-//! [`warm_pair`], [`block_pair_lanes`], [`gaps_pair`]) and the soft step's body
-//! between the lane passes ([`solve_steps`]: loading the bodies, the sub-step loop,
-//! integrating, the gap and warm-start walks, storing) are compiled the same two ways
-//! from their baseline Rust (`f64x2` and scalar operations, no intrinsics): the
-//! baseline SSE2 build copied registers before many two-operand operations (160 of
-//! the 418 instructions of the pair's relax point). Callgrind (AVX builds), a step of
-//! `soft_points stack10` 138.24k → 136.64k instructions with the pairs, → 134.26k
-//! with the body; `pyramid20` 4.956M → 4.882M.
-//!
 //! The preparation's per-point loop ([`fill_points`]) is compiled the same two ways,
 //! from the same Rust as its baseline build (two-lane `f64x2` and scalar operations:
 //! no intrinsics, no contraction, the same bits). Its stack stores / stack operand
@@ -51,10 +41,8 @@ use super::{
     Quad, RelaxIo,
 };
 use crate::rigid::soft_step::{Block, Pass, PointConsts, Rows, SoftState};
-use crate::rigid::{ContactStats, ContactWorld};
-use alloc::boxed::Box;
+use crate::rigid::ContactWorld;
 use constraint_core::{DMat3, DVec3};
-use wide::f64x2;
 
 /// Whether this processor has AVX (the one gate of every `unsafe` below).
 #[inline]
@@ -341,60 +329,6 @@ passes! {
         blk: [&mut Block; 4],
     ) -> Built = build_lanes::<F4, 4>(rows, pts, Some((pr, 0)), blk);
 
-    /// [`relax_lanes`](super::relax_lanes) in two lanes (`f64x2`), compiled for AVX
-    /// (three-operand VEX forms: the two-lane pass built for SSE2 copied registers
-    /// before a third of its operations).
-    fn relax_pair_avx / relax_pair_wide(
-        rows: &Rows,
-        pr: Pack,
-        half: usize,
-        pts: [&[usize]; 2],
-        io: &mut RelaxIo,
-        inv_h: f64,
-    ) -> bool = relax_lanes::<f64x2, 2>(rows, pr, half, pts, io, inv_h);
-
-    /// [`warm_lanes`](super::warm_lanes) in two lanes, compiled for AVX.
-    fn warm_pair_avx / warm_pair_wide(
-        rows: &Rows,
-        pr: Pack,
-        half: usize,
-        pts: [&[usize]; 2],
-        v: &mut [DVec3],
-        w: &mut [DVec3],
-        impulse: &[[f64; 3]],
-    ) -> bool = warm_lanes::<f64x2, 2>(rows, pr, half, pts, v, w, impulse);
-
-    /// [`block_lanes`](super::block_lanes) in two lanes, compiled for AVX.
-    fn block_pair_avx / block_pair_wide(
-        rows: &Rows,
-        pr: Pack,
-        half: usize,
-        blk: [&Block; 2],
-        io: &mut RelaxIo,
-        pass: Pass,
-    ) -> bool = block_lanes::<f64x2, 2>(rows, pr, half, blk, io, pass);
-
-    /// [`gaps_lanes`](super::gaps_lanes) in two lanes, compiled for AVX.
-    fn gaps_pair_avx / gaps_pair_wide(
-        rows: &Rows,
-        pts: [&[usize]; 2],
-        shared: Option<Normals>,
-        ab: [[usize; 2]; 2],
-        disp: (&[DVec3], &[DMat3]),
-        gap: &mut [f64],
-    ) -> bool = gaps_lanes::<f64x2, 2>(rows, pts, shared, ab, disp, gap);
-
-    /// The soft step's body, [`ContactWorld::soft_solve_in`]: the same Rust as its
-    /// baseline build (no intrinsics, no contraction: the same bits), compiled for
-    /// AVX; the lane passes it calls are their own builds.
-    fn steps_avx / steps_wide(
-        world: &mut ContactWorld,
-        st: Box<SoftState>,
-        h: f64,
-        substeps: usize,
-        stats: ContactStats,
-    ) -> ContactStats = world.soft_solve_in(st, h, substeps, stats);
-
     /// The soft step preparation's per-point loop,
     /// [`ContactWorld::fill_points`]: the same Rust (no intrinsics; `f64x2` lanes
     /// and scalars), compiled for AVX (three-operand VEX forms) and AVX-512VL (32
@@ -427,133 +361,6 @@ type GapsPass = unsafe fn(
 ) -> bool;
 /// `build_avx` or `build_wide`.
 type BuildPass = unsafe fn(&Rows, Pack, [&[usize]; 4], [&mut Block; 4]) -> Built;
-/// `steps_avx` or `steps_wide`.
-type StepsPass =
-    unsafe fn(&mut ContactWorld, Box<SoftState>, f64, usize, ContactStats) -> ContactStats;
-/// `relax_pair_avx` or `relax_pair_wide`.
-type RelaxPairPass = unsafe fn(&Rows, Pack, usize, [&[usize]; 2], &mut RelaxIo, f64) -> bool;
-/// `warm_pair_avx` or `warm_pair_wide`.
-type WarmPairPass =
-    unsafe fn(&Rows, Pack, usize, [&[usize]; 2], &mut [DVec3], &mut [DVec3], &[[f64; 3]]) -> bool;
-/// `block_pair_avx` or `block_pair_wide`.
-type BlockPairPass = unsafe fn(&Rows, Pack, usize, [&Block; 2], &mut RelaxIo, Pass) -> bool;
-/// `gaps_pair_avx` or `gaps_pair_wide`.
-type GapsPairPass = unsafe fn(
-    &Rows,
-    [&[usize]; 2],
-    Option<Normals>,
-    [[usize; 2]; 2],
-    (&[DVec3], &[DMat3]),
-    &mut [f64],
-) -> bool;
-
-/// Whether the two-lane passes take their AVX builds ([`relax_pair`] and its
-/// siblings): where the processor has AVX, and not where a test asks for the
-/// baseline builds.
-#[inline(always)]
-fn pair_builds() -> bool {
-    #[cfg(all(test, feature = "std"))]
-    if tests::BASELINE.with(core::cell::Cell::get) {
-        return false;
-    }
-    available()
-}
-
-/// The relax pass over two manifolds ([`relax_lanes`](super::relax_lanes) in two
-/// lanes) in its AVX or AVX-512F/VL build: `Some` of its result where the processor
-/// has AVX, else `None` (having done nothing; the caller runs the baseline build, the
-/// same bits).
-#[inline]
-pub(in crate::rigid) fn relax_pair(
-    rows: &Rows,
-    pr: Pack,
-    half: usize,
-    pts: [&[usize]; 2],
-    io: &mut RelaxIo,
-    inv_h: f64,
-) -> Option<bool> {
-    if !pair_builds() {
-        return None;
-    }
-    let run: RelaxPairPass = if wide() {
-        relax_pair_wide
-    } else {
-        relax_pair_avx
-    };
-    // SAFETY: `available()` found AVX; the wide build only where `wide()` found
-    // AVX-512F and AVX-512VL too.
-    Some(unsafe { run(rows, pr, half, pts, io, inv_h) })
-}
-
-/// The warm start of two manifolds ([`warm_lanes`](super::warm_lanes) in two lanes)
-/// in its AVX or AVX-512F/VL build, as [`relax_pair`].
-#[inline]
-pub(in crate::rigid) fn warm_pair(
-    rows: &Rows,
-    pr: Pack,
-    half: usize,
-    pts: [&[usize]; 2],
-    v: &mut [DVec3],
-    w: &mut [DVec3],
-    impulse: &[[f64; 3]],
-) -> Option<bool> {
-    if !pair_builds() {
-        return None;
-    }
-    let run: WarmPairPass = if wide() {
-        warm_pair_wide
-    } else {
-        warm_pair_avx
-    };
-    // SAFETY: as in `relax_pair`.
-    Some(unsafe { run(rows, pr, half, pts, v, w, impulse) })
-}
-
-/// The biased pass's block solve of two manifolds ([`block_lanes`](super::block_lanes)
-/// in two lanes) in its AVX or AVX-512F/VL build, as [`relax_pair`].
-#[inline]
-pub(in crate::rigid) fn block_pair_lanes(
-    rows: &Rows,
-    pr: Pack,
-    half: usize,
-    blk: [&Block; 2],
-    io: &mut RelaxIo,
-    pass: Pass,
-) -> Option<bool> {
-    if !pair_builds() {
-        return None;
-    }
-    let run: BlockPairPass = if wide() {
-        block_pair_wide
-    } else {
-        block_pair_avx
-    };
-    // SAFETY: as in `relax_pair`.
-    Some(unsafe { run(rows, pr, half, blk, io, pass) })
-}
-
-/// The gaps of two manifolds ([`gaps_lanes`](super::gaps_lanes) in two lanes) in its
-/// AVX or AVX-512F/VL build, as [`relax_pair`].
-#[inline]
-pub(in crate::rigid) fn gaps_pair(
-    rows: &Rows,
-    pts: [&[usize]; 2],
-    shared: Option<Normals>,
-    ab: [[usize; 2]; 2],
-    disp: (&[DVec3], &[DMat3]),
-    gap: &mut [f64],
-) -> Option<bool> {
-    if !pair_builds() {
-        return None;
-    }
-    let run: GapsPairPass = if wide() {
-        gaps_pair_wide
-    } else {
-        gaps_pair_avx
-    };
-    // SAFETY: as in `relax_pair`.
-    Some(unsafe { run(rows, pts, shared, ab, disp, gap) })
-}
 
 /// The relax pass over the quad of manifolds `pts` (one per lane; `pr`: their rows,
 /// [`Paired::quad`](super::Paired::quad), `Some` only where AVX was found), as
@@ -675,30 +482,6 @@ pub(in crate::rigid) fn fill_points(
     Some(unsafe { run(world, st, k) })
 }
 
-/// The soft step's body ([`ContactWorld::soft_solve_in`]) in its AVX or AVX-512F/VL
-/// build where the processor has AVX: `Ok` of its statistics, else `Err` of the state
-/// (having done nothing; the caller runs the baseline build, the same bits).
-#[inline]
-pub(in crate::rigid) fn solve_steps(
-    world: &mut ContactWorld,
-    st: Box<SoftState>,
-    h: f64,
-    substeps: usize,
-    stats: ContactStats,
-) -> Result<ContactStats, Box<SoftState>> {
-    #[cfg(all(test, feature = "std"))]
-    if tests::BASELINE.with(core::cell::Cell::get) {
-        return Err(st);
-    }
-    if !available() {
-        return Err(st);
-    }
-    let run: StepsPass = if wide() { steps_wide } else { steps_avx };
-    // SAFETY: `available()` found AVX; the wide build only where `wide()` found
-    // AVX-512F and AVX-512VL too.
-    Ok(unsafe { run(world, st, h, substeps, stats) })
-}
-
 #[cfg(test)]
 #[cfg(feature = "std")]
 mod tests {
@@ -709,9 +492,8 @@ mod tests {
         /// Where set, this thread's four-lane passes take their AVX builds even where
         /// the processor has AVX-512F and AVX-512VL.
         pub(super) static NARROW: core::cell::Cell<bool> = const { core::cell::Cell::new(false) };
-        /// Where set, this thread's steps run their baseline builds: the preparation's
-        /// per-point loop (`fill_points` declines), the step's body (`solve_steps`
-        /// declines) and the two-lane passes (`relax_pair` and its siblings decline).
+        /// Where set, this thread's preparation runs its per-point loop's baseline
+        /// build (`fill_points` declines).
         pub(super) static BASELINE: core::cell::Cell<bool> = const { core::cell::Cell::new(false) };
     }
 
@@ -741,14 +523,13 @@ mod tests {
         }
     }
 
-    /// The AVX and AVX-512F/VL builds of the preparation's per-point loop, of the
-    /// step's body and of the two-lane passes give the baseline builds' bits
-    /// (tolerance 0: every pose and velocity bit-equal after 60 steps; measured
-    /// equal) on the 10-box stack and the 21-box pyramid, with the four-lane passes
-    /// in either build. Where the processor has no AVX-512 the wide and narrow runs
-    /// are the same build.
+    /// The AVX and AVX-512F/VL builds of the preparation's per-point loop give the
+    /// baseline build's bits (tolerance 0: every pose and velocity bit-equal after 60
+    /// steps; measured equal) on the 10-box stack and the 21-box pyramid, with the
+    /// four-lane passes in either build. Where the processor has no AVX-512 the wide
+    /// and narrow runs are the same build.
     #[test]
-    fn avx_builds_match_baseline_builds() {
+    fn avx_preparation_matches_baseline_preparation() {
         for scene in [box_stack(10), pyramid(6)] {
             let w = scene.expect("the scene builds");
             let mut bits = Vec::new();

@@ -15,7 +15,6 @@ pub(super) fn apply(st: &mut SoftState, p: usize, z: [f64; 3]) {
 /// ([`warm_manifolds`]: the same bits as [`apply_point`] one point at a time, the
 /// manifolds of a colour touching disjoint moving bodies), a colour's odd manifold
 /// and the overflow colour's points (whose manifolds may share bodies) one by one.
-#[inline(always)]
 pub(super) fn warm_start(st: &mut SoftState) {
     // The packed rows borrowed (taking them, seven `Vec`s since they were split by
     // reader, cost a 176 B copy out and back and a drop per pass: `soft_points
@@ -123,7 +122,6 @@ pub(super) fn for_manifold_pairs<S>(
 /// ([`Paired`]) go as they were packed, their normals loaded once from their shared
 /// rows instead of gathered per point; the other manifolds are taken together only
 /// where that keeps the packed groups whole.
-#[inline(always)]
 pub(super) fn update_gaps(st: &mut SoftState) {
     let mut gap = core::mem::take(&mut st.gap);
     let colouring = &st.colouring;
