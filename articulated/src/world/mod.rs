@@ -719,8 +719,11 @@ impl World {
     }
 
     /// Mutable access to the bodies' state (masses are re-checked by nothing here:
-    /// change them through [`RigidBody::new`]).
+    /// change them through [`RigidBody::new`]). It also drops SHAKE's predictor
+    /// history (`world/rattle.rs`, `ShakeHistory`): the first RATTLE steps after a
+    /// written state do not extrapolate from the steps before the write.
     pub fn bodies_mut(&mut self) -> &mut [RigidBody] {
+        self.rattle.forget_history();
         &mut self.bodies
     }
 

@@ -152,6 +152,13 @@ pub(super) struct Scratch {
     history: ShakeHistory,
 }
 
+impl Scratch {
+    /// Drops SHAKE's predictor history ([`ShakeHistory::forget`]).
+    pub(super) fn forget_history(&mut self) {
+        self.history.forget();
+    }
+}
+
 /// SHAKE's predictor. The chord iteration's total right-hand side `T = Σₖ bₖ` (its
 /// fixed point: `C(x(T)) = 0`, `x(T)` the drift's end moved by the solve of `T` with
 /// the kick's factor) is its first term `b₀ = −C(x_drift)` plus a remainder `R` (the
@@ -225,8 +232,9 @@ impl ShakeHistory {
         self.step = steps;
     }
 
-    /// Drops the record (a step not recorded breaks the sequence).
-    fn forget(&mut self) {
+    /// Drops the record (a step not recorded, or a state written by the user, breaks
+    /// the sequence).
+    pub(super) fn forget(&mut self) {
         self.kept = 0;
     }
 }
