@@ -293,13 +293,14 @@ impl World {
         self.aim.joints = joints;
     }
 
-    /// Whether [`Aim::EndOfStep`] assembles the joints' rows at the predicted poses
-    /// (`World::set_end_of_step_rows_predicted`).
+    /// Whether the end-of-step aim ([`World::set_end_of_step_aim`]) assembles the
+    /// joints' rows at the predicted poses ([`World::set_end_of_step_rows_predicted`]).
     pub fn end_of_step_rows_predicted(&self) -> bool {
         self.aim.predict_rows
     }
 
-    /// With `on`, RATTLE's velocity-level fallback ([`Aim::EndOfStep`]) assembles the
+    /// With `on`, RATTLE's velocity-level fallback (the end-of-step aim,
+    /// [`World::set_end_of_step_aim`]) assembles the
     /// joints' rows at the poses the start twists move the bodies to, `x_p = (x + h v,
     /// exp(h ω) R)`, aims them at `J_p v − C(x_p)/h`, and turns the bodies from there,
     /// `R' = exp(h (ω' − ω)) R_p`: the end of the step then meets the joints to
