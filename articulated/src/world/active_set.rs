@@ -1428,7 +1428,9 @@ impl World {
                 self.schur_scatter(f, corr, i, z);
             }
         }
-        f.solve(&self.solver, corr);
+        // `G_Dᵀ ζ` is zero off the Schur rows' bodies: the forward pass skips the
+        // nodes still zero when reached (the same result, [`RowTree::solve_sparse`]).
+        f.solve_sparse(&self.solver, corr);
     }
 
     /// `G x` of Schur row `i` in the augmented layout: one-sided row `i` below
