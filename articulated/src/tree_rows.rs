@@ -709,14 +709,7 @@ impl RowTree {
             }
             kernel_dispatch!(s.kind, forward, args);
         }
-        for s in self.schedule.iter().rev() {
-            macro_rules! args {
-                ($a:literal, $b:literal) => {
-                    self.node_args::<$a, $b>(s, x)
-                };
-            }
-            kernel_dispatch!(s.kind, backward, args);
-        }
+        self.backward_pass(x);
     }
 
     /// [`Self::solve`] for a right-hand side zero at most nodes (the Schur rows'
@@ -737,6 +730,14 @@ impl RowTree {
             }
             kernel_dispatch!(s.kind, forward_nonzero, args);
         }
+        self.backward_pass(x);
+    }
+
+    /// The backward pass of [`Self::solve`] and [`Self::solve_sparse`] over every node,
+    /// root first: `x = L⁻ᵀ (s − d⁻¹ W x_p)` (always inlined, as each solve's own loop
+    /// was).
+    #[inline(always)]
+    fn backward_pass(&self, x: &mut [f64]) {
         for s in self.schedule.iter().rev() {
             macro_rules! args {
                 ($a:literal, $b:literal) => {
