@@ -94,6 +94,10 @@ struct CachedRows {
     key: [u64; 14],
     /// Whether `rows` has the rate rows.
     rates: bool,
+    /// The pose epoch (`World::rows_epoch`) in which the key was last found equal to
+    /// the poses (or the rows computed at them): within that epoch the poses have not
+    /// moved, so a lookup of the same epoch takes the entry without comparing the key.
+    seen: u64,
     rows: crate::joint::JointRows,
 }
 
@@ -129,6 +133,7 @@ impl CachedRows {
     /// are the same hard rows, without the rate rows a kept entry may hold after them).
     /// A reference rather than the rows by value: a copy of the ~640-byte rows was a
     /// `memcpy` per joint and assembly.
+    #[allow(clippy::too_many_arguments)]
     fn rows<'c>(
         cache: &'c mut Vec<CachedRows>,
         coords: &mut Vec<Option<crate::joint::KeptCoords>>,
@@ -137,12 +142,21 @@ impl CachedRows {
         (a, b): (&Pose, &Pose),
         rates: bool,
         keep_rates: bool,
+        epoch: u64,
     ) -> (&'c crate::joint::JointRows, usize) {
-        let key = Self::key_of(a, b);
-        let hit = cache
+        // Seen in this pose epoch: the key is the poses' (not compared).
+        let seen = cache
             .get(j)
-            .is_some_and(|e| e.valid && same_key(&e.key, &key) && (e.rates || !rates));
+            .is_some_and(|e| e.valid && e.seen == epoch && (e.rates || !rates));
+        let hit = seen
+            || cache.get(j).is_some_and(|e| {
+                e.valid && same_key(&e.key, &Self::key_of(a, b)) && (e.rates || !rates)
+            });
+        if let Some(e) = cache.get_mut(j).filter(|_| hit) {
+            e.seen = epoch;
+        }
         if !hit {
+            let key = Self::key_of(a, b);
             let with = rates || keep_rates;
             if cache.len() <= j {
                 let rows = joint.rows_with(a, b, with);
@@ -152,6 +166,7 @@ impl CachedRows {
                         valid: false,
                         key: [0; 14],
                         rates: false,
+                        seen: 0,
                         rows,
                     },
                 );
@@ -172,6 +187,7 @@ impl CachedRows {
             e.valid = true;
             e.key = key;
             e.rates = with;
+            e.seen = epoch;
         }
         let rows = &cache[j].rows;
         (rows, if rates { rows.n } else { rows.n_hard })
@@ -190,6 +206,35 @@ impl CachedRows {
         cache
             .get(j)
             .filter(|e| e.valid && e.rates && same_key(&e.key, &Self::key_of(a, b)))
+            .map(|e| &e.rows)
+    }
+
+    /// [`Self::kept_rates`] in pose epoch `epoch` (the poses those of the epoch's
+    /// assembly): the entry when it was seen in the epoch (no key compared), else the
+    /// key compared and the entry marked seen on a hit.
+    fn kept_rates_in<'c>(
+        cache: &'c mut [CachedRows],
+        j: usize,
+        a: &Pose,
+        b: &Pose,
+        epoch: u64,
+    ) -> Option<&'c crate::joint::JointRows> {
+        let e = cache.get_mut(j).filter(|e| e.valid && e.rates)?;
+        if e.seen != epoch {
+            if !same_key(&e.key, &Self::key_of(a, b)) {
+                return None;
+            }
+            e.seen = epoch;
+        }
+        Some(&e.rows)
+    }
+
+    /// The entry's rows with their rate rows when it was seen in pose epoch `epoch`
+    /// (no key compared: the caller is at the poses of the epoch's assembly).
+    fn seen_rates(cache: &[CachedRows], j: usize, epoch: u64) -> Option<&crate::joint::JointRows> {
+        cache
+            .get(j)
+            .filter(|e| e.valid && e.rates && e.seen == epoch)
             .map(|e| &e.rows)
     }
 }
@@ -454,6 +499,13 @@ pub struct World {
     spare_loops: LoopRows,
     /// Per joint, its rows at the poses of its last assembly ([`CachedRows`]).
     rows_cache: Vec<CachedRows>,
+    /// The pose epoch of the last assembly: a new one at every assembly, unless
+    /// `rows_unmoved` says the poses are the last assembly's ([`CachedRows::seen`]).
+    rows_epoch: u64,
+    /// Set by a caller that knows the bodies have not moved since the last assembly
+    /// (RATTLE's damping flow right after the second kick); taken by the next
+    /// assembly, which then keeps the epoch.
+    rows_unmoved: bool,
     /// The factors kept for reuse by assemblies of the same matrix (`factor_cache.rs`).
     factors: factor_cache::FactorCache,
     /// Colliders (feature `contact`).
@@ -559,6 +611,8 @@ impl World {
             coords: Vec::new(),
             last_loops: (Vec::new(), Vec::new(), Vec::new()),
             rows_cache: Vec::new(),
+            rows_epoch: 0,
+            rows_unmoved: false,
             spare_loops: (Vec::new(), Vec::new(), Vec::new()),
             factors: factor_cache::FactorCache::default(),
             #[cfg(feature = "contact")]
@@ -1129,6 +1183,11 @@ impl World {
         }
         // Equality rows take part only in the solves of assemblies that load them.
         self.eq.active = false;
+        // A new pose epoch unless the caller knows the poses are the last assembly's.
+        if !core::mem::take(&mut self.rows_unmoved) {
+            self.rows_epoch = self.rows_epoch.wrapping_add(1);
+        }
+        let epoch = self.rows_epoch;
         let (mut loop_rows, mut loop_c, mut loop_rhs) = self.take_loop_buffers();
         let solver = &mut self.solver;
         for (j, joint) in self.joints.iter().enumerate() {
@@ -1157,7 +1216,7 @@ impl World {
             // taken as zero) rather than written into a copy.
             let fresh;
             let (rows, n) = if rates_only {
-                match CachedRows::kept_rates(&self.rows_cache, j, &a, &b) {
+                match CachedRows::kept_rates_in(&mut self.rows_cache, j, &a, &b, epoch) {
                     Some(kept) => (kept, kept.n),
                     None => {
                         fresh = joint.rate_rows_only_kept(
@@ -1182,6 +1241,7 @@ impl World {
                     // again with rates (humanoid_CMU passive: 3,510 `Compound::dof_rows`
                     // calls, 1.5 % of the step, never read).
                     passive > 0 && rates != Rates::None,
+                    epoch,
                 )
             };
             let mut zero = 0u8;
@@ -1277,6 +1337,9 @@ impl World {
     /// Writes the armature rows' right-hand side `I_a/(I_a + s d) · G v` for the body
     /// twists `twists` into the tree rows (after a `Rates::Full` assembly at `s`), for a
     /// second solve with the same factor (loop joints' armature is not supported there).
+    ///
+    /// The bodies are at the poses of the last assembly: the rows that assembly saw are
+    /// taken without comparing their keys ([`CachedRows::seen`]).
     pub(super) fn armature_rhs(&mut self, s: f64, twists: &[(DVec3, DVec3)]) {
         for (j, joint) in self.joints.iter().enumerate() {
             if !self.armature[j].iter().any(|v| *v > 0.0) {
@@ -1285,18 +1348,25 @@ impl World {
             let Some(o) = self.solver.joint_offset(j) else {
                 continue;
             };
-            let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
-            let b = self.bodies[joint.child].pose;
             let fresh;
-            let rows = match CachedRows::kept_rates(&self.rows_cache, j, &a, &b) {
-                Some(kept) => kept,
+            let rows = match CachedRows::seen_rates(&self.rows_cache, j, self.rows_epoch) {
+                Some(seen) => seen,
                 None => {
-                    fresh = joint.rate_rows_only_kept(
-                        &a,
-                        &b,
-                        actuator::kept_at(&self.coords, j, &a, &b),
-                    );
-                    &fresh
+                    let a = joint
+                        .parent
+                        .map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+                    let b = &self.bodies[joint.child].pose;
+                    match CachedRows::kept_rates(&self.rows_cache, j, a, b) {
+                        Some(kept) => kept,
+                        None => {
+                            fresh = joint.rate_rows_only_kept(
+                                a,
+                                b,
+                                actuator::kept_at(&self.coords, j, a, b),
+                            );
+                            &fresh
+                        }
+                    }
                 }
             };
             let tw = |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| twists[i]);

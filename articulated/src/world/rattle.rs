@@ -382,6 +382,9 @@ impl World {
             dof_any = self.add_dof_forces_part(s, part);
             self.add_fluid_rhs(s);
         }
+        // Unmoved: the poses are the last assembly's (the second kick's), whose rows
+        // need no key comparison (`CachedRows::seen`).
+        self.rows_unmoved = unmoved;
         let loops = self.assemble_with(s, Rates::Full, Soft::Free, !reused, None);
         // Equality rows hold their rate (`E v = 0`) through the damping flow.
         self.load_equalities(|_| 0.0);
@@ -634,20 +637,29 @@ impl World {
             if !self.armature[j].iter().any(|v| *v > 0.0) || self.solver.joint_offset(j).is_none() {
                 continue;
             }
-            let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
-            let b = self.bodies[joint.child].pose;
             // Only the rate rows are read (below and in SHAKE's corrections); the kick
-            // just assembled them at these poses.
+            // (or, where it is skipped, the damping flow) just assembled them at these
+            // poses: the rows it saw are taken without comparing keys
+            // (`CachedRows::seen`).
             let computed;
-            let rows = match CachedRows::kept_rates(&self.rows_cache, j, &a, &b) {
+            let rows = match CachedRows::seen_rates(&self.rows_cache, j, self.rows_epoch) {
                 Some(rows) => rows,
                 None => {
-                    computed = joint.rate_rows_only_kept(
-                        &a,
-                        &b,
-                        super::actuator::kept_at(&self.coords, j, &a, &b),
-                    );
-                    &computed
+                    let a = joint
+                        .parent
+                        .map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+                    let b = &self.bodies[joint.child].pose;
+                    match CachedRows::kept_rates(&self.rows_cache, j, a, b) {
+                        Some(rows) => rows,
+                        None => {
+                            computed = joint.rate_rows_only_kept(
+                                a,
+                                b,
+                                super::actuator::kept_at(&self.coords, j, a, b),
+                            );
+                            &computed
+                        }
+                    }
                 }
             };
             let mut rate = [0.0; MAX_ROWS];
