@@ -130,6 +130,13 @@ impl KeptInertias {
         self.rotation(i, b)
     }
 
+    /// Body `i`'s kept rotation, its bits not compared (the caller knows the body has
+    /// not moved since it was kept).
+    #[inline]
+    pub(super) fn rotation_kept(&self, i: usize) -> Option<DMat3> {
+        self.keys.get(i).map(|_| self.rotations[i])
+    }
+
     /// Records body `i`'s rotation `r`, computed from `b`'s bits (`i` at most the
     /// number kept).
     #[inline]
@@ -424,18 +431,74 @@ mod tests {
             a.step(2e-3, method).expect("step a");
             b.step(2e-3, method).expect("step b");
             assert!(a.factors.twin, "step {step}: twin path unused");
-            for (x, y) in a.bodies().iter().zip(b.bodies()) {
-                let bits = |r: &RigidBody| {
-                    let (p, q) = (r.pose.x, r.pose.q);
-                    [p.x, p.y, p.z, q.x, q.y, q.z, q.w, r.v.x, r.v.y, r.v.z]
-                        .map(f64::to_bits)
-                        .to_vec()
-                        .into_iter()
-                        .chain(r.omega.to_array().map(f64::to_bits))
-                        .collect::<alloc::vec::Vec<_>>()
-                };
-                assert_eq!(bits(x), bits(y), "step {step}");
-            }
+            assert_eq!(state_bits(&a), state_bits(&b), "step {step}");
         }
+    }
+
+    /// Every body's pose, velocity and angular velocity, as bits.
+    fn state_bits(w: &World) -> alloc::vec::Vec<u64> {
+        w.bodies()
+            .iter()
+            .flat_map(|r: &RigidBody| {
+                let (p, q) = (r.pose.x, r.pose.q);
+                [
+                    p.x, p.y, p.z, q.x, q.y, q.z, q.w, r.v.x, r.v.y, r.v.z, r.omega.x, r.omega.y,
+                    r.omega.z,
+                ]
+                .map(f64::to_bits)
+            })
+            .collect()
+    }
+
+    /// The first damping flow of a step takes the last step's factor, rows and
+    /// inertias without comparing keys when that step ended with its flow and nothing
+    /// was assembled or written since (`World::flow_end`): a world whose token is
+    /// dropped before every step (so the flow's lookups compare) records the same bits
+    /// over 200 RATTLE steps, also across a pose written between steps and a change of
+    /// armature and compliance (each of which drops the token).
+    #[test]
+    fn flow_end_token_gives_the_compared_lookup_bits() {
+        let method = Method::Rattle {
+            tolerance: 1e-12,
+            max_iterations: 30,
+        };
+        let (mut a, mut b) = (chain(), chain());
+        let (mut ended_with_flow, mut fallbacks) = (0, 0);
+        for step in 0..200 {
+            if step == 60 {
+                for w in [&mut a, &mut b] {
+                    w.bodies_mut()[2].pose.x.z += 1e-7;
+                    assert!(w.flow_end.is_none(), "bodies_mut keeps the token");
+                }
+            }
+            if step == 100 {
+                for w in [&mut a, &mut b] {
+                    w.set_armature(1, 0, 4e-3).expect("armature");
+                    assert!(w.flow_end.is_none(), "set_armature keeps the token");
+                }
+            }
+            if step == 150 {
+                for w in [&mut a, &mut b] {
+                    w.set_compliance(0, 1e-6).expect("compliance");
+                    assert!(w.flow_end.is_none(), "set_compliance keeps the token");
+                }
+            }
+            b.flow_end = None;
+            let stats = a.step(2e-3, method).expect("step a");
+            b.step(2e-3, method).expect("step b");
+            fallbacks += stats.fallbacks + stats.unilateral_fallbacks;
+            // The token is set by a step that ended with its flow (not a fallback,
+            // whether RATTLE's own or a step taken at the velocity level).
+            if a.flow_end == Some((a.steps, a.rows_epoch)) {
+                ended_with_flow += 1;
+            }
+            assert_eq!(state_bits(&a), state_bits(&b), "step {step}");
+        }
+        // Every step but the fallbacks sets it (measured: 184 steps, 16 fallbacks).
+        assert_eq!(ended_with_flow + fallbacks, 200, "{fallbacks} fallbacks");
+        assert!(
+            ended_with_flow >= 150,
+            "token set by {ended_with_flow} steps"
+        );
     }
 }

@@ -506,6 +506,12 @@ pub struct World {
     /// (RATTLE's damping flow right after the second kick); taken by the next
     /// assembly, which then keeps the epoch.
     rows_unmoved: bool,
+    /// `(steps, rows_epoch)` when the last RATTLE step ended with its damping flow:
+    /// while both are unchanged (no step, no assembly since) and no state or parameter
+    /// was written (`bodies_mut`, `set_compliance`, `set_armature`, `add_body`,
+    /// `add_joint` clear it), the bodies are at the poses of that flow's assembly, its
+    /// factor and kept rows and inertias (`rattle.rs`).
+    flow_end: Option<(u64, u64)>,
     /// The factors kept for reuse by assemblies of the same matrix (`factor_cache.rs`).
     factors: factor_cache::FactorCache,
     /// Colliders (feature `contact`).
@@ -548,6 +554,9 @@ enum KeptInertia {
     Use,
     /// Computes and keeps every body's (the bodies are known to have moved).
     Renew,
+    /// Takes every body's kept entry without comparing its bits (the bodies are known
+    /// not to have moved since the entries were kept), computes and keeps the others.
+    Trust,
 }
 
 impl World {
@@ -613,6 +622,7 @@ impl World {
             rows_cache: Vec::new(),
             rows_epoch: 0,
             rows_unmoved: false,
+            flow_end: None,
             spare_loops: (Vec::new(), Vec::new(), Vec::new()),
             factors: factor_cache::FactorCache::default(),
             #[cfg(feature = "contact")]
@@ -640,6 +650,7 @@ impl World {
 
     /// Adds a body; returns its index. Its velocities must be finite.
     pub fn add_body(&mut self, body: RigidBody) -> Result<usize, ArticulatedError> {
+        self.flow_end = None;
         let i = self.bodies.len();
         if !body.v.is_finite() || !body.omega.is_finite() {
             return Err(ArticulatedError::InvalidBody {
@@ -660,6 +671,7 @@ impl World {
     /// Adds a joint; returns its index. Errors: unknown body, a body joined to itself,
     /// negative or non-finite damping.
     pub fn add_joint(&mut self, joint: Joint) -> Result<usize, ArticulatedError> {
+        self.flow_end = None;
         let j = self.joints.len();
         let bad = |reason| ArticulatedError::InvalidJoint { joint: j, reason };
         if joint.child >= self.bodies.len() || joint.parent.is_some_and(|p| p >= self.bodies.len())
@@ -751,6 +763,7 @@ impl World {
     /// module documentation for how each [`Method`] treats it. Errors: unknown joint,
     /// negative or non-finite `alpha`.
     pub fn set_compliance(&mut self, joint: usize, alpha: f64) -> Result<(), ArticulatedError> {
+        self.flow_end = None;
         let bad = |reason| ArticulatedError::InvalidJoint { joint, reason };
         let Some(slot) = self.compliance.get_mut(joint) else {
             return Err(bad("unknown joint"));
@@ -778,6 +791,7 @@ impl World {
     /// written state do not extrapolate from the steps before the write.
     pub fn bodies_mut(&mut self) -> &mut [RigidBody] {
         self.rattle.forget_history();
+        self.flow_end = None;
         &mut self.bodies
     }
 
@@ -910,6 +924,7 @@ impl World {
         dof: usize,
         armature: f64,
     ) -> Result<(), ArticulatedError> {
+        self.flow_end = None;
         let bad = |reason| ArticulatedError::InvalidJoint { joint, reason };
         let Some(j) = self.joints.get(joint) else {
             return Err(bad("unknown joint"));
@@ -1495,6 +1510,18 @@ impl World {
         );
     }
 
+    /// [`Self::body_rhs_kept`] where the caller knows that the bodies have not moved
+    /// since the kept rotations were last kept or taken (RATTLE's damping flow right
+    /// after the second kick, or at the end of the last step): the kept entries are
+    /// taken without comparing their bits.
+    pub(super) fn body_rhs_unmoved(
+        &mut self,
+        matrix: bool,
+        f: impl Fn(&RigidBody, &DMat3, &DMat3) -> (DVec3, DVec3),
+    ) {
+        self.body_rhs_in(matrix, KeptInertia::Trust, f);
+    }
+
     #[inline(always)]
     fn body_rhs_in(
         &mut self,
@@ -1528,6 +1555,7 @@ impl World {
             let hit = match kept_use {
                 KeptInertia::Use if !matrix => kept.rotation(i, b),
                 KeptInertia::Use => kept.rotation_out_of_line(i, b),
+                KeptInertia::Trust => kept.rotation_kept(i),
                 _ => None,
             };
             let (r, iw) = match hit {

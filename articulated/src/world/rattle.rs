@@ -311,11 +311,15 @@ impl World {
         // A flow or step that ran to its end left the solver's factor at the bodies
         // (`unmoved` below): only velocities changed since its lookup.
         if at_start || self.bodies == self.saved {
-            let kept = self.damp(0.5 * h, true, false)?;
+            // The last step ended with its flow at these poses and nothing was assembled
+            // or written since (`World::flow_end`): its factor, rows and inertias are
+            // the bodies' (no keys compared).
+            let unmoved = at_start && self.flow_end == Some((self.steps, self.rows_epoch));
+            let kept = self.damp(0.5 * h, true, unmoved)?;
             let (it, ok) =
                 self.conservative_step_with(h, tolerance, max_iterations, false, kept, kept)?;
-            if ok {
-                self.damp(0.5 * h, true, true)?;
+            if ok && self.damp(0.5 * h, true, true)? {
+                self.flow_end = Some((self.steps + 1, self.rows_epoch));
             }
             return Ok((it, ok));
         }
@@ -368,9 +372,14 @@ impl World {
         } else {
             self.reuse_factor(key_h, key_rates, Soft::Free)
         };
-        self.body_rhs_kept(!reused, false, |b, _, iw| {
+        let rhs_of = |b: &RigidBody, _: &DMat3, iw: &DMat3| {
             (b.v * b.mass() + g * (b.mass() * s), *iw * b.omega)
-        });
+        };
+        if unmoved {
+            self.body_rhs_unmoved(!reused, rhs_of);
+        } else {
+            self.body_rhs_kept(!reused, false, rhs_of);
+        }
         // The forces at `v` are kept for stage 2, which adds them again at the same
         // state (positions and velocities do not change between the stages).
         let mut dof_any = false;
