@@ -811,6 +811,7 @@ impl World {
     /// whether any force acts; the forces stay in the world's buffers for
     /// [`Self::reapply_dof_forces`].
     pub(super) fn add_dof_forces_part(&mut self, scale: f64, part: ForcePart) -> bool {
+        self.dof_evals = self.dof_evals.wrapping_add(1);
         let mut tau = core::mem::take(&mut self.dof_tau);
         let mut coords = core::mem::take(&mut self.dof_table);
         let mut path_f = core::mem::take(&mut self.paths.force);
@@ -900,6 +901,7 @@ impl World {
     /// state into `f` (resized to the bodies; for the acceleration level, which applies
     /// forces, not impulses). Returns false, leaving `f` untouched, when there are none.
     pub(super) fn dof_wrenches(&mut self, f: &mut Vec<(DVec3, DVec3)>) -> bool {
+        self.dof_evals = self.dof_evals.wrapping_add(1);
         let mut tau = core::mem::take(&mut self.dof_tau);
         let mut coords = core::mem::take(&mut self.dof_table);
         let mut path_f = core::mem::take(&mut self.paths.force);

@@ -489,6 +489,9 @@ pub struct World {
     /// Per joint, the generalized forces on its coordinates, and the coordinate table
     /// (scratch of the actuator, spring and tendon forces).
     dof_tau: Vec<[f64; MAX_DOF]>,
+    /// Evaluations of the actuator, spring and tendon forces into `dof_tau` so far
+    /// (`rattle::DofFlow`).
+    dof_evals: u64,
     dof_table: Vec<Option<actuator::DofState>>,
     /// Per joint, its coordinates (and rate rows) at the poses they were last computed
     /// at ([`crate::joint::KeptCoords`], `actuator.rs`).
@@ -616,6 +619,7 @@ impl World {
             urowbuf: Default::default(),
             aset: Some(alloc::boxed::Box::default()),
             dof_tau: Vec::new(),
+            dof_evals: 0,
             dof_table: Vec::new(),
             coords: Vec::new(),
             last_loops: (Vec::new(), Vec::new(), Vec::new()),
@@ -1127,7 +1131,7 @@ impl World {
                 // D_{h/2} ∘ C_{w₁h} ∘ C_{w₀h} ∘ C_{w₁h} ∘ D_{h/2}.
                 let damped = self.joints.iter().any(|j| j.damping_rows() > 0);
                 if damped {
-                    self.damp(ctx.half_h(), false, false)?;
+                    self.damp(ctx.half_h(), false, false, false)?;
                 }
                 let mut fell_back = false;
                 for (i, w) in [w1, w0, w1].into_iter().enumerate() {
@@ -1145,7 +1149,7 @@ impl World {
                     }
                 }
                 if damped && !fell_back {
-                    self.damp(ctx.half_h(), false, false)?;
+                    self.damp(ctx.half_h(), false, false, false)?;
                 }
             }
         }

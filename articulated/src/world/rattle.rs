@@ -150,6 +150,57 @@ pub(super) struct Scratch {
     shake_rates: Vec<(DVec3, DVec3)>,
     /// SHAKE's remainders of the last steps, for its predictor.
     history: ShakeHistory,
+    /// The forces of the last flow with forces ([`DofFlow`]).
+    dof_flow: DofFlow,
+}
+
+/// The actuator, spring and tendon forces `τ(q, q̇)` (whole) that the first stage of
+/// the last damping flow with forces evaluated, left in the world's buffers
+/// (`World::reapply_dof_forces`): the next step's first flow at the same poses (RATTLE,
+/// `World::flow_end`) applies them again instead of evaluating them, where that gives
+/// the same bits — no evaluation since (`World::dof_evals`), the same controls bit
+/// for bit and the same actuators, springs and tendons (only ever appended: their
+/// counts), and forces that do not read the rates (`World::dof_forces_read_rates`; the
+/// velocities differ between the two flows). dm fish perturbed: one evaluation of
+/// three per step.
+#[derive(Clone, Debug, Default)]
+pub(super) struct DofFlow {
+    /// Whether the record may be reused (forces that do not read the rates).
+    valid: bool,
+    /// `World::dof_evals` after the evaluation.
+    evals: u64,
+    /// Whether any force acts (`World::add_dof_forces_part`'s answer).
+    any: bool,
+    /// The controls of the evaluation.
+    ctrl: Vec<f64>,
+    /// The counts of actuators, springs and tendons.
+    counts: [usize; 3],
+}
+
+impl DofFlow {
+    /// Records an evaluation (`valid`: its forces do not read the rates).
+    fn keep(&mut self, valid: bool, evals: u64, any: bool, ctrl: &[f64], counts: [usize; 3]) {
+        self.valid = valid;
+        self.evals = evals;
+        self.any = any;
+        self.ctrl.clear();
+        self.ctrl.extend_from_slice(ctrl);
+        self.counts = counts;
+    }
+
+    /// Whether the recorded forces are the ones an evaluation would give now (at the
+    /// same poses): none evaluated since, same controls to the bit, same counts.
+    fn holds(&self, evals: u64, ctrl: &[f64], counts: [usize; 3]) -> bool {
+        self.valid
+            && self.evals == evals
+            && self.counts == counts
+            && self.ctrl.len() == ctrl.len()
+            && self
+                .ctrl
+                .iter()
+                .zip(ctrl)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+    }
 }
 
 impl Scratch {
@@ -299,7 +350,7 @@ impl World {
             let w0 = 1.0 - 2.0 * w1;
             let full = h / w0;
             self.restore_start();
-            let kept = self.damp(0.5 * full, false, false)?;
+            let kept = self.damp(0.5 * full, false, false, false)?;
             let (first, ok) =
                 self.conservative_step(w1 * full, tolerance, max_iterations, true, kept)?;
             if !ok {
@@ -315,17 +366,17 @@ impl World {
             // or written since (`World::flow_end`): its factor, rows and inertias are
             // the bodies' (no keys compared).
             let unmoved = at_start && self.flow_end == Some((self.steps, self.rows_epoch));
-            let kept = self.damp(0.5 * h, true, unmoved)?;
+            let kept = self.damp(0.5 * h, true, unmoved, unmoved)?;
             let (it, ok) =
                 self.conservative_step_with(h, tolerance, max_iterations, false, kept, kept)?;
-            if ok && self.damp(0.5 * h, true, true)? {
+            if ok && self.damp(0.5 * h, true, true, false)? {
                 self.flow_end = Some((self.steps + 1, self.rows_epoch));
             }
             return Ok((it, ok));
         }
         let (it, ok) = self.conservative_step(h, tolerance, max_iterations, true, false)?;
         if ok {
-            self.damp(0.5 * h / w1(), false, true)?;
+            self.damp(0.5 * h / w1(), false, true, false)?;
         }
         Ok((it, ok))
     }
@@ -340,12 +391,18 @@ impl World {
     ///
     /// `unmoved`: the caller knows that the bodies have not moved since the solver's
     /// factor was looked up or computed at them ([`World::reuse_factor_unmoved`]).
+    /// `at_last_flow`: the caller knows that the bodies have not moved since the last
+    /// flow with forces evaluated the actuator, spring and tendon forces (RATTLE's flow
+    /// at the end of the last step, `World::flow_end`): where those forces are still
+    /// in the world's buffers and do not read the rates, with the same controls
+    /// ([`DofFlow`]), they are applied again instead of evaluated.
     /// Returns whether the flow ran (and so left its factor at the bodies).
     pub(super) fn damp(
         &mut self,
         tau: f64,
         forces: bool,
         unmoved: bool,
+        at_last_flow: bool,
     ) -> Result<bool, ArticulatedError> {
         if !(tau > 0.0) {
             return Ok(false);
@@ -385,7 +442,21 @@ impl World {
         let mut dof_any = false;
         if forces {
             self.add_spring_rhs(s);
-            dof_any = self.add_dof_forces_part(s, ForcePart::Full);
+            let counts = [self.actuators.len(), self.springs.len(), self.tendons.len()];
+            let flow = &self.rattle.dof_flow;
+            if at_last_flow && flow.holds(self.dof_evals, &self.ctrl, counts) {
+                // τ(q, q̇) at these poses, with these controls, in the buffers: the
+                // same bits as evaluating it again (it does not read the rates).
+                dof_any = flow.any;
+                self.reapply_dof_forces(s, dof_any);
+            } else {
+                dof_any = self.add_dof_forces_part(s, ForcePart::Full);
+                let reads = self.dof_forces_read_rates();
+                let evals = self.dof_evals;
+                self.rattle
+                    .dof_flow
+                    .keep(!reads, evals, dof_any, &self.ctrl, counts);
+            }
             self.add_fluid_rhs(s);
         } else if explicit {
             dof_any = self.add_dof_forces_part(s, part);
