@@ -1210,8 +1210,6 @@ impl World {
         let (mut loop_rows, mut loop_c, mut loop_rhs) = self.take_loop_buffers();
         let solver = &mut self.solver;
         for (j, joint) in self.joints.iter().enumerate() {
-            let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
-            let b = self.bodies[joint.child].pose;
             let armed = self.armature[j].iter().any(|v| *v > 0.0);
             let passive = if joint.damping_rows() > 0 || armed {
                 joint.rate_rows()
@@ -1230,23 +1228,58 @@ impl World {
             if rates_only && !(with_rates && armed) {
                 continue;
             }
-            // The rows by reference (kept, or computed into `fresh`) and how many the
-            // assembly reads; rows it zeroes are flagged in `zero` (bit `r`: row `r`
-            // taken as zero) rather than written into a copy.
-            let fresh;
-            let (rows, n) = if rates_only {
-                match CachedRows::kept_rates_in(&mut self.rows_cache, j, &a, &b, epoch) {
-                    Some(kept) => (kept, kept.n),
+            if let (true, Some(o)) = (rates_only, tree) {
+                // The rate rows' right-hand side alone, `I_a/(I_a + h d) · G v` (the
+                // operations of the general path below, without the compliances and
+                // zero flags, which only a matrix reads); the other rows zero.
+                let a = joint
+                    .parent
+                    .map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
+                let b = &self.bodies[joint.child].pose;
+                let fresh;
+                let rows = match CachedRows::kept_rates_in(&mut self.rows_cache, j, a, b, epoch) {
+                    Some(kept) => kept,
                     None => {
                         fresh = joint.rate_rows_only_kept(
-                            &a,
-                            &b,
-                            actuator::kept_at(&self.coords, j, &a, &b),
+                            a,
+                            b,
+                            actuator::kept_at(&self.coords, j, a, b),
                         );
-                        (&fresh, fresh.n)
+                        &fresh
+                    }
+                };
+                let mut rhs = [0.0; MAX_ROWS];
+                for r in rows.n_hard..rows.n {
+                    let k = r - rows.n_hard;
+                    let d = if rates == Rates::Full {
+                        joint.dof_damping(k)
+                    } else {
+                        0.0
+                    };
+                    let arm = self.armature[j][k];
+                    let s = arm + h * d;
+                    if s > 0.0 && arm > 0.0 {
+                        let tw = |i: Option<usize>| {
+                            i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
+                                (self.bodies[i].v, self.bodies[i].omega)
+                            })
+                        };
+                        let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
+                        let g = rows.rows[r];
+                        let rate = g[0].dot(va) + g[1].dot(wa) + g[2].dot(vb) + g[3].dot(wb);
+                        rhs[r] += arm / s * rate;
                     }
                 }
-            } else {
+                let n_topo = joint.hard_rows() + passive;
+                self.rhs[o..o + n_topo].copy_from_slice(&rhs[..n_topo]);
+                continue;
+            }
+            let a = joint.parent.map_or(Pose::IDENTITY, |i| self.bodies[i].pose);
+            let b = self.bodies[joint.child].pose;
+            // The rows by reference (kept, or computed) and how many the assembly
+            // reads; rows it zeroes are flagged in `zero` (bit `r`: row `r` taken as
+            // zero) rather than written into a copy.
+            let (rows, n) = {
                 CachedRows::rows(
                     &mut self.rows_cache,
                     &mut self.coords,
