@@ -29,6 +29,16 @@
 //! Assemblies without a key (the velocity level, whose matrix also reads the joint
 //! impulses through the geometric stiffness, the projection, the acceleration level)
 //! mark the solver's factor unknown.
+//!
+//! The first flow of a RATTLE step is at the poses where the last step's final flow
+//! looked up its factor, kept its rows and inertias and evaluated its forces. Where
+//! nothing has been assembled or written since (`World::flow_end`: the step count and
+//! the rows' pose epoch of that flow, cleared by `bodies_mut`, `add_body`, `add_joint`,
+//! `set_compliance` and `set_armature`), the flow takes them without comparing keys
+//! ([`World::reuse_factor_unmoved`], `CachedRows::seen`, `KeptInertia::Trust`) and
+//! applies the kept actuator and spring forces again (`rattle::DofFlow`). Issue 13
+//! (callgrind, `World::step`, 2 s, with the rows' pose epochs): dm swimmer6 passive
+//! 75.12M → 72.87M instructions, dm fish perturbed 44.37M → 43.05M; the same bits.
 
 use alloc::vec::Vec;
 
