@@ -601,8 +601,29 @@ fn block_lanes<L: Lane, const W: usize>(
     io: &mut RelaxIo,
     pass: Pass,
 ) -> bool {
-    const N: usize = BLOCK_POINTS;
+    // A manifold of `BLOCK_POINTS` points (every box–box manifold) takes a build with
+    // the point count a constant: its point loops unrolled and their arrays held in
+    // registers instead of on the stack (the same operations in the same order).
     let len = blk[0].len;
+    if len == BLOCK_POINTS {
+        block_points::<L, W>(rows, pr, half, blk, io, pass, BLOCK_POINTS)
+    } else {
+        block_points::<L, W>(rows, pr, half, blk, io, pass, len)
+    }
+}
+
+/// [`block_lanes`] on blocks of `len` points (a constant where inlined with one).
+#[inline(always)]
+fn block_points<L: Lane, const W: usize>(
+    rows: &Rows,
+    pr: Pack,
+    half: usize,
+    blk: [&Block; W],
+    io: &mut RelaxIo,
+    pass: Pass,
+    len: usize,
+) -> bool {
+    const N: usize = BLOCK_POINTS;
     if len == 0 || len > N || blk.iter().any(|b| b.len != len) || pass.anchors {
         return false;
     }
