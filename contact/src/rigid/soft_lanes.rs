@@ -673,13 +673,7 @@ fn block_points<L: Lane, const W: usize>(
         return false;
     };
     let n = io.gap.len();
-    let (Some(slots), Some(soft), Some(preload), Some(cap), Some(floor)) = (
-        rows.slots.get(..n),
-        rows.soft.get(..n),
-        rows.preload.get(..n),
-        rows.preload_cap.get(..n),
-        rows.preload_floor.get(..n),
-    ) else {
+    let (Some(slots), Some(soft)) = (rows.slots.get(..n), rows.soft.get(..n)) else {
         return false;
     };
     let RelaxIo {
@@ -712,15 +706,12 @@ fn block_points<L: Lane, const W: usize>(
     // r = J v + b + c∘(λ − λ_pre), zero in the padding.
     let mut r = [zero; N];
     for i in 0..len {
-        let p: [usize; W] = each(|l| blk[l].pts[i]);
         let (q, d0) = (&rows_of[i], pr.head.dir::<L>(0, half));
         let vn = d0.dot(vb.sub(va)) + q.ang(pr.head, 0, 1, half).dot(wb)
             - q.ang(pr.head, 0, 0, half).dot(wa);
         let bias = (bias_rate * gap[i]).at_least(max_push);
-        let [preload, cap, floor] = L::gather(|l| {
-            let p = p[l];
-            [preload[p], cap[p], floor[p]]
-        });
+        // Packed once a step beside the point's rows (`Paired::put`).
+        let [preload, cap, floor] = q.pre::<L>(half);
         // `c` as the blocks' build packed it (the same values) where it did.
         let c = if len == N {
             blocks_of[i].c::<L>(half)
@@ -934,18 +925,18 @@ fn gaps_lanes<L: Lane, const W: usize>(
         .and_then(|(head, rows, half)| Some((head.dir::<L>(0, half), rows.get(..len)?, half)));
     for i in 0..len {
         let p: [usize; W] = each(|l| pts[l][i]);
-        let (ra, rb, nrm) = match shared {
+        let (ra, rb, nrm, base) = match shared {
             Some((n, rows, half)) => {
                 let [ra, rb] = rows[i].anchors(half);
-                (ra, rb, n)
+                (ra, rb, n, rows[i].base::<L>(half))
             }
             None => (
                 Lanes3::<L>::of(|l| anchor[p[l]][0]),
                 Lanes3::<L>::of(|l| anchor[p[l]][1]),
                 Lanes3::<L>::of(|l| dir[p[l]][0]),
+                L::gather(|l| [base_gap[p[l]]])[0],
             ),
         };
-        let [base] = L::gather(|l| [base_gap[p[l]]]);
         let dd = xb.add(rotate(&rb_m, rb)).sub(xa.add(rotate(&ra_m, ra)));
         let g = base + nrm.dot(dd);
         for (l, &p) in p.iter().enumerate() {
