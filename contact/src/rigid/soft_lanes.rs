@@ -151,6 +151,14 @@ pub(super) trait Lane:
     fn splat(x: f64) -> Self;
     /// `K` lane values `f(l)[k]` at once, lane `l` from `f(l)` (lanes in order).
     fn gather<const K: usize>(f: impl FnMut(usize) -> [f64; K]) -> [Self; K];
+    /// [`Lane::gather`] of three values read in place (`f(l)`: lane `l`'s), the same
+    /// lanes; the AVX lanes load two of each lane's values as one 128-bit load and
+    /// transpose them (two loads and two shuffles where eight scalar loads took four
+    /// inserts).
+    #[inline(always)]
+    fn gather3<'a>(mut f: impl FnMut(usize) -> &'a [f64; 3]) -> [Self; 3] {
+        Self::gather(|l| *f(l))
+    }
     /// Lane `l`.
     fn lane(self, l: usize) -> f64;
     /// The lanes in order (zeros past the last).
@@ -408,18 +416,11 @@ fn packed<const W: usize>(rows: &Rows, pr: Pack, pts: &[&[usize]; W]) -> Option<
 /// (every point of a manifold has the same two bodies).
 #[inline(always)]
 fn load<L: Lane, const W: usize>(v: &[DVec3], w: &[DVec3], ab: &[[usize; 2]; W]) -> [Lanes3<L>; 4] {
-    // Read in a plain loop, then gathered (a gather's closure reading the slices was
-    // left out of line in the four-lane biased pass, 56k-65k instructions a step of
-    // the 210-box pyramid, callgrind).
-    let mut read = [[[0.0; 6]; W]; 2];
-    for (l, ab) in ab.iter().enumerate() {
-        for (k, &i) in ab.iter().enumerate() {
-            let (v, w) = (v[i], w[i]);
-            read[k][l] = [v.x, v.y, v.z, w.x, w.y, w.z];
-        }
-    }
-    let [vax, vay, vaz, wax, way, waz] = L::gather(|l| read[0][l]);
-    let [vbx, vby, vbz, wbx, wby, wbz] = L::gather(|l| read[1][l]);
+    // Each vector gathered in place ([`Lane::gather3`]).
+    let [vax, vay, vaz] = L::gather3(|l| v[ab[l][0]].as_ref());
+    let [wax, way, waz] = L::gather3(|l| w[ab[l][0]].as_ref());
+    let [vbx, vby, vbz] = L::gather3(|l| v[ab[l][1]].as_ref());
+    let [wbx, wby, wbz] = L::gather3(|l| w[ab[l][1]].as_ref());
     [
         Lanes3::new(vax, vay, vaz),
         Lanes3::new(wax, way, waz),
@@ -557,11 +558,8 @@ fn relax_rows<L: Lane, const W: usize>(
     // Speculative where separated: approach at most to the surface within the
     // sub-step; rigid (mass_scale 1, impulse_scale 0, no preload) either way.
     // The point's impulses, largest normal impulse and gap gathered at once.
-    let [z0, z1, z2, gap] = L::gather(|l| {
-        let p = p[l];
-        let z = io.impulse[p];
-        [z[0], z[1], z[2], io.gap[p]]
-    });
+    let [z0, z1, z2] = L::gather3(|l| &io.impulse[p[l]]);
+    let [gap] = L::gather(|l| [io.gap[p[l]]]);
     let (one, zero) = (L::splat(1.0), L::splat(0.0));
     // `gap · inv_h` where `gap > 0`, else `+0`: `max(gap, 0) · inv_h` per lane (a NaN
     // gap gives 0 either way; `inv_h` is positive and finite: see `relax_lanes`).
@@ -701,7 +699,7 @@ fn block_points<L: Lane, const W: usize>(
     // The points' impulses, lane by lane.
     let mut z = [[zero; 3]; N];
     for i in 0..len {
-        z[i] = L::gather(|l| impulse[blk[l].pts[i]]);
+        z[i] = L::gather3(|l| &impulse[blk[l].pts[i]]);
     }
     // r = J v + b + c∘(λ − λ_pre), zero in the padding.
     let mut r = [zero; N];
@@ -836,7 +834,7 @@ fn warm_lanes<L: Lane, const W: usize>(
     let [mut va, mut wa, mut vb, mut wb] = load::<L, W>(v, w, &ab);
     let (head, (ma, mb)) = (pr.head, pr.head.im::<L>(half));
     for (i, q) in pr.rows.iter().enumerate() {
-        let z = L::gather(|l| impulse[pts[l][i]]);
+        let z = L::gather3(|l| &impulse[pts[l][i]]);
         let lin = head
             .dir(0, half)
             .scale(z[0])
