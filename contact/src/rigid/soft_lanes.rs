@@ -147,6 +147,8 @@ pub(super) trait Lane:
     + Div<Output = Self>
     + Neg<Output = Self>
 {
+    /// The number of lanes.
+    const LANES: usize;
     /// Every lane `x`.
     fn splat(x: f64) -> Self;
     /// `K` lane values `f(l)[k]` at once, lane `l` from `f(l)` (lanes in order).
@@ -158,6 +160,16 @@ pub(super) trait Lane:
     #[inline(always)]
     fn gather3<'a>(mut f: impl FnMut(usize) -> &'a [f64; 3]) -> [Self; 3] {
         Self::gather(|l| *f(l))
+    }
+    /// Lane `l` of `[x, y, z]` written to `out[at(l)]`, lanes in order (the writes
+    /// of [`Lane::array`]'s lanes one by one); the AVX lanes store two of each lane's
+    /// values as one 128-bit store.
+    #[inline(always)]
+    fn scatter3(v: [Self; 3], out: &mut [[f64; 3]], mut at: impl FnMut(usize) -> usize) {
+        let [x, y, z] = [v[0].array(), v[1].array(), v[2].array()];
+        for l in 0..Self::LANES {
+            out[at(l)] = [x[l], y[l], z[l]];
+        }
     }
     /// Lane `l`.
     fn lane(self, l: usize) -> f64;
@@ -175,6 +187,7 @@ pub(super) trait Lane:
 }
 
 impl Lane for f64x2 {
+    const LANES: usize = 2;
     #[inline(always)]
     fn splat(x: f64) -> Self {
         f64x2::splat(x)
@@ -590,11 +603,8 @@ fn relax_rows<L: Lane, const W: usize>(
         *vb = vb.add(d.scale(mb * dz));
         *wb = wb.add(pr.ang(head, r, 3, half).scale(dz));
     }
-    // Each value's lanes stored once, then written lane by lane.
-    let [z0, z1, z2] = [z[0].array(), z[1].array(), z[2].array()];
-    for (lane, &point) in p.iter().enumerate() {
-        io.impulse[point] = [z0[lane], z1[lane], z2[lane]];
-    }
+    // Written lane by lane ([`Lane::scatter3`]).
+    L::scatter3(z, io.impulse, |l| p[l]);
     // The largest normal impulses where restitution reads them.
     if io.track {
         let most = L::gather(|l| [io.max_normal[p[l]]])[0];
@@ -776,12 +786,9 @@ fn block_points<L: Lane, const W: usize>(
             wb = wb.add(q.ang(head, rr, 3, half).scale(dz));
         }
     }
-    // Each value's lanes stored once, then written lane by lane.
+    // Written lane by lane ([`Lane::scatter3`]).
     for i in 0..len {
-        let [z0, z1, z2] = [z[i][0].array(), z[i][1].array(), z[i][2].array()];
-        for (lane, b) in blk.iter().enumerate() {
-            impulse[b.pts[i]] = [z0[lane], z1[lane], z2[lane]];
-        }
+        L::scatter3(z[i], impulse, |l| blk[l].pts[i]);
     }
     // The largest normal impulses (the normal impulse after the block, unchanged by
     // friction) where restitution reads them.
