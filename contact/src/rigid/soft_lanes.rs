@@ -546,7 +546,15 @@ fn relax_points<L: Lane, const W: usize>(
 ) {
     for (i, q) in rows.iter().enumerate() {
         let p: [usize; W] = each(|l| pts[l][i]);
-        relax_rows(head, q, half, &p, io, (&mut *va, &mut *wa, &mut *vb, &mut *wb), inv_h);
+        relax_rows(
+            head,
+            q,
+            half,
+            &p,
+            io,
+            (&mut *va, &mut *wa, &mut *vb, &mut *wb),
+            inv_h,
+        );
     }
 }
 

@@ -31,10 +31,10 @@
 
 use core::arch::x86_64::{
     __m256d, _mm256_add_pd, _mm256_castpd128_pd256, _mm256_castpd256_pd128, _mm256_cmp_pd,
-    _mm256_div_pd, _mm256_extractf128_pd, _mm256_insertf128_pd, _mm256_loadu_pd, _mm256_max_pd, _mm256_min_pd, _mm256_movemask_pd,
-    _mm256_mul_pd, _mm256_set1_pd, _mm256_set_pd, _mm256_setzero_pd, _mm256_storeu_pd,
-    _mm256_sub_pd, _mm256_unpackhi_pd, _mm256_unpacklo_pd, _mm256_xor_pd, _mm_loadu_pd,
-    _mm_storeu_pd, _CMP_GE_OQ,
+    _mm256_div_pd, _mm256_extractf128_pd, _mm256_insertf128_pd, _mm256_loadu_pd, _mm256_max_pd,
+    _mm256_min_pd, _mm256_movemask_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_set_pd,
+    _mm256_setzero_pd, _mm256_storeu_pd, _mm256_sub_pd, _mm256_unpackhi_pd, _mm256_unpacklo_pd,
+    _mm256_xor_pd, _mm_loadu_pd, _mm_storeu_pd, _CMP_GE_OQ,
 };
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
