@@ -515,13 +515,47 @@ fn relax_lanes<L: Lane, const W: usize>(
     };
     let io = &mut io;
     let [mut va, mut wa, mut vb, mut wb] = load::<L, W>(io.v, io.w, &ab);
-    for (i, q) in pr.rows.iter().enumerate() {
-        let p: [usize; W] = each(|l| pts[l][i]);
-        let vel = (&mut va, &mut wa, &mut vb, &mut wb);
-        relax_rows(pr.head, q, half, &p, io, vel, inv_h);
+    // `BLOCK_POINTS` points (every box–box manifold) with the count a constant: the
+    // loop unrolled (the same operations in the same order).
+    let vel = (&mut va, &mut wa, &mut vb, &mut wb);
+    if let Ok(four) = <&[QuadRows; BLOCK_POINTS]>::try_from(pr.rows) {
+        relax_points(pr.head, four, half, &pts, io, vel, inv_h);
+    } else {
+        relax_points(pr.head, pr.rows, half, &pts, io, vel, inv_h);
     }
     store(io.v, io.w, &ab, [va, wa, vb, wb], rows.fixed);
     true
+}
+
+/// [`relax_lanes`]' points: `rows` of the packed rows (an array where their count
+/// is a constant), on velocities held by the caller (`[v_a, ω_a, v_b, ω_b]`).
+#[inline(always)]
+fn relax_points<L: Lane, const W: usize>(
+    head: &HeadRows,
+    rows: &[QuadRows],
+    half: usize,
+    pts: &[&[usize]; W],
+    io: &mut RelaxIo,
+    (va, wa, vb, wb): (
+        &mut Lanes3<L>,
+        &mut Lanes3<L>,
+        &mut Lanes3<L>,
+        &mut Lanes3<L>,
+    ),
+    inv_h: f64,
+) {
+    for (i, q) in rows.iter().enumerate() {
+        let p: [usize; W] = each(|l| pts[l][i]);
+        relax_rows(
+            head,
+            q,
+            half,
+            &p,
+            io,
+            (&mut *va, &mut *wa, &mut *vb, &mut *wb),
+            inv_h,
+        );
+    }
 }
 
 /// Points `p` of [`relax_lanes`], one per lane, on velocities held by the caller
@@ -620,8 +654,29 @@ fn block_lanes<L: Lane, const W: usize>(
     io: &mut RelaxIo,
     pass: Pass,
 ) -> bool {
-    const N: usize = BLOCK_POINTS;
+    // A manifold of `BLOCK_POINTS` points (every box–box manifold) takes a build with
+    // the point count a constant: its point loops unrolled and their arrays held in
+    // registers instead of on the stack (the same operations in the same order).
     let len = blk[0].len;
+    if len == BLOCK_POINTS {
+        block_points::<L, W>(rows, pr, half, blk, io, pass, BLOCK_POINTS)
+    } else {
+        block_points::<L, W>(rows, pr, half, blk, io, pass, len)
+    }
+}
+
+/// [`block_lanes`] on blocks of `len` points (a constant where inlined with one).
+#[inline(always)]
+fn block_points<L: Lane, const W: usize>(
+    rows: &Rows,
+    pr: Pack,
+    half: usize,
+    blk: [&Block; W],
+    io: &mut RelaxIo,
+    pass: Pass,
+    len: usize,
+) -> bool {
+    const N: usize = BLOCK_POINTS;
     if len == 0 || len > N || blk.iter().any(|b| b.len != len) || pass.anchors {
         return false;
     }
