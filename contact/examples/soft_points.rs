@@ -21,7 +21,8 @@
 //! every step, `LEVELS=1` the mean and lowest vertical displacement of the boxes by start
 //! height at the end, `WORST=1` the five most displaced boxes at the end, `BITS=1` an
 //! FNV-1a hash of every body's pose and twist bits at the end (the bit-identity check
-//! of a change that must not move the trajectory: the printed figures have 4 digits).
+//! of a change that must not move the trajectory: the printed figures have 4 digits),
+//! and one of the last step's contact impulses (`ContactWorld::impulses`).
 
 use constraint_contact::rigid::{ContactSolver, ContactWorld};
 use constraint_contact::scenes::{box_stack, heavy_on_light, pile, pyramid};
@@ -33,14 +34,21 @@ fn centres(w: &ContactWorld) -> Vec<[f64; 3]> {
 /// FNV-1a over the bits of every body's position, orientation, velocity and angular
 /// velocity, in body order.
 fn state_bits(w: &ContactWorld) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut words = Vec::new();
     for b in w.bodies() {
         let q = b.pose.q;
-        let words = b.pose.x.to_array().into_iter().chain([q.x, q.y, q.z, q.w]);
-        for x in words.chain(b.v.to_array()).chain(b.omega.to_array()) {
-            for byte in x.to_bits().to_le_bytes() {
-                h = (h ^ u64::from(byte)).wrapping_mul(0x0000_0100_0000_01b3);
-            }
+        words.extend(b.pose.x.to_array().into_iter().chain([q.x, q.y, q.z, q.w]));
+        words.extend(b.v.to_array().into_iter().chain(b.omega.to_array()));
+    }
+    fnv(&words)
+}
+
+/// FNV-1a of the bits of `words`.
+fn fnv(words: &[f64]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for x in words {
+        for byte in x.to_bits().to_le_bytes() {
+            h = (h ^ u64::from(byte)).wrapping_mul(0x0000_0100_0000_01b3);
         }
     }
     h
@@ -168,6 +176,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if std::env::var("BITS").is_ok() {
         println!("state bits {:016x}", state_bits(&w));
+        println!("impulse bits {:016x}", fnv(w.impulses()));
     }
     let sink = x0[top][2] - w.bodies()[top].pose.x.z;
     println!("{scene} {steps} steps soft{substeps}: drift {drift:.3e} m, sink {sink:.3e} m, worst {worst:.3e} m, deepest at the end {depth:.3e} m");

@@ -30,9 +30,11 @@
 //! alternating runs of 600 steps on 2 loaded cores, quartiles 0.965–1.013).
 
 use core::arch::x86_64::{
-    __m256d, _mm256_add_pd, _mm256_cmp_pd, _mm256_div_pd, _mm256_loadu_pd, _mm256_max_pd,
+    __m256d, _mm256_add_pd, _mm256_castpd128_pd256, _mm256_castpd256_pd128, _mm256_cmp_pd,
+    _mm256_div_pd, _mm256_extractf128_pd, _mm256_insertf128_pd, _mm256_loadu_pd, _mm256_max_pd,
     _mm256_min_pd, _mm256_movemask_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_set_pd,
-    _mm256_setzero_pd, _mm256_storeu_pd, _mm256_sub_pd, _mm256_xor_pd, _CMP_GE_OQ,
+    _mm256_setzero_pd, _mm256_storeu_pd, _mm256_sub_pd, _mm256_unpackhi_pd, _mm256_unpacklo_pd,
+    _mm256_xor_pd, _mm_loadu_pd, _mm_storeu_pd, _CMP_GE_OQ,
 };
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -169,6 +171,7 @@ impl Neg for F4 {
 }
 
 impl Lane for F4 {
+    const LANES: usize = 4;
     #[inline(always)]
     fn splat(x: f64) -> Self {
         F4(avx!(_mm256_set1_pd(x)))
@@ -181,6 +184,51 @@ impl Lane for F4 {
             *o = F4(avx!(_mm256_set_pd(d[k], c[k], b[k], a[k])));
         }
         out
+    }
+    /// `x, y` of the four lanes as two 128-bit loads inserted into each half of two
+    /// registers (`[a₀ a₁ c₀ c₁]`, `[b₀ b₁ d₀ d₁]`) and unpacked (`[a₀ b₀ c₀ d₀]`,
+    /// `[a₁ b₁ c₁ d₁]`); `z` as `gather` sets it. Moves only: the same lanes.
+    #[inline(always)]
+    fn gather3<'a>(mut f: impl FnMut(usize) -> &'a [f64; 3]) -> [Self; 3] {
+        let (a, b, c, d) = (f(0), f(1), f(2), f(3));
+        // SAFETY: AVX is present (see `F4`); each array holds three `f64`, of which
+        // the loads read the first two. (No closure: one would be left out of line.)
+        let (ac, bd) = unsafe {
+            let (a, b) = (_mm_loadu_pd(a.as_ptr()), _mm_loadu_pd(b.as_ptr()));
+            let (c, d) = (_mm_loadu_pd(c.as_ptr()), _mm_loadu_pd(d.as_ptr()));
+            (
+                _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(a), c),
+                _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(b), d),
+            )
+        };
+        [
+            F4(avx!(_mm256_unpacklo_pd(ac, bd))),
+            F4(avx!(_mm256_unpackhi_pd(ac, bd))),
+            F4(avx!(_mm256_set_pd(d[2], c[2], b[2], a[2]))),
+        ]
+    }
+    /// `x, y` of the four lanes unpacked (`[a₀ a₁ c₀ c₁]`, `[b₀ b₁ d₀ d₁]`) and each
+    /// lane's pair stored as one 128-bit store, then its `z`. Moves only.
+    #[inline(always)]
+    fn scatter3(v: [Self; 3], out: &mut [[f64; 3]], mut at: impl FnMut(usize) -> usize) {
+        let [x, y, z] = v;
+        // SAFETY: AVX is present (see `F4`).
+        let xy = unsafe {
+            let (ac, bd) = (_mm256_unpacklo_pd(x.0, y.0), _mm256_unpackhi_pd(x.0, y.0));
+            [
+                _mm256_castpd256_pd128(ac),
+                _mm256_castpd256_pd128(bd),
+                _mm256_extractf128_pd::<1>(ac),
+                _mm256_extractf128_pd::<1>(bd),
+            ]
+        };
+        for (l, (xy, z)) in xy.into_iter().zip(z.array()).enumerate() {
+            let o = &mut out[at(l)];
+            // SAFETY: AVX is present; `o` holds three `f64`, of which the store
+            // writes the first two.
+            unsafe { _mm_storeu_pd(o.as_mut_ptr(), xy) };
+            o[2] = z;
+        }
     }
     #[inline(always)]
     fn lane(self, l: usize) -> f64 {

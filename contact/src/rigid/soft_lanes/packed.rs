@@ -107,6 +107,12 @@ pub(in crate::rigid) struct QuadRows {
     anchor: [Quad3; 2],
     /// Effective masses of the three rows.
     mass: [Quad; 3],
+    /// The normal row's preload, preload cap ratio and preload floor (the biased
+    /// pass's per-step constants, gathered point by point each pass before).
+    pre: [Quad; 3],
+    /// The gap at the start of the step less `nᵀ(r_b − r_a)` (`base_gap`: the gap
+    /// pass's per-step constant).
+    base: Quad,
 }
 
 /// `r × d` per lane as `prepare`'s `angular_terms` (glam's `cross`): `(r_y d_z − d_y
@@ -160,6 +166,22 @@ impl QuadRows {
     #[inline(always)]
     pub(super) fn mass<L: Lane>(&self, r: usize, half: usize) -> L {
         L::load(&self.mass[r], half)
+    }
+
+    /// The preload, preload cap ratio and preload floor of the lanes.
+    #[inline(always)]
+    pub(super) fn pre<L: Lane>(&self, half: usize) -> [L; 3] {
+        [
+            L::load(&self.pre[0], half),
+            L::load(&self.pre[1], half),
+            L::load(&self.pre[2], half),
+        ]
+    }
+
+    /// The base gaps of the lanes.
+    #[inline(always)]
+    pub(super) fn base<L: Lane>(&self, half: usize) -> L {
+        L::load(&self.base, half)
     }
 }
 
@@ -242,6 +264,10 @@ pub(in crate::rigid) struct PointRows {
     pub(in crate::rigid) inv: [[f64x2; 3]; 3],
     /// Effective masses.
     pub(in crate::rigid) mass: [f64; 3],
+    /// Preload, preload cap ratio, preload floor.
+    pub(in crate::rigid) pre: [f64; 3],
+    /// Base gap.
+    pub(in crate::rigid) base_gap: f64,
 }
 
 const ZERO_QUAD: Quad = [f64x2::ZERO; 2];
@@ -261,6 +287,8 @@ const ZERO_ROWS: QuadRows = QuadRows {
     inv: [[ZERO_QUAD3; 2]; 3],
     anchor: [ZERO_QUAD3; 2],
     mass: [ZERO_QUAD; 3],
+    pre: [ZERO_QUAD; 3],
+    base: ZERO_QUAD,
 };
 const ZERO_BLOCK: BlockRows = BlockRows {
     kinv: [ZERO_QUAD; BLOCK_POINTS],
@@ -436,7 +464,9 @@ impl Paired {
             pr.inv[r][0].set(h, l, DVec3::new(x[0], y[0], z[0]));
             pr.inv[r][1].set(h, l, DVec3::new(x[1], y[1], z[1]));
             pr.mass[r][h].as_mut_array()[l] = point.mass[r];
+            pr.pre[r][h].as_mut_array()[l] = point.pre[r];
         }
+        pr.base[h].as_mut_array()[l] = point.base_gap;
     }
 
     /// Whether manifold `j` starts a packed pair `(j, j + 1)` (its own or half of a

@@ -220,6 +220,8 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
         anchors,
     };
     let gap = core::mem::take(&mut st.gap);
+    // The largest normal impulses only where restitution reads them.
+    let track = st.bouncy;
     // Points solved one at a time (see `SoftState::ang_kept`).
     let mut one_point = 0;
     if use_bias && !st.blocks.is_empty() {
@@ -239,6 +241,7 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
                 impulse: &mut *impulse,
                 max_normal: &mut *max_normal,
                 gap: &gap,
+                track,
             };
             let mut one = |j: usize, io: &mut PointSlices, vel: &mut Slices| {
                 let pts = &pts[mp[j]..mp[j + 1]];
@@ -315,6 +318,8 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
 /// ([`relax_manifolds`]: the same bits as one point at a time; see
 /// [`for_manifold_pairs`]). Returns how many points it solved one at a time.
 pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) -> usize {
+    // The largest normal impulses only where restitution reads them.
+    let track = st.bouncy;
     let mut one_point = 0;
     // Borrowed (see `warm_start`).
     let paired = &st.paired;
@@ -328,6 +333,7 @@ pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) -> usi
             impulse: &mut *impulse,
             max_normal: &mut *max_normal,
             gap,
+            track,
         };
         let mut one = |p: usize, io: &mut RelaxIo| {
             one_point += 1;
@@ -377,6 +383,7 @@ fn lanes<'a>(io: &'a mut PointSlices<'_>, vel: &'a mut Slices<'_>) -> RelaxIo<'a
         impulse: &mut *io.impulse,
         max_normal: &mut *io.max_normal,
         gap: io.gap,
+        track: io.track,
     }
 }
 
@@ -396,6 +403,8 @@ pub(super) struct PointSlices<'a> {
     impulse: &'a mut [[f64; 3]],
     max_normal: &'a mut [f64],
     gap: &'a [f64],
+    /// Whether the lane passes keep `max_normal` ([`RelaxIo::track`]).
+    track: bool,
 }
 
 impl PointImpulses for PointSlices<'_> {

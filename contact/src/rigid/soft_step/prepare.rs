@@ -723,12 +723,33 @@ impl ContactWorld {
                     let (sl, r) = (found_slip[k], rb - ra);
                     slip[p] = [sl.dot(t1) - t1.dot(r), sl.dot(t2) - t2.dot(r)];
                 }
+                // The gap at the start of the step, `C₀ = base_gap + nᵀ(r_b − r_a)`
+                // (what `update_gaps` gives at zero displacements, where `Δx + Δq r =
+                // r`: the same bits, up to the sign of a zero), without a pass over the
+                // points.
+                let offset = n.dot(rb - ra);
+                let base = -c.depth - offset;
+                let pre = if (every && est > 0.0) || fresh_point {
+                    s.preload * est
+                } else {
+                    preload * mean[k]
+                };
+                let cap = kappa * mass[0] * hs * omega2_pair;
+                let floor = if !warm_start {
+                    0.0
+                } else if fresh_point {
+                    s.preload * est
+                } else {
+                    fl * scale * PRELOAD_FLOOR_DECAY
+                };
                 paired.put(
                     p,
                     PointRows {
                         anchor: [ra, rb],
                         inv,
                         mass,
+                        pre: [pre, cap, floor],
+                        base_gap: base,
                     },
                 );
                 slots[p] = [a, b];
@@ -736,13 +757,8 @@ impl ContactWorld {
                 anchor[p] = [ra, rb];
                 mass_out[p] = mass;
                 im_out[p] = im;
-                // The gap at the start of the step, `C₀ = base_gap + nᵀ(r_b − r_a)`
-                // (what `update_gaps` gives at zero displacements, where `Δx + Δq r =
-                // r`: the same bits, up to the sign of a zero), without a pass over the
-                // points.
-                let offset = n.dot(rb - ra);
-                base_gap[p] = -c.depth - offset;
-                gap[p] = base_gap[p] + offset;
+                base_gap[p] = base;
+                gap[p] = base + offset;
                 soft[p] = softness;
                 friction[p] = mu;
                 restitution[p] = e;
@@ -755,19 +771,9 @@ impl ContactWorld {
                     n.dot(st.v[b] - st.v[a]) + ub.dot(st.w[b]) - ua.dot(st.w[a])
                 };
                 impulse[p] = z;
-                preload_out[p] = if (every && est > 0.0) || fresh_point {
-                    s.preload * est
-                } else {
-                    preload * mean[k]
-                };
-                preload_cap[p] = kappa * mass[0] * hs * omega2_pair;
-                preload_floor[p] = if !warm_start {
-                    0.0
-                } else if fresh_point {
-                    s.preload * est
-                } else {
-                    fl * scale * PRELOAD_FLOOR_DECAY
-                };
+                preload_out[p] = pre;
+                preload_cap[p] = cap;
+                preload_floor[p] = floor;
                 max_normal[p] = 0.0;
                 total[p] = [0.0; 3];
             }
