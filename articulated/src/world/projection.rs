@@ -64,6 +64,7 @@ use constraint_core::DVec3;
 mod branch;
 mod chord;
 mod limits;
+mod sweep;
 
 use super::*;
 use chord::CHORD_RATE;
@@ -99,6 +100,8 @@ pub(super) struct Scratch {
     near: Vec<usize>,
     /// `near` of the iterate while a backtracking's trials overwrite it.
     near_base: Vec<usize>,
+    /// The tree-ordered sweep's setting and buffers (`sweep.rs`).
+    sweep: sweep::SweepScratch,
 }
 
 impl World {
@@ -111,6 +114,8 @@ impl World {
         velocity_ctx: Option<&StepContext>,
     ) -> Result<usize, ArticulatedError> {
         let velocity_h = velocity_ctx.map(StepContext::h);
+        // The tree joints closed one by one, parents first (`sweep.rs`; off by default).
+        self.sweep_tree_joints(tolerance, velocity_h);
         self.proj.values_current = false;
         // Steps kept although a limit went past its bound (below): at most this many.
         let mut exceptions = MAX_LIMIT_EXCEPTIONS;
