@@ -117,9 +117,7 @@ impl World {
         // The tree joints closed one by one, parents first (`sweep.rs`; off by default),
         // on projections of the positions alone: a child-only step as a velocity
         // correction would be an impulse without its reaction on the parent.
-        if velocity_h.is_none() {
-            self.sweep_tree_joints(tolerance);
-        }
+        let swept = velocity_h.is_none() && self.sweep_tree_joints(tolerance);
         self.proj.values_current = false;
         // Steps kept although a limit went past its bound (below): at most this many.
         let mut exceptions = MAX_LIMIT_EXCEPTIONS;
@@ -135,6 +133,7 @@ impl World {
         // The error and whether a limit is violated at the iterate (no limit rows to
         // look for otherwise: the coordinates are not evaluated again).
         let (mut err, mut past, _) = self.projection_error(limits);
+        self.proj.sweep.note(swept, err > tolerance);
         // Whether the solver holds this projection's factor (of an earlier iterate):
         // the next iteration is then a chord step (`chord.rs`).
         let mut factored = false;

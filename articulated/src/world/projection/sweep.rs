@@ -99,6 +99,48 @@ pub(in crate::world) struct SweepScratch {
     moved: Vec<DVec3>,
     /// Per root body of a free tree: `(Σ m, Σ m δx)` of its bodies.
     centre: Vec<(f64, DVec3)>,
+    /// Consecutive sweeps that moved bodies and still left the Newton loop to run
+    /// (`SweepScratch::note`).
+    misses: u32,
+    /// Projections not swept since the last sweep, while `misses ≥ MISSES`.
+    skipped: u32,
+}
+
+/// Sweeps in a row that did not end their projection after which the sweep pauses: a
+/// projection that needs the Newton loop anyway (contacts held by the projection,
+/// equalities) pays for the sweep's rows and local solves and saves little (dm
+/// manipulator controlled: +4.6 % World::step instructions, stacker +5.3 %).
+const MISSES: u32 = 2;
+
+/// While paused, one projection in this many is swept (a probe: a sweep that ends its
+/// projection resumes sweeping).
+const PROBE: u32 = 8;
+
+impl SweepScratch {
+    /// Whether this projection is swept (`MISSES`, `PROBE`).
+    fn due(&mut self) -> bool {
+        if self.misses < MISSES {
+            return true;
+        }
+        self.skipped += 1;
+        if self.skipped >= PROBE {
+            self.skipped = 0;
+            return true;
+        }
+        false
+    }
+
+    /// Records a sweep's outcome: `moved` bodies, and whether the projection then
+    /// still needed the Newton loop.
+    pub(super) fn note(&mut self, moved: bool, newton: bool) {
+        if moved {
+            self.misses = if newton {
+                self.misses.saturating_add(1)
+            } else {
+                0
+            };
+        }
+    }
 }
 
 impl SweepScratch {
@@ -174,6 +216,9 @@ impl World {
     pub(super) fn sweep_tree_joints(&mut self, tolerance: f64) -> bool {
         let mode = self.proj.sweep.mode;
         if mode == SweepMode::Off {
+            return false;
+        }
+        if !self.proj.sweep.due() {
             return false;
         }
         let mut s = core::mem::take(&mut self.proj.sweep);
