@@ -114,9 +114,10 @@ impl World {
         velocity_ctx: Option<&StepContext>,
     ) -> Result<usize, ArticulatedError> {
         let velocity_h = velocity_ctx.map(StepContext::h);
-        // The tree joints closed one by one, parents first (`sweep.rs`; off by default),
-        // on projections of the positions alone: a child-only step as a velocity
-        // correction would be an impulse without its reaction on the parent.
+        // The tree joints closed one by one, parents first (`sweep.rs`; by default the
+        // trees rooted at the world), on projections of the positions alone: a
+        // child-only step as a velocity correction would be an impulse without its
+        // reaction on the parent.
         let swept = velocity_h.is_none() && self.sweep_tree_joints(tolerance);
         self.proj.values_current = false;
         // Steps kept although a limit went past its bound (below): at most this many.
