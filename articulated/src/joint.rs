@@ -99,7 +99,8 @@ pub(crate) struct JointRows {
 }
 
 impl JointRows {
-    fn new() -> Self {
+    /// No rows (`n = 0`), every entry zero.
+    pub(crate) fn new() -> Self {
         Self {
             n_hard: 0,
             n: 0,

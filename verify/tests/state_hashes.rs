@@ -590,7 +590,12 @@ fn lagrange_scene_hashes_are_deterministic_and_pinned() {
 const ARTICULATED_PINNED: &[(&str, u64)] = &[
     ("ball_chain20_heavy/velocity", 0x9e2bf64ad0a29e25),
     ("ball_chain20_heavy/velocity-beta0.2", 0x36e3fe59b58c0e1f),
-    ("ball_chain20_heavy/velocity+projection", 0x53fb6d4fa2e5b5da),
+    // Re-pinned for the projection's tree-ordered sweep (on by default for trees rooted
+    // at the world, `articulated/src/world/projection/sweep.rs`): 300 steps close the
+    // joints with 0 Newton iterations (593 before); bodies moved by 1.4e-3 m at most,
+    // the tip 1.330e-3 m off the same run at h/10 (1.296e-3 m before), separation
+    // 9.2e-16 m (6.7e-13 m before). The velocity-corrected projection is not swept.
+    ("ball_chain20_heavy/velocity+projection", 0x2126999a281926b9),
     (
         "ball_chain20_heavy/velocity+projection-correct-velocity",
         0x2ef4ce8e2f42ce0e,

@@ -64,6 +64,7 @@ use constraint_core::DVec3;
 mod branch;
 mod chord;
 mod limits;
+mod sweep;
 
 use super::*;
 use chord::CHORD_RATE;
@@ -99,6 +100,8 @@ pub(super) struct Scratch {
     near: Vec<usize>,
     /// `near` of the iterate while a backtracking's trials overwrite it.
     near_base: Vec<usize>,
+    /// The tree-ordered sweep's setting and buffers (`sweep.rs`).
+    sweep: sweep::SweepScratch,
 }
 
 impl World {
@@ -111,6 +114,11 @@ impl World {
         velocity_ctx: Option<&StepContext>,
     ) -> Result<usize, ArticulatedError> {
         let velocity_h = velocity_ctx.map(StepContext::h);
+        // The tree joints closed one by one, parents first (`sweep.rs`; by default the
+        // trees rooted at the world), on projections of the positions alone: a
+        // child-only step as a velocity correction would be an impulse without its
+        // reaction on the parent.
+        let swept = velocity_h.is_none() && self.sweep_tree_joints(tolerance);
         self.proj.values_current = false;
         // Steps kept although a limit went past its bound (below): at most this many.
         let mut exceptions = MAX_LIMIT_EXCEPTIONS;
@@ -126,6 +134,7 @@ impl World {
         // The error and whether a limit is violated at the iterate (no limit rows to
         // look for otherwise: the coordinates are not evaluated again).
         let (mut err, mut past, _) = self.projection_error(limits);
+        self.proj.sweep.note(swept, err > tolerance);
         // Whether the solver holds this projection's factor (of an earlier iterate):
         // the next iteration is then a chord step (`chord.rs`).
         let mut factored = false;
