@@ -1250,24 +1250,10 @@ impl World {
                 };
                 let mut rhs = [0.0; MAX_ROWS];
                 for r in rows.n_hard..rows.n {
-                    let k = r - rows.n_hard;
-                    let d = if rates == Rates::Full {
-                        joint.dof_damping(k)
-                    } else {
-                        0.0
-                    };
-                    let arm = self.armature[j][k];
-                    let s = arm + h * d;
+                    let (arm, s) =
+                        rate_row_scales(joint, &self.armature[j], r - rows.n_hard, rates, h);
                     if s > 0.0 && arm > 0.0 {
-                        let tw = |i: Option<usize>| {
-                            i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
-                                (self.bodies[i].v, self.bodies[i].omega)
-                            })
-                        };
-                        let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
-                        let g = rows.rows[r];
-                        let rate = g[0].dot(va) + g[1].dot(wa) + g[2].dot(vb) + g[3].dot(wb);
-                        rhs[r] += arm / s * rate;
+                        rhs[r] += arm / s * joint_rate(&self.bodies, joint, &rows.rows[r]);
                     }
                 }
                 let n_topo = joint.hard_rows() + passive;
@@ -1304,26 +1290,11 @@ impl World {
             // armature or damping is stable).
             let mut rate_rhs = [0.0; MAX_ROWS];
             for r in rows.n_hard..n {
-                let k = r - rows.n_hard;
-                let d = if rates == Rates::Full {
-                    joint.dof_damping(k)
-                } else {
-                    0.0
-                };
-                let arm = self.armature[j][k];
-                let s = arm + h * d;
+                let (arm, s) = rate_row_scales(joint, &self.armature[j], r - rows.n_hard, rates, h);
                 if s > 0.0 {
                     comp[r] = 1.0 / s;
                     if arm > 0.0 {
-                        let tw = |i: Option<usize>| {
-                            i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
-                                (self.bodies[i].v, self.bodies[i].omega)
-                            })
-                        };
-                        let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
-                        let g = rows.rows[r];
-                        let rate = g[0].dot(va) + g[1].dot(wa) + g[2].dot(vb) + g[3].dot(wb);
-                        rate_rhs[r] = arm / s * rate;
+                        rate_rhs[r] = arm / s * joint_rate(&self.bodies, joint, &rows.rows[r]);
                     }
                 } else {
                     // An undamped, armature-free dof of a joint whose other dofs have some.
@@ -1683,4 +1654,36 @@ fn check_method(m: &Method) -> Result<(), ArticulatedError> {
         }
         _ => Ok(()),
     }
+}
+
+/// The armature `I_a` and the scale `I_a + h d` of rate row `k` of `joint` (damping
+/// `d` only with [`Rates::Full`]): the row `G v' − λ/(I_a + h d) = I_a/(I_a + h d) · G v`
+/// of [`World::assemble_with`].
+#[inline(always)]
+fn rate_row_scales(
+    joint: &Joint,
+    armature: &[f64; MAX_DOF],
+    k: usize,
+    rates: Rates,
+    h: f64,
+) -> (f64, f64) {
+    let d = if rates == Rates::Full {
+        joint.dof_damping(k)
+    } else {
+        0.0
+    };
+    let arm = armature[k];
+    (arm, arm + h * d)
+}
+
+/// The rate `G v` of one rate row `g` of `joint` at the bodies' current twists.
+#[inline(always)]
+fn joint_rate(bodies: &[RigidBody], joint: &Joint, g: &[DVec3; 4]) -> f64 {
+    let tw = |i: Option<usize>| {
+        i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
+            (bodies[i].v, bodies[i].omega)
+        })
+    };
+    let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
+    g[0].dot(va) + g[1].dot(wa) + g[2].dot(vb) + g[3].dot(wb)
 }
