@@ -237,6 +237,32 @@ impl CachedRows {
             .filter(|e| e.valid && e.rates && e.seen == epoch)
             .map(|e| &e.rows)
     }
+
+    /// Joint `j`'s rows with their rate rows at the bodies' current poses, for a
+    /// reader of the rate rows only: the entry seen in pose epoch `epoch`
+    /// ([`Self::seen_rates`], no key compared), else the entry whose key matches
+    /// ([`Self::kept_rates`]), else [`Joint::rate_rows_only_kept`] computed into `fresh`.
+    #[inline(always)]
+    fn rates_at<'c>(
+        cache: &'c [CachedRows],
+        coords: &[Option<crate::joint::KeptCoords>],
+        bodies: &[RigidBody],
+        (j, joint): (usize, &Joint),
+        epoch: u64,
+        fresh: &'c mut Option<crate::joint::JointRows>,
+    ) -> &'c crate::joint::JointRows {
+        if let Some(seen) = Self::seen_rates(cache, j, epoch) {
+            return seen;
+        }
+        let a = joint.parent.map_or(&Pose::IDENTITY, |i| &bodies[i].pose);
+        let b = &bodies[joint.child].pose;
+        match Self::kept_rates(cache, j, a, b) {
+            Some(kept) => kept,
+            None => {
+                fresh.insert(joint.rate_rows_only_kept(a, b, actuator::kept_at(coords, j, a, b)))
+            }
+        }
+    }
 }
 
 /// Which rate rows (one per degree of freedom) an assembly gives the joints.
@@ -1371,27 +1397,15 @@ impl World {
             let Some(o) = self.solver.joint_offset(j) else {
                 continue;
             };
-            let fresh;
-            let rows = match CachedRows::seen_rates(&self.rows_cache, j, self.rows_epoch) {
-                Some(seen) => seen,
-                None => {
-                    let a = joint
-                        .parent
-                        .map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
-                    let b = &self.bodies[joint.child].pose;
-                    match CachedRows::kept_rates(&self.rows_cache, j, a, b) {
-                        Some(kept) => kept,
-                        None => {
-                            fresh = joint.rate_rows_only_kept(
-                                a,
-                                b,
-                                actuator::kept_at(&self.coords, j, a, b),
-                            );
-                            &fresh
-                        }
-                    }
-                }
-            };
+            let mut fresh = None;
+            let rows = CachedRows::rates_at(
+                &self.rows_cache,
+                &self.coords,
+                &self.bodies,
+                (j, joint),
+                self.rows_epoch,
+                &mut fresh,
+            );
             let tw = |i: Option<usize>| i.map_or((DVec3::ZERO, DVec3::ZERO), |i| twists[i]);
             let ((va, wa), (vb, wb)) = (tw(joint.parent), tw(Some(joint.child)));
             for r in rows.n_hard..rows.n {

@@ -730,27 +730,15 @@ impl World {
             // (or, where it is skipped, the damping flow) just assembled them at these
             // poses: the rows it saw are taken without comparing keys
             // (`CachedRows::seen`).
-            let computed;
-            let rows = match CachedRows::seen_rates(&self.rows_cache, j, self.rows_epoch) {
-                Some(rows) => rows,
-                None => {
-                    let a = joint
-                        .parent
-                        .map_or(&Pose::IDENTITY, |i| &self.bodies[i].pose);
-                    let b = &self.bodies[joint.child].pose;
-                    match CachedRows::kept_rates(&self.rows_cache, j, a, b) {
-                        Some(rows) => rows,
-                        None => {
-                            computed = joint.rate_rows_only_kept(
-                                a,
-                                b,
-                                super::actuator::kept_at(&self.coords, j, a, b),
-                            );
-                            &computed
-                        }
-                    }
-                }
-            };
+            let mut computed = None;
+            let rows = CachedRows::rates_at(
+                &self.rows_cache,
+                &self.coords,
+                &self.bodies,
+                (j, joint),
+                self.rows_epoch,
+                &mut computed,
+            );
             let mut rate = [0.0; MAX_ROWS];
             let tw = |i: Option<usize>| {
                 i.map_or((DVec3::ZERO, DVec3::ZERO), |i| {
