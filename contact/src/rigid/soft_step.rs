@@ -62,6 +62,7 @@ use alloc::boxed::Box;
 use alloc::vec::Vec;
 use core::f64::consts::TAU;
 
+#[cfg(feature = "parallel")]
 use constraint_core::rigid::rotate_by;
 use constraint_core::{DMat3, DQuat, DVec3, Pose};
 use wide::f64x2;
@@ -930,7 +931,9 @@ fn integrate_velocities(st: &mut SoftState, g: DVec3, hs: f64) {
 }
 
 /// `Δx += v h`, `Δq ← exp(ω h) Δq` (and its matrix) for one body; an asleep body (zero
-/// inverse mass) is skipped.
+/// inverse mass) is skipped (the threaded passes'; [`integrate_positions`] does the
+/// same operations in batches).
+#[cfg(feature = "parallel")]
 #[inline(always)]
 pub(super) fn integrate_position(
     dp: &mut DVec3,
@@ -947,16 +950,44 @@ pub(super) fn integrate_position(
     *rot = DMat3::from_quat(*dq);
 }
 
-/// [`integrate_position`] for every moving body (the static slot is last).
-/// The six slices are cut to `n` once and zipped: no per-body bounds checks, and fewer
-/// pointers live across the `sincos` call.
+/// Bodies whose rotations [`integrate_positions`] takes at once.
+const ROTATION_BATCH: usize = 8;
+
+/// `Δx += v h`, `Δq ← exp(ω h) Δq` (and its matrix) for every moving body (the static
+/// slot is last; an asleep body, zero inverse mass, is skipped), in batches
+/// of [`ROTATION_BATCH`] bodies and two phases: the rotations `exp(ω h)` of the
+/// batch's moving bodies (`DQuat::from_scaled_axis`: a square root, a division and a
+/// `sincos` each), then `Δx`, `Δq ← (exp(ω h) Δq)/|·|` and `Δq`'s matrix. The same
+/// functions on the same values as `rotate_by` (the same bits); a body's chain of
+/// square roots, divisions and the `sincos` call no longer stands between the next
+/// body's, so the processor overlaps them.
 fn integrate_positions(st: &mut SoftState, hs: f64) {
     let n = st.v.len() - 1;
-    let poses = st.dp[..n].iter_mut().zip(&mut st.dq[..n]);
-    let poses = poses.zip(&mut st.rot[..n]);
-    let vels = st.v[..n].iter().zip(&st.w[..n]).zip(&st.inv_mass[..n]);
-    for (((dp, dq), rot), ((&v, &w), &inv_mass)) in poses.zip(vels) {
-        integrate_position(dp, dq, rot, (v, w, inv_mass), hs);
+    let (dp, dq, rot) = (&mut st.dp[..n], &mut st.dq[..n], &mut st.rot[..n]);
+    let (v, w, inv_mass) = (&st.v[..n], &st.w[..n], &st.inv_mass[..n]);
+    let mut start = 0;
+    while start < n {
+        let end = n.min(start + ROTATION_BATCH);
+        let mut exp = [DQuat::IDENTITY; ROTATION_BATCH];
+        for (e, (&w, &m)) in exp.iter_mut().zip(w[start..end].iter().zip(&inv_mass[start..end])) {
+            // An asleep body (zero inverse mass) is skipped, as below.
+            if m > 0.0 {
+                *e = DQuat::from_scaled_axis(w * hs);
+            }
+        }
+        let poses = dp[start..end].iter_mut().zip(&mut dq[start..end]);
+        let poses = poses.zip(&mut rot[start..end]);
+        let vels = v[start..end].iter().zip(&inv_mass[start..end]).zip(&exp);
+        for (((dp, dq), rot), ((&v, &m), &e)) in poses.zip(vels) {
+            if !(m > 0.0) {
+                continue; // asleep
+            }
+            // `rotate_by(Δq, ω h)`: `(exp(ω h) Δq)` renormalised.
+            *dp += v * hs;
+            *dq = (e * *dq).normalize();
+            *rot = DMat3::from_quat(*dq);
+        }
+        start = end;
     }
 }
 
@@ -1163,6 +1194,49 @@ pub(super) use prepare::PointConsts;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The batched [`integrate_positions`] gives, bit for bit, `Δx += v h`, `Δq ←
+    /// rotate_by(Δq, ω h)` and `Δq`'s matrix body by body (tolerance 0; measured
+    /// equal) on 19 bodies (three batches, the last partial) after 5 sub-steps, with
+    /// an asleep body (zero inverse mass) left as it was and a body at rest (`ω = 0`).
+    #[test]
+    fn batched_positions_are_rotate_by_body_by_body() {
+        let n = 19;
+        let mut st = SoftState::default();
+        let f = |i: usize, k: f64| ((i as f64 + 1.0) * k).sin();
+        st.v = (0..=n).map(|i| DVec3::new(f(i, 0.7), f(i, 1.3), f(i, 2.9))).collect();
+        st.w = (0..=n)
+            .map(|i| DVec3::new(f(i, 3.1), f(i, 0.4), f(i, 1.7)) * (i as f64))
+            .collect();
+        st.inv_mass = (0..=n).map(|i| if i == 5 { 0.0 } else { 1.0 }).collect();
+        st.dp = vec![DVec3::ZERO; n + 1];
+        st.dq = vec![DQuat::IDENTITY; n + 1];
+        st.rot = vec![DMat3::IDENTITY; n + 1];
+        let hs = 1.0 / 180.0;
+        let mut one = (st.dp.clone(), st.dq.clone(), st.rot.clone());
+        for _ in 0..5 {
+            integrate_positions(&mut st, hs);
+            for i in 0..n {
+                if st.inv_mass[i] > 0.0 {
+                    one.0[i] += st.v[i] * hs;
+                    one.1[i] = constraint_core::rigid::rotate_by(one.1[i], st.w[i] * hs);
+                    one.2[i] = DMat3::from_quat(one.1[i]);
+                }
+            }
+        }
+        let bits = |dp: &[DVec3], dq: &[DQuat], rot: &[DMat3]| -> Vec<u64> {
+            let mut b = Vec::new();
+            for i in 0..dp.len() {
+                b.extend(dp[i].to_array().map(f64::to_bits));
+                b.extend(dq[i].to_array().map(f64::to_bits));
+                b.extend(rot[i].to_cols_array().map(f64::to_bits));
+            }
+            b
+        };
+        assert_eq!(bits(&st.dp, &st.dq, &st.rot), bits(&one.0, &one.1, &one.2));
+        assert_eq!(st.dq[5], DQuat::IDENTITY);
+        assert_ne!(st.dq[1], DQuat::IDENTITY);
+    }
 
     /// Where a step does not keep a packed manifold's angular terms
     /// ([`SoftState::ang_kept`]), [`rebuild_ang`] gives, bit for bit, what a step that
