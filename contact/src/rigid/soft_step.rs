@@ -382,6 +382,9 @@ pub(super) struct SoftState {
     /// The bodies' rotation matrices at the start of the step (`load_bodies`' first
     /// pass; the gyroscopic step and the world inverse inertias read them).
     pub(super) body_rot: Vec<DMat3>,
+    /// The bodies' rotations `exp(ω h)` over a sub-step (`integrate_positions`' first
+    /// pass).
+    pub(super) exp: Vec<DQuat>,
     /// Colouring of the manifolds and the solve order of the points
     /// ([`Colouring::out`]).
     pub(super) colouring: Colouring,
@@ -943,7 +946,7 @@ fn integrate_velocities(st: &mut SoftState, g: DVec3, hs: f64) {
 
 /// `Δx += v h`, `Δq ← exp(ω h) Δq` (and its matrix) for one body; an asleep body (zero
 /// inverse mass) is skipped (the threaded passes'; [`integrate_positions`] does the
-/// same operations in batches).
+/// same operations in two passes over the bodies).
 #[cfg(feature = "parallel")]
 #[inline(always)]
 pub(super) fn integrate_position(
@@ -961,44 +964,37 @@ pub(super) fn integrate_position(
     *rot = DMat3::from_quat(*dq);
 }
 
-/// Bodies whose rotations [`integrate_positions`] takes at once.
-const ROTATION_BATCH: usize = 8;
-
 /// `Δx += v h`, `Δq ← exp(ω h) Δq` (and its matrix) for every moving body (the static
-/// slot is last; an asleep body, zero inverse mass, is skipped), in batches
-/// of [`ROTATION_BATCH`] bodies and two phases: the rotations `exp(ω h)` of the
-/// batch's moving bodies (`DQuat::from_scaled_axis`: a square root, a division and a
-/// `sincos` each), then `Δx`, `Δq ← (exp(ω h) Δq)/|·|` and `Δq`'s matrix. The same
-/// functions on the same values as `rotate_by` (the same bits); a body's chain of
-/// square roots, divisions and the `sincos` call no longer stands between the next
-/// body's, so the processor overlaps them.
+/// slot is last; an asleep body, zero inverse mass, is skipped), in two passes: the
+/// rotations `exp(ω h)` of every moving body first (`DQuat::from_scaled_axis`: a
+/// square root, a division and a `sincos` each, into [`SoftState::exp`]), then `Δx`,
+/// `Δq ← (exp(ω h) Δq)/|·|` and `Δq`'s matrix. The same functions on the same values
+/// as `rotate_by` (the same bits); a body's chain of square roots, divisions and the
+/// `sincos` call no longer stands between the next body's, so the processor overlaps
+/// them.
 fn integrate_positions(st: &mut SoftState, hs: f64) {
     let n = st.v.len() - 1;
-    let (dp, dq, rot) = (&mut st.dp[..n], &mut st.dq[..n], &mut st.rot[..n]);
-    let (v, w, inv_mass) = (&st.v[..n], &st.w[..n], &st.inv_mass[..n]);
-    let mut start = 0;
-    while start < n {
-        let end = n.min(start + ROTATION_BATCH);
-        let mut exp = [DQuat::IDENTITY; ROTATION_BATCH];
-        for (e, (&w, &m)) in exp.iter_mut().zip(w[start..end].iter().zip(&inv_mass[start..end])) {
-            // An asleep body (zero inverse mass) is skipped, as below.
-            if m > 0.0 {
-                *e = DQuat::from_scaled_axis(w * hs);
-            }
+    // Every entry written below (the identity for an asleep body, never read).
+    st.exp.resize(n, DQuat::IDENTITY);
+    let (w, inv_mass) = (&st.w[..n], &st.inv_mass[..n]);
+    for (e, (&w, &m)) in st.exp[..n].iter_mut().zip(w.iter().zip(inv_mass)) {
+        *e = if m > 0.0 {
+            DQuat::from_scaled_axis(w * hs)
+        } else {
+            DQuat::IDENTITY
+        };
+    }
+    let poses = st.dp[..n].iter_mut().zip(&mut st.dq[..n]);
+    let poses = poses.zip(&mut st.rot[..n]);
+    let vels = st.v[..n].iter().zip(inv_mass).zip(&st.exp[..n]);
+    for (((dp, dq), rot), ((&v, &m), &e)) in poses.zip(vels) {
+        if !(m > 0.0) {
+            continue; // asleep
         }
-        let poses = dp[start..end].iter_mut().zip(&mut dq[start..end]);
-        let poses = poses.zip(&mut rot[start..end]);
-        let vels = v[start..end].iter().zip(&inv_mass[start..end]).zip(&exp);
-        for (((dp, dq), rot), ((&v, &m), &e)) in poses.zip(vels) {
-            if !(m > 0.0) {
-                continue; // asleep
-            }
-            // `rotate_by(Δq, ω h)`: `(exp(ω h) Δq)` renormalised.
-            *dp += v * hs;
-            *dq = (e * *dq).normalize();
-            *rot = DMat3::from_quat(*dq);
-        }
-        start = end;
+        // `rotate_by(Δq, ω h)`: `exp(ω h) Δq` renormalised.
+        *dp += v * hs;
+        *dq = (e * *dq).normalize();
+        *rot = DMat3::from_quat(*dq);
     }
 }
 
@@ -1206,12 +1202,12 @@ pub(super) use prepare::PointConsts;
 mod tests {
     use super::*;
 
-    /// The batched [`integrate_positions`] gives, bit for bit, `Δx += v h`, `Δq ←
+    /// The two-pass [`integrate_positions`] gives, bit for bit, `Δx += v h`, `Δq ←
     /// rotate_by(Δq, ω h)` and `Δq`'s matrix body by body (tolerance 0; measured
-    /// equal) on 19 bodies (three batches, the last partial) after 5 sub-steps, with
+    /// equal) on 19 bodies after 5 sub-steps, with
     /// an asleep body (zero inverse mass) left as it was and a body at rest (`ω = 0`).
     #[test]
-    fn batched_positions_are_rotate_by_body_by_body() {
+    fn two_pass_positions_are_rotate_by_body_by_body() {
         let n = 19;
         let mut st = SoftState::default();
         let f = |i: usize, k: f64| ((i as f64 + 1.0) * k).sin();
