@@ -1204,14 +1204,16 @@ mod tests {
 
     /// The two-pass [`integrate_positions`] gives, bit for bit, `Δx += v h`, `Δq ←
     /// rotate_by(Δq, ω h)` and `Δq`'s matrix body by body (tolerance 0; measured
-    /// equal) on 19 bodies after 5 sub-steps, with
-    /// an asleep body (zero inverse mass) left as it was and a body at rest (`ω = 0`).
+    /// equal) on 19 bodies after 5 sub-steps, with an asleep body (zero inverse mass)
+    /// left as it was and a body at rest (`ω = 0`).
     #[test]
     fn two_pass_positions_are_rotate_by_body_by_body() {
         let n = 19;
         let mut st = SoftState::default();
         let f = |i: usize, k: f64| ((i as f64 + 1.0) * k).sin();
-        st.v = (0..=n).map(|i| DVec3::new(f(i, 0.7), f(i, 1.3), f(i, 2.9))).collect();
+        st.v = (0..=n)
+            .map(|i| DVec3::new(f(i, 0.7), f(i, 1.3), f(i, 2.9)))
+            .collect();
         st.w = (0..=n)
             .map(|i| DVec3::new(f(i, 3.1), f(i, 0.4), f(i, 1.7)) * (i as f64))
             .collect();
