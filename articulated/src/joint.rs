@@ -427,6 +427,26 @@ impl Joint {
         }
     }
 
+    /// Tighter upper bounds on the same two norms as [`Self::angular_curvature_bounds`],
+    /// of the blocks as [`Self::curvature`] computes them (round-off included), for a
+    /// hinge or a weld ([`Hinge::angular_curvature_norms`],
+    /// [`Fixed::angular_curvature_norms`]; a few rotations, not the curvature); `None`
+    /// for the other kinds.
+    pub fn angular_curvature_norms(
+        &self,
+        a: &Pose,
+        b: &Pose,
+        w: &[f64; MAX_ROWS],
+    ) -> Option<[f64; 2]> {
+        match &self.kind {
+            JointKind::Hinge(c) => {
+                Some(c.angular_curvature_norms(a, b, &[w[0], w[1], w[2], w[3], w[4]]))
+            }
+            JointKind::Fixed(c) => Some(c.angular_curvature_norms(a, b, w)),
+            _ => None,
+        }
+    }
+
     /// `Σ_r w_r ∂²C_r` of the hard rows (`w` beyond [`Self::hard_rows`] ignored).
     pub fn curvature(&self, a: &Pose, b: &Pose, w: &[f64; MAX_ROWS]) -> TwistCurvature {
         match &self.kind {
