@@ -10,8 +10,8 @@
 
 use constraint_core::compound::MAX_DOF;
 use constraint_core::{
-    BodyConstraint, Compound, DVec3, DistanceJoint, Fixed, Hinge, Pose, Prismatic, Spherical,
-    TwistCurvature,
+    BlockBounds, BodyConstraint, Compound, DVec3, DistanceJoint, Fixed, Hinge, Pose, Prismatic,
+    Spherical, TwistCurvature,
 };
 
 /// Largest number of rows a joint contributes (hard plus damping).
@@ -427,22 +427,23 @@ impl Joint {
         }
     }
 
-    /// Tighter upper bounds on the same two norms as [`Self::angular_curvature_bounds`],
-    /// of the blocks as [`Self::curvature`] computes them (round-off included), for a
-    /// hinge or a weld ([`Hinge::angular_curvature_norms`],
-    /// [`Fixed::angular_curvature_norms`]; a few rotations, not the curvature); `None`
-    /// for the other kinds.
-    pub fn angular_curvature_norms(
+    /// Tighter upper bounds than [`Self::angular_curvature_bounds`] on the angular
+    /// diagonal blocks of [`Self::curvature`] as computed (round-off included): their
+    /// Frobenius norms and the largest eigenvalues of their positive semi-definite
+    /// parts ([`BlockBounds`]), for a hinge or a weld ([`Hinge::angular_block_bounds`],
+    /// [`Fixed::angular_block_bounds`]: a few rotations, not the curvature); `None` for
+    /// the other kinds.
+    pub fn angular_block_bounds(
         &self,
         a: &Pose,
         b: &Pose,
         w: &[f64; MAX_ROWS],
-    ) -> Option<[f64; 2]> {
+    ) -> Option<[BlockBounds; 2]> {
         match &self.kind {
             JointKind::Hinge(c) => {
-                Some(c.angular_curvature_norms(a, b, &[w[0], w[1], w[2], w[3], w[4]]))
+                Some(c.angular_block_bounds(a, b, &[w[0], w[1], w[2], w[3], w[4]]))
             }
-            JointKind::Fixed(c) => Some(c.angular_curvature_norms(a, b, w)),
+            JointKind::Fixed(c) => Some(c.angular_block_bounds(a, b, w)),
             _ => None,
         }
     }

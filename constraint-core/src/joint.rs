@@ -22,7 +22,9 @@
 
 use glam::DVec3;
 
-use crate::frame_expr::{add_dot_hessian, add_norm_hessian, dot_grad, FrameExpr, RotHessianSum};
+use crate::frame_expr::{
+    add_dot_hessian, add_norm_hessian, dot_grad, BlockBounds, FrameExpr, RotHessianSum,
+};
 use crate::rigid::{BodyConstraint, Pose, TwistCurvature, TwistJacobian};
 use crate::ConstraintError;
 
@@ -395,14 +397,14 @@ impl Hinge {
 }
 
 impl Hinge {
-    /// Tighter upper bounds than [`Hinge::angular_curvature_bounds`] on the same two
-    /// Frobenius norms, of the blocks as [`BodyConstraint::curvature`] computes them
-    /// (round-off included): the blocks' norms from `M = Σ w pᵀ` of their terms plus a
-    /// round-off margin ([`RotHessianSum::norm_bound`]), at five rotations and a few
-    /// dozen flops instead of the curvature's 12×12 blocks. The direction rows add
-    /// `w_{3+k} rot_hessian(R_b u_b, R_a n_k)` to both blocks. Non-finite inputs give
-    /// non-finite or NaN bounds.
-    pub fn angular_curvature_norms(&self, a: &Pose, b: &Pose, w: &[f64; 5]) -> [f64; 2] {
+    /// Tighter upper bounds than [`Hinge::angular_curvature_bounds`] on the two angular
+    /// diagonal blocks as [`BodyConstraint::curvature`] computes them (round-off
+    /// included): their Frobenius norms and the largest eigenvalues of their positive
+    /// semi-definite parts ([`BlockBounds`]), from `M = Σ w pᵀ` of their terms
+    /// (`RotHessianSum::bounds`), at five rotations and a few dozen flops instead of
+    /// the curvature's 12×12 blocks. The direction rows add `w_{3+k} rot_hessian(R_b
+    /// u_b, R_a n_k)` to both blocks. Non-finite inputs give non-finite or NaN bounds.
+    pub fn angular_block_bounds(&self, a: &Pose, b: &Pose, w: &[f64; 5]) -> [BlockBounds; 2] {
         let u = b.q * self.u_b;
         let mut dirs = RotHessianSum::ZERO;
         for k in 0..2 {
@@ -410,7 +412,7 @@ impl Hinge {
         }
         self.point
             .angular_sums(a, b, DVec3::new(w[0], w[1], w[2]), &dirs)
-            .map(|s| s.norm_bound())
+            .map(|s| s.bounds())
     }
 }
 
@@ -581,14 +583,14 @@ impl Fixed {
 }
 
 impl Fixed {
-    /// Tighter upper bounds than [`Fixed::angular_curvature_bounds`] on the same two
-    /// Frobenius norms, as [`Hinge::angular_curvature_norms`] (the three orientation
-    /// rows in place of the hinge's two direction rows).
-    pub fn angular_curvature_norms(&self, a: &Pose, b: &Pose, w: &[f64; 6]) -> [f64; 2] {
+    /// Tighter upper bounds than [`Fixed::angular_curvature_bounds`] on the two angular
+    /// diagonal blocks as computed, as [`Hinge::angular_block_bounds`] (the three
+    /// orientation rows in place of the hinge's two direction rows).
+    pub fn angular_block_bounds(&self, a: &Pose, b: &Pose, w: &[f64; 6]) -> [BlockBounds; 2] {
         let dirs = self.orient.angular_sum(a, b, &w[3..]);
         self.point
             .angular_sums(a, b, DVec3::new(w[0], w[1], w[2]), &dirs)
-            .map(|s| s.norm_bound())
+            .map(|s| s.bounds())
     }
 }
 
@@ -837,20 +839,22 @@ mod tests {
         assert!(worst_f > 0.9, "weld bounds looser than measured: {worst_f}");
     }
 
-    /// `Hinge::angular_curvature_norms` and `Fixed::angular_curvature_norms` bound the
-    /// Frobenius norms of the computed curvature's angular diagonal blocks (the
-    /// geometric stiffness skips a curvature on them): 40 000 random hinges and welds
-    /// at random poses (quaternions of length 0.5 to 1.5 in a quarter of them), with
-    /// random weights up to 1e3, and in a third of them position weights 1e3 times the
-    /// direction weights (the tension of a loaded chain). Tolerance 0: a computed
-    /// block's norm never exceeds its bound (measured largest ratio norm/bound
-    /// 1 − 7.1e-13: the margin `1e-12 σ`); and the bounds are not loose: smallest
-    /// ratio measured 1 − 1.3e-11, asserted above 1 − 1e-9 wherever the block's norm is
-    /// over 1e-3 σ (cancelled blocks: `frame_expr`'s `rot_hessian_sum` test).
+    /// `Hinge::angular_block_bounds` and `Fixed::angular_block_bounds` bound the
+    /// Frobenius norms of the computed curvature's angular diagonal blocks and the
+    /// largest eigenvalues of their PSD parts as the geometric stiffness computes them
+    /// (it skips a curvature on them): 40 000 random hinges and welds at random poses
+    /// (quaternions of length 0.5 to 1.5 in a quarter of them), with random weights up
+    /// to 1e3, and in a third of them position weights 1e3 times the direction weights
+    /// (the tension of a loaded chain). Tolerance 0: a computed block's norm or
+    /// eigenvalue never exceeds its bound (measured largest ratios: norm/bound
+    /// 1 − 7.1e-13, the margin `1e-12 σ`; eigenvalue/bound 0.999992, asserted > 0.99);
+    /// and the norm bounds are not loose: smallest ratio measured 1 − 1.3e-11, asserted
+    /// above 1 − 1e-9 wherever the block's norm is over 1e-3 σ (cancelled blocks:
+    /// `frame_expr`'s `rot_hessian_sum` test).
     #[test]
-    fn angular_curvature_norms_bound_the_computed_blocks() {
+    fn angular_block_bounds_hold() {
         let mut rng = Lcg(0x5eed_0039);
-        let (mut largest, mut smallest_big): (f64, f64) = (0.0, 2.0);
+        let (mut largest, mut smallest_big, mut eig_max): (f64, f64, f64) = (0.0, 2.0, 0.0);
         for i in 0..40_000 {
             let rest = |rng: &mut Lcg| Pose {
                 x: rng.vec(1.0),
@@ -887,11 +891,11 @@ mod tests {
             let blocks = [
                 (
                     hinge.curvature(&a, &b, &w5),
-                    hinge.angular_curvature_norms(&a, &b, &w5),
+                    hinge.angular_block_bounds(&a, &b, &w5),
                 ),
                 (
                     weld.curvature(&a, &b, &w),
-                    weld.angular_curvature_norms(&a, &b, &w),
+                    weld.angular_block_bounds(&a, &b, &w),
                 ),
             ];
             // σ of the bound, for the report: the loose bound over √2 is at least σ.
@@ -902,8 +906,14 @@ mod tests {
             for (kind, (k, bound)) in blocks.iter().enumerate() {
                 for (side, blk) in [(0, 1), (1, 3)] {
                     let norm = frobenius(&k.blocks[blk][blk]);
-                    let ratio = norm / bound[side];
+                    let ratio = norm / bound[side].frobenius;
                     assert!(ratio <= 1.0, "{i} kind {kind} side {side}: ratio {ratio}");
+                    let top = crate::body::symmetric_eigenvalues(&crate::body::psd_part(
+                        &k.blocks[blk][blk],
+                    ))[2];
+                    let eig = top / bound[side].max_eigenvalue;
+                    assert!(eig <= 1.0, "{i} kind {kind} side {side}: eigenvalue {eig}");
+                    eig_max = eig_max.max(eig);
                     largest = largest.max(ratio);
                     if norm > 1e-3 * sigma[kind][side] {
                         smallest_big = smallest_big.min(ratio);
@@ -912,6 +922,10 @@ mod tests {
             }
         }
         assert!(largest > 1.0 - 1e-12, "largest ratio {largest}");
+        assert!(
+            eig_max > 0.99,
+            "eigenvalue bounds looser than measured: {eig_max}"
+        );
         assert!(
             smallest_big > 1.0 - 1e-9,
             "loosest big block {smallest_big}"
