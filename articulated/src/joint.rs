@@ -10,8 +10,8 @@
 
 use constraint_core::compound::MAX_DOF;
 use constraint_core::{
-    BodyConstraint, Compound, DVec3, DistanceJoint, Fixed, Hinge, Pose, Prismatic, Spherical,
-    TwistCurvature,
+    BlockBounds, BodyConstraint, Compound, DVec3, DistanceJoint, Fixed, Hinge, Pose, Prismatic,
+    Spherical, TwistCurvature,
 };
 
 /// Largest number of rows a joint contributes (hard plus damping).
@@ -423,6 +423,27 @@ impl Joint {
                 Some(c.angular_curvature_bounds(a, b, &[w[0], w[1], w[2], w[3], w[4]]))
             }
             JointKind::Fixed(c) => Some(c.angular_curvature_bounds(a, b, w)),
+            _ => None,
+        }
+    }
+
+    /// Tighter upper bounds than [`Self::angular_curvature_bounds`] on the angular
+    /// diagonal blocks of [`Self::curvature`] as computed (round-off included): their
+    /// Frobenius norms and the largest eigenvalues of their positive semi-definite
+    /// parts ([`BlockBounds`]), for a hinge or a weld ([`Hinge::angular_block_bounds`],
+    /// [`Fixed::angular_block_bounds`]: a few rotations, not the curvature); `None` for
+    /// the other kinds.
+    pub fn angular_block_bounds(
+        &self,
+        a: &Pose,
+        b: &Pose,
+        w: &[f64; MAX_ROWS],
+    ) -> Option<[BlockBounds; 2]> {
+        match &self.kind {
+            JointKind::Hinge(c) => {
+                Some(c.angular_block_bounds(a, b, &[w[0], w[1], w[2], w[3], w[4]]))
+            }
+            JointKind::Fixed(c) => Some(c.angular_block_bounds(a, b, w)),
             _ => None,
         }
     }

@@ -93,6 +93,7 @@ pub use compound::Compound;
 pub use constraint::{Curvature, Jacobian, PointConstraint};
 pub use dihedral::Dihedral;
 pub use error::ConstraintError;
+pub use frame_expr::BlockBounds;
 pub use glam::{DMat3, DQuat, DVec3};
 pub use joint::{DistanceJoint, Fixed, Hinge, Prismatic, Spherical};
 pub use plane::PointOnPlane;
