@@ -319,6 +319,7 @@ use super::*;
 use crate::tree::NONE;
 use crate::tree_rows::{ExtraRow, RowTree};
 
+mod dependent;
 mod products;
 
 /// Iterations of the active set before the step goes to the dense path. The steps that
@@ -713,9 +714,11 @@ impl World {
                 break;
             }
             // Rows dependent on the others (the Schur complement's truncated directions)
-            // hold only if the others imply it: a one-sided one that does not cannot be
-            // mended here; a boxed or friction one slides, to the bound against its rate.
+            // hold only if the others imply it: for a one-sided one that does not (the
+            // shortest), an active one-sided row gives way ([`dependent`]); a boxed or
+            // friction one slides, to the bound against its rate.
             let mut changed = false;
+            let mut short: Option<(usize, f64)> = None;
             for &i in &st.schur {
                 if i >= m {
                     // An equality row the others make unreachable (a redundant row
@@ -727,7 +730,11 @@ impl World {
                 }
                 let w = st.w[i];
                 match self.urows[i].bound {
-                    RowBound::Unilateral if w < -tol_w => return false,
+                    RowBound::Unilateral if w < -tol_w => {
+                        if short.map_or(true, |(_, ws)| w < ws) {
+                            short = Some((i, w));
+                        }
+                    }
                     RowBound::Unilateral => {}
                     _ if w.abs() > tol_w => {
                         st.status[i] = if w < 0.0 {
@@ -739,6 +746,15 @@ impl World {
                     }
                     _ => {}
                 }
+            }
+            // A dependent one-sided row left short: the active row that gives way for
+            // it ([`dependent`]), released; none, the dense path.
+            if let Some((i, _)) = short {
+                let Some(j) = self.dependent_release(st, i) else {
+                    return false;
+                };
+                st.status[j] = RowStatus::Inactive;
+                changed = true;
             }
             let tz = 1e-12 * zmax;
             let mut drift: f64 = 0.0;
