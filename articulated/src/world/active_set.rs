@@ -62,7 +62,8 @@
 //! A step with a row neither kind holds (a tendon limit), with loop joints, whose set
 //! does not settle within [`MAX_ITERATIONS`] or returns to a set met
 //! earlier in the step (the update cycles), with more than
-//! [`MAX_SCHUR`] Schur rows, or where a dependent row's value cannot be held, goes to
+//! [`MAX_SCHUR`] Schur rows, or where a dependent one-sided row left short has no
+//! active row to give way for it ([`dependent`]), goes to
 //! the dense path unchanged (counted in [`super::UnilateralStats`]); after three or
 //! more such steps in a row, the next ones go there without trying (a doubling
 //! back-off, `World::solve_unilateral_sparse`). An iteration whose set of factor rows
@@ -730,10 +731,8 @@ impl World {
                 }
                 let w = st.w[i];
                 match self.urows[i].bound {
-                    RowBound::Unilateral if w < -tol_w => {
-                        if short.map_or(true, |(_, ws)| w < ws) {
-                            short = Some((i, w));
-                        }
+                    RowBound::Unilateral if w < -tol_w && short.is_none_or(|(_, ws)| w < ws) => {
+                        short = Some((i, w));
                     }
                     RowBound::Unilateral => {}
                     _ if w.abs() > tol_w => {

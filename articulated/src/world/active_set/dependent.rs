@@ -91,7 +91,7 @@ impl World {
                 continue;
             }
             let t = st.z[k].max(0.0) / -dz;
-            if best.map_or(true, |(_, b)| t < b) {
+            if best.is_none_or(|(_, b)| t < b) {
                 best = Some((k, t));
             }
         }
