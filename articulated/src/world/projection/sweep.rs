@@ -56,6 +56,15 @@
 //! humanoid passive went +2.6 % with its capped dense contact solves 4 → 18 in 2 s
 //! and deeper settled penetration (3.0e-5 → 4.5e-5 m): left as a setting until that
 //! is understood.
+//!
+//! Tried and left out (issue 13): free trees swept by default without restoring their
+//! centre of mass (the root stays, the limbs move). World::step instructions (2 s): dm
+//! humanoid controlled 303.57M → 260.54M (−14.2 %), passive 315.92M → 304.21M (−3.7 %),
+//! gymnasium humanoid passive 275.39M → 275.37M; but dm humanoid passive's projections
+//! that ended unconverged 4 → 10 steps and its penetration 3.05e-5 → 3.66e-5 m,
+//! gymnasium humanoid passive 2.85e-5 → 4.15e-5 m (its unconverged steps 8 → 1), ant
+//! controlled unconverged 0 → 1 (`simulate --summary`): the same contact regression as
+//! with the centre restored, so not the cause of it.
 
 use constraint_core::rigid::rotate_by;
 use constraint_core::DVec3;
