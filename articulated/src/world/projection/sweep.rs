@@ -65,6 +65,26 @@
 //! gymnasium humanoid passive 2.85e-5 → 4.15e-5 m (its unconverged steps 8 → 1), ant
 //! controlled unconverged 0 → 1 (`simulate --summary`): the same contact regression as
 //! with the centre restored, so not the cause of it.
+//!
+//! A third setting, off by default ([`World::set_projection_sweep_limbs`]): of a free
+//! tree only the joints whose child's subtree has no body in contact (a body of a
+//! contact of this step, generated at its start, that penetrates), the root and the
+//! contact-bearing branches left to the Newton projection, no centre restored.
+//! Against main (`simulate --summary`, World::step instructions under callgrind, 2 s,
+//! humanoid_CMU 0.5 s): dm humanoid passive 315.92M → 345.79M (+9.5 %, in the velocity
+//! level of a different fall: 230M → 263M), penetration 3.047e-5 → 3.045e-5 m,
+//! unconverged projections 4 → 3; controlled 303.61M → 273.59M (−9.9 %), unconverged
+//! 2 → 1; gymnasium humanoid passive 275.39M → 265.58M (−3.6 %), penetration 2.85e-5 →
+//! 8.9e-6 m, unconverged 8 → 1; humanoid_CMU passive 211.07M → 202.97M (−3.8 %),
+//! penetration 5.34e-6 → 5.20e-6 m; controlled 376.72M → 371.04M (−1.5 %), penetration
+//! 1.0e-4 → 7.2e-5 m but unconverged 45 → 52 (of 250); gymnasium ant controlled 82.86M →
+//! 80.60M (−2.7 %), penetration 1e-4 (the slop) both, unconverged 0 both; the largest
+//! joint separations below the tolerance (≤ 1e-8 m) in all. Not the default: the
+//! passive dm humanoid's cost and CMU controlled's unconverged projections. Counting
+//! the speculative contacts too (apart by up to the margin) swept less and saved
+//! nothing: dm humanoid passive +2.1 %, controlled −0.9 %, gymnasium humanoid −2.4 %,
+//! CMU passive +0.9 % (penetration 5.57e-6 m), controlled −1.1 % (unconverged 53), ant
+//! +1.1 %.
 
 use constraint_core::rigid::rotate_by;
 use constraint_core::DVec3;
@@ -98,6 +118,10 @@ pub(in crate::world) enum SweepMode {
     Rooted,
     /// Those and trees whose root is a free body (centre of mass restored).
     All,
+    /// Trees rooted at the world, and of trees rooted at a free body the joints whose
+    /// tree child's subtree has no body in contact (`touching`; the root and the
+    /// contact-bearing branches stay, no centre of mass restored).
+    Limbs,
 }
 
 /// The sweep's setting and reused buffers.
@@ -119,6 +143,9 @@ pub(in crate::world) struct SweepScratch {
     moved: Vec<DVec3>,
     /// Per root body of a free tree: `(Σ m, Σ m δx)` of its bodies.
     centre: Vec<(f64, DVec3)>,
+    /// Per tree node: whether a body of its subtree is in this step's contacts
+    /// (`SweepMode::Limbs`).
+    touch: Vec<bool>,
     /// Consecutive sweeps that moved bodies and still left the Newton loop to run
     /// (`SweepScratch::note`).
     misses: u32,
@@ -201,7 +228,7 @@ impl SweepScratch {
                 continue;
             }
             let free = root < nb;
-            if !free || mode == SweepMode::All {
+            if !free || mode != SweepMode::Rooted {
                 self.plan.push((j, p, free));
             }
         }
@@ -222,13 +249,35 @@ impl World {
     }
 
     /// Whether the projection sweeps `(rooted trees, floating trees)`
-    /// ([`Self::set_projection_sweep`]).
+    /// ([`Self::set_projection_sweep`]); with the limbs of floating trees swept
+    /// ([`Self::set_projection_sweep_limbs`]) `(true, false)`.
     pub fn projection_sweep(&self) -> (bool, bool) {
         match self.proj.sweep.mode {
             SweepMode::Off => (false, false),
-            SweepMode::Rooted => (true, false),
+            SweepMode::Rooted | SweepMode::Limbs => (true, false),
             SweepMode::All => (true, true),
         }
+    }
+
+    /// A third setting of the sweep (module doc): `on` sweeps the trees rooted at the
+    /// world and, of the trees rooted at a free body, the joints whose child's
+    /// subtree has no body in the step's contacts (the root and the branches that
+    /// hold contacts are left to the Newton projection; the centre of mass is not
+    /// restored). `false` turns this setting back into the rooted trees' sweep and
+    /// leaves the other settings as they are. Off by default.
+    pub fn set_projection_sweep_limbs(&mut self, on: bool) {
+        let mode = &mut self.proj.sweep.mode;
+        if on {
+            *mode = SweepMode::Limbs;
+        } else if *mode == SweepMode::Limbs {
+            *mode = SweepMode::Rooted;
+        }
+    }
+
+    /// Whether the limbs of floating trees are swept
+    /// ([`Self::set_projection_sweep_limbs`]).
+    pub fn projection_sweep_limbs(&self) -> bool {
+        self.proj.sweep.mode == SweepMode::Limbs
     }
 
     /// One sweep of the hard tree joints (module doc) at `tolerance`, moving positions
@@ -252,10 +301,18 @@ impl World {
         s.moved.resize(nb, DVec3::ZERO);
         let mut any = false;
         let mut any_free = false;
+        let limbs = mode == SweepMode::Limbs;
+        if limbs {
+            self.touching(&mut s);
+        }
         // One set of per-joint buffers for the whole sweep (zeroed once, not per joint).
         let mut buf = JointScratch::new();
         for &(j, p, free) in &s.plan {
             if self.is_soft(j) {
+                continue;
+            }
+            // A free tree's branch holding a contact is left to the Newton projection.
+            if limbs && free && s.touch[self.solver.joint_node[j]] {
                 continue;
             }
             let joint = &self.joints[j];
@@ -270,7 +327,7 @@ impl World {
                 s.moved[moved] += dx;
             }
         }
-        if any_free {
+        if any_free && !limbs {
             self.restore_free_centres(&mut s);
         }
         self.proj.sweep = s;
@@ -278,6 +335,32 @@ impl World {
             self.proj.values_current = false;
         }
         any
+    }
+
+    /// Marks in `s.touch` the tree nodes whose subtree holds a body in contact: a body
+    /// of this step's contacts (generated at the step's start) that penetrate
+    /// (`depth > 0`). The speculative ones (apart by up to the margin) are not counted:
+    /// marking them too (module doc) swept less and saved nothing.
+    fn touching(&self, s: &mut SweepScratch) {
+        let n_nodes = self.solver.parent.len();
+        s.touch.clear();
+        s.touch.resize(n_nodes, false);
+        #[cfg(feature = "contact")]
+        for c in self.contacts.iter().filter(|c| c.depth > 0.0) {
+            for k in [c.a, c.b] {
+                let body = self.colliders.get(k).and_then(|col| col.body);
+                if let Some(slot) = body.and_then(|b| s.touch.get_mut(b)) {
+                    *slot = true;
+                }
+            }
+        }
+        // Children before parents (the elimination order).
+        for &node in &self.solver.order {
+            let p = self.solver.parent[node];
+            if s.touch[node] && p != NONE {
+                s.touch[p] = true;
+            }
+        }
     }
 
     /// Translates each swept free tree by minus its bodies' mass-weighted mean
@@ -715,5 +798,32 @@ mod tests {
         // The sweep closed the joints: measured 0 Newton iterations in 40 steps and a
         // separation of 4.8e-15 m.
         assert!(sep <= 1e-10);
+    }
+
+    /// `touching` marks exactly the tree nodes on the path from a penetrating body up
+    /// to its tree's root (the joints whose child subtree holds it), and nothing for a
+    /// body out of contact.
+    #[cfg(feature = "contact")]
+    #[test]
+    fn touching_marks_the_branch_above_a_penetrating_body() {
+        let mut w = crate::scenes::chain_on_floor(4, 0.3, 0.5).unwrap();
+        // Link 2 sunk 5 mm into the floor (its capsule's radius is 10 mm); the others
+        // 0.29 m above it.
+        w.bodies_mut()[2].pose.x.z = 0.005;
+        w.step(1e-3, Method::default()).unwrap();
+        assert!(w.contacts().iter().any(|c| c.depth > 0.0));
+        let mut s = SweepScratch::default();
+        w.touching(&mut s);
+        let parent = &w.solver.parent;
+        let mut path = vec![false; parent.len()];
+        let mut node = 2;
+        while node != NONE {
+            path[node] = true;
+            node = parent[node];
+        }
+        assert_eq!(s.touch, path);
+        // Some joint is off the path (the chain has 3 joints, at most 2 above link 2
+        // in any tree order): it is swept.
+        assert!(w.solver.joint_node.iter().any(|&n| !s.touch[n]));
     }
 }
