@@ -22,7 +22,9 @@
 //! height at the end, `WORST=1` the five most displaced boxes at the end, `BITS=1` an
 //! FNV-1a hash of every body's pose and twist bits at the end (the bit-identity check
 //! of a change that must not move the trajectory: the printed figures have 4 digits),
-//! and one of the last step's contact impulses (`ContactWorld::impulses`).
+//! and one of the last step's contact impulses (`ContactWorld::impulses`); `SUBNORMAL=1`
+//! counts the subnormal values (`x != 0`, `|x| < f64::MIN_POSITIVE`) in the carried
+//! warm-start state (`ContactWorld::soft_warm_values`) and the last impulses at the end.
 
 use constraint_contact::rigid::{ContactSolver, ContactWorld};
 use constraint_contact::scenes::{box_stack, heavy_on_light, pile, pyramid};
@@ -173,6 +175,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 x[i][2] - x0[i][2]
             );
         }
+    }
+    if std::env::var("SUBNORMAL").is_ok() {
+        let tiny = |x: f64| x != 0.0 && x.abs() < f64::MIN_POSITIVE;
+        let warm: Vec<f64> = w.soft_warm_values().collect();
+        let floors = warm.iter().skip(4).step_by(5);
+        let impulses = w.impulses().iter().filter(|x| tiny(**x)).count();
+        println!(
+            "subnormal: warm {} of {} (floors {} of {}), impulses {} of {}",
+            warm.iter().filter(|x| tiny(**x)).count(),
+            warm.len(),
+            floors.clone().filter(|x| tiny(**x)).count(),
+            floors.count(),
+            impulses,
+            w.impulses().len()
+        );
     }
     if std::env::var("BITS").is_ok() {
         println!("state bits {:016x}", state_bits(&w));
