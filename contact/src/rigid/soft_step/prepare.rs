@@ -744,7 +744,7 @@ impl ContactWorld {
                     // reach subnormal doubles after about 70k steps (stack10: 40 of 40
                     // floors subnormal at 100k steps) and stay there (`x · 0.99` rounds
                     // back to `x` at 50 ulps or fewer), where every product costs a
-                    // microcode assist on x86 (the last 10k of 100k steps 1.4x the
+                    // microcode assist on x86 (the last 10k of 100k steps 1.34x the
                     // first's CPU time). Flushed to 0 once subnormal: below
                     // `f64::MIN_POSITIVE` N·s it is 10⁻³⁰⁰ of any impulse it bounds, and
                     // a floor that is still normal keeps its bits (the same result
