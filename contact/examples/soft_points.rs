@@ -22,7 +22,10 @@
 //! height at the end, `WORST=1` the five most displaced boxes at the end, `BITS=1` an
 //! FNV-1a hash of every body's pose and twist bits at the end (the bit-identity check
 //! of a change that must not move the trajectory: the printed figures have 4 digits),
-//! and one of the last step's contact impulses (`ContactWorld::impulses`).
+//! and one of the last step's contact impulses (`ContactWorld::impulses`); `SUBNORMAL=1`
+//! counts the subnormal values (`x != 0`, `|x| < f64::MIN_POSITIVE`) in the carried
+//! warm-start state (`ContactWorld::soft_warm_values`) and the last impulses at the end;
+//! `SPLIT=K` the thread's CPU time a step over the first and the last `K` steps (Linux).
 
 use constraint_contact::rigid::{ContactSolver, ContactWorld};
 use constraint_contact::scenes::{box_stack, heavy_on_light, pile, pyramid};
@@ -41,6 +44,15 @@ fn state_bits(w: &ContactWorld) -> u64 {
         words.extend(b.v.to_array().into_iter().chain(b.omega.to_array()));
     }
     fnv(&words)
+}
+
+/// This thread's CPU time in nanoseconds (the first field of Linux's
+/// `/proc/thread-self/schedstat`; 0 where it cannot be read).
+fn cpu_ns() -> u64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse().ok())
+        .unwrap_or(0)
 }
 
 /// FNV-1a of the bits of `words`.
@@ -109,7 +121,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut depth = 0.0;
     // Kept between steps: no allocation per step in the harness.
     let mut now = Vec::with_capacity(x0.len());
+    // `SPLIT=K`: this thread's CPU time over the first and the last `K` steps (marks
+    // at steps `K` and `steps − K`; `usize::MAX` where off, never met).
+    let split: Option<usize> = std::env::var("SPLIT").ok().map(|s| s.parse()).transpose()?;
+    let (mark_a, mark_b) = split.map_or((usize::MAX, usize::MAX), |k| (k, steps.saturating_sub(k)));
+    let mut cpu = [cpu_ns(), 0, 0];
     for k in 0..steps {
+        if k == mark_a || k == mark_b {
+            cpu[if k == mark_a { 1 } else { 2 }] = cpu_ns();
+        }
         let stats = w.step(h)?;
         depth = stats.max_penetration;
         if count {
@@ -173,6 +193,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 x[i][2] - x0[i][2]
             );
         }
+    }
+    if let Some(k) = split {
+        let per = |ns: u64| ns as f64 / k as f64 / 1e3;
+        println!(
+            "cpu per step: first {k} {:.3} us, last {k} {:.3} us",
+            per(cpu[1] - cpu[0]),
+            per(cpu_ns() - cpu[2])
+        );
+    }
+    if std::env::var("SUBNORMAL").is_ok() {
+        let tiny = |x: f64| x != 0.0 && x.abs() < f64::MIN_POSITIVE;
+        let warm: Vec<f64> = w.soft_warm_values().collect();
+        let floors = warm.iter().skip(4).step_by(5);
+        let impulses = w.impulses().iter().filter(|x| tiny(**x)).count();
+        println!(
+            "subnormal: warm {} of {} (floors {} of {}), impulses {} of {}",
+            warm.iter().filter(|x| tiny(**x)).count(),
+            warm.len(),
+            floors.clone().filter(|x| tiny(**x)).count(),
+            floors.count(),
+            impulses,
+            w.impulses().len()
+        );
     }
     if std::env::var("BITS").is_ok() {
         println!("state bits {:016x}", state_bits(&w));

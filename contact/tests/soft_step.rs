@@ -395,3 +395,39 @@ fn one_way_coupling_holds_a_heavy_box_on_a_light_one() {
         "ground impulse {carried} N·s, light box's weight {light} N·s"
     ); // measured 20.4375 against 20.4375 N·s (relative error below 1e-15)
 }
+
+/// A resting stack keeps no subnormal doubles in its warm-start state: the preload
+/// floor fades by `PRELOAD_FLOOR_DECAY` (0.99) a step and, unflushed, all 40 floors of
+/// the 10-box stack (3 sub-steps) were subnormal from about step 71k on (0 of 40 at
+/// 70,000 steps, 40 of 40 at 72,000) and stayed so (`x · 0.99` rounds back to `x`
+/// at 50 ulps or fewer), each product then a slow microcode assist on x86. Flushed, every
+/// floor is exactly 0 by step 72,000.
+#[test]
+fn a_long_resting_stack_keeps_no_subnormal_state() {
+    let mut w = soft(box_stack(10).unwrap(), 3);
+    for _ in 0..72_000 {
+        w.step(DT).unwrap();
+    }
+    let tiny = |x: &f64| *x != 0.0 && x.abs() < f64::MIN_POSITIVE;
+    let warm: Vec<f64> = w.soft_warm_values().collect();
+    assert_eq!(warm.len(), 200, "40 contacts, 5 numbers each"); // measured 200
+    let subnormal = warm.iter().filter(|x| tiny(x)).count();
+    assert_eq!(subnormal, 0, "subnormal warm-start values"); // measured 0 (40 unflushed)
+    let floors: Vec<f64> = warm.iter().skip(4).step_by(5).copied().collect();
+    assert!(floors.iter().all(|&f| f == 0.0), "floors {floors:?}"); // measured all 0.0
+    assert_eq!(w.impulses().iter().filter(|x| tiny(x)).count(), 0); // measured 0
+                                                                    // The stack still rests on the normal impulses: the ground's four points carry
+                                                                    // the ten boxes' weight (1000 kg each) over the step.
+    let carried: f64 = w
+        .contacts()
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.a == 0)
+        .map(|(k, _)| w.impulses()[3 * k])
+        .sum();
+    let weight = 10.0 * 1000.0 * G * DT;
+    assert!(
+        (carried - weight).abs() < 1e-12 * weight,
+        "ground impulse {carried} N·s, weight {weight} N·s"
+    ); // measured relative error 6.95e-16
+}

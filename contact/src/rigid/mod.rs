@@ -771,6 +771,17 @@ impl ContactWorld {
     pub fn impulses(&self) -> &[f64] {
         &self.impulses
     }
+
+    /// The soft step's carried warm-start state, five numbers per stored contact in
+    /// key order: the normal impulse, the friction impulse vector (three) and the
+    /// preload floor; empty before the first soft step. A diagnostic (e.g. counting
+    /// subnormal values on long resting runs); the numbers are not part of the model.
+    pub fn soft_warm_values(&self) -> impl Iterator<Item = f64> + '_ {
+        self.soft
+            .iter()
+            .flat_map(|st| st.warm.iter())
+            .flat_map(|&(_, zn, ft, fl)| [zn, ft.x, ft.y, ft.z, fl])
+    }
 }
 
 /// `v += M⁻¹ Jᵀ dz` for the row's bodies.

@@ -355,6 +355,8 @@ pub const BLOCK_POINTS: usize = 4;
 /// 10-box stack's transient back (top drift 3.6 mm at γ 0.9), 0.97 gave 1.97 mm, 0.99
 /// 1.46 mm; without the fade (the floor kept) a box resting off centre on a stack
 /// never stops creeping (a uniform floor over a face whose load is not uniform).
+/// A floor that fades into the subnormal range (after about 70k resting steps) is
+/// flushed to 0 (subnormal products are slow on x86; see `prepare`).
 pub const PRELOAD_FLOOR_DECAY: f64 = 0.99;
 
 /// Default [`SoftStepSettings::preload_cap_margin`]: 4 (2 and 8 measured: 10-box
