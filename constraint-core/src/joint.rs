@@ -776,6 +776,29 @@ mod tests {
         }
     }
 
+    /// Two random body poses for the curvature-bound tests: positions up to 3 m,
+    /// quaternions of length 1, or of random lengths 0.5 to 1.5 when `stretched`
+    /// (the bounds must hold for unnormalised quaternions too).
+    fn body_poses(rng: &mut Lcg, stretched: bool) -> (Pose, Pose) {
+        let mut len = || {
+            if stretched {
+                1.0 + 0.5 * rng.next()
+            } else {
+                1.0
+            }
+        };
+        let (la, lb) = (len(), len());
+        let a = Pose {
+            x: rng.vec(3.0),
+            q: rng.quat(la),
+        };
+        let b = Pose {
+            x: rng.vec(3.0),
+            q: rng.quat(lb),
+        };
+        (a, b)
+    }
+
     /// `Hinge::angular_curvature_bounds` and `Fixed::angular_curvature_bounds` bound
     /// the angular diagonal blocks of the curvatures they describe: 20 000 random
     /// hinges and welds, poses (quaternions of length 0.5 to 1.5 in a quarter of them),
@@ -803,22 +826,7 @@ mod tests {
                 rng.vec(1.0) + DVec3::X * 1.5,
             )
             .unwrap();
-            let len = |rng: &mut Lcg| {
-                if i % 4 == 0 {
-                    1.0 + 0.5 * rng.next()
-                } else {
-                    1.0
-                }
-            };
-            let (la, lb) = (len(&mut rng), len(&mut rng));
-            let a = Pose {
-                x: rng.vec(3.0),
-                q: rng.quat(la),
-            };
-            let b = Pose {
-                x: rng.vec(3.0),
-                q: rng.quat(lb),
-            };
+            let (a, b) = body_poses(&mut rng, i % 4 == 0);
             let w = [(); 6].map(|_| rng.next() * 1e3);
             let w5 = [w[0], w[1], w[2], w[3], w[4]];
             let k = hinge.curvature(&a, &b, &w5);
@@ -865,22 +873,7 @@ mod tests {
             let hinge =
                 Hinge::from_world(&rest_a, &rest_b, anchor, rng.vec(1.0) + DVec3::X * 1.5).unwrap();
             let weld = Fixed::from_world(&rest_a, &rest_b, anchor).unwrap();
-            let len = |rng: &mut Lcg| {
-                if i % 4 == 0 {
-                    1.0 + 0.5 * rng.next()
-                } else {
-                    1.0
-                }
-            };
-            let (la, lb) = (len(&mut rng), len(&mut rng));
-            let a = Pose {
-                x: rng.vec(3.0),
-                q: rng.quat(la),
-            };
-            let b = Pose {
-                x: rng.vec(3.0),
-                q: rng.quat(lb),
-            };
+            let (a, b) = body_poses(&mut rng, i % 4 == 0);
             let mut w = [(); 6].map(|_| rng.next() * 1e3);
             if i % 3 == 1 {
                 for x in &mut w[3..] {
