@@ -15,6 +15,17 @@ use constraint_core::DVec3;
 const DT: f64 = 1.0 / 60.0;
 const G: f64 = 9.81;
 
+/// The normal impulse the ground (body 0) gave over the last step: the sum of the
+/// normal components of its contacts' impulses.
+fn ground_impulse(w: &ContactWorld) -> f64 {
+    w.contacts()
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.a == 0)
+        .map(|(k, _)| w.impulses()[3 * k])
+        .sum()
+}
+
 fn soft(mut w: ContactWorld, substeps: usize) -> ContactWorld {
     w.settings.solver = ContactSolver::SoftStep { substeps };
     w
@@ -383,13 +394,7 @@ fn one_way_coupling_holds_a_heavy_box_on_a_light_one() {
     assert!(worst < 1e-3, "with: worst displacement {worst:e} m"); // measured 3.90e-6
     w.step(DT).unwrap();
     let light = 125.0 * G * DT;
-    let carried: f64 = w
-        .contacts()
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| c.a == 0)
-        .map(|(k, _)| w.impulses()[3 * k])
-        .sum();
+    let carried = ground_impulse(&w);
     assert!(
         (carried - light).abs() < 1e-2 * light,
         "ground impulse {carried} N·s, light box's weight {light} N·s"
@@ -416,15 +421,10 @@ fn a_long_resting_stack_keeps_no_subnormal_state() {
     let floors: Vec<f64> = warm.iter().skip(4).step_by(5).copied().collect();
     assert!(floors.iter().all(|&f| f == 0.0), "floors {floors:?}"); // measured all 0.0
     assert_eq!(w.impulses().iter().filter(|x| tiny(x)).count(), 0); // measured 0
-                                                                    // The stack still rests on the normal impulses: the ground's four points carry
-                                                                    // the ten boxes' weight (1000 kg each) over the step.
-    let carried: f64 = w
-        .contacts()
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| c.a == 0)
-        .map(|(k, _)| w.impulses()[3 * k])
-        .sum();
+
+    // The stack still rests on the normal impulses: the ground's four points carry
+    // the ten boxes' weight (1000 kg each) over the step.
+    let carried = ground_impulse(&w);
     let weight = 10.0 * 1000.0 * G * DT;
     assert!(
         (carried - weight).abs() < 1e-12 * weight,
