@@ -338,7 +338,17 @@ passes! {
         pts: [&[usize]; 4],
         io: &mut RelaxIo,
         inv_h: f64,
-    ) -> bool = relax_lanes::<F4, 4>(rows, pr, 0, pts, io, inv_h);
+    ) -> bool = relax_lanes::<F4, 4, false>(rows, pr, 0, pts, io, inv_h, 0.0);
+
+    /// [`biased_manifolds`](super::biased_manifolds)' lanes in four AVX lanes.
+    fn biased_avx / biased_wide(
+        rows: &Rows,
+        pr: Pack,
+        pts: [&[usize]; 4],
+        io: &mut RelaxIo,
+        inv_h: f64,
+        max_push: f64,
+    ) -> bool = relax_lanes::<F4, 4, true>(rows, pr, 0, pts, io, inv_h, max_push);
 
     /// [`warm_lanes`](super::warm_lanes) in four AVX lanes.
     fn warm_avx / warm_wide(
@@ -393,6 +403,8 @@ passes! {
 type PointsPass = unsafe fn(&ContactWorld, &mut SoftState, &PointConsts) -> bool;
 /// `relax_avx` or `relax_wide`.
 type RelaxPass = unsafe fn(&Rows, Pack, [&[usize]; 4], &mut RelaxIo, f64) -> bool;
+/// `biased_avx` or `biased_wide`.
+type BiasedPass = unsafe fn(&Rows, Pack, [&[usize]; 4], &mut RelaxIo, f64, f64) -> bool;
 /// `warm_avx` or `warm_wide`.
 type WarmPass =
     unsafe fn(&Rows, Pack, [&[usize]; 4], &mut [DVec3], &mut [DVec3], &[[f64; 3]]) -> bool;
@@ -432,6 +444,28 @@ pub(in crate::rigid) fn relax_quad(
     // SAFETY: `Paired::quad` gives rows only where `available()` found AVX; the wide
     // build only where `wide()` found AVX-512F and AVX-512VL too.
     unsafe { run(rows, pr, pts, io, inv_h) }
+}
+
+/// The biased pass point by point over the quad of manifolds `pts` (as
+/// [`relax_quad`]), as [`biased_manifolds`](super::biased_manifolds) on its two pairs:
+/// false, having changed nothing, where either would decline.
+#[inline]
+pub(in crate::rigid) fn biased_quad(
+    rows: &Rows,
+    pr: Option<Pack>,
+    pts: [&[usize]; 4],
+    io: &mut RelaxIo,
+    pass: Pass,
+) -> bool {
+    let Some(pr) = pr else {
+        return false;
+    };
+    if pass.anchors {
+        return false;
+    }
+    let run: BiasedPass = if wide() { biased_wide } else { biased_avx };
+    // SAFETY: as in `relax_quad`.
+    unsafe { run(rows, pr, pts, io, pass.inv_h, pass.max_push) }
 }
 
 /// The warm start of the quad of manifolds `pts` (as [`relax_quad`]), as

@@ -300,23 +300,20 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
         }
         st.blocks = blocks;
         st.ang_scratch = scratch;
-    } else if !use_bias {
-        one_point = relax_in_lanes(st, &gap, pass);
     } else {
-        let (rows, mut vel, impulse, max_normal) = split!(st);
-        for (p, (z, m)) in impulse.iter_mut().zip(max_normal.iter_mut()).enumerate() {
-            solve_point(&rows, p, gap[p], z, m, &mut vel, pass);
-        }
-        one_point = rows.slots.len();
+        // The relax pass, or the biased pass without blocks (block normal solve off),
+        // point by point in lanes.
+        one_point = relax_in_lanes(st, &gap, pass);
     }
     st.one_point += one_point;
     st.gap = gap;
 }
 
-/// The relax pass ([`solve_point`] without bias on every point, in solve order) with
-/// the manifolds of each colour taken two at a time in SIMD lanes
-/// ([`relax_manifolds`]: the same bits as one point at a time; see
-/// [`for_manifold_pairs`]). Returns how many points it solved one at a time.
+/// The relax pass ([`solve_point`] without bias on every point, in solve order), or
+/// with `pass.use_bias` the biased pass point by point (the block normal solve off),
+/// with the manifolds of each colour taken two at a time in SIMD lanes
+/// ([`relax_manifolds`], [`biased_manifolds`]: the same bits as one point at a time;
+/// see [`for_manifold_pairs`]). Returns how many points it solved one at a time.
 pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) -> usize {
     // The largest normal impulses only where restitution reads them.
     let track = st.bouncy;
@@ -362,10 +359,20 @@ pub(super) fn relax_in_lanes(st: &mut SoftState, gap: &[f64], pass: Pass) -> usi
             rows.slots.len(),
             paired.four(),
             |j, pts, io: &mut RelaxIo| {
-                relax_quad(&rows, paired.quad(j, pts[0].len()), pts, io, pass.inv_h)
+                let pr = paired.quad(j, pts[0].len());
+                if pass.use_bias {
+                    biased_quad(&rows, pr, pts, io, pass)
+                } else {
+                    relax_quad(&rows, pr, pts, io, pass.inv_h)
+                }
             },
             |j, pts, io: &mut RelaxIo| {
-                relax_manifolds(&rows, paired.of(j, pts[0].len()), pts, io, pass.inv_h)
+                let pr = paired.of(j, pts[0].len());
+                if pass.use_bias {
+                    biased_manifolds(&rows, pr, pts, io, pass)
+                } else {
+                    relax_manifolds(&rows, pr, pts, io, pass.inv_h)
+                }
             },
             &mut one,
             &mut io,
