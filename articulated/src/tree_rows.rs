@@ -1025,13 +1025,18 @@ fn update_fixed<const N: usize, const NP: usize>(
     let dinv = &dinv[..N];
     let w = &mut w[..N * NP];
     let dpar = &mut dpar[..NP * NP];
+    // Row `r`'s running value in a local accumulator (registers: stored once, not
+    // after each of its `t` terms), the same operations in the same order.
     for r in 1..N {
+        let mut acc = [0.0; NP];
+        acc.copy_from_slice(&w[r * NP..(r + 1) * NP]);
         for t in 0..r {
             let l = blk[r * N + t];
             for c in 0..NP {
-                w[r * NP + c] -= l * w[t * NP + c];
+                acc[c] -= l * w[t * NP + c];
             }
         }
+        w[r * NP..(r + 1) * NP].copy_from_slice(&acc);
     }
     update_parent_fixed::<N, NP>(dinv, w, dpar);
 }
