@@ -1149,6 +1149,32 @@ mod tests {
     /// The unrolled [`ldlt_fixed`] gives [`ldlt_sized`]'s factor to the bit, on
     /// symmetric blocks of every size 1..6, one with a dependent row (a dropped pivot,
     /// the mask compared too). Bits, not a tolerance: the step's results depend on it.
+    /// Every change of a solver's blocks gives a stamp no earlier state had, across
+    /// several reserved ranges (3 000 changes, ranges of 1 024); a clone keeps the
+    /// stamp until either changes, and then the two take different values.
+    #[test]
+    fn stamps_are_new_at_every_change() {
+        let mut s = TreeSolver::new(1, &[]);
+        let mut seen = alloc::collections::BTreeSet::new();
+        assert!(seen.insert(s.stamp()));
+        for k in 0..3000 {
+            s.set_body(0, 1.0 + k as f64, &DMat3::IDENTITY);
+            assert!(seen.insert(s.stamp()), "stamp repeated at change {k}");
+        }
+        let mut c = s.clone();
+        assert_eq!(c.stamp(), s.stamp());
+        s.set_body(0, 2.0, &DMat3::IDENTITY);
+        c.set_body(0, 3.0, &DMat3::IDENTITY);
+        assert_ne!(c.stamp(), s.stamp());
+        assert!(seen.insert(s.stamp()) && seen.insert(c.stamp()));
+        // The clone's next changes stay apart from the original's too.
+        for _ in 0..5 {
+            s.factor().expect("a positive mass block factors");
+            c.factor().expect("a positive mass block factors");
+            assert!(seen.insert(s.stamp()) && seen.insert(c.stamp()));
+        }
+    }
+
     #[test]
     fn unrolled_ldlt_matches_the_loop_to_the_bit() {
         for n in 1..=6 {

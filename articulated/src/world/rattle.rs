@@ -994,8 +994,56 @@ impl World {
 
 #[cfg(test)]
 mod tests {
-    use super::ShakeHistory;
+    use super::{rotate_by, rotate_by_tiny, ShakeHistory, TINY_HALF_ANGLE};
     use alloc::vec;
+    use constraint_core::{DQuat, DVec3};
+
+    /// The tiny-angle rotation gives `rotate_by`'s bits: below the threshold (where it
+    /// skips `sincos`), at it and above (where it calls `rotate_by`), for turns of
+    /// half-angle 1e-30 to 1e-3 about several axes from several orientations. Bits,
+    /// not a tolerance: RATTLE's results depend on them.
+    #[test]
+    fn tiny_rotation_gives_rotate_by_bits() {
+        let qs = [
+            DQuat::IDENTITY,
+            DQuat::from_xyzw(0.1, -0.7, 0.3, 0.6).normalize(),
+            DQuat::from_xyzw(-0.5, 0.5, 0.5, -0.5),
+        ];
+        let axes = [
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.3, -0.4, 1.2),
+            DVec3::new(-2.0, 1e-3, 0.7),
+        ];
+        let t = TINY_HALF_ANGLE;
+        let halves = [
+            1e-30,
+            1e-12,
+            3e-9,
+            t * (1.0 - 1e-15),
+            t,
+            t * (1.0 + 1e-15),
+            2.0 * t,
+            1e-3,
+        ];
+        let mut tiny = 0;
+        for q in qs {
+            for a in axes {
+                for half in halves {
+                    let theta = a.normalize() * (2.0 * half);
+                    if 0.5 * theta.length() < t {
+                        tiny += 1;
+                    }
+                    let fast = rotate_by_tiny(q, theta).to_array().map(f64::to_bits);
+                    let slow = rotate_by(q, theta).to_array().map(f64::to_bits);
+                    assert_eq!(fast, slow, "q {q:?}, theta {theta:?}");
+                }
+            }
+            assert_eq!(rotate_by_tiny(q, DVec3::ZERO), rotate_by(q, DVec3::ZERO));
+        }
+        // The fast path was taken: at least the 27 turns of half-angle 1e-30, 1e-12
+        // and 3e-9 (the one just below the threshold may round to it).
+        assert!(tiny >= 27, "{tiny} tiny turns");
+    }
 
     /// The history predicts only for the step right after a recorded one of the same
     /// size; it repeats `R₋₁` after one record and extrapolates `2R₋₁ − R₋₂` after two,
