@@ -63,7 +63,8 @@
 //! does not settle within [`MAX_ITERATIONS`] or returns to a set met
 //! earlier in the step (the update cycles), with more than
 //! [`MAX_SCHUR`] Schur rows, or where a dependent one-sided row left short has no
-//! active row to give way for it ([`dependent`]), goes to
+//! active row to give way for it or repeats a release between two dependent rows
+//! ([`dependent`]), goes to
 //! the dense path unchanged (counted in [`super::UnilateralStats`]); after three or
 //! more such steps in a row, the next ones go there without trying (a doubling
 //! back-off, `World::solve_unilateral_sparse`). An iteration whose set of factor rows
@@ -460,6 +461,9 @@ pub(super) struct ActiveSet {
     y_current: bool,
     /// Fingerprints of the sets met in this step's iterations (cycle detection).
     history: Vec<u64>,
+    /// This step's releases of a dependent Schur row for another ([`dependent`]), in
+    /// the order made.
+    released: Vec<dependent::Release>,
     /// Consecutive steps whose active set failed, and the steps still to go straight
     /// to the dense path ([`World::solve_unilateral_sparse`]'s back-off).
     failures: u32,
@@ -641,6 +645,7 @@ impl World {
         // that settles leaves `st.z`, `st.w` as that iterate's), for the statistics.
         let mut worst: f64 = 0.0;
         st.history.clear();
+        st.released.clear();
         st.row_scale.clear();
         st.row_scale.resize(m + self.eq.len(), f64::NAN);
         st.factor_current = false;
@@ -752,6 +757,21 @@ impl World {
                 let Some(j) = self.dependent_release(st, i) else {
                     return false;
                 };
+                // Two dependent Schur rows trading places again from about the same
+                // impulses: a cycle ([`dependent::Release::repeats`]), the dense path.
+                if st.schur.contains(&j) {
+                    let r = dependent::Release {
+                        short: i,
+                        released: j,
+                        z_short: st.z[i],
+                        z_released: st.z[j],
+                    };
+                    if st.released.iter().any(|e| r.repeats(e)) {
+                        self.ustats.active_set_iterations = iterations;
+                        return false;
+                    }
+                    st.released.push(r);
+                }
                 st.status[j] = RowStatus::Inactive;
                 changed = true;
             }
