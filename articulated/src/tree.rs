@@ -1146,9 +1146,6 @@ mod tests {
         assert!(!min_norm_truncated(&svd, 1e-9, &b[..3], &mut [0.0; 4]));
     }
 
-    /// The unrolled [`ldlt_fixed`] gives [`ldlt_sized`]'s factor to the bit, on
-    /// symmetric blocks of every size 1..6, one with a dependent row (a dropped pivot,
-    /// the mask compared too). Bits, not a tolerance: the step's results depend on it.
     /// Every change of a solver's blocks gives a stamp no earlier state had, across
     /// several reserved ranges (3 000 changes, ranges of 1 024); a clone keeps the
     /// stamp until either changes, and then the two take different values.
@@ -1175,6 +1172,9 @@ mod tests {
         }
     }
 
+    /// The unrolled [`ldlt_fixed`] gives [`ldlt_sized`]'s factor to the bit, on
+    /// symmetric blocks of every size 1..6, one with a dependent row (a dropped pivot,
+    /// the mask compared too). Bits, not a tolerance: the step's results depend on it.
     #[test]
     fn unrolled_ldlt_matches_the_loop_to_the_bit() {
         for n in 1..=6 {

@@ -114,7 +114,7 @@
 use alloc::vec::Vec;
 
 use constraint_core::rigid::rotate_by;
-use constraint_core::{DMat3, DQuat, DVec3, Pose};
+use constraint_core::{DMat3, DVec3, Pose};
 
 use super::actuator::ForcePart;
 
@@ -133,31 +133,6 @@ use super::*;
 /// the old ones; smooth-model errors against MuJoCo RK4 and `mujoco_reference`'s RATTLE
 /// errors unchanged to the printed digits.
 const DRIFT_STOP: f64 = 1e-14;
-
-/// Half-angles below which `sincos` returns `(x, 1)` exactly: glibc's `__sincos`
-/// (`|x| < 2⁻²⁷`) and the `libm` crate's (`|x| < 2⁻²⁷ √2`) both return `sin x = x`,
-/// `cos x = 1` there (`x − x³/6` rounds to `x` below `2⁻²⁶`).
-const TINY_HALF_ANGLE: f64 = 1.0 / 134_217_728.0;
-
-/// [`rotate_by`] to the bit, without the `sincos` call where the half-angle is below
-/// [`TINY_HALF_ANGLE`]: the operations of `DQuat::from_scaled_axis` (`axis = θ/|θ|`,
-/// `v = axis · sin(|θ|/2)`, `w = cos(|θ|/2)`) with `sin(|θ|/2) = |θ|/2` and `cos = 1`,
-/// the values `sincos` gives there, then the same product and normalisation. SHAKE's
-/// corrections turn the bodies by about the joints' residual over their size (far
-/// below `2⁻²⁶` rad once the drift is near the manifold), and the drift of a body at
-/// rest or nearly so by less; each `sincos` cost about 150 instructions (dm fish
-/// controlled: 19 500 calls in 2 s), about 35 on glibc's own tiny-angle path.
-#[inline]
-fn rotate_by_tiny(q: DQuat, theta: DVec3) -> DQuat {
-    let length = theta.length();
-    let half = length * 0.5;
-    if length != 0.0 && half < TINY_HALF_ANGLE {
-        let v = (theta / length) * half;
-        (DQuat::from_xyzw(v.x, v.y, v.z, 1.0) * q).normalize()
-    } else {
-        rotate_by(q, theta)
-    }
-}
 
 /// Buffers RATTLE reuses from step to step (no allocation once they have grown to the
 /// world's size).
@@ -794,7 +769,7 @@ impl World {
             // `ω* = R I⁻¹ Rᵀ L` at `q_mid`, as three matrix–vector products.
             let inv = b.inv_inertia();
             for _ in 0..4 {
-                let r = DMat3::from_quat(rotate_by_tiny(q0, ws * half));
+                let r = DMat3::from_quat(rotate_by(q0, ws * half));
                 let next = r * (inv * (r.transpose() * l));
                 let moved = (next - ws).length_squared();
                 ws = next;
@@ -807,7 +782,7 @@ impl World {
             b.v = v;
             b.omega = ws;
             b.pose.x += v * h;
-            b.pose.q = rotate_by_tiny(q0, ws * h);
+            b.pose.q = rotate_by(q0, ws * h);
             momenta.push(l);
             max_turn = max_turn.max((ws * h).length());
         }
@@ -911,7 +886,7 @@ impl World {
                 let (dx, dth) = self.solver.body_twist(&self.rhs, i);
                 let b = &mut self.bodies[i];
                 b.pose.x += dx;
-                b.pose.q = rotate_by_tiny(b.pose.q, dth);
+                b.pose.q = rotate_by(b.pose.q, dth);
                 let (dv, dw) = (dx / h, dth / h);
                 b.v += dv;
                 b.omega += dw;
@@ -994,56 +969,8 @@ impl World {
 
 #[cfg(test)]
 mod tests {
-    use super::{rotate_by, rotate_by_tiny, ShakeHistory, TINY_HALF_ANGLE};
+    use super::ShakeHistory;
     use alloc::vec;
-    use constraint_core::{DQuat, DVec3};
-
-    /// The tiny-angle rotation gives `rotate_by`'s bits: below the threshold (where it
-    /// skips `sincos`), at it and above (where it calls `rotate_by`), for turns of
-    /// half-angle 1e-30 to 1e-3 about several axes from several orientations. Bits,
-    /// not a tolerance: RATTLE's results depend on them.
-    #[test]
-    fn tiny_rotation_gives_rotate_by_bits() {
-        let qs = [
-            DQuat::IDENTITY,
-            DQuat::from_xyzw(0.1, -0.7, 0.3, 0.6).normalize(),
-            DQuat::from_xyzw(-0.5, 0.5, 0.5, -0.5),
-        ];
-        let axes = [
-            DVec3::new(1.0, 0.0, 0.0),
-            DVec3::new(0.3, -0.4, 1.2),
-            DVec3::new(-2.0, 1e-3, 0.7),
-        ];
-        let t = TINY_HALF_ANGLE;
-        let halves = [
-            1e-30,
-            1e-12,
-            3e-9,
-            t * (1.0 - 1e-15),
-            t,
-            t * (1.0 + 1e-15),
-            2.0 * t,
-            1e-3,
-        ];
-        let mut tiny = 0;
-        for q in qs {
-            for a in axes {
-                for half in halves {
-                    let theta = a.normalize() * (2.0 * half);
-                    if 0.5 * theta.length() < t {
-                        tiny += 1;
-                    }
-                    let fast = rotate_by_tiny(q, theta).to_array().map(f64::to_bits);
-                    let slow = rotate_by(q, theta).to_array().map(f64::to_bits);
-                    assert_eq!(fast, slow, "q {q:?}, theta {theta:?}");
-                }
-            }
-            assert_eq!(rotate_by_tiny(q, DVec3::ZERO), rotate_by(q, DVec3::ZERO));
-        }
-        // The fast path was taken: at least the 27 turns of half-angle 1e-30, 1e-12
-        // and 3e-9 (the one just below the threshold may round to it).
-        assert!(tiny >= 27, "{tiny} tiny turns");
-    }
 
     /// The history predicts only for the step right after a recorded one of the same
     /// size; it repeats `R₋₁` after one record and extrapolates `2R₋₁ − R₋₂` after two,
