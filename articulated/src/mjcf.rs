@@ -12,7 +12,7 @@
 //! | `ball` | [`Spherical`] at the anchor, damping on the relative angular velocity |
 //! | `slide` | [`Prismatic`] along the axis, damping on the sliding rate |
 //! | `free` / `freejoint` | no constraint |
-//! | no joint | [`Fixed`] weld to the parent (or the world) |
+//! | no joint | merged into its host (module `weld`: mass, centre of mass and inertia added to the nearest ancestor with a joint; static when that is the world); unmerged ([`MjcfOptions`]): a [`Fixed`] weld to the parent (or the world) |
 //! | several joints | [`Compound`]: slides, then hinges whose lines meet in one point (up to three) or two hinges alone on skew lines ([`Compound::from_lines`]) |
 //! | `equality/connect` | [`Spherical`] between `body1` and `body2` at the anchor |
 //! | `equality/joint`, `equality/tendon` | a hard [`Equality`] row (`solref`/`solimp` not modelled) |
@@ -40,13 +40,22 @@ use crate::error::ArticulatedError;
 use crate::joint::{Joint, JointKind};
 use crate::world::{Actuator, DofSpring, Equality, PathSite, SpatialTendon, Target, Tendon, World};
 
+mod weld;
+use weld::{parts_of, Layout};
+pub use weld::{MjcfOptions, Part, PartState};
+
 /// A world built from an MJCF model, with the model's names and time step.
 #[derive(Clone, Debug)]
 pub struct MjcfScene {
-    /// The world (bodies in MJCF document order, world body excluded).
+    /// The world: one body per MJCF body with a joint (the hosts, in document order;
+    /// every MJCF body when built unmerged, [`MjcfOptions`]).
     pub world: World,
-    /// Body names, same order.
+    /// MJCF body names, in document order (world body excluded): one per entry of
+    /// [`Self::parts`], not per world body.
     pub body_names: Vec<String>,
+    /// Per MJCF body (same order): its world body and fixed frame ([`Part`]);
+    /// [`Self::part_state`] gives its pose and velocity.
+    pub parts: Vec<Part>,
     /// `option timestep`.
     pub timestep: f64,
     /// Geoms that would collide in MuJoCo (`contype`/`conaffinity` non-zero and contact
@@ -58,6 +67,10 @@ pub struct MjcfScene {
     /// loader's warnings (contact softness) and this adapter's (condim 4 and 6 taken as
     /// 3).
     pub warnings: Vec<String>,
+    /// The map between MJCF bodies and world bodies.
+    layout: Layout,
+    /// The static bodies' potential energy `−Σ m g·c` (J; `None`: no static body).
+    static_potential: Option<f64>,
 }
 
 fn v3(a: [f64; 3]) -> DVec3 {
@@ -66,6 +79,11 @@ fn v3(a: [f64; 3]) -> DVec3 {
 
 fn quat(q: [f64; 4]) -> DQuat {
     DQuat::from_xyzw(q[1], q[2], q[3], q[0]).normalize()
+}
+
+/// A body's inertia about its centre of mass in its frame (the loader's rows).
+fn inertia_of(b: &constraint_mjcf::Body) -> DMat3 {
+    DMat3::from_cols(v3(b.inertia[0]), v3(b.inertia[1]), v3(b.inertia[2]))
 }
 
 fn scene_err(e: impl ToString) -> ArticulatedError {
@@ -137,29 +155,75 @@ fn hinge_centres(model: &Model, limits: bool) -> Vec<f64> {
 
 impl MjcfScene {
     /// Builds the world of `model` with the state of keyframe `key` (`None`: default pose
-    /// at rest).
+    /// at rest), jointless bodies merged into their hosts ([`MjcfOptions::default`]).
     pub fn new(model: &Model, key: Option<&str>) -> Result<Self, ArticulatedError> {
+        Self::with_options(model, key, MjcfOptions::default())
+    }
+
+    /// [`Self::new`] with the given options (`merge_welded: false`: one world body per
+    /// MJCF body, jointless ones welded by [`Fixed`] joints).
+    pub fn with_options(
+        model: &Model,
+        key: Option<&str>,
+        options: MjcfOptions,
+    ) -> Result<Self, ArticulatedError> {
         let states = model.initial_state(key).map_err(scene_err)?;
         let mut world = World::new(v3(model.gravity));
         #[allow(unused_mut)]
         let mut warnings = model.warnings.clone();
-        // Bodies at the default pose first: joints are defined there.
-        let mut default_poses = Vec::with_capacity(model.bodies.len());
-        for (i, b) in model.bodies.iter().enumerate() {
+        let layout = Layout::new(model, options.merge_welded);
+        // Bodies at the default pose first: joints are defined there. A host takes its
+        // merged bodies' mass, centre of mass and inertia (`weld::combine`).
+        let mut default_poses = Vec::with_capacity(layout.mjcf_of.len());
+        let mut coms = Vec::with_capacity(layout.mjcf_of.len());
+        for (w, &i) in layout.mjcf_of.iter().enumerate() {
+            let b = &model.bodies[i];
             let q = quat(b.quat);
-            let com = v3(b.com);
+            let own = (b.mass, v3(b.com), inertia_of(b));
+            let (mass, com, inertia) = if layout.merged[w] {
+                let mut parts = alloc::vec![own];
+                for (k, bk) in model.bodies.iter().enumerate() {
+                    if k != i && layout.host[k] == Some(i) {
+                        let (t, r) = weld::relative_frame(model, i, k);
+                        parts.push((
+                            bk.mass,
+                            t + r * v3(bk.com),
+                            weld::rotate_inertia(r, inertia_of(bk)),
+                        ));
+                    }
+                }
+                weld::combine(&parts).ok_or_else(|| {
+                    scene_err(format!(
+                        "body {:?} (line {}): the body and the bodies welded to it have no mass",
+                        b.name, b.line
+                    ))
+                })?
+            } else {
+                own
+            };
             let pose = Pose {
                 x: v3(b.pos) + q * com,
                 q,
             };
-            let inertia = DMat3::from_cols(v3(b.inertia[0]), v3(b.inertia[1]), v3(b.inertia[2]));
-            let body = RigidBody::new(i, b.mass, inertia, pose)
+            let body = RigidBody::new(w, mass, inertia, pose)
                 .map_err(|e| scene_err(format!("body {:?} (line {}): {e}", b.name, b.line)))?
                 .with_com(com);
             default_poses.push(pose);
+            coms.push(com);
             world.add_body(body)?;
         }
-        let pose_of = |b: Option<usize>| b.map_or(Pose::IDENTITY, |i| default_poses[i]);
+        let parts = parts_of(model, &layout, &coms);
+        let g = v3(model.gravity);
+        let static_potential = parts
+            .iter()
+            .zip(&model.bodies)
+            .filter(|(p, _)| p.body.is_none())
+            .map(|(p, b)| -b.mass * g.dot(p.com))
+            .reduce(|a, b| a + b);
+        let pose_of = |b: Option<usize>| {
+            b.and_then(|i| layout.world_of[i])
+                .map_or(Pose::IDENTITY, |w| default_poses[w])
+        };
         reject_unsupported(model)?;
         // The MuJoCo joints of each body, in document order.
         let mut joints_of: Vec<Vec<usize>> = alloc::vec![Vec::new(); model.bodies.len()];
@@ -186,8 +250,12 @@ impl MjcfScene {
         // Where each MuJoCo joint ended up: (world joint, its degree of freedom).
         let mut placed: Vec<Option<(usize, usize)>> = alloc::vec![None; model.joints.len()];
         for (i, b) in model.bodies.iter().enumerate() {
+            // Merged and static bodies have no joint of their own.
+            let Some(child) = layout.world_of[i].filter(|_| layout.host[i] == Some(i)) else {
+                continue;
+            };
             let pa = pose_of(b.parent);
-            let pb = default_poses[i];
+            let pb = default_poses[child];
             let origin = v3(b.pos);
             let r = quat(b.quat);
             let wrap = |e| scene_err(format!("body {:?} (line {}): {e}", b.name, b.line));
@@ -286,8 +354,8 @@ impl MjcfScene {
                 }
             };
             let wj = world.add_joint(Joint {
-                parent: b.parent,
-                child: i,
+                parent: b.parent.and_then(|p| layout.world_of[p]),
+                child,
                 kind,
                 damping,
             })?;
@@ -365,7 +433,8 @@ impl MjcfScene {
                 ));
             }
             if !t.sites.is_empty() {
-                add_spatial(model, &mut world, t, &default_poses).map_err(|e| at(e.to_string()))?;
+                add_spatial(model, &mut world, t, &parts, &default_poses)
+                    .map_err(|e| at(e.to_string()))?;
                 tendon_ref.push(0.0);
                 continue;
             }
@@ -448,7 +517,8 @@ impl MjcfScene {
             let anchor = o1 + q1 * v3(c.anchor);
             let sph = Spherical::from_world(&p1, &p2, anchor)
                 .map_err(|e| scene_err(format!("connect {:?} (line {}): {e}", c.name, c.line)))?;
-            let (parent, child) = match (c.body1, c.body2) {
+            let host = |b: Option<usize>| b.and_then(|i| layout.world_of[i]);
+            let (parent, child) = match (host(c.body1), host(c.body2)) {
                 (a, Some(b)) => (a, b),
                 (Some(a), None) => {
                     // Swap so the world is the parent side: C changes sign only.
@@ -486,7 +556,7 @@ impl MjcfScene {
             }
         }
         // The keyframe's state.
-        set_body_states(&mut world, &states)?;
+        set_body_states(&mut world, &states, &layout)?;
         let collision_geoms = if model.contact_disabled {
             0
         } else {
@@ -498,16 +568,74 @@ impl MjcfScene {
         };
         #[cfg(feature = "contact")]
         if !model.contact_disabled {
-            add_colliders(model, &mut world, &mut warnings)?;
+            add_colliders(model, &mut world, &mut warnings, &parts, &layout)?;
         }
         Ok(Self {
             world,
             body_names: model.bodies.iter().map(|b| b.name.clone()).collect(),
+            parts,
             timestep: model.timestep,
             collision_geoms,
             actuator_names,
             warnings,
+            layout,
+            static_potential,
         })
+    }
+
+    /// [`World::energy`] (kinetic, potential) with the static bodies' constant potential
+    /// energy `−Σ m g·c` added, as MuJoCo counts it (merged bodies' energies are in
+    /// their hosts'); the world's own when no body is static.
+    pub fn energy(&self) -> (f64, f64) {
+        let (k, p) = self.world.energy();
+        match self.static_potential {
+            Some(s) => (k, p + s),
+            None => (k, p),
+        }
+    }
+
+    /// MJCF body `i`'s pose and velocity from its host's state: origin `x + R f`,
+    /// orientation `q q_f`, centre of mass `c = x + R c_f` and its velocity
+    /// `v + ω × (c − x)` (`x`, `q`, `v`, `ω`: the host's centre of mass, orientation and
+    /// twist; `f`, `c_f`: the part's frame and centre of mass, [`Part`]). A body alone in
+    /// its world body reads the world body's fields unchanged; a static body its
+    /// default pose at rest. `None` when `i` is not a body of the model.
+    pub fn part_state(&self, i: usize) -> Option<PartState> {
+        let p = self.parts.get(i)?;
+        let Some(w) = p.body else {
+            return Some(PartState {
+                origin: p.frame.x,
+                orientation: p.frame.q,
+                com: p.com,
+                v: DVec3::ZERO,
+                omega: DVec3::ZERO,
+            });
+        };
+        let b = self.world.bodies().get(w)?;
+        if p.alone {
+            return Some(PartState {
+                origin: b.origin(),
+                orientation: b.orientation(),
+                com: b.pose.x,
+                v: b.v,
+                omega: b.omega,
+            });
+        }
+        let r = b.pose.q * p.com;
+        Some(PartState {
+            origin: b.pose.point(p.frame.x),
+            orientation: b.pose.q * p.frame.q,
+            com: b.pose.x + r,
+            v: b.v + b.omega.cross(r),
+            omega: b.omega,
+        })
+    }
+
+    /// Every MJCF body's state ([`Self::part_state`]), in document order, into `out`
+    /// (cleared first).
+    pub fn part_states(&self, out: &mut Vec<PartState>) {
+        out.clear();
+        out.extend((0..self.parts.len()).filter_map(|i| self.part_state(i)));
     }
 
     /// Puts the world in MuJoCo's generalized state `qpos`, `qvel` of `model` (the model
@@ -536,7 +664,7 @@ impl MjcfScene {
         let mut v = alloc::vec![0.0; nv];
         v[..qvel.len()].copy_from_slice(qvel);
         let states = model.body_states(&q, &v).map_err(scene_err)?;
-        set_body_states(&mut self.world, &states)
+        set_body_states(&mut self.world, &states, &self.layout)
     }
 
     /// Loads `path` and builds its world (see [`Self::new`]).
@@ -554,6 +682,7 @@ fn add_spatial(
     model: &Model,
     world: &mut World,
     t: &constraint_mjcf::Tendon,
+    parts: &[Part],
     default_poses: &[Pose],
 ) -> Result<(), ArticulatedError> {
     let mut path = Vec::with_capacity(t.sites.len());
@@ -562,14 +691,15 @@ fn add_spatial(
             .sites
             .get(k)
             .ok_or_else(|| scene_err(format!("site {k} does not exist")))?;
-        let offset = match site.body {
-            Some(b) => v3(site.pos) - v3(model.bodies[b].com),
-            None => v3(site.pos),
+        let part = site.body.and_then(|b| parts.get(b).map(|p| (b, p)));
+        let (body, offset) = match part {
+            // A body that is its own host alone: `pos − com` as ever.
+            Some((b, p)) if p.alone => (p.body, v3(site.pos) - v3(model.bodies[b].com)),
+            // Merged into a host, or static (then `frame` is in the world).
+            Some((_, p)) => (p.body, p.frame.point(v3(site.pos))),
+            None => (None, v3(site.pos)),
         };
-        path.push(PathSite {
-            body: site.body,
-            offset,
-        });
+        path.push(PathSite { body, offset });
     }
     let point = |s: &PathSite| {
         s.body
@@ -720,6 +850,8 @@ fn add_colliders(
     model: &Model,
     world: &mut World,
     warnings: &mut Vec<String>,
+    parts: &[Part],
+    layout: &Layout,
 ) -> Result<(), ArticulatedError> {
     use constraint_contact::geometry::{Collider, Shape};
     use constraint_mjcf::Primitive;
@@ -841,13 +973,25 @@ fn add_colliders(
                     },
                 )
             }
-            (Some(b), _) => (
-                Some(b),
+            // Alone in its world body: relative to its own centre of mass.
+            (Some(b), _) if parts[b].alone => (
+                parts[b].body,
                 Pose {
                     x: v3(g.pos) - v3(model.bodies[b].com),
                     q,
                 },
             ),
+            // Merged: through the body's frame in its host's ([`Part`]).
+            (Some(b), _) => {
+                let f = parts[b].frame;
+                (
+                    parts[b].body,
+                    Pose {
+                        x: f.point(v3(g.pos)),
+                        q: f.q * q,
+                    },
+                )
+            }
         };
         let c = Collider::new(body, shape, local, friction, 0.0).map_err(geometry)?;
         world.add_collider_filtered(
@@ -858,14 +1002,15 @@ fn add_colliders(
             },
         )?;
     }
-    // Weld-body filtering as excluded body pairs, over the moving bodies that carry
-    // colliders (static ones became world colliders above).
+    // Weld-body filtering as excluded body pairs, over the moving (world) bodies that
+    // carry colliders (static ones became world colliders above); a world body is a
+    // weld body when merged, so only the parent filter is left between them.
     let mut moving: Vec<usize> = world.colliders().iter().filter_map(|c| c.body).collect();
     moving.sort_unstable();
     moving.dedup();
     for (x, &a) in moving.iter().enumerate() {
         for &b in &moving[x + 1..] {
-            let (wa, wb) = (weld[a], weld[b]);
+            let (wa, wb) = (weld[layout.mjcf_of[a]], weld[layout.mjcf_of[b]]);
             let same = wa == wb;
             let parent = weld_parent(wa) == wb || weld_parent(wb) == wa;
             if same || parent {
@@ -873,25 +1018,46 @@ fn add_colliders(
             }
         }
     }
+    // Exclusions between the world bodies; one naming a static body has nothing to
+    // exclude (its geoms are world geoms, never tested against each other), and one
+    // naming a moving merged body made `Layout` keep the model unmerged.
     for e in &model.contact_excludes {
-        world.exclude_pair(e.body1, e.body2)?;
+        let host = |b: Option<usize>| match b {
+            None => Some(None),
+            Some(i) => layout.world_of[i].map(Some),
+        };
+        if let (Some(a), Some(b)) = (host(e.body1), host(e.body2)) {
+            world.exclude_pair(a, b)?;
+        }
     }
     Ok(())
 }
 
-/// The bodies at maximal-coordinate states from the loader (keyframes, `qpos`/`qvel`).
+/// The bodies at maximal-coordinate states from the loader (keyframes, `qpos`/`qvel`):
+/// each world body takes its MJCF body's state; a host with merged bodies has its
+/// centre of mass at `x = p + q C` (origin `p`, combined centre `C` in its frame),
+/// moving at `v_c + ω × (x − c)` from its own centre `c`'s velocity `v_c`.
 fn set_body_states(
     world: &mut World,
     states: &[constraint_mjcf::BodyState],
+    layout: &Layout,
 ) -> Result<(), ArticulatedError> {
     let before: Vec<RigidBody> = world.bodies().to_vec();
-    for (b, s) in world.bodies_mut().iter_mut().zip(states) {
-        b.pose = Pose {
-            x: v3(s.com),
-            q: quat(s.quat),
+    for (w, b) in world.bodies_mut().iter_mut().enumerate() {
+        let Some(s) = layout.mjcf_of.get(w).and_then(|&i| states.get(i)) else {
+            continue;
         };
-        b.v = v3(s.vel);
-        b.omega = v3(s.omega);
+        let q = quat(s.quat);
+        let omega = v3(s.omega);
+        if layout.merged[w] {
+            let x = v3(s.pos) + q * b.com;
+            b.pose = Pose { x, q };
+            b.v = v3(s.vel) + omega.cross(x - v3(s.com));
+        } else {
+            b.pose = Pose { x: v3(s.com), q };
+            b.v = v3(s.vel);
+        }
+        b.omega = omega;
     }
     if let Some(i) = world
         .bodies()

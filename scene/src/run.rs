@@ -375,13 +375,20 @@ fn run_inner(
     let h = opts.dt.unwrap_or(scene.timestep);
     let steps = step_count(h, opts)?;
     let m = method(&opts.method, h)?;
+    // One entry per MJCF body, merged ones included (`MjcfScene::part_states`).
     let mut traj = Trajectory::for_bodies(&scene.body_names);
-    traj.push(0.0, &scene.world);
-    let total = |w: &constraint_articulated::World| {
-        let (k, p) = w.energy();
+    let mut parts = Vec::with_capacity(scene.parts.len());
+    let push = |traj: &mut Trajectory, t: f64, scene: &MjcfScene, parts: &mut Vec<_>| {
+        let (k, p) = scene.energy();
+        scene.part_states(parts);
+        traj.push_parts(t, parts, k, p, scene.world.max_separation());
+    };
+    push(&mut traj, 0.0, &scene, &mut parts);
+    let total = |s: &MjcfScene| {
+        let (k, p) = s.energy();
         k + p
     };
-    let e0 = total(&scene.world);
+    let e0 = total(&scene);
     let mut sum = Summary {
         dt: h,
         energy_initial: e0,
@@ -422,17 +429,19 @@ fn run_inner(
                 if st.contacts > 0 && sum.first_contact_time.is_none() {
                     sum.first_contact_time = Some((i - 1) as f64 * h);
                 }
-                sum.energy_final = total(w);
+                sum.energy_final = total(&scene);
                 sum.max_energy_increase = sum.max_energy_increase.max(sum.energy_final - e0);
             }
             if record {
-                traj.push(i as f64 * h, &scene.world);
+                push(&mut traj, i as f64 * h, &scene, &mut parts);
             }
             start = std::time::Instant::now();
         }
     }
     stepping += start.elapsed().as_secs_f64();
     sum.finish(steps, stepping, scene.world.bodies());
+    // The root is the first MJCF body (a world body only when it has a joint).
+    sum.root_height = scene.part_state(0).map_or(f64::NAN, |p| p.origin.z);
     Ok((traj, stepping, sum))
 }
 

@@ -24,6 +24,7 @@
 
 use std::fmt::Write as _;
 
+use constraint_articulated::mjcf::PartState;
 use constraint_articulated::{RigidBody, World};
 
 /// A trajectory: column names and rows of numbers.
@@ -73,6 +74,20 @@ impl Trajectory {
             row.extend_from_slice(&[
                 o.x, o.y, o.z, q.w, q.x, q.y, q.z, b.pose.x.x, b.pose.x.y, b.pose.x.z,
             ]);
+        }
+        row.extend_from_slice(&[kin, pot, kin + pot, c_max]);
+        self.rows.push(row);
+    }
+
+    /// Appends a row from MJCF bodies' states (one per body of an
+    /// [`constraint_articulated::MjcfScene`], merged bodies included,
+    /// [`constraint_articulated::MjcfScene::part_states`]) and the trailing columns.
+    pub fn push_parts(&mut self, t: f64, parts: &[PartState], kin: f64, pot: f64, c_max: f64) {
+        let mut row = Vec::with_capacity(self.header.len());
+        row.push(t);
+        for p in parts {
+            let (o, q, c) = (p.origin, p.orientation, p.com);
+            row.extend_from_slice(&[o.x, o.y, o.z, q.w, q.x, q.y, q.z, c.x, c.y, c.z]);
         }
         row.extend_from_slice(&[kin, pot, kin + pot, c_max]);
         self.rows.push(row);
