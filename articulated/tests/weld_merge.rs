@@ -263,3 +263,50 @@ fn fluid_keeps_the_model_unmerged() {
     assert_eq!(s.world.bodies().len(), 6);
     assert!(s.parts.iter().all(|p| p.body.is_some()));
 }
+
+/// A `contact/exclude` naming a moving jointless body keeps the model unmerged (an
+/// exclusion is per world body; merged, it would cover the host's other geoms too); one
+/// naming a static body does not.
+#[test]
+fn an_exclude_on_a_moving_welded_body_keeps_the_model_unmerged() {
+    let with = |pair: &str| {
+        CHAIN.replace(
+            "<equality>",
+            &format!("<contact><exclude {pair}/></contact>\n  <equality>"),
+        )
+    };
+    let (_, s) = build(&with(r#"body1="tip" body2="link1""#), true);
+    assert_eq!(s.world.bodies().len(), 6);
+    let (_, s) = build(&with(r#"body1="post" body2="link1""#), true);
+    assert_eq!(s.world.bodies().len(), 3);
+}
+
+/// MuJoCo's pair filter with merged bodies (feature `contact`): a sphere of radius 0.35
+/// on `tip` (merged into `link2`) reaches into `link1`'s capsule, the parent weld body's,
+/// and into the box hung from `tip2` by the connect; neither pair touches (MuJoCo filters
+/// the first, ours the second through the connect's joint), so a step makes no contact.
+#[cfg(feature = "contact")]
+#[test]
+fn merged_geoms_keep_the_parent_filter() {
+    let xml = CHAIN
+        .replace(
+            r#"<default><geom contype="0" conaffinity="0"/></default>"#,
+            "",
+        )
+        .replace(
+            r#"<site name="s_tip" pos="0.1 0 0.02"/>"#,
+            r#"<site name="s_tip" pos="0.1 0 0.02"/>
+          <geom type="sphere" size="0.35" mass="0.01"/>"#,
+        );
+    let (model, mut s) = build(&xml, true);
+    assert_eq!(s.world.bodies().len(), 3);
+    let p = states(&s);
+    let (tip, link1) = (body(&model, "tip"), body(&model, "link1"));
+    // The sphere's centre (tip's origin) to link1's far end: measured 0.30 m < 0.35 + 0.03.
+    let end = p[link1].origin + p[link1].orientation * DVec3::new(0.4, 0.0, 0.0);
+    let d = (p[tip].origin - end).length();
+    assert!(d < 0.35, "{d}");
+    assert!(s.world.colliders().iter().any(|c| c.body.is_none()));
+    s.world.step(s.timestep, Method::default()).expect("step");
+    assert_eq!(s.world.contacts().len(), 0);
+}
