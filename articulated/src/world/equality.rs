@@ -189,6 +189,8 @@ pub(crate) struct EqRows {
     /// Zero loop right-hand side and loop multipliers of the column solves (scratch).
     zero: Vec<f64>,
     mu: Vec<f64>,
+    /// The complement's right-hand side `E x_free − r_E` (scratch).
+    b: Vec<f64>,
 }
 
 impl EqRows {
@@ -529,10 +531,13 @@ impl World {
                 solved
             }
         };
-        let b: Vec<f64> = (0..k)
-            .map(|i| eq.spans.gather(&self.solver, &self.rhs, i) - eq.rhs[i])
-            .collect();
+        // In a buffer kept across solves (a `Vec` collected per solve before: one
+        // allocation each, 4,092 on dm manipulator controlled 2 s).
+        let mut b = core::mem::take(&mut eq.b);
+        b.clear();
+        b.extend((0..k).map(|i| eq.spans.gather(&self.solver, &self.rhs, i) - eq.rhs[i]));
         if b.iter().any(|v| !v.is_finite()) {
+            eq.b = b;
             return Err(ArticulatedError::LoopSolve);
         }
         eq.nu.clear();
@@ -542,6 +547,7 @@ impl World {
                 eq.nu[i] = (0..k).map(|j| eq.pinv[i * k + j] * b[j]).sum();
             }
         }
+        eq.b = b;
         for (r, nu) in eq.nu.iter().enumerate() {
             let col = &eq.cols[r * size..(r + 1) * size];
             for (x, y) in self.rhs.iter_mut().zip(col) {
@@ -584,6 +590,10 @@ impl World {
                 self.solver
                     .close_loops(&loops.0, &eq.zero, col, &mut rhs, &mut eq.mu)?;
             }
+        }
+        if k == 1 {
+            let s = eq.spans.gather(&self.solver, &eq.cols[..size], 0);
+            return scalar_pinv(s, floor, &mut eq.pinv);
         }
         let mut s = DenseMatrix::from_fn(k, k, |i, j| {
             eq.spans
@@ -710,6 +720,103 @@ impl World {
 }
 
 // The tests load MJCF text: they need the `mjcf` feature too.
+/// [`World::complement_matrix`]'s `S⁺` of a single row, `S = [s]`: `S⁺ = [1/s]`
+/// unless `|s|` is at most `floor` (then `S⁺ = 0`, returns `false`). The same bits
+/// as its one-sided Jacobi SVD of the 1×1 matrix (`constraint_lagrange`'s
+/// `SvdSolver`), without its allocations: the entry scaled by `amax = |s|` is
+/// `w = s/|s| = ±1` (exact), no rotation, `σ = √(w·w)·amax = |s|`, `u = w`, `v = 1`;
+/// its rank test `σ > rel·σ` with `rel = floor/σ` when that exceeds `1e-10` (the
+/// second decomposition there); the min-norm solve of `e₁`:
+/// `x = 0 + (1/σ)(u·1)·1 = (1/|s|)·(s/|s|)`, an error if not finite. (dm manipulator
+/// controlled 2 s: 3,332 decompositions of its one tendon coupling, 6.5M instructions
+/// with their allocations and frees.)
+fn scalar_pinv(s: f64, floor: f64, pinv: &mut Vec<f64>) -> Result<bool, ArticulatedError> {
+    if !s.is_finite() {
+        return Err(ArticulatedError::LoopSolve);
+    }
+    let smax = s.abs();
+    pinv.clear();
+    pinv.resize(1, 0.0);
+    if !(smax > floor) {
+        return Ok(false);
+    }
+    let rel = if floor > 1e-10 * smax {
+        floor / smax
+    } else {
+        1e-10
+    };
+    if !rel.is_finite() {
+        return Err(ArticulatedError::LoopSolve);
+    }
+    let cutoff = rel.max(0.0) * smax;
+    if smax > cutoff && smax > 0.0 {
+        let x = (1.0 / smax) * (s / smax);
+        if !x.is_finite() {
+            return Err(ArticulatedError::LoopSolve);
+        }
+        pinv[0] = x;
+    }
+    Ok(true)
+}
+
+#[cfg(test)]
+mod scalar_tests {
+    use super::*;
+
+    /// [`scalar_pinv`] gives the general path's `S⁺` (`SvdSolver` at `1e-10`, again at
+    /// `floor/σ` when that is larger, its min-norm solve of `e₁`) and its `false` below
+    /// the floor, to the bit: signs, magnitudes from 1e-300 to 1e300, floors on both
+    /// sides of `1e-10 σ` and up to just below `σ`, zeros.
+    #[test]
+    fn scalar_pinv_matches_the_svd_to_the_bit() {
+        let general = |s: f64, floor: f64| -> (bool, u64) {
+            let m = DenseMatrix::from_fn(1, 1, |_, _| s);
+            let svd = SvdSolver::new(&m, 1e-10).unwrap();
+            let smax = svd.singular_values()[0];
+            if !(smax > floor) {
+                return (false, 0.0f64.to_bits());
+            }
+            let svd = if floor > 1e-10 * smax {
+                SvdSolver::new(&m, floor / smax).unwrap()
+            } else {
+                svd
+            };
+            let mut col = [0.0];
+            svd.solve_min_norm(&[1.0], &mut col).unwrap();
+            (true, col[0].to_bits())
+        };
+        let mut checked = 0;
+        for e in (-300..=300).step_by(7) {
+            for m in [1.0, 1.234_567_890_123, 3.999_999_999_9, 7.1e-3] {
+                for sign in [1.0, -1.0] {
+                    let s = sign * m * libm::pow(10.0, e as f64);
+                    for floor in [
+                        0.0,
+                        1e-12 * s.abs(),
+                        1e-10 * s.abs(),
+                        0.5 * s.abs(),
+                        s.abs(),
+                    ] {
+                        let mut pinv = Vec::new();
+                        let got = scalar_pinv(s, floor, &mut pinv).unwrap();
+                        assert_eq!(
+                            (got, pinv[0].to_bits()),
+                            general(s, floor),
+                            "s {s:e}, floor {floor:e}"
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        let mut pinv = Vec::new();
+        assert!(!scalar_pinv(0.0, 0.0, &mut pinv).unwrap());
+        assert_eq!(pinv, [0.0]);
+        assert!(scalar_pinv(f64::NAN, 0.0, &mut pinv).is_err());
+        assert!(checked > 1000, "{checked} cases");
+    }
+}
+
 #[cfg(test)]
 #[cfg(feature = "mjcf")]
 mod tests {
