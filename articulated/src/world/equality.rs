@@ -189,8 +189,6 @@ pub(crate) struct EqRows {
     /// Zero loop right-hand side and loop multipliers of the column solves (scratch).
     zero: Vec<f64>,
     mu: Vec<f64>,
-    /// The complement's right-hand side `E x_free − r_E` (scratch).
-    b: Vec<f64>,
 }
 
 impl EqRows {
@@ -362,20 +360,37 @@ impl World {
 
     /// `max |C|` over the equalities at the current state (0 without any).
     ///
-    /// Each `C` from the joints' coordinates alone: the same bits
-    /// as [`Self::equality_residual`]'s, without its rate rows, their segments' buffer
+    /// Each `C` from the joints' coordinates alone: the same bits as
+    /// [`Self::equality_residual`]'s, without its rate rows, their segments' buffer
     /// (one allocation a call) and the rate (issue 13: dm manipulator controlled 2 s
     /// evaluates it 2,902 times, 6.6M instructions).
     pub fn max_equality_violation(&self) -> f64 {
+        self.max_equality_violation_by(|j| self.coordinates_of(j))
+    }
+
+    /// [`Self::max_equality_violation`] with the coordinates of joint `j` from
+    /// `coords(j)` (the same bits as [`Self::coordinates_of`]: the projection's error
+    /// takes a hard hinge's angle from the directions its separation rotated). Out of
+    /// line: inlined into the projection's error, it cost the models without
+    /// equalities 0.06 to 0.1 % (half_cheetah, dm cheetah, pusher_v5 controlled).
+    #[inline(never)]
+    pub(super) fn max_equality_violation_by(
+        &self,
+        coords: impl Fn(usize) -> Option<[f64; MAX_DOF]>,
+    ) -> f64 {
         self.equalities
             .iter()
-            .fold(0.0, |m, e| m.max(self.equality_value(e).abs()))
+            .fold(0.0, |m, e| m.max(self.equality_value(e, &coords).abs()))
     }
 
     /// An equality's `C = L₁ − P(L₂)` at the current state, from the coordinates
-    /// alone ([`Self::coordinates_of`], the same bits as the rows' path): the value
+    /// alone (`coords`, the same bits as the rows' path): the value
     /// [`Self::push_equality`] returns, each sum from `+0` in term order as there.
-    fn equality_value(&self, e: &Equality) -> f64 {
+    fn equality_value(
+        &self,
+        e: &Equality,
+        coords: &impl Fn(usize) -> Option<[f64; MAX_DOF]>,
+    ) -> f64 {
         let sum = |terms: &[(usize, usize, f64)]| {
             let mut l = 0.0;
             for &(j, d, c) in terms {
@@ -383,7 +398,7 @@ impl World {
                 if d >= self.dofs_of(j) {
                     continue;
                 }
-                let Some(q) = self.coordinates_of(j) else {
+                let Some(q) = coords(j) else {
                     continue;
                 };
                 l += c * q[d];
@@ -531,13 +546,20 @@ impl World {
                 solved
             }
         };
-        // In a buffer kept across solves (a `Vec` collected per solve before: one
-        // allocation each, 4,092 on dm manipulator controlled 2 s).
-        let mut b = core::mem::take(&mut eq.b);
-        b.clear();
-        b.extend((0..k).map(|i| eq.spans.gather(&self.solver, &self.rhs, i) - eq.rhs[i]));
+        // On the stack for up to 8 rows (as `EqRows::correct`; a `Vec` collected per
+        // solve before: one allocation each, 4,092 on dm manipulator controlled 2 s).
+        let mut t = [0.0; 8];
+        let mut tv = Vec::new();
+        let b: &mut [f64] = if k <= 8 {
+            &mut t[..k]
+        } else {
+            tv.resize(k, 0.0);
+            &mut tv
+        };
+        for (i, bi) in b.iter_mut().enumerate() {
+            *bi = eq.spans.gather(&self.solver, &self.rhs, i) - eq.rhs[i];
+        }
         if b.iter().any(|v| !v.is_finite()) {
-            eq.b = b;
             return Err(ArticulatedError::LoopSolve);
         }
         eq.nu.clear();
@@ -547,7 +569,6 @@ impl World {
                 eq.nu[i] = (0..k).map(|j| eq.pinv[i * k + j] * b[j]).sum();
             }
         }
-        eq.b = b;
         for (r, nu) in eq.nu.iter().enumerate() {
             let col = &eq.cols[r * size..(r + 1) * size];
             for (x, y) in self.rhs.iter_mut().zip(col) {
