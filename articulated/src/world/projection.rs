@@ -295,7 +295,7 @@ impl World {
             (0.0, false)
         };
         let rest = separation
-            .max(self.max_equality_violation())
+            .max(self.max_equality_violation_by(|j| self.error_coordinates(j)))
             .max(self.max_tendon_limit_violation());
         #[cfg(feature = "contact")]
         let rest = rest.max(self.max_contact_violation());

@@ -454,7 +454,7 @@ impl World {
             // The coordinates' smallest distance from a bound without a row.
             let mut margin = f64::INFINITY;
             let q0 = if limited {
-                self.coordinates_of(j)
+                self.swept_coordinates(j, &a, &b)
             } else {
                 None
             };
@@ -517,7 +517,7 @@ impl World {
             // have limits, they are skipped here, as the projection's error skips them
             // (`limit_coordinates`), and no limit row was pushed for them above.
             let q_end = if limited && (lims.n > 0 || !(margin > reach)) {
-                self.coordinates_of(j)
+                self.swept_coordinates(j, &a, &b)
             } else {
                 None
             };
@@ -597,7 +597,7 @@ impl World {
         // (`sweep_joint`), and it answers by the joint's kind: `None` is not reached
         // with rows; the rows' `c` then stay as they were and add no error.
         if lims.n > 0 {
-            if let Some(q) = self.coordinates_of(j) {
+            if let Some(q) = self.swept_coordinates(j, &a, &b) {
                 for (ck, &(d, sign, bound)) in c[n_hard..].iter_mut().zip(&lims.rows[..lims.n]) {
                     *ck = sign * (q[d] - bound);
                     err = err.max(ck.abs());
@@ -605,6 +605,23 @@ impl World {
             }
         }
         err
+    }
+
+    /// Joint `j`'s coordinates at the current poses `a`, `b` (its parent's and
+    /// child's), as [`Self::coordinates_of`] (the same bits): a hinge's angle computed
+    /// at once ([`constraint_core::Hinge::angle`]) on its continuous branch, without
+    /// `coordinates_of`'s look-ups of the force evaluation's and the coordinate
+    /// cache's entries, whose pose keys the sweep's moves make miss (and which hold
+    /// the same bits when they hit). Other joints through `coordinates_of`.
+    #[inline]
+    fn swept_coordinates(&self, j: usize, a: &Pose, b: &Pose) -> Option<[f64; MAX_DOF]> {
+        if let JointKind::Hinge(h) = &self.joints[j].kind {
+            let mut q = [0.0; MAX_DOF];
+            q[0] = h.angle(a, b);
+            self.continue_angles(j, &mut q);
+            return Some(q);
+        }
+        self.coordinates_of(j)
     }
 }
 
