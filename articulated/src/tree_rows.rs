@@ -66,6 +66,14 @@
 //! the backward pass out of line (half_cheetah +0.04 %, dm humanoid +0.44 %); the
 //! Schur rows' values gathered once for the hold test and `S ζ = r`, and the base
 //! pivots' check by iterators (half_cheetah +0.23 %, every run worse).
+//!
+//! Tried and left out (issue 13, session 41, the same bits): a copy `Wᵀ` written by
+//! the factor beside `W` (and kept with it across refactors) for the backward pass's
+//! `W x_p`, read a contiguous column at a time as `tree.rs` does. half_cheetah
+//! controlled: `RowTree::solve` 2.06M → 1.96M and `solve_sparse` 1.61M → 1.52M, but
+//! `update_fixed` 1.68M → 1.83M and `factor` 0.61M → 0.66M for the copy (2.6 solves
+//! per factor there); `World::step` 32.53M → 32.63M, dm cheetah 32.78M → 32.91M,
+//! pusher_v5 33.04M → 33.28M, manipulator 570.89M → 572.55M.
 
 use alloc::vec::Vec;
 
