@@ -310,6 +310,31 @@
 //! row's, and a call); `u = s / d⁻¹` in one run over a row with the path's `d⁻¹`
 //! gathered once (317.57M → 324.18M: the per-node copy became `memcpy` and `memset`
 //! calls).
+//!
+//! Where the humanoids' steps go (issue 13, main 5f05998; callgrind `World::step`
+//! instructions, `simulate` 2 s, humanoid_CMU 0.5 s; tries, iterations and dense
+//! steps from [`super::UnilateralStats`] per step). dm humanoid passive 319.6M: the
+//! active set 184.2M in 357 tries (347 settled, 1.36 iterations each), of which the
+//! Schur rows 99.4M (589 builds of about 17 rows: a foot's contacts beyond its
+//! ankle's two freedoms, a welded head or hand's) and the tree factor 26.6M (580
+//! factors); the dense path 21.7M in 14 steps; the position projection 60.9M, the
+//! assembly 25.9M, contact generation 9.5M. Controlled 290.3M: active set 126.5M
+//! (378 settled, 2.44 iterations; Schur rows 51.5M), dense 8.5M in 11 steps,
+//! projection 98.9M. Perturbed 423.8M: active set 220.1M (307 of 332 tries settled,
+//! 1.93 iterations; Schur rows 122.1M in 848 builds), dense 95.3M in 57 steps (1.67M
+//! each: the Delassus matrix 28.5M, the staggered solve 63.5M), projection 48.6M.
+//! The failed tries: passive 10 (9 not settled, 1 repeated release), controlled 11 (7
+//! cycles, 4 not settled), perturbed 25 (17 not settled, 4 cycles, 4 repeated
+//! releases); what still runs to the cap is the friction rows of two or three sliding
+//! contacts moving between their bounds and free with no set repeating, the normals
+//! moving with them. humanoid_CMU passive 208.7M: every try settles (250, 1.10
+//! iterations, no dense step); the active set 72.2M (Schur rows 30.8M, factor
+//! 18.9M), the rest the per-step pipeline: projection 68.1M, assembly 36.7M, contact
+//! generation 20.0M (twice a step, at the start and for the projection). Controlled
+//! 350.2M: active set 127.4M (229 of 239 tries settled, 1.60 iterations), dense 43.0M
+//! in 21 steps, projection 104.0M. So humanoid_CMU passive's larger ratio to MuJoCo
+//! (4.4× against 2.3× controlled) is the fixed cost of a step at rest (projection,
+//! assembly, contacts: 60 % of it), not the active set's iterations.
 
 use alloc::vec::Vec;
 
@@ -341,6 +366,12 @@ pub const MAX_ITERATIONS: usize = 12;
 /// (`RowSettings::friction_tolerance`, by default 1e-6, so 1e-7): an answer ten times
 /// tighter than the dense path would return, without waiting for the set to settle.
 const ACCEPT_FRACTION: f64 = 0.1;
+
+/// [`near_repeat`]: the largest move of the friction bounds' normals, as a fraction
+/// of the largest of them, at which a set with the statuses of an earlier one repeats it
+/// (the creeping cycles measured moved 0.1 % a period; at 2 % a dm humanoid try that
+/// settles ended: [`World::unilateral_set_is_new`]).
+const NEAR_REPEAT: f64 = 0.01;
 
 /// Most steps [`World::solve_unilateral_sparse`]'s back-off sends to the dense path
 /// without trying the active set.
@@ -459,8 +490,12 @@ pub(super) struct ActiveSet {
     /// they are valid (cleared when the factor is rebuilt).
     y_schur: Vec<usize>,
     y_current: bool,
-    /// Fingerprints of the sets met in this step's iterations (cycle detection).
+    /// Fingerprints of the sets met in this step's iterations (cycle detection); per
+    /// set, the fingerprint of its statuses alone and the impulses at the time
+    /// (`m` a set, in `near_z`), for [`World::unilateral_set_is_new`]'s near repeats.
     history: Vec<u64>,
+    status_history: Vec<u64>,
+    near_z: Vec<f64>,
     /// This step's releases of a dependent Schur row for another ([`dependent`]), in
     /// the order made.
     released: Vec<dependent::Release>,
@@ -645,6 +680,8 @@ impl World {
         // that settles leaves `st.z`, `st.w` as that iterate's), for the statistics.
         let mut worst: f64 = 0.0;
         st.history.clear();
+        st.status_history.clear();
+        st.near_z.clear();
         st.released.clear();
         st.row_scale.clear();
         st.row_scale.resize(m + self.eq.len(), f64::NAN);
@@ -1119,25 +1156,54 @@ impl World {
     /// statuses and the normals the bounds of the friction rows at a bound come from
     /// (the iteration is a function of these alone, so a repeat is a cycle that will
     /// not settle). By a 64-bit FNV-1a fingerprint (a collision only sends the step
-    /// to the dense path); records it.
+    /// to the dense path); records it. Also `false` on a near repeat ([`near_repeat`]):
+    /// the statuses of an earlier set (a fingerprint of them alone) with those normals
+    /// within [`NEAR_REPEAT`] of their values then, a cycle whose normals creep.
+    ///
+    /// Measured (issue 13, main 5f05998; dm humanoid perturbed 2 s at the
+    /// `--qpos`/`--qvel` of `target/models/work/mujoco.tsv`): a try at step 248 repeats
+    /// a period-3 pattern (two contacts of one foot and a hand's contact entering and
+    /// leaving in turn, the normals' impulses moving 0.1 % a period) to the iteration
+    /// cap; of the 17 tries that ran to the cap, 5 now end at a near repeat (at
+    /// iterations 5, 5, 8, 12, 12), 254 → 236 iterations in failed tries (dm humanoid
+    /// passive 116 → 104); `World::step` instructions 423.82M → 419.02M, passive
+    /// 319.58M → 317.23M, the other humanoid runs of `instr41` within ±0.04 %. A failed try leaves the step to the dense path unchanged, so only tries
+    /// that would have failed anyway may end earlier: at 1 % the 16 reference runs and
+    /// dm humanoid perturbed are `cmp`-equal; 2 % and 5 % changed dm humanoid controlled
+    /// (and at 5 % gymnasium's humanoid): a try there settles after a near repeat.
     fn unilateral_set_is_new(&self, st: &mut ActiveSet) -> bool {
+        const PRIME: u64 = 0x0000_0100_0000_01b3;
         let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut mix = |v: u64| {
-            h ^= v;
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        };
+        let mut hs = h;
         for (i, s) in st.status.iter().enumerate() {
-            mix(*s as u64);
+            h = (h ^ *s as u64).wrapping_mul(PRIME);
+            hs = (hs ^ *s as u64).wrapping_mul(PRIME);
             if let (RowStatus::Lo | RowStatus::Hi, RowBound::Friction { normal, .. }) =
                 (s, self.urows[i].bound)
             {
-                mix(st.z.get(normal).map_or(0, |z| z.to_bits()));
+                h = (h ^ st.z.get(normal).map_or(0, |z| z.to_bits())).wrapping_mul(PRIME);
             }
         }
         if st.history.contains(&h) {
             return false;
         }
+        let m = st.status.len();
+        for (e, _) in st
+            .status_history
+            .iter()
+            .enumerate()
+            .filter(|(_, &g)| g == hs)
+        {
+            let Some(earlier) = st.near_z.get(e * m..(e + 1) * m) else {
+                continue;
+            };
+            if near_repeat(&self.urows, &st.status, &st.z, earlier) {
+                return false;
+            }
+        }
         st.history.push(h);
+        st.status_history.push(hs);
+        st.near_z.extend_from_slice(&st.z[..m]);
         true
     }
 
@@ -1597,6 +1663,29 @@ fn remember(st: &mut ActiveSet, z: &[f64]) {
 }
 
 /// The row's bounds `(lo, hi)` at the impulses `z` (friction: `±μ max(z_n, 0)`).
+/// [`World::unilateral_set_is_new`]'s near repeat: with the same statuses as an
+/// earlier set, the normals behind the friction rows at a bound moved by at most
+/// [`NEAR_REPEAT`] of the largest of them since (`earlier`: the impulses then):
+/// `max_n |z_n − z'_n| ≤ NEAR_REPEAT · max_n |z_n|`. `false` where an index is out
+/// of range or an impulse is NaN.
+fn near_repeat(urows: &[URow], status: &[RowStatus], z: &[f64], earlier: &[f64]) -> bool {
+    let (mut moved, mut size) = (0.0f64, 0.0f64);
+    for (r, s) in urows.iter().zip(status) {
+        if let (RowStatus::Lo | RowStatus::Hi, RowBound::Friction { normal, .. }) = (s, r.bound) {
+            let (Some(a), Some(b)) = (z.get(normal), earlier.get(normal)) else {
+                return false;
+            };
+            let d = (a - b).abs();
+            if d.is_nan() {
+                return false;
+            }
+            moved = moved.max(d);
+            size = size.max(a.abs());
+        }
+    }
+    moved <= NEAR_REPEAT * size
+}
+
 fn bounds(b: &RowBound, z: &[f64]) -> (f64, f64) {
     match *b {
         RowBound::Unilateral => (0.0, f64::INFINITY),
@@ -2061,8 +2150,63 @@ fn small_solve(a: &mut [f64], b: &mut [f64], p: usize) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::PsdFactor;
+    use super::{near_repeat, PsdFactor, RowStatus, NEAR_REPEAT};
+    use crate::world::unilateral::{RowSource, URow};
     use alloc::vec::Vec;
+    use constraint_contact::lcp::RowBound;
+    use constraint_core::DVec3;
+
+    /// A contact's normal (row 0) and two friction rows on it, `μ = 1`.
+    fn contact_rows() -> Vec<URow> {
+        (0u8..3)
+            .map(|axis| URow {
+                a: None,
+                b: Some(0),
+                j: [DVec3::ZERO; 4],
+                bias: 0.0,
+                bound: if axis == 0 {
+                    RowBound::Unilateral
+                } else {
+                    RowBound::Friction { normal: 0, mu: 1.0 }
+                },
+                source: RowSource::Contact { contact: 0, axis },
+            })
+            .collect()
+    }
+
+    /// The creeping cycle of dm humanoid perturbed (step 248: the normal behind a
+    /// friction bound at 1.442 then 1.443, 0.07 %) is a near repeat; a move of 2 % is
+    /// not, nor a NaN impulse; without friction rows at a bound the statuses decide.
+    #[test]
+    fn a_near_repeat_is_the_same_friction_bounds_within_one_percent() {
+        let rows = contact_rows();
+        let at_bound = [RowStatus::Active, RowStatus::Hi, RowStatus::Lo];
+        let earlier = [1.442, 1.442, -1.442];
+        // Moved 0.001 of 1.443 (0.07 %, limit 1 %).
+        assert!(near_repeat(
+            &rows,
+            &at_bound,
+            &[1.443, 1.443, -1.443],
+            &earlier
+        ));
+        // Moved 0.03 of 1.472 (2.0 %).
+        assert!(!near_repeat(
+            &rows,
+            &at_bound,
+            &[1.472, 1.472, -1.472],
+            &earlier
+        ));
+        const { assert!(NEAR_REPEAT < 0.03 / 1.472) };
+        assert!(!near_repeat(
+            &rows,
+            &at_bound,
+            &[f64::NAN, 0.0, 0.0],
+            &earlier
+        ));
+        // Friction rows free or inactive: no bound to compare, the same statuses repeat.
+        let free = [RowStatus::Active, RowStatus::Active, RowStatus::Inactive];
+        assert!(near_repeat(&rows, &free, &[2.0, 0.5, 0.0], &earlier));
+    }
 
     /// A deterministic value in `[-1, 1)` (a 64-bit LCG).
     fn next(seed: &mut u64) -> f64 {

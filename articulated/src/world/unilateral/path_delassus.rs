@@ -135,7 +135,8 @@ impl PathDelassus {
             let (vk, q) = (self.val_start[k], self.path_id[k]);
             let path_k = &self.nodes[self.start[k]..self.start[k + 1]];
             let mut slots = false;
-            for i in k..m {
+            let mut i = k;
+            while i < m {
                 let (vi, p) = (self.val_start[i], self.path_id[i]);
                 if self.seg_at[p * g + q].0 == usize::MAX {
                     if !slots {
@@ -162,6 +163,28 @@ impl PathDelassus {
                     self.seg_at[p * g + q] = (first, self.seg.len());
                 }
                 let (s0, s1) = self.seg_at[p * g + q];
+                // Four rows on one path (a contact's normal and tangents, the next
+                // contact of the same bodies) against row `k` at once: `s_k` read once
+                // per four, each row's lanes summed as [`dot_lanes`] sums them.
+                if i + 4 <= m && self.path_id[i + 1..i + 4].iter().all(|&r| r == p) {
+                    let v = [
+                        vi,
+                        self.val_start[i + 1],
+                        self.val_start[i + 2],
+                        self.val_start[i + 3],
+                    ];
+                    let mut acc = [[0.0; LANES]; 4];
+                    for &(ra, rb, len) in &self.seg[s0..s1] {
+                        let sk = &s[vk + rb..vk + rb + len];
+                        let ui = |t: usize| &u[v[t] + ra..v[t] + ra + len];
+                        dot_lanes4(&mut acc, [ui(0), ui(1), ui(2), ui(3)], sk);
+                    }
+                    for (t, c) in acc.iter().enumerate() {
+                        a[(i + t) * m + k] = (c[0] + c[1]) + (c[2] + c[3]);
+                    }
+                    i += 4;
+                    continue;
+                }
                 let mut acc = [0.0; LANES];
                 for &(ra, rb, len) in &self.seg[s0..s1] {
                     let ui = &u[vi + ra..vi + ra + len];
@@ -169,6 +192,7 @@ impl PathDelassus {
                     dot_lanes(&mut acc, ui, sk);
                 }
                 a[i * m + k] = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+                i += 1;
             }
             if slots {
                 for &n in path_k {
@@ -202,6 +226,33 @@ fn dot_lanes(acc: &mut [f64; LANES], a: &[f64], b: &[f64]) {
     }
     for (l, (x, y)) in ta.iter().zip(tb).enumerate() {
         acc[l] += x * y;
+    }
+}
+
+/// [`dot_lanes`] for four rows `a[r]` against one `b` (each `b.len()` long): row `r`'s
+/// lanes in `acc[r]`, each lane's products summed in the same order as `dot_lanes`
+/// sums them (so the same bits), `b` read once for the four.
+#[inline(always)]
+fn dot_lanes4(acc: &mut [[f64; LANES]; 4], a: [&[f64]; 4], b: &[f64]) {
+    let n = b.len();
+    let full = n - n % LANES;
+    let a = a.map(|r| &r[..n]);
+    let mut t = 0;
+    while t < full {
+        let y = &b[t..t + LANES];
+        for (r, row) in a.iter().enumerate() {
+            let x = &row[t..t + LANES];
+            for l in 0..LANES {
+                acc[r][l] += x[l] * y[l];
+            }
+        }
+        t += LANES;
+    }
+    for l in 0..n - full {
+        let y = b[full + l];
+        for (r, row) in a.iter().enumerate() {
+            acc[r][l] += row[full + l] * y;
+        }
     }
 }
 
@@ -323,6 +374,38 @@ mod tests {
         }
         fn vec(&mut self) -> DVec3 {
             DVec3::new(self.next(), self.next(), self.next())
+        }
+    }
+
+    /// [`dot_lanes4`] gives each of its four rows the bits [`dot_lanes`] gives it, over
+    /// lengths 0 to 13 (every tail length) and two segments in a row (the lanes carried
+    /// over, as the build sums a pair's shared runs).
+    #[test]
+    fn four_rows_at_once_are_the_bits_of_one_row_at_a_time() {
+        let mut g = Lcg(7);
+        for n in 0..14 {
+            let rows: Vec<Vec<f64>> = (0..4)
+                .map(|_| (0..2 * n).map(|_| g.next()).collect())
+                .collect();
+            let b: Vec<f64> = (0..2 * n).map(|_| g.next() * 1e3).collect();
+            let mut four = [[0.0; LANES]; 4];
+            for seg in [0..n, n..2 * n] {
+                let a = [0, 1, 2, 3].map(|r| &rows[r][seg.clone()]);
+                dot_lanes4(&mut four, a, &b[seg.clone()]);
+            }
+            for (r, row) in rows.iter().enumerate() {
+                let mut one = [0.0; LANES];
+                for seg in [0..n, n..2 * n] {
+                    dot_lanes(&mut one, &row[seg.clone()], &b[seg]);
+                }
+                for l in 0..LANES {
+                    assert_eq!(
+                        four[r][l].to_bits(),
+                        one[l].to_bits(),
+                        "n {n} row {r} lane {l}"
+                    );
+                }
+            }
         }
     }
 
