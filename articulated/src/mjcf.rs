@@ -161,13 +161,27 @@ impl MjcfScene {
     }
 
     /// [`Self::new`] with the given options (`merge_welded: false`: one world body per
-    /// MJCF body, jointless ones welded by [`Fixed`] joints).
+    /// MJCF body, jointless ones welded by [`Fixed`] joints). In a hand-built model a
+    /// parent index past the last body is an error ([`ArticulatedError::Scene`]); a
+    /// parent not before its body is read as the world where merging and the contact
+    /// filter look for its host (the loader's kinematics do the same).
     pub fn with_options(
         model: &Model,
         key: Option<&str>,
         options: MjcfOptions,
     ) -> Result<Self, ArticulatedError> {
         let states = model.initial_state(key).map_err(scene_err)?;
+        let nb = model.bodies.len();
+        if let Some(b) = model
+            .bodies
+            .iter()
+            .find(|b| b.parent.is_some_and(|p| p >= nb))
+        {
+            return Err(scene_err(format!(
+                "body {:?} (line {}): parent {:?} is not a body of the model",
+                b.name, b.line, b.parent
+            )));
+        }
         let mut world = World::new(v3(model.gravity));
         #[allow(unused_mut)]
         let mut warnings = model.warnings.clone();
@@ -867,11 +881,17 @@ fn add_colliders(
         weld[i] = if has_joint[i] {
             Some(i)
         } else {
-            model.bodies[i].parent.and_then(|p| weld[p])
+            // A parent not before `i` (a hand-built model): static, as in `Layout`.
+            model.bodies[i]
+                .parent
+                .filter(|p| *p < i)
+                .and_then(|p| weld[p])
         };
     }
-    let weld_parent =
-        |w: Option<usize>| w.and_then(|i| model.bodies[i].parent).and_then(|p| weld[p]);
+    let weld_parent = |w: Option<usize>| {
+        w.and_then(|i| model.bodies[i].parent.filter(|p| *p < i))
+            .and_then(|p| weld[p])
+    };
     let mut condim_warned = false;
     let mut shape_warned = false;
     for g in &model.geoms {
@@ -1018,10 +1038,19 @@ fn add_colliders(
             }
         }
     }
-    // Exclusions between the world bodies; one naming a static body has nothing to
-    // exclude (its geoms are world geoms, never tested against each other), and one
-    // naming a moving merged body made `Layout` keep the model unmerged.
+    // Exclusions between the world bodies. One naming a static body is not modelled
+    // (as before merging): that body's geoms are world geoms, and excluding the world
+    // would drop every world geom against the other body, so it is dropped with a
+    // warning. One naming a body of a merged group made `Layout` build unmerged.
     for e in &model.contact_excludes {
+        for b in [e.body1, e.body2].into_iter().flatten() {
+            if weld.get(b).is_some_and(|w| w.is_none()) {
+                warnings.push(format!(
+                    "contact/exclude {:?} (line {}) with static body {:?}: not modelled",
+                    e.name, e.line, model.bodies[b].name
+                ));
+            }
+        }
         let host = |b: Option<usize>| match b {
             None => Some(None),
             Some(i) => layout.world_of[i].map(Some),

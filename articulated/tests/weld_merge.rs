@@ -1,9 +1,10 @@
 //! Jointless MJCF bodies merged into their hosts (`MjcfScene`, `MjcfOptions`): a hinge
 //! chain whose second link carries a welded `tip` (with a welded `tip2` inside), a
-//! `post` welded to the world, a spatial tendon from the post to the tip, and a connect
-//! from tip2 to a free box hanging from it. Merged and unmerged builds agree; the merged
-//! host's mass, centre of mass and inertia match a hand computation; sites and the
-//! connect's anchor ride on their hosts.
+//! `post` welded to the world, a spatial tendon from the post to the tip, and a free box
+//! hung from the world by a connect. Merged and unmerged builds agree; the merged host's
+//! mass, centre of mass and inertia match a hand computation; sites and the connect's
+//! anchor ride on their bodies; a connect or exclude naming a body of a merged group
+//! keeps the model unmerged; the pair filter is MuJoCo's in both builds.
 
 #![cfg(feature = "mjcf")]
 
@@ -41,7 +42,7 @@ const CHAIN: &str = r#"
     </body>
   </worldbody>
   <equality>
-    <connect name="c" body1="tip2" body2="link3" anchor="0.05 0 0"/>
+    <connect name="c" body1="link3" anchor="0.05 0 0"/>
   </equality>
   <tendon>
     <spatial name="t" stiffness="20" damping="0.5">
@@ -148,7 +149,7 @@ fn merged_mass_com_and_inertia_by_hand() {
 
 /// Sites and the connect's anchor at the default pose: every MJCF body's reported frame
 /// is its `xpos`/`xquat`, the tendon's path points are the sites' world positions, and
-/// after 1 s the connect still joins tip2's anchor and link3's.
+/// after 1 s link3's anchor is still at its world point (the connect to the world).
 #[test]
 fn sites_and_anchor_ride_on_their_hosts() {
     let (model, mut s) = build(CHAIN, true);
@@ -173,25 +174,25 @@ fn sites_and_anchor_ride_on_their_hosts() {
         .map(|k| (site_world(&s, k) - path_point(&s, k)).length())
         .fold(0.0, f64::max);
     assert!(e_site < 1e-14, "sites at qpos0 off by {e_site:e}"); // measured 1.4e-17
-                                                                 // tip2's anchor (its frame) and link3's (fixed at qpos0 in link3's frame).
-    let (tip2, link3) = (body(&model, "tip2"), body(&model, "link3"));
+
+    // link3's anchor in its frame and in the world at qpos0.
+    let link3 = body(&model, "link3");
     let anchor = DVec3::new(0.05, 0.0, 0.0);
-    let w0 = p0[tip2].origin + p0[tip2].orientation * anchor;
-    let in3 = p0[link3].orientation.inverse() * (w0 - p0[link3].origin);
+    let w0 = p0[link3].origin + p0[link3].orientation * anchor;
     for _ in 0..500 {
         s.world.step(s.timestep, Method::default()).expect("step");
     }
     let p1 = states(&s);
-    let gap = (p1[tip2].origin + p1[tip2].orientation * anchor
-        - (p1[link3].origin + p1[link3].orientation * in3))
-        .length();
-    // Round-off of the projected connect: measured 3.7e-13 m.
+    let gap = (p1[link3].origin + p1[link3].orientation * anchor - w0).length();
+    // Round-off of the projected connect: measured 2.2e-16 m.
     assert!(gap < 1e-9, "connect gap {gap:e} m after 1 s");
     let e_site = (0..2)
         .map(|k| (site_world(&s, k) - path_point(&s, k)).length())
         .fold(0.0, f64::max);
-    assert!(e_site < 1e-14, "sites after 1 s off by {e_site:e}"); // measured 6.9e-18
-                                                                  // The chain moved (gravity and the tendon): not a trivial agreement.
+    assert!(e_site < 1e-14, "sites after 1 s off by {e_site:e}"); // measured 1.1e-16
+
+    // The chain moved (gravity and the tendon): not a trivial agreement.
+    let tip2 = body(&model, "tip2");
     assert!((p1[tip2].com - p0[tip2].com).length() > 0.05);
 }
 
@@ -221,7 +222,8 @@ fn merged_and_unmerged_trajectories_agree() {
     let (em, eu) = (m.energy(), u.energy());
     let de = (em.0 - eu.0).abs().max((em.1 - eu.1).abs());
     assert!(de < 1e-12, "energies {em:?} {eu:?}"); // measured 5.6e-17
-                                                   // The run: from qpos0 (the connect closed) with the hinges moving.
+
+    // The run: from qpos0 (the connect closed) with the hinges moving.
     for s in [&mut m, &mut u] {
         s.set_generalized(&model, &[], &[1.5, -2.0]).expect("state");
     }
@@ -236,8 +238,8 @@ fn merged_and_unmerged_trajectories_agree() {
     }
     // The unmerged welds hold to ~1e-13 m throughout; what differs is the first-order
     // step's error on one rigid body against three welded ones (each with its own
-    // gyroscopic term), grown by the swinging chain. Measured: position 4.8e-6 m,
-    // angle 5.5e-5 rad (the hanging box), velocity 8.1e-4 (m/s or rad/s).
+    // gyroscopic term), grown by the swinging chain. Measured: position 3.9e-6 m,
+    // angle 1.0e-5 rad, velocity 1.5e-4 (m/s or rad/s).
     assert!(
         worst[0] < 1e-4 && worst[1] < 1e-3 && worst[2] < 1e-2,
         "{worst:?}"
@@ -264,49 +266,170 @@ fn fluid_keeps_the_model_unmerged() {
     assert!(s.parts.iter().all(|p| p.body.is_some()));
 }
 
-/// A `contact/exclude` naming a moving jointless body keeps the model unmerged (an
-/// exclusion is per world body; merged, it would cover the host's other geoms too); one
-/// naming a static body does not.
-#[test]
-fn an_exclude_on_a_moving_welded_body_keeps_the_model_unmerged() {
-    let with = |pair: &str| {
-        CHAIN.replace(
-            "<equality>",
-            &format!("<contact><exclude {pair}/></contact>\n  <equality>"),
+/// CHAIN with `extra` put before `<equality>` (a `<contact>` block, say) and the
+/// connect replaced by `connect` (empty: none).
+fn chain_with(extra: &str, connect: &str) -> String {
+    CHAIN
+        .replace("<equality>", &format!("{extra}\n  <equality>"))
+        .replace(
+            r#"<connect name="c" body1="link3" anchor="0.05 0 0"/>"#,
+            connect,
         )
-    };
-    let (_, s) = build(&with(r#"body1="tip" body2="link1""#), true);
-    assert_eq!(s.world.bodies().len(), 6);
-    let (_, s) = build(&with(r#"body1="post" body2="link1""#), true);
-    assert_eq!(s.world.bodies().len(), 3);
 }
 
-/// MuJoCo's pair filter with merged bodies (feature `contact`): a sphere of radius 0.35
-/// on `tip` (merged into `link2`) reaches into `link1`'s capsule, the parent weld body's,
-/// and into the box hung from `tip2` by the connect; neither pair touches (MuJoCo filters
-/// the first, ours the second through the connect's joint), so a step makes no contact.
+/// A connect naming a body of a merged group builds the model unmerged (six world
+/// bodies): one on a merged body (tip2 to link3), one whose two bodies share a host (tip
+/// to tip2: merged, a joint of link2 to itself), one on a static body (post to the
+/// world: merged, the world to itself) and one on a host with merged bodies (link2).
+/// One between bodies alone in their world bodies (link1 to link3) keeps it merged.
+#[test]
+fn a_connect_on_a_merged_group_keeps_the_model_unmerged() {
+    for (c, n) in [
+        (
+            r#"<connect body1="tip2" body2="link3" anchor="0.05 0 0"/>"#,
+            6,
+        ),
+        (
+            r#"<connect body1="tip" body2="tip2" anchor="0.1 0.02 0"/>"#,
+            6,
+        ),
+        (r#"<connect body1="post" anchor="0 0 0"/>"#, 6),
+        (
+            r#"<connect body1="link2" body2="link3" anchor="0.3 0 0"/>"#,
+            6,
+        ),
+        (
+            r#"<connect body1="link1" body2="link3" anchor="0.4 0 0"/>"#,
+            3,
+        ),
+    ] {
+        let (_, s) = build(&chain_with("", c), true);
+        assert_eq!(s.world.bodies().len(), n, "{c}");
+    }
+}
+
+/// A `contact/exclude` naming a body of a merged group builds the model unmerged (an
+/// exclusion is per world body; merged, it would cover the group's other geoms, where
+/// MuJoCo excludes by each geom's own body): a merged body (tip), a host with merged
+/// bodies (link2), a static body (post, then also warned about: its geoms are world
+/// geoms, and the exclusion is not modelled, as before merging). One between bodies
+/// alone in their world bodies (link1, link3) keeps it merged.
+#[test]
+fn an_exclude_on_a_merged_group_keeps_the_model_unmerged() {
+    let with = |pair: &str| chain_with(&format!("<contact><exclude {pair}/></contact>"), "");
+    for (pair, n) in [
+        (r#"body1="tip" body2="link1""#, 6),
+        (r#"body1="link2" body2="link3""#, 6),
+        (r#"body1="post" body2="link1""#, 6),
+        (r#"body1="link1" body2="link3""#, 3),
+    ] {
+        let (_, s) = build(&with(pair), true);
+        assert_eq!(s.world.bodies().len(), n, "{pair}");
+    }
+    #[cfg(feature = "contact")]
+    {
+        let (_, s) = build(&with(r#"body1="post" body2="link1""#), true);
+        let warned = s
+            .warnings
+            .iter()
+            .filter(|w| w.contains("static body"))
+            .count();
+        assert_eq!(warned, 1, "{:?}", s.warnings);
+    }
+}
+
+/// A hand-built model whose `tip` names a bad parent builds without a panic. One past
+/// the last body (6): a typed error, merged or not. Itself (3) or a later body (tip2,
+/// 4): merged, `Layout` reads it as the world, so tip and tip2 are static (three world
+/// bodies); unmerged, tip's joint to itself is refused (3), or tip is welded to tip2 as
+/// before merging (4).
+#[test]
+fn a_bad_parent_index_does_not_panic() {
+    let scene = |bad: usize, merge: bool| {
+        let mut model = constraint_mjcf::load_str(&chain_with("", "")).expect("model");
+        let tip = body(&model, "tip");
+        assert_eq!(tip, 3);
+        model.bodies[tip].parent = Some(bad);
+        MjcfScene::with_options(
+            &model,
+            None,
+            MjcfOptions {
+                merge_welded: merge,
+            },
+        )
+    };
+    for merge in [true, false] {
+        let e = scene(6, merge).expect_err("parent past the last body");
+        assert!(e.to_string().contains("not a body of the model"), "{e}");
+    }
+    for bad in [3, 4] {
+        let s = scene(bad, true).expect("merged");
+        assert_eq!(s.world.bodies().len(), 3);
+        assert_eq!((s.parts[3].body, s.parts[4].body), (None, None));
+    }
+    assert!(scene(3, false).is_err());
+    assert_eq!(scene(4, false).expect("unmerged").world.bodies().len(), 6);
+}
+
+/// MuJoCo's pair filter with merged bodies (feature `contact`), without connects: a
+/// sphere of radius 0.35 on `tip` (merged into `link2`) reaches into `link1`'s capsule
+/// (the parent weld body's: filtered) and into link3's box (not related: a contact).
+/// Merged and unmerged builds make the same contact pairs in their first step: one
+/// (sphere, box) pair, none with link1.
 #[cfg(feature = "contact")]
 #[test]
-fn merged_geoms_keep_the_parent_filter() {
-    let xml = CHAIN
-        .replace(
-            r#"<default><geom contype="0" conaffinity="0"/></default>"#,
-            "",
-        )
+fn merged_and_unmerged_builds_filter_the_same_pairs() {
+    let c = r#"contype="1" conaffinity="1""#;
+    let xml = chain_with("", "")
         .replace(
             r#"<site name="s_tip" pos="0.1 0 0.02"/>"#,
-            r#"<site name="s_tip" pos="0.1 0 0.02"/>
-          <geom type="sphere" size="0.35" mass="0.01"/>"#,
+            &format!(
+                r#"<site name="s_tip" pos="0.1 0 0.02"/>
+          <geom type="sphere" size="0.35" mass="0.01" {c}/>"#
+            ),
+        )
+        .replace(
+            r#"<geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03" mass="1"/>"#,
+            &format!(r#"<geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03" mass="1" {c}/>"#),
+        )
+        .replace(
+            r#"<geom type="box" size="0.04 0.05 0.06" mass="0.3"/>"#,
+            &format!(r#"<geom type="box" size="0.04 0.05 0.06" mass="0.3" {c}/>"#),
         );
-    let (model, mut s) = build(&xml, true);
-    assert_eq!(s.world.bodies().len(), 3);
-    let p = states(&s);
-    let (tip, link1) = (body(&model, "tip"), body(&model, "link1"));
-    // The sphere's centre (tip's origin) to link1's far end: measured 0.30 m < 0.35 + 0.03.
+    let (model, mut m) = build(&xml, true);
+    let (_, mut u) = build(&xml, false);
+    assert_eq!((m.world.bodies().len(), u.world.bodies().len()), (3, 6));
+    // Three colliders, in geom order in both: link1's capsule, the sphere, link3's box.
+    assert_eq!(m.world.colliders().len(), 3);
+    assert_eq!(u.world.colliders().len(), 3);
+    let p = states(&m);
+    let (tip, link1, link3) = (
+        body(&model, "tip"),
+        body(&model, "link1"),
+        body(&model, "link3"),
+    );
+    // The sphere's centre (tip's origin) to link1's far end: measured 0.300 m < 0.35 + 0.03.
     let end = p[link1].origin + p[link1].orientation * DVec3::new(0.4, 0.0, 0.0);
-    let d = (p[tip].origin - end).length();
-    assert!(d < 0.35, "{d}");
-    assert!(s.world.colliders().iter().any(|c| c.body.is_none()));
-    s.world.step(s.timestep, Method::default()).expect("step");
-    assert_eq!(s.world.contacts().len(), 0);
+    let d1 = (p[tip].origin - end).length();
+    // ... and to link3's box centre: measured 0.087 m < 0.35.
+    let d3 = (p[tip].origin - p[link3].com).length();
+    assert!(d1 < 0.35 && d3 < 0.35, "{d1} {d3}");
+    let pairs = |s: &mut MjcfScene| {
+        s.world.step(s.timestep, Method::default()).expect("step");
+        let mut v: Vec<(usize, usize)> = s
+            .world
+            .contacts()
+            .iter()
+            .map(|c| (c.a.min(c.b), c.a.max(c.b)))
+            .collect();
+        v.sort_unstable();
+        (s.world.contacts().len(), v)
+    };
+    // Measured: one contact, colliders (1, 2), in both.
+    let (pm, pu) = (pairs(&mut m), pairs(&mut u));
+    assert_eq!(pm, pu);
+    assert!(
+        pm.0 > 0 && pm.1.iter().all(|&(a, b)| (a, b) == (1, 2)),
+        "{pm:?}"
+    );
 }

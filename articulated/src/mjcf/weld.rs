@@ -21,9 +21,13 @@ pub struct MjcfOptions {
     /// one world body per MJCF body, a jointless one held to its parent (or the world)
     /// by a six-row [`constraint_core::Fixed`] weld. Merging is also skipped (the whole
     /// model built unmerged) when fluid drag is on and a body has no joint (MuJoCo's
-    /// inertia-box drag is per body, from its own mass and inertia), or when a
-    /// `contact/exclude` names a jointless body that is not static (an exclusion is
-    /// per world body here, and would then cover the host's other geoms too).
+    /// inertia-box drag is per body, from its own mass and inertia), or when an
+    /// `equality/connect` or a `contact/exclude` names a body of a merged group: a body
+    /// merged into another, a host with bodies merged into it, or a static body.
+    /// Exclusions and the world's filter on joined bodies (a connect's included) are per
+    /// world body here, and would then cover the group's other geoms, where MuJoCo
+    /// filters by each geom's own body (and does not filter on connects); merged, a
+    /// connect could also join a host to itself or the world to itself.
     pub merge_welded: bool,
 }
 
@@ -40,8 +44,9 @@ pub struct Part {
     /// The world body (its host), or `None` for a static body.
     pub body: Option<usize>,
     /// The MJCF body frame (origin, orientation) in the host's centre-of-mass frame
-    /// (`x` from the host's centre of mass, in the host's body frame; `q` the rotation
-    /// host frame → part frame); in the world for a static body.
+    /// (`x` from the host's centre of mass, in the host's body frame; `q` the part's
+    /// orientation in the host frame: it maps part coordinates to host coordinates, so
+    /// the part's world orientation is `q_host q`); in the world for a static body.
     pub frame: Pose,
     /// The body's own centre of mass in the same frame as [`Self::frame`].
     pub com: DVec3,
@@ -95,20 +100,18 @@ impl Layout {
         let mut host: Vec<Option<usize>> = (0..nb).map(Some).collect();
         if merge {
             for i in 0..nb {
+                // A parent index not before `i` (a hand-built model) cannot be read
+                // here: the body is then taken as static, as `kinematics` does.
                 host[i] = if has_joint[i] {
                     Some(i)
                 } else {
-                    model.bodies[i].parent.and_then(|p| host[p])
+                    model.bodies[i]
+                        .parent
+                        .filter(|p| *p < i)
+                        .and_then(|p| host[p])
                 };
             }
-            // An exclusion naming a moving merged body would cover its host's geoms.
-            let moving_merged =
-                |b: Option<usize>| b.is_some_and(|b| host[b].is_some_and(|h| h != b));
-            if model
-                .contact_excludes
-                .iter()
-                .any(|e| moving_merged(e.body1) || moving_merged(e.body2))
-            {
+            if names_a_group(model, &host) {
                 host = (0..nb).map(Some).collect();
             }
         }
@@ -141,6 +144,28 @@ impl Layout {
     }
 }
 
+/// Whether a `connect` or a `contact/exclude` names a body of a merged group: one
+/// merged into another (or static, `host` `None`), or a host with bodies merged into
+/// it. Merged, such a connect can join a host to itself or the world to itself, and
+/// an exclusion or the world's filter on the connect's joint (per world body) would
+/// cover the group's other geoms, where MuJoCo filters by each geom's own body.
+fn names_a_group(model: &Model, host: &[Option<usize>]) -> bool {
+    let grouped = |b: Option<usize>| {
+        b.is_some_and(|b| match host.get(b).copied().flatten() {
+            Some(h) if h == b => host
+                .iter()
+                .enumerate()
+                .any(|(k, hk)| k != b && *hk == Some(b)),
+            _ => true,
+        })
+    };
+    let connects = model.connects.iter().map(|c| (c.body1, c.body2));
+    let excludes = model.contact_excludes.iter().map(|e| (e.body1, e.body2));
+    connects
+        .chain(excludes)
+        .any(|(a, b)| grouped(a) || grouped(b))
+}
+
 /// Mass, centre of mass and inertia of a rigid union of parts, each given as (mass,
 /// centre of mass, inertia about that centre), all in one frame: `M = Σ mᵢ`,
 /// `C = Σ mᵢ cᵢ / M`, `I = Σ (Iᵢ + mᵢ (|dᵢ|² E − dᵢ dᵢᵀ))` with `dᵢ = cᵢ − C` (the
@@ -162,8 +187,8 @@ pub(crate) fn combine(parts: &[(f64, DVec3, DMat3)]) -> Option<(f64, DVec3, DMat
 }
 
 /// MJCF body `i`'s frame at the default pose relative to body `h`'s frame: (origin in
-/// `h`'s frame, rotation `h` → `i`), from the world poses `xpos`, `xquat`:
-/// `t = q_h⁻¹ (p_i − p_h)`, `R = q_h⁻¹ q_i`.
+/// `h`'s frame, `i`'s orientation in `h`'s frame, mapping `i` coordinates to `h` ones),
+/// from the world poses `xpos`, `xquat`: `t = q_h⁻¹ (p_i − p_h)`, `R = q_h⁻¹ q_i`.
 pub(crate) fn relative_frame(model: &Model, h: usize, i: usize) -> (DVec3, DQuat) {
     let (bh, bi) = (&model.bodies[h], &model.bodies[i]);
     let qh = super::quat(bh.quat);
