@@ -832,7 +832,14 @@ fn block_points<L: Lane, const W: usize>(
         } else {
             L::gather(|l| [blk[l].c[i]])[0]
         };
-        let pre = preload.at_most((cap * -gap[i]).at_least(floor));
+        let capped = cap * -gap[i];
+        let pre = preload.at_most(capped.at_least(floor));
+        // A preload on its cap: the manifold goes to `solve_block` (which takes the
+        // cap at the sub-step's end).
+        let (ca, fa, pa) = (capped.array(), floor.array(), preload.array());
+        if (0..W).any(|l| ca[l] > fa[l] && ca[l] < pa[l]) {
+            return false;
+        }
         r[i] = vn + bias + c * (z[i][0] - pre);
     }
     // Δλ = −K⁻¹ r over all N rows (the padding of K⁻¹ is the identity).
