@@ -836,8 +836,10 @@ fn block_points<L: Lane, const W: usize>(
         let pre = preload.at_most(capped.at_least(floor));
         // A preload on its cap: the manifold goes to `solve_block` (which takes the
         // cap at the sub-step's end).
-        let (ca, fa, pa) = (capped.array(), floor.array(), preload.array());
-        if (0..W).any(|l| ca[l] > fa[l] && ca[l] < pa[l]) {
+        // On the cap: `floor < κ(−C) < λ_pre`, i.e. `min(κ(−C) − floor, λ_pre − κ(−C)) >
+        // 0` (exact: a difference of doubles is positive just where `a > b`; NaN goes
+        // to `solve_block` too).
+        if !(zero - (capped - floor).at_most(preload - capped)).all_nonneg() {
             return false;
         }
         r[i] = vn + bias + c * (z[i][0] - pre);
