@@ -269,6 +269,8 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
             // Colour by colour, two manifolds at a time in SIMD lanes
             // ([`block_pair`]: the same bits as one at a time), except in the
             // overflow colour (the last, if in use), whose manifolds may share bodies.
+            // A manifold the lanes leave (bit `l` of `left`) is solved alone after
+            // them (independent of them: the same bits).
             let starts = colouring.colour_start.as_slice();
             let colours = starts.len().saturating_sub(1);
             let serial = colouring.serial_from + 1 < colouring.ranges.len();
@@ -279,16 +281,24 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
                         if paired.four() && j + 3 < hi {
                             let quad = [&blocks[j], &blocks[j + 1], &blocks[j + 2], &blocks[j + 3]];
                             let pr = paired.quad(j, blocks[j].len);
-                            if block_quad(&rows, pr, quad, &mut lanes(&mut io, &mut vel), pass) {
+                            let io4 = &mut lanes(&mut io, &mut vel);
+                            if let Some(left) = block_quad(&rows, pr, quad, io4, pass) {
+                                if left != 0 {
+                                    for l in (0..4).filter(|l| left & (1 << l) != 0) {
+                                        one(j + l, &mut io, &mut vel);
+                                    }
+                                }
                                 j += 4;
                                 continue;
                             }
                         }
                         let pair = [&blocks[j], &blocks[j + 1]];
                         let pr = paired.of(j, blocks[j].len);
-                        if !block_pair(&rows, pr, pair, &mut lanes(&mut io, &mut vel), pass) {
-                            one(j, &mut io, &mut vel);
-                            one(j + 1, &mut io, &mut vel);
+                        let left = block_pair(&rows, pr, pair, &mut lanes(&mut io, &mut vel), pass);
+                        if left != 0 {
+                            for l in (0..2).filter(|l| left & (1 << l) != 0) {
+                                one(j + l, &mut io, &mut vel);
+                            }
                         }
                         j += 2;
                     }
