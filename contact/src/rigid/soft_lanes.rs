@@ -141,8 +141,8 @@ mod avx {
         _: [&Block; 4],
         _: &mut RelaxIo,
         _: Pass,
-    ) -> bool {
-        false
+    ) -> Option<u32> {
+        None
     }
 }
 
@@ -193,8 +193,10 @@ pub(super) trait Lane:
     fn at_least(self, lo: Self) -> Self;
     /// `x` if `x < hi`, else `hi`, per lane.
     fn at_most(self, hi: Self) -> Self;
-    /// Whether every lane is `≥ 0` (false for NaN).
-    fn all_nonneg(self) -> bool;
+    /// Bit `l` set where lane `l` is `≥ 0` (clear for NaN).
+    fn nonneg_mask(self) -> u32;
+    /// Bit `l` set where lane `l` is `> 0` (clear for NaN).
+    fn positive_mask(self) -> u32;
     /// The lanes of packed value `q`: half `half` (two lanes) or all four (`half`
     /// ignored).
     fn load(q: &Quad, half: usize) -> Self;
@@ -233,9 +235,13 @@ impl Lane for f64x2 {
         at_most(self, hi)
     }
     #[inline(always)]
-    fn all_nonneg(self) -> bool {
-        let x = self.to_array();
-        x[0] >= 0.0 && x[1] >= 0.0
+    fn nonneg_mask(self) -> u32 {
+        // An ordered compare (false for NaN), its sign bits.
+        self.simd_ge(f64x2::ZERO).to_bitmask()
+    }
+    #[inline(always)]
+    fn positive_mask(self) -> u32 {
+        self.simd_gt(f64x2::ZERO).to_bitmask()
     }
     #[inline(always)]
     fn load(q: &Quad, half: usize) -> Self {
@@ -726,10 +732,11 @@ fn relax_rows<L: Lane, const W: usize>(
 /// `solve_block` on each (`(A + diag c) Δλ = −(J v + b + c∘(λ − λ_pre))`, then the
 /// friction rows point by point), for two blocks of the same point count without
 /// friction anchors; `pr`: their packed rows and lane half ([`Paired::of`]).
-/// Returns false, having changed nothing, where the lanes do not apply or where
-/// `solve_block` would decline for either manifold (a separated point, an impulse
-/// turning negative): the caller then solves both one at a time (the same bits
-/// either way, the two manifolds being independent).
+/// Returns the manifolds left to the caller, bit `l` for lane `l`, having changed
+/// nothing of theirs: both where the lanes do not apply, and each for which
+/// `solve_block` would not take the fast path (a separated point, a preload on its
+/// cap, an impulse turning negative); the caller then solves those one at a time
+/// (the same bits either way, the manifolds of a colour being independent).
 #[inline(always)]
 pub(super) fn block_pair(
     rows: &Rows,
@@ -737,12 +744,14 @@ pub(super) fn block_pair(
     blk: [&Block; 2],
     io: &mut RelaxIo,
     pass: Pass,
-) -> bool {
-    pr.is_some_and(|(pr, half)| block_lanes::<f64x2, 2>(rows, pr, half, blk, io, pass))
+) -> u32 {
+    pr.and_then(|(pr, half)| block_lanes::<f64x2, 2>(rows, pr, half, blk, io, pass))
+        .unwrap_or(0b11)
 }
 
 /// [`block_pair`] on `W` manifolds in the `W` lanes of `L` (`half`: the lanes of the
-/// packed rows `pr` two lanes take).
+/// packed rows `pr` two lanes take): `None`, having changed nothing, where the lanes
+/// do not apply, else the lanes left to the caller.
 #[inline(always)]
 fn block_lanes<L: Lane, const W: usize>(
     rows: &Rows,
@@ -751,7 +760,7 @@ fn block_lanes<L: Lane, const W: usize>(
     blk: [&Block; W],
     io: &mut RelaxIo,
     pass: Pass,
-) -> bool {
+) -> Option<u32> {
     // A manifold of `BLOCK_POINTS` points (every box–box manifold) takes a build with
     // the point count a constant: its point loops unrolled and their arrays held in
     // registers instead of on the stack (the same operations in the same order).
@@ -773,23 +782,17 @@ fn block_points<L: Lane, const W: usize>(
     io: &mut RelaxIo,
     pass: Pass,
     len: usize,
-) -> bool {
+) -> Option<u32> {
     const N: usize = BLOCK_POINTS;
     if len == 0 || len > N || blk.iter().any(|b| b.len != len) || pass.anchors {
-        return false;
+        return None;
     }
     // One length for the packed rows too (one bounds check each).
-    let (Some(rows_of), Some(blocks_of)) = (pr.rows.get(..len), pr.blocks.get(..len)) else {
-        return false;
-    };
+    let (rows_of, blocks_of) = (pr.rows.get(..len)?, pr.blocks.get(..len)?);
     // One length for every slice indexed by a point (see `RelaxIo::even`).
-    let Some(io) = io.even() else {
-        return false;
-    };
+    let io = io.even()?;
     let n = io.gap.len();
-    let (Some(slots), Some(soft)) = (rows.slots.get(..n), rows.soft.get(..n)) else {
-        return false;
-    };
+    let (slots, soft) = (rows.slots.get(..n)?, rows.soft.get(..n)?);
     let RelaxIo {
         v,
         w,
@@ -799,13 +802,17 @@ fn block_points<L: Lane, const W: usize>(
         track,
     } = io;
     let zero = L::splat(0.0);
+    // The lanes that stay (bit `l`: lane `l`); a lane that leaves is computed with
+    // the others but not written.
+    let all = (1u32 << W) - 1;
+    let mut keep = all;
     let mut gap = [zero; N];
     for (i, g) in gap.iter_mut().enumerate().take(len) {
-        let gs: [f64; W] = each(|l| gaps[blk[l].pts[i]]);
-        if gs.iter().any(|&g| g > 0.0) {
-            return false;
-        }
-        *g = L::gather(|l| [gs[l]])[0];
+        *g = L::gather(|l| [gaps[blk[l].pts[i]]])[0];
+        keep &= !g.positive_mask();
+    }
+    if keep == 0 {
+        return Some(all);
     }
     let p0: [usize; W] = each(|l| blk[l].pts[0]);
     let ab: [[usize; 2]; W] = each(|l| slots[p0[l]]);
@@ -832,7 +839,14 @@ fn block_points<L: Lane, const W: usize>(
         } else {
             L::gather(|l| [blk[l].c[i]])[0]
         };
-        let pre = preload.at_most((cap * -gap[i]).at_least(floor));
+        let capped = cap * -gap[i];
+        let pre = preload.at_most(capped.at_least(floor));
+        // A preload on its cap: the manifold goes to `solve_block` (which takes the
+        // cap at the sub-step's end).
+        // On the cap: `floor < κ(−C) < λ_pre`, i.e. `min(κ(−C) − floor, λ_pre − κ(−C)) >
+        // 0` (exact: a difference of doubles is positive just where `a > b`; NaN goes
+        // to `solve_block` too).
+        keep &= (zero - (capped - floor).at_most(preload - capped)).nonneg_mask();
         r[i] = vn + bias + c * (z[i][0] - pre);
     }
     // Δλ = −K⁻¹ r over all N rows (the padding of K⁻¹ is the identity).
@@ -860,9 +874,10 @@ fn block_points<L: Lane, const W: usize>(
             })
         };
         *dz = -(k[0] * r[0] + k[1] * r[1] + k[2] * r[2] + k[3] * r[3]);
-        if !(z[i][0] + *dz).all_nonneg() {
-            return false;
-        }
+        keep &= (z[i][0] + *dz).nonneg_mask();
+    }
+    if keep == 0 {
+        return Some(all);
     }
     let (head, (ma, mb)) = (pr.head, pr.head.im::<L>(half));
     for i in 0..len {
@@ -892,6 +907,18 @@ fn block_points<L: Lane, const W: usize>(
             wb = wb.add(q.ang(head, rr, 3, half).scale(dz));
         }
     }
+    if keep != all {
+        // Only the lanes that stay written (the others' values discarded).
+        // (Lanes turned to arrays here, where the lanes' instructions are enabled.)
+        let mut za = [[[0.0; 4]; 3]; N];
+        for (a, zi) in za.iter_mut().zip(&z).take(len) {
+            *a = [zi[0].array(), zi[1].array(), zi[2].array()];
+        }
+        store_some(keep, &za[..len], (impulse, max_normal, track), blk);
+        let vel = [va.array(), wa.array(), vb.array(), wb.array()];
+        store_lanes(keep, v, w, &ab, vel, rows.fixed);
+        return Some(all & !keep);
+    }
     // Written lane by lane ([`Lane::scatter3`]).
     for i in 0..len {
         L::scatter3(z[i], impulse, |l| blk[l].pts[i]);
@@ -908,7 +935,56 @@ fn block_points<L: Lane, const W: usize>(
         }
     }
     store(v, w, &ab, [va, wa, vb, wb], rows.fixed);
-    true
+    Some(0)
+}
+
+/// [`block_points`]' writes of the impulses (and the largest normal impulses where
+/// `track`) of the lanes in `keep` only (bit `l`: lane `l`), lane by lane: the same
+/// values as its all-lanes writes.
+#[inline(never)]
+fn store_some<const W: usize>(
+    keep: u32,
+    z: &[[[f64; 4]; 3]],
+    (impulse, max_normal, track): (&mut [[f64; 3]], &mut [f64], bool),
+    blk: [&Block; W],
+) {
+    for (i, &[x, y, zz]) in z.iter().enumerate() {
+        for (l, b) in blk.iter().enumerate() {
+            if keep & (1 << l) == 0 {
+                continue;
+            }
+            let p = b.pts[i];
+            impulse[p] = [x[l], y[l], zz[l]];
+            if track {
+                // `at_least(λ', most)`, as the lanes' `at_least`.
+                let most = max_normal[p];
+                max_normal[p] = if x[l] > most { x[l] } else { most };
+            }
+        }
+    }
+}
+
+/// [`store`] of the lanes in `keep` only (bit `l`: lane `l`).
+#[inline(never)]
+fn store_lanes<const W: usize>(
+    keep: u32,
+    v: &mut [DVec3],
+    w: &mut [DVec3],
+    ab: &[[usize; 2]; W],
+    [va, wa, vb, wb]: [Arrays3; 4],
+    fixed: usize,
+) {
+    for (lane, &[a, b]) in ab.iter().enumerate() {
+        if keep & (1 << lane) != 0 {
+            v[a] = va.lane(lane);
+            w[a] = wa.lane(lane);
+            v[b] = vb.lane(lane);
+            w[b] = wb.lane(lane);
+        }
+    }
+    if let (Some(v), Some(w)) = (v.get_mut(fixed), w.get_mut(fixed)) {
+        (*v, *w) = (DVec3::ZERO, DVec3::ZERO);
+    }
 }
 
 /// The warm start of two manifolds of one colour (no shared moving body), one per

@@ -34,7 +34,7 @@ use core::arch::x86_64::{
     _mm256_div_pd, _mm256_extractf128_pd, _mm256_insertf128_pd, _mm256_loadu_pd, _mm256_max_pd,
     _mm256_min_pd, _mm256_movemask_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_set_pd,
     _mm256_setzero_pd, _mm256_storeu_pd, _mm256_sub_pd, _mm256_unpackhi_pd, _mm256_unpacklo_pd,
-    _mm256_xor_pd, _mm_loadu_pd, _mm_storeu_pd, _CMP_GE_OQ,
+    _mm256_xor_pd, _mm_loadu_pd, _mm_storeu_pd, _CMP_GE_OQ, _CMP_GT_OQ,
 };
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -255,9 +255,14 @@ impl Lane for F4 {
         F4(avx!(_mm256_min_pd(self.0, hi.0)))
     }
     #[inline(always)]
-    fn all_nonneg(self) -> bool {
+    fn positive_mask(self) -> u32 {
+        let gt = avx!(_mm256_cmp_pd::<_CMP_GT_OQ>(self.0, _mm256_setzero_pd()));
+        avx!(_mm256_movemask_pd(gt)) as u32
+    }
+    #[inline(always)]
+    fn nonneg_mask(self) -> u32 {
         let ge = avx!(_mm256_cmp_pd::<_CMP_GE_OQ>(self.0, _mm256_setzero_pd()));
-        avx!(_mm256_movemask_pd(ge)) == 0b1111
+        avx!(_mm256_movemask_pd(ge)) as u32
     }
     #[inline(always)]
     fn load(q: &Quad, _half: usize) -> Self {
@@ -367,7 +372,7 @@ passes! {
         blk: [&Block; 4],
         io: &mut RelaxIo,
         pass: Pass,
-    ) -> bool = block_lanes::<F4, 4>(rows, pr, 0, blk, io, pass);
+    ) -> Option<u32> = block_lanes::<F4, 4>(rows, pr, 0, blk, io, pass);
 
     /// [`gaps_lanes`](super::gaps_lanes) in four AVX lanes.
     fn gaps_avx / gaps_wide(
@@ -409,7 +414,7 @@ type BiasedPass = unsafe fn(&Rows, Pack, [&[usize]; 4], &mut RelaxIo, f64, f64) 
 type WarmPass =
     unsafe fn(&Rows, Pack, [&[usize]; 4], &mut [DVec3], &mut [DVec3], &[[f64; 3]]) -> bool;
 /// `block_avx` or `block_wide`.
-type BlockPass = unsafe fn(&Rows, Pack, [&Block; 4], &mut RelaxIo, Pass) -> bool;
+type BlockPass = unsafe fn(&Rows, Pack, [&Block; 4], &mut RelaxIo, Pass) -> Option<u32>;
 /// `gaps_avx` or `gaps_wide`.
 type GapsPass = unsafe fn(
     &Rows,
@@ -488,8 +493,9 @@ pub(in crate::rigid) fn warm_quad(
 }
 
 /// The biased pass's block solve of the quad of manifolds `blk` (as [`relax_quad`]),
-/// as [`block_pair`](super::block_pair) on its two pairs: false, having changed
-/// nothing, where either would decline.
+/// as [`block_pair`](super::block_pair) on its two pairs: `None`, having changed
+/// nothing, where the lanes do not apply, else the manifolds left to the caller
+/// (bit `l`: `blk[l]`), nothing of theirs changed.
 #[inline]
 pub(in crate::rigid) fn block_quad(
     rows: &Rows,
@@ -497,10 +503,8 @@ pub(in crate::rigid) fn block_quad(
     blk: [&Block; 4],
     io: &mut RelaxIo,
     pass: Pass,
-) -> bool {
-    let Some(pr) = pr else {
-        return false;
-    };
+) -> Option<u32> {
+    let pr = pr?;
     let run: BlockPass = if wide() { block_wide } else { block_avx };
     // SAFETY: as in `relax_quad`.
     unsafe { run(rows, pr, blk, io, pass) }

@@ -269,6 +269,8 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
             // Colour by colour, two manifolds at a time in SIMD lanes
             // ([`block_pair`]: the same bits as one at a time), except in the
             // overflow colour (the last, if in use), whose manifolds may share bodies.
+            // A manifold the lanes leave (bit `l` of `left`) is solved alone after
+            // them (independent of them: the same bits).
             let starts = colouring.colour_start.as_slice();
             let colours = starts.len().saturating_sub(1);
             let serial = colouring.serial_from + 1 < colouring.ranges.len();
@@ -279,16 +281,24 @@ pub(super) fn solve(st: &mut SoftState, hs: f64, use_bias: bool, max_push: f64, 
                         if paired.four() && j + 3 < hi {
                             let quad = [&blocks[j], &blocks[j + 1], &blocks[j + 2], &blocks[j + 3]];
                             let pr = paired.quad(j, blocks[j].len);
-                            if block_quad(&rows, pr, quad, &mut lanes(&mut io, &mut vel), pass) {
+                            let io4 = &mut lanes(&mut io, &mut vel);
+                            if let Some(left) = block_quad(&rows, pr, quad, io4, pass) {
+                                if left != 0 {
+                                    for l in (0..4).filter(|l| left & (1 << l) != 0) {
+                                        one(j + l, &mut io, &mut vel);
+                                    }
+                                }
                                 j += 4;
                                 continue;
                             }
                         }
                         let pair = [&blocks[j], &blocks[j + 1]];
                         let pr = paired.of(j, blocks[j].len);
-                        if !block_pair(&rows, pr, pair, &mut lanes(&mut io, &mut vel), pass) {
-                            one(j, &mut io, &mut vel);
-                            one(j + 1, &mut io, &mut vel);
+                        let left = block_pair(&rows, pr, pair, &mut lanes(&mut io, &mut vel), pass);
+                        if left != 0 {
+                            for l in (0..2).filter(|l| left & (1 << l) != 0) {
+                                one(j + l, &mut io, &mut vel);
+                            }
                         }
                         j += 2;
                     }
@@ -488,10 +498,15 @@ pub(in crate::rigid) fn solve_manifold<B: Bodies, I: PointImpulses>(
 /// ```
 ///
 /// (Box2D v2.4's block solver, `b2ContactSolver::SolveVelocityConstraints`, for four
-/// points and with its all-active case only; `K⁻¹` from [`build_blocks`]). If every
-/// `λ'` is non-negative it is taken, then the friction rows point by point as in
-/// [`solve_point`]; otherwise, or if a point is separated (speculative), returns false
-/// having changed nothing. `z`, `max_normal`: the points' impulses, in `blk.pts` order.
+/// points; `K⁻¹` from [`build_blocks`]). If every `λ'` is non-negative it is taken;
+/// where one would turn negative or a preload is on its cap the rows are solved
+/// together as a small LCP ([`block_lcp`]); then the friction rows point by point as
+/// in [`solve_point`]. A point that has separated (`C > 0`) but still carries an
+/// impulse keeps its soft row and preload law (continued across `C = 0`, where a
+/// rocking face's corner lifts by microns) instead of the speculative row; a
+/// separated point without impulse (an approach) makes it return false, having
+/// changed nothing, as does an LCP without solution: the points are then solved one
+/// by one. `z`, `max_normal`: the points' impulses, in `blk.pts` order.
 #[inline(always)]
 pub(super) fn solve_block<B: Bodies>(
     rows: &Rows,
@@ -508,50 +523,62 @@ pub(super) fn solve_block<B: Bodies>(
     let [a, b] = rows.slots[p0];
     let ((mut va, mut wa), (mut vb, mut wb)) = (vel.velocity(a), vel.velocity(b));
     let s = rows.soft[p0];
-    // r = J v + b + c∘(λ − λ_pre), with the gap of each point as in `solve_point`.
+    // r = J v + b + c∘(λ − λ_pre), with the gap of each point as in `solve_point`, but
+    // a separated point (`C > 0`) that carries an impulse keeps this row (see above);
+    // `plain`: no preload on its cap (the block's `K⁻¹` holds).
     let mut r = [0.0; N];
     let mut dd = [DVec3::ZERO; N];
+    let mut plain = true;
     for i in 0..len {
         let p = blk.pts[i];
         let d = &rows.dir[p];
         let g = &rows.ang[p];
         let gap = gaps[i];
-        if gap > 0.0 {
+        if gap > 0.0 && !(z[i][0] > 0.0) {
             return false;
         }
         let vn = d[0].dot(vb - va) + g[0][1].dot(wb) - g[0][0].dot(wa);
         let bias = at_least(s.bias_rate * gap, -pass.max_push);
-        let pre = at_most(
+        let (cap, floor, preload) = (
+            rows.preload_cap[p] * -gap,
+            rows.preload_floor[p],
             rows.preload[p],
-            at_least(rows.preload_cap[p] * -gap, rows.preload_floor[p]),
         );
+        let pre = at_most(preload, at_least(cap, floor));
+        plain &= !on_cap(cap, floor, preload);
         r[i] = vn + bias + blk.c[i] * (z[i][0] - pre);
     }
     // Δλ = −K⁻¹ r (the padding of K⁻¹ is the identity, and r is zero there).
     let mut dz = [0.0; N];
-    let mut all_active = true;
-    for i in 0..N {
-        let k = &blk.kinv[i * N..i * N + N];
-        dz[i] = -(k[0] * r[0] + k[1] * r[1] + k[2] * r[2] + k[3] * r[3]);
-        all_active &= z[i][0] + dz[i] >= 0.0;
+    let mut all_active = plain;
+    if plain {
+        for i in 0..N {
+            let k = &blk.kinv[i * N..i * N + N];
+            dz[i] = -(k[0] * r[0] + k[1] * r[1] + k[2] * r[2] + k[3] * r[3]);
+            all_active &= z[i][0] + dz[i] >= 0.0;
+        }
     }
     if !all_active {
-        return false;
+        let v = (&mut va, &mut wa, &mut vb, &mut wb);
+        if !block_lcp(rows, blk, gaps, z, max_normal, v, pass) {
+            return false;
+        }
+    } else {
+        for i in 0..len {
+            let p = blk.pts[i];
+            let d = &rows.dir[p];
+            let g = &rows.ang[p];
+            let [ma, mb] = rows.im[p];
+            z[i][0] += dz[i];
+            max_normal[i] = at_least(z[i][0], max_normal[i]);
+            va -= d[0] * (ma * dz[i]);
+            wa -= g[0][2] * dz[i];
+            vb += d[0] * (mb * dz[i]);
+            wb += g[0][3] * dz[i];
+        }
     }
-    for i in 0..len {
-        let p = blk.pts[i];
-        let d = &rows.dir[p];
-        let g = &rows.ang[p];
-        let [ma, mb] = rows.im[p];
-        z[i][0] += dz[i];
-        max_normal[i] = at_least(z[i][0], max_normal[i]);
-        va -= d[0] * (ma * dz[i]);
-        wa -= g[0][2] * dz[i];
-        vb += d[0] * (mb * dz[i]);
-        wb += g[0][3] * dz[i];
-    }
-    // Every point penetrates (gap ≤ 0): anchored friction where anchors are on (the
-    // slip needs the anchors' separation).
+    // Anchored friction where anchors are on, on the points that penetrate (the slip
+    // needs the anchors' separation).
     if pass.anchors {
         for i in 0..len {
             dd[i] = separation(rows, blk.pts[i], vel);
@@ -563,7 +590,7 @@ pub(super) fn solve_block<B: Bodies>(
             blk.pts[i],
             &mut z[i],
             dd[i],
-            true,
+            gaps[i] <= 0.0,
             (&mut va, &mut wa, &mut vb, &mut wb),
             pass,
         );
