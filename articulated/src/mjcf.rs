@@ -871,23 +871,8 @@ fn add_colliders(
     use constraint_mjcf::Primitive;
 
     use crate::world::CollisionFilter;
-    let nb = model.bodies.len();
-    let has_joint: Vec<bool> = (0..nb)
-        .map(|i| model.joints.iter().any(|j| j.body == i))
-        .collect();
     // weld[i]: the body whose joint moves body i (None: the world).
-    let mut weld: Vec<Option<usize>> = alloc::vec![None; nb];
-    for i in 0..nb {
-        weld[i] = if has_joint[i] {
-            Some(i)
-        } else {
-            // A parent not before `i` (a hand-built model): static, as in `Layout`.
-            model.bodies[i]
-                .parent
-                .filter(|p| *p < i)
-                .and_then(|p| weld[p])
-        };
-    }
+    let weld = weld::weld_hosts(model);
     let weld_parent = |w: Option<usize>| {
         w.and_then(|i| model.bodies[i].parent.filter(|p| *p < i))
             .and_then(|p| weld[p])

@@ -88,29 +88,13 @@ impl Layout {
     /// unmerged) makes every body its own host.
     pub fn new(model: &Model, merge: bool) -> Self {
         let nb = model.bodies.len();
-        let mut has_joint = alloc::vec![false; nb];
-        for j in &model.joints {
-            if let Some(h) = has_joint.get_mut(j.body) {
-                *h = true;
-            }
-        }
+        let weld = weld_hosts(model);
         let fluid = model.options.density > 0.0 || model.options.viscosity > 0.0;
-        let jointless = has_joint.iter().any(|h| !h);
+        let jointless = weld.iter().enumerate().any(|(i, h)| *h != Some(i));
         let merge = merge && !(fluid && jointless);
         let mut host: Vec<Option<usize>> = (0..nb).map(Some).collect();
         if merge {
-            for i in 0..nb {
-                // A parent index not before `i` (a hand-built model) cannot be read
-                // here: the body is then taken as static, as `kinematics` does.
-                host[i] = if has_joint[i] {
-                    Some(i)
-                } else {
-                    model.bodies[i]
-                        .parent
-                        .filter(|p| *p < i)
-                        .and_then(|p| host[p])
-                };
-            }
+            host = weld;
             if names_a_group(model, &host) {
                 host = (0..nb).map(Some).collect();
             }
@@ -164,6 +148,32 @@ fn names_a_group(model: &Model, host: &[Option<usize>]) -> bool {
     connects
         .chain(excludes)
         .any(|(a, b)| grouped(a) || grouped(b))
+}
+
+/// MuJoCo's weld bodies: per MJCF body, the body whose joint moves it — itself when it
+/// has a joint (`free` included), else its parent's (`None`: the world; the body is
+/// static). A parent index not before the body (a hand-built model) cannot be read
+/// here: the body is then taken as static, as `kinematics` does.
+pub(crate) fn weld_hosts(model: &Model) -> Vec<Option<usize>> {
+    let nb = model.bodies.len();
+    let mut has_joint = alloc::vec![false; nb];
+    for j in &model.joints {
+        if let Some(h) = has_joint.get_mut(j.body) {
+            *h = true;
+        }
+    }
+    let mut host: Vec<Option<usize>> = alloc::vec![None; nb];
+    for i in 0..nb {
+        host[i] = if has_joint[i] {
+            Some(i)
+        } else {
+            model.bodies[i]
+                .parent
+                .filter(|p| *p < i)
+                .and_then(|p| host[p])
+        };
+    }
+    host
 }
 
 /// Mass, centre of mass and inertia of a rigid union of parts, each given as (mass,
