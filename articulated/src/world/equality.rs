@@ -232,14 +232,8 @@ impl EqRows {
         if !self.active || k == 0 {
             return;
         }
-        let mut t = [0.0; 8];
-        let mut tv = Vec::new();
-        let ey: &mut [f64] = if k <= 8 {
-            &mut t[..k]
-        } else {
-            tv.resize(k, 0.0);
-            &mut tv
-        };
+        let (mut t, mut tv) = ([0.0; 8], Vec::new());
+        let ey = small_buffer(&mut t, &mut tv, k);
         for (i, e) in ey.iter_mut().enumerate() {
             *e = self.spans.gather(solver, y, i);
         }
@@ -546,16 +540,10 @@ impl World {
                 solved
             }
         };
-        // On the stack for up to 8 rows (as `EqRows::correct`; a `Vec` collected per
+        // `small_buffer`, as `EqRows::correct` (a `Vec` collected per
         // solve before: one allocation each, 4,092 on dm manipulator controlled 2 s).
-        let mut t = [0.0; 8];
-        let mut tv = Vec::new();
-        let b: &mut [f64] = if k <= 8 {
-            &mut t[..k]
-        } else {
-            tv.resize(k, 0.0);
-            &mut tv
-        };
+        let (mut t, mut tv) = ([0.0; 8], Vec::new());
+        let b = small_buffer(&mut t, &mut tv, k);
         for (i, bi) in b.iter_mut().enumerate() {
             *bi = eq.spans.gather(&self.solver, &self.rhs, i) - eq.rhs[i];
         }
@@ -778,6 +766,17 @@ fn scalar_pinv(s: f64, floor: f64, pinv: &mut Vec<f64>) -> Result<bool, Articula
         pinv[0] = x;
     }
     Ok(true)
+}
+
+/// `k` zeros for a solve's scratch: on the stack `t` for up to 8 (every equality set of
+/// the fetched models; no allocation), else in the heap `tv`.
+fn small_buffer<'a>(t: &'a mut [f64; 8], tv: &'a mut Vec<f64>, k: usize) -> &'a mut [f64] {
+    if k <= t.len() {
+        &mut t[..k]
+    } else {
+        tv.resize(k, 0.0);
+        tv
+    }
 }
 
 #[cfg(test)]
