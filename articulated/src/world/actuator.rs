@@ -551,6 +551,8 @@ impl World {
         let Some(Some(e)) = self.dof_table.get_mut(ji) else {
             return;
         };
+        // The table no longer holds the last evaluation's rows.
+        self.rattle.impulses.forget();
         e.key = key;
         e.live = false;
         e.q[0] = q;
@@ -822,10 +824,14 @@ impl World {
         // 6 000 empty passes over the joints in 1 000 steps).
         let any = evaluated && (acting || !path_f.is_empty());
         self.paths.force = path_f;
+        let mut sides = core::mem::take(&mut self.rattle.impulses);
+        sides.forget();
         if any {
-            self.apply_dof_impulses(&tau, &coords, scale);
+            self.apply_dof_impulses(&tau, &coords, scale, Some(&mut sides));
+            sides.evals = Some(self.dof_evals);
             self.apply_path_forces(scale, None);
         }
+        self.rattle.impulses = sides;
         self.dof_tau = tau;
         self.dof_table = coords;
         any
@@ -839,37 +845,50 @@ impl World {
         if !any {
             return;
         }
-        let tau = core::mem::take(&mut self.dof_tau);
-        let coords = core::mem::take(&mut self.dof_table);
-        self.apply_dof_impulses(&tau, &coords, scale);
+        if self.rattle.impulses.evals == Some(self.dof_evals) {
+            // The evaluation's impulses, flattened ([`DofImpulses`]).
+            let sides = &self.rattle.impulses.sides;
+            for &(body, lin, ang, t) in sides {
+                add_impulse(
+                    &mut self.rhs,
+                    self.solver.body_offset(body),
+                    lin,
+                    ang,
+                    t * scale,
+                );
+            }
+        } else {
+            let tau = core::mem::take(&mut self.dof_tau);
+            let coords = core::mem::take(&mut self.dof_table);
+            self.apply_dof_impulses(&tau, &coords, scale, None);
+            self.dof_tau = tau;
+            self.dof_table = coords;
+        }
         self.apply_path_forces(scale, None);
-        self.dof_tau = tau;
-        self.dof_table = coords;
     }
 
     /// Adds `scale · G_kᵀ τ_k` for every live entry of `coords` and nonzero `τ_k`, on the
     /// joint's parent's then its child's six entries of the right-hand side. One pass
     /// over the joints with the right-hand side and the solver's offsets borrowed once
     /// (the same products and sums per entry, in the same order, as a lookup per body).
+    /// With `record`, the impulses' body sides are also written there, in the order
+    /// applied ([`DofImpulses`]).
     fn apply_dof_impulses(
         &mut self,
         tau: &[[f64; MAX_DOF]],
         coords: &[Option<DofState>],
         scale: f64,
+        mut record: Option<&mut DofImpulses>,
     ) {
         let solver = &self.solver;
         let rhs = &mut self.rhs;
-        // `r += g s` on body `i`'s six entries (linear `g[0]`, angular `g[1]`).
-        let mut add = |i: usize, lin: DVec3, ang: DVec3, s: f64| {
-            let o = solver.body_offset(i);
-            // The body's six entries as one slice (one bounds check).
-            let Some(r) = rhs.get_mut(o..o + 6) else {
-                return;
-            };
-            for c in 0..3 {
-                r[c] += lin[c] * s;
-                r[3 + c] += ang[c] * s;
+        // `r += g s` on body `i`'s six entries (linear `g[0]`, angular `g[1]`), `s = t
+        // scale`.
+        let mut add = |i: usize, lin: DVec3, ang: DVec3, t: f64| {
+            if let Some(rec) = record.as_deref_mut() {
+                rec.sides.push((i, lin, ang, t));
             }
+            add_impulse(rhs, solver.body_offset(i), lin, ang, t * scale);
         };
         for ((joint, t), entry) in self.joints.iter().zip(tau).zip(coords) {
             let Some(DofState {
@@ -888,11 +907,10 @@ impl World {
                 if t[k] == 0.0 {
                     continue;
                 }
-                let s = t[k] * scale;
                 if let Some(p) = joint.parent {
-                    add(p, rows[k][0], rows[k][1], s);
+                    add(p, rows[k][0], rows[k][1], t[k]);
                 }
-                add(joint.child, rows[k][2], rows[k][3], s);
+                add(joint.child, rows[k][2], rows[k][3], t[k]);
             }
         }
     }
@@ -938,6 +956,43 @@ impl World {
         self.dof_tau = tau;
         self.dof_table = coords;
         any
+    }
+}
+
+/// `r += (lin, ang) · s` on the six right-hand side entries at `o` (one bounds check;
+/// nothing past the end of `rhs`).
+#[inline(always)]
+fn add_impulse(rhs: &mut [f64], o: usize, lin: DVec3, ang: DVec3, s: f64) {
+    let Some(r) = rhs.get_mut(o..o + 6) else {
+        return;
+    };
+    for c in 0..3 {
+        r[c] += lin[c] * s;
+        r[3 + c] += ang[c] * s;
+    }
+}
+
+/// The impulses `G_kᵀ τ_k` of the last [`World::add_dof_forces_part`], one entry
+/// `(body, linear row, angular row, τ_k)` per body side of each nonzero `τ_k`, in the
+/// order [`World::apply_dof_impulses`] adds them: [`World::reapply_dof_forces`] adds
+/// `(row) · (τ_k · scale)` from here — the same products and sums in the same order,
+/// so the same bits — instead of walking the joints and their coordinate table
+/// entries again (issue 13: dm fish perturbed reapplies its forces five times a
+/// step, each pass 611 instructions).
+#[derive(Clone, Debug, Default)]
+pub(super) struct DofImpulses {
+    /// `World::dof_evals` of the evaluation recorded (`None`: none, or its coordinate
+    /// table was written since).
+    evals: Option<u64>,
+    /// The body sides, in order.
+    sides: Vec<(usize, DVec3, DVec3, f64)>,
+}
+
+impl DofImpulses {
+    /// Drops the record.
+    fn forget(&mut self) {
+        self.evals = None;
+        self.sides.clear();
     }
 }
 

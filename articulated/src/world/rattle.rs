@@ -161,6 +161,9 @@ pub(super) struct Scratch {
     history: ShakeHistory,
     /// The forces of the last flow with forces ([`DofFlow`]).
     dof_flow: DofFlow,
+    /// The impulses of the last force evaluation, flattened for their reapplication
+    /// (`actuator.rs`).
+    pub(super) impulses: super::actuator::DofImpulses,
 }
 
 /// The actuator, spring and tendon forces `τ(q, q̇)` (whole) that the first stage of
