@@ -44,10 +44,10 @@ pub(super) struct FluidBox {
     lin_torque: f64,
     /// The bits of the body's orientation `q` that `frame` is of (`None`: not yet).
     frame_key: Option<[u64; 4]>,
-    /// The principal axes in the world, `R(q) · axes`, and its transpose: kept while the
-    /// body's orientation keeps its bits (RATTLE's damping flows evaluate the drag four
-    /// times per configuration, `rattle.rs`), the same bits as computing them again.
-    frame: (DMat3, DMat3),
+    /// The principal axes in the world, `R(q) · axes`: kept while the body's
+    /// orientation keeps its bits (RATTLE's damping flows evaluate the drag four times
+    /// per configuration, `rattle.rs`), the same bits as computing them again.
+    frame: DMat3,
 }
 
 /// The medium of [`World::fluid`].
@@ -119,7 +119,7 @@ impl World {
                 quad_torque,
                 lin_torque: 8.0 * beta * pi * req * req * req,
                 frame_key: None,
-                frame: (DMat3::IDENTITY, DMat3::IDENTITY),
+                frame: DMat3::IDENTITY,
             });
         }
     }
@@ -140,8 +140,7 @@ impl World {
             for (fb, b) in self.fluid_boxes.iter_mut().zip(&self.bodies) {
                 let key = b.pose.q.to_array().map(f64::to_bits);
                 if fb.frame_key != Some(key) {
-                    let frame: DMat3 = b.rotation() * fb.axes; // principal axes in the world
-                    fb.frame = (frame, frame.transpose());
+                    fb.frame = b.rotation() * fb.axes; // principal axes in the world
                     fb.frame_key = Some(key);
                 }
             }
@@ -191,9 +190,11 @@ impl FluidBox {
     /// documentation, with this box's factors; its frame is at the body's orientation).
     #[inline]
     fn wrench(&self, b: &RigidBody, f: &Fluid) -> (DVec3, DVec3) {
-        let (frame, frame_t) = self.frame;
-        let v = frame_t * (b.v - f.wind);
-        let w = frame_t * b.omega;
+        // `Fᵀ x` as the three dot products `F_i · x` (glam's `transpose_mul_vec3`: the
+        // same products and sums as `F.transpose() * x`, without the copy).
+        let frame = self.frame;
+        let v = frame.transpose_mul_vec3(b.v - f.wind);
+        let w = frame.transpose_mul_vec3(b.omega);
         let mut fl = [0.0; 3];
         let mut tl = [0.0; 3];
         for i in 0..3 {

@@ -108,6 +108,20 @@
 //!   2 s; the same bits): dm swimmer6 passive 76.33M → 72.21M instructions, perturbed
 //!   86.98M → 82.81M, controlled 86.66M → 83.68M; dm fish perturbed 44.53M → 43.02M,
 //!   controlled 50.69M → 49.24M.
+//! * Where the smooth swimmers' steps go (issue 13, callgrind on `World::step`, 2 s,
+//!   main 7bcef91). dm fish perturbed, 85.9k instructions a step: two factorizations
+//!   (19 %; the second kick's at the new poses and the damping flow's, whose damping
+//!   rows — fish's hinges have `damping="2e-5"` — give it another key), five flow and
+//!   kick solves plus about one SHAKE correction (20 %), assemblies (16 %), actuator,
+//!   spring and tendon forces (9 %), drift and SHAKE (13 %), fluid (6 %).
+//!   Fish at rest (the suite's passive case, 38.6k a step) moves no bit, so it factors
+//!   nothing: the perturbed case's extra half is the two factorizations (16.6k), the
+//!   assembly and force evaluation at new poses and SHAKE. The same model without its
+//!   joint damping runs 35.25M instead of 42.56M (one factorization of 6.1k a step
+//!   instead of two of 8.3k). dm swimmer6 passive, 71.7k a step: five solves (27 %),
+//!   one factorization (15 %), assemblies (16 %), fluid (8 %), drift and SHAKE (11 %),
+//!   the flows' own loops (9 %); without its fluid (no flows) 50.08M instead of
+//!   71.72M, without its armature 64.59M.
 //! * The old kicks (backward-Euler damping at `v½` and at `v'`) gave
 //!   `(1 + hA/2)⁻² = 1 − hA + ¾ h²A² + …`, an `O(h²)` local error: first order.
 
@@ -161,6 +175,9 @@ pub(super) struct Scratch {
     history: ShakeHistory,
     /// The forces of the last flow with forces ([`DofFlow`]).
     dof_flow: DofFlow,
+    /// The impulses of the last force evaluation, flattened for their reapplication
+    /// (`actuator.rs`).
+    pub(super) impulses: super::actuator::DofImpulses,
 }
 
 /// The actuator, spring and tendon forces `τ(q, q̇)` (whole) that the first stage of
