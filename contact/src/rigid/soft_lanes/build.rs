@@ -11,6 +11,8 @@ use super::{Lane, Lanes3, Pack};
 use crate::rigid::soft_step::{Block, Rows, BLOCK_POINTS};
 
 const N: usize = BLOCK_POINTS;
+// The arrays below are written out for four points.
+const _: () = assert!(N == 4);
 
 /// The lanes of `K⁻¹`'s entries (row-major) and of `c` of a build.
 pub(in crate::rigid) type Built = ([[f64; 4]; N * N], [[f64; 4]; N]);
@@ -35,9 +37,8 @@ pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
     packed: Option<(Pack, usize)>,
     blk: [&mut Block; W],
 ) -> Built {
-    let mut built = ([[0.0; 4]; N * N], [[0.0; 4]; N]);
     if pts.iter().any(|m| m.len() != N) {
-        return built;
+        return ([[0.0; 4]; N * N], [[0.0; 4]; N]);
     }
     let zero = L::splat(0.0);
     let mut ok = [true; W];
@@ -45,18 +46,36 @@ pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
     let mut c = [zero; N];
     // Per point: `r_a × n`, `r_b × n`, `I_a⁻¹(r_a × n)`, `I_b⁻¹(r_b × n)` and the normal.
     // Plain loops: `core::array::from_fn` here was left out of line (its closures
-    // cost 287k instructions a step of the 210-box pyramid, callgrind).
-    let mut g = [[Lanes3::new(zero, zero, zero); 5]; N];
+    // cost 287k instructions a step of the 210-box pyramid, callgrind). Each branch
+    // assigns the whole array (declared unset): the packed rows' without filling it
+    // with zeros first (filled and then overwritten, its 1.9 kB in AVX lanes and the
+    // 640 B of `built` below were two `memset` calls a build, 16.8k of the 210-box
+    // pyramid's 4.76M instructions a step, callgrind).
+    let g: [[Lanes3<L>; 5]; N];
     let m = match packed.and_then(|(pr, half)| Some((pr.head, pr.rows.get(..N)?, half))) {
         Some((head, pr, half)) => {
-            for (i, (gi, q)) in g.iter_mut().zip(pr).enumerate() {
-                for (r, x) in gi.iter_mut().enumerate() {
-                    *x = if r == 4 {
-                        head.dir(0, half)
-                    } else {
-                        q.ang(head, 0, r, half)
-                    };
-                }
+            // Written out by a macro, not by closures: a closure is compiled without
+            // the AVX build's target features, so its lane operations were calls
+            // (+167k instructions a step of the 210-box pyramid, callgrind).
+            macro_rules! point {
+                ($q:expr) => {{
+                    let q = $q;
+                    [
+                        q.ang(head, 0, 0, half),
+                        q.ang(head, 0, 1, half),
+                        q.ang(head, 0, 2, half),
+                        q.ang(head, 0, 3, half),
+                        head.dir(0, half),
+                    ]
+                }};
+            }
+            g = [
+                point!(&pr[0]),
+                point!(&pr[1]),
+                point!(&pr[2]),
+                point!(&pr[3]),
+            ];
+            for (i, q) in pr.iter().enumerate() {
                 // `c_i` of the lanes at once: one lane division where the scalar
                 // build takes one per lane.
                 let [scale, ms] = L::gather(|l| {
@@ -94,11 +113,14 @@ pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
                     }
                 })
             };
-            for (i, gi) in g.iter_mut().enumerate() {
-                for (r, x) in gi.iter_mut().enumerate() {
+            // Filled with zeros first here (the manifolds not packed: the rare way).
+            let mut h = [[Lanes3::new(zero, zero, zero); 5]; N];
+            for (i, hi) in h.iter_mut().enumerate() {
+                for (r, x) in hi.iter_mut().enumerate() {
                     *x = row(i, r);
                 }
             }
+            g = h;
             let [m] = L::gather(|l| {
                 let [ma, mb] = rows.im[pts[l][0]];
                 [ma + mb]
@@ -125,12 +147,16 @@ pub(in crate::rigid) fn build_lanes<L: Lane, const W: usize>(
     pivot::<L, W, 1>(&mut k, &mut out, &mut ok);
     pivot::<L, W, 2>(&mut k, &mut out, &mut ok);
     pivot::<L, W, 3>(&mut k, &mut out, &mut ok);
-    for (e, x) in built.0.iter_mut().enumerate() {
-        *x = out[e].array();
+    // Every entry written (by a macro: see `point!` above).
+    macro_rules! lanes_of {
+        ($v:expr; $($i:literal)*) => {
+            [$($v[$i].array()),*]
+        };
     }
-    for (i, x) in built.1.iter_mut().enumerate() {
-        *x = c[i].array();
-    }
+    let built: Built = (
+        lanes_of!(out; 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15),
+        lanes_of!(c; 0 1 2 3),
+    );
     // Per lane, whether every entry of `K⁻¹` is finite: `x − x` is `+0` for a finite
     // `x` and NaN for an infinite or NaN one, and a sum of them `+0` only where all
     // are (one vector sum instead of 16 checks per lane).
