@@ -48,6 +48,29 @@
 //! with up to 4 contacts against 2. gymnasium's half_cheetah the same: 756 projection
 //! iterations against 232, 7 dense steps.
 //!
+//! Measured again with the sweep (session 42, main 7bcef91, the same tools): gymnasium
+//! half_cheetah 32.48M controlled against 23.47M passive. The velocity level 16.48M
+//! in 168 steps against 16.27M in 190 (98k a step against 86k); this projection 8.64M
+//! against 3.90M (51k against 21k); RATTLE, on the steps without one-sided rows, 5.14M
+//! in 32 steps against 0.99M in 10. The projection's difference is its Newton loop: 84
+//! of the 168 controlled projections run it, none of the passive ones (the sweep
+//! closes them). Of the 84, 21 follow a sweep that put a foot past the slop (no
+//! contact violated before it, 2e-4 to 5e-4 m after it: the child-only step gives the
+//! whole joint correction to the foot), and 63 were not swept because those misses
+//! paused the sweep (`sweep.rs`, `MISSES`) while only the tree joints were apart
+//! (dm cheetah: 15 and 35 of 50).
+//!
+//! Tried and left out (session 42, bits changed): ending that pause when a projection
+//! it skipped starts with only the swept joints apart (the equalities, tendon ranges,
+//! contacts and the other hard joints within the tolerance), for the next projection
+//! or for this one. half_cheetah controlled: Newton projections 84 → 33, `project`
+//! 8.64M → 7.54M, World::step 32.48M → 31.40M (−3.3 %); but a sweep there costs about
+//! 24k instructions, near the single Newton iteration it replaces, and the changed
+//! trajectories moved the rest more: dm cheetah 32.68M → 32.97M, dm hopper passive
+//! 48.97M → 52.20M (its projection −0.1M, its velocity level +3.3M), stacker 701.52M →
+//! 718.32M, manipulator 425.23M → 441.45M, walker 118.55M → 116.10M (sweeping now
+//! instead of from the next projection: half_cheetah 31.53M, dm cheetah 33.16M).
+//!
 //! Tried and left out (issue 13, the same bits): the start error reading the hard
 //! joints' values from the rows the first Newton step assembles at the same poses
 //! (computed there into the rows' cache with the assembly's arguments, so the assembly
