@@ -919,7 +919,7 @@ fn forward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64]) {
     }
 }
 
-/// [`forward`] for `n` rows under a parent of `np` (0: a root).
+/// [`forward()`] for `n` rows under a parent of `np` (0: a root).
 #[inline(always)]
 fn forward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
     let (d, dinv, w, _, oi, op, _, _) = args;
@@ -951,7 +951,7 @@ fn forward_sized(args: NodeArgs<'_>, x: &mut [f64], n: usize, np: usize) {
     }
 }
 
-/// Backward pass at one node: `x_i = L⁻ᵀ (s − d⁻¹ W x_p)` (shapes as in [`forward`]);
+/// Backward pass at one node: `x_i = L⁻ᵀ (s − d⁻¹ W x_p)` (shapes as in [`forward()`]);
 /// `s` read from `x` when `read`, else zero (a node the forward pass skipped).
 #[inline]
 fn backward<const N: usize, const NP: usize>(args: NodeArgs<'_>, x: &mut [f64], read: bool) {

@@ -206,12 +206,12 @@ struct NodeShape {
     op: usize,
     /// The solve kernel of the shape `(n, np)`: its index in [`KERNEL_SHAPES`] (0: the
     /// runtime-sized one), so that the passes pick it by one jump table
-    /// ([`kernel_dispatch!`]) rather than by comparing `(n, np)` with each shape.
+    /// (`kernel_dispatch!`) rather than by comparing `(n, np)` with each shape.
     kind: u8,
 }
 
 /// The node shapes `(n, np)` with fixed-size solve kernels, by kernel index; index 0
-/// (`(0, 0)`) is the runtime-sized kernel for every other shape. [`kernel_dispatch!`]
+/// (`(0, 0)`) is the runtime-sized kernel for every other shape. `kernel_dispatch!`
 /// lists the same shapes in the same order.
 #[cfg_attr(not(test), allow(dead_code))]
 const KERNEL_SHAPES: [(usize, usize); 33] = [

@@ -10,7 +10,7 @@
 //! ```
 //!
 //! summed over the unknowns the two rows' paths share. The forward pass writes
-//! `s = d⁻¹ u` ([`super::forward`]); `u = d s` is taken back with the node's pivot `d`
+//! `s = d⁻¹ u` ([`super::forward()`]); `u = d s` is taken back with the node's pivot `d`
 //! (zero at a dropped pivot, where `s` is zero too).
 
 use alloc::vec::Vec;

@@ -9,8 +9,8 @@
 //! (`Paired::plan`); without `std` they are compiled only with
 //! `-C target-feature=+avx` (then always taken).
 //!
-//! Each pass is compiled twice ([`passes!`]): for AVX, and for AVX with AVX-512F and
-//! AVX-512VL, taken where [`wide`] finds those. The second runs the same 256-bit
+//! Each pass is compiled twice (`passes!`): for AVX, and for AVX with AVX-512F and
+//! AVX-512VL, taken where [`wide()`] finds those. The second runs the same 256-bit
 //! operations in the same order (EVEX-encoded where it names a register above
 //! `ymm15`; the same IEEE-754 rounding, and still no fused multiply-add: the lane
 //! operations are the intrinsics above, never contracted) but on AVX-512VL's 32
@@ -60,7 +60,7 @@ pub(super) fn available() -> bool {
 }
 
 /// Whether this processor has AVX-512F and AVX-512VL too, where the passes take
-/// their builds for those ([`passes!`]; the same bits either way).
+/// their builds for those (`passes!`; the same bits either way).
 #[inline]
 fn wide() -> bool {
     #[cfg(all(test, feature = "std"))]
@@ -294,7 +294,7 @@ macro_rules! passes {
         ///
         /// # Safety
         ///
-        /// The processor has AVX, AVX-512F and AVX-512VL ([`available`], [`wide`]).
+        /// The processor has AVX, AVX-512F and AVX-512VL ([`available`], [`wide()`]).
         #[target_feature(enable = "avx,avx512f,avx512vl")]
         unsafe fn $wide($($arg: $ty),*) -> $ret {
             let out = $body;
@@ -336,7 +336,7 @@ macro_rules! passes {
 }
 
 passes! {
-    /// [`relax_lanes`](super::relax_lanes) in four AVX lanes.
+    /// [`relax_lanes`] in four AVX lanes.
     fn relax_avx / relax_wide(
         rows: &Rows,
         pr: Pack,
@@ -355,7 +355,7 @@ passes! {
         max_push: f64,
     ) -> bool = relax_lanes::<F4, 4, true>(rows, pr, 0, pts, io, inv_h, max_push);
 
-    /// [`warm_lanes`](super::warm_lanes) in four AVX lanes.
+    /// [`warm_lanes`] in four AVX lanes.
     fn warm_avx / warm_wide(
         rows: &Rows,
         pr: Pack,
@@ -365,7 +365,7 @@ passes! {
         impulse: &[[f64; 3]],
     ) -> bool = warm_lanes::<F4, 4>(rows, pr, 0, pts, v, w, impulse);
 
-    /// [`block_lanes`](super::block_lanes) in four AVX lanes.
+    /// [`block_lanes`] in four AVX lanes.
     fn block_avx / block_wide(
         rows: &Rows,
         pr: Pack,
@@ -374,7 +374,7 @@ passes! {
         pass: Pass,
     ) -> Option<u32> = block_lanes::<F4, 4>(rows, pr, 0, blk, io, pass);
 
-    /// [`gaps_lanes`](super::gaps_lanes) in four AVX lanes.
+    /// [`gaps_lanes`] in four AVX lanes.
     fn gaps_avx / gaps_wide(
         rows: &Rows,
         pts: [&[usize]; 4],
@@ -384,7 +384,7 @@ passes! {
         gap: &mut [f64],
     ) -> bool = gaps_lanes::<F4, 4>(rows, pts, shared, ab, disp, gap);
 
-    /// [`build_lanes`](super::build_lanes) in four AVX lanes.
+    /// [`build_lanes`] in four AVX lanes.
     fn build_avx / build_wide(
         rows: &Rows,
         pr: Pack,
@@ -403,7 +403,7 @@ passes! {
     ) -> bool = world.fill_points(st, k);
 }
 
-// The passes' signatures: one call site per pass, its target chosen by [`wide`].
+// The passes' signatures: one call site per pass, its target chosen by [`wide()`].
 /// `points_avx` or `points_wide`.
 type PointsPass = unsafe fn(&ContactWorld, &mut SoftState, &PointConsts) -> bool;
 /// `relax_avx` or `relax_wide`.
@@ -532,7 +532,7 @@ pub(in crate::rigid) fn gaps_quad(
 
 /// The blocks of four manifolds of `BLOCK_POINTS` points (one per lane; `pr`: their
 /// packed rows, [`Paired::quad`](super::Paired::quad)), as
-/// [`build_lanes`](super::build_lanes) on two pairs.
+/// [`build_lanes`] on two pairs.
 #[inline]
 pub(in crate::rigid) fn build_quad(
     _: Avx,

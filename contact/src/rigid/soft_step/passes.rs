@@ -500,7 +500,7 @@ pub(in crate::rigid) fn solve_manifold<B: Bodies, I: PointImpulses>(
 /// (Box2D v2.4's block solver, `b2ContactSolver::SolveVelocityConstraints`, for four
 /// points; `K⁻¹` from [`build_blocks`]). If every `λ'` is non-negative it is taken;
 /// where one would turn negative or a preload is on its cap the rows are solved
-/// together as a small LCP ([`block_lcp`]); then the friction rows point by point as
+/// together as a small LCP ([`block_lcp()`]); then the friction rows point by point as
 /// in [`solve_point`]. A point that has separated (`C > 0`) but still carries an
 /// impulse keeps its soft row and preload law (continued across `C = 0`, where a
 /// rocking face's corner lifts by microns) instead of the speculative row; a
