@@ -12,7 +12,10 @@
 //! are not joined by a joint (parent–child filtering; the world is exempt), and the
 //! body pair was not excluded ([`World::exclude_pair`]).
 
-use constraint_contact::geometry::{generate_contacts_masked, Collider, Contact, PairMask, Shape};
+use constraint_contact::geometry::{
+    generate_contacts_listed, generate_contacts_masked, generate_contacts_masked_pairs, Collider,
+    Contact, PairMask, Shape,
+};
 use constraint_contact::lcp::RowBound;
 use constraint_core::{DVec3, Pose};
 
@@ -74,7 +77,46 @@ pub(super) struct Projection {
     poses: Vec<Pose>,
     /// The generated contacts.
     found: Vec<Contact>,
+    /// The collider pairs whose boxes met in this step's first contact generation
+    /// (sorted), and what reuses them ([`NearPairs`]).
+    near: Vec<(usize, usize)>,
+    near_for: Option<NearPairs>,
 }
+
+/// What the first contact generation's overlapping pairs (`Projection::near`) hold
+/// for: the pair filter they were found under, and how far the colliders may move
+/// until the position projection's generation could meet a pair not among them.
+///
+/// The first generation grows each box by `(margin + 2 r h) / 2` and lists the pairs
+/// whose boxes overlap grown by `e` ([`NEAR_EXTRA`]) more; the projection grows them by
+/// `margin / 2`. A tight box (sphere, box, capsule: `Collider::aabb_framed`) of a
+/// collider whose points moved by at most `d` lies within its old box grown by `d`, so
+/// two boxes that overlap at the new poses overlapped at the old ones grown by
+/// `margin / 2 + d_a` and `margin / 2 + d_b`; with `d_a + d_b ≤ 2 r h + 2 e` every
+/// such pair is listed, and the projection's contacts come out the same, in the same
+/// order, from the listed pairs alone (`generate_contacts_listed`). Only a swept mask
+/// lists its pairs (humanoid_CMU's 1 100 allowed pairs; dm humanoid's few per collider
+/// are tested directly, which a list would not make cheaper).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct NearPairs {
+    /// `PairFilter::built_for` when the pairs were found.
+    filter: (usize, usize, usize),
+    /// The extra growth of the two boxes of a pair, `2 r h + 2 e` (m): the most
+    /// `d_a + d_b` may be (less [`NEAR_SLACK`]).
+    budget: f64,
+}
+
+/// The pairs are listed with their boxes grown by this fraction of the margin more
+/// (each; `generate_contacts_masked_pairs`' `extra`), so that a collider moving faster
+/// at the step's end than the fastest one at its start (falling: `g h` faster) still
+/// finds its pairs listed. The listed pairs' boxes are tested again in the projection
+/// (about 15 instructions a pair), so the growth is kept small.
+const NEAR_EXTRA: f64 = 0.25;
+
+/// Kept from [`NearPairs::budget`] for the rounding of the boxes' bounds (m): far
+/// above it (coordinates of metres carry about 1e-15 m), far below any motion that
+/// matters.
+const NEAR_SLACK: f64 = 1e-9;
 
 /// The collider pairs that may ever touch: on different bodies and passing
 /// [`may_touch`] (filter bits, parent–child, exclusions). None of these changes during
@@ -205,15 +247,29 @@ impl World {
         // (`h` = 0.01 s, over 3.5 m/s) pass the margin in one step and start the next
         // 1.5 cm deep.
         let reach = self.collider_reach();
-        let result = generate_contacts_masked(
+        let wide = s.margin + 2.0 * reach * h;
+        // The overlapping pairs are kept for the position projection's generation at
+        // the end of the step ([`NearPairs`]).
+        let extra = NEAR_EXTRA * s.margin;
+        let result = generate_contacts_masked_pairs(
             &self.colliders,
             &poses,
-            s.margin + 2.0 * reach * h,
+            wide,
+            extra,
             &self.pair_filter.mask,
             &mut self.broad,
             &mut contacts,
+            &mut self.projection.near,
         );
         self.poses = poses;
+        // Listed only where the mask is swept (many pairs per collider).
+        self.projection.near_for = match result {
+            Ok((_, true)) => Some(NearPairs {
+                filter: self.pair_filter.built_for,
+                budget: (wide - s.margin) + 2.0 * extra,
+            }),
+            _ => None,
+        };
         if let Err(e) = result {
             self.contacts = contacts;
             return Err(ArticulatedError::Geometry {
@@ -329,18 +385,31 @@ impl World {
         let mut found = core::mem::take(&mut self.projection.found);
         self.update_pair_filter();
         let margin = self.unilateral.margin;
+        // The first generation's pairs where they hold every pair that can meet here
+        // ([`NearPairs`]): the same contacts without the sweep.
+        let near = self.near_pairs_hold();
         // A failure (non-finite poses, which the step reports anyway) leaves the
         // projection without contacts.
-        if generate_contacts_masked(
-            &self.colliders,
-            &poses,
-            margin,
-            &self.pair_filter.mask,
-            &mut self.broad,
-            &mut found,
-        )
-        .is_err()
-        {
+        let result = if near {
+            generate_contacts_listed(
+                &self.colliders,
+                &poses,
+                margin,
+                &self.projection.near,
+                &mut self.broad,
+                &mut found,
+            )
+        } else {
+            generate_contacts_masked(
+                &self.colliders,
+                &poses,
+                margin,
+                &self.pair_filter.mask,
+                &mut self.broad,
+                &mut found,
+            )
+        };
+        if result.is_err() {
             found.clear();
         }
         for c in &found {
@@ -369,6 +438,42 @@ impl World {
         self.projection.contacts = pc;
         self.projection.poses = poses;
         self.projection.found = found;
+    }
+
+    /// Whether this step's first contact generation's pairs hold every pair whose
+    /// boxes can meet at the current poses ([`NearPairs`]): found under the current
+    /// pair filter, every collider's box tight, and the two largest displacements of
+    /// a collider's points since then, `d ≤ |Δx| + 2 |q_v| (|p| + r)` (`Δx` its
+    /// body's move, `q_v` the vector part of the body's rotation since, `sin(θ/2)`
+    /// long: a point at `ρ` from the body's origin moves `2 sin(θ/2) ρ` at most by the
+    /// rotation; `p` the collider's offset, `r` its bounding radius), summed within the
+    /// budget less [`NEAR_SLACK`].
+    fn near_pairs_hold(&self) -> bool {
+        let Some(near) = self.projection.near_for else {
+            return false;
+        };
+        if near.filter != self.pair_filter.built_for || self.poses.len() != self.bodies.len() {
+            return false;
+        }
+        let (mut d1, mut d2) = (0.0f64, 0.0f64);
+        for c in &self.colliders {
+            let Some(i) = c.body else { continue };
+            let (p0, p1) = (&self.poses[i], &self.bodies[i].pose);
+            let rel = p1.q * p0.q.conjugate();
+            let turn = DVec3::new(rel.x, rel.y, rel.z).length();
+            let d = (p1.x - p0.x).length()
+                + 2.0 * turn * (c.local.x.length() + c.shape.bounding_radius());
+            // NaN or infinite (a plane on a body): no bound.
+            if !(d < f64::INFINITY) {
+                return false;
+            }
+            if d > d1 {
+                (d1, d2) = (d, d1);
+            } else if d > d2 {
+                d2 = d;
+            }
+        }
+        d1 + d2 + NEAR_SLACK <= near.budget
     }
 
     /// The gap `d = nᵀ(p_b − p_a) − ρ` of a projection contact at the current poses
