@@ -3,8 +3,8 @@
 //! when the mask allows the filter's pairs; typed errors for bad input.
 
 use constraint_contact::geometry::{
-    generate_contacts_filtered, generate_contacts_masked, BroadScratch, Collider, GeometryError,
-    PairMask, Shape,
+    generate_contacts_filtered, generate_contacts_listed, generate_contacts_masked,
+    generate_contacts_masked_pairs, BroadScratch, Collider, GeometryError, PairMask, Shape,
 };
 use constraint_core::Pose;
 use glam::{DQuat, DVec3};
@@ -141,6 +141,113 @@ fn masked_pairs_give_the_filtered_contacts_in_order() {
             assert!(listed.len() > 50, "{} contacts", listed.len());
         }
     }
+}
+
+/// The pairs a wide generation's sweep met (grown by `extra` more) hold every pair a
+/// narrower one meets at poses no collider point left by more than the widening:
+/// `generate_contacts_listed` on them gives the masked generation's contacts in order
+/// (with and without a tilted plane). A mask tested directly lists nothing.
+#[test]
+fn listed_pairs_give_the_masked_contacts_after_a_small_move() {
+    for (bodies, side, tilted, seed) in [
+        (12, 0.5, false, 5),
+        (40, 0.75, false, 7),
+        (40, 0.75, true, 8),
+    ] {
+        let (colliders, poses) = scene(bodies, side, tilted, seed);
+        let m = mask(&colliders, false, false);
+        // Each box grown by `wide / 2 = margin / 2 + 0.005` and listed `extra` = 0.005
+        // beyond: a pair's two moves may sum to 0.02.
+        let (margin, wide, extra) = (0.02, 0.03, 0.005);
+        let mut scratch = BroadScratch::default();
+        let (mut first, mut pairs) = (Vec::new(), Vec::new());
+        let (_, swept) = generate_contacts_masked_pairs(
+            &colliders,
+            &poses,
+            wide,
+            extra,
+            &m,
+            &mut scratch,
+            &mut first,
+            &mut pairs,
+        )
+        .unwrap();
+        let mut alone = Vec::new();
+        generate_contacts_masked(&colliders, &poses, wide, &m, &mut scratch, &mut alone).unwrap();
+        // The listing leaves the contacts as they were.
+        assert_eq!(first, alone);
+        if bodies == 12 {
+            // 11.5 to 12.7 allowed pairs per collider: tested directly, nothing listed.
+            assert!(!swept && pairs.is_empty(), "{swept} {}", pairs.len());
+            continue;
+        }
+        assert!(swept);
+        // Sorted, distinct, allowed.
+        assert!(pairs.windows(2).all(|w| w[0] < w[1]));
+        assert!(pairs.iter().all(|&(a, b)| m.allows(a, b)));
+        // Each body moved: its colliders' points (within 0.41 m of its origin: offsets
+        // up to 0.18 m, bounding radii up to 0.23 m) by at most |Δx| + 2 sin(θ/2) 0.41
+        // = 0.004 + 0.0041, so a pair's two moves stay within 0.02.
+        let mut rng = Rng(seed + 100);
+        let moved: Vec<Pose> = poses
+            .iter()
+            .map(|p| Pose {
+                x: p.x
+                    + DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), 0.0).normalize()
+                        * 0.004,
+                q: DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 0.01) * p.q,
+            })
+            .collect();
+        let (mut listed, mut masked) = (Vec::new(), Vec::new());
+        let stats = generate_contacts_listed(
+            &colliders,
+            &moved,
+            margin,
+            &pairs,
+            &mut scratch,
+            &mut listed,
+        )
+        .unwrap();
+        generate_contacts_masked(&colliders, &moved, margin, &m, &mut scratch, &mut masked)
+            .unwrap();
+        println!(
+            "{} colliders, tilted {tilted}: {} pairs listed, {stats:?}, {} contacts",
+            colliders.len(),
+            pairs.len(),
+            listed.len()
+        );
+        // Exact equality; something to compare (tolerance 50 contacts).
+        assert_eq!(listed, masked);
+        assert!(listed.len() > 50, "{} contacts", listed.len());
+    }
+    // A pair naming a collider beyond the scene, a negative extra: typed errors.
+    let (colliders, poses) = scene(5, 0.5, false, 9);
+    let n = colliders.len();
+    let mut out = Vec::new();
+    let mut scratch = BroadScratch::default();
+    assert_eq!(
+        generate_contacts_listed(&colliders, &poses, 0.01, &[(0, n)], &mut scratch, &mut out),
+        Err(GeometryError::PairMaskSize {
+            mask: n,
+            colliders: n
+        })
+    );
+    let m = mask(&colliders, false, false);
+    let mut pairs = vec![(0, 1)];
+    assert_eq!(
+        generate_contacts_masked_pairs(
+            &colliders,
+            &poses,
+            0.01,
+            -1.0,
+            &m,
+            &mut scratch,
+            &mut out,
+            &mut pairs
+        ),
+        Err(GeometryError::BadMargin)
+    );
+    assert!(pairs.is_empty());
 }
 
 #[test]

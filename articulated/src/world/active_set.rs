@@ -335,6 +335,30 @@
 //! in 21 steps, projection 104.0M. So humanoid_CMU passive's larger ratio to MuJoCo
 //! (4.4× against 2.3× controlled) is the fixed cost of a step at rest (projection,
 //! assembly, contacts: 60 % of it), not the active set's iterations.
+//!
+//! Profiled again (issue 13, main 7bcef91, callgrind `--toggle-collect` on
+//! `World::step`, inclusive): humanoid_CMU 0.5 s passive 195.4M: the active set 67.7M
+//! (Schur rows 28.4M, the tree factor 17.7M), the projection 65.4M (its factor solves
+//! 21.1M, `projection_error` 20.0M, of which the compound coordinates 10.6M), the
+//! velocity level's assembly 31.0M, contact generation 20.0M in 500 calls (the sweep
+//! 11M of it, framing 5.1M, narrow phase 3.9M). dm humanoid 2 s passive 290.3M: the
+//! active set 168.4M (Schur rows 92.9M: 9 310 forward passes 20.5M, products 9.9M,
+//! the rest bookkeeping and `S`'s factor), the dense path 22.7M, the projection
+//! 52.6M, contact generation 9.5M. Perturbed 414.0M: the active set 166.8M, the dense
+//! path 141.6M in 76 steps (24 failed tries, 52 skipped by the back-off; the staggered
+//! solve 102.6M, [`super::unilateral`]'s Delassus build 34.8M), the projection 51.2M.
+//! The failed tries (perturbed): 12 not settled, 9 cycles, 3 repeated releases;
+//! controlled 11 cycles and 2 not settled of 13. The second contact generation is now
+//! a Verlet list's (`contact.rs`, `NearPairs`): humanoid_CMU passive 195.36M →
+//! 189.51M, the same bits. Tried and left out: the dependent release's ratio test
+//! without the active rows whose impulse is already negative (they leave by the
+//! status rule anyway; taken only where no other row falls): the same failures on
+//! each run (perturbed 24, passive 11 → 12, controlled 13, humanoid_CMU controlled
+//! 13), only their timing moved; dm humanoid perturbed 414.04M → 360.73M (52 → 8
+//! skipped steps) but passive 290.35M → 298.98M, gymnasium's humanoid kicked
+//! (`--qvel 1,0,0.5,0,0,0`) 340.62M → 358.09M, humanoidstandup 335.46M → 338.12M; a
+//! 14-run ensemble (passive, perturbed, controlled, two kicks) −0.5 %, within the
+//! chaos.
 
 use alloc::vec::Vec;
 

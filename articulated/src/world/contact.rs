@@ -12,7 +12,10 @@
 //! are not joined by a joint (parent–child filtering; the world is exempt), and the
 //! body pair was not excluded ([`World::exclude_pair`]).
 
-use constraint_contact::geometry::{generate_contacts_masked, Collider, Contact, PairMask, Shape};
+use constraint_contact::geometry::{
+    generate_contacts_listed, generate_contacts_masked, generate_contacts_masked_pairs, Collider,
+    Contact, PairMask, Shape,
+};
 use constraint_contact::lcp::RowBound;
 use constraint_core::{DVec3, Pose};
 
@@ -74,7 +77,51 @@ pub(super) struct Projection {
     poses: Vec<Pose>,
     /// The generated contacts.
     found: Vec<Contact>,
+    /// The collider pairs listed by the last sweep of the first contact generation
+    /// (sorted), the body poses they were listed at, and what they hold for
+    /// ([`NearPairs`]).
+    near: Vec<(usize, usize)>,
+    anchor: Vec<Pose>,
+    /// Per body, the largest `|p| + r` of its colliders (offset and bounding radius;
+    /// negative without colliders), for [`World::near_pairs_hold`].
+    lever: Vec<f64>,
+    near_for: Option<NearPairs>,
 }
+
+/// What the listed pairs (`Projection::near`) hold for: the pair filter they were
+/// listed under, and the growth of their boxes at the poses they were listed at.
+///
+/// A sweep of the first contact generation, margin `M` (`margin + 2 r h`), lists the
+/// allowed pairs whose boxes overlap grown by `M / 2 + e` each (`e` =
+/// [`NEAR_EXTRA`] · margin: a skin, as a Verlet list's). A tight box (sphere, box,
+/// capsule: `Collider::aabb_framed`) of a collider whose points moved by at most `d`
+/// since lies within its old box grown by `d`, so two boxes that overlap grown by
+/// `m / 2` (a later generation's margin `m`: the next steps' first, the position
+/// projection's) at the new poses overlapped at the listed ones grown by `m / 2 + d_a`
+/// and `m / 2 + d_b`; with `m + d_a + d_b ≤ M + 2 e` every such pair is listed, and the
+/// contacts come out the same, in the same order, from the listed pairs alone
+/// (`generate_contacts_listed`), without the sweep. Only a swept mask lists its pairs
+/// (humanoid_CMU's 1 100 allowed pairs; dm humanoid's few per collider are tested
+/// directly, which a list would not make cheaper).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct NearPairs {
+    /// `PairFilter::built_for` when the pairs were listed.
+    filter: (usize, usize, usize),
+    /// `M + 2 e` (m): the most `m + d_a + d_b` may be (less [`NEAR_SLACK`]).
+    cover: f64,
+}
+
+/// The listing's skin `e`, as a fraction of the margin (each box; the
+/// `generate_contacts_masked_pairs`' `extra`): the list then holds while the
+/// colliders' moves since it was made stay within it (and the start's `2 r h`). The
+/// listed pairs' boxes are tested at every generation (about 15 instructions a
+/// pair), so the skin is kept small.
+const NEAR_EXTRA: f64 = 0.25;
+
+/// Kept from [`NearPairs::cover`] for the rounding of the boxes' bounds (m): far
+/// above it (coordinates of metres carry about 1e-15 m), far below any motion that
+/// matters.
+const NEAR_SLACK: f64 = 1e-9;
 
 /// The collider pairs that may ever touch: on different bodies and passing
 /// [`may_touch`] (filter bits, parent–child, exclusions). None of these changes during
@@ -205,14 +252,58 @@ impl World {
         // (`h` = 0.01 s, over 3.5 m/s) pass the margin in one step and start the next
         // 1.5 cm deep.
         let reach = self.collider_reach();
-        let result = generate_contacts_masked(
-            &self.colliders,
-            &poses,
-            s.margin + 2.0 * reach * h,
-            &self.pair_filter.mask,
-            &mut self.broad,
-            &mut contacts,
-        );
+        let wide = s.margin + 2.0 * reach * h;
+        // The listed pairs where they hold every pair that can meet here
+        // ([`NearPairs`]); else a sweep, listing the pairs again from these poses.
+        let result = if self.near_pairs_hold(wide) {
+            generate_contacts_listed(
+                &self.colliders,
+                &poses,
+                wide,
+                &self.projection.near,
+                &mut self.broad,
+                &mut contacts,
+            )
+        } else {
+            let extra = NEAR_EXTRA * s.margin;
+            let listed = generate_contacts_masked_pairs(
+                &self.colliders,
+                &poses,
+                wide,
+                extra,
+                &self.pair_filter.mask,
+                &mut self.broad,
+                &mut contacts,
+                &mut self.projection.near,
+            );
+            // Listed only where the mask is swept (many pairs per collider).
+            self.projection.near_for = match listed {
+                Ok((_, true)) => {
+                    self.projection.anchor.clone_from(&poses);
+                    let lever = &mut self.projection.lever;
+                    lever.clear();
+                    lever.resize(poses.len(), -1.0);
+                    for c in &self.colliders {
+                        if let Some(i) = c.body {
+                            let l = c.local.x.length() + c.shape.bounding_radius();
+                            // NaN (never: validated shapes) would stay negative: kept
+                            // out of the bound, so mark it infinite instead.
+                            lever[i] = if l.is_nan() {
+                                f64::INFINITY
+                            } else {
+                                lever[i].max(l)
+                            };
+                        }
+                    }
+                    Some(NearPairs {
+                        filter: self.pair_filter.built_for,
+                        cover: wide + 2.0 * extra,
+                    })
+                }
+                _ => None,
+            };
+            listed.map(|(stats, _)| stats)
+        };
         self.poses = poses;
         if let Err(e) = result {
             self.contacts = contacts;
@@ -329,18 +420,31 @@ impl World {
         let mut found = core::mem::take(&mut self.projection.found);
         self.update_pair_filter();
         let margin = self.unilateral.margin;
+        // The listed pairs where they hold every pair that can meet here
+        // ([`NearPairs`]): the same contacts without the sweep.
+        let near = self.near_pairs_hold(margin);
         // A failure (non-finite poses, which the step reports anyway) leaves the
         // projection without contacts.
-        if generate_contacts_masked(
-            &self.colliders,
-            &poses,
-            margin,
-            &self.pair_filter.mask,
-            &mut self.broad,
-            &mut found,
-        )
-        .is_err()
-        {
+        let result = if near {
+            generate_contacts_listed(
+                &self.colliders,
+                &poses,
+                margin,
+                &self.projection.near,
+                &mut self.broad,
+                &mut found,
+            )
+        } else {
+            generate_contacts_masked(
+                &self.colliders,
+                &poses,
+                margin,
+                &self.pair_filter.mask,
+                &mut self.broad,
+                &mut found,
+            )
+        };
+        if result.is_err() {
             found.clear();
         }
         for c in &found {
@@ -369,6 +473,53 @@ impl World {
         self.projection.contacts = pc;
         self.projection.poses = poses;
         self.projection.found = found;
+    }
+
+    /// Whether the listed pairs hold every pair whose boxes can meet at the current
+    /// poses in a generation of margin `margin` ([`NearPairs`]): listed under the
+    /// current pair filter, every collider's box tight, and `margin` plus the two
+    /// largest displacements of a body's collider points since the listing within the
+    /// cover less [`NEAR_SLACK`] (two colliders of a pair are on two bodies). A body's
+    /// points move by `d ≤ |Δx| + 2 |q_v| ρ` (`Δx` its move, `q_v` the vector part of
+    /// its rotation since, `sin(θ/2)` long: a point at `ρ` from the body's origin
+    /// moves `2 sin(θ/2) ρ` at most by the rotation; `ρ` the largest `|p| + r` of its
+    /// colliders, offset and bounding radius).
+    fn near_pairs_hold(&self, margin: f64) -> bool {
+        let Some(near) = self.projection.near_for else {
+            return false;
+        };
+        let budget = near.cover - margin - NEAR_SLACK;
+        let (anchor, lever) = (&self.projection.anchor, &self.projection.lever);
+        if !(budget >= 0.0)
+            || near.filter != self.pair_filter.built_for
+            || anchor.len() != self.bodies.len()
+            || lever.len() != self.bodies.len()
+        {
+            return false;
+        }
+        let (mut d1, mut d2) = (0.0f64, 0.0f64);
+        for ((b, p0), &l) in self.bodies.iter().zip(anchor).zip(lever) {
+            if l < 0.0 {
+                continue;
+            }
+            let p1 = &b.pose;
+            let rel = p1.q * p0.q.conjugate();
+            let turn = DVec3::new(rel.x, rel.y, rel.z).length();
+            let d = (p1.x - p0.x).length() + 2.0 * turn * l;
+            // NaN or infinite (a plane on a body): no bound.
+            if !(d < f64::INFINITY) {
+                return false;
+            }
+            if d > d1 {
+                (d1, d2) = (d, d1);
+            } else if d > d2 {
+                d2 = d;
+            }
+            if d1 + d2 > budget {
+                return false;
+            }
+        }
+        true
     }
 
     /// The gap `d = nᵀ(p_b − p_a) − ρ` of a projection contact at the current poses

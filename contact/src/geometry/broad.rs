@@ -201,6 +201,9 @@ pub struct BroadScratch {
     pub(super) lower: Vec<f64>,
     /// Its overlapping allowed pairs, a bit matrix ([`super::PairMask`]'s layout).
     pub(super) hit: Vec<u64>,
+    /// The allowed pairs whose boxes only overlap grown by a listing's extra
+    /// ([`super::generate_contacts_masked_pairs`]), the same layout.
+    pub(super) near: Vec<u64>,
 }
 
 /// [`generate_contacts_filtered`] with its buffers in `scratch`: the same contacts in

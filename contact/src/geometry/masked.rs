@@ -130,6 +130,140 @@ pub fn generate_contacts_masked(
     scratch: &mut BroadScratch,
     out: &mut Vec<Contact>,
 ) -> Result<BroadStats, GeometryError> {
+    masked_into::<false>(
+        colliders,
+        body_poses,
+        margin,
+        0.0,
+        mask,
+        scratch,
+        out,
+        &mut Vec::new(),
+    )
+}
+
+/// [`generate_contacts_masked`] that also lists, in `pairs` (cleared first), the
+/// allowed pairs its sweep met whose boxes overlap when each is grown by `extra` (m)
+/// more, `(a, b)`, `a < b`, sorted (a pair of one body's colliders or beyond a tilted
+/// plane is listed too): the candidates for [`generate_contacts_listed`] at later
+/// poses, where a tight box lies within its old one grown by the distance its
+/// collider's points moved. The same contacts in the same order as
+/// [`generate_contacts_masked`] (the narrow phase takes the pairs overlapping without
+/// `extra` alone). The `bool` says
+/// whether the pairs were listed: only where the mask is swept (more than 16 allowed
+/// pairs per collider); the direct path's loop over the allowed pairs costs about what
+/// a list of them would save.
+///
+/// Errors: as [`generate_contacts_masked`], and a negative or non-finite `extra`
+/// ([`GeometryError::BadMargin`]); `pairs` is then empty.
+#[allow(clippy::too_many_arguments)]
+pub fn generate_contacts_masked_pairs(
+    colliders: &[Collider],
+    body_poses: &[Pose],
+    margin: f64,
+    extra: f64,
+    mask: &PairMask,
+    scratch: &mut BroadScratch,
+    out: &mut Vec<Contact>,
+    pairs: &mut Vec<(usize, usize)>,
+) -> Result<(BroadStats, bool), GeometryError> {
+    pairs.clear();
+    if !(extra >= 0.0 && extra.is_finite()) {
+        out.clear();
+        return Err(GeometryError::BadMargin);
+    }
+    let swept = mask.allowed > DIRECT_PAIRS_PER_COLLIDER * mask.n;
+    let result = if swept {
+        masked_into::<true>(
+            colliders, body_poses, margin, extra, mask, scratch, out, pairs,
+        )
+    } else {
+        masked_into::<false>(
+            colliders, body_poses, margin, extra, mask, scratch, out, pairs,
+        )
+    };
+    match result {
+        Ok(stats) => Ok((stats, swept)),
+        Err(e) => {
+            pairs.clear();
+            Err(e)
+        }
+    }
+}
+
+/// The contacts of the listed collider pairs only: bounding boxes grown by
+/// `margin / 2` as in [`generate_contacts_masked`], then the narrow phase on each
+/// listed pair whose boxes overlap (not one body's, not beyond a tilted plane), in list
+/// order. With `pairs` sorted and holding every allowed pair whose boxes overlap at
+/// these poses (those of [`generate_contacts_masked_pairs`] at poses no collider point
+/// has moved from by more than its extra margin), the same contacts in the same order as
+/// [`generate_contacts_masked`], without its sweep. `tests` and `pairs` of the
+/// statistics count the listed and the overlapping pairs.
+///
+/// Errors: as [`super::generate_contacts`]; a pair naming a collider beyond
+/// `colliders` ([`GeometryError::PairMaskSize`]).
+pub fn generate_contacts_listed(
+    colliders: &[Collider],
+    body_poses: &[Pose],
+    margin: f64,
+    pairs: &[(usize, usize)],
+    scratch: &mut BroadScratch,
+    out: &mut Vec<Contact>,
+) -> Result<BroadStats, GeometryError> {
+    out.clear();
+    let n = colliders.len();
+    if let Some(&(a, b)) = pairs.iter().find(|&&(a, b)| a >= n || b >= n) {
+        return Err(GeometryError::PairMaskSize {
+            mask: n,
+            colliders: a.max(b),
+        });
+    }
+    let BroadScratch {
+        aabbs,
+        frames,
+        tilted,
+        clip,
+        ..
+    } = scratch;
+    frame_colliders(colliders, body_poses, margin, aabbs, frames, tilted)?;
+    let framed = |k: usize| (&colliders[k], &frames[k].0, &frames[k].1);
+    let mut met = 0;
+    for &(a, b) in pairs {
+        if !aabbs[a].overlaps(&aabbs[b]) {
+            continue;
+        }
+        met += 1;
+        if colliders[a].body == colliders[b].body
+            || (!tilted.is_empty()
+                && (beyond_plane(tilted, a, &aabbs[b], margin)
+                    || beyond_plane(tilted, b, &aabbs[a], margin)))
+        {
+            continue;
+        }
+        collide_framed((a, b), framed(a), framed(b), margin, clip, out);
+    }
+    Ok(BroadStats {
+        tests: pairs.len(),
+        pairs: met,
+        axis: 0,
+    })
+}
+
+/// [`generate_contacts_masked`], listing the overlapping allowed pairs its sweep met
+/// in `listed` where `LIST` ([`generate_contacts_masked_pairs`]; the direct path lists
+/// nothing), with the pairs overlapping by `extra` more. Without `LIST` the loops are
+/// [`generate_contacts_masked`]'s alone.
+#[allow(clippy::too_many_arguments)]
+fn masked_into<const LIST: bool>(
+    colliders: &[Collider],
+    body_poses: &[Pose],
+    margin: f64,
+    extra: f64,
+    mask: &PairMask,
+    scratch: &mut BroadScratch,
+    out: &mut Vec<Contact>,
+    listed: &mut Vec<(usize, usize)>,
+) -> Result<BroadStats, GeometryError> {
     out.clear();
     let n = colliders.len();
     if mask.len() != n {
@@ -145,6 +279,7 @@ pub fn generate_contacts_masked(
         order,
         lower,
         hit,
+        near,
         clip,
         ..
     } = scratch;
@@ -230,22 +365,37 @@ pub fn generate_contacts_masked(
     }
     hit.clear();
     hit.resize(n * words, 0);
+    if LIST {
+        near.clear();
+        near.resize(n * words, 0);
+    }
+    // Listing: the two boxes grown by `extra` each (`2 extra` on one of them).
+    let wider = 2.0 * extra;
     // The sweep: box `i` meets the later boxes that start before it ends on the axis
     // (ascending in the total order, so in `>` too: the first beyond ends the scan);
     // overlapping allowed pairs are marked at row min(i, j), column max(i, j).
     let mut tests = 0;
     for (p, &i) in order.iter().enumerate() {
         let own = aabbs[i];
-        let end = own.max[axis];
+        let end = if LIST {
+            own.max[axis] + wider
+        } else {
+            own.max[axis]
+        };
         let row = &mask.bits[i * words..(i + 1) * words];
         for &j in &order[p + 1..] {
             if lower[j] > end {
                 break;
             }
             tests += 1;
-            if (row[j / 64] >> (j % 64)) & 1 == 1 && own.overlaps(&aabbs[j]) {
-                let (a, b) = if i < j { (i, j) } else { (j, i) };
-                hit[a * words + b / 64] |= 1 << (b % 64);
+            if (row[j / 64] >> (j % 64)) & 1 == 1 {
+                if own.overlaps(&aabbs[j]) {
+                    let (a, b) = if i < j { (i, j) } else { (j, i) };
+                    hit[a * words + b / 64] |= 1 << (b % 64);
+                } else if LIST && overlaps_within(&own, &aabbs[j], wider) {
+                    let (a, b) = if i < j { (i, j) } else { (j, i) };
+                    near[a * words + b / 64] |= 1 << (b % 64);
+                }
             }
         }
     }
@@ -253,10 +403,18 @@ pub fn generate_contacts_masked(
     let mut pairs = 0;
     for a in 0..n {
         for w in 0..words {
-            let mut bits = hit[a * words + w];
+            let met = hit[a * words + w];
+            let mut bits = if LIST { met | near[a * words + w] } else { met };
             while bits != 0 {
                 let b = w * 64 + bits.trailing_zeros() as usize;
+                let bit = bits & bits.wrapping_neg();
                 bits &= bits - 1;
+                if LIST {
+                    listed.push((a, b));
+                    if met & bit == 0 {
+                        continue;
+                    }
+                }
                 pairs += 1;
                 if skip(a, b) {
                     continue;
@@ -266,6 +424,18 @@ pub fn generate_contacts_masked(
         }
     }
     Ok(BroadStats { tests, pairs, axis })
+}
+
+/// Whether boxes `a` and `b` overlap with `b` grown by `g` on every side (NaN bounds:
+/// no).
+#[inline]
+fn overlaps_within(a: &Aabb, b: &Aabb, g: f64) -> bool {
+    (a.min.x <= b.max.x + g)
+        & (b.min.x - g <= a.max.x)
+        & (a.min.y <= b.max.y + g)
+        & (b.min.y - g <= a.max.y)
+        & (a.min.z <= b.max.z + g)
+        & (b.min.z - g <= a.max.z)
 }
 
 /// The axis along which the finite box centres spread most: the largest

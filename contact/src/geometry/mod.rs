@@ -22,6 +22,8 @@ pub use broad::{
 };
 pub use contact::{Contact, ParticleContact};
 pub use grid::{grid_pairs, GridScratch};
-pub use masked::{generate_contacts_masked, PairMask};
+pub use masked::{
+    generate_contacts_listed, generate_contacts_masked, generate_contacts_masked_pairs, PairMask,
+};
 pub use narrow::{closest_point, closest_segments, collide, point_vs, Closest};
 pub use shape::{Aabb, Collider, GeometryError, Shape};
