@@ -12,7 +12,7 @@
 use alloc::vec;
 use alloc::vec::Vec;
 
-use constraint_core::Pose;
+use constraint_core::{DVec3, Pose};
 
 use super::broad::{beyond_plane, frame_colliders, BroadScratch, BroadStats};
 use super::contact::Contact;
@@ -233,11 +233,7 @@ pub fn generate_contacts_listed(
             continue;
         }
         met += 1;
-        if colliders[a].body == colliders[b].body
-            || (!tilted.is_empty()
-                && (beyond_plane(tilted, a, &aabbs[b], margin)
-                    || beyond_plane(tilted, b, &aabbs[a], margin)))
-        {
+        if skipped(colliders, tilted, aabbs, margin, a, b) {
             continue;
         }
         collide_framed((a, b), framed(a), framed(b), margin, clip, out);
@@ -247,6 +243,23 @@ pub fn generate_contacts_listed(
         pairs: met,
         axis: 0,
     })
+}
+
+/// Whether an overlapping pair `(a, b)` goes without the narrow phase: both colliders
+/// on one body, or either one's box wholly beyond the other's tilted plane.
+#[inline(always)]
+fn skipped(
+    colliders: &[Collider],
+    tilted: &[(usize, DVec3, f64)],
+    aabbs: &[Aabb],
+    margin: f64,
+    a: usize,
+    b: usize,
+) -> bool {
+    colliders[a].body == colliders[b].body
+        || (!tilted.is_empty()
+            && (beyond_plane(tilted, a, &aabbs[b], margin)
+                || beyond_plane(tilted, b, &aabbs[a], margin)))
 }
 
 /// [`generate_contacts_masked`], listing the overlapping allowed pairs its sweep met
@@ -285,12 +298,7 @@ fn masked_into<const LIST: bool>(
     } = scratch;
     frame_colliders(colliders, body_poses, margin, aabbs, frames, tilted)?;
     let framed = |k: usize| (&colliders[k], &frames[k].0, &frames[k].1);
-    let skip = |a: usize, b: usize| {
-        colliders[a].body == colliders[b].body
-            || (!tilted.is_empty()
-                && (beyond_plane(tilted, a, &aabbs[b], margin)
-                    || beyond_plane(tilted, b, &aabbs[a], margin)))
-    };
+    let skip = |a: usize, b: usize| skipped(colliders, tilted, aabbs, margin, a, b);
     let words = mask.words;
     if mask.allowed <= DIRECT_PAIRS_PER_COLLIDER * n {
         // Few allowed pairs: each tested directly, in pair order (from the list when
