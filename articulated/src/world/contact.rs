@@ -285,7 +285,16 @@ impl World {
                     lever.resize(poses.len(), -1.0);
                     for c in &self.colliders {
                         if let Some(i) = c.body {
-                            let l = c.local.x.length() + c.shape.bounding_radius();
+                            // The bound needs a tight box (`Collider::aabb_framed`);
+                            // a shape without one has none (a sweep every call).
+                            let l = match c.shape {
+                                Shape::Sphere { .. }
+                                | Shape::Box { .. }
+                                | Shape::Capsule { .. } => {
+                                    c.local.x.length() + c.shape.bounding_radius()
+                                }
+                                Shape::Plane { .. } => f64::INFINITY,
+                            };
                             // NaN (never: validated shapes) would stay negative: kept
                             // out of the bound, so mark it infinite instead.
                             lever[i] = if l.is_nan() {
