@@ -359,6 +359,24 @@
 //! (`--qvel 1,0,0.5,0,0,0`) 340.62M → 358.09M, humanoidstandup 335.46M → 338.12M; a
 //! 14-run ensemble (passive, perturbed, controlled, two kicks) −0.5 %, within the
 //! chaos.
+//!
+//! dm stacker controlled (issue 13, lead42 at main 7bcef91 plus the Verlet list,
+//! callgrind on `World::step`, inclusive, 2 s = 2 000 steps) 702.5M, 351K a step: the
+//! velocity level 394.6M in 1 785 steps (the other 215 take the RATTLE step, 56.9M):
+//! the active set 286.3M in 1 784 tries, 2 077 iterations, 1 897 factors (the rows'
+//! factor 54.7M; its assembly, inlined in the try, 9.8M of the try's own 59M), 2 042
+//! Schur solves (120.0M: 28 096 forward passes, 13.8 a solve, 28.6M, the
+//! correction's solve 19.9M, the path values 7.7M, the products and bookkeeping
+//! 50.6M; the tendon coupling's equality is a Schur row in every iteration), the
+//! rows' solve 25.3M; the dense path 28.3M in 14 steps (2M each); the assembly 67.5M.
+//! The projection 163.9M: 1 120 of 1 785 steps take one Newton iteration (the
+//! joints' separation above the 1e-8 tolerance in 974, the tendon equality in 146,
+//! the contacts in none), its factor solves 39.5M, `projection_error` 34.4M in 2 905
+//! calls; contact generation 85.6M (the stacker's
+//! mask is not swept, so nothing is listed: 45.0M at the steps' starts, 40.7M in the
+//! projections). Nothing is factored twice for one set: the factor changes every step
+//! with `H` (the boxes' world inertia turns), the Schur columns are kept while the
+//! factor and the Schur rows are.
 
 use alloc::vec::Vec;
 
@@ -768,10 +786,9 @@ impl World {
             for i in 0..m {
                 zmax = zmax.max(st.z[i].abs());
             }
+            // (One `extend` of the rows' map: sized once, no capacity check per row.)
             st.w.clear();
-            for r in &self.urows {
-                st.w.push(gather(f, &st.x, r) - r.bias);
-            }
+            st.w.extend(self.urows.iter().map(|r| gather(f, &st.x, r) - r.bias));
             // The first iterate within a tenth of the dense path's acceptance ends the
             // step (its set may still change by rows of |w| near the tolerance).
             let (one_sided, residual) = self.natural_residual(st, bias_scale);
@@ -979,9 +996,7 @@ impl World {
         status_impulses(&self.urows, st);
         let f = &st.factor;
         st.w.clear();
-        for r in &self.urows {
-            st.w.push(gather(f, &st.x, r) - r.bias);
-        }
+        st.w.extend(self.urows.iter().map(|r| gather(f, &st.x, r) - r.bias));
     }
 
     /// The natural-map residual of the current iterate (`st.z`, `st.w`, `st.x`), the
@@ -1781,12 +1796,15 @@ fn scatter_seg(
 }
 
 /// `G x` on the row's bodies' unknowns in the augmented layout.
+#[inline(always)]
 fn gather(f: &RowTree, x: &[f64], r: &URow) -> f64 {
     gather_seg(f, x, r.a, r.b, &r.j)
 }
 
 /// `g x` for a two-body row `g = [v_a, ω_a, v_b, ω_b]` in the augmented layout.
-#[inline]
+/// (Inlined: out of line, the call cost about a quarter of its 48 instructions, at
+/// some 90 calls a step on dm stacker.)
+#[inline(always)]
 fn gather_seg(f: &RowTree, x: &[f64], a: Option<usize>, b: Option<usize>, j: &[DVec3; 4]) -> f64 {
     let mut s = 0.0;
     for (side, body) in [(0usize, a), (1usize, b)] {
