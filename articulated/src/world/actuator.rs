@@ -786,8 +786,10 @@ impl World {
 
     /// Adds `scale · Σ_k G_kᵀ τ_k` (the actuator, spring and tendon impulses over
     /// `scale` seconds) to the bodies' right-hand side.
+    /// Nothing is recorded for [`Self::reapply_dof_forces`] (the velocity level and
+    /// RATTLE's last half kick reapply nothing).
     pub(super) fn add_dof_forces(&mut self, scale: f64) {
-        self.add_dof_forces_part(scale, ForcePart::Full);
+        self.dof_forces_into(scale, ForcePart::Full, false);
     }
 
     /// Whether any force depends on the velocities besides the joint damping rows: a
@@ -814,8 +816,14 @@ impl World {
 
     /// [`Self::add_dof_forces`] for one part of the forces ([`ForcePart`]). Returns
     /// whether any force acts; the forces stay in the world's buffers for
-    /// [`Self::reapply_dof_forces`].
+    /// [`Self::reapply_dof_forces`], their impulses recorded ([`DofImpulses`]).
     pub(super) fn add_dof_forces_part(&mut self, scale: f64, part: ForcePart) -> bool {
+        self.dof_forces_into(scale, part, true)
+    }
+
+    /// [`Self::add_dof_forces_part`], recording the impulses where `record`; without,
+    /// the last record is dropped (a later reapplication walks the joints).
+    fn dof_forces_into(&mut self, scale: f64, part: ForcePart, record: bool) -> bool {
         self.dof_evals = self.dof_evals.wrapping_add(1);
         let mut tau = core::mem::take(&mut self.dof_tau);
         let mut coords = core::mem::take(&mut self.dof_table);
@@ -829,13 +837,16 @@ impl World {
         self.paths.force = path_f;
         let mut sides = core::mem::take(&mut self.rattle.impulses);
         sides.forget();
-        if any {
+        if any && record {
             self.apply_dof_impulses(&tau, &coords, scale, Some(&mut sides));
             sides.evals = Some(self.dof_evals);
             #[cfg(test)]
             if sides.off {
                 sides.forget();
             }
+            self.apply_path_forces(scale, None);
+        } else if any {
+            self.apply_dof_impulses(&tau, &coords, scale, None);
             self.apply_path_forces(scale, None);
         }
         self.rattle.impulses = sides;
