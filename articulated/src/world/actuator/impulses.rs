@@ -131,41 +131,17 @@ impl DofImpulses {
 
 #[cfg(test)]
 mod tests {
-    use super::super::super::{Fluid, Joint, JointKind, Method, World};
+    use super::super::super::factor_cache::tests::hanging_chain;
+    use super::super::super::{Fluid, Method, World};
     use super::super::{Actuator, DofSpring, Target, Tendon};
-    use crate::body::RigidBody;
-    use constraint_core::{DMat3, DQuat, DVec3, Hinge, Pose};
+    use constraint_core::DVec3;
 
-    /// Three damped hinge links hanging from the world, in a fluid, with a position
+    /// Three damped hinge links hanging from the world ([`hanging_chain`]), in a fluid, with a position
     /// actuator, a velocity actuator, a joint spring and a stiff tendon over two
     /// joints: every RATTLE flow reapplies the forces (stage 2, and the next step's
     /// first flow).
     fn driven_chain() -> World {
-        let mut w = World::new(DVec3::new(0.0, 0.0, -9.81));
-        let mut top = DVec3::ZERO;
-        let mut parent = None;
-        for i in 0..3 {
-            let q = DQuat::from_rotation_y(0.4 + 0.3 * i as f64);
-            let down = q * DVec3::new(0.0, 0.0, -0.5);
-            let pose = Pose {
-                x: top + down * 0.5,
-                q,
-            };
-            let inertia = DMat3::from_diagonal(DVec3::new(0.02, 0.02, 1e-3));
-            let b = RigidBody::new(i, 1.0 - 0.2 * i as f64, inertia, pose).expect("body");
-            w.add_body(b).expect("add body");
-            let a = parent.map_or(Pose::IDENTITY, |p: usize| w.bodies()[p].pose);
-            let hinge = Hinge::from_world(&a, &pose, top, DVec3::Y).expect("hinge");
-            w.add_joint(Joint {
-                parent,
-                child: i,
-                kind: JointKind::Hinge(hinge),
-                damping: 0.05 * (1 + i) as f64,
-            })
-            .expect("add joint");
-            parent = Some(i);
-            top += down;
-        }
+        let mut w = hanging_chain();
         let kp = 0.3;
         for (joint, bias) in [(0, [0.0, -kp, 0.0]), (1, [0.0, 0.0, -0.1])] {
             w.add_actuator(Actuator {
