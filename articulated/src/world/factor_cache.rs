@@ -413,6 +413,28 @@ pub(super) mod tests {
         w
     }
 
+    /// A position actuator (`kp` 0.3, control range ±1) on [`hanging_chain`]'s first
+    /// hinge and a joint spring (0.2 N m/rad about 0.1 rad) on its last.
+    pub(in crate::world) fn add_servo_and_spring(w: &mut World) {
+        let kp = 0.3;
+        w.add_actuator(Actuator {
+            target: Target::Dof { joint: 0, dof: 0 },
+            gear: 1.0,
+            gain: kp,
+            bias: [0.0, -kp, 0.0],
+            ctrl_range: Some([-1.0, 1.0]),
+            force_range: None,
+        })
+        .expect("actuator");
+        w.add_dof_spring(DofSpring {
+            joint: 2,
+            dof: 0,
+            stiffness: 0.2,
+            reference: 0.1,
+        })
+        .expect("spring");
+    }
+
     /// A chain of three damped hinge links hanging from the world, the middle hinge
     /// with armature (so the kicks and the damping flows have different factors).
     fn chain() -> World {
@@ -467,23 +489,7 @@ pub(super) mod tests {
         };
         let build = || {
             let mut w = chain();
-            let kp = 0.3;
-            w.add_actuator(Actuator {
-                target: Target::Dof { joint: 0, dof: 0 },
-                gear: 1.0,
-                gain: kp,
-                bias: [0.0, -kp, 0.0],
-                ctrl_range: Some([-1.0, 1.0]),
-                force_range: None,
-            })
-            .expect("actuator");
-            w.add_dof_spring(DofSpring {
-                joint: 2,
-                dof: 0,
-                stiffness: 0.2,
-                reference: 0.1,
-            })
-            .expect("spring");
+            add_servo_and_spring(&mut w);
             w
         };
         let (mut a, mut b) = (build(), build());

@@ -131,9 +131,9 @@ impl DofImpulses {
 
 #[cfg(test)]
 mod tests {
-    use super::super::super::factor_cache::tests::hanging_chain;
+    use super::super::super::factor_cache::tests::{add_servo_and_spring, hanging_chain};
     use super::super::super::{Fluid, Method, World};
-    use super::super::{Actuator, DofSpring, Target, Tendon};
+    use super::super::{Actuator, Target, Tendon};
     use constraint_core::DVec3;
 
     /// Three damped hinge links hanging from the world ([`hanging_chain`]), in a fluid, with a position
@@ -142,25 +142,16 @@ mod tests {
     /// first flow).
     fn driven_chain() -> World {
         let mut w = hanging_chain();
-        let kp = 0.3;
-        for (joint, bias) in [(0, [0.0, -kp, 0.0]), (1, [0.0, 0.0, -0.1])] {
-            w.add_actuator(Actuator {
-                target: Target::Dof { joint, dof: 0 },
-                gear: 1.0,
-                gain: kp,
-                bias,
-                ctrl_range: Some([-1.0, 1.0]),
-                force_range: None,
-            })
-            .expect("actuator");
-        }
-        w.add_dof_spring(DofSpring {
-            joint: 2,
-            dof: 0,
-            stiffness: 0.2,
-            reference: 0.1,
+        add_servo_and_spring(&mut w);
+        w.add_actuator(Actuator {
+            target: Target::Dof { joint: 1, dof: 0 },
+            gear: 1.0,
+            gain: 0.3,
+            bias: [0.0, 0.0, -0.1],
+            ctrl_range: Some([-1.0, 1.0]),
+            force_range: None,
         })
-        .expect("spring");
+        .expect("actuator");
         w.add_tendon(Tendon {
             terms: alloc::vec![(1, 0, 0.5), (2, 0, -0.5)],
             stiffness: 0.4,
